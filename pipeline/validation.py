@@ -1,0 +1,109 @@
+"""Validation helpers: each checks one input and raises :class:`InputError` naming it."""
+
+import math
+
+import numpy as np
+
+from pipeline.errors import InputError
+
+SUPPORTED_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
+
+
+def check_volume_array(data, *, name="volume"):
+    """Check a volume array: 3-D, a supported dtype, not empty, finite.
+
+    Parameters
+    ----------
+    data : array_like
+        Candidate volume, indexed ``[z, y, x]``.
+    name : str
+        How the input is named in error messages.
+
+    Returns
+    -------
+    numpy.ndarray
+        The array, C-contiguous.
+    """
+    if not isinstance(data, np.ndarray):
+        raise InputError(f"{name}: expected a numpy array, got {type(data).__name__}")
+    if data.ndim != 3:
+        raise InputError(f"{name}: expected a 3-D array indexed [z, y, x], got shape {data.shape}")
+    if data.dtype not in SUPPORTED_DTYPES:
+        raise InputError(
+            f"{name}: dtype {data.dtype} is not supported; convert to uint8, uint16 or float32"
+        )
+    if 0 in data.shape:
+        raise InputError(f"{name}: empty volume with shape {data.shape}")
+    if data.dtype.kind == "f" and not np.isfinite(data).all():
+        raise InputError(f"{name}: contains NaN or infinite values; clean or mask them first")
+    return np.ascontiguousarray(data)
+
+
+def check_positive_vector(value, *, length, name):
+    """Return ``value`` as a float tuple of ``length`` finite, strictly positive entries."""
+    try:
+        values = tuple(float(v) for v in value)
+    except TypeError:
+        raise InputError(f"{name}: expected {length} numbers, got {value!r}") from None
+    if len(values) != length:
+        raise InputError(f"{name}: expected {length} numbers, got {len(values)} ({value!r})")
+    if not all(math.isfinite(v) and v > 0 for v in values):
+        raise InputError(f"{name}: every entry must be finite and > 0, got {values}")
+    return values
+
+
+def check_finite_vector(value, *, length, name):
+    """Return ``value`` as a float tuple of ``length`` finite entries."""
+    try:
+        values = tuple(float(v) for v in value)
+    except TypeError:
+        raise InputError(f"{name}: expected {length} numbers, got {value!r}") from None
+    if len(values) != length or not all(math.isfinite(v) for v in values):
+        raise InputError(f"{name}: expected {length} finite numbers, got {value!r}")
+    return values
+
+
+def check_scalar(value, *, name, low=-math.inf, high=math.inf, low_open=False, high_open=False):
+    """Return ``value`` as a float inside the given interval.
+
+    ``low_open``/``high_open`` exclude the bound itself.
+    """
+    try:
+        number = float(value)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a number, got {value!r}") from None
+    too_low = number <= low if low_open else number < low
+    too_high = number >= high if high_open else number > high
+    if not math.isfinite(number) or too_low or too_high:
+        lo = "(" if low_open else "["
+        hi = ")" if high_open else "]"
+        raise InputError(f"{name}: {value!r} is outside {lo}{low}, {high}{hi}")
+    return number
+
+
+def check_positive_int(value, *, name, minimum=1):
+    """Return ``value`` as an int >= ``minimum``."""
+    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
+        raise InputError(f"{name}: expected an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+def check_choice(value, choices, *, name):
+    """Return ``value`` if it is one of ``choices``."""
+    if value not in choices:
+        raise InputError(f"{name}: {value!r} is not one of {sorted(choices)}")
+    return value
+
+
+def check_matrix4(value, *, name):
+    """Return ``value`` as an invertible, finite 4×4 float64 affine matrix."""
+    matrix = np.asarray(value, dtype=np.float64)
+    if matrix.shape != (4, 4):
+        raise InputError(f"{name}: expected a 4x4 matrix, got shape {matrix.shape}")
+    if not np.isfinite(matrix).all():
+        raise InputError(f"{name}: contains NaN or infinite entries")
+    if not np.allclose(matrix[3], (0, 0, 0, 1)):
+        raise InputError(f"{name}: last row must be (0, 0, 0, 1) for an affine transform")
+    if abs(np.linalg.det(matrix[:3, :3])) < 1e-12:
+        raise InputError(f"{name}: the matrix is singular and cannot be inverted")
+    return matrix

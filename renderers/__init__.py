@@ -1,0 +1,85 @@
+"""The backend registry: string names → renderer classes, imported only when asked for.
+
+Like vispy's backend table, each entry is ``"module:Class"``; importing ``renderers`` imports
+no backend, and a backend whose optional dependency is missing is reported by
+:func:`available` instead of breaking the others.
+
+>>> import renderers
+>>> backend = renderers.get("reference", step_factor=0.25)   # doctest: +SKIP
+>>> result = backend.render(scene)                            # doctest: +SKIP
+"""
+
+import importlib
+from dataclasses import dataclass
+
+from pipeline.errors import BackendUnavailableError, InputError
+
+BACKENDS = {
+    "reference": "renderers.reference:ReferenceRenderer",
+}
+
+
+@dataclass(frozen=True)
+class BackendInfo:
+    """One row of :func:`available`."""
+
+    name: str
+    available: bool
+    reason: str
+    description: str
+    capabilities: object | None
+
+
+def names():
+    """Registered backend names, in registry order."""
+    return list(BACKENDS)
+
+
+def backend_class(name):
+    """Import and return the class registered as ``name``."""
+    if name not in BACKENDS:
+        raise InputError(f"unknown backend {name!r}; registered backends: {', '.join(BACKENDS)}")
+    module_name, class_name = BACKENDS[name].split(":")
+    try:
+        module = importlib.import_module(module_name)
+    except ImportError as exc:
+        raise BackendUnavailableError(f"backend {name!r} cannot be imported: {exc}") from exc
+    return getattr(module, class_name)
+
+
+def backend_module(name):
+    """Dotted module path implementing ``name`` (the pipeline tracks its files for reruns)."""
+    if name not in BACKENDS:
+        raise InputError(f"unknown backend {name!r}; registered backends: {', '.join(BACKENDS)}")
+    return BACKENDS[name].split(":")[0]
+
+
+def get(name, **options):
+    """Instantiate backend ``name`` with keyword ``options``.
+
+    Raises
+    ------
+    InputError
+        Unknown name or bad option.
+    BackendUnavailableError
+        The backend cannot run here (the message says why).
+    """
+    cls = backend_class(name)
+    ok, reason = cls.probe()
+    if not ok:
+        raise BackendUnavailableError(f"backend {name!r} is not available here: {reason}")
+    return cls(**options)
+
+
+def available():
+    """Every registered backend with whether it can run here and, if not, why."""
+    rows = []
+    for name in BACKENDS:
+        try:
+            cls = backend_class(name)
+        except BackendUnavailableError as exc:
+            rows.append(BackendInfo(name, False, str(exc), "", None))
+            continue
+        ok, reason = cls.probe()
+        rows.append(BackendInfo(name, ok, reason, cls.description, cls.capabilities))
+    return rows

@@ -1,0 +1,159 @@
+"""Renderer interface, capabilities and the result record (CONVENTIONS, Results)."""
+
+import abc
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pipeline.errors import InputError, UnsupportedFeatureError
+from pipeline.scene import Scene
+
+
+@dataclass(frozen=True)
+class Capabilities:
+    """What a backend can render, and why not where it cannot.
+
+    Parameters
+    ----------
+    projections, modes, shading : frozenset of str
+        Supported camera projections, render modes and shading models.
+    max_volumes : int
+        Largest number of volume instances in one scene.
+    gradient_opacity, transforms, anisotropic_spacing, meshes, lenses : bool
+        Optional features.
+    camera_inside_volume : bool
+        Whether a perspective eye may sit inside a volume box.
+    reasons : dict
+        ``feature name → why it is missing``; every unsupported feature has an entry.
+    """
+
+    projections: frozenset = frozenset({"orthographic"})
+    modes: frozenset = frozenset({"dvr"})
+    shading: frozenset = frozenset({"none"})
+    max_volumes: int = 1
+    gradient_opacity: bool = False
+    transforms: bool = False
+    anisotropic_spacing: bool = True
+    meshes: bool = False
+    lenses: bool = False
+    camera_inside_volume: bool = False
+    reasons: dict = field(default_factory=dict)
+
+    def missing(self, scene):
+        """``[(feature, reason), ...]`` for every feature ``scene`` needs that is missing."""
+        problems = []
+        for feature, value in scene.features().items():
+            supported = getattr(self, feature)
+            if isinstance(supported, frozenset):
+                ok = value in supported
+                label = f"{feature} {value!r}"
+            elif feature == "max_volumes":
+                ok = value <= supported
+                label = f"{value} volumes"
+            else:
+                ok = bool(supported)
+                label = feature
+            if not ok:
+                problems.append((label, self.reasons.get(feature, "not implemented")))
+        if scene.camera.projection == "perspective" and not self.camera_inside_volume:
+            inside = scene.camera_inside_volume()
+            if inside:
+                problems.append(
+                    (f"camera inside volume {', '.join(inside)}",
+                     self.reasons.get("camera_inside_volume", "rays must start outside every volume box"))
+                )
+        return problems
+
+    def as_dict(self):
+        out = {}
+        for name in self.__dataclass_fields__:
+            value = getattr(self, name)
+            out[name] = sorted(value) if isinstance(value, frozenset) else value
+        return out
+
+
+@dataclass
+class RenderResult:
+    """One rendered frame (or the median of repeated frames, see ``pipeline.timing``).
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        ``(H, W, 4)`` float32, linear, premultiplied RGBA, row 0 at the top.
+    timings : dict
+        Stage name → seconds, always with ``"total"``.
+    counters : dict
+        Counter name → integer (samples taken, rays terminated early, ...).
+    timings_min, timings_max : dict
+        Per-stage minimum and maximum over repeated frames (filled by the timing harness).
+    info : dict
+        Backend facts for the record (e.g. the step actually used).
+    """
+
+    image: np.ndarray
+    timings: dict
+    counters: dict = field(default_factory=dict)
+    timings_min: dict = field(default_factory=dict)
+    timings_max: dict = field(default_factory=dict)
+    info: dict = field(default_factory=dict)
+
+    def __post_init__(self):
+        if self.image.ndim != 3 or self.image.shape[2] != 4 or self.image.dtype != np.float32:
+            raise ValueError(f"RenderResult.image must be (H, W, 4) float32, got {self.image.dtype} {self.image.shape}")
+        if "total" not in self.timings:
+            raise ValueError("RenderResult.timings must contain 'total'")
+
+
+class Renderer(abc.ABC):
+    """A volume-rendering backend.
+
+    Subclasses set ``name``, ``description`` and ``capabilities``, take their options as keyword
+    arguments (validated in ``__init__``), and implement :meth:`_render`. :meth:`render` checks
+    the scene against the capabilities first, so a missing feature raises
+    :class:`UnsupportedFeatureError` before any work starts.
+    """
+
+    name = "abstract"
+    description = ""
+    capabilities = Capabilities()
+
+    @classmethod
+    def probe(cls):
+        """``(True, "")`` if the backend can run on this machine, else ``(False, reason)``."""
+        return True, ""
+
+    @property
+    def options(self):
+        """The effective options, recorded with every result (override to add them)."""
+        return {}
+
+    def environment(self):
+        """Backend-specific environment facts (GL renderer, OpenCL device, library version)."""
+        return {}
+
+    def check(self, scene):
+        """Raise :class:`UnsupportedFeatureError` if ``scene`` needs a missing feature."""
+        if not isinstance(scene, Scene):
+            raise InputError(f"render: expected a Scene, got {type(scene).__name__}")
+        missing = self.capabilities.missing(scene)
+        if missing:
+            feature, reason = missing[0]
+            raise UnsupportedFeatureError(self.name, feature, reason)
+
+    def render(self, scene):
+        """Render ``scene`` once and return a :class:`RenderResult`."""
+        self.check(scene)
+        return self._render(scene)
+
+    @abc.abstractmethod
+    def _render(self, scene):
+        """Backend-specific rendering of a validated scene."""
+
+    def close(self):
+        """Release contexts and device memory."""
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()
