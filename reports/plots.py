@@ -1,0 +1,388 @@
+"""Figures for the volbench report, written as small, reproducible SVG files.
+
+Every function takes a tidy :class:`pandas.DataFrame` (one row per run and view, as in the results
+CSV), writes one SVG and returns its path. The figures are built with matplotlib's object API (no
+pyplot, no global state) at about 6 × 4 inches. Reruns give byte-identical files: a fixed
+``svg.hashsalt`` makes element ids stable and the date is left out of the metadata. Text stays
+text (``svg.fonttype = "none"``), which keeps files small and lets the report search them.
+
+Rows whose plotted values are NaN or infinite, or not positive on a logarithmic axis, are dropped
+and the title says how many. A frame with nothing left to plot gives a placeholder figure that
+says "no data" instead of an error.
+"""
+
+from pathlib import Path
+
+import matplotlib as mpl
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from pipeline.errors import InputError
+
+__all__ = ["bar_compare", "convergence", "scaling", "speed_accuracy", "stage_breakdown"]
+
+FIGSIZE = (6.0, 4.0)
+_RC = {
+    "svg.hashsalt": "volbench",
+    "svg.fonttype": "none",
+    "font.size": 9,
+    "axes.grid": True,
+    "grid.alpha": 0.3,
+}
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+_GUIDES = ("--", ":", "-.")  # line styles of convergence guide lines
+# Units of well-known columns, for axis labels (timings are seconds, CONVENTIONS, Results).
+_UNITS = {"psnr": "dB", "fps": "frames/s"}
+
+
+def _label(column):
+    """Axis label for ``column``, with its unit where known."""
+    name = str(column)
+    unit = "s" if name.startswith("time") else _UNITS.get(name.lower())
+    return f"{name} [{unit}]" if unit else name
+
+
+def _check_frame(df, columns):
+    """Check that ``df`` is a DataFrame holding ``columns``."""
+    if not isinstance(df, pd.DataFrame):
+        raise InputError(f"df: expected a pandas DataFrame, got {type(df).__name__}")
+    missing = [c for c in columns if c is not None and c not in df.columns]
+    if missing:
+        raise InputError(f"df: missing column(s) {missing}; available: {list(df.columns)}")
+
+
+def _numeric(df, column):
+    """Column as float, raising InputError naming it if it is not numeric."""
+    try:
+        return pd.to_numeric(df[column], errors="raise").astype(float)
+    except (TypeError, ValueError):
+        raise InputError(f"df: column {column!r} must be numeric") from None
+
+
+def _clean(df, columns, positive=()):
+    """Keep rows whose ``columns`` are finite (and > 0 for ``positive``); return (rows, note)."""
+    values = pd.DataFrame({c: _numeric(df, c) for c in columns}, index=df.index)
+    finite = np.isfinite(values).all(axis=1)
+    positive_ok = (values[list(positive)] > 0).all(axis=1) if positive else finite
+    keep = finite & positive_ok
+    clean = df.loc[keep].copy()
+    clean[list(columns)] = values.loc[keep]
+    counts = {"NaN/inf": int((~finite).sum()),
+              "non-positive on log axis": int((finite & ~positive_ok).sum())}
+    notes = [f"{n} {reason}" for reason, n in counts.items() if n]
+    return clean, f"dropped rows: {', '.join(notes)}" if notes else ""
+
+
+def _groups(df, group_col):
+    """Yield (label, rows) per group in order of first appearance (one group if no column)."""
+    if group_col is None:
+        yield None, df
+        return
+    keys = df[group_col].astype(str)
+    for key in pd.unique(keys):
+        yield key, df[keys == key]
+
+
+def _median_curve(rows, x_col, y_col):
+    """Median of ``y_col`` per value of ``x_col``, sorted by x."""
+    curve = rows.groupby(x_col, sort=True)[y_col].median()
+    return curve.index.to_numpy(float), curve.to_numpy(float)
+
+
+def _style(index):
+    """Colour and marker of the ``index``-th series."""
+    return {"color": f"C{index % 10}", "marker": _MARKERS[index % len(_MARKERS)]}
+
+
+def _save(fig, path):
+    """Write ``fig`` as a deterministic SVG to ``path``."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path, format="svg", metadata={"Date": None})
+    return path
+
+
+def _plot(path, title, note, empty, draw):
+    """Create the figure, call ``draw(ax)`` unless ``empty`` (then say "no data"), save it.
+
+    ``note`` (what was dropped) goes on a second title line.
+    """
+    if Path(path).suffix.lower() != ".svg":
+        raise InputError(f"path: expected a .svg file name, got {str(path)!r}")
+    with mpl.rc_context(_RC):
+        fig = Figure(figsize=FIGSIZE, layout="constrained")
+        ax = fig.add_subplot()
+        ax.set_title(f"{title}\n({note})" if note else title)
+        if empty:
+            ax.set_axis_off()
+            ax.text(0.5, 0.5, "no data", ha="center", va="center", fontsize=14,
+                    transform=ax.transAxes)
+        else:
+            draw(ax)
+        return _save(fig, path)
+
+
+def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_col="backend",
+                   label_col=None, title=None, log_x=True, log_y=True, pareto=False):
+    """Scatter of time against error, one line-and-marker series per group.
+
+    Each series is sorted by time, so the runs of a parameter sweep form a curve. Aggregate over
+    views first (e.g. median per configuration) for clean curves.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Tidy results.
+    path : str or os.PathLike
+        Output ``.svg`` file; parent directories are created.
+    time_col, error_col : str, optional
+        Columns on the x (seconds) and y axes.
+    group_col : str or None, optional
+        Column naming the series (legend entries); None for one series.
+    label_col : str, optional
+        Column whose value annotates each point (e.g. the swept parameter).
+    title : str, optional
+        Figure title; default ``"<error_col> vs <time_col>"``.
+    log_x, log_y : bool, optional
+        Logarithmic axes.
+    pareto : bool, optional
+        Also draw the Pareto front over all points (nothing else is both faster and more exact).
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    _check_frame(df, [time_col, error_col, group_col, label_col])
+    positive = [c for c, log in ((time_col, log_x), (error_col, log_y)) if log]
+    rows, note = _clean(df, [time_col, error_col], positive)
+
+    def draw(ax):
+        for i, (name, group) in enumerate(_groups(rows, group_col)):
+            group = group.sort_values(time_col, kind="stable")
+            ax.plot(group[time_col], group[error_col], label=name or error_col, **_style(i))
+            if label_col is not None:
+                for x, y, text in zip(group[time_col], group[error_col], group[label_col]):
+                    ax.annotate(str(text), (x, y), xytext=(3, 3), textcoords="offset points",
+                                fontsize=7)
+        if pareto:
+            front = _pareto_front(rows[time_col].to_numpy(), rows[error_col].to_numpy())
+            ax.step(*front, where="post", color="0.4", linestyle="--", label="Pareto front")
+        ax.set_xscale("log" if log_x else "linear")
+        ax.set_yscale("log" if log_y else "linear")
+        ax.set_xlabel(_label(time_col))
+        ax.set_ylabel(_label(error_col))
+        ax.legend()
+
+    return _plot(path, title or f"{error_col} vs {time_col}", note, rows.empty, draw)
+
+
+def _pareto_front(times, errors):
+    """Points not dominated in (time, error), sorted by time."""
+    order = np.lexsort((errors, times))
+    front_t, front_e = [], []
+    for t, e in zip(times[order], errors[order]):
+        if not front_e or e < front_e[-1]:
+            front_t.append(t)
+            front_e.append(e)
+    return np.array(front_t), np.array(front_e)
+
+
+def convergence(df, path, *, x_col="step", y_col="rmse", group_col=None, reference_slopes=(1, 2),
+                title=None):
+    """Log-log plot of error against step size, with guide lines of known slopes.
+
+    Each series shows the median of ``y_col`` per value of ``x_col``. A guide line of slope ``k``
+    (error ∝ step^k, convergence of order k) passes through the point with the largest step and
+    largest error, so the data should run parallel to it.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Tidy results.
+    path : str or os.PathLike
+        Output ``.svg`` file.
+    x_col, y_col : str, optional
+        Step (or resolution) and error columns; both must be positive.
+    group_col : str, optional
+        Column naming the series; None for one series.
+    reference_slopes : sequence of float, optional
+        Slopes of the guide lines; empty for none.
+    title : str, optional
+        Figure title; default ``"<y_col> vs <x_col>"``.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    _check_frame(df, [x_col, y_col, group_col])
+    rows, note = _clean(df, [x_col, y_col], [x_col, y_col])
+
+    def draw(ax):
+        for i, (name, group) in enumerate(_groups(rows, group_col)):
+            x, y = _median_curve(group, x_col, y_col)
+            ax.plot(x, y, label=name or y_col, **_style(i))
+        x = np.array([rows[x_col].min(), rows[x_col].max()])
+        anchor_x, anchor_y = x[1], rows.loc[rows[x_col] == x[1], y_col].max()
+        for i, k in enumerate(reference_slopes):
+            ax.plot(x, anchor_y * (x / anchor_x) ** k, color="0.5", linestyle=_GUIDES[i % 3],
+                    label=f"slope {k:g}", zorder=1)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.set_xlabel(_label(x_col))
+        ax.set_ylabel(_label(y_col))
+        ax.legend()
+
+    return _plot(path, title or f"{y_col} vs {x_col}", note, rows.empty, draw)
+
+
+def stage_breakdown(df, path, *, stage_cols, group_col="backend", title="time per stage"):
+    """Stacked horizontal bars of the median time of each stage, one bar per group.
+
+    A NaN stage time means the stage does not exist for that run and counts as 0; infinite values
+    are dropped and counted in the title.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Tidy results.
+    path : str or os.PathLike
+        Output ``.svg`` file.
+    stage_cols : sequence of str
+        Stage time columns in seconds, stacked in this order (exclude ``time_total``).
+    group_col : str, optional
+        Column naming the bars.
+    title : str, optional
+        Figure title.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    stage_cols = list(stage_cols)
+    if not stage_cols:
+        raise InputError("stage_cols: expected at least one column")
+    _check_frame(df, [*stage_cols, group_col])
+    times = pd.DataFrame({c: _numeric(df, c) for c in stage_cols}, index=df.index)
+    infinite = int(np.isinf(times).to_numpy().sum())
+    times = times.replace([np.inf, -np.inf], np.nan)
+    times[group_col] = df[group_col].astype(str)
+    medians = times.groupby(group_col, sort=False)[stage_cols].median().fillna(0.0)
+    note = f"dropped: {infinite} infinite values" if infinite else ""
+
+    def draw(ax):
+        left = np.zeros(len(medians))
+        labels = list(medians.index)
+        for i, stage in enumerate(stage_cols):
+            ax.barh(labels, medians[stage], left=left, label=stage, color=f"C{i % 10}")
+            left += medians[stage].to_numpy()
+        ax.invert_yaxis()  # first group on top
+        ax.set_xlabel("median time [s]")
+        ax.legend()
+
+    return _plot(path, title, note, medians.empty, draw)
+
+
+def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False, title=None):
+    """Lines of the median of ``y_col`` against ``x_col``, one per group.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        Tidy results.
+    path : str or os.PathLike
+        Output ``.svg`` file.
+    x_col, y_col : str
+        Columns on the x and y axes (e.g. image size and time).
+    group_col : str, optional
+        Column naming the series; None for one series.
+    log_x, log_y : bool, optional
+        Logarithmic axes.
+    title : str, optional
+        Figure title; default ``"<y_col> vs <x_col>"``.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    _check_frame(df, [x_col, y_col, group_col])
+    positive = [c for c, log in ((x_col, log_x), (y_col, log_y)) if log]
+    rows, note = _clean(df, [x_col, y_col], positive)
+
+    def draw(ax):
+        for i, (name, group) in enumerate(_groups(rows, group_col)):
+            ax.plot(*_median_curve(group, x_col, y_col), label=name or y_col, **_style(i))
+        ax.set_xscale("log" if log_x else "linear")
+        ax.set_yscale("log" if log_y else "linear")
+        ax.set_xlabel(_label(x_col))
+        ax.set_ylabel(_label(y_col))
+        ax.legend()
+
+    return _plot(path, title or f"{y_col} vs {x_col}", note, rows.empty, draw)
+
+
+def _bar_text(value):
+    """Bar label: the value to 3 significant digits, nothing for a missing bar."""
+    return "" if np.isnan(value) else f"{value:.3g}"
+
+
+def bar_compare(df, path, *, category_col, value_cols, value_label=None, title=None, log_y=False):
+    """Grouped bars: one group per category, one bar per value column (e.g. paper vs measured).
+
+    Each bar is the median over the rows of its category and is labelled with its value. A NaN
+    value (e.g. the paper gives none) leaves its bar out and is counted in the title.
+
+    Parameters
+    ----------
+    df : pandas.DataFrame
+        One or more rows per category.
+    path : str or os.PathLike
+        Output ``.svg`` file.
+    category_col : str
+        Column naming the groups on the x axis.
+    value_cols : sequence of str
+        Numeric columns, one bar each (legend entries).
+    value_label : str, optional
+        y-axis label; default ``"value"``.
+    title : str, optional
+        Figure title; default ``"<value_cols> by <category_col>"``.
+    log_y : bool, optional
+        Logarithmic y axis (non-positive values are then left out too).
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    value_cols = list(value_cols)
+    if not value_cols:
+        raise InputError("value_cols: expected at least one column")
+    _check_frame(df, [category_col, *value_cols])
+    values = pd.DataFrame({c: _numeric(df, c) for c in value_cols}, index=df.index)
+    bad = ~np.isfinite(values) | ((values <= 0) if log_y else False)
+    dropped = int(bad.to_numpy().sum())
+    values = values.mask(bad)
+    values[category_col] = df[category_col].astype(str)
+    medians = values.groupby(category_col, sort=False)[value_cols].median()
+    note = f"dropped: {dropped} missing or invalid values" if dropped else ""
+    empty = bool(medians.isna().to_numpy().all())
+
+    def draw(ax):
+        x = np.arange(len(medians))
+        width = 0.8 / len(value_cols)
+        for i, column in enumerate(value_cols):
+            offset = (i - (len(value_cols) - 1) / 2) * width
+            bars = ax.bar(x + offset, medians[column], width, label=column, color=f"C{i % 10}")
+            ax.bar_label(bars, labels=[_bar_text(v) for v in medians[column]], fontsize=7)
+        ax.set_xticks(x, list(medians.index))
+        ax.set_yscale("log" if log_y else "linear")
+        ax.set_xlabel(str(category_col))
+        ax.set_ylabel(value_label or "value")
+        ax.grid(axis="x", visible=False)
+        ax.legend()
+
+    return _plot(path, title or f"{', '.join(value_cols)} by {category_col}", note, empty, draw)

@@ -1,0 +1,121 @@
+"""Tests of reports.plots: each figure is a valid, deterministic SVG naming its series."""
+
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipeline.errors import InputError
+from reports import plots
+
+
+@pytest.fixture
+def runs():
+    """Tidy results: two backends sweeping a step size over two views."""
+    rows = []
+    for backend, cost, order in (("raycast", 1.0, 1), ("shearwarp", 0.3, 2)):
+        for step in (1.0, 0.5, 0.25):
+            for view in (0, 1):
+                rows.append({
+                    "backend": backend, "view": view, "step": step,
+                    "time_total": cost / step * (1 + 0.1 * view),
+                    "time_classify": 0.2 * cost / step, "time_composite": 0.8 * cost / step,
+                    "rmse": 0.1 * step**order * (1 + 0.05 * view),
+                })
+    return pd.DataFrame(rows)
+
+
+def svg_text(path):
+    """The file's text, after checking it parses as an SVG document."""
+    text = path.read_text()
+    assert ET.fromstring(text.encode()).tag.endswith("svg")
+    assert "<svg" in text
+    return text
+
+
+FIGURES = {
+    "speed_accuracy": (plots.speed_accuracy, {"label_col": "step", "pareto": True},
+                       ["raycast", "shearwarp", "Pareto front", "time_total [s]"]),
+    "convergence": (plots.convergence, {"group_col": "backend"},
+                    ["raycast", "shearwarp", "slope 1", "slope 2"]),
+    "stage_breakdown": (plots.stage_breakdown,
+                        {"stage_cols": ["time_classify", "time_composite"]},
+                        ["raycast", "shearwarp", "time_classify", "time_composite"]),
+    "scaling": (plots.scaling, {"x_col": "step", "y_col": "time_total", "group_col": "backend"},
+                ["raycast", "shearwarp", "time_total [s]"]),
+}
+
+
+@pytest.mark.parametrize("name", FIGURES)
+def test_figure_is_svg_with_series_labels_and_deterministic(tmp_path, runs, name):
+    function, kwargs, labels = FIGURES[name]
+    first = function(runs, tmp_path / "sub" / "a.svg", **kwargs)
+    text = svg_text(first)
+    for label in labels:
+        assert label in text
+    assert "dc:date" not in text
+    second = function(runs, tmp_path / "b.svg", **kwargs)
+    assert second.read_bytes() == first.read_bytes()
+
+
+def test_bar_compare(tmp_path):
+    table = pd.DataFrame({"dataset": ["brain", "head", "engine"],
+                          "paper_fps": [10.0, np.nan, 4.0], "measured_fps": [12.5, 3.3, 4.1]})
+    text = svg_text(plots.bar_compare(table, tmp_path / "a.svg", category_col="dataset",
+                                      value_cols=["paper_fps", "measured_fps"]))
+    for label in ("brain", "head", "engine", "paper_fps", "measured_fps", "12.5", "1 missing"):
+        assert label in text
+    assert ">nan<" not in text
+
+
+def test_bytes_identical_across_processes(tmp_path, runs):
+    runs.to_csv(tmp_path / "runs.csv", index=False)
+    script = (
+        "import sys, pandas as pd; from reports import plots; "
+        "plots.speed_accuracy(pd.read_csv(sys.argv[1]), sys.argv[2])"
+    )
+    for name in ("a.svg", "b.svg"):
+        subprocess.run([sys.executable, "-c", script, tmp_path / "runs.csv", tmp_path / name],
+                       check=True)
+    assert (tmp_path / "a.svg").read_bytes() == (tmp_path / "b.svg").read_bytes()
+
+
+def test_nan_and_inf_rows_are_dropped_with_a_note(tmp_path, runs):
+    runs.loc[0, "rmse"] = np.nan
+    runs.loc[1, "time_total"] = np.inf
+    runs.loc[2, "rmse"] = 0.0  # cannot be shown on a log axis
+    text = svg_text(plots.speed_accuracy(runs, tmp_path / "a.svg"))
+    assert "2 NaN/inf" in text and "1 non-positive" in text
+    text = svg_text(plots.speed_accuracy(runs, tmp_path / "b.svg", log_y=False))
+    assert "2 NaN/inf" in text and "non-positive" not in text
+    runs.loc[3, "time_classify"] = np.inf
+    text = svg_text(plots.stage_breakdown(runs, tmp_path / "c.svg",
+                                          stage_cols=["time_classify", "time_composite"]))
+    assert "1 infinite" in text
+
+
+@pytest.mark.parametrize("name", FIGURES)
+def test_empty_and_all_nan_frames_give_a_placeholder(tmp_path, runs, name):
+    function, kwargs, _ = FIGURES[name]
+    assert "no data" in svg_text(function(runs.iloc[:0], tmp_path / "a.svg", **kwargs))
+    all_nan = runs.assign(rmse=np.nan, time_total=np.nan, time_classify=np.nan,
+                          time_composite=np.nan)
+    if name != "stage_breakdown":  # NaN stages mean "absent" there and plot as 0
+        assert "no data" in svg_text(function(all_nan, tmp_path / "b.svg", **kwargs))
+    empty_table = pd.DataFrame({"dataset": [], "fps": []})
+    assert "no data" in svg_text(plots.bar_compare(empty_table, tmp_path / "c.svg",
+                                                   category_col="dataset", value_cols=["fps"]))
+
+
+def test_bad_input_is_named(tmp_path, runs):
+    with pytest.raises(InputError, match="missing column.*'psnr'"):
+        plots.speed_accuracy(runs, tmp_path / "a.svg", error_col="psnr")
+    with pytest.raises(InputError, match="'backend' must be numeric"):
+        plots.scaling(runs, tmp_path / "a.svg", x_col="backend", y_col="rmse")
+    with pytest.raises(InputError, match=r"\.svg"):
+        plots.scaling(runs, tmp_path / "a.png", x_col="step", y_col="rmse")
+    with pytest.raises(InputError, match="DataFrame"):
+        plots.convergence({"step": [1]}, tmp_path / "a.svg")
