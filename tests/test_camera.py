@@ -1,0 +1,74 @@
+import numpy as np
+import pytest
+
+from pipeline.camera import Camera
+from pipeline.errors import InputError
+
+
+def test_default_camera_looks_down_minus_z():
+    camera = Camera(distance=10, view_height=2)
+    np.testing.assert_allclose(camera.eye, (0, 0, 10))
+    right, up, back = camera.basis()
+    np.testing.assert_allclose(right, (1, 0, 0), atol=1e-12)
+    np.testing.assert_allclose(up, (0, 1, 0), atol=1e-12)
+    np.testing.assert_allclose(back, (0, 0, 1), atol=1e-12)
+
+
+def test_azimuth_turns_eye_towards_plus_x():
+    camera = Camera(azimuth=90, distance=5, view_height=1)
+    np.testing.assert_allclose(camera.eye, (5, 0, 0), atol=1e-12)
+
+
+def test_orthographic_rays_row_zero_is_top_and_pixel_centres():
+    camera = Camera(distance=10, view_height=4)
+    origins, directions = camera.rays(4, 2)
+    assert origins.shape == (2, 4, 3)
+    np.testing.assert_allclose(directions, np.broadcast_to((0, 0, -1), (2, 4, 3)))
+    # Height 4 over 2 rows: centres at y = +1 (top row) and -1; width 8 over 4 columns.
+    np.testing.assert_allclose(origins[:, 0, 1], (1, -1))
+    np.testing.assert_allclose(origins[0, :, 0], (-3, -1, 1, 3))
+
+
+def test_perspective_rays_pass_through_the_image_plane():
+    camera = Camera(projection="perspective", fov_y=90, distance=3)
+    origins, directions = camera.rays(2, 2)
+    np.testing.assert_allclose(origins[0, 0], (0, 0, 3))
+    np.testing.assert_allclose(np.linalg.norm(directions, axis=-1), 1)
+    # Top-left pixel centre at (-0.5, 0.5) of a half-height tan(45°) = 1 plane at distance 1.
+    expected = np.array([-0.5, 0.5, -1]) / np.linalg.norm([-0.5, 0.5, -1])
+    np.testing.assert_allclose(directions[0, 0], expected)
+
+
+def test_view_matrix_maps_eye_to_origin_and_target_to_minus_z():
+    camera = Camera(azimuth=37, elevation=-20, distance=7, target=(1, 2, 3), view_height=1)
+    view = camera.view_matrix()
+    np.testing.assert_allclose(view @ np.append(camera.eye, 1), (0, 0, 0, 1), atol=1e-12)
+    np.testing.assert_allclose(view @ np.array([1, 2, 3, 1]), (0, 0, -7, 1), atol=1e-12)
+
+
+def test_projection_matrix_maps_view_volume_to_clip_cube():
+    camera = Camera(distance=5, view_height=2)
+    projection = camera.projection_matrix(2.0, 1.0, 9.0)
+    corner = projection @ np.array([2, 1, -9, 1])
+    np.testing.assert_allclose(corner[:3] / corner[3], (1, 1, 1))
+    perspective = Camera(projection="perspective", fov_y=90, distance=5)
+    point = perspective.projection_matrix(1.0, 1.0, 9.0) @ np.array([0, 1, -1, 1])
+    np.testing.assert_allclose(point[:3] / point[3], (0, 1, -1), atol=1e-12)
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"elevation": 90}, "parallel"),
+    ({"elevation": 120}, "elevation"),
+    ({"projection": "fisheye"}, "projection"),
+    ({"distance": -1}, "distance"),
+    ({"fov_y": 0}, "fov_y"),
+    ({"target": (0, float("nan"), 0)}, "target"),
+])
+def test_bad_camera_inputs_are_named(kwargs, match):
+    with pytest.raises(InputError, match=match):
+        Camera(**kwargs)
+
+
+def test_framing_fills_only_missing_fields():
+    camera = Camera(view_height=3).framed(np.zeros(3), 2.0)
+    assert camera.view_height == 3 and camera.distance == pytest.approx(6.0)

@@ -1,0 +1,103 @@
+import numpy as np
+import pytest
+
+from datasets.volume import Volume
+from pipeline.camera import Camera
+from pipeline.errors import InputError
+from pipeline.scene import Scene, Shading, VolumeInstance
+from pipeline.transfer import GradientOpacity, TransferFunction
+
+TF = TransferFunction.ramp(0.2, 0.8)
+
+
+def make_volume(shape=(4, 5, 6), dtype=np.uint8, **kwargs):
+    return Volume(np.zeros(shape, dtype), **kwargs)
+
+
+def test_volume_layout_extent_and_normalisation():
+    volume = Volume(np.full((2, 3, 4), 255, np.uint8), spacing=(1, 2, 0.5))
+    assert volume.shape_xyz == (4, 3, 2)
+    assert volume.extent == (4, 6, 1)
+    assert volume.min_spacing == 0.5
+    assert volume.normalized().max() == 1.0
+    wide = Volume(np.full((2, 2, 2), 4095, np.uint16), value_range=(0, 4095))
+    assert wide.normalized().min() == 1.0
+
+
+@pytest.mark.parametrize("data, match", [
+    (np.zeros((4, 4), np.uint8), "3-D"),
+    (np.zeros((4, 4, 4), np.int64), "dtype"),
+    (np.zeros((0, 4, 4), np.uint8), "empty"),
+    (np.full((2, 2, 2), np.nan, np.float32), "NaN"),
+    ([[[1]]], "numpy array"),
+])
+def test_bad_volume_arrays_name_the_problem(data, match):
+    with pytest.raises(InputError, match=match):
+        Volume(data, name="bad")
+
+
+def test_bad_spacing_and_range():
+    with pytest.raises(InputError, match="spacing"):
+        make_volume(spacing=(1, 0, 1))
+    with pytest.raises(InputError, match="value_range"):
+        make_volume(value_range=(5, 5))
+    with pytest.raises(InputError, match="labels"):
+        make_volume(labels=np.zeros((1, 1, 1), np.uint8))
+
+
+def test_default_transform_centres_the_box():
+    instance = VolumeInstance(make_volume(spacing=(1, 1, 2)), TF)
+    corners = instance.world_corners()
+    np.testing.assert_allclose(corners.min(axis=0), -corners.max(axis=0))
+    np.testing.assert_allclose(corners.max(axis=0), (3, 2.5, 4))
+
+
+def test_scene_frames_camera_and_lists_features():
+    scene = Scene(volumes=[VolumeInstance(make_volume(), TF)], camera=Camera(azimuth=10))
+    assert scene.camera.distance > scene.bounding_sphere()[1]
+    assert scene.camera.view_height >= 2 * scene.bounding_sphere()[1]
+    assert scene.features() == {"projections": "orthographic", "modes": "dvr", "shading": "none", "max_volumes": 1}
+    gradient = GradientOpacity(np.ones(4))
+    moved = np.eye(4)
+    moved[0, 3] = 5
+    scene2 = Scene(volumes=[VolumeInstance(make_volume(spacing=(1, 1, 2)), TF, transform=moved, gradient_opacity=gradient)],
+                   mode="mip", shading=Shading(model="phong"))
+    features = scene2.features()
+    assert features["modes"] == "mip" and features["shading"] == "phong"
+    assert features["gradient_opacity"] and features["transforms"] and features["anisotropic_spacing"]
+
+
+def test_with_camera_keeps_framing_fields():
+    scene = Scene(volumes=[VolumeInstance(make_volume(), TF)])
+    turned = scene.with_camera(azimuth=45)
+    assert turned.camera.azimuth == 45 and turned.camera.distance == scene.camera.distance
+
+
+def test_camera_inside_volume_is_detected():
+    big = make_volume(shape=(20, 20, 20))
+    scene = Scene(volumes=[VolumeInstance(big, TF, name="big")],
+                  camera=Camera(projection="perspective", distance=2))
+    assert scene.camera_inside_volume() == ["big"]
+
+
+@pytest.mark.parametrize("kwargs, match", [
+    ({"volumes": []}, "at least one"),
+    ({"mode": "xray"}, "mode"),
+    ({"width": 0}, "width"),
+    ({"height": 2.5}, "height"),
+])
+def test_bad_scene_inputs(kwargs, match):
+    args = {"volumes": [VolumeInstance(make_volume(), TF)], **kwargs}
+    with pytest.raises(InputError, match=match):
+        Scene(**args)
+
+
+def test_bad_instance_inputs():
+    with pytest.raises(InputError, match="singular"):
+        VolumeInstance(make_volume(), TF, transform=np.zeros((4, 4)) + np.diag([0, 0, 0, 1]))
+    with pytest.raises(InputError, match="isovalue"):
+        VolumeInstance(make_volume(), TF, isovalue=1.5)
+    with pytest.raises(InputError, match="transfer_function"):
+        VolumeInstance(make_volume(), "bone")
+    with pytest.raises(InputError, match="shading model"):
+        Shading(model="toon")
