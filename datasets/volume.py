@@ -48,7 +48,10 @@ class Volume:
     meta: dict = field(default_factory=dict)
 
     def __post_init__(self):
-        data = check_volume_array(self.data, name=f"volume {self.name!r}")
+        # A read-only view: backends cache per-Volume derived data (normalised copies, textures),
+        # which an in-place edit through the Volume would silently invalidate.
+        data = check_volume_array(self.data, name=f"volume {self.name!r}").view()
+        data.flags.writeable = False
         object.__setattr__(self, "data", data)
         object.__setattr__(
             self, "spacing", check_positive_vector(self.spacing, length=3, name=f"volume {self.name!r} spacing")

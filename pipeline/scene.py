@@ -86,6 +86,8 @@ class Shading:
     sample, with ``N = −∇s/|∇s|`` (two-sided), ``L`` the unit direction towards a directional light
     given in view space (default: a headlight) and ``H = normalise(L + V)``, ``V`` pointing to the
     viewer. Where ``|∇s|`` is 0 the normal is undefined and only the ambient term applies.
+    The gradient is taken in the volume's object space and carried to world space by the inverse
+    transpose of the object→world transform, so scaled or sheared volumes shade correctly.
     """
 
     model: str = "none"

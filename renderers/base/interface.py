@@ -116,6 +116,8 @@ class Renderer(abc.ABC):
     name = "abstract"
     description = ""
     capabilities = Capabilities()
+    quality_sweep = ({},)
+    """Option sets from fast/coarse to slow/fine for the speed-versus-accuracy study."""
 
     @classmethod
     def probe(cls):

@@ -1,0 +1,357 @@
+"""The reference renderer: options, results, multiple volumes, cameras, shading, errors."""
+
+import math
+import sys
+
+import numba
+import numpy as np
+import pytest
+
+import renderers
+from datasets.volume import Volume
+from pipeline.camera import Camera
+from pipeline.errors import InputError
+from pipeline.scene import Scene, Shading, VolumeInstance, centering_transform
+from pipeline.transfer import GradientOpacity, TransferFunction
+from renderers.reference import ReferenceRenderer
+from renderers.reference.renderer import normalised_scalars
+
+
+def render(scene, **options):
+    return ReferenceRenderer(**options).render(scene)
+
+
+def smooth_field(shape, seed=0):
+    """A smooth random float32 field in [0, 1] (sum of a few Gaussians), indexed [z, y, x]."""
+    rng = np.random.default_rng(seed)
+    nz, ny, nx = shape
+    z, y, x = np.meshgrid(np.arange(nz), np.arange(ny), np.arange(nx), indexing="ij")
+    field = np.zeros(shape)
+    for _ in range(6):
+        cx, cy, cz = rng.uniform(0.2, 0.8, 3) * (nx, ny, nz)
+        width = rng.uniform(2.0, 4.0)
+        field += rng.uniform(0.3, 1.0) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2 + (z - cz) ** 2) / (2 * width ** 2))
+    return (field / field.max()).astype(np.float32)
+
+
+RAMP = TransferFunction.from_points([(0, 0.2, 0.3, 1.0, 0.0), (0.2, 0.2, 0.6, 1.0, 0.0), (0.6, 1.0, 0.7, 0.3, 0.3),
+                                     (1.0, 1.0, 1.0, 1.0, 0.8)], name="ramp")
+
+
+def translation(offset):
+    matrix = np.eye(4)
+    matrix[:3, 3] = offset
+    return matrix
+
+
+# ---------------------------------------------------------------------------------------------
+# Registry, options, result record
+
+
+def test_registry_builds_the_reference_and_probe_succeeds():
+    assert ReferenceRenderer.probe() == (True, "")
+    backend = renderers.get("reference", step_factor=0.5)
+    assert isinstance(backend, ReferenceRenderer) and backend.name == "reference"
+    row = {info.name: info for info in renderers.available()}["reference"]
+    assert row.available and row.capabilities is ReferenceRenderer.capabilities
+
+
+def test_probe_reports_a_missing_numba(monkeypatch):
+    monkeypatch.setitem(sys.modules, "numba", None)  # makes `import numba` raise ImportError
+    ok, reason = ReferenceRenderer.probe()
+    assert not ok and "numba" in reason
+
+
+@pytest.mark.parametrize("options", [
+    {"step_factor": 0}, {"step_factor": -0.25}, {"step_factor": float("nan")}, {"step_factor": float("inf")},
+    {"step_factor": "fine"}, {"step": 0.0}, {"step": float("nan")}, {"depth": "yes"},
+])
+def test_bad_options_raise_input_error_naming_the_option(options):
+    with pytest.raises(InputError, match=next(iter(options))):
+        ReferenceRenderer(**options)
+
+
+def test_counters_timings_and_effective_step():
+    volume = Volume(np.zeros((8, 8, 8), np.uint8), spacing=(2.0, 0.5, 1.0))
+    scene = Scene([VolumeInstance(volume, TransferFunction.constant(alpha=0.1))],
+                  camera=Camera(view_height=32.0, distance=50.0), width=32, height=32)
+    backend = ReferenceRenderer()
+    assert backend.options["effective_step"] is None
+    result = backend.render(scene)
+    step = 0.25 * 0.5  # a quarter of the smallest world voxel edge
+    assert result.info["step"] == step and backend.options["effective_step"] == step
+    assert backend.options["step_factor"] == 0.25 and backend.options["step"] is None
+    covered = int((result.image[..., 3] > 0).sum())
+    assert covered == 16 * 4  # 16 × 4 world units of box, one pixel per unit
+    assert result.counters == {"rays": 32 * 32, "rays_hit": covered, "samples": covered * int(8 / step),
+                               "early_terminations": 0}
+    assert set(result.timings) == {"prepare", "render", "total"}
+    assert all(v >= 0 for v in result.timings.values())
+    assert result.timings["total"] >= result.timings["render"] + result.timings["prepare"] - 1e-9
+    absolute = ReferenceRenderer(step=0.2, step_factor=0.9).render(scene)
+    assert absolute.info["step"] == 0.2 and absolute.counters["samples"] == covered * 40
+    assert "depth" not in result.info
+    # The first sample sits half a step behind the entry face z = 4 (eye at z = 50).
+    depth = ReferenceRenderer(depth=True).render(scene).info["depth"]
+    np.testing.assert_allclose(depth[result.image[..., 3] > 0], 46 + step / 2, rtol=0, atol=1e-12)
+    assert np.isnan(depth[result.image[..., 3] == 0]).all()
+
+
+def test_world_step_accounts_for_scaled_transforms():
+    volume = Volume(np.zeros((4, 4, 4), np.uint8))
+    scaled = np.diag([3.0, 2.0, 4.0, 1.0])
+    scene = Scene([VolumeInstance(volume, TransferFunction.constant(alpha=0.1), transform=scaled)])
+    assert ReferenceRenderer().world_step(scene) == 0.25 * 2.0
+
+
+def test_normalised_scalars_are_cached_per_volume():
+    volume = Volume(np.arange(64, dtype=np.uint16).reshape(4, 4, 4), value_range=(10, 50))
+    first = normalised_scalars(volume)
+    assert normalised_scalars(volume) is first
+    np.testing.assert_array_equal(first, volume.normalized().ravel())
+
+
+def test_renders_are_bit_reproducible_across_runs_and_thread_counts():
+    volume = Volume(smooth_field((20, 18, 16)), spacing=(1.0, 1.2, 0.9))
+    scene = Scene([VolumeInstance(volume, RAMP, gradient_opacity=GradientOpacity.from_points([(0, 0.3), (1, 1)]))],
+                  camera=Camera(azimuth=35, elevation=-20, projection="perspective"), width=40, height=40,
+                  shading=Shading(model="phong"))
+    first = render(scene).image
+    second = render(scene).image
+    assert first.tobytes() == second.tobytes()
+    threads = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        single = render(scene).image
+    finally:
+        numba.set_num_threads(threads)
+    assert single.tobytes() == first.tobytes()
+    assert first[..., 3].max() > 0.3
+
+
+# ---------------------------------------------------------------------------------------------
+# Capabilities and errors
+
+
+@pytest.mark.parametrize("projection", ["orthographic", "perspective"])
+@pytest.mark.parametrize("mode", ["dvr", "mip", "iso"])
+def test_capabilities_cover_every_projection_and_mode(projection, mode):
+    volume = Volume(smooth_field((12, 10, 8)), spacing=(1.0, 2.0, 1.0))
+    instances = [VolumeInstance(volume, RAMP, isovalue=0.5, gradient_opacity=GradientOpacity(np.ones(4)), name=f"v{i}",
+                                transform=translation((i, 0, 0)) @ centering_transform(volume)) for i in range(3)]
+    scene = Scene(instances, camera=Camera(projection=projection), mode=mode, shading=Shading(model="phong"),
+                  width=16, height=16)
+    assert ReferenceRenderer.capabilities.missing(scene) == []
+    assert render(scene).image.shape == (16, 16, 4)
+    assert ReferenceRenderer.capabilities.reasons["meshes"] and ReferenceRenderer.capabilities.reasons["lenses"]
+
+
+def test_iso_without_isovalue_names_the_instance():
+    volume = Volume(smooth_field((8, 8, 8)))
+    scene = Scene([VolumeInstance(volume, RAMP, isovalue=0.3, name="has-one"),
+                   VolumeInstance(volume, RAMP, name="lacks-one")], mode="iso")
+    with pytest.raises(InputError, match="lacks-one"):
+        render(scene)
+
+
+def test_render_rejects_a_non_scene():
+    with pytest.raises(InputError, match="Scene"):
+        ReferenceRenderer().render("scene.yaml")
+
+
+# ---------------------------------------------------------------------------------------------
+# Several volumes and transforms
+
+
+def test_two_coincident_volumes_with_split_opacity_equal_one():
+    """With Δ = Δ0 the corrected opacities are the table's, so halves sum to the whole."""
+    volume = Volume(smooth_field((16, 16, 16), seed=3))
+    half = TransferFunction(RAMP.table * np.float32([1, 1, 1, 0.5]))
+    camera = Camera(azimuth=20, elevation=10, view_height=28.0, distance=60.0)
+    single = Scene([VolumeInstance(volume, RAMP)], camera=camera, width=32, height=32)
+    double = Scene([VolumeInstance(volume, half, name="a"), VolumeInstance(volume, half, name="b")],
+                   camera=camera, width=32, height=32)
+    one = render(single, step_factor=1.0)
+    two = render(double, step_factor=1.0)
+    np.testing.assert_allclose(two.image, one.image, atol=1e-6)
+    assert two.counters["samples"] == 2 * one.counters["samples"]
+    assert one.image[..., 3].max() > 0.3
+
+
+def test_overlapping_opacity_sum_is_clamped_and_colours_averaged():
+    """Kainz et al. 2009: Σα' > 1 is clamped to 1 and the colour sum scaled by 1/Σα'."""
+    volume = Volume(np.zeros((8, 8, 8), np.uint8))
+    red = TransferFunction.constant(color=(1.0, 0.0, 0.0), alpha=0.8)
+    green = TransferFunction.constant(color=(0.0, 1.0, 0.0), alpha=0.8)
+    scene = Scene([VolumeInstance(volume, red, name="red"), VolumeInstance(volume, green, name="green")],
+                  camera=Camera(view_height=16.0, distance=40.0), width=16, height=16)
+    image = render(scene, step_factor=1.0).image
+    np.testing.assert_allclose(image[4:12, 4:12], np.broadcast_to([0.5, 0.5, 0.0, 1.0], (8, 8, 4)), atol=1e-7)
+
+
+def test_mip_over_several_volumes_uses_the_transfer_function_of_the_maximum():
+    """The largest scalar of any volume wins and keeps its own classification; ties go to the first."""
+    low = Volume(np.full((8, 8, 8), 0.4, np.float32))
+    high = Volume(np.full((8, 8, 8), 0.7, np.float32))
+    red = TransferFunction.constant(color=(1.0, 0.0, 0.0), alpha=0.5)
+    blue = TransferFunction.constant(color=(0.0, 0.0, 1.0), alpha=0.8)
+    camera = Camera(view_height=16.0, distance=40.0)
+    mixed = render(Scene([VolumeInstance(high, red, name="high"), VolumeInstance(low, blue, name="low")],
+                         camera=camera, width=16, height=16, mode="mip")).image
+    np.testing.assert_allclose(mixed[8, 8], [0.5, 0, 0, 0.5], atol=1e-7)
+    tied = render(Scene([VolumeInstance(low, blue, name="first"), VolumeInstance(low, red, name="second")],
+                        camera=camera, width=16, height=16, mode="mip")).image
+    np.testing.assert_allclose(tied[8, 8], [0, 0, 0.8, 0.8], atol=1e-7)
+
+
+def test_translated_volume_shifts_the_picture_by_whole_pixels():
+    volume = Volume(smooth_field((16, 16, 16), seed=5))
+    camera = Camera(azimuth=0, elevation=0, view_height=48.0, distance=80.0)
+    base = render(Scene([VolumeInstance(volume, RAMP)], camera=camera, width=48, height=48)).image
+    moved = VolumeInstance(volume, RAMP, transform=translation((5, -3, 7)) @ centering_transform(volume))
+    shifted = render(Scene([moved], camera=camera, width=48, height=48)).image
+    expected = np.zeros_like(base)
+    expected[3:, 5:] = base[:-3, :-5]
+    assert base[-3:].max() == 0 and base[:, -5:].max() == 0
+    np.testing.assert_allclose(shifted, expected, atol=1e-6)
+    assert base[..., 3].max() > 0.3
+
+
+@pytest.mark.parametrize("model", ["none", "phong"])
+def test_rotated_volume_equals_the_camera_rotated_the_other_way(model):
+    """R_y(90°)·volume seen from azimuth 0 is the volume seen from azimuth −90 (normals included)."""
+    volume = Volume(smooth_field((20, 24, 28), seed=7), spacing=(1.0, 1.2, 0.8))
+    rotation = np.eye(4)
+    rotation[:3, :3] = [[0, 0, 1], [0, 1, 0], [-1, 0, 0]]
+    shading = Shading(model=model, light_direction=(0.3, 0.5, 1.0))
+    common = dict(width=40, height=40, shading=shading)
+    rotated = Scene([VolumeInstance(volume, RAMP, transform=rotation @ centering_transform(volume))],
+                    camera=Camera(azimuth=0, view_height=40.0, distance=80.0), **common)
+    turned = Scene([VolumeInstance(volume, RAMP)], camera=Camera(azimuth=-90, view_height=40.0, distance=80.0), **common)
+    a, b = render(rotated).image, render(turned).image
+    np.testing.assert_allclose(a, b, atol=1e-5)
+    assert a[..., 3].max() > 0.3
+
+
+# ---------------------------------------------------------------------------------------------
+# Perspective cameras
+
+
+def test_perspective_centre_ray_is_exact_and_picture_is_left_right_symmetric():
+    field = smooth_field((16, 20, 12), seed=11)
+    field = np.maximum(field, field[:, :, ::-1])  # mirror-symmetric in x
+    volume = Volume(field)
+    scene = Scene([VolumeInstance(volume, RAMP)], camera=Camera(elevation=25, projection="perspective", fov_y=40),
+                  width=33, height=33, shading=Shading(model="phong"))
+    image = render(scene).image
+    np.testing.assert_allclose(image, image[:, ::-1], atol=1e-5)
+    assert np.abs(image - image[::-1]).max() > 0.01 and image[..., 3].max() > 0.3
+    box = Scene([VolumeInstance(Volume(np.zeros((10, 6, 6), np.uint8)), TransferFunction.constant(alpha=0.1))],
+                camera=Camera(projection="perspective", distance=30.0), width=33, height=33)
+    np.testing.assert_allclose(render(box).image[16, 16, 3], 1 - 0.9 ** 10, atol=2e-7)
+
+
+def two_layer_volume():
+    """s = 1 where world z > 4 (behind an eye at z = 2), 0.5 elsewhere; 32³ voxels centred on 0."""
+    data = np.full((32, 32, 32), 0.5, np.float32)
+    data[20:] = 1.0  # voxel centres z_obj >= 20.5, world >= 4.5
+    tf = TransferFunction.from_points([(0, 0, 1, 0, 0.05), (0.6, 0, 1, 0, 0.05), (0.75, 0, 0, 1, 0.9), (1, 0, 0, 1, 0.9)])
+    return VolumeInstance(Volume(data), tf, name="layers")
+
+
+def test_camera_inside_a_volume_clips_at_the_eye():
+    instance = two_layer_volume()
+    inside = Scene([instance], camera=Camera(projection="perspective", distance=2.0, fov_y=60), width=24, height=24)
+    assert inside.camera_inside_volume() == ["layers"]
+    assert ReferenceRenderer.capabilities.missing(inside) == []
+    result = render(inside)
+    assert result.counters["rays_hit"] == 24 * 24
+    assert (result.image[..., 1] > 0).all() and not result.image[..., 2].any()  # the blue layer is behind the eye
+    outside = render(Scene([instance], camera=Camera(projection="perspective", distance=80.0), width=24, height=24)).image
+    assert outside[..., 2].max() > 0.5
+
+
+def test_volume_behind_the_camera_is_not_rendered():
+    instance = two_layer_volume()
+    away = Camera(azimuth=180, projection="perspective", distance=40.0, target=(0, 0, 60))
+    result = render(Scene([instance], camera=away, width=16, height=16))
+    assert result.counters["rays_hit"] == 0 and not result.image.any()
+
+
+# ---------------------------------------------------------------------------------------------
+# Shading and gradient opacity
+
+
+def slab_scene(shading, *, azimuth=0.0, reverse=False):
+    """A scalar ramp along the view axis: every gradient is parallel to the view direction."""
+    ramp = np.linspace(0.3, 0.9, 16, dtype=np.float32)
+    if reverse:
+        ramp = ramp[::-1].copy()  # gradient pointing away from the viewer: tests two-sidedness
+    data = np.broadcast_to(ramp[:, None, None], (16, 16, 16)).copy()  # varies with z
+    if azimuth:
+        data = np.ascontiguousarray(np.transpose(data, (2, 1, 0)))  # varies with x instead
+    tf = TransferFunction.constant(color=(0.5, 0.3, 0.2), alpha=0.05)
+    return Scene([VolumeInstance(Volume(data), tf)], camera=Camera(azimuth=azimuth, view_height=32.0, distance=60.0),
+                 width=32, height=32, shading=shading)
+
+
+@pytest.mark.parametrize("reverse", [False, True])
+@pytest.mark.parametrize("azimuth", [0.0, 90.0])
+def test_phong_head_on_gives_c_times_ka_plus_kd_plus_ks(azimuth, reverse):
+    shading = Shading(model="phong", ambient=0.2, diffuse=0.5, specular=0.25, shininess=8.0)
+    image = render(slab_scene(shading, azimuth=azimuth, reverse=reverse)).image
+    covered = image[..., 3] > 0
+    assert covered.sum() == 256
+    colour = image[covered, :3] / image[covered, 3:]
+    np.testing.assert_allclose(colour, np.broadcast_to(np.array([0.5, 0.3, 0.2]) * 0.7 + 0.25, colour.shape), atol=1e-6)
+
+
+def test_phong_light_direction_is_in_view_space():
+    """Light along view-space +x: N·L = 0 and H = (1, 0, 1)/√2, whichever way the camera faces."""
+    shading = Shading(model="phong", ambient=0.2, diffuse=0.5, specular=0.25, shininess=8.0, light_direction=(1, 0, 0))
+    expected = np.array([0.5, 0.3, 0.2]) * 0.2 + 0.25 * (1 / math.sqrt(2)) ** 8
+    for azimuth in (0.0, 90.0):
+        image = render(slab_scene(shading, azimuth=azimuth)).image
+        covered = image[..., 3] > 0
+        np.testing.assert_allclose(image[covered, :3] / image[covered, 3:],
+                                   np.broadcast_to(expected, (covered.sum(), 3)), atol=1e-6)
+
+
+def test_phong_with_zero_gradient_is_ambient_only():
+    tf = TransferFunction.constant(color=(0.8, 0.6, 0.4), alpha=0.1)
+    scene = Scene([VolumeInstance(Volume(np.full((8, 8, 8), 77, np.uint8)), tf)],
+                  camera=Camera(azimuth=30, elevation=20), width=16, height=16, shading=Shading(model="phong", ambient=0.3))
+    image = render(scene).image
+    covered = image[..., 3] > 0
+    np.testing.assert_allclose(image[covered, :3] / image[covered, 3:],
+                               np.broadcast_to([0.24, 0.18, 0.12], (covered.sum(), 3)), atol=1e-6)
+
+
+def gradient_scene(gradient_opacity, field):
+    return Scene([VolumeInstance(Volume(field), RAMP, gradient_opacity=gradient_opacity)],
+                 camera=Camera(azimuth=40, elevation=30), width=32, height=32, shading=Shading(model="phong"))
+
+
+def test_gradient_opacity_zero_table_empties_and_ones_table_changes_nothing():
+    field = smooth_field((20, 20, 20), seed=2)
+    plain = render(gradient_scene(None, field)).image
+    assert plain[..., 3].max() > 0.3
+    assert not render(gradient_scene(GradientOpacity(np.zeros(16)), field)).image.any()
+    ones = render(gradient_scene(GradientOpacity(np.ones(16)), field)).image
+    assert ones.tobytes() == plain.tobytes()
+
+
+def test_gradient_opacity_argument_is_gradient_per_reference_step_over_sqrt3_half():
+    """A ramp of 0.02 per voxel along x has u = 0.02/(√3/2); with g(u) = u the opacity is α·u."""
+    slope = 0.02
+    data = np.broadcast_to((0.2 + slope * np.arange(24, dtype=np.float32)), (24, 24, 24)).copy()
+    alpha = 0.5
+    tf = TransferFunction.constant(alpha=alpha)
+    linear = GradientOpacity(np.linspace(0, 1, 1001))
+    scene = Scene([VolumeInstance(Volume(data), tf, gradient_opacity=linear)],
+                  camera=Camera(view_height=24.0, distance=60.0), width=24, height=24)
+    image = render(scene).image
+    u = slope / (math.sqrt(3) / 2)
+    # Columns 1..22 stay one voxel away from the x faces, where clamp-to-edge halves the gradient.
+    np.testing.assert_allclose(image[:, 1:23, 3], 1 - (1 - alpha * u) ** 24, atol=1e-6)
+    np.testing.assert_allclose(image[:, 0, 3], 1 - (1 - alpha * u * 0.5) ** 24, atol=1e-6)  # (f(1) − f(0))/2
