@@ -1,0 +1,72 @@
+"""Fuzzy volumes: Kainz et al.'s smoke clouds (note 002, C8) and a "golden lady" in a haze
+(note 001: the data set whose large fuzzy area defeats both skipping techniques).
+"""
+
+import numpy as np
+
+from datasets import noise
+from datasets.shapes import Canvas, Capsule, Ellipsoid, Grid, Sphere, rotation
+from datasets.volume import Volume
+from pipeline.validation import check_scalar
+
+
+def _radius(grid, center, radii, rot):
+    """Ellipsoidal radius ``|R^T (p − c) / radii|`` over the whole grid."""
+    x, y, z = grid.coords()
+    d = [x - np.float32(center[0]), y - np.float32(center[1]), z - np.float32(center[2])]
+    r = np.zeros(grid.shape, dtype=np.float32)
+    for axis in range(3):
+        local = sum(np.float32(rot[k, axis]) * d[k] for k in range(3))
+        r += (local / np.float32(radii[axis])) ** 2
+    return np.sqrt(r, out=r)
+
+
+def smoke_cloud(size, seed):
+    """A puff of smoke: fBm times a radial falloff; the seed varies the shape and the texture.
+
+    The cloud's centre, semi-axes (0.3–0.46 of the box) and orientation are drawn from the seed,
+    so fifty seeds give fifty different clouds for the many-volume scene (note 002, C8). Density
+    0–255 is highest inside and frays into wisps where the noise cuts the falloff.
+    """
+    rng = np.random.default_rng(seed)
+    shape_rng = noise.fork(rng)
+    grid = Grid.for_aspect(size)
+    center = shape_rng.uniform(-0.04, 0.04, 3)
+    radii = shape_rng.uniform(0.3, 0.46, 3)
+    axis = shape_rng.normal(size=3)
+    rot = rotation(axis, shape_rng.uniform(0, 180))
+    falloff = np.clip(1 - _radius(grid, center, radii, rot), 0, 1)
+    field = noise.fbm(grid, noise.fork(rng), wavelength=0.45, octaves=5, gain=0.55)
+    density = np.clip(falloff * (1.6 + 0.7 * field) - 0.15, 0, 1)
+    return Volume(np.rint(255 * density).astype(np.uint8), name="smoke_cloud")
+
+
+def golden_lady(size, seed, haze=1.0):
+    """A standing figure (≈210) inside a broad low-density haze (≈30–60), note 001 §5.
+
+    Parameters
+    ----------
+    haze : float
+        Scales the haze's extent (the E11 fuzziness sweep): 0 removes it, 0.5 keeps it near the
+        figure (≈10 % of the box above the iso_t of 30), 1 fills about two thirds of the box,
+        1.5 nearly all of it. The haze is densest (≈65) at the figure.
+    """
+    haze = check_scalar(haze, name="golden_lady haze", low=0, high=3)
+    rng = np.random.default_rng(seed)
+    grid = Grid.for_aspect(size)
+    canvas = Canvas(grid)
+    field = noise.fbm(grid, noise.fork(rng), wavelength=0.25, octaves=3)
+    if haze > 0:
+        envelope = np.exp(-((_radius(grid, (0, 0, -0.05), (0.45, 0.4, 0.6), np.eye(3)) / haze) ** 2))
+        canvas.data[...] = np.clip((65 + 14 * field) * np.sqrt(envelope), 0, None)
+    figure = [
+        Ellipsoid((0, 0, 0.02), (0.12, 0.075, 0.19)),                          # torso
+        Sphere((0, -0.01, 0.32), 0.065),                                        # head
+        Capsule((0, 0, 0.2), (0, -0.005, 0.27), 0.035),                         # neck
+    ]
+    for side in (-1, 1):
+        figure.append(Capsule((side * 0.06, 0, -0.14), (side * 0.08, 0.02, -0.47), 0.045, 0.03))   # legs
+        figure.append(Capsule((side * 0.13, 0, 0.15), (side * 0.2, -0.06, -0.1), 0.032, 0.024))   # arms
+    canvas.paint(grid.union(figure), 205 + 6 * field)
+    noise.add_gaussian(canvas.data, noise.fork(rng), 2.0)
+    return Volume(canvas.to_uint8(), name="golden_lady")
