@@ -1,0 +1,186 @@
+"""The ``volbench`` command line: list, render, compare, run.
+
+Examples
+--------
+::
+
+    volbench list
+    volbench render ct_skull --preset bone --size 128 --output skull.png --exr skull.exr
+    volbench render scene.yaml --backend reference --option step_factor=0.5
+    volbench compare reference.exr test.exr --diff diff.png
+    volbench run --profile default            # the whole pipeline, through Snakemake
+    volbench run --experiment volbench-convergence --dry-run
+"""
+
+import argparse
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import yaml
+
+from pipeline.errors import VolbenchError
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+def _parse_options(pairs):
+    """``["step_factor=0.5", "ert=true"]`` → ``{"step_factor": 0.5, "ert": True}`` (YAML scalars)."""
+    options = {}
+    for pair in pairs or ():
+        if "=" not in pair:
+            raise VolbenchError(f"--option {pair!r}: expected NAME=VALUE")
+        name, value = pair.split("=", 1)
+        options[name] = yaml.safe_load(value)
+    return options
+
+
+def cmd_list(args):
+    import datasets
+    import renderers
+    from pipeline import experiments
+
+    if args.what in ("all", "backends"):
+        print("backends:")
+        for info in renderers.available():
+            status = "available" if info.available else f"unavailable: {info.reason}"
+            print(f"  {info.name:16s} {status}")
+            if info.description:
+                print(f"  {'':16s} {info.description}")
+    if args.what in ("all", "datasets"):
+        print("datasets:")
+        for name in datasets.names():
+            spec = datasets.get(name)
+            print(f"  {name:16s} {spec.kind:8s} presets: {', '.join(spec.presets)} (default {spec.default_preset})")
+    if args.what in ("all", "experiments"):
+        print("experiments:")
+        for name, experiment in experiments.all_experiments().items():
+            print(f"  {name:28s} {experiment.title}")
+
+
+def _scene_from_args(args):
+    from pipeline.scene_io import build_scene, load_scene
+
+    camera = {k: v for k, v in (("azimuth", args.azimuth), ("elevation", args.elevation),
+                                  ("projection", args.projection)) if v is not None}
+    if args.scene.endswith((".yaml", ".yml")):
+        scene = load_scene(args.scene, size=args.size)
+        return scene.with_camera(**camera) if camera else scene
+    volume = {"dataset": args.scene}
+    if args.preset:
+        volume["preset"] = args.preset
+    if args.size:
+        volume["size"] = args.size
+    spec = {"name": args.scene, "width": args.image, "height": args.image, "mode": args.mode,
+            "shading": {"model": args.shading}, "camera": {"azimuth": 30.0, "elevation": 20.0, **camera},
+            "volumes": [volume]}
+    return build_scene(spec, size=args.size)
+
+
+def cmd_render(args):
+    import renderers
+    from pipeline.timing import measure
+    from reports.imageio import write_exr, write_png
+
+    scene = _scene_from_args(args)
+    with renderers.get(args.backend, **_parse_options(args.option)) as renderer:
+        result = measure(renderer, scene, warmup=args.warmup, repeat=args.repeat, progress=True)
+    write_png(args.output, result.image)
+    if args.exr:
+        write_exr(args.exr, result.image)
+    print(f"wrote {args.output}" + (f" and {args.exr}" if args.exr else ""))
+    for stage, seconds in result.timings.items():
+        print(f"  time {stage:12s} {seconds:10.4f} s (min {result.timings_min[stage]:.4f}, max {result.timings_max[stage]:.4f})")
+    for name, value in result.counters.items():
+        print(f"  count {name:11s} {value}")
+
+
+def cmd_compare(args):
+    from reports.metrics import compare_files
+
+    values = compare_files(args.reference, args.test, diff_path=args.diff)
+    print(json.dumps(values, indent=1, default=str))
+
+
+def cmd_run(args):
+    profile = Path(args.profile)
+    if not profile.suffix:
+        profile = ROOT / "config" / f"{args.profile}.yaml"
+    if not profile.exists():
+        raise VolbenchError(f"profile {args.profile!r}: no file {profile}; see config/ for the profiles")
+    command = [sys.executable, "-m", "snakemake", "--snakefile", str(ROOT / "Snakefile"),
+               "--directory", str(ROOT), "--configfile", str(profile.resolve()),
+               "--cores", str(args.cores), "--rerun-incomplete"]
+    if args.dry_run:
+        command.append("--dry-run")
+    extra = list(args.snakemake_args)
+    if args.experiment:
+        # Snakemake keeps only the last --config, so ours joins the user's when there is one.
+        item = f"experiments={json.dumps(args.experiment)}"
+        if "--config" in extra:
+            extra.insert(extra.index("--config") + 1, item)
+        else:
+            extra += ["--config", item]
+    command += extra
+    print("volbench:", " ".join(command), flush=True)
+    completed = subprocess.run(command)
+    if completed.returncode == 0 and not args.dry_run:
+        results = yaml.safe_load(profile.read_text()).get("results", "results")
+        print(f"volbench: report at {(ROOT / results / 'report' / 'index.html')}")
+    return completed.returncode
+
+
+def build_parser():
+    parser = argparse.ArgumentParser(prog="volbench", description="Volume-rendering reproducibility suite and benchmark harness.")
+    commands = parser.add_subparsers(dest="command", required=True)
+
+    p = commands.add_parser("list", help="backends (with availability), data sets, experiments")
+    p.add_argument("what", nargs="?", default="all", choices=("all", "backends", "datasets", "experiments"))
+    p.set_defaults(func=cmd_list)
+
+    p = commands.add_parser("render", help="render one data set or scene file with one backend")
+    p.add_argument("scene", help="a data set name (volbench list datasets) or a scene YAML file")
+    p.add_argument("--backend", default="reference")
+    p.add_argument("--option", action="append", metavar="NAME=VALUE", help="backend option (repeatable)")
+    p.add_argument("--preset")
+    p.add_argument("--size", type=int, help="phantom size (voxels along the longest axis)")
+    p.add_argument("--image", type=int, default=256, help="image width and height")
+    p.add_argument("--mode", default="dvr", choices=("dvr", "mip", "iso"))
+    p.add_argument("--shading", default="phong", choices=("none", "phong"))
+    p.add_argument("--projection", choices=("orthographic", "perspective"))
+    p.add_argument("--azimuth", type=float)
+    p.add_argument("--elevation", type=float)
+    p.add_argument("--warmup", type=int, default=1)
+    p.add_argument("--repeat", type=int, default=3)
+    p.add_argument("--output", default="render.png", help="PNG for people")
+    p.add_argument("--exr", help="also write the exact float image")
+    p.set_defaults(func=cmd_render)
+
+    p = commands.add_parser("compare", help="metrics and a difference image for two images")
+    p.add_argument("reference")
+    p.add_argument("test")
+    p.add_argument("--diff", help="write the contrast-enhanced difference image here")
+    p.set_defaults(func=cmd_compare)
+
+    p = commands.add_parser("run", help="run experiments through Snakemake")
+    p.add_argument("--profile", default="default", help="smoke, default, full, or a YAML path")
+    p.add_argument("--experiment", action="append", help="only this experiment (repeatable)")
+    p.add_argument("--cores", type=int, default=2)
+    p.add_argument("--dry-run", "-n", action="store_true")
+    p.add_argument("snakemake_args", nargs="*", help="passed to snakemake after '--' (e.g. --executor slurm)")
+    p.set_defaults(func=cmd_run)
+    return parser
+
+
+def main(argv=None):
+    args = build_parser().parse_args(argv)
+    try:
+        return args.func(args) or 0
+    except VolbenchError as exc:
+        print(f"volbench: error: {exc}", file=sys.stderr)
+        return 2
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,223 @@
+"""The experiment model: runs to execute, the paper's numbers, and the paper's claims as checks.
+
+An :class:`Experiment` is named ``<first author><year>-<what>`` (``volbench-...`` for our own).
+Given a :class:`Profile` it lists its :class:`Run` s; the pipeline executes each run as one
+Snakemake job (image + JSON record), compares it with its reference run, and collects everything
+into tidy CSV (one row per run and view). The experiment then checks its claims on that table and
+lays out its part of the report.
+"""
+
+import hashlib
+import json
+import math
+import re
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import yaml
+
+from pipeline.errors import InputError
+
+RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]*$")
+PAPERS = {
+    "volbench": "volbench's own studies",
+    "lacroute1995": "Lacroute 1995 — Fast Volume Rendering Using a Shear-Warp Factorization (VolPack thesis)",
+    "kruger2003": "Krüger & Westermann 2003 — Acceleration Techniques for GPU-based Volume Rendering",
+    "xue2005": "Xue, Zhang & Crawfis 2005 — iSBVR: Isosurface-aided Hardware Acceleration for SBVR",
+    "ropinski2005": "Ropinski, Steinicke & Hinrichs 2005 — Emphasizing Regions of Interest in Ray-Casting",
+    "kainz2009": "Kainz et al. 2009 — Ray Casting of Multiple Volumetric Datasets with Polyhedral Boundaries",
+}
+
+
+def canonical_json(value):
+    """JSON with sorted keys and no whitespace: the basis of stable hashes."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A pipeline profile (``config/<name>.yaml``).
+
+    Parameters
+    ----------
+    name : str
+    volume_size : int
+        Phantom size (voxels along the longest axis) where an experiment gives none.
+    image_size : int
+        Image width and height where an experiment gives none.
+    warmup, repeat : int
+        Frames for the timing harness.
+    experiments : list of str or "all"
+    settings : dict
+        Per-experiment overrides, keyed by experiment name.
+    real_data : str, optional
+        Folder of the real scans (``None``: the datasets default).
+    results : str
+        Output folder of the pipeline.
+    cache : str
+        Folder of generated phantoms (kept across profiles and ``make clean``).
+    """
+
+    name: str
+    volume_size: int = 64
+    image_size: int = 128
+    warmup: int = 1
+    repeat: int = 3
+    experiments: object = "all"
+    settings: dict = field(default_factory=dict)
+    real_data: str | None = None
+    results: str = "results"
+    cache: str = ".cache/volumes"
+
+    @classmethod
+    def from_mapping(cls, mapping):
+        known = set(cls.__dataclass_fields__)
+        unknown = set(mapping) - known
+        if unknown:
+            raise InputError(f"profile: unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+        if "name" not in mapping:
+            raise InputError("profile: 'name' is required")
+        return cls(**mapping)
+
+    @classmethod
+    def load(cls, path):
+        path = Path(path)
+        try:
+            return cls.from_mapping(yaml.safe_load(path.read_text()))
+        except OSError as exc:
+            raise InputError(f"profile {path}: cannot be read ({exc.strerror})") from exc
+
+    def setting(self, experiment, key, default):
+        """``settings[experiment][key]`` if the profile sets it, else ``default``."""
+        return self.settings.get(experiment, {}).get(key, default)
+
+
+@dataclass(frozen=True)
+class Run:
+    """One backend rendering one scene over a list of views: one Snakemake job.
+
+    Parameters
+    ----------
+    experiment : str
+    id : str
+        Unique within the experiment; safe as a file name.
+    backend : str
+        Registry name.
+    scene : dict
+        Scene mapping (see :mod:`pipeline.scene_io`).
+    views : tuple of dict
+        Camera overrides, each with a ``"view"`` name (e.g. ``{"view": "az30", "azimuth": 30}``).
+    options : dict
+        Backend options.
+    reference : str, optional
+        Id of the run in the same experiment whose images are the ground truth for this one.
+    warmup, repeat : int
+    tags : dict
+        Extra CSV columns describing the run (data set, preset, swept parameter, ...).
+    statistics : dict, optional
+        A volume entry (the scene format) whose data-set statistics the record should carry,
+        e.g. the rendered phantom at its paper size.
+    """
+
+    experiment: str
+    id: str
+    backend: str
+    scene: dict
+    views: tuple
+    options: dict = field(default_factory=dict)
+    reference: str | None = None
+    warmup: int = 1
+    repeat: int = 3
+    tags: dict = field(default_factory=dict)
+    statistics: dict | None = None
+
+    def __post_init__(self):
+        if not RUN_ID.match(self.id):
+            raise InputError(f"run id {self.id!r}: use letters, digits and . _ + - only")
+        names = [v.get("view") for v in self.views]
+        if not names or None in names or len(set(names)) != len(names):
+            raise InputError(f"run {self.id!r}: every view needs a unique 'view' name, got {names}")
+
+    @property
+    def key(self):
+        return f"{self.experiment}/{self.id}"
+
+    def as_dict(self):
+        return {name: getattr(self, name) for name in self.__dataclass_fields__}
+
+    def spec_hash(self):
+        """Hash of everything that determines the output; Snakemake reruns a job when it changes."""
+        return hashlib.sha256(canonical_json(self.as_dict()).encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class ClaimResult:
+    """The outcome of checking one claim on measured data."""
+
+    measured: str
+    holds: bool | None
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A statement from a paper (or our own expectation) checked against the results.
+
+    ``check(df)`` receives the experiment's tidy results (successful rows only) and returns a
+    :class:`ClaimResult`; ``holds`` is ``None`` when the data needed is missing, which the report
+    shows as "not measured" rather than as a pass.
+    """
+
+    id: str
+    statement: str
+    expected: str
+    check: object
+
+    def evaluate(self, df):
+        if df.empty:
+            return ClaimResult("no data", None, "no successful runs")
+        try:
+            return self.check(df)
+        except (KeyError, ValueError, ZeroDivisionError) as exc:
+            return ClaimResult("not measurable", None, f"{type(exc).__name__}: {exc}")
+
+
+class Experiment:
+    """Base class of experiments. Subclasses set the class attributes and implement ``runs``.
+
+    Attributes
+    ----------
+    name : str
+        ``<first author><year>-<what>``.
+    paper : str
+        Key of :data:`PAPERS`.
+    title, description : str
+    claims : tuple of Claim
+    """
+
+    name = ""
+    paper = "volbench"
+    title = ""
+    description = ""
+    claims = ()
+
+    def runs(self, profile):
+        """The runs for ``profile`` (list of :class:`Run`)."""
+        raise NotImplementedError
+
+    def paper_table(self):
+        """The paper's own numbers as a DataFrame (``None`` when the paper has none)."""
+        return None
+
+    def report(self, results, ctx):
+        """Report blocks for this experiment (see :mod:`reports.html`)."""
+        return []
+
+
+def format_number(value, digits=3):
+    """Short human-readable number for claim strings and tables."""
+    if value is None or (isinstance(value, float) and math.isnan(value)):
+        return "n/a"
+    if isinstance(value, float) and math.isinf(value):
+        return "inf"
+    return f"{value:.{digits}g}"

@@ -1,0 +1,83 @@
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipeline import experiments
+from pipeline.errors import InputError
+from pipeline.experiments import Profile, Run
+from pipeline.experiments.volbench import ReferenceConvergence, SpeedAccuracy, _default_step, _monotone, _order, _tradeoff
+
+SMOKE = Profile(name="t", volume_size=16, image_size=16, settings={"volbench-phantoms": {"datasets": ["sphere"]}})
+
+
+def test_registry_names_follow_the_convention():
+    names = list(experiments.all_experiments())
+    assert {"volbench-phantoms", "volbench-convergence", "volbench-speed-accuracy"} <= set(names)
+    for name in names:
+        author_year, _, what = name.partition("-")
+        assert what and (author_year == "volbench" or author_year[-4:].isdigit()), name
+
+
+def test_plan_has_unique_runs_whose_references_resolve():
+    runs = experiments.plan(SMOKE)
+    assert all(run.reference is None or f"{run.experiment}/{run.reference}" in runs for run in runs.values())
+    backends = {run.backend for run in runs.values() if run.experiment == "volbench-speed-accuracy"}
+    assert "reference" in backends
+    phantoms = [run for run in runs.values() if run.experiment == "volbench-phantoms"]
+    assert {run.tags["dataset"] for run in phantoms} == {"sphere"}
+    assert all(run.statistics["dataset"] == "sphere" for run in phantoms)
+
+
+def test_spec_hash_changes_with_the_run():
+    run = Run("e", "a", "reference", {"volumes": []}, ({"view": "v"},))
+    other = Run("e", "a", "reference", {"volumes": []}, ({"view": "v"},), options={"step_factor": 0.5})
+    assert run.spec_hash() != other.spec_hash()
+    assert run.spec_hash() == Run("e", "a", "reference", {"volumes": []}, ({"view": "v"},)).spec_hash()
+
+
+def test_bad_runs_and_profiles():
+    with pytest.raises(InputError, match="run id"):
+        Run("e", "a/b", "reference", {}, ({"view": "v"},))
+    with pytest.raises(InputError, match="unique 'view'"):
+        Run("e", "a", "reference", {}, ({"view": "v"}, {"view": "v"}))
+    with pytest.raises(InputError, match="unknown keys"):
+        Profile.from_mapping({"name": "x", "volume_sise": 3})
+    with pytest.raises(InputError, match="unknown experiments"):
+        experiments.plan(Profile(name="x", experiments=["nobody2020-nothing"]))
+
+
+def _convergence_frame(errors_by_scene):
+    rows = []
+    for scene, errors in errors_by_scene.items():
+        for factor, rmse in zip((2.0, 1.0, 0.5, 0.25), errors):
+            rows.append({"scene": scene, "role": "sweep", "step_factor": factor, "rmse": rmse,
+                         "psnr": -20 * np.log10(rmse)})
+    return pd.DataFrame(rows)
+
+
+def test_convergence_claims_detect_flat_and_rising_errors():
+    good = _convergence_frame({"a": [0.16, 0.04, 0.01, 0.0025]})
+    assert _monotone(good).holds and _order(good).holds and _default_step(good).holds
+    assert float(_order(good).measured.split()[0]) == pytest.approx(2.0, abs=1e-6)
+    flat = _convergence_frame({"a": [0.16, 0.04, 0.01, 0.0025], "b": [0.02, 0.02, 0.019, 0.03]})
+    assert not _monotone(flat).holds and "b" in _monotone(flat).detail
+    assert not _order(flat).holds
+    assert not _default_step(flat).holds  # 0.03 RMSE is 30.5 dB
+
+
+def test_tradeoff_claim_needs_doubling_times():
+    rows = [{"scene": "s", "backend": "reference", "role": "sweep", "setting": f"step_factor={f}",
+             "time_total": t, "rmse": e} for f, t, e in ((1.0, 1.0, 0.1), (0.5, 2.0, 0.05), (0.25, 4.1, 0.02))]
+    assert _tradeoff(pd.DataFrame(rows)).holds
+    rows[1]["time_total"], rows[2]["time_total"] = 1.1, 1.2  # overhead-bound: the step barely matters
+    assert not _tradeoff(pd.DataFrame(rows)).holds
+    rows[1]["time_total"], rows[2]["time_total"], rows[2]["rmse"] = 2.0, 4.0, 0.06  # error went up
+    assert not _tradeoff(pd.DataFrame(rows)).holds
+
+
+def test_claims_without_data_are_not_measured():
+    claim = ReferenceConvergence.claims[0]
+    assert claim.evaluate(pd.DataFrame()).holds is None
+    empty_sweep = pd.DataFrame([{"backend": "reference", "role": "truth", "scene": "s", "setting": "truth",
+                                 "time_total": 1.0, "rmse": np.nan}])
+    assert SpeedAccuracy.claims[0].evaluate(empty_sweep).holds is None
