@@ -57,6 +57,9 @@ class DatasetSpec:
     source : str, optional
         Real data sets only: the real-data manifest entry (``"brainsmall"``: VolPack's ``.den``
         example) when it differs from ``name``.
+    up_axis : {"z", "y"}
+        The object axis that points up in the subject: ``"z"`` for scanner stacks (the body axis),
+        ``"y"`` for data stored upright in y. Galleries turn it to the world's up.
     """
 
     name: str
@@ -71,6 +74,7 @@ class DatasetSpec:
     version: int = 1
     modality: str = ""
     source: str | None = None
+    up_axis: str = "z"
 
     def __post_init__(self):
         where = f"data set {self.name!r}"
@@ -297,8 +301,9 @@ def _phantoms():
     ]
 
 
-def _real(name, description, papers, presets, default, modality, source=None):
-    return DatasetSpec(name, "real", description, tuple(papers), presets, default, modality=modality, source=source)
+def _real(name, description, papers, presets, default, modality, source=None, up_axis="z"):
+    return DatasetSpec(name, "real", description, tuple(papers), presets, default, modality=modality, source=source,
+                       up_axis=up_axis)
 
 
 def _reals():
@@ -319,7 +324,7 @@ def _reals():
         _real("bonsai", "CT of a bonsai tree, 256³.", ["xue2005"],
               {"tree": P.points([(25, LEAF, 0.0), (40, LEAF, 0.15), (70, LEAF, 0.15), (90, WOOD, 0.0),
                                  (110, WOOD, 0.6), (170, WOOD, 0.8), (190, TERRACOTTA, 1.0)], name="tree"),
-               "isbvr": P.points([(50, LEAF, 0.0), (170, WOOD, 1.0)], name="isbvr")}, "tree", "CT"),
+               "isbvr": P.points([(50, LEAF, 0.0), (170, WOOD, 1.0)], name="isbvr")}, "tree", "CT", up_axis="y"),
         _real("tooth", "Industrial CT of a tooth, 103×94×161 (background ≈75).", [],
               {"tooth": P.points([(100, (0.95, 0.9, 0.75), 0.0), (130, (0.95, 0.9, 0.75), 0.2),
                                   (180, (0.95, 0.9, 0.75), 0.4), (210, P.WHITE, 1.0)], name="tooth",

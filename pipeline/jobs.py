@@ -68,6 +68,7 @@ def report(args):
     runs_df = pd.read_csv(results / "runs.csv", low_memory=False)
     claims_df = pd.read_csv(results / "claims.csv")
     claims_df["holds"] = claims_df["holds"].map({True: True, False: False, "True": True, "False": False})
+    claims_df[["measured", "detail"]] = claims_df[["measured", "detail"]].fillna("")
     environment_ = json.loads((results / "environment.json").read_text())
     environment_["profile"] = json.dumps(dataclasses.asdict(profile), sort_keys=True)
     index = build_report(runs_df, claims_df, selected(profile), results_dir=results, environment=environment_)

@@ -63,3 +63,24 @@ def test_capabilities_name_what_is_missing():
     missing = dict(_Probeless.capabilities.missing(scene))
     assert missing["modes 'mip'"] == "only dvr here"
     assert "2 volumes" in missing and "projections 'perspective'" in missing and "shading 'phong'" in missing
+
+
+def test_camera_inside_a_volume_is_refused_where_a_backend_cannot_handle_it():
+    import numpy as np
+
+    from datasets.volume import Volume
+    from pipeline.camera import Camera
+    from pipeline.errors import UnsupportedFeatureError
+    from pipeline.scene import Scene, VolumeInstance
+    from pipeline.transfer import TransferFunction
+
+    instance = VolumeInstance(Volume(np.zeros((20, 20, 20), np.uint8)), TransferFunction.ramp(0.1, 0.2), name="head")
+    inside = Scene(volumes=[instance], camera=Camera(projection="perspective", distance=3))
+    outside = Scene(volumes=[instance], camera=Camera(projection="perspective", distance=60))
+    caps = Capabilities(projections=frozenset({"perspective"}), reasons={"camera_inside_volume": "rays start at the box"})
+    assert caps.missing(outside) == []
+    assert caps.missing(inside) == [("camera inside volume head", "rays start at the box")]
+    renderer = _Probeless.__new__(_Probeless)
+    renderer.capabilities = caps
+    with pytest.raises(UnsupportedFeatureError, match="camera inside volume head"):
+        renderer.render(inside)

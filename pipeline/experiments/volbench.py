@@ -12,7 +12,7 @@ HEADLINE_VIEW = {"view": "headline", "azimuth": 30.0, "elevation": 20.0}
 """The oblique view note 000 recommends for headline numbers (30° yaw, 20° pitch)."""
 
 UPRIGHT = {"rotate": {"axis": [1, 0, 0], "degrees": -90}}
-"""Scanner z (the body axis of every phantom and CT stack) to world y (up), the face to +z."""
+"""Scanner z (the body axis of the phantoms and CT stacks) to world y (up), the face to +z."""
 
 
 def _scene(volume, profile, *, image_size=None, shading="phong", mode="dvr", name=None):
@@ -26,6 +26,19 @@ def _phantom(name, size=None, **extra):
     if size is not None and datasets.get(name).kind == "phantom":
         spec["size"] = size
     return spec
+
+
+def _scene_and_truth(experiment, scene_name, scene_def, profile, truth_factor, tags):
+    """The scene mapping of ``scene_def = (dataset, preset, shading)`` and its fine-step truth run."""
+    dataset, preset, shading = scene_def
+    size = profile.setting(experiment, "volume_size", profile.volume_size)
+    image_size = profile.setting(experiment, "image_size", profile.image_size)
+    volume = _phantom(dataset, size, **({"preset": preset} if preset else {}))
+    scene = _scene(volume, profile, image_size=image_size, shading=shading, name=scene_name)
+    truth = Run(experiment, f"{scene_name}.truth", "reference", scene, (HEADLINE_VIEW,),
+                options={"step_factor": truth_factor}, warmup=0, repeat=1,
+                tags={"scene": scene_name, "role": "truth", **tags})
+    return scene, truth
 
 
 # --------------------------------------------------------------------------------------------
@@ -62,7 +75,7 @@ class PhantomGallery(Experiment):
             else:  # the default, and every preset the notes give target statistics for
                 presets = list(dict.fromkeys([spec.default_preset, *spec.targets_by_preset]))
             for preset in presets:
-                volume = _phantom(name, size, preset=preset, transform=UPRIGHT)
+                volume = _phantom(name, size, preset=preset, **({"transform": UPRIGHT} if spec.up_axis == "z" else {}))
                 # Statistics at the original data set's size, where the notes' targets apply.
                 measured = _phantom(name, spec.default_size if stats_size == "paper" else stats_size, preset=preset)
                 runs.append(Run(
@@ -78,12 +91,18 @@ class PhantomGallery(Experiment):
         ok = results[results.status == "ok"]
         stat_cols = [c for c in ok.columns if c.startswith("stat_")]
         table = ok[["dataset", "kind", "preset", *stat_cols]].rename(columns=lambda c: c.removeprefix("stat_"))
+        shown = [c for c in ("dataset", "kind", "preset", "size", "nontransparent_fraction", "empty_block_fraction",
+                             "runs_per_scanline", "mean_run_length", "megabytes") if c in table]
         targets = []
         for name in table.dataset.unique():
             for preset, stats in datasets.get(name).targets_by_preset.items():
                 targets.extend({"dataset": name, "preset": preset, "statistic": stat, "target": value}
                                for stat, value in stats.items())
-        out = [blocks.Table("Statistics under the default preset", table.reset_index(drop=True),
+        table.reset_index(drop=True).to_csv(ctx.report_dir / "csv" / "phantom_statistics_all.csv", index=False)
+        out = [blocks.Table("Statistics under each rendered preset", table[shown].reset_index(drop=True),
+                            caption="Non-transparent: α > 0.05; empty block: an 8³ block with no voxel of α > 0; "
+                                    "runs per scanline: runs of non-transparent voxels along x (VolPack's c_v). "
+                                    "Every statistic is in csv/phantom_statistics_all.csv.",
                             csv_name="phantom_statistics.csv")]
         if targets:
             out.append(blocks.Table("Targets from the reproduction notes", pd.DataFrame(targets),
@@ -147,21 +166,16 @@ class ReferenceConvergence(Experiment):
     TRUTH_FACTOR = 1 / 32
 
     def runs(self, profile):
-        size = profile.setting(self.name, "volume_size", profile.volume_size)
-        image_size = profile.setting(self.name, "image_size", profile.image_size)
         factors = profile.setting(self.name, "step_factors", self.STEP_FACTORS)
-        truth = profile.setting(self.name, "truth_step_factor", self.TRUTH_FACTOR)
+        truth_factor = profile.setting(self.name, "truth_step_factor", self.TRUTH_FACTOR)
         runs = []
-        for scene_name, (dataset, preset, shading) in CONVERGENCE_SCENES.items():
-            volume = _phantom(dataset, size, **({"preset": preset} if preset else {}))
-            scene = _scene(volume, profile, image_size=image_size, shading=shading, name=scene_name)
-            truth_id = f"{scene_name}.truth"
-            runs.append(Run(self.name, truth_id, "reference", scene, (HEADLINE_VIEW,),
-                            options={"step_factor": truth}, warmup=0, repeat=1,
-                            tags={"scene": scene_name, "step_factor": truth, "role": "truth"}))
+        for scene_name, scene_def in CONVERGENCE_SCENES.items():
+            scene, truth = _scene_and_truth(self.name, scene_name, scene_def, profile, truth_factor,
+                                            {"step_factor": truth_factor})
+            runs.append(truth)
             for factor in factors:
                 runs.append(Run(self.name, f"{scene_name}.step{factor:g}", "reference", scene,
-                                (HEADLINE_VIEW,), options={"step_factor": factor}, reference=truth_id,
+                                (HEADLINE_VIEW,), options={"step_factor": factor}, reference=truth.id,
                                 warmup=profile.warmup, repeat=profile.repeat,
                                 tags={"scene": scene_name, "step_factor": factor, "role": "sweep"}))
         return runs
@@ -246,21 +260,16 @@ class SpeedAccuracy(Experiment):
     TRUTH_FACTOR = 1 / 16
 
     def runs(self, profile):
-        size = profile.setting(self.name, "volume_size", profile.volume_size)
-        image_size = profile.setting(self.name, "image_size", profile.image_size)
         runs = []
-        for scene_name, (dataset, preset, shading) in SPEED_ACCURACY_SCENES.items():
-            volume = _phantom(dataset, size, **({"preset": preset} if preset else {}))
-            scene = _scene(volume, profile, image_size=image_size, shading=shading, name=scene_name)
-            truth_id = f"{scene_name}.truth"
-            runs.append(Run(self.name, truth_id, "reference", scene, (HEADLINE_VIEW,),
-                            options={"step_factor": self.TRUTH_FACTOR}, warmup=0, repeat=1,
-                            tags={"scene": scene_name, "setting": "truth", "role": "truth"}))
+        for scene_name, scene_def in SPEED_ACCURACY_SCENES.items():
+            scene, truth = _scene_and_truth(self.name, scene_name, scene_def, profile, self.TRUTH_FACTOR,
+                                            {"setting": "truth"})
+            runs.append(truth)
             for backend in renderers.names():
                 for index, options in enumerate(renderers.backend_class(backend).quality_sweep):
                     setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
                     runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
-                                    (HEADLINE_VIEW,), options=dict(options), reference=truth_id,
+                                    (HEADLINE_VIEW,), options=dict(options), reference=truth.id,
                                     warmup=profile.warmup, repeat=profile.repeat,
                                     tags={"scene": scene_name, "setting": setting, "role": "sweep"}))
         return runs
@@ -282,6 +291,12 @@ class SpeedAccuracy(Experiment):
                                  group_col="backend", label_col="setting", title=f"{scene}: time vs RMSE")
             out.append(blocks.Figure(f"{scene}: median frame time against RMSE", rel,
                                      "Each point is one quality setting; lower left is better."))
+        stages = [c for c in ok.columns if c.startswith("time_") and c != "time_total" and not c.endswith(("_min", "_max"))]
+        ok["backend_setting"] = ok.backend + " " + ok.setting
+        path, rel = ctx.plot_path("stages")
+        plots.stage_breakdown(ok, path, stage_cols=stages, group_col="backend_setting")
+        out.append(blocks.Figure("Time per stage (median over scenes)", rel,
+                                 "Each backend's own stages, as it reports them (CONVENTIONS, Results)."))
         columns = ["scene", "backend", "setting", "time_total", "rmse", "psnr", "ssim", "flip"]
         out.append(blocks.Table("All settings", ok[columns].sort_values(["scene", "backend", "time_total"]).reset_index(drop=True),
                                 csv_name="speed_accuracy.csv"))
