@@ -61,7 +61,7 @@ def execute(run, *, profile, device_environment=None):
         "environment": {**host_environment(), **(device_environment or {})},
     }
     try:
-        scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size)
+        scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size, data_dir=profile.real_data)
         renderer = renderers.get(run.backend, **run.options)
         renderer.check(scene)
     except (datasets.DataUnavailableError, BackendUnavailableError, UnsupportedFeatureError) as exc:
@@ -74,7 +74,8 @@ def execute(run, *, profile, device_environment=None):
         with renderer:
             record["backend_environment"] = renderer.environment()
             if run.statistics:
-                measured = build_volume_instance(run.statistics, cache_dir=profile.cache, size=profile.volume_size)
+                measured = build_volume_instance(run.statistics, cache_dir=profile.cache, size=profile.volume_size,
+                                                 data_dir=profile.real_data)
                 preset = Preset(measured.transfer_function, measured.gradient_opacity, measured.isovalue)
                 record["statistics"] = {**datasets.statistics(measured.volume, preset),
                                         "size": max(measured.volume.shape_xyz)}

@@ -90,7 +90,7 @@ def build_transform(spec, volume, *, where="transform"):
     return translate @ rotate @ scale @ centering_transform(volume)
 
 
-def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, where="volume"):
+def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None, where="volume"):
     """The :class:`Volume` a volume entry refers to (a registered data set or a file)."""
     if ("dataset" in spec) == ("file" in spec):
         raise InputError(f"{where}: give exactly one of 'dataset' or 'file'")
@@ -100,7 +100,7 @@ def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, where="volume
         if dataset.kind == "phantom":
             kwargs["size"] = spec.get("size", size)
             kwargs["seed"] = spec.get("seed", 0)
-        return datasets.load(spec["dataset"], cache_dir=cache_dir, **kwargs)
+        return datasets.load(spec["dataset"], cache_dir=cache_dir, data_dir=data_dir, **kwargs)
     path = Path(spec["file"])
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
@@ -118,11 +118,11 @@ def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, where="volume
     return volume
 
 
-def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, index=0):
+def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None, index=0):
     """A :class:`VolumeInstance` from one entry of ``volumes``."""
     where = f"volumes[{index}]"
     _check_keys(spec, VOLUME_KEYS, where=where)
-    volume = load_volume(spec, cache_dir=cache_dir, size=size, base_dir=base_dir, where=where)
+    volume = load_volume(spec, cache_dir=cache_dir, size=size, base_dir=base_dir, data_dir=data_dir, where=where)
     preset = None
     if "dataset" in spec and ("transfer_function" not in spec or "preset" in spec):
         preset = datasets.preset(spec["dataset"], spec.get("preset"))
@@ -156,7 +156,7 @@ def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, ind
     )
 
 
-def build_scene(spec, *, cache_dir=None, size=None, base_dir=None):
+def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None):
     """Build a :class:`Scene` from a scene mapping.
 
     Parameters
@@ -169,12 +169,14 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None):
         Phantom size used where a volume entry gives none (profiles set it).
     base_dir : path, optional
         Directory that relative ``file`` paths are resolved against.
+    data_dir : path, optional
+        Folder of the real scans (see :func:`datasets.load`).
     """
     _check_keys(spec, SCENE_KEYS, where="scene")
     if not spec.get("volumes"):
         raise InputError("scene: 'volumes' must list at least one volume")
     instances = tuple(
-        build_volume_instance(v, cache_dir=cache_dir, size=size, base_dir=base_dir, index=i)
+        build_volume_instance(v, cache_dir=cache_dir, size=size, base_dir=base_dir, data_dir=data_dir, index=i)
         for i, v in enumerate(spec["volumes"])
     )
     camera_spec = spec.get("camera") or {}

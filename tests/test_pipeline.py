@@ -89,10 +89,11 @@ def test_execute_evaluate_collect(profile):
     assert len(claims) == len(PhantomGallery().claims)
 
 
-def test_missing_real_data_is_a_recorded_skip(profile, tmp_path, monkeypatch):
-    monkeypatch.setenv("VOLBENCH_REAL_DATA", str(tmp_path / "nowhere"))
+def test_missing_real_data_is_a_recorded_skip(profile, tmp_path):
+    from dataclasses import replace
+
     run = Run("volbench-phantoms", "cthead.bone", "reference", {"volumes": [{"dataset": "cthead"}]}, ({"view": "v"},))
-    record = execute(run, profile=profile)
+    record = execute(run, profile=replace(profile, real_data=str(tmp_path / "nowhere")))
     assert record["status"] == "skipped" and "nowhere" in record["reason"]
 
 

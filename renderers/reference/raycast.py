@@ -15,10 +15,23 @@ Conventions implemented here
   ``(f(p + s_x e_x) − f(p − s_x e_x)) / (2 s_x)`` per axis (the on-the-fly GPU estimator).
 * Classification: post-classification, linear interpolation between table entries, entry ``i``
   at ``s = i/(N − 1)``, clamped at the ends (:meth:`pipeline.transfer.TransferFunction.lookup`).
-* Sampling lattice: one world step ``Δ`` for all volumes; ray ``t`` runs from the entry
-  ``t_first`` into the union of the volume boxes (clipped to ``t >= 0``) to the exit ``t_last``,
-  with samples at ``t_k = t_first + (k + 0.5)·Δ`` for ``t_k <= t_last``. A volume contributes at
-  the samples whose ``t_k`` lies inside its own ``[t_entry, t_exit]``.
+* Sampling: one world step ``Δ`` for all volumes. Each volume's span on the ray,
+  ``[t_entry, t_exit]``, comes from a slab test in its object space, clipped to ``t >= 0``;
+  ``t_first`` is the smallest ``t_entry`` (the entry into the union of the boxes). The ray is
+  cut into cells ``[a_k, b_k] = [t_first + k·Δ, t_first + (k + 1)·Δ]``, both ends evaluated
+  with exactly these expressions wherever they are used, so neighbouring cells share their
+  boundary bit for bit and nothing is counted twice or left out. A volume samples every cell
+  whose overlap ``[lo, hi] = [a_k, b_k] ∩ [t_entry, t_exit]`` is longer than ``min_overlap``
+  (``MIN_OVERLAP·Δ``, set by the renderer: the rounding slivers where a depth is a whole
+  number of steps are left out); the cells run up to the last such one.
+  A cell inside the box samples at ``t_k = t_first + (k + ½)·Δ`` with the full-step
+  correction ``α' = 1 − (1 − α)^(|A⁻¹d|·Δ/Δ0)``; a cell the box cuts (only a volume's first
+  and last cell can be cut) samples at the overlap's midpoint ``(lo + hi)/2`` with
+  ``α' = 1 − (1 − α)^(|A⁻¹d|·(hi − lo)/Δ0)``. Every ray's optical depth through a
+  homogeneous box is therefore exact, and a medium whose classified field is smooth along the
+  ray converges with the second order of the midpoint rule, box faces included (a sharp
+  transfer-function edge inside the box still leaves an ``O(Δ)`` error where the ray crosses
+  it). Samples of several volumes in one cell are blended (see :func:`_dvr_ray`).
 """
 
 import math
@@ -129,23 +142,54 @@ def _blinn_phong(r, g, b, gx, gy, gz, nmat, vol, light, half, has_half, shading)
 
 
 @njit(**_JIT)
+def _boundary_cell(k, t_first, step, t_in, t_out, min_overlap):
+    """A volume's sample in a cell that may be cut by its box: ``(t, L, full)``, ``L = 0`` if none.
+
+    ``[t_in, t_out]`` is the volume's span on the ray. A cell the box covers whole samples at
+    ``t_k`` with ``L = Δ``; a cut one at the midpoint of its overlap, of length ``L``.
+    """
+    a = t_first + k * step
+    b = t_first + (k + 1) * step
+    if t_in <= a and b <= t_out:
+        return t_first + (k + 0.5) * step, step, True
+    lo = max(a, t_in)
+    hi = min(b, t_out)
+    length = hi - lo
+    if length <= min_overlap:
+        return 0.0, 0.0, False
+    return 0.5 * (lo + hi), length, False
+
+
+@njit(**_JIT)
 def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, nmat, phong, shading,
-             light, half, has_half, t_first, step, count, k_lo, k_hi, base, slope, ratio):
+             light, half, has_half, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap, base, slope,
+             ratio, length):
     """Front-to-back emission–absorption along one ray: ``(r, g, b, a, depth, samples)``.
 
-    Overlapping volumes are blended per sample as in Kainz et al. 2009: premultiplied colours
+    Overlapping volumes are blended per cell as in Kainz et al. 2009: premultiplied colours
     and corrected opacities are summed, and a sum of opacities above 1 is clamped to 1 with the
-    colour scaled by the same factor (so colour never exceeds alpha).
+    colour scaled by the same factor (so colour never exceeds alpha). ``depth`` is the nearest
+    contributing sample of the first cell that contributes.
     """
     cr = cg = cb = ca = 0.0
     depth = np.nan
     samples = 0
     for k in range(count):
-        t = t_first + (k + 0.5) * step
+        t_k = t_first + (k + 0.5) * step
         sr = sg = sb = sa = 0.0
+        nearest = np.inf
         for vol in range(offsets.shape[0]):
             if k < k_lo[vol] or k > k_hi[vol]:
                 continue
+            t = t_k
+            vol_ratio = ratio[vol]
+            if k == k_lo[vol] or k == k_hi[vol]:
+                # The volume's first and last cells: the only ones its box can cut.
+                t, overlap, full = _boundary_cell(k, t_first, step, t_in[vol], t_out[vol], min_overlap)
+                if overlap == 0.0:
+                    continue
+                if not full:
+                    vol_ratio = length[vol] * overlap / ref_step[vol]
             off = offsets[vol]
             nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
             u = base[vol, 0] + t * slope[vol, 0]
@@ -168,8 +212,8 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
                 alpha *= _gradient_factor(gtab, vol, gtab_size[vol], magnitude * ref_step[vol] / MAX_GRADIENT)
                 if alpha <= 0.0:
                     continue
-            # α' = 1 − (1 − α)^(Δ_obj/Δ0), in the log1p/expm1 form that keeps small α accurate.
-            alpha = -math.expm1(ratio[vol] * math.log1p(-alpha))
+            # α' = 1 − (1 − α)^(L_obj/Δ0), in the log1p/expm1 form that keeps small α accurate.
+            alpha = -math.expm1(vol_ratio * math.log1p(-alpha))
             r = _tf_channel(tf, vol, size, s, 0)
             g = _tf_channel(tf, vol, size, s, 1)
             b = _tf_channel(tf, vol, size, s, 2)
@@ -182,6 +226,8 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
             sg += alpha * g
             sb += alpha * b
             sa += alpha
+            if t < nearest:
+                nearest = t
         if sa > 0.0:
             if sa > 1.0:
                 sr /= sa
@@ -189,7 +235,7 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
                 sb /= sa
                 sa = 1.0
             if np.isnan(depth):
-                depth = t
+                depth = nearest
             transparency = 1.0 - ca
             cr += transparency * sr
             cg += transparency * sg
@@ -199,22 +245,30 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
 
 
 @njit(**_JIT)
-def _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count, k_lo, k_hi, base, slope):
+def _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap,
+             base, slope):
     """Maximum intensity along one ray, classified without opacity correction.
 
-    With several volumes the largest normalised scalar of any of them wins and is classified by
-    the transfer function of the volume it came from (the earlier sample, then the earlier
-    volume, on ties). Returns ``(r, g, b, a, depth, samples)``, colour premultiplied.
+    The maximum is taken over the samples the volumes take (cell midpoints, and overlap
+    midpoints in the cells a box cuts). With several volumes the largest normalised scalar of
+    any of them wins and is classified by the transfer function of the volume it came from
+    (the earlier cell, then the earlier volume, on ties). Returns ``(r, g, b, a, depth,
+    samples)``, colour premultiplied.
     """
     best = -1.0
     best_vol = -1
     depth = np.nan
     samples = 0
     for k in range(count):
-        t = t_first + (k + 0.5) * step
+        t_k = t_first + (k + 0.5) * step
         for vol in range(offsets.shape[0]):
             if k < k_lo[vol] or k > k_hi[vol]:
                 continue
+            t = t_k
+            if k == k_lo[vol] or k == k_hi[vol]:
+                t, overlap, full = _boundary_cell(k, t_first, step, t_in[vol], t_out[vol], min_overlap)
+                if overlap == 0.0:
+                    continue
             s = _trilinear(data, offsets[vol], dims[vol, 0], dims[vol, 1], dims[vol, 2],
                            base[vol, 0] + t * slope[vol, 0], base[vol, 1] + t * slope[vol, 1],
                            base[vol, 2] + t * slope[vol, 2])
@@ -233,31 +287,45 @@ def _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count, k_lo, k_hi,
 
 @njit(**_JIT)
 def _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, shading, light, half,
-             has_half, t_first, step, count, k_lo, k_hi, base, slope, tolerance, below):
+             has_half, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap, base, slope, tolerance,
+             below, previous, started):
     """First isovalue crossing along one ray: ``(r, g, b, a, depth, samples)``.
 
     A crossing is a change of ``s < isovalue`` between two consecutive samples of the same
     volume (either direction, so surfaces are seen from inside too; a box face is not a
-    surface). It is refined by bisection until the bracket is shorter than ``tolerance``;
-    among volumes crossing in the same step the nearest refined hit wins. The colour is the
+    surface). It is refined by bisection between the two sample positions until the bracket is
+    shorter than ``tolerance``; among volumes crossing in the same cell the nearest refined hit
+    wins, and the search stops after that cell. That is the nearest crossing of all, cut cells
+    included: a crossing found in cell ``k`` lies before the volume's sample in that cell, which
+    is at ``t_k``, or before it where the box ends in that cell. A crossing found in a later
+    cell lies after its volume's sample in cell ``k`` or later, which is at ``t_k`` or after
+    unless that box ends in cell ``k`` (and then it has no later sample). The colour is the
     volume's transfer-function colour at its isovalue, shaded at the hit; alpha is 1.
     """
     samples = 0
     hit_t = np.inf
     hit_vol = -1
+    nvol = offsets.shape[0]
+    for vol in range(nvol):
+        started[vol] = False
     for k in range(count):
-        t = t_first + (k + 0.5) * step
-        for vol in range(offsets.shape[0]):
+        t_k = t_first + (k + 0.5) * step
+        for vol in range(nvol):
             if k < k_lo[vol] or k > k_hi[vol]:
                 continue
+            t = t_k
+            if k == k_lo[vol] or k == k_hi[vol]:
+                t, overlap, full = _boundary_cell(k, t_first, step, t_in[vol], t_out[vol], min_overlap)
+                if overlap == 0.0:
+                    continue
             off = offsets[vol]
             nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
             s = _trilinear(data, off, nx, ny, nz, base[vol, 0] + t * slope[vol, 0],
                            base[vol, 1] + t * slope[vol, 1], base[vol, 2] + t * slope[vol, 2])
             samples += 1
             now_below = s < isovalue[vol]
-            if k > k_lo[vol] and now_below != below[vol]:
-                lo = t_first + (k - 0.5) * step
+            if started[vol] and now_below != below[vol]:
+                lo = previous[vol]
                 hi = t
                 for _ in range(MAX_BISECTIONS):
                     if hi - lo <= tolerance:
@@ -274,6 +342,8 @@ def _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, s
                     hit_t = refined
                     hit_vol = vol
             below[vol] = now_below
+            previous[vol] = t
+            started[vol] = True
         if hit_vol >= 0:
             break
     if hit_vol < 0:
@@ -292,6 +362,30 @@ def _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, s
     return r, g, b, 1.0, hit_t, samples
 
 
+@njit(**_JIT)
+def _cell_range(t_first, step, t_in, t_out, min_overlap):
+    """The cells ``k_lo … k_hi`` in which a volume spanning ``[t_in, t_out]`` takes samples.
+
+    ``k_lo`` is the first cell whose end passes ``t_in + min_overlap`` and ``k_hi`` the last whose
+    start is before ``t_out − min_overlap``, found with the same expressions for ``a_k`` and
+    ``b_k`` that the sampling loops use (an estimate, then corrected), so every cell strictly
+    between them lies inside ``[t_in, t_out]``. ``k_lo > k_hi`` when there is none.
+    """
+    start = t_in + min_overlap
+    k = max(int(math.floor((start - t_first) / step)), 0)
+    while k > 0 and t_first + k * step > start:
+        k -= 1
+    while t_first + (k + 1) * step <= start:
+        k += 1
+    stop = t_out - min_overlap
+    j = int(math.ceil((stop - t_first) / step)) - 1
+    while t_first + (j + 1) * step < stop:
+        j += 1
+    while j >= 0 and t_first + j * step >= stop:
+        j -= 1
+    return k, j
+
+
 _f8, _f4, _i8 = types.float64, types.float32, types.int64
 _RENDER_SIGNATURE = types.void(
     _i8, _i8[::1],                              # mode, row order
@@ -301,23 +395,25 @@ _RENDER_SIGNATURE = types.void(
     _f8[:, :, ::1], _i8[::1],                   # transfer tables (n, N, 4), their sizes
     _f8[:, ::1], _i8[::1],                      # gradient tables (n, M), sizes (0: none)
     _f8[::1], _f8[::1],                         # reference steps Δ0 (object units), isovalues
-    _f8, _i8, _f8[::1], _f8[::1], _f8,          # world step, phong flag, (ka, kd, ks, n), light, iso tolerance
+    _f8, _f8,                                   # world step, shortest overlap sampled
+    _i8, _f8[::1], _f8[::1], _f8,               # phong flag, (ka, kd, ks, n), light, iso tolerance
     _f4[:, :, ::1], _f8[:, ::1], _i8[::1], _i8[::1],  # out: image, depth, hits and samples per row
 )
 
 
 @njit(_RENDER_SIGNATURE, parallel=True, **_JIT)
 def render(mode, row_order, origins, directions, data, offsets, dims, spacing, world_to_object, nmat, tf, tf_size,
-           gtab, gtab_size, ref_step, isovalue, step, phong, shading, light, tolerance,
+           gtab, gtab_size, ref_step, isovalue, step, min_overlap, phong, shading, light, tolerance,
            image, depth, row_hits, row_samples):
     """Cast one ray per pixel into ``image`` (premultiplied RGBA) and ``depth``.
 
     ``depth`` is the ray parameter (world distance from the ray origin) of the first sample
-    that contributed (``dvr``), of the maximum (``mip``) or of the surface (``iso``); NaN where
-    nothing did. ``row_hits[i]`` counts the rays of row ``i`` that enter any volume box and
-    ``row_samples[i]`` the volume samples they took (bisection steps not included).
-    ``row_order`` is a permutation of the rows: prange hands each thread a contiguous block of
-    it, so interleaving the rows balances pictures whose content sits in one band.
+    that contributed (``dvr``; the nearest one in the first contributing cell), of the maximum
+    (``mip``) or of the surface (``iso``); NaN where nothing did. ``row_hits[i]`` counts the
+    rays of row ``i`` that enter any volume box and ``row_samples[i]`` the volume samples they
+    took (bisection steps not included). ``row_order`` is a permutation of the rows: prange
+    hands each thread a contiguous block of it, so interleaving the rows balances pictures
+    whose content sits in one band.
     """
     height, width = origins.shape[0], origins.shape[1]
     nvol = offsets.shape[0]
@@ -330,7 +426,10 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
         base = np.empty((nvol, 3))
         slope = np.empty((nvol, 3))
         ratio = np.empty(nvol)
+        length = np.empty(nvol)
         below = np.zeros(nvol, np.bool_)
+        previous = np.zeros(nvol)
+        started = np.zeros(nvol, np.bool_)
         half = np.empty(3)
         hits = 0
         samples = 0
@@ -338,7 +437,6 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
             o = origins[row, col]
             d = directions[row, col]
             t_first = np.inf
-            t_last = -np.inf
             for vol in range(nvol):
                 m = world_to_object[vol]
                 # Slab test in object space; starting at t = 0 clips everything behind the origin.
@@ -363,28 +461,28 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                         hi = min(hi, max(ta, tb))
                 t_in[vol] = lo
                 t_out[vol] = hi
-                # |A⁻¹·d|·Δ is the world step measured in this volume's object space.
-                ratio[vol] = math.sqrt(length2) * step / ref_step[vol]
+                # |A⁻¹·d| turns a world length on this ray into object units; a full cell is Δ.
+                length[vol] = math.sqrt(length2)
+                ratio[vol] = length[vol] * step / ref_step[vol]
                 if lo < hi:
                     t_first = min(t_first, lo)
-                    t_last = max(t_last, hi)
             pixel = image[row, col]
             if t_first == np.inf:
                 pixel[:] = 0.0
                 depth[row, col] = np.nan
                 continue
             hits += 1
-            count = max(int(math.floor((t_last - t_first) / step - 0.5)) + 1, 0)
+            count = 0
             for vol in range(nvol):
                 if t_in[vol] < t_out[vol]:
-                    k_lo[vol] = max(int(math.ceil((t_in[vol] - t_first) / step - 0.5)), 0)
-                    k_hi[vol] = min(int(math.floor((t_out[vol] - t_first) / step - 0.5)), count - 1)
+                    k_lo[vol], k_hi[vol] = _cell_range(t_first, step, t_in[vol], t_out[vol], min_overlap)
+                    count = max(count, k_hi[vol] + 1)
                 else:
                     k_lo[vol] = 1
                     k_hi[vol] = 0
             if mode == MODE_MIP:
                 r, g, b, a, t_hit, n = _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count,
-                                                k_lo, k_hi, base, slope)
+                                                k_lo, k_hi, t_in, t_out, min_overlap, base, slope)
             else:
                 # Blinn–Phong half vector between the light and V = −d (towards the viewer).
                 half[0] = light[0] - d[0]
@@ -399,11 +497,13 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                 if mode == MODE_DVR:
                     r, g, b, a, t_hit, n = _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size,
                                                     ref_step, nmat, phong, shading, light, half, has_half,
-                                                    t_first, step, count, k_lo, k_hi, base, slope, ratio)
+                                                    t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap,
+                                                    base, slope, ratio, length)
                 else:
                     r, g, b, a, t_hit, n = _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat,
                                                     phong, shading, light, half, has_half, t_first, step, count,
-                                                    k_lo, k_hi, base, slope, tolerance, below)
+                                                    k_lo, k_hi, t_in, t_out, min_overlap, base, slope, tolerance,
+                                                    below, previous, started)
             pixel[0] = r
             pixel[1] = g
             pixel[2] = b
