@@ -35,8 +35,8 @@ class DataUnavailableError(InputError):
     """A real data set cannot be loaded on this machine because its files are missing."""
 
 
-_HOW_TO = (f"Point volbench at the folder holding {MANIFEST} with the environment variable {ENV_VAR} "
-           "(or the data_dir argument of datasets.load).")
+_HOW_TO = (f"Point volbench at the folder holding {MANIFEST} with the environment variable {ENV_VAR}, "
+           "the pipeline profile's real_data, or the data_dir argument of datasets.load.")
 
 
 def resolve_data_dir(path=None):
