@@ -17,6 +17,7 @@ sys.path.insert(0, workflow.basedir)
 import datasets
 import renderers
 from pipeline.experiments import Profile, plan
+from pipeline.scene_io import dataset_arguments
 
 import yaml
 
@@ -45,8 +46,7 @@ def volume_requests(run):
     for entry in [*run.scene["volumes"], *([run.statistics] if run.statistics else [])]:
         if "dataset" not in entry or datasets.get(entry["dataset"]).kind != "phantom":
             continue
-        kwargs = {**(entry.get("params") or {}), "size": entry.get("size", PROFILE.volume_size),
-                  "seed": entry.get("seed", 0)}
+        kwargs = dataset_arguments(entry, size=PROFILE.volume_size)
         requests[datasets.cache_key(entry["dataset"], **kwargs)] = {"dataset": entry["dataset"], "kwargs": kwargs}
     return requests
 

@@ -6,8 +6,7 @@ from pathlib import Path
 import pandas as pd
 
 from pipeline.runner import metrics_record_path
-
-METRIC_KEYS = ("rmse", "psnr", "ssim", "flip", "max_error", "frac_over_threshold", "alpha_rmse", "diff_png")
+from reports.metrics import METRIC_KEYS
 
 
 def _flatten(prefix, mapping):
@@ -41,7 +40,7 @@ def rows_for(record_path, *, results_dir):
                **_flatten("info_", {k: v for k, v in view["info"].items() if not isinstance(v, (dict, list))})}
         view_metrics = metrics.get("views", {}).get(view["view"])
         if view_metrics:
-            row.update({key: view_metrics.get(key) for key in METRIC_KEYS})
+            row.update({key: view_metrics.get(key) for key in (*METRIC_KEYS, "diff_png")})
         elif metrics.get("status") == "skipped":
             row["metrics_reason"] = metrics["reason"]
         rows.append(row)

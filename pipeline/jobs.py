@@ -35,7 +35,8 @@ def environment(args):
 def render(args):
     from pipeline.runner import execute
 
-    run = Run(**{**json.loads(args.run), "views": tuple(json.loads(args.run)["views"])})
+    fields = json.loads(args.run)
+    run = Run(**{**fields, "views": tuple(fields["views"])})
     device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
     device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
     record = execute(run, profile=_profile(args.profile), device_environment=device_env)

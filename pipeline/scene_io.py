@@ -90,17 +90,26 @@ def build_transform(spec, volume, *, where="transform"):
     return translate @ rotate @ scale @ centering_transform(volume)
 
 
+def dataset_arguments(spec, *, size=None):
+    """Keyword arguments of :func:`datasets.load` for a ``dataset`` volume entry.
+
+    Phantoms get the entry's ``size`` (else ``size``) and ``seed`` (else 0); the pipeline names
+    its cached phantom files with the same arguments, so both must come from here.
+    """
+    kwargs = dict(spec.get("params") or {})
+    if datasets.get(spec["dataset"]).kind == "phantom":
+        kwargs["size"] = spec.get("size", size)
+        kwargs["seed"] = spec.get("seed", 0)
+    return kwargs
+
+
 def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None, where="volume"):
     """The :class:`Volume` a volume entry refers to (a registered data set or a file)."""
     if ("dataset" in spec) == ("file" in spec):
         raise InputError(f"{where}: give exactly one of 'dataset' or 'file'")
     if "dataset" in spec:
-        dataset = datasets.get(spec["dataset"])
-        kwargs = dict(spec.get("params") or {})
-        if dataset.kind == "phantom":
-            kwargs["size"] = spec.get("size", size)
-            kwargs["seed"] = spec.get("seed", 0)
-        return datasets.load(spec["dataset"], cache_dir=cache_dir, data_dir=data_dir, **kwargs)
+        return datasets.load(spec["dataset"], cache_dir=cache_dir, data_dir=data_dir,
+                             **dataset_arguments(spec, size=size))
     path = Path(spec["file"])
     if base_dir is not None and not path.is_absolute():
         path = Path(base_dir) / path
