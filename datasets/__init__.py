@@ -23,9 +23,9 @@ from datasets.loaders import load_den, load_nrrd, load_raw
 from datasets.real import DataUnavailableError
 from datasets.registry import DATASETS, KINDS, PAPERS, DatasetSpec, generic_real_spec
 from datasets.stats import statistics
-from datasets.volume import Volume
-from pipeline.errors import InputError
-from pipeline.validation import check_positive_int
+from core.volume import Volume
+from core.errors import InputError
+from core.validation import check_positive_int
 
 __all__ = [
     "DATASETS", "DataUnavailableError", "DatasetSpec", "PAPERS", "Volume", "cache_key", "get", "load",

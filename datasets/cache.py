@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from datasets.volume import Volume
+from core.volume import Volume
 
 ENV_VAR = "VOLBENCH_CACHE"
 REPO_ROOT = Path(__file__).resolve().parent.parent
@@ -38,7 +38,7 @@ def cache_dir(path=None):
 
 @lru_cache(maxsize=None)
 def source_digest(module_name):
-    """Digest of a module's source and of every ``datasets.*`` module it uses, transitively."""
+    """Digest of a module's source and of every ``datasets.*`` and ``core.*`` module it uses, transitively."""
     seen, files, stack = set(), [], [sys.modules[module_name]]
     while stack:
         module = stack.pop()
@@ -48,7 +48,7 @@ def source_digest(module_name):
         files.append(Path(module.__file__))
         for value in vars(module).values():
             dependency = value if inspect.ismodule(value) else sys.modules.get(getattr(value, "__module__", None) or "")
-            if dependency is not None and dependency.__name__.startswith("datasets.") and dependency.__name__ not in seen:
+            if dependency is not None and dependency.__name__.startswith(("datasets.", "core.")) and dependency.__name__ not in seen:
                 stack.append(dependency)
     digest = hashlib.sha256()
     for path in sorted(files):

@@ -1,8 +1,8 @@
 """Readers for volume files: headerless raw, VolPack ``.den`` and NRRD.
 
 Every reader checks the header and the file size against each other first and raises
-:class:`~pipeline.errors.InputError` naming the file and the mismatch before it reads any data
-(CONVENTIONS, Errors). All return a :class:`~datasets.volume.Volume` indexed ``[z, y, x]`` with x
+:class:`~core.errors.InputError` naming the file and the mismatch before it reads any data
+(CONVENTIONS, Errors). All return a :class:`~core.volume.Volume` indexed ``[z, y, x]`` with x
 fastest, the order all three formats store.
 """
 
@@ -14,9 +14,9 @@ from pathlib import Path
 
 import numpy as np
 
-from datasets.volume import Volume
-from pipeline.errors import InputError
-from pipeline.validation import SUPPORTED_DTYPES, check_positive_vector
+from core.volume import Volume
+from core.errors import InputError
+from core.validation import SUPPORTED_DTYPES, check_positive_vector
 
 RAW_NAME = re.compile(r"^(?P<stem>.+)_(?P<x>\d+)x(?P<y>\d+)x(?P<z>\d+)_(?P<dtype>[a-z0-9]+)\.raw$")
 """``<name>_<X>x<Y>x<Z>_<dtype>.raw``, the naming used by the real-data folder and open-scivis."""

@@ -2,11 +2,11 @@
 
 The notes give transfer functions in grey levels ("α = 0 below 60, 0.9 above 100"); these helpers
 take such values and a ``scale`` (255 for 8-bit data, 4095 for 12-bit CT in uint16) and build the
-normalised :class:`~pipeline.transfer.Preset`. Colours are chosen so that renders look like the
+normalised :class:`~core.transfer.Preset`. Colours are chosen so that renders look like the
 usual CT/MR renditions: bone ivory, skin orange, vessels red, metal grey-blue.
 """
 
-from pipeline.transfer import (  # BONE_COLOR and SKIN_COLOR are re-exported for the registry
+from core.transfer import (  # BONE_COLOR and SKIN_COLOR are re-exported for the registry
     BONE_COLOR, SKIN_COLOR, VOLPACK_GRADIENT_RAMP, GradientOpacity, Preset, TransferFunction,
     volpack_density_ramp,
 )
@@ -30,7 +30,7 @@ def points(control, *, scale=255.0, name, description="", gradient=None, isovalu
         Raw value that maps to 1 (the top of the volume's value range).
     gradient : sequence of (u, g), optional
         Gradient-magnitude opacity control points (``u`` on the 0–1 scale of
-        :class:`~pipeline.transfer.GradientOpacity`).
+        :class:`~core.transfer.GradientOpacity`).
     isovalue : float, optional
         Raw isovalue for ``iso`` mode.
     """

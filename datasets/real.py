@@ -21,7 +21,7 @@ import os
 from pathlib import Path
 
 from datasets.loaders import load_den, load_raw
-from pipeline.errors import InputError
+from core.errors import InputError
 
 ENV_VAR = "VOLBENCH_REAL_DATA"
 REPO_ROOT = Path(__file__).resolve().parent.parent

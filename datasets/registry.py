@@ -16,16 +16,10 @@ from typing import Callable
 
 from datasets import presets as P
 from datasets.phantoms import bonsai, clouds, controls, engine, foot, geology, heads, torso, vessels
-from pipeline.errors import InputError
-from pipeline.transfer import VOLPACK_GRADIENT_RAMP, Preset
+from core.errors import InputError
+from core.papers import PAPERS
+from core.transfer import VOLPACK_GRADIENT_RAMP, Preset
 
-PAPERS = {
-    "lacroute1995": "Lacroute, Fast Volume Rendering Using a Shear-Warp Factorization (PhD thesis, 1995)",
-    "kruger2003": "Krüger & Westermann, Acceleration Techniques for GPU-based Volume Rendering (Vis 2003)",
-    "xue2005": "Xue, Zhang & Crawfis, iSBVR (Volume Graphics 2005)",
-    "ropinski2005": "Ropinski, Steinicke & Hinrichs, Emphasizing Regions of Interest in Ray-Casting (2005)",
-    "kainz2009": "Kainz et al., Ray Casting of Multiple Volumetric Datasets with Polyhedral Boundaries (TOG 2009)",
-}
 KINDS = ("phantom", "real")
 
 
@@ -86,7 +80,7 @@ class DatasetSpec:
         if self.default_preset not in self.presets:
             raise InputError(f"{where}: default preset {self.default_preset!r} is not one of {sorted(self.presets)}")
         if not all(isinstance(p, Preset) for p in self.presets.values()):
-            raise InputError(f"{where}: every preset must be a pipeline.transfer.Preset")
+            raise InputError(f"{where}: every preset must be a core.transfer.Preset")
         if set(self.targets_by_preset) - set(self.presets):
             raise InputError(f"{where}: targets name presets it does not have: {sorted(set(self.targets_by_preset) - set(self.presets))}")
         if (self.kind == "phantom") != (self.generator is not None):

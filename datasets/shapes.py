@@ -19,7 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.errors import InputError
+from core.errors import InputError
 
 EDGE_HALF_WIDTH = 1.5
 """Half-width, in voxels, of the smoothstep edge profile (≈ Gaussian blur σ 0.8 voxel)."""

@@ -15,10 +15,10 @@ neighbours (what a 3-D texture fetch gives at the border).
 
 import numpy as np
 
-from datasets.volume import Volume
-from pipeline.errors import InputError
-from pipeline.transfer import MAX_GRADIENT, Preset
-from pipeline.validation import check_positive_int, check_scalar
+from core.volume import Volume
+from core.errors import InputError
+from core.transfer import MAX_GRADIENT, Preset
+from core.validation import check_positive_int, check_scalar
 
 
 def _interpolate(table, x):
@@ -67,7 +67,7 @@ def opacity(volume, preset):
     Parameters
     ----------
     volume : Volume
-    preset : pipeline.transfer.Preset
+    preset : core.transfer.Preset
 
     Returns
     -------
@@ -103,7 +103,7 @@ def statistics(volume, preset, *, threshold=0.05, block=8):
     Parameters
     ----------
     volume : Volume
-    preset : pipeline.transfer.Preset
+    preset : core.transfer.Preset
     threshold : float, optional
         Minimum opacity: a voxel with opacity at or below it is transparent (Lacroute's 0.05).
     block : int, optional

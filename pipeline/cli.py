@@ -20,7 +20,7 @@ from pathlib import Path
 
 import yaml
 
-from pipeline.errors import VolbenchError
+from core.errors import VolbenchError
 
 ROOT = Path(__file__).resolve().parent.parent
 

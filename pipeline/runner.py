@@ -16,10 +16,10 @@ import numpy as np
 import datasets
 import renderers
 from pipeline.environment import host_environment
-from pipeline.errors import BackendUnavailableError, UnsupportedFeatureError
+from core.errors import BackendUnavailableError, UnsupportedFeatureError
 from pipeline.scene_io import build_scene, build_volume_instance
 from pipeline.timing import measure
-from pipeline.transfer import Preset
+from core.transfer import Preset
 from reports.imageio import read_image, write_exr, write_png
 from reports.metrics import compare, difference_image
 

@@ -1,4 +1,4 @@
-"""Scenes as plain data: build a :class:`~pipeline.scene.Scene` from a dict or a YAML file.
+"""Scenes as plain data: build a :class:`~core.scene.Scene` from a dict or a YAML file.
 
 A scene file lists only what it uses; every key has a default except ``volumes``::
 
@@ -33,11 +33,11 @@ import numpy as np
 import yaml
 
 import datasets
-from datasets.volume import Volume
-from pipeline.camera import Camera
-from pipeline.errors import InputError
-from pipeline.scene import Scene, Shading, VolumeInstance, centering_transform
-from pipeline.transfer import GradientOpacity, TransferFunction
+from core.volume import Volume
+from core.camera import Camera
+from core.errors import InputError
+from core.scene import Scene, Shading, VolumeInstance, centering_transform
+from core.transfer import GradientOpacity, TransferFunction
 
 SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes"}
 VOLUME_KEYS = {"dataset", "size", "seed", "params", "file", "spacing", "value_range", "preset",

@@ -4,7 +4,7 @@ import statistics
 
 from tqdm import tqdm
 
-from pipeline.validation import check_positive_int
+from core.validation import check_positive_int
 from renderers.base import RenderResult
 
 
@@ -14,7 +14,7 @@ def measure(renderer, scene, *, warmup=1, repeat=3, progress=False):
     Parameters
     ----------
     renderer : renderers.base.Renderer
-    scene : pipeline.scene.Scene
+    scene : core.scene.Scene
     warmup : int
         Untimed frames first (JIT compilation, shader compilation, uploads, caches).
     repeat : int

@@ -12,7 +12,7 @@ no backend, and a backend whose optional dependency is missing is reported by
 import importlib
 from dataclasses import dataclass
 
-from pipeline.errors import BackendUnavailableError, InputError
+from core.errors import BackendUnavailableError, InputError
 
 BACKENDS = {
     "reference": "renderers.reference:ReferenceRenderer",

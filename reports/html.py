@@ -11,7 +11,7 @@ from pathlib import Path
 import jinja2
 import pandas as pd
 
-from pipeline.experiments.base import PAPERS
+from core.papers import PAPERS
 from reports import blocks
 
 TEMPLATES = Path(__file__).parent / "templates"

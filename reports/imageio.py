@@ -16,7 +16,7 @@ import numpy as np
 import OpenImageIO as oiio
 from matplotlib.colors import to_rgb
 
-from pipeline.errors import InputError
+from core.errors import InputError
 
 __all__ = [
     "check_image",
@@ -50,7 +50,7 @@ def check_image(image, *, name="image"):
 
     Raises
     ------
-    pipeline.errors.InputError
+    core.errors.InputError
         If the type, shape or dtype is wrong, the image is empty or it holds NaN or infinity.
     """
     if not isinstance(image, np.ndarray):
@@ -277,7 +277,7 @@ def read_image(path):
 
     Raises
     ------
-    pipeline.errors.InputError
+    core.errors.InputError
         If the file is missing, unreadable, or has other than 1 to 4 channels.
     """
     inp = _open(path)

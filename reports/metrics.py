@@ -18,7 +18,7 @@ import numpy as np
 from matplotlib import colormaps
 from skimage.metrics import peak_signal_noise_ratio, structural_similarity
 
-from pipeline.errors import InputError
+from core.errors import InputError
 from reports.imageio import check_image, composite_over, decode_srgb, read_image, write_image
 
 __all__ = [
@@ -134,7 +134,7 @@ def ssim(reference, test, *, data_range=1.0, win_size=7):
 
     Raises
     ------
-    pipeline.errors.InputError
+    core.errors.InputError
         If the image is smaller than 3 × 3 pixels or ``win_size`` is not an odd integer ≥ 3.
     """
     _check_pair(reference, test)
@@ -277,7 +277,7 @@ def compare(reference, test, *, data_range=1.0, threshold=0.05):
 
     Raises
     ------
-    pipeline.errors.InputError
+    core.errors.InputError
         If an image is malformed or the shapes differ.
     """
     ref, tst = _check_pair(reference, test)
@@ -349,7 +349,7 @@ def compare_files(reference_path, test_path, *, diff_path=None, **kwargs):
 
     Raises
     ------
-    pipeline.errors.InputError
+    core.errors.InputError
         If a file cannot be read or the images differ in shape (both paths are named).
     """
     reference = read_image(reference_path)

@@ -18,7 +18,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from pipeline.errors import InputError
+from core.errors import InputError
 
 __all__ = ["bar_compare", "convergence", "scaling", "speed_accuracy", "stage_breakdown"]
 

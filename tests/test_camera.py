@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from pipeline.camera import Camera
-from pipeline.errors import InputError
+from core.camera import Camera
+from core.errors import InputError
 
 
 def test_default_camera_looks_down_minus_z():

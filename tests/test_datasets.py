@@ -10,8 +10,8 @@ import pytest
 import datasets
 from datasets import real
 from datasets.registry import DATASETS
-from pipeline.errors import InputError
-from pipeline.transfer import Preset
+from core.errors import InputError
+from core.transfer import Preset
 
 REQUIRED_PHANTOMS = ("mri_head", "ct_skull", "folded_brain", "aneurysm", "foot", "engine", "torso", "sphere",
                      "constant_cube", "checkerboard", "fbm_control", "smoke_cloud")

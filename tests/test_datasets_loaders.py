@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from datasets import load_den, load_nrrd, load_raw
-from pipeline.errors import InputError
+from core.errors import InputError
 
 RNG = np.random.default_rng(7)
 DATA8 = RNG.integers(0, 256, (4, 3, 5), dtype=np.uint8)           # (z, y, x): 5 x 3 x 4

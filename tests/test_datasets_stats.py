@@ -8,9 +8,9 @@ import pytest
 import datasets
 from datasets import presets as P
 from datasets.stats import MAX_GRADIENT, opacity
-from datasets.volume import Volume
-from pipeline.errors import InputError
-from pipeline.transfer import GradientOpacity, Preset, TransferFunction
+from core.volume import Volume
+from core.errors import InputError
+from core.transfer import GradientOpacity, Preset, TransferFunction
 
 IDENTITY = P.identity()
 

@@ -3,7 +3,7 @@ import pandas as pd
 import pytest
 
 from pipeline import experiments
-from pipeline.errors import InputError
+from core.errors import InputError
 from pipeline.experiments import Profile, Run
 from pipeline.experiments.volbench import ReferenceConvergence, SpeedAccuracy, _default_step, _monotone, _order, _tradeoff
 

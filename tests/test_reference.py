@@ -8,11 +8,11 @@ import numpy as np
 import pytest
 
 import renderers
-from datasets.volume import Volume
-from pipeline.camera import Camera
-from pipeline.errors import InputError
-from pipeline.scene import Scene, Shading, VolumeInstance, centering_transform
-from pipeline.transfer import GradientOpacity, TransferFunction
+from core.volume import Volume
+from core.camera import Camera
+from core.errors import InputError
+from core.scene import Scene, Shading, VolumeInstance, centering_transform
+from core.transfer import GradientOpacity, TransferFunction
 from renderers.reference import ReferenceRenderer
 from renderers.reference.renderer import normalised_scalars
 

@@ -15,10 +15,10 @@ import math
 import numpy as np
 import pytest
 
-from datasets.volume import Volume
-from pipeline.camera import Camera
-from pipeline.scene import Scene, Shading, VolumeInstance
-from pipeline.transfer import TransferFunction
+from core.volume import Volume
+from core.camera import Camera
+from core.scene import Scene, Shading, VolumeInstance
+from core.transfer import TransferFunction
 from renderers.reference import ReferenceRenderer
 
 

@@ -1,7 +1,7 @@
 import pytest
 
 import renderers
-from pipeline.errors import BackendUnavailableError, InputError
+from core.errors import BackendUnavailableError, InputError
 from renderers.base import Capabilities, Renderer
 
 
@@ -52,10 +52,10 @@ def test_probe_failure_blocks_get(monkeypatch):
 def test_capabilities_name_what_is_missing():
     import numpy as np
 
-    from datasets.volume import Volume
-    from pipeline.camera import Camera
-    from pipeline.scene import Scene, Shading, VolumeInstance
-    from pipeline.transfer import TransferFunction
+    from core.volume import Volume
+    from core.camera import Camera
+    from core.scene import Scene, Shading, VolumeInstance
+    from core.transfer import TransferFunction
 
     instance = VolumeInstance(Volume(np.zeros((4, 4, 4), np.uint8)), TransferFunction.ramp(0.1, 0.2))
     scene = Scene(volumes=[instance, instance], mode="mip", shading=Shading(model="phong"),
@@ -68,11 +68,11 @@ def test_capabilities_name_what_is_missing():
 def test_camera_inside_a_volume_is_refused_where_a_backend_cannot_handle_it():
     import numpy as np
 
-    from datasets.volume import Volume
-    from pipeline.camera import Camera
-    from pipeline.errors import UnsupportedFeatureError
-    from pipeline.scene import Scene, VolumeInstance
-    from pipeline.transfer import TransferFunction
+    from core.volume import Volume
+    from core.camera import Camera
+    from core.errors import UnsupportedFeatureError
+    from core.scene import Scene, VolumeInstance
+    from core.transfer import TransferFunction
 
     instance = VolumeInstance(Volume(np.zeros((20, 20, 20), np.uint8)), TransferFunction.ramp(0.1, 0.2), name="head")
     inside = Scene(volumes=[instance], camera=Camera(projection="perspective", distance=3))

@@ -4,7 +4,7 @@ import numpy as np
 import OpenImageIO as oiio
 import pytest
 
-from pipeline.errors import InputError
+from core.errors import InputError
 from reports.imageio import (
     composite_over,
     decode_srgb,

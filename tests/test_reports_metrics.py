@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 from scipy.ndimage import gaussian_filter
 
-from pipeline.errors import InputError
+from core.errors import InputError
 from reports import metrics
 from reports.imageio import read_image, write_exr
 

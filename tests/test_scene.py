@@ -1,11 +1,11 @@
 import numpy as np
 import pytest
 
-from datasets.volume import Volume
-from pipeline.camera import Camera
-from pipeline.errors import InputError
-from pipeline.scene import Scene, Shading, VolumeInstance
-from pipeline.transfer import GradientOpacity, TransferFunction
+from core.volume import Volume
+from core.camera import Camera
+from core.errors import InputError
+from core.scene import Scene, Shading, VolumeInstance
+from core.transfer import GradientOpacity, TransferFunction
 
 TF = TransferFunction.ramp(0.2, 0.8)
 

@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from pipeline.errors import InputError
+from core.errors import InputError
 from pipeline.timing import measure
 from renderers.base import Capabilities, Renderer, RenderResult
 

@@ -1,8 +1,8 @@
 import numpy as np
 import pytest
 
-from pipeline.errors import InputError
-from pipeline.transfer import GradientOpacity, TransferFunction, correct_opacity, volpack_density_ramp
+from core.errors import InputError
+from core.transfer import GradientOpacity, TransferFunction, correct_opacity, volpack_density_ramp
 
 
 def test_entries_sit_at_i_over_n_minus_one():

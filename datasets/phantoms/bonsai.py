@@ -5,7 +5,7 @@ import numpy as np
 from datasets import noise
 from datasets.phantoms.vessels import grow_tree, paint_tree
 from datasets.shapes import Canvas, Capsule, Field, Grid, Sphere
-from datasets.volume import Volume
+from core.volume import Volume
 
 V = 1 / 256
 POT, SOIL, WOOD, LEAF = 220, 130, 200, 95

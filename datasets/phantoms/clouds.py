@@ -6,8 +6,8 @@ import numpy as np
 
 from datasets import noise
 from datasets.shapes import Canvas, Capsule, Ellipsoid, Grid, Sphere, rotation
-from datasets.volume import Volume
-from pipeline.validation import check_scalar
+from core.volume import Volume
+from core.validation import check_scalar
 
 
 def _radius(grid, center, radii, rot):

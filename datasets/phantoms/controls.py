@@ -8,9 +8,9 @@ import numpy as np
 
 from datasets import noise
 from datasets.shapes import Canvas, Grid, Sphere
-from datasets.volume import Volume
-from pipeline.errors import InputError
-from pipeline.validation import check_positive_int
+from core.volume import Volume
+from core.errors import InputError
+from core.validation import check_positive_int
 
 
 def _check_value(value, name):

@@ -11,8 +11,8 @@ import numpy as np
 
 from datasets import noise
 from datasets.shapes import Box, Canvas, Cylinder, Grid
-from datasets.volume import Volume
-from pipeline.errors import InputError
+from core.volume import Volume
+from core.errors import InputError
 
 V = 1 / 256
 ALUMINIUM, STEEL = 110, 230

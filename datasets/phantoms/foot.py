@@ -11,7 +11,7 @@ import numpy as np
 
 from datasets import noise
 from datasets.shapes import Canvas, Capsule, Ellipsoid, Grid, Offset, SmoothUnion, rotation
-from datasets.volume import Volume
+from core.volume import Volume
 
 V = 1 / 256
 _TURN = rotation("z", 40)

@@ -4,7 +4,7 @@ import numpy as np
 
 from datasets import noise
 from datasets.shapes import Grid
-from datasets.volume import Volume
+from core.volume import Volume
 
 V = 1 / 256
 

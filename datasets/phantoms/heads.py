@@ -12,8 +12,8 @@ from datasets.shapes import (
     Box, Canvas, Capsule, Cylinder, Ellipsoid, Grid, Offset, Shell, SmoothUnion, Sphere, Torus,
     rotation,
 )
-from datasets.volume import Volume
-from pipeline.errors import InputError
+from core.volume import Volume
+from core.errors import InputError
 
 V = 1 / 256
 """One voxel at the notes' reference size, in normalised units."""

@@ -13,7 +13,7 @@ import numpy as np
 from datasets import noise
 from datasets.phantoms.vessels import grow_tree, paint_tree
 from datasets.shapes import Canvas, Capsule, Cylinder, Ellipsoid, Grid, Offset, Sphere, Torus, rotation
-from datasets.volume import Volume
+from core.volume import Volume
 
 V = 1 / 256
 TORSO_ASPECT = (1.0, 1.0, 159 / 257)

@@ -12,7 +12,7 @@ import numpy as np
 
 from datasets import noise
 from datasets.shapes import Canvas, Capsule, Grid, Sphere, frame, rotation
-from datasets.volume import Volume
+from core.volume import Volume
 
 V = 1 / 256
 

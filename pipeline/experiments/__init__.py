@@ -6,7 +6,7 @@ module adds its experiments to :data:`MODULES`.
 
 import importlib
 
-from pipeline.errors import InputError
+from core.errors import InputError
 from pipeline.experiments.base import PAPERS, Claim, ClaimResult, Experiment, Profile, Run
 
 MODULES = ("pipeline.experiments.volbench",)

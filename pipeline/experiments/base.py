@@ -16,17 +16,10 @@ from pathlib import Path
 
 import yaml
 
-from pipeline.errors import InputError
+from core.errors import InputError
+from core.papers import PAPERS
 
 RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]*$")
-PAPERS = {
-    "volbench": "volbench's own studies",
-    "lacroute1995": "Lacroute 1995 — Fast Volume Rendering Using a Shear-Warp Factorization (VolPack thesis)",
-    "kruger2003": "Krüger & Westermann 2003 — Acceleration Techniques for GPU-based Volume Rendering",
-    "xue2005": "Xue, Zhang & Crawfis 2005 — iSBVR: Isosurface-aided Hardware Acceleration for SBVR",
-    "ropinski2005": "Ropinski, Steinicke & Hinrichs 2005 — Emphasizing Regions of Interest in Ray-Casting",
-    "kainz2009": "Kainz et al. 2009 — Ray Casting of Multiple Volumetric Datasets with Polyhedral Boundaries",
-}
 
 
 def canonical_json(value):

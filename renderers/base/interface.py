@@ -5,8 +5,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipeline.errors import InputError, UnsupportedFeatureError
-from pipeline.scene import Scene
+from core.errors import InputError, UnsupportedFeatureError
+from core.scene import Scene
 
 
 @dataclass(frozen=True)

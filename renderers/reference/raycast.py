@@ -14,7 +14,7 @@ Conventions implemented here
 * Gradient: central differences of the trilinear field one voxel apart in object space,
   ``(f(p + s_x e_x) − f(p − s_x e_x)) / (2 s_x)`` per axis (the on-the-fly GPU estimator).
 * Classification: post-classification, linear interpolation between table entries, entry ``i``
-  at ``s = i/(N − 1)``, clamped at the ends (:meth:`pipeline.transfer.TransferFunction.lookup`).
+  at ``s = i/(N − 1)``, clamped at the ends (:meth:`core.transfer.TransferFunction.lookup`).
 * Sampling: one world step ``Δ`` for all volumes. Each volume's span on the ray,
   ``[t_entry, t_exit]``, comes from a slab test in its object space, clipped to ``t >= 0``;
   ``t_first`` is the smallest ``t_entry`` (the entry into the union of the boxes). The ray is
@@ -43,7 +43,7 @@ MODE_DVR, MODE_MIP, MODE_ISO = 0, 1, 2
 MODE_CODES = {"dvr": MODE_DVR, "mip": MODE_MIP, "iso": MODE_ISO}
 
 MAX_GRADIENT = math.sqrt(3.0) / 2.0
-"""Normaliser of the gradient-opacity argument (see :mod:`pipeline.transfer`)."""
+"""Normaliser of the gradient-opacity argument (see :mod:`core.transfer`)."""
 
 MAX_BISECTIONS = 64
 """Upper bound on the iso bisection steps, reached only if the tolerance is below rounding."""
@@ -117,7 +117,7 @@ def _gradient_factor(gtab, vol, size, u):
 
 @njit(**_JIT)
 def _blinn_phong(r, g, b, gx, gy, gz, nmat, vol, light, half, has_half, shading):
-    """Two-sided Blinn–Phong of colour ``(r, g, b)`` (the :class:`pipeline.scene.Shading` formula).
+    """Two-sided Blinn–Phong of colour ``(r, g, b)`` (the :class:`core.scene.Shading` formula).
 
     The object-space gradient becomes a world-space normal through the normal matrix
     ``A^{-T}`` of the volume's object→world transform, so non-rigid transforms shade correctly.

@@ -34,7 +34,7 @@ Choices where the conventions leave room
   ``iso`` finds the first crossing of each instance's isovalue between consecutive samples of
   that instance (wherever they lie in their cells), bisects it to ``1e-6·Δ`` and shades the
   transfer function's colour at the isovalue (alpha 1; gradient opacity does not apply).
-* **Shading.** :class:`pipeline.scene.Shading` exactly; the light direction is turned from view
+* **Shading.** :class:`core.scene.Shading` exactly; the light direction is turned from view
   to world space with the camera basis and normals are world-space (normal matrix ``A^{-T}``).
 """
 
@@ -43,8 +43,8 @@ import weakref
 
 import numpy as np
 
-from pipeline.errors import InputError
-from pipeline.validation import check_scalar
+from core.errors import InputError
+from core.validation import check_scalar
 from renderers.base import Capabilities, RenderResult, Renderer
 
 ROW_INTERLEAVE = 16

@@ -19,8 +19,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from pipeline.errors import InputError
-from pipeline.validation import check_positive_int, check_scalar
+from core.errors import InputError
+from core.validation import check_positive_int, check_scalar
 
 MAX_GRADIENT = np.sqrt(3.0) / 2.0
 

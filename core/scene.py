@@ -10,11 +10,11 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from datasets.volume import Volume
-from pipeline.camera import Camera
-from pipeline.errors import InputError
-from pipeline.transfer import GradientOpacity, TransferFunction
-from pipeline.validation import check_choice, check_finite_vector, check_matrix4, check_positive_int, check_scalar
+from core.volume import Volume
+from core.camera import Camera
+from core.errors import InputError
+from core.transfer import GradientOpacity, TransferFunction
+from core.validation import check_choice, check_finite_vector, check_matrix4, check_positive_int, check_scalar
 
 MODES = ("dvr", "mip", "iso")
 SHADING_MODELS = ("none", "phong")

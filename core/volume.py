@@ -4,8 +4,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from pipeline.errors import InputError
-from pipeline.validation import check_positive_vector, check_volume_array
+from core.errors import InputError
+from core.validation import check_positive_vector, check_volume_array
 
 DTYPE_RANGES = {
     np.dtype(np.uint8): (0.0, 255.0),

@@ -11,8 +11,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from pipeline.errors import InputError
-from pipeline.validation import check_choice, check_finite_vector, check_scalar
+from core.errors import InputError
+from core.validation import check_choice, check_finite_vector, check_scalar
 
 PROJECTIONS = ("orthographic", "perspective")
 

@@ -4,7 +4,7 @@ import math
 
 import numpy as np
 
-from pipeline.errors import InputError
+from core.errors import InputError
 
 SUPPORTED_DTYPES = (np.dtype(np.uint8), np.dtype(np.uint16), np.dtype(np.float32))
 
