@@ -1,3 +1,5 @@
+from pathlib import Path
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -7,6 +9,7 @@ from core.errors import InputError
 from pipeline.experiments import Profile, Run
 from pipeline.experiments.volbench import ReferenceConvergence, SpeedAccuracy, _default_step, _monotone, _order, _tradeoff
 
+ROOT = Path(__file__).resolve().parent.parent
 SMOKE = Profile(name="t", volume_size=16, image_size=16, settings={"volbench-phantoms": {"datasets": ["sphere"]}})
 
 
@@ -81,3 +84,16 @@ def test_claims_without_data_are_not_measured():
     empty_sweep = pd.DataFrame([{"backend": "reference", "role": "truth", "scene": "s", "setting": "truth",
                                  "time_total": 1.0, "rmse": np.nan}])
     assert SpeedAccuracy.claims[0].evaluate(empty_sweep).holds is None
+
+
+def test_profile_setting_typos_are_errors():
+    from pipeline.experiments import Profile, check_settings, selected
+
+    with pytest.raises(InputError, match="unknown experiment 'volbench-convergense'"):
+        selected(Profile("p", settings={"volbench-convergense": {"step_factors": [1.0]}}))
+    with pytest.raises(InputError, match=r"settings.volbench-convergence: unknown keys \['step_factor'\]"):
+        selected(Profile("p", settings={"volbench-convergence": {"step_factor": [1.0]}}))
+    with pytest.raises(InputError, match="expected 'all' or a list"):
+        selected(Profile("p", experiments="volbench-convergence"))
+    for name in ("smoke", "default", "full"):  # the shipped profiles use only real keys
+        check_settings(Profile.load(ROOT / "config" / f"{name}.yaml"))

@@ -11,7 +11,8 @@ from pipeline.experiments.base import PAPERS, Claim, ClaimResult, Experiment, Pr
 
 MODULES = ("pipeline.experiments.volbench",)
 
-__all__ = ["PAPERS", "Claim", "ClaimResult", "Experiment", "Profile", "Run", "all_experiments", "get", "plan"]
+__all__ = ["PAPERS", "Claim", "ClaimResult", "Experiment", "Profile", "Run", "all_experiments", "check_settings", "get", "plan",
+           "selected"]
 
 
 def all_experiments():
@@ -30,9 +31,36 @@ def get(name):
     return registry[name]
 
 
+def check_settings(profile, registry=None):
+    """Raise :class:`InputError` for a profile setting no experiment reads (a typo).
+
+    Every key of ``profile.settings`` must name a registered experiment, and every key under it
+    one of that experiment's :attr:`~pipeline.experiments.base.Experiment.settings`.
+    """
+    registry = all_experiments() if registry is None else registry
+    if not isinstance(profile.settings, dict):
+        raise InputError(f"profile {profile.name!r} settings: expected a mapping of experiment names, "
+                         f"got {type(profile.settings).__name__}")
+    for name, values in profile.settings.items():
+        if name not in registry:
+            raise InputError(f"profile {profile.name!r} settings: unknown experiment {name!r}; "
+                             f"known: {', '.join(registry)}")
+        if not isinstance(values, dict):
+            raise InputError(f"profile {profile.name!r} settings.{name}: expected a mapping, got {values!r}")
+        unknown = set(values) - set(registry[name].settings)
+        if unknown:
+            raise InputError(f"profile {profile.name!r} settings.{name}: unknown keys {sorted(unknown)}; "
+                             f"allowed: {sorted(registry[name].settings)}")
+
+
 def selected(profile):
-    """The experiments a profile runs, in registry order."""
+    """The experiments a profile runs, in registry order (its settings checked first)."""
     registry = all_experiments()
+    check_settings(profile, registry)
+    if profile.experiments != "all" and (isinstance(profile.experiments, str)
+                                         or not all(isinstance(n, str) for n in profile.experiments)):
+        raise InputError(f"profile {profile.name!r} experiments: expected 'all' or a list of names, "
+                         f"got {profile.experiments!r}")
     if profile.experiments == "all":
         return list(registry.values())
     unknown = [name for name in profile.experiments if name not in registry]

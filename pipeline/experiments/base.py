@@ -186,6 +186,9 @@ class Experiment:
         Key of :data:`PAPERS`.
     title, description : str
     claims : tuple of Claim
+    settings : frozenset of str
+        The keys a profile may set for this experiment under ``settings: {<name>: {...}}``;
+        any other key is a typo and an error (:func:`pipeline.experiments.check_settings`).
     """
 
     name = ""
@@ -193,6 +196,7 @@ class Experiment:
     title = ""
     description = ""
     claims = ()
+    settings = frozenset()
 
     def runs(self, profile):
         """The runs for ``profile`` (list of :class:`Run`)."""

@@ -47,6 +47,7 @@ class PhantomGallery(Experiment):
 
     name = "volbench-phantoms"
     title = "Data sets: statistics and gallery"
+    settings = frozenset({"datasets", "volume_size", "image_size", "step_factor", "statistics_size", "all_presets"})
     description = (
         "Every synthetic stand-in and every real scan, rendered by the reference renderer with its "
         "default preset (Blinn–Phong, headline view) so that a person can judge how CT-like the "
@@ -156,6 +157,7 @@ class ReferenceConvergence(Experiment):
 
     name = "volbench-convergence"
     title = "Reference renderer: convergence with the step size"
+    settings = frozenset({"volume_size", "image_size", "step_factors", "truth_step_factor"})
     description = (
         "The reference is ground truth only if its default step has converged. Each scene is "
         "rendered at step factors from 2 to 1/8 voxel and compared with a render at 1/32 voxel. "
@@ -251,6 +253,7 @@ class SpeedAccuracy(Experiment):
 
     name = "volbench-speed-accuracy"
     title = "Speed against accuracy, every backend"
+    settings = frozenset({"volume_size", "image_size"})
     description = (
         "Each registered backend renders the same scenes over its own quality settings (its "
         "``quality_sweep``: step size, and later slice count, thresholds, ...). Error is measured "
