@@ -58,3 +58,19 @@ def test_bad_control_points_are_rejected():
         TransferFunction.from_points([(0.5, 0, 0, 0, 0), (0.2, 1, 1, 1, 1)])
     with pytest.raises(InputError, match=r"\[0, 1\]"):
         GradientOpacity.from_points([(0, 0), (1.5, 1)])
+
+
+def test_lookup_at_and_past_one_is_the_last_entry_exactly():
+    """s >= 1 classifies as entry N − 1 (not N − 2), s <= 0 as entry 0; the last two entries differ."""
+    table = np.zeros((6, 4), np.float32)
+    table[:, 0] = np.linspace(0.1, 0.5, 6)
+    table[:, 3] = np.linspace(0.0, 0.4, 6)
+    table[-1] = (0.9, 0.8, 0.7, 1.0)
+    tf = TransferFunction(table)
+    last = table[-1].astype(np.float64)
+    for s in (1.0, 1.0 + 1e-12, 1.5, 40.0):
+        np.testing.assert_array_equal(tf.lookup(s), last)
+    np.testing.assert_array_equal(tf.lookup([1.0, 2.0]), [last, last])
+    np.testing.assert_array_equal(tf.lookup([0.0, -3.0]), np.float64(table[[0, 0]]))
+    # Just below 1 the lookup still blends towards the last entry.
+    assert tf.lookup(1 - 1e-3)[3] > table[-2, 3]

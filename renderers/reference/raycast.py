@@ -31,7 +31,25 @@ Conventions implemented here
   homogeneous box is therefore exact, and a medium whose classified field is smooth along the
   ray converges with the second order of the midpoint rule, box faces included (a sharp
   transfer-function edge inside the box still leaves an ``O(Δ)`` error where the ray crosses
-  it). Samples of several volumes in one cell are blended (see :func:`_dvr_ray`).
+  it). Samples of several volumes in one cell are blended (see :func:`_dvr_ray`). This is
+  ``dvr`` only.
+* Exact ``mip`` and ``iso`` (:func:`_walk_volume`): no sampling. Each volume's span is walked
+  with a 3-D DDA through the cells of its voxel lattice: along each axis the regions
+  ``u <= 0`` (clamped), ``[i, i + 1]`` for ``0 <= i <= n − 2`` and ``u >= n − 1`` (clamped),
+  boundaries found as ``t = (j − base)/slope`` (no accumulated increments), at most
+  ``nx + ny + nz + 1`` segments per volume. On a segment the local coordinates are linear in
+  the parameter ``σ ∈ [0, 1]`` (set exactly to 0 or 1 on the boundary planes the segment
+  starts or ends on), so the trilinear field is a cubic ``k0 + k1σ + k2σ² + k3σ³`` of the 8
+  corner values. ``mip`` takes the maximum over the segment ends and the real roots of the
+  derivative inside the segment (closed form), which is the exact maximum of the trilinear
+  field; ``iso`` cuts the cubic at those roots into monotone pieces and bisects the crossing in
+  the first piece whose end changes ``s < isovalue`` (:func:`_below`) relative to the box entry,
+  to ``tolerance`` (a fraction of the segment). Values are evaluated with the same blend as
+  :func:`_trilinear`, so a ray through a voxel centre returns that voxel's value bit for bit.
+* Robustness: a ray whose origin or direction is not finite, or whose direction is zero, is a
+  transparent pixel with depth NaN before any loop starts; a volume whose span is unbounded (a
+  singular transform) is not entered; every loop has a bound (cells of a finite span, DDA
+  segments ``<= nx + ny + nz + 1``, :data:`MAX_CELL_CORRECTIONS`, :data:`MAX_BISECTIONS`).
 """
 
 import math
@@ -47,6 +65,9 @@ MAX_GRADIENT = math.sqrt(3.0) / 2.0
 
 MAX_BISECTIONS = 64
 """Upper bound on the iso bisection steps, reached only if the tolerance is below rounding."""
+
+MAX_CELL_CORRECTIONS = 64
+"""Upper bound on each correction loop of :func:`_cell_range` (finite spans need one step at most)."""
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -245,38 +266,297 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
 
 
 @njit(**_JIT)
-def _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap,
-             base, slope):
-    """Maximum intensity along one ray, classified without opacity correction.
+def _below(s, iso):
+    """The iso state of a value: ``s < iso``. A crossing is a change of this state along the ray."""
+    return s < iso
 
-    The maximum is taken over the samples the volumes take (cell midpoints, and overlap
-    midpoints in the cells a box cuts). With several volumes the largest normalised scalar of
-    any of them wins and is classified by the transfer function of the volume it came from
-    (the earlier cell, then the earlier volume, on ties). Returns ``(r, g, b, a, depth,
-    samples)``, colour premultiplied.
+
+@njit(**_JIT)
+def _region(u, slope, n):
+    """Lattice region of voxel coordinate ``u`` on an axis of ``n`` voxels, for a ray moving by ``slope``.
+
+    Region ``c`` is ``[c, c + 1]`` for ``0 <= c <= n − 2``; region ``−1`` is ``u <= 0`` and region
+    ``n − 1`` is ``u >= n − 1`` (the clamp-to-edge borders, where the field is constant along the
+    axis). A ``u`` exactly on a boundary belongs to the region the ray moves into.
+    """
+    c = math.floor(u)
+    if slope < 0.0 and u == c:
+        c -= 1.0
+    if c < -1.0:
+        return -1
+    if c > n - 1.0:
+        return n - 1
+    return int(c)
+
+
+@njit(**_JIT)
+def _crossing(c, slope, base, n):
+    """Ray parameter where the ray leaves region ``c`` of an axis through its far side (inf: never)."""
+    if slope > 0.0:
+        if c + 1 > n - 1:
+            return np.inf
+        return (c + 1 - base) / slope
+    if slope < 0.0:
+        if c < 0:
+            return np.inf
+        return (c - base) / slope
+    return np.inf
+
+
+@njit(**_JIT)
+def _axis_span(c, n, base, slope, t0, t1, entered, leaving):
+    """Corner indices and local coordinates at both ends of a segment in region ``c`` of an axis.
+
+    Returns ``(i0, i1, f0, f1)``: the two voxel indices the axis blends (equal in a clamped
+    region, where the local coordinate is 0) and the local coordinate in ``[0, 1]`` at ``t0`` and
+    ``t1``. Where the segment starts (``entered``) or ends (``leaving``) on a boundary of this
+    axis the coordinate is set to that boundary exactly, so a ray through a voxel centre
+    evaluates that voxel's value bit for bit.
+    """
+    if c < 0:
+        return 0, 0, 0.0, 0.0
+    if c >= n - 1:
+        return n - 1, n - 1, 0.0, 0.0
+    if entered:
+        f0 = 0.0 if slope > 0.0 else 1.0
+    else:
+        f0 = min(max(base + t0 * slope - c, 0.0), 1.0)
+    if leaving:
+        f1 = 1.0 if slope > 0.0 else 0.0
+    else:
+        f1 = min(max(base + t1 * slope - c, 0.0), 1.0)
+    return c, c + 1, f0, f1
+
+
+@njit(**_JIT)
+def _blend(c000, c100, c010, c110, c001, c101, c011, c111, fx, fy, fz):
+    """Trilinear blend of a cell's corners ``c_xyz`` at local coordinates (the arithmetic of :func:`_trilinear`)."""
+    gx = 1.0 - fx
+    c00 = c000 * gx + c100 * fx
+    c01 = c010 * gx + c110 * fx
+    c10 = c001 * gx + c101 * fx
+    c11 = c011 * gx + c111 * fx
+    gy = 1.0 - fy
+    return (c00 * gy + c01 * fy) * (1.0 - fz) + (c10 * gy + c11 * fy) * fz
+
+
+@njit(**_JIT)
+def _stationary_points(c000, c100, c010, c110, c001, c101, c011, c111, x0, dx, y0, dy, z0, dz):
+    """Roots in ``(0, 1)``, ascending, of the derivative of the cubic ``f(σ)`` on a segment.
+
+    Along the segment the local coordinates are ``x = x0 + dx·σ`` (likewise ``y``, ``z``), and
+    the trilinear field ``A + Bx + Cy + Dz + Exy + Fxz + Gyz + Hxyz`` becomes
+    ``k0 + k1σ + k2σ² + k3σ³``; ``f′ = k1 + 2k2σ + 3k3σ²`` is solved in closed form (the
+    cancellation-free quadratic formula). Returns ``(count, r0, r1)``.
+    """
+    b = c100 - c000
+    c = c010 - c000
+    d = c001 - c000
+    e = c110 - c100 - c010 + c000
+    f = c101 - c100 - c001 + c000
+    g = c011 - c010 - c001 + c000
+    h = c111 - c110 - c101 - c011 + c100 + c010 + c001 - c000
+    k1 = (b * dx + c * dy + d * dz + e * (x0 * dy + dx * y0) + f * (x0 * dz + dx * z0) + g * (y0 * dz + dy * z0)
+          + h * (dx * y0 * z0 + x0 * dy * z0 + x0 * y0 * dz))
+    k2 = e * dx * dy + f * dx * dz + g * dy * dz + h * (dx * dy * z0 + dx * y0 * dz + x0 * dy * dz)
+    k3 = h * dx * dy * dz
+    qa = 3.0 * k3
+    qb = 2.0 * k2
+    qc = k1
+    r0 = r1 = 2.0
+    if qa == 0.0:
+        if qb != 0.0:
+            r0 = -qc / qb
+    else:
+        disc = qb * qb - 4.0 * qa * qc
+        if disc >= 0.0:
+            q = -0.5 * (qb + math.copysign(math.sqrt(disc), qb))
+            r0 = q / qa
+            r1 = qc / q if q != 0.0 else r0
+            if r1 < r0:
+                r0, r1 = r1, r0
+    count = 0
+    first = second = 0.0
+    if 0.0 < r0 < 1.0:
+        first = r0
+        count = 1
+    if 0.0 < r1 < 1.0 and r1 != r0:
+        if count == 0:
+            first = r1
+        else:
+            second = r1
+        count += 1
+    return count, first, second
+
+
+@njit(**_JIT)
+def _walk_volume(data, off, nx, ny, nz, bx, by, bz, sx, sy, sz, t_in, t_out, iso_mode, iso, tolerance, t_stop):
+    """Walk one ray through one volume's lattice cells on ``[t_in, t_out]``: ``(value, t, segments)``.
+
+    A 3-D DDA over the regions of :func:`_region` (interior cells and the clamp-to-edge borders)
+    cuts the span into segments inside one lattice cell each; on a segment the trilinear field
+    is a cubic in the ray parameter (:func:`_stationary_points`). ``segments`` counts the
+    segments evaluated; the walk takes at most ``nx + ny + nz + 1`` of them (each boundary of
+    each axis is crossed at most once), and the loop is bounded by that.
+
+    ``mip`` (``iso_mode`` false): ``value`` is the exact maximum of the field on the span
+    (largest of the segment ends and the stationary points inside the segments) and ``t`` the
+    first place it is reached. A segment whose largest corner does not exceed the running
+    maximum is passed over (the field in a cell never exceeds its largest corner).
+
+    ``iso``: ``t`` is the first crossing (``inf`` if none): the first place where
+    :func:`_below` differs from its value at ``t_in``. Each segment is cut at the stationary
+    points into monotone pieces; in the first piece whose end has the other state, the crossing
+    is bracketed and bisected until the bracket is at most ``tolerance`` of the segment. The walk
+    stops at ``t_stop`` (a nearer hit of another volume). ``value`` is unused (0).
+    """
+    t0 = t_in
+    cx = _region(bx + t0 * sx, sx, nx)
+    cy = _region(by + t0 * sy, sy, ny)
+    cz = _region(bz + t0 * sz, sz, nz)
+    tx = _crossing(cx, sx, bx, nx)
+    ty = _crossing(cy, sy, by, ny)
+    tz = _crossing(cz, sz, bz, nz)
+    ex = ey = ez = False
+    best = -np.inf
+    best_t = np.nan
+    hit_t = np.inf
+    below = False
+    segments = 0
+    for _ in range(nx + ny + nz + 4):
+        if iso_mode and t0 >= t_stop:
+            break
+        t_next = min(tx, min(ty, tz))
+        last = not t_next < t_out
+        t1 = t_out if last else max(t_next, t0)
+        lx = (not last) and tx == t_next
+        ly = (not last) and ty == t_next
+        lz = (not last) and tz == t_next
+        x0i, x1i, fx0, fx1 = _axis_span(cx, nx, bx, sx, t0, t1, ex, lx)
+        y0i, y1i, fy0, fy1 = _axis_span(cy, ny, by, sy, t0, t1, ey, ly)
+        z0i, z1i, fz0, fz1 = _axis_span(cz, nz, bz, sz, t0, t1, ez, lz)
+        r00 = off + (z0i * ny + y0i) * nx
+        r01 = off + (z0i * ny + y1i) * nx
+        r10 = off + (z1i * ny + y0i) * nx
+        r11 = off + (z1i * ny + y1i) * nx
+        c000 = np.float64(data[r00 + x0i])
+        c100 = np.float64(data[r00 + x1i])
+        c010 = np.float64(data[r01 + x0i])
+        c110 = np.float64(data[r01 + x1i])
+        c001 = np.float64(data[r10 + x0i])
+        c101 = np.float64(data[r10 + x1i])
+        c011 = np.float64(data[r11 + x0i])
+        c111 = np.float64(data[r11 + x1i])
+        segments += 1
+        length = t1 - t0
+        if not iso_mode:
+            top = max(max(max(c000, c100), max(c010, c110)), max(max(c001, c101), max(c011, c111)))
+            if top > best:
+                v = _blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0, fy0, fz0)
+                if v > best:
+                    best = v
+                    best_t = t0
+                dx = fx1 - fx0
+                dy = fy1 - fy0
+                dz = fz1 - fz0
+                count, r0, r1 = _stationary_points(c000, c100, c010, c110, c001, c101, c011, c111,
+                                                   fx0, dx, fy0, dy, fz0, dz)
+                for j in range(count):
+                    r = r0 if j == 0 else r1
+                    v = _blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0 + dx * r, fy0 + dy * r, fz0 + dz * r)
+                    if v > best:
+                        best = v
+                        best_t = t0 + r * length
+                v = _blend(c000, c100, c010, c110, c001, c101, c011, c111, fx1, fy1, fz1)
+                if v > best:
+                    best = v
+                    best_t = t1
+        else:
+            if segments == 1:
+                below = _below(_blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0, fy0, fz0), iso)
+            if below:
+                top = max(max(max(c000, c100), max(c010, c110)), max(max(c001, c101), max(c011, c111)))
+                possible = not _below(top, iso)
+            else:
+                bottom = min(min(min(c000, c100), min(c010, c110)), min(min(c001, c101), min(c011, c111)))
+                possible = _below(bottom, iso)
+            if possible:
+                v = _blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0, fy0, fz0)
+                if _below(v, iso) != below:
+                    hit_t = t0
+                    break
+                dx = fx1 - fx0
+                dy = fy1 - fy0
+                dz = fz1 - fz0
+                count, r0, r1 = _stationary_points(c000, c100, c010, c110, c001, c101, c011, c111,
+                                                   fx0, dx, fy0, dy, fz0, dz)
+                lo = 0.0
+                for j in range(count + 1):
+                    hi = 1.0 if j == count else (r0 if j == 0 else r1)
+                    v = _blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0 + dx * hi, fy0 + dy * hi, fz0 + dz * hi)
+                    if _below(v, iso) != below:
+                        # Monotone on [lo, hi]: one crossing, bracketed; bisect it.
+                        for _ in range(MAX_BISECTIONS):
+                            if hi - lo <= tolerance:
+                                break
+                            mid = 0.5 * (lo + hi)
+                            v = _blend(c000, c100, c010, c110, c001, c101, c011, c111,
+                                       fx0 + dx * mid, fy0 + dy * mid, fz0 + dz * mid)
+                            if _below(v, iso) == below:
+                                lo = mid
+                            else:
+                                hi = mid
+                        hit_t = t0 + 0.5 * (lo + hi) * length
+                        break
+                    lo = hi
+                if hit_t < np.inf:
+                    break
+        if last:
+            break
+        ex = lx
+        ey = ly
+        ez = lz
+        if lx:
+            cx += 1 if sx > 0.0 else -1
+            tx = _crossing(cx, sx, bx, nx)
+        if ly:
+            cy += 1 if sy > 0.0 else -1
+            ty = _crossing(cy, sy, by, ny)
+        if lz:
+            cz += 1 if sz > 0.0 else -1
+            tz = _crossing(cz, sz, bz, nz)
+        t0 = t1
+    if iso_mode:
+        return 0.0, hit_t, segments
+    return best, best_t, segments
+
+
+@njit(**_JIT)
+def _mip_ray(data, offsets, dims, tf, tf_size, t_in, t_out, min_overlap, base, slope):
+    """Exact maximum intensity along one ray, classified without opacity correction.
+
+    Each volume whose span ``[t_in, t_out]`` is longer than ``min_overlap`` is walked by
+    :func:`_walk_volume`, which finds the maximum of its trilinear field on the span exactly
+    (independent of the step). With several volumes the largest normalised scalar of any of them
+    wins and is classified by the transfer function of the volume it came from (on ties the
+    nearer maximum, then the earlier volume). Returns ``(r, g, b, a, depth, samples)``, colour
+    premultiplied; ``samples`` counts the lattice-cell segments walked.
     """
     best = -1.0
     best_vol = -1
     depth = np.nan
     samples = 0
-    for k in range(count):
-        t_k = t_first + (k + 0.5) * step
-        for vol in range(offsets.shape[0]):
-            if k < k_lo[vol] or k > k_hi[vol]:
-                continue
-            t = t_k
-            if k == k_lo[vol] or k == k_hi[vol]:
-                t, overlap, full = _boundary_cell(k, t_first, step, t_in[vol], t_out[vol], min_overlap)
-                if overlap == 0.0:
-                    continue
-            s = _trilinear(data, offsets[vol], dims[vol, 0], dims[vol, 1], dims[vol, 2],
-                           base[vol, 0] + t * slope[vol, 0], base[vol, 1] + t * slope[vol, 1],
-                           base[vol, 2] + t * slope[vol, 2])
-            samples += 1
-            if s > best:
-                best = s
-                best_vol = vol
-                depth = t
+    for vol in range(offsets.shape[0]):
+        if not t_out[vol] - t_in[vol] > min_overlap:
+            continue
+        value, t, n = _walk_volume(data, offsets[vol], dims[vol, 0], dims[vol, 1], dims[vol, 2],
+                                   base[vol, 0], base[vol, 1], base[vol, 2], slope[vol, 0], slope[vol, 1],
+                                   slope[vol, 2], t_in[vol], t_out[vol], False, 0.0, 0.0, np.inf)
+        samples += n
+        if value > best or (value == best and t < depth):
+            best = value
+            best_vol = vol
+            depth = t
     if best_vol < 0:
         return 0.0, 0.0, 0.0, 0.0, depth, samples
     size = tf_size[best_vol]
@@ -287,65 +567,31 @@ def _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count, k_lo, k_hi,
 
 @njit(**_JIT)
 def _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, shading, light, half,
-             has_half, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap, base, slope, tolerance,
-             below, previous, started):
+             has_half, t_in, t_out, min_overlap, base, slope, tolerance):
     """First isovalue crossing along one ray: ``(r, g, b, a, depth, samples)``.
 
-    A crossing is a change of ``s < isovalue`` between two consecutive samples of the same
-    volume (either direction, so surfaces are seen from inside too; a box face is not a
-    surface). It is refined by bisection between the two sample positions until the bracket is
-    shorter than ``tolerance``; among volumes crossing in the same cell the nearest refined hit
-    wins, and the search stops after that cell. That is the nearest crossing of all, cut cells
-    included: a crossing found in cell ``k`` lies before the volume's sample in that cell, which
-    is at ``t_k``, or before it where the box ends in that cell. A crossing found in a later
-    cell lies after its volume's sample in cell ``k`` or later, which is at ``t_k`` or after
-    unless that box ends in cell ``k`` (and then it has no later sample). The colour is the
-    volume's transfer-function colour at its isovalue, shaded at the hit; alpha is 1.
+    A crossing is a change of ``s < isovalue`` (:func:`_below`) of the exact trilinear field,
+    relative to its state where the ray enters the volume's box: from below to ``>= isovalue``
+    or back, so surfaces are seen from inside too, a box face is not a surface, and a field
+    that only touches the isovalue (a voxel or a plateau exactly at it, approached from below)
+    is hit where it first reaches it. Each volume is walked by :func:`_walk_volume` up to the
+    nearest hit so far; the nearest hit of all wins (the earlier volume on ties). The colour is
+    the volume's transfer-function colour at its isovalue, shaded at the hit; alpha is 1.
+    ``samples`` counts the lattice-cell segments walked.
     """
     samples = 0
     hit_t = np.inf
     hit_vol = -1
-    nvol = offsets.shape[0]
-    for vol in range(nvol):
-        started[vol] = False
-    for k in range(count):
-        t_k = t_first + (k + 0.5) * step
-        for vol in range(nvol):
-            if k < k_lo[vol] or k > k_hi[vol]:
-                continue
-            t = t_k
-            if k == k_lo[vol] or k == k_hi[vol]:
-                t, overlap, full = _boundary_cell(k, t_first, step, t_in[vol], t_out[vol], min_overlap)
-                if overlap == 0.0:
-                    continue
-            off = offsets[vol]
-            nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
-            s = _trilinear(data, off, nx, ny, nz, base[vol, 0] + t * slope[vol, 0],
-                           base[vol, 1] + t * slope[vol, 1], base[vol, 2] + t * slope[vol, 2])
-            samples += 1
-            now_below = s < isovalue[vol]
-            if started[vol] and now_below != below[vol]:
-                lo = previous[vol]
-                hi = t
-                for _ in range(MAX_BISECTIONS):
-                    if hi - lo <= tolerance:
-                        break
-                    mid = 0.5 * (lo + hi)
-                    s_mid = _trilinear(data, off, nx, ny, nz, base[vol, 0] + mid * slope[vol, 0],
-                                       base[vol, 1] + mid * slope[vol, 1], base[vol, 2] + mid * slope[vol, 2])
-                    if (s_mid < isovalue[vol]) == below[vol]:
-                        lo = mid
-                    else:
-                        hi = mid
-                refined = 0.5 * (lo + hi)
-                if refined < hit_t:
-                    hit_t = refined
-                    hit_vol = vol
-            below[vol] = now_below
-            previous[vol] = t
-            started[vol] = True
-        if hit_vol >= 0:
-            break
+    for vol in range(offsets.shape[0]):
+        if not t_out[vol] - t_in[vol] > min_overlap:
+            continue
+        value, t, n = _walk_volume(data, offsets[vol], dims[vol, 0], dims[vol, 1], dims[vol, 2],
+                                   base[vol, 0], base[vol, 1], base[vol, 2], slope[vol, 0], slope[vol, 1],
+                                   slope[vol, 2], t_in[vol], t_out[vol], True, isovalue[vol], tolerance, hit_t)
+        samples += n
+        if t < hit_t:
+            hit_t = t
+            hit_vol = vol
     if hit_vol < 0:
         return 0.0, 0.0, 0.0, 0.0, np.nan, samples
     vol = hit_vol
@@ -369,19 +615,29 @@ def _cell_range(t_first, step, t_in, t_out, min_overlap):
     ``k_lo`` is the first cell whose end passes ``t_in + min_overlap`` and ``k_hi`` the last whose
     start is before ``t_out − min_overlap``, found with the same expressions for ``a_k`` and
     ``b_k`` that the sampling loops use (an estimate, then corrected), so every cell strictly
-    between them lies inside ``[t_in, t_out]``. ``k_lo > k_hi`` when there is none.
+    between them lies inside ``[t_in, t_out]``. ``k_lo > k_hi`` when there is none. The callers
+    pass finite spans only; each correction loop is bounded by :data:`MAX_CELL_CORRECTIONS`.
     """
     start = t_in + min_overlap
     k = max(int(math.floor((start - t_first) / step)), 0)
-    while k > 0 and t_first + k * step > start:
+    # The estimate is off by a cell or two at most; the corrections are bounded all the same.
+    for _ in range(MAX_CELL_CORRECTIONS):
+        if not (k > 0 and t_first + k * step > start):
+            break
         k -= 1
-    while t_first + (k + 1) * step <= start:
+    for _ in range(MAX_CELL_CORRECTIONS):
+        if not t_first + (k + 1) * step <= start:
+            break
         k += 1
     stop = t_out - min_overlap
     j = int(math.ceil((stop - t_first) / step)) - 1
-    while t_first + (j + 1) * step < stop:
+    for _ in range(MAX_CELL_CORRECTIONS):
+        if not t_first + (j + 1) * step < stop:
+            break
         j += 1
-    while j >= 0 and t_first + j * step >= stop:
+    for _ in range(MAX_CELL_CORRECTIONS):
+        if not (j >= 0 and t_first + j * step >= stop):
+            break
         j -= 1
     return k, j
 
@@ -396,7 +652,7 @@ _RENDER_SIGNATURE = types.void(
     _f8[:, ::1], _i8[::1],                      # gradient tables (n, M), sizes (0: none)
     _f8[::1], _f8[::1],                         # reference steps Δ0 (object units), isovalues
     _f8, _f8,                                   # world step, shortest overlap sampled
-    _i8, _f8[::1], _f8[::1], _f8,               # phong flag, (ka, kd, ks, n), light, iso tolerance
+    _i8, _f8[::1], _f8[::1], _f8,               # phong flag, (ka, kd, ks, n), light, iso tolerance (fraction of a segment)
     _f4[:, :, ::1], _f8[:, ::1], _i8[::1], _i8[::1],  # out: image, depth, hits and samples per row
 )
 
@@ -411,7 +667,9 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
     that contributed (``dvr``; the nearest one in the first contributing cell), of the maximum
     (``mip``) or of the surface (``iso``); NaN where nothing did. ``row_hits[i]`` counts the
     rays of row ``i`` that enter any volume box and ``row_samples[i]`` the volume samples they
-    took (bisection steps not included). ``row_order`` is a permutation of the rows: prange
+    took (``dvr``) or the lattice-cell segments they walked (``mip``, ``iso``; bisection steps
+    not included). ``tolerance`` is the iso bracket length as a fraction of a lattice-cell
+    segment. Non-finite rays give transparent pixels. ``row_order`` is a permutation of the rows: prange
     hands each thread a contiguous block of it, so interleaving the rows balances pictures
     whose content sits in one band.
     """
@@ -427,15 +685,20 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
         slope = np.empty((nvol, 3))
         ratio = np.empty(nvol)
         length = np.empty(nvol)
-        below = np.zeros(nvol, np.bool_)
-        previous = np.zeros(nvol)
-        started = np.zeros(nvol, np.bool_)
         half = np.empty(3)
         hits = 0
         samples = 0
         for col in range(width):
             o = origins[row, col]
             d = directions[row, col]
+            pixel = image[row, col]
+            if not (math.isfinite(o[0]) and math.isfinite(o[1]) and math.isfinite(o[2])
+                    and math.isfinite(d[0]) and math.isfinite(d[1]) and math.isfinite(d[2])
+                    and (d[0] != 0.0 or d[1] != 0.0 or d[2] != 0.0)):
+                # A ray that is no ray: transparent, before any loop could run away with it.
+                pixel[:] = 0.0
+                depth[row, col] = np.nan
+                continue
             t_first = np.inf
             for vol in range(nvol):
                 m = world_to_object[vol]
@@ -459,6 +722,8 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                         tb = (extent - po) / pd
                         lo = max(lo, min(ta, tb))
                         hi = min(hi, max(ta, tb))
+                if not math.isfinite(hi):
+                    lo = np.inf  # an unbounded span (singular transform): the volume is not entered
                 t_in[vol] = lo
                 t_out[vol] = hi
                 # |A⁻¹·d| turns a world length on this ray into object units; a full cell is Δ.
@@ -466,23 +731,14 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                 ratio[vol] = length[vol] * step / ref_step[vol]
                 if lo < hi:
                     t_first = min(t_first, lo)
-            pixel = image[row, col]
             if t_first == np.inf:
                 pixel[:] = 0.0
                 depth[row, col] = np.nan
                 continue
             hits += 1
-            count = 0
-            for vol in range(nvol):
-                if t_in[vol] < t_out[vol]:
-                    k_lo[vol], k_hi[vol] = _cell_range(t_first, step, t_in[vol], t_out[vol], min_overlap)
-                    count = max(count, k_hi[vol] + 1)
-                else:
-                    k_lo[vol] = 1
-                    k_hi[vol] = 0
             if mode == MODE_MIP:
-                r, g, b, a, t_hit, n = _mip_ray(data, offsets, dims, tf, tf_size, t_first, step, count,
-                                                k_lo, k_hi, t_in, t_out, min_overlap, base, slope)
+                r, g, b, a, t_hit, n = _mip_ray(data, offsets, dims, tf, tf_size, t_in, t_out, min_overlap,
+                                                base, slope)
             else:
                 # Blinn–Phong half vector between the light and V = −d (towards the viewer).
                 half[0] = light[0] - d[0]
@@ -495,15 +751,22 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                     half[1] /= half_norm
                     half[2] /= half_norm
                 if mode == MODE_DVR:
+                    count = 0
+                    for vol in range(nvol):
+                        if t_in[vol] < t_out[vol]:
+                            k_lo[vol], k_hi[vol] = _cell_range(t_first, step, t_in[vol], t_out[vol], min_overlap)
+                            count = max(count, k_hi[vol] + 1)
+                        else:
+                            k_lo[vol] = 1
+                            k_hi[vol] = 0
                     r, g, b, a, t_hit, n = _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size,
                                                     ref_step, nmat, phong, shading, light, half, has_half,
                                                     t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap,
                                                     base, slope, ratio, length)
                 else:
                     r, g, b, a, t_hit, n = _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat,
-                                                    phong, shading, light, half, has_half, t_first, step, count,
-                                                    k_lo, k_hi, t_in, t_out, min_overlap, base, slope, tolerance,
-                                                    below, previous, started)
+                                                    phong, shading, light, half, has_half, t_in, t_out,
+                                                    min_overlap, base, slope, tolerance)
             pixel[0] = r
             pixel[1] = g
             pixel[2] = b

@@ -28,12 +28,24 @@ Choices where the conventions leave room
   colours and corrected opacities are summed, the opacity sum clamped to 1 with the colour
   scaled by the same factor, and the sum composited front to back (Kainz et al. 2009, "Ray
   casting of multiple volumetric datasets with polyhedral boundaries on manycore GPUs").
-* **Modes.** ``dvr`` as above; ``mip`` classifies the largest normalised scalar over the
-  samples described above (cut-cell midpoints included) with the transfer function of the
-  volume it came from, without opacity correction, shading or gradient opacity (as VTK does);
-  ``iso`` finds the first crossing of each instance's isovalue between consecutive samples of
-  that instance (wherever they lie in their cells), bisects it to ``1e-6·Δ`` and shades the
-  transfer function's colour at the isovalue (alpha 1; gradient opacity does not apply).
+* **Modes.** ``dvr`` as above. ``mip`` and ``iso`` do not sample at all: they are exact for the
+  trilinear field and independent of the step. Each volume's span is walked through the cells
+  of its voxel lattice (a 3-D DDA between voxel-centre planes, the clamp-to-edge half voxels at
+  the faces included); inside one cell the field along the ray is a cubic in ``t``, built from
+  the cell's 8 corners. ``mip`` takes the largest normalised scalar over the segment ends and
+  the stationary points of each cubic (closed-form roots of its derivative), over all volumes,
+  and classifies it with the transfer function of the volume it came from, without opacity
+  correction, shading or gradient opacity (as VTK does); ties go to the nearer maximum, then to
+  the earlier volume. ``iso`` finds, per instance, the first place where ``s < isovalue``
+  changes from its state at the box entry (from below to ``>= isovalue`` or back, so a voxel
+  or plateau exactly at the isovalue is hit where the field reaches it, and a box face is not a
+  surface): each cubic is cut at its stationary points into monotone pieces and the crossing
+  bisected in the first piece that changes state, to ``ISO_TOLERANCE`` of the cell segment;
+  the nearest instance's hit wins and is shaded with its transfer function's colour at the
+  isovalue (alpha 1; gradient opacity does not apply). Volumes whose span is a rounding
+  sliver (``<= MIN_OVERLAP·Δ``) are skipped, as in ``dvr``.
+* **Non-finite rays.** A ray whose origin or direction is not finite (or whose direction is
+  zero) gives a transparent pixel with depth NaN; every loop in the kernels is bounded.
 * **Shading.** :class:`core.scene.Shading` exactly; the light direction is turned from view
   to world space with the camera basis and normals are world-space (normal matrix ``A^{-T}``).
 """
@@ -50,8 +62,11 @@ from renderers.base import Capabilities, RenderResult, Renderer
 ROW_INTERLEAVE = 16
 """Rows are handed to threads as residue classes modulo this (see :func:`interleaved_rows`)."""
 
-ISO_TOLERANCE = 1e-6
-"""Iso bisection stops when the bracket is shorter than this fraction of the world step."""
+ISO_TOLERANCE = 1e-13
+"""Iso bisection stops when the bracket is at most this fraction of its lattice-cell segment.
+
+The segment is at most a cell diagonal (``√3`` voxels) long, so the surface is located to
+``~2e-13`` voxels, far below the float32 rounding of the data."""
 
 MIN_OVERLAP = 1e-9
 """A volume skips a cell whose overlap with its box is at most this fraction of the world step.
@@ -100,17 +115,19 @@ class ReferenceRenderer(Renderer):
     depth : bool, optional
         Also return ``info["depth"]``: an ``(H, W)`` float64 array of the ray parameter (world
         distance from the ray origin) of the first contributing sample (``dvr``: the nearest
-        sample of the first cell that contributes), the maximum (``mip``) or the surface
-        (``iso``), NaN where there is none.
+        sample of the first cell that contributes), the first place the exact maximum is
+        reached (``mip``) or the surface (``iso``), NaN where there is none.
 
     Notes
     -----
     Timings: ``prepare`` (normalised arrays, from a per-volume cache after the first frame;
     packed tables, transforms and camera rays), ``render`` (the kernel) and ``total``.
-    Counters: ``rays``, ``rays_hit`` (rays entering any volume box), ``samples`` (volume samples
-    taken: one per volume and cell it overlaps, so a box of depth ``L`` starting on a cell
-    boundary gets ``ceil(L/Δ)``; iso bisection steps excluded) and ``early_terminations``
-    (always 0).
+    Counters: ``rays``, ``rays_hit`` (rays entering any volume box), ``samples`` and
+    ``early_terminations`` (always 0). ``samples`` is, in ``dvr``, the volume samples taken: one
+    per volume and cell it overlaps, so a box of depth ``L`` starting on a cell boundary gets
+    ``ceil(L/Δ)``; in ``mip`` and ``iso`` it is the lattice-cell segments evaluated, one per
+    volume and voxel-lattice cell the ray walks through (head-on through ``n`` voxels: ``n + 1``,
+    the two clamped half voxels included; ``iso`` stops at the hit; bisection steps excluded).
 
     Sampling (see the module notes): the ray is cut into cells ``[t_first + k·Δ, t_first +
     (k + 1)·Δ]`` from the entry into the union of the boxes; a volume samples a cell inside its
@@ -233,7 +250,7 @@ class ReferenceRenderer(Renderer):
                 data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size, gtab, gtab_size,
                 ref_step, isovalue, step, MIN_OVERLAP * step, int(shading.model == "phong"),
                 np.array([shading.ambient, shading.diffuse, shading.specular, shading.shininess]),
-                light, ISO_TOLERANCE * step)
+                light, ISO_TOLERANCE)
 
     def _render(self, scene):
         start = time.perf_counter()
