@@ -5,8 +5,22 @@
 #   snakemake -n --configfile config/full.yaml                   (dry run: list the jobs)
 #   snakemake --executor slurm --jobs 64 --configfile config/full.yaml   (a cluster, via the plugin)
 #
-# A render job lists its backend's source files as inputs, so editing one backend reruns only its
-# jobs; its params carry the run's spec hash, so changing a run's scene or options reruns that run.
+# Reruns. Every job carries, as the param `code`, a content digest of all the code that shapes its
+# output (pipeline.runner.JOB_SOURCES: e.g. a render job's core/, datasets/, renderers/base, its
+# backend's package, runner, scene_io, timing, reports/imageio, and its entry in pipeline/jobs.py),
+# so with Snakemake's default `params` rerun trigger an edit to any of it reruns exactly the jobs it
+# shapes (and, through their outputs, the jobs downstream), while editing one backend reruns only its
+# jobs. Digests, not the files as inputs: a checkout that changes no byte reruns nothing. A render
+# job's params also carry the run's spec hash, so changing a run's scene or options reruns that run.
+#
+# Failed runs are retried: a run that raised or hit the profile's render_time_limit is recorded as
+# failed (the report lists it) and its job succeeds, so the pipeline goes on. Each render job takes a
+# retry marker (results/.retry/...) as an input, which the workflow rewrites at start-up: dated now
+# and naming the record when the run's record is failed, empty and dated 1970 otherwise
+# (pipeline.runner.mark_retry). So the next run (and a dry run) reruns exactly the failed runs, and
+# a failed record is never kept as a finished output; it stays until its retry replaces it.
+# (Both rely on Snakemake's default rerun triggers; `--rerun-triggers mtime` would turn the code
+# digests off.)
 import dataclasses
 import json
 import sys
@@ -15,7 +29,7 @@ from pathlib import Path
 sys.path.insert(0, workflow.basedir)
 
 import datasets
-import renderers
+from pipeline import runner
 from pipeline.experiments import Profile, plan
 from pipeline.scene_io import dataset_arguments
 
@@ -31,6 +45,10 @@ RUNS = plan(PROFILE)
 R = PROFILE.results
 CACHE = PROFILE.cache
 PY = sys.executable
+CODE = {rule: runner.job_code_digest(rule) for rule in ("volume", "environment", "evaluate", "collect", "report")}
+BACKEND_CODE = {backend: runner.job_code_digest("render", backend=backend)
+                for backend in sorted({run.backend for run in RUNS.values()})}
+RETRY = {key: str(runner.mark_retry(R, run.experiment, run.id)) for key, run in RUNS.items()}
 PROFILE_JSON = json.dumps(dataclasses.asdict(PROFILE), sort_keys=True)
 ROOT = Path(workflow.basedir)
 
@@ -52,11 +70,6 @@ def volume_requests(run):
 
 
 VOLUMES = {key: request for run in RUNS.values() for key, request in volume_requests(run).items()}
-
-
-def backend_sources(backend):
-    package = ROOT / renderers.backend_module(backend).replace(".", "/")
-    return sorted(str(p.relative_to(ROOT)) for p in [*package.rglob("*.py"), *(ROOT / "renderers" / "base").glob("*.py")])
 
 
 def run_of(wildcards):
@@ -81,6 +94,7 @@ rule volume:
         f"{CACHE}/{{key}}.npy",
     params:
         request=lambda w: json.dumps(VOLUMES[w.key]),
+        code=CODE["volume"],
     shell:
         "{PY} -m pipeline.jobs volume --request {params.request:q} --cache {CACHE}"
 
@@ -88,6 +102,8 @@ rule volume:
 rule environment:
     output:
         f"{R}/environment.json",
+    params:
+        code=CODE["environment"],
     shell:
         "{PY} -m pipeline.jobs environment --output {output}"
 
@@ -96,13 +112,14 @@ rule environment:
 rule render:
     input:
         volumes=lambda w: [f"{CACHE}/{key}.npy" for key in volume_requests(run_of(w))],
-        code=lambda w: backend_sources(run_of(w).backend),
         environment=f"{R}/environment.json",
+        retry=lambda w: RETRY[f"{w.experiment}/{w.run}"],
     output:
         f"{R}/runs/{{experiment}}/{{run}}.json",
     params:
         run=lambda w: json.dumps(run_of(w).as_dict()),
         spec_hash=lambda w: run_of(w).spec_hash(),
+        code=lambda w: BACKEND_CODE[run_of(w).backend],
     threads: workflow.cores
     shell:
         "NUMBA_NUM_THREADS={threads} {PY} -m pipeline.jobs render --run {params.run:q}"
@@ -115,6 +132,8 @@ rule evaluate:
         reference=lambda w: record(RUNS[f"{w.experiment}/{run_of(w).reference}"]),
     output:
         f"{R}/metrics/{{experiment}}/{{run}}.json",
+    params:
+        code=CODE["evaluate"],
     shell:
         "{PY} -m pipeline.jobs evaluate --record {input.record} --reference {input.reference} --output {output}"
 
@@ -126,6 +145,8 @@ rule collect:
     output:
         f"{R}/runs.csv",
         f"{R}/claims.csv",
+    params:
+        code=CODE["collect"],
     shell:
         "{PY} -m pipeline.jobs collect --profile {PROFILE_JSON:q}"
 
@@ -137,5 +158,7 @@ rule report:
         f"{R}/environment.json",
     output:
         f"{R}/report/index.html",
+    params:
+        code=CODE["report"],
     shell:
         "{PY} -m pipeline.jobs report --profile {PROFILE_JSON:q}"

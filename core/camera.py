@@ -58,12 +58,26 @@ class Camera:
         if self.view_height is not None:
             object.__setattr__(self, "view_height", check_scalar(self.view_height, name="camera view_height", low=0, low_open=True))
         object.__setattr__(self, "fov_y", check_scalar(self.fov_y, name="camera fov_y", low=0, high=180, low_open=True, high_open=True))
+        self._check_basis()
+
+    def _check_basis(self):
+        """Refuse an ``up`` that cannot span a view frame: zero, or parallel to the view direction.
+
+        Either gives a zero ``right`` vector, so every ray would be NaN (and a renderer could loop
+        on it). ``up`` is compared as a unit vector with the view direction; below a sine of 1e-6
+        (a 0.0002° angle) the frame is numerically meaningless. This covers elevation ±90 with the
+        default ``up = +y`` and any ``up`` along the line of sight at any elevation.
+        """
+        up = np.asarray(self.up, dtype=np.float64)
+        length = np.linalg.norm(up)
+        if not length > 0:
+            raise InputError(f"camera up: must be a non-zero vector, got {self.up}; the default is (0, 1, 0)")
         forward = -self._offset_direction()
-        up = np.asarray(self.up)
-        if np.linalg.norm(np.cross(forward, up)) < 1e-6 * np.linalg.norm(up):
+        if np.linalg.norm(np.cross(forward, up / length)) < 1e-6:
             raise InputError(
-                f"camera: up {self.up} is parallel to the view direction (elevation {self.elevation}); "
-                "choose another up vector"
+                f"camera: up {self.up} is parallel to the view direction (azimuth {self.azimuth}, "
+                f"elevation {self.elevation}); choose another up vector (e.g. (0, 0, -1) looking "
+                "straight down) or an elevation away from ±90"
             )
 
     def _offset_direction(self):
@@ -96,7 +110,10 @@ class Camera:
         """World-space unit vectors ``(right, up, back)`` of the view frame."""
         back = self._offset_direction()
         right = np.cross(np.asarray(self.up, dtype=np.float64), back)
-        right /= np.linalg.norm(right)
+        length = np.linalg.norm(right)
+        if not (np.isfinite(length) and length > 0):  # unreachable through __post_init__; never NaN rays
+            raise InputError(f"camera: up {self.up} and the view direction do not span a view frame")
+        right /= length
         up = np.cross(back, right)
         return right, up, back
 

@@ -39,12 +39,28 @@ def check_volume_array(data, *, name="volume"):
     return np.ascontiguousarray(data)
 
 
+def _float_tuple(value, *, length, name):
+    """``value`` as a tuple of floats, or an :class:`InputError` naming ``name``.
+
+    Strings are refused even though they are iterable (``"fast"`` is not three numbers), and so
+    are booleans (YAML's ``yes``/``no``).
+    """
+    if isinstance(value, (str, bytes)) or not np.iterable(value):
+        raise InputError(f"{name}: expected {length} numbers, got {value!r}")
+    values = []
+    for v in value:
+        if isinstance(v, (bool, np.bool_, str, bytes)):
+            raise InputError(f"{name}: expected {length} numbers, got {value!r}")
+        try:
+            values.append(float(v))
+        except (TypeError, ValueError):
+            raise InputError(f"{name}: expected {length} numbers, got {value!r}") from None
+    return tuple(values)
+
+
 def check_positive_vector(value, *, length, name):
     """Return ``value`` as a float tuple of ``length`` finite, strictly positive entries."""
-    try:
-        values = tuple(float(v) for v in value)
-    except TypeError:
-        raise InputError(f"{name}: expected {length} numbers, got {value!r}") from None
+    values = _float_tuple(value, length=length, name=name)
     if len(values) != length:
         raise InputError(f"{name}: expected {length} numbers, got {len(values)} ({value!r})")
     if not all(math.isfinite(v) and v > 0 for v in values):
@@ -54,10 +70,7 @@ def check_positive_vector(value, *, length, name):
 
 def check_finite_vector(value, *, length, name):
     """Return ``value`` as a float tuple of ``length`` finite entries."""
-    try:
-        values = tuple(float(v) for v in value)
-    except TypeError:
-        raise InputError(f"{name}: expected {length} numbers, got {value!r}") from None
+    values = _float_tuple(value, length=length, name=name)
     if len(values) != length or not all(math.isfinite(v) for v in values):
         raise InputError(f"{name}: expected {length} finite numbers, got {value!r}")
     return values
@@ -81,6 +94,23 @@ def check_scalar(value, *, name, low=-math.inf, high=math.inf, low_open=False, h
     return number
 
 
+def check_value_range(value, *, name):
+    """Return ``value`` as ``(lo, hi)``: two finite numbers with ``lo < hi``.
+
+    A normalisation range with an infinite end would map every value to 0 (or NaN), so it is
+    refused here rather than rendered as an empty picture.
+    """
+    values = _float_tuple(value, length=2, name=name)
+    if len(values) != 2:
+        raise InputError(f"{name}: expected two numbers [lo, hi], got {value!r}")
+    lo, hi = values
+    if not (math.isfinite(lo) and math.isfinite(hi)):
+        raise InputError(f"{name}: both ends must be finite numbers, got {value!r}")
+    if not hi > lo:
+        raise InputError(f"{name}: expected lo < hi, got {value!r}")
+    return lo, hi
+
+
 def check_positive_int(value, *, name, minimum=1):
     """Return ``value`` as an int >= ``minimum``."""
     if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
@@ -97,7 +127,10 @@ def check_choice(value, choices, *, name):
 
 def check_matrix4(value, *, name):
     """Return ``value`` as an invertible, finite 4×4 float64 affine matrix."""
-    matrix = np.asarray(value, dtype=np.float64)
+    try:
+        matrix = np.asarray(value, dtype=np.float64)
+    except (TypeError, ValueError):
+        raise InputError(f"{name}: expected a 4x4 matrix of numbers, got {value!r}") from None
     if matrix.shape != (4, 4):
         raise InputError(f"{name}: expected a 4x4 matrix, got shape {matrix.shape}")
     if not np.isfinite(matrix).all():

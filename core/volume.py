@@ -5,7 +5,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from core.errors import InputError
-from core.validation import check_positive_vector, check_volume_array
+from core.validation import check_positive_vector, check_value_range, check_volume_array
 
 DTYPE_RANGES = {
     np.dtype(np.uint8): (0.0, 255.0),
@@ -25,8 +25,10 @@ class Volume:
     spacing : tuple of float, optional
         ``(sx, sy, sz)`` world units per voxel. Isotropic 1.0 by default.
     value_range : tuple of float, optional
-        ``(lo, hi)``: raw values map to ``(v - lo) / (hi - lo)`` in [0, 1]. Defaults to the
-        dtype's range (uint8 /255, uint16 /65535, float32 taken as already in [0, 1]).
+        ``(lo, hi)``, finite with ``lo < hi``: raw values map to ``(v - lo) / (hi - lo)`` and are
+        clipped to [0, 1]. Defaults to the dtype's range (uint8 /255, uint16 /65535, float32
+        taken as already in [0, 1]); a float32 volume with values outside [0, 1] must give its
+        range, since clipping them silently would change the picture.
     name : str, optional
         Human-readable name used in reports and errors.
     labels : numpy.ndarray, optional
@@ -57,14 +59,20 @@ class Volume:
             self, "spacing", check_positive_vector(self.spacing, length=3, name=f"volume {self.name!r} spacing")
         )
         if self.value_range is None:
+            if data.dtype.kind == "f":
+                lo, hi = float(data.min()), float(data.max())
+                if lo < 0 or hi > 1:
+                    # Normalising by [0, 1] would clip these values without a word.
+                    raise InputError(
+                        f"volume {self.name!r}: float32 values span [{lo:.6g}, {hi:.6g}], outside the "
+                        f"default range [0, 1]; set value_range (e.g. value_range=({lo:.6g}, {hi:.6g}), "
+                        "or 'value_range: [lo, hi]' in a scene file) to say how they normalise"
+                    )
             object.__setattr__(self, "value_range", DTYPE_RANGES[data.dtype])
         else:
-            lo, hi = (float(v) for v in self.value_range)
-            if not hi > lo:
-                raise InputError(
-                    f"volume {self.name!r} value_range: expected lo < hi, got {self.value_range!r}"
-                )
-            object.__setattr__(self, "value_range", (lo, hi))
+            object.__setattr__(
+                self, "value_range", check_value_range(self.value_range, name=f"volume {self.name!r} value_range")
+            )
         if self.labels is not None:
             labels = np.asarray(self.labels)
             if labels.shape != data.shape or labels.dtype.kind not in "iu":

@@ -39,11 +39,30 @@ def _dims(dims, where):
     return values
 
 
+RAW_DTYPES = {"uint8": np.dtype(np.uint8), "uint16": np.dtype(np.uint16), "float32": np.dtype(np.float32)}
+"""Dtype names a raw file name or a ``dtype=`` string may use: exactly the supported dtypes' names.
+
+An explicit table rather than numpy's parser, which accepts loose spellings (``u1``, ``f``,
+``ubyte``) and reads ``u8`` as uint64 (8 *bytes*), not the uint8 a user writing it means.
+"""
+
+_DTYPE_HINTS = {"u8": "uint8", "u1": "uint8", "ubyte": "uint8", "uchar": "uint8", "b": "uint8", "byte": "uint8",
+                "u16": "uint16", "u2": "uint16", "ushort": "uint16",
+                "f32": "float32", "f4": "float32", "f": "float32", "float": "float32", "single": "float32"}
+
+
 def _dtype(dtype, where):
+    """The numpy dtype of a raw volume: a name of :data:`RAW_DTYPES` or a supported numpy dtype."""
+    if isinstance(dtype, str):
+        name = dtype.strip().lower()
+        if name in RAW_DTYPES:
+            return RAW_DTYPES[name]
+        hint = f" (did you mean {_DTYPE_HINTS[name]!r}?)" if name in _DTYPE_HINTS else ""
+        raise InputError(f"{where}: unknown dtype name {dtype!r}{hint}; use one of {', '.join(RAW_DTYPES)}")
     try:
         dt = np.dtype(dtype)
     except TypeError:
-        raise InputError(f"{where}: unknown dtype {dtype!r}") from None
+        raise InputError(f"{where}: unknown dtype {dtype!r}; use one of {', '.join(RAW_DTYPES)}") from None
     if dt.newbyteorder("=") not in SUPPORTED_DTYPES:
         raise InputError(f"{where}: dtype {dt.name} is not supported; use uint8, uint16 or float32")
     return dt.newbyteorder("=")
@@ -65,7 +84,9 @@ def load_raw(path, *, dims=None, dtype=None, spacing=(1.0, 1.0, 1.0), value_rang
     dims : tuple of int, optional
         ``(nx, ny, nz)``. Must agree with the file name when both are given.
     dtype : str or numpy.dtype, optional
-        uint8, uint16 or float32. Must agree with the file name when both are given.
+        ``"uint8"``, ``"uint16"`` or ``"float32"`` (:data:`RAW_DTYPES`; the file name uses the
+        same names, no numpy shorthands such as ``u1`` or ``u8``). Must agree with the file name
+        when both are given.
     spacing : tuple of float, optional
         ``(sx, sy, sz)``.
     value_range : tuple of float, optional
@@ -82,10 +103,11 @@ def load_raw(path, *, dims=None, dtype=None, spacing=(1.0, 1.0, 1.0), value_rang
     if match:
         named_dims = (int(match["x"]), int(match["y"]), int(match["z"]))
         named_dtype = match["dtype"]
+        _dtype(named_dtype, f"{path}: file name")  # a bad name is an error even when dtype= is given
         if dims is not None and _dims(dims, str(path)) != named_dims:
             raise InputError(f"{path}: dims={tuple(dims)} disagree with the file name's {named_dims}")
         if dtype is not None and _dtype(dtype, str(path)) != _dtype(named_dtype, str(path)):
-            raise InputError(f"{path}: dtype={np.dtype(dtype).name} disagrees with the file name's {named_dtype}")
+            raise InputError(f"{path}: dtype={_dtype(dtype, str(path)).name} disagrees with the file name's {named_dtype}")
         dims = named_dims if dims is None else dims
         dtype = named_dtype if dtype is None else dtype
     if dims is None or dtype is None:
@@ -220,7 +242,7 @@ def _nrrd_spacing(fields, path):
     return (1.0, 1.0, 1.0)
 
 
-def load_nrrd(path, *, name=None):
+def load_nrrd(path, *, value_range=None, name=None):
     """Read a 3-D NRRD volume: attached (``.nrrd``) or detached (``.nhdr`` + data file) header.
 
     Supported: types uchar/ushort/float (and non-negative short), encodings raw, gzip, bzip2 and
@@ -231,6 +253,8 @@ def load_nrrd(path, *, name=None):
     Parameters
     ----------
     path : str or Path
+    value_range : tuple of float, optional
+        Normalisation range when it is not the dtype's; float data outside [0, 1] needs one.
     name : str, optional
         Defaults to the file stem.
 
@@ -328,4 +352,4 @@ def load_nrrd(path, *, name=None):
     data = np.ascontiguousarray(values.reshape(z, y, x).astype(native))
     meta = {"path": str(path), "format": "nrrd", "encoding": encoding,
             **{key: fields[key] for key in ("space", "space directions", "space origin", "content") if key in fields}}
-    return Volume(data, spacing=spacing, name=name or path.name.split(".")[0], meta=meta)
+    return Volume(data, spacing=spacing, value_range=value_range, name=name or path.name.split(".")[0], meta=meta)

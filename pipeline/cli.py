@@ -32,7 +32,10 @@ def _parse_options(pairs):
         if "=" not in pair:
             raise VolbenchError(f"--option {pair!r}: expected NAME=VALUE")
         name, value = pair.split("=", 1)
-        options[name] = yaml.safe_load(value)
+        try:
+            options[name] = yaml.safe_load(value)
+        except yaml.YAMLError as exc:
+            raise VolbenchError(f"--option {pair!r}: cannot parse the value ({exc})") from None
     return options
 
 
@@ -59,21 +62,49 @@ def cmd_list(args):
             print(f"  {name:28s} {experiment.title}")
 
 
+SCENE_FILE_FLAGS = {"image": "width/height", "mode": "mode", "shading": "shading: {model: ...}",
+                    "preset": "preset (per volume)"}
+"""Flags that describe a scene built from a data-set name; a scene file sets these itself."""
+
+DATASET_DEFAULTS = {"image": 256, "mode": "dvr", "shading": "phong"}
+
+
+def _check_output_paths(args):
+    """Refuse bad output file names before any work starts (not after minutes of rendering)."""
+    for flag, path, suffix in (("--output", args.output, ".png"), ("--exr", args.exr, ".exr")):
+        if path is None:
+            continue
+        if Path(path).suffix.lower() != suffix:
+            raise VolbenchError(f"{flag} {path}: expected a {suffix} file name")
+        parent = Path(path).parent
+        if not parent.is_dir():
+            raise VolbenchError(f"{flag} {path}: folder {parent} does not exist")
+
+
 def _scene_from_args(args):
     from pipeline.scene_io import build_scene, load_scene
 
     camera = {k: v for k, v in (("azimuth", args.azimuth), ("elevation", args.elevation),
                                   ("projection", args.projection)) if v is not None}
     if args.scene.endswith((".yaml", ".yml")):
+        # A scene file is the whole description: flags it would ignore are errors, not no-ops.
+        given = [flag for flag in SCENE_FILE_FLAGS if getattr(args, flag) is not None]
+        if given:
+            raise VolbenchError(
+                f"{args.scene}: {', '.join('--' + flag for flag in given)} "
+                f"{'does' if len(given) == 1 else 'do'} not apply to a scene file; set "
+                f"{', '.join(SCENE_FILE_FLAGS[flag] for flag in given)} in the YAML instead")
         scene = load_scene(args.scene, size=args.size)
         return scene.with_camera(**camera) if camera else scene
+    options = {flag: default if getattr(args, flag) is None else getattr(args, flag)
+               for flag, default in DATASET_DEFAULTS.items()}
     volume = {"dataset": args.scene}
     if args.preset:
         volume["preset"] = args.preset
     if args.size:
         volume["size"] = args.size
-    spec = {"name": args.scene, "width": args.image, "height": args.image, "mode": args.mode,
-            "shading": {"model": args.shading}, "camera": {"azimuth": 30.0, "elevation": 20.0, **camera},
+    spec = {"name": args.scene, "width": options["image"], "height": options["image"], "mode": options["mode"],
+            "shading": {"model": options["shading"]}, "camera": {"azimuth": 30.0, "elevation": 20.0, **camera},
             "volumes": [volume]}
     return build_scene(spec, size=args.size)
 
@@ -83,6 +114,7 @@ def cmd_render(args):
     from pipeline.timing import measure
     from reports.imageio import write_exr, write_png
 
+    _check_output_paths(args)
     scene = _scene_from_args(args)
     with renderers.get(args.backend, **_parse_options(args.option)) as renderer:
         result = measure(renderer, scene, warmup=args.warmup, repeat=args.repeat, progress=True)
@@ -99,6 +131,8 @@ def cmd_render(args):
 def cmd_compare(args):
     from reports.metrics import compare_files
 
+    if args.diff is not None and Path(args.diff).suffix.lower() not in (".png", ".exr"):
+        raise VolbenchError(f"--diff {args.diff}: expected a .png or .exr file name")
     values = compare_files(args.reference, args.test, diff_path=args.diff)
     print(json.dumps(values, indent=1, default=str))
 
@@ -143,18 +177,19 @@ def build_parser():
     p.add_argument("scene", help="a data set name (volbench list datasets) or a scene YAML file")
     p.add_argument("--backend", default="reference")
     p.add_argument("--option", action="append", metavar="NAME=VALUE", help="backend option (repeatable)")
-    p.add_argument("--preset")
-    p.add_argument("--size", type=int, help="phantom size (voxels along the longest axis)")
-    p.add_argument("--image", type=int, default=256, help="image width and height")
-    p.add_argument("--mode", default="dvr", choices=("dvr", "mip", "iso"))
-    p.add_argument("--shading", default="phong", choices=("none", "phong"))
+    p.add_argument("--preset", help="classification preset of the data set (not for scene files)")
+    p.add_argument("--size", type=int, help="phantom size (voxels along the longest axis); a scene file's "
+                   "phantoms without their own size use it; real scans refuse it")
+    p.add_argument("--image", type=int, help="image width and height (default 256; not for scene files)")
+    p.add_argument("--mode", choices=("dvr", "mip", "iso"), help="default dvr (not for scene files)")
+    p.add_argument("--shading", choices=("none", "phong"), help="default phong (not for scene files)")
     p.add_argument("--projection", choices=("orthographic", "perspective"))
     p.add_argument("--azimuth", type=float)
     p.add_argument("--elevation", type=float)
     p.add_argument("--warmup", type=int, default=1)
     p.add_argument("--repeat", type=int, default=3)
-    p.add_argument("--output", default="render.png", help="PNG for people")
-    p.add_argument("--exr", help="also write the exact float image")
+    p.add_argument("--output", default="render.png", help="PNG for people (must end in .png)")
+    p.add_argument("--exr", help="also write the exact float image (must end in .exr)")
     p.set_defaults(func=cmd_render)
 
     p = commands.add_parser("compare", help="metrics and a difference image for two images")

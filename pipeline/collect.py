@@ -1,4 +1,8 @@
-"""Run records → tidy tables: ``runs.csv`` (one row per run and view), per-experiment CSVs, claims."""
+"""Run records → tidy tables: ``runs.csv`` (one row per run and view), per-experiment CSVs, claims.
+
+Every row names its run's JSON record (``record``) and, per view, its images (``png``, ``exr``), so
+the report can link each number to where it came from.
+"""
 
 import json
 from pathlib import Path
@@ -23,7 +27,7 @@ def rows_for(record_path, *, results_dir):
     base = {
         "experiment": record["experiment"], "run": record["run"], "backend": record["backend"],
         "status": record["status"], "reason": record["reason"], "reference": record["reference"],
-        "spec_hash": record["spec_hash"], **record["tags"],
+        "spec_hash": record["spec_hash"], "record": str(record_path), **record["tags"],
         **_flatten("option_", record.get("options")),
         **_flatten("stat_", record.get("statistics")),
         **record["environment"], **(record.get("backend_environment") or {}),

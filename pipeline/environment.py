@@ -10,6 +10,7 @@ import functools
 import os
 import platform
 import subprocess
+from datetime import datetime, timezone
 from importlib import metadata
 from pathlib import Path
 
@@ -54,12 +55,42 @@ def git_commit(repo=REPO_ROOT):
     return commit + ("+dirty" if dirty else "")
 
 
+def memory_bytes():
+    """Total physical memory in bytes (``None`` when it cannot be read)."""
+    try:
+        import psutil
+
+        return int(psutil.virtual_memory().total)
+    except Exception:  # a fact we could not read is recorded as missing, not raised
+        return None
+
+
+def numba_threads():
+    """The threads Numba's parallel loops use in this process (``NUMBA_NUM_THREADS`` or its default)."""
+    if os.environ.get("NUMBA_NUM_THREADS", "").isdigit():
+        return int(os.environ["NUMBA_NUM_THREADS"])
+    try:
+        import numba
+
+        return int(numba.config.NUMBA_NUM_THREADS)
+    except Exception:  # numba absent or broken: the reference reports that itself
+        return None
+
+
+def now_utc():
+    """The current date and time, UTC, to the minute (``2025-01-31 14:05``)."""
+    return datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M")
+
+
 @functools.cache
 def host_environment():
-    """Facts every result row carries, flat ``{column: value}``."""
+    """Facts every result row carries, flat ``{column: value}``; ``date`` is when the process started."""
     env = {
+        "date": now_utc(),
         "cpu_model": cpu_model(),
         "cpu_cores": os.cpu_count(),
+        "memory_bytes": memory_bytes(),
+        "numba_threads": numba_threads(),
         "hostname": platform.node(),
         "os": platform.platform(),
         "python": platform.python_version(),
@@ -104,3 +135,58 @@ def probe_opencl():
 def probe_devices():
     """OpenGL and OpenCL facts (each probed in this process)."""
     return {**probe_opengl(), **probe_opencl()}
+
+
+def _sources_table(path):
+    """``{file: source}`` from the Markdown table of a real-data ``SOURCES.md`` (``{}`` if none)."""
+    try:
+        lines = Path(path).read_text().splitlines()
+    except OSError:
+        return {}
+    header, sources = None, {}
+    for line in lines:
+        if not line.startswith("|"):
+            continue
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if header is None:
+            header = [c.lower() for c in cells]
+            continue
+        if set("".join(cells)) <= set("-: "):
+            continue
+        row = dict(zip(header, cells))
+        source = next((v for k, v in row.items() if k.startswith("source")), "")
+        licence = next((v for k, v in row.items() if k.startswith("licen")), "")
+        if row.get("file"):
+            sources[row["file"].strip("`")] = f"{source}. {licence}".strip(" .").replace("`", "")
+    return sources
+
+
+def real_data_provenance(data_dir=None):
+    """Where the real scans come from: the folder, its manifest's entries and their stated sources.
+
+    Returns ``{"folder", "error", "sources_file", "datasets": [{"name", "file", "modality",
+    "source"}]}``; ``error`` says why the folder cannot be read (then ``datasets`` is empty).
+    """
+    from core.errors import InputError
+    from datasets import real
+
+    folder = real.resolve_data_dir(data_dir)
+    out = {"folder": str(folder), "error": "", "sources_file": "", "datasets": []}
+    try:
+        manifest = real.read_manifest(folder)
+    except InputError as exc:  # DataUnavailableError included
+        out["error"] = str(exc).split(". ")[0]
+        manifest = {}
+    sources_file = folder / "SOURCES.md"
+    if sources_file.is_file():
+        out["sources_file"] = str(sources_file)
+    sources = _sources_table(sources_file)
+    for name, entry in manifest.items():
+        out["datasets"].append({"name": name, "file": entry["file"], "modality": entry.get("modality", ""),
+                                "source": sources.get(entry["file"], f"not stated in {folder / 'SOURCES.md'}")})
+    for candidate in (folder / real.BRAINSMALL_FILE, real.DEBIAN_BRAINSMALL):
+        if candidate.is_file():
+            out["datasets"].append({"name": "brainsmall", "file": str(candidate), "modality": "MRI",
+                                    "source": "VolPack's example data (Debian package libvolpack1-dev)"})
+            break
+    return out

@@ -33,13 +33,13 @@ def environment(args):
 
 
 def render(args):
-    from pipeline.runner import execute
+    from pipeline.runner import execute_limited
 
     fields = json.loads(args.run)
     run = Run(**{**fields, "views": tuple(fields["views"])})
     device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
     device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
-    record = execute(run, profile=_profile(args.profile), device_environment=device_env)
+    record = execute_limited(run, profile=_profile(args.profile), device_environment=device_env)
     print(f"{run.key}: {record['status']} {record['reason']}".rstrip())
 
 
@@ -62,6 +62,10 @@ def collect(args):
 def report(args):
     import pandas as pd
 
+    import renderers
+    from pipeline.environment import real_data_provenance
+    from pipeline.experiments import all_experiments
+    from pipeline.experiments.planned import planned
     from reports.html import build_report
 
     profile = _profile(args.profile)
@@ -72,7 +76,11 @@ def report(args):
     claims_df[["measured", "detail"]] = claims_df[["measured", "detail"]].fillna("")
     environment_ = json.loads((results / "environment.json").read_text())
     environment_["profile"] = json.dumps(dataclasses.asdict(profile), sort_keys=True)
-    index = build_report(runs_df, claims_df, selected(profile), results_dir=results, environment=environment_)
+    backends = [{"name": b.name, "available": b.available, "reason": b.reason or "", "description": b.description}
+                for b in renderers.available()]
+    index = build_report(runs_df, claims_df, selected(profile), results_dir=results, environment=environment_,
+                         backends=backends, planned=planned(renderers.names(), all_experiments().values()),
+                         real_data=real_data_provenance(profile.real_data))
     print(f"volbench report: {index.resolve()}")
 
 

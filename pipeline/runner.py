@@ -6,8 +6,11 @@ PNG (to look at) per view. A run that cannot happen here is recorded as ``skippe
 with the error. Neither is ever dropped silently.
 """
 
+import hashlib
 import json
+import multiprocessing
 import os
+import time
 import traceback
 from pathlib import Path
 
@@ -51,15 +54,76 @@ def metrics_record_path(results_dir, experiment, run_id):
     return Path(results_dir) / "metrics" / experiment / f"{run_id}.json"
 
 
-def execute(run, *, profile, device_environment=None):
-    """Render every view of ``run``, write its images and record; return the record."""
-    record_path = run_record_path(profile.results, run.experiment, run.id)
-    record = {
+def _new_record(run, device_environment):
+    return {
         "experiment": run.experiment, "run": run.id, "backend": run.backend, "options": run.options,
         "tags": run.tags, "reference": run.reference, "spec_hash": run.spec_hash(),
         "status": "ok", "reason": "", "views": [], "statistics": None,
         "environment": {**host_environment(), **(device_environment or {})},
     }
+
+
+def time_limit_reason(limit):
+    """The recorded reason of a run killed at the profile's time limit."""
+    return f"exceeded the profile's render_time_limit of {limit:g} s"
+
+
+def execute_limited(run, *, profile, device_environment=None):
+    """:func:`execute` under the profile's ``render_time_limit``; return the record.
+
+    With a limit, the run executes in a child process (``spawn``: a fresh interpreter, safe
+    whatever threads this process has started; it gets this process's backend registry). A child
+    still running at the limit is killed (SIGKILL: a compiled kernel cannot be interrupted
+    otherwise) and the run is recorded as ``failed`` with :func:`time_limit_reason`; a child that
+    dies without writing its record (a crash in native code) is recorded as failed with its exit
+    code. Either way this returns normally, so the job succeeds, the report lists the failure and
+    the rest of the pipeline goes on. The limit covers the whole run: start-up, every view and
+    every warm-up and timed frame.
+    """
+    limit = profile.render_time_limit
+    if limit is None:
+        return execute(run, profile=profile, device_environment=device_environment)
+    record_path = run_record_path(profile.results, run.experiment, run.id)
+    record_path.unlink(missing_ok=True)  # an old record must not pass for this attempt's
+    context = multiprocessing.get_context("spawn")
+    child = context.Process(target=_execute_child, name=f"volbench render {run.key}", daemon=True,
+                            args=(run, profile, device_environment, dict(renderers.BACKENDS)))
+    started = time.monotonic()
+    child.start()
+    child.join(limit)
+    if child.is_alive():
+        child.kill()
+        child.join()
+        reason = time_limit_reason(limit)
+    elif record_path.is_file():
+        return json.loads(record_path.read_text())
+    else:
+        reason = f"the render process died without a record (exit code {child.exitcode})"
+    record = _new_record(run, device_environment)
+    record.update(status="failed", reason=reason, elapsed=time.monotonic() - started)
+    write_json(record_path, record)
+    return record
+
+
+def _execute_child(run, profile, device_environment, backends):
+    """Body of :func:`execute_limited`'s child: the parent's registry, then :func:`execute`.
+
+    An error :func:`execute` lets through (a scene that cannot be built) is recorded as a failed
+    run here, since the parent only sees an exit code.
+    """
+    renderers.BACKENDS.update(backends)
+    try:
+        execute(run, profile=profile, device_environment=device_environment)
+    except Exception as exc:
+        record = _new_record(run, device_environment)
+        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc(limit=8))
+        write_json(run_record_path(profile.results, run.experiment, run.id), record)
+
+
+def execute(run, *, profile, device_environment=None):
+    """Render every view of ``run``, write its images and record; return the record."""
+    record_path = run_record_path(profile.results, run.experiment, run.id)
+    record = _new_record(run, device_environment)
     try:
         scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size, data_dir=profile.real_data)
         renderer = renderers.get(run.backend, **run.options)
@@ -125,3 +189,108 @@ def evaluate(record_path, reference_path, output_path):
             metrics["views"][view["view"]] = {**values, "diff_png": str(diff_path)}
     write_json(output_path, metrics)
     return metrics
+
+
+# ---------------------------------------------------------------------------------------------
+# What makes the Snakefile rerun a job: the code that shapes its output, and failed runs.
+
+ROOT = Path(__file__).resolve().parent.parent
+
+JOB_SOURCES = {
+    "volume": ("core", "datasets"),
+    "environment": ("core", "pipeline/environment.py"),
+    "render": ("core", "datasets", "renderers/__init__.py", "renderers/base", "pipeline/runner.py",
+               "pipeline/scene_io.py", "pipeline/timing.py", "pipeline/environment.py",
+               "pipeline/experiments/base.py", "reports/imageio.py"),
+    "evaluate": ("core", "pipeline/runner.py", "reports/metrics.py", "reports/imageio.py"),
+    "collect": ("core", "pipeline/runner.py", "pipeline/collect.py", "pipeline/experiments", "reports/metrics.py"),
+    "report": ("core", "pipeline/experiments", "reports"),
+}
+"""Per Snakemake rule, the files and folders (relative to the repository) whose code shapes its
+output; a render job adds its backend's package. Each job's digest (:func:`job_code_digest`)
+also covers its entry function in :mod:`pipeline.jobs`. Folders count every file in them
+(templates and shaders too), except ``__pycache__``."""
+
+
+def source_files(entries, *, root=ROOT):
+    """The files named by ``entries`` (files or folders, relative to ``root``), sorted."""
+    root = Path(root)
+    files = set()
+    for entry in entries:
+        path = root / entry
+        if path.is_file():
+            files.add(path)
+        elif path.is_dir():
+            files.update(p for p in path.rglob("*")
+                         if p.is_file() and "__pycache__" not in p.parts and p.suffix not in (".pyc", ".nbi", ".nbc"))
+        else:
+            raise FileNotFoundError(f"job source {entry!r} does not exist under {root}")
+    return sorted(files)
+
+
+def source_digest(entries, *, root=ROOT, extra=()):
+    """Hex digest of the content (and relative names) of the files ``entries`` name, plus ``extra`` strings.
+
+    Content, not modification times: a checkout or a copy that changes no byte reruns nothing.
+    """
+    root = Path(root)
+    digest = hashlib.sha256()
+    for path in source_files(entries, root=root):
+        digest.update(path.relative_to(root).as_posix().encode() + b"\0")
+        digest.update(hashlib.sha256(path.read_bytes()).digest())
+    for text in extra:
+        digest.update(text.encode() + b"\0")
+    return digest.hexdigest()[:16]
+
+
+def job_code_digest(rule, *, backend=None, root=ROOT):
+    """The digest a Snakemake job carries as a param: its :data:`JOB_SOURCES`, entry function and backend."""
+    import inspect
+
+    from pipeline import jobs
+
+    entries = list(JOB_SOURCES[rule])
+    if backend is not None:
+        module = renderers.backend_module(backend)
+        package = Path(*module.split("."))
+        entries.append(str(package) if (Path(root) / package).is_dir() else f"{package}.py")
+    return source_digest(entries, root=root, extra=[inspect.getsource(getattr(jobs, rule))])
+
+
+def retry_marker_path(results_dir, experiment, run_id):
+    """``results/.retry/<experiment>/<run>``: an input of the run's render job (see :func:`mark_retry`)."""
+    return Path(results_dir) / ".retry" / experiment / run_id
+
+
+def mark_retry(results_dir, experiment, run_id):
+    """Make the run's retry marker say whether its render job must run again; return its path.
+
+    A failed run's record is a finished output to Snakemake, which would keep it forever. So
+    every render job takes this marker as an input, and the workflow calls this for every run
+    when it starts: for a run whose record is ``failed`` (or unreadable) the marker is rewritten
+    now, newer than the record and with text naming that record (Snakemake skips a newer input
+    whose checksum it has recorded before), so Snakemake reruns the job ("updated input files"),
+    a dry run included; for any other run the marker is empty and dated 1970, older than any
+    record, so it never triggers. The record stays until the retry replaces it, and skipped runs (which cannot
+    happen here) are not retried.
+    """
+    marker = retry_marker_path(results_dir, experiment, run_id)
+    record_path = run_record_path(results_dir, experiment, run_id)
+    failed = False
+    if record_path.is_file():
+        try:
+            failed = json.loads(record_path.read_text()).get("status") not in ("ok", "skipped")
+        except (OSError, ValueError, AttributeError):
+            failed = True
+    marker.parent.mkdir(parents=True, exist_ok=True)
+    if failed:
+        # Snakemake ignores a newer input whose checksum it has seen before, so the marker's text
+        # names this very record (its modification time and digest): each failure is new to it.
+        stamp = f"{record_path.stat().st_mtime_ns} {hashlib.sha256(record_path.read_bytes()).hexdigest()[:16]}"
+        marker.write_text(f"retry {experiment}/{run_id}: its last record ({stamp}) is failed or unreadable\n")
+        now = time.time()
+        os.utime(marker, (now, max(now, record_path.stat().st_mtime + 1)))
+    else:
+        marker.write_text("")
+        os.utime(marker, (0, 0))
+    return marker

@@ -38,6 +38,7 @@ from core.camera import Camera
 from core.errors import InputError
 from core.scene import Scene, Shading, VolumeInstance, centering_transform
 from core.transfer import GradientOpacity, TransferFunction
+from core.validation import check_finite_vector, check_matrix4, check_positive_vector, check_scalar, check_value_range
 
 SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes"}
 VOLUME_KEYS = {"dataset", "size", "seed", "params", "file", "spacing", "value_range", "preset",
@@ -53,14 +54,26 @@ def _check_keys(mapping, allowed, *, where):
         raise InputError(f"{where}: unknown keys {sorted(unknown)}; allowed: {sorted(allowed)}")
 
 
+def _points(points, width, *, where):
+    """Control points as a float array ``(n, 1 + width)``, or an :class:`InputError` naming them."""
+    example = "[x, r, g, b, a]" if width == 4 else "[x, g]"
+    try:
+        array = np.asarray(points, dtype=np.float64)
+    except (TypeError, ValueError):
+        array = None
+    if array is None or array.ndim != 2 or array.shape[1] != width + 1 or len(array) < 1:
+        raise InputError(f"{where}: expected a list of {example} rows of numbers, got {points!r}")
+    return array
+
+
 def rotation_matrix(axis, degrees):
     """4×4 rotation about ``axis`` by ``degrees`` (right-handed)."""
-    axis = np.asarray(axis, dtype=np.float64)
+    axis = np.asarray(check_finite_vector(axis, length=3, name="transform rotate axis"))
     norm = np.linalg.norm(axis)
     if norm == 0 or not np.isfinite(norm):
         raise InputError(f"transform rotate axis: must be a non-zero finite vector, got {axis.tolist()}")
     x, y, z = axis / norm
-    theta = np.radians(float(degrees))
+    theta = np.radians(check_scalar(degrees, name="transform rotate degrees"))
     c, s, t = np.cos(theta), np.sin(theta), 1 - np.cos(theta)
     matrix = np.eye(4)
     matrix[:3, :3] = [[t * x * x + c, t * x * y - s * z, t * x * z + s * y],
@@ -77,16 +90,20 @@ def build_transform(spec, volume, *, where="transform"):
     if "matrix" in spec:
         if len(spec) > 1:
             raise InputError(f"{where}: 'matrix' cannot be combined with translate/rotate/scale")
-        return np.asarray(spec["matrix"], dtype=np.float64)
+        return check_matrix4(spec["matrix"], name=f"{where} matrix")
     scale = np.eye(4)
     factors = spec.get("scale", 1.0)
-    scale[:3, :3] = np.diag(np.broadcast_to(np.asarray(factors, dtype=np.float64), (3,)))
+    if np.ndim(factors) == 0:
+        factors = (check_scalar(factors, name=f"{where} scale", low=0, low_open=True),) * 3
+    else:
+        factors = check_positive_vector(factors, length=3, name=f"{where} scale")
+    scale[:3, :3] = np.diag(factors)
     rotate = np.eye(4)
     if "rotate" in spec:
         _check_keys(spec["rotate"], {"axis", "degrees"}, where=f"{where} rotate")
         rotate = rotation_matrix(spec["rotate"].get("axis", (0, 1, 0)), spec["rotate"].get("degrees", 0))
     translate = np.eye(4)
-    translate[:3, 3] = np.asarray(spec.get("translate", (0, 0, 0)), dtype=np.float64)
+    translate[:3, 3] = check_finite_vector(spec.get("translate", (0, 0, 0)), length=3, name=f"{where} translate")
     return translate @ rotate @ scale @ centering_transform(volume)
 
 
@@ -94,12 +111,22 @@ def dataset_arguments(spec, *, size=None):
     """Keyword arguments of :func:`datasets.load` for a ``dataset`` volume entry.
 
     Phantoms get the entry's ``size`` (else ``size``) and ``seed`` (else 0); the pipeline names
-    its cached phantom files with the same arguments, so both must come from here.
+    its cached phantom files with the same arguments, so both must come from here. A real scan
+    has its own size: ``size``, ``seed`` or ``params`` on one is an error, never ignored.
     """
-    kwargs = dict(spec.get("params") or {})
+    params = spec.get("params") or {}
+    if not isinstance(params, dict):
+        raise InputError(f"volume {spec['dataset']!r} params: expected a mapping of generator parameters, "
+                         f"got {params!r}")
+    kwargs = dict(params)
     if datasets.get(spec["dataset"]).kind == "phantom":
         kwargs["size"] = spec.get("size", size)
         kwargs["seed"] = spec.get("seed", 0)
+    else:
+        given = [key for key in ("size", "seed", "params") if key in spec]
+        if given:
+            raise InputError(f"volume {spec['dataset']!r} is a real scan with its own size; remove "
+                             f"{', '.join(repr(k) for k in given)} (only phantoms take them)")
     return kwargs
 
 
@@ -107,22 +134,29 @@ def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
     """The :class:`Volume` a volume entry refers to (a registered data set or a file)."""
     if ("dataset" in spec) == ("file" in spec):
         raise InputError(f"{where}: give exactly one of 'dataset' or 'file'")
+    value_range = None
+    if "value_range" in spec:
+        value_range = check_value_range(spec["value_range"], name=f"{where} value_range")
+    if "spacing" in spec:
+        check_positive_vector(spec["spacing"], length=3, name=f"{where} spacing")
     if "dataset" in spec:
-        return datasets.load(spec["dataset"], cache_dir=cache_dir, data_dir=data_dir,
-                             **dataset_arguments(spec, size=size))
-    path = Path(spec["file"])
-    if base_dir is not None and not path.is_absolute():
-        path = Path(base_dir) / path
-    suffix = path.suffix.lower()
-    if suffix == ".den":
-        volume = datasets.load_den(path)
-    elif suffix in (".nrrd", ".nhdr"):
-        volume = datasets.load_nrrd(path)
+        volume = datasets.load(spec["dataset"], cache_dir=cache_dir, data_dir=data_dir,
+                               **dataset_arguments(spec, size=size))
     else:
-        volume = datasets.load_raw(path)
+        path = Path(spec["file"])
+        if base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        suffix = path.suffix.lower()
+        # The range goes to the reader: a float32 file outside [0, 1] is refused without one.
+        if suffix == ".den":
+            volume = datasets.load_den(path)
+        elif suffix in (".nrrd", ".nhdr"):
+            volume = datasets.load_nrrd(path, value_range=value_range)
+        else:
+            volume = datasets.load_raw(path, value_range=value_range)
     if "spacing" in spec or "value_range" in spec:
         volume = Volume(volume.data, spacing=spec.get("spacing", volume.spacing),
-                        value_range=spec.get("value_range", volume.value_range),
+                        value_range=value_range or volume.value_range,
                         name=volume.name, labels=volume.labels, meta=volume.meta)
     return volume
 
@@ -138,9 +172,11 @@ def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, dat
     elif "preset" in spec:
         raise InputError(f"{where}: 'preset' needs a 'dataset'; give a 'transfer_function' for files")
     if "transfer_function" in spec:
-        tf_spec = dict(spec["transfer_function"])
+        tf_spec = spec["transfer_function"]
         _check_keys(tf_spec, {"points", "size", "reference_step", "name"}, where=f"{where} transfer_function")
-        transfer_function = TransferFunction.from_points(tf_spec.pop("points", None), **tf_spec)
+        tf_spec = dict(tf_spec)
+        points = _points(tf_spec.pop("points", None), 4, where=f"{where} transfer_function points")
+        transfer_function = TransferFunction.from_points(points, **tf_spec)
     elif preset is not None:
         transfer_function = preset.transfer_function
     else:
@@ -153,7 +189,8 @@ def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, dat
         else:
             _check_keys(g_spec, {"points", "size", "name"}, where=f"{where} gradient_opacity")
             g_spec = dict(g_spec)
-            gradient_opacity = GradientOpacity.from_points(g_spec.pop("points", None), **g_spec)
+            points = _points(g_spec.pop("points", None), 1, where=f"{where} gradient_opacity points")
+            gradient_opacity = GradientOpacity.from_points(points, **g_spec)
     isovalue = spec.get("isovalue", preset.effective_isovalue if preset is not None else None)
     return VolumeInstance(
         volume=volume,

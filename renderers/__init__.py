@@ -10,6 +10,7 @@ no backend, and a backend whose optional dependency is missing is reported by
 """
 
 import importlib
+import inspect
 from dataclasses import dataclass
 
 from core.errors import BackendUnavailableError, InputError
@@ -65,10 +66,35 @@ def get(name, **options):
         The backend cannot run here (the message says why).
     """
     cls = backend_class(name)
+    check_options(name, cls, options)
     ok, reason = cls.probe()
     if not ok:
         raise BackendUnavailableError(f"backend {name!r} is not available here: {reason}")
     return cls(**options)
+
+
+def option_names(cls):
+    """The keyword options a backend class's constructor takes (``None``: it accepts any)."""
+    parameters = list(inspect.signature(cls).parameters.values())
+    if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
+        return None
+    return [p.name for p in parameters if p.kind in (inspect.Parameter.KEYWORD_ONLY,
+                                                     inspect.Parameter.POSITIONAL_OR_KEYWORD)]
+
+
+def check_options(name, cls, options):
+    """Raise :class:`InputError` for an option the backend does not take, listing the valid ones.
+
+    Checked against the constructor's signature before the backend is built, so a typo
+    (``stepfactor``) is a clear error instead of the constructor's ``TypeError``.
+    """
+    valid = option_names(cls)
+    if valid is None:
+        return
+    unknown = sorted(set(options) - set(valid))
+    if unknown:
+        raise InputError(f"backend {name!r}: unknown option{'s' if len(unknown) > 1 else ''} "
+                         f"{', '.join(unknown)}; valid options: {', '.join(valid) or 'none'}")
 
 
 def available():

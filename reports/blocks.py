@@ -13,13 +13,30 @@ class Text:
 
 
 @dataclass
+class Takeaways:
+    """Sentences computed from the numbers; the page shows them at its top, under the heading.
+
+    Build them with :mod:`reports.takeaways` (or any function of the results), never by hand, so
+    that they change when the numbers do.
+    """
+
+    sentences: list = field(default_factory=list)
+
+
+@dataclass
 class Table:
-    """A table, written as HTML and, when ``csv_name`` is given, as a CSV beside the report."""
+    """A table, written as HTML and, when ``csv_name`` is given, as a CSV beside the report.
+
+    ``links`` maps a column to the text of a link: that column holds paths relative to the report
+    folder (e.g. from :meth:`reports.html.ReportContext.record`) and each cell shows the text as a
+    link to its path (empty cells stay empty). The CSV keeps the paths.
+    """
 
     title: str
     frame: pd.DataFrame
     caption: str = ""
     csv_name: str | None = None
+    links: dict = field(default_factory=dict)
 
 
 @dataclass
@@ -33,16 +50,29 @@ class Figure:
 
 @dataclass
 class GalleryItem:
-    """One picture with an optional difference image, both relative to the report folder."""
+    """One picture with an optional difference image, all relative to the report folder.
+
+    ``extra`` holds more ``(label, path)`` pictures shown beside it at the same size (a real scan
+    beside its phantom stand-in); ``label`` names the first picture when there are several.
+    """
 
     caption: str
     image: str
     difference: str | None = None
     note: str = ""
+    label: str = ""
+    extra: tuple = ()
 
 
 @dataclass
 class Gallery:
+    """Pictures side by side. Difference images in one gallery share one fixed scale.
+
+    ``diff_scale`` is the absolute error shown at the top of the colour map; the report draws its
+    colour bar once above the gallery and states the scale.
+    """
+
     title: str
     items: list = field(default_factory=list)
     caption: str = ""
+    diff_scale: float | None = None

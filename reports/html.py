@@ -1,20 +1,33 @@
 """The static HTML report: ``index.html`` plus one page per paper, CSV and SVG beside them.
 
-Everything a page shows lives inside the report folder (images and charts are copied in), so the
-folder opens from disk and can be moved or archived as a whole.
+Everything a page shows or links to lives inside the report folder (images, charts, each run's
+JSON record and EXR images are copied in), so the folder opens from disk and can be moved or
+archived as a whole.
+
+The index answers "which technique should I use, and where does it fail": take-aways computed from
+the numbers (:mod:`reports.takeaways`), a techniques × data sets table (median frame time with
+its fastest and slowest frame, PSNR / SSIM / FLIP against the reference, links to every run's
+record and EXR), the claims per paper, the backends that cannot run here and the papers whose
+backends do not exist yet, and the provenance of the numbers (date, machine, real data).
 """
 
+import html
+import math
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import jinja2
+import numpy as np
 import pandas as pd
 
 from core.papers import PAPERS
-from reports import blocks
+from reports import blocks, takeaways
+from reports.imageio import read_image, write_png
+from reports.metrics import difference_image
 
 TEMPLATES = Path(__file__).parent / "templates"
+GIB = 1024 ** 3
 
 
 @dataclass
@@ -26,21 +39,68 @@ class ReportContext:
     experiment: str
     _copied: set = field(default_factory=set)
 
-    def image(self, path):
-        """Copy an image from the results folder into the report; return its relative path."""
-        if path is None or (isinstance(path, float) and pd.isna(path)):
+    def _relative(self, source):
+        try:
+            return Path(source).resolve().relative_to(self.results_dir.resolve())
+        except ValueError:
+            return Path("external") / Path(source).name
+
+    def _copy(self, path, folder):
+        if path is None or (isinstance(path, float) and pd.isna(path)) or path == "":
             return None
         source = Path(path)
-        try:
-            relative = source.resolve().relative_to(self.results_dir.resolve())
-        except ValueError:
-            relative = Path("external") / source.name
-        target = self.report_dir / "img" / relative
+        if not source.exists():
+            return None
+        relative = Path(folder) / self._relative(source)
+        target = self.report_dir / relative
         if target not in self._copied:
             target.parent.mkdir(parents=True, exist_ok=True)
             shutil.copyfile(source, target)
             self._copied.add(target)
-        return str(Path("img") / relative)
+        return relative.as_posix()
+
+    def image(self, path):
+        """Copy an image from the results folder into the report; return its relative path."""
+        return self._copy(path, "img")
+
+    def file(self, path):
+        """Copy a run's record or EXR into the report's ``data`` folder; return its relative path.
+
+        ``None`` when ``path`` is missing or does not exist (the link is then left out).
+        """
+        return self._copy(path, "data")
+
+    def difference(self, reference_exr, test_exr, scale):
+        """Write the difference image of two EXRs at a fixed ``scale``; return its relative path."""
+        if any(p is None or (isinstance(p, float) and pd.isna(p)) for p in (reference_exr, test_exr)):
+            return None
+        relative = Path("img") / "diff" / self._relative(test_exr).with_suffix("")
+        relative = relative.with_name(f"{relative.name}-diff-{scale:g}.png")
+        target = self.report_dir / relative
+        if target not in self._copied:
+            target.parent.mkdir(parents=True, exist_ok=True)
+            write_png(target, difference_image(read_image(reference_exr), read_image(test_exr), scale=scale))
+            self._copied.add(target)
+        return relative.as_posix()
+
+    def colorbar(self, scale):
+        """The SVG colour bar of difference images at ``scale``; return its relative path."""
+        from reports import plots
+
+        relative = Path("plots") / f"colorbar-{scale:g}.svg"
+        target = self.report_dir / relative
+        if target not in self._copied:
+            plots.difference_colorbar(target, scale)
+            self._copied.add(target)
+        return relative.as_posix()
+
+    def run_links(self, frame):
+        """``frame`` with ``record`` and ``exr`` columns replaced by links copied into the report."""
+        frame = frame.copy()
+        for column in ("record", "exr"):
+            if column in frame:
+                frame[column] = [self.file(p) for p in frame[column]]
+        return frame
 
     def plot_path(self, name):
         """``(absolute path, relative path)`` for an SVG chart of this experiment."""
@@ -50,47 +110,224 @@ class ReportContext:
         return absolute, str(relative)
 
 
+# ------------------------------------------------------------------------------------------ tables
 def _format_cell(value):
-    if isinstance(value, float):
+    if isinstance(value, (float, np.floating)):
         if pd.isna(value):
             return ""
+        if math.isinf(value):
+            return "∞" if value > 0 else "−∞"
         return f"{value:.4g}"
-    return value
+    if value is None or (not isinstance(value, str) and pd.isna(value)):
+        return ""
+    return str(value)
 
 
-def _table_html(frame):
-    shown = frame.map(_format_cell) if not frame.empty else frame
-    return shown.to_html(index=False, escape=True, border=0, classes="data", na_rep="")
+def _link(href, text):
+    if href is None or (isinstance(href, float) and pd.isna(href)) or href == "":
+        return ""
+    return f'<a href="{html.escape(str(href))}">{html.escape(text)}</a>'
 
 
-def _render_block(block, report_dir):
+def _table_html(frame, links=None):
+    """HTML of a table: escaped cells, ``links`` columns as links, readable headers."""
+    links = links or {}
+    columns = []
+    for column in frame.columns:
+        numeric = column not in links and pd.api.types.is_numeric_dtype(frame[column].dtype) \
+            and not pd.api.types.is_bool_dtype(frame[column].dtype)
+        if column in links:
+            cells = [_link(v, links[column]) for v in frame[column]]
+        else:
+            cells = [html.escape(_format_cell(v)) for v in frame[column]]
+        columns.append((html.escape(str(column).replace("_", " ")), "num" if numeric else "text", cells))
+    head = "".join(f'<th class="{kind}">{name}</th>' for name, kind, _ in columns)
+    body = "".join("<tr>" + "".join(f'<td class="{kind}">{cells[i]}</td>' for _, kind, cells in columns) + "</tr>\n"
+                   for i in range(len(frame)))
+    return f'<div class="scroll"><table class="data">\n<tr>{head}</tr>\n{body}</table></div>'
+
+
+def _render_block(block, ctx):
+    report_dir = ctx.report_dir
     if isinstance(block, blocks.Table):
         csv = None
         if block.csv_name:
             csv = f"csv/{block.csv_name}"
             (report_dir / "csv").mkdir(exist_ok=True)
             block.frame.to_csv(report_dir / csv, index=False)
-        return {"kind": "table", "title": block.title, "caption": block.caption, "html": _table_html(block.frame), "csv": csv}
+        return {"kind": "table", "title": block.title, "caption": block.caption,
+                "html": _table_html(block.frame, block.links), "csv": csv}
     if isinstance(block, blocks.Figure):
         return {"kind": "figure", "title": block.title, "caption": block.caption, "path": block.path}
     if isinstance(block, blocks.Gallery):
-        return {"kind": "gallery", "title": block.title, "caption": block.caption, "items": block.items}
+        items = []
+        for item in block.items:
+            panels = [(item.label or ("render" if item.difference else ""), item.image)]
+            if item.difference:
+                panels.append(("difference", item.difference))
+            panels.extend(tuple(extra) for extra in item.extra)
+            items.append({"caption": item.caption, "note": item.note, "panels": panels})
+        scale = block.diff_scale
+        return {"kind": "gallery", "title": block.title, "caption": block.caption, "items": items,
+                "colorbar": ctx.colorbar(scale) if scale else None, "scale": scale,
+                "wide": any(len(i["panels"]) > 1 for i in items)}
     if isinstance(block, blocks.Text):
         return {"kind": "text", "text": block.text}
+    if isinstance(block, blocks.Takeaways):
+        return {"kind": "takeaways", "sentences": list(block.sentences)}
     raise TypeError(f"unknown report block {type(block).__name__}")
 
 
-def _status_summary(frame):
+def _status_summary(frame, ctx):
     if frame.empty:
         return {"ok": 0, "skipped": 0, "failed": 0}, []
     per_run = frame.drop_duplicates(["experiment", "run"])
     counts = per_run.status.value_counts().to_dict()
-    problems = per_run[per_run.status != "ok"].reindex(columns=["run", "backend", "status", "reason"]).to_dict("records")
-    return {s: int(counts.get(s, 0)) for s in ("ok", "skipped", "failed")}, problems
+    problems = per_run[per_run.status != "ok"].reindex(columns=["run", "backend", "status", "reason", "record"])
+    problems["record"] = [ctx.file(p) for p in problems.record]
+    return {s: int(counts.get(s, 0)) for s in ("ok", "skipped", "failed")}, problems.to_dict("records")
 
 
-def build_report(runs_df, claims_df, experiments, *, results_dir, environment):
-    """Write the report into ``results_dir/report``; return the path of ``index.html``."""
+# ------------------------------------------------------------------------- techniques × data sets
+def _technique_label(backend, setting):
+    return f"{backend} ({setting})" if setting and setting != "default" else str(backend)
+
+
+def technique_rows(frame):
+    """One row per run compared with a reference: technique, data set, time (s), PSNR, SSIM, FLIP.
+
+    ``frame`` is tidy results (one row per run and view); views are reduced to the median time
+    and metrics, the fastest frame's minimum and the slowest frame's maximum.
+    """
+    needed = {"status", "reference", "time_total", "psnr"}
+    if frame.empty or not needed <= set(frame.columns):
+        return pd.DataFrame(columns=["technique", "backend", "setting", "dataset", "time_total", "time_min",
+                                     "time_max", "psnr", "ssim", "flip", "record", "exr", "run", "experiment"])
+    rows = frame[(frame.status == "ok") & frame.reference.notna()].copy()
+    rows["setting"] = rows["setting"].fillna("") if "setting" in rows else ""
+    rows["dataset"] = rows["scene"] if "scene" in rows else rows.get("dataset", "")
+    for column in ("time_total_min", "time_total_max", "ssim", "flip", "record", "exr"):
+        if column not in rows:
+            rows[column] = np.nan
+    out = []
+    for (experiment, run), group in rows.groupby(["experiment", "run"], sort=False):
+        first = group.iloc[0]
+        out.append({
+            "technique": _technique_label(first.backend, first.setting), "backend": first.backend,
+            "setting": first.setting, "dataset": first.dataset,
+            "time_total": float(group.time_total.median()), "time_min": float(group.time_total_min.min()),
+            "time_max": float(group.time_total_max.max()), "psnr": float(group.psnr.median()),
+            "ssim": float(group.ssim.median()), "flip": float(group.flip.median()),
+            "record": first.record, "exr": first.exr, "run": run, "experiment": experiment,
+        })
+    return pd.DataFrame(out)
+
+
+def _technique_matrix(rows, ctx, psnr_min):
+    """Techniques (rows) × data sets (columns); each cell one run with its numbers and links."""
+    if rows.empty:
+        return None
+    datasets = list(dict.fromkeys(rows.dataset))
+    matrix = []
+    for technique, group in rows.groupby("technique", sort=False):
+        cells = []
+        for dataset in datasets:
+            match = group[group.dataset == dataset]
+            if match.empty:
+                cells.append(None)
+                continue
+            r = match.iloc[0]
+            cells.append({
+                "time": takeaways.number(r.time_total * 1e3),
+                "range": f"{takeaways.number(r.time_min * 1e3)}–{takeaways.number(r.time_max * 1e3)}",
+                "psnr": takeaways.number(r.psnr), "ssim": takeaways.number(r.ssim),
+                "flip": takeaways.number(r.flip), "fails": bool(r.psnr < psnr_min),
+                "record": ctx.file(r.record), "exr": ctx.file(r.exr), "run": r.run,
+            })
+        matrix.append({"technique": group.backend.iloc[0], "setting": group.setting.iloc[0], "cells": cells})
+    return {"datasets": datasets, "rows": matrix}
+
+
+# ------------------------------------------------------------------------------------ provenance
+def provenance(environment, runs_df=None, real_data=None):
+    """``[(label, text)]``: when and where the numbers were measured, and where real data came from."""
+    environment = dict(environment or {})
+    runs_df = runs_df if runs_df is not None else pd.DataFrame()
+
+    def values(column):
+        if column in runs_df:
+            found = [v for v in pd.unique(runs_df[column].dropna())]
+            if found:
+                return found
+        return [environment[column]] if environment.get(column) not in (None, "") else []
+
+    dates = sorted(str(d) for d in values("date"))
+    if len(dates) > 1:
+        date = f"{dates[0]} to {dates[-1]}"
+    else:
+        date = dates[0] if dates else "not recorded"
+    memory = values("memory_bytes")
+    threads = values("numba_threads")
+    facts = [
+        ("run date (UTC)", date),
+        ("CPU", ", ".join(str(v) for v in values("cpu_model")) or "not recorded"),
+        ("cores", ", ".join(str(int(float(v))) for v in values("cpu_cores")) or "not recorded"),
+        ("memory", ", ".join(f"{float(v) / GIB:.1f} GiB" for v in memory) or "not recorded"),
+        ("Numba threads", ", ".join(str(int(float(v))) for v in threads) or "not recorded"),
+        ("git commit", ", ".join(str(v) for v in values("git_commit")) or "not recorded"),
+    ]
+    if real_data:
+        used = [d["name"] for d in real_data.get("datasets", [])]
+        where = real_data.get("folder", "not configured")
+        text = f"read in place from {where}"
+        if real_data.get("error"):
+            text += f" ({real_data['error']})"
+        elif used:
+            text += f"; {len(used)} scans listed ({', '.join(used)}), sources in the index"
+        facts.append(("real data", text))
+    return facts
+
+
+# --------------------------------------------------------------------------------------- building
+def _jinja():
+    return jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
+                              undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
+
+
+def _holds(value):
+    if value is True or value is False:
+        return value
+    if isinstance(value, str) and value in ("True", "False"):
+        return value == "True"
+    return None
+
+
+def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
+                 real_data=None, psnr_min=takeaways.PSNR_GOOD):
+    """Write the report into ``results_dir/report``; return the path of ``index.html``.
+
+    Parameters
+    ----------
+    runs_df, claims_df : pandas.DataFrame
+        ``runs.csv`` and ``claims.csv`` (a ``record`` column in ``runs_df`` links each row to its
+        run's JSON record).
+    experiments : list
+        The profile's experiments; those with a true ``overview`` attribute feed the index's
+        techniques × data sets table.
+    results_dir : path
+    environment : dict
+        ``environment.json`` (host, devices, date, memory).
+    backends : list of dict, optional
+        Every registered backend: ``name``, ``available``, ``reason``, ``description``.
+    planned : list of dict, optional
+        Papers whose experiments or backends do not exist yet: ``paper``, ``title``, ``needs``,
+        ``reason``.
+    real_data : dict, optional
+        ``folder``, ``error`` (when unreadable) and ``datasets``: ``name``, ``file``, ``modality``,
+        ``source``.
+    psnr_min : float
+        The PSNR (dB) the take-aways and the table call accurate.
+    """
     results_dir = Path(results_dir)
     report_dir = results_dir / "report"
     if report_dir.exists():
@@ -100,37 +337,80 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment):
                 *(results_dir / f"{e.name}.csv" for e in experiments)]:
         if csv.exists():
             shutil.copyfile(csv, report_dir / "csv" / csv.name)
-    env = jinja2.Environment(loader=jinja2.FileSystemLoader(TEMPLATES), autoescape=True,
-                             undefined=jinja2.StrictUndefined, keep_trailing_newline=True)
-    pages = {}
+    claims_df = claims_df.copy()
+    if "holds" in claims_df:
+        claims_df["holds"] = claims_df["holds"].map(_holds).astype(object)
+    env = _jinja()
+    facts = provenance(environment, runs_df, real_data)
+    pages, overview_rows = {}, []
     for experiment in experiments:
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
         ctx = ReportContext(report_dir, results_dir, experiment.name)
-        counts, problems = _status_summary(frame)
+        counts, problems = _status_summary(frame, ctx)
         claims = claims_df[claims_df.experiment == experiment.name].to_dict("records")
         paper_table = experiment.paper_table()
+        rendered = ([_render_block(b, ctx) for b in experiment.report(frame, ctx)] if counts["ok"] else [])
         section = {
             "name": experiment.name, "title": experiment.title, "description": experiment.description,
             "counts": counts, "problems": problems, "claims": claims,
             "paper_table": _table_html(paper_table) if paper_table is not None else None,
-            "blocks": [_render_block(b, report_dir) for b in experiment.report(frame, ctx)] if counts["ok"] else [],
+            "takeaways": [s for b in rendered if b["kind"] == "takeaways" for s in b["sentences"]]
+                         + takeaways.problems(problems),
+            "blocks": [b for b in rendered if b["kind"] != "takeaways"],
             "csv": f"csv/{experiment.name}.csv",
         }
+        if getattr(experiment, "overview", False):
+            overview_rows.append(technique_rows(frame))
         pages.setdefault(experiment.paper, []).append(section)
+
     page_template = env.get_template("paper.html")
     summaries = []
     for paper, sections in pages.items():
-        (report_dir / f"{paper}.html").write_text(page_template.render(
-            paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment))
         claims = [c for s in sections for c in s["claims"]]
+        page_takeaways = takeaways.claims(pd.DataFrame(claims)) + [t for s in sections for t in s["takeaways"]]
+        (report_dir / f"{paper}.html").write_text(page_template.render(
+            paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
+            provenance=facts, takeaways=page_takeaways))
         summaries.append({
             "paper": paper, "title": PAPERS.get(paper, paper), "page": f"{paper}.html",
             "experiments": [(s["name"], s["title"]) for s in sections],
             "claims_hold": sum(c["holds"] is True for c in claims),
             "claims_fail": sum(c["holds"] is False for c in claims),
-            "claims_unmeasured": sum(c["holds"] is None or pd.isna(c["holds"]) for c in claims),
+            "claims_unmeasured": sum(c["holds"] is None for c in claims),
             "runs": {k: sum(s["counts"][k] for s in sections) for k in ("ok", "skipped", "failed")},
         })
+
+    index_ctx = ReportContext(report_dir, results_dir, "index")
+    overview = pd.concat(overview_rows, ignore_index=True) if overview_rows else technique_rows(pd.DataFrame())
+    matrix = _technique_matrix(overview, index_ctx, psnr_min)
+    if not overview.empty:
+        overview.drop(columns=["record", "exr"]).to_csv(report_dir / "csv" / "techniques.csv", index=False)
+    backends = list(backends or [])
+    index_takeaways = (
+        takeaways.claims(claims_df)
+        + (takeaways.fastest_at_accuracy(overview, psnr_min=psnr_min, scene_col="dataset") if not overview.empty else [])
+        + (takeaways.accuracy_failures(overview, psnr_min=psnr_min, scene_col="dataset") if not overview.empty else [])
+        + _backend_sentences(backends, planned or [])
+        + takeaways.problems(runs_df.drop_duplicates(["experiment", "run"]) if not runs_df.empty else runs_df)
+    )
     index = report_dir / "index.html"
-    index.write_text(env.get_template("index.html").render(papers=summaries, environment=environment))
+    index.write_text(env.get_template("index.html").render(
+        papers=summaries, environment=environment, provenance=facts, takeaways=index_takeaways,
+        matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends, planned=list(planned or []),
+        real_data=real_data))
     return index
+
+
+def _backend_sentences(backends, planned):
+    sentences = []
+    down = [b["name"] for b in backends if not b.get("available")]
+    up = [b["name"] for b in backends if b.get("available")]
+    if backends:
+        sentence = f"{len(up)} of {len(backends)} registered backends run here ({', '.join(up) or 'none'})"
+        if down:
+            sentence += f"; cannot run: {', '.join(down)} (reasons below)"
+        sentences.append(sentence + ".")
+    if planned:
+        sentences.append(f"{len(planned)} papers have no experiment yet because their backends do not exist: "
+                         + ", ".join(p["paper"] for p in planned) + " (listed below with what each needs).")
+    return sentences

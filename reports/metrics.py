@@ -22,6 +22,7 @@ from core.errors import InputError
 from reports.imageio import check_image, composite_over, decode_srgb, read_image, write_image
 
 __all__ = [
+    "DEFAULT_DIFF_SCALE",
     "METRIC_KEYS",
     "compare",
     "compare_files",
@@ -298,21 +299,30 @@ def _opaque(rgb):
     return np.concatenate([rgb.astype(np.float32), alpha], axis=-1)
 
 
-def difference_image(reference, test, *, gain=None):
-    """Visualise where and how much two images differ.
+#: Absolute error shown at the top of the colour map by :func:`difference_image` when no scale
+#: is given: a quarter of the full [0, 1] intensity range. Fixed, so that images from different
+#: runs can be compared by eye; a report states the scale it uses beside a colour bar.
+DEFAULT_DIFF_SCALE = 0.25
+
+
+def difference_image(reference, test, *, scale=None, gain=None):
+    """Visualise where and how much two images differ, on a fixed scale.
 
     The per-pixel error is the largest absolute difference over the premultiplied RGBA channels
-    (the quantity behind :func:`max_error` and :func:`fraction_over`). It is multiplied by
-    ``gain``, clamped to [0, 1] and mapped through matplotlib's perceptually uniform ``magma``
-    colour map: black for no difference, pale yellow for ``error · gain ≥ 1``.
+    (the quantity behind :func:`max_error` and :func:`fraction_over`). It is divided by ``scale``,
+    clamped to [0, 1] and mapped through matplotlib's perceptually uniform ``magma`` colour map:
+    black for no difference, pale yellow for an error of ``scale`` or more. The scale never
+    depends on the images, so an error of 3e-7 stays black where one of 3e-2 shows
+    (:func:`reports.plots.difference_colorbar` draws the matching colour bar).
 
     Parameters
     ----------
     reference, test : numpy.ndarray
         Volbench images of the same shape.
+    scale : float, optional
+        Absolute error mapped to the top of the colour map; default :data:`DEFAULT_DIFF_SCALE`.
     gain : float, optional
-        Contrast factor. Default ``1 / max_error(reference, test)`` so the largest difference is
-        pale yellow (1 when the images are identical).
+        The older way to give the scale: ``gain = 1 / scale`` (give one of the two).
 
     Returns
     -------
@@ -321,12 +331,13 @@ def difference_image(reference, test, *, gain=None):
         :func:`reports.imageio.write_png`, which shows the exact magma colours.
     """
     ref, tst = _check_pair(reference, test)
+    if scale is not None and gain is not None:
+        raise InputError("difference_image: give scale or gain, not both")
+    if gain is not None:
+        scale = 1.0 / _check_positive(gain, "gain")
+    scale = _check_positive(DEFAULT_DIFF_SCALE if scale is None else scale, "scale")
     error = np.max(np.abs(ref - tst), axis=-1)
-    if gain is None:
-        peak = float(error.max())
-        gain = 1.0 / peak if peak > 0 else 1.0
-    gain = _check_positive(gain, "gain")
-    colours = colormaps["magma"](np.clip(error * gain, 0.0, 1.0))[..., :3]
+    colours = colormaps["magma"](np.clip(error / scale, 0.0, 1.0))[..., :3]
     return _opaque(decode_srgb(colours))  # matplotlib colours are sRGB display values
 
 
@@ -338,7 +349,7 @@ def compare_files(reference_path, test_path, *, diff_path=None, **kwargs):
     reference_path, test_path : str or os.PathLike
         Image files (EXR for exact values; see :func:`reports.imageio.read_image`).
     diff_path : str or os.PathLike, optional
-        Where to write :func:`difference_image` (auto gain), ``.png`` or ``.exr``.
+        Where to write :func:`difference_image` (fixed default scale), ``.png`` or ``.exr``.
     **kwargs
         ``data_range`` and ``threshold``, passed to :func:`compare`.
 

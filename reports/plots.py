@@ -16,11 +16,15 @@ from pathlib import Path
 import matplotlib as mpl
 import numpy as np
 import pandas as pd
+from matplotlib import colormaps
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
 from matplotlib.figure import Figure
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from core.errors import InputError
 
-__all__ = ["bar_compare", "convergence", "scaling", "speed_accuracy", "stage_breakdown"]
+__all__ = ["bar_compare", "convergence", "difference_colorbar", "scaling", "speed_accuracy", "stage_breakdown"]
 
 FIGSIZE = (6.0, 4.0)
 _RC = {
@@ -32,15 +36,51 @@ _RC = {
 }
 _MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
 _GUIDES = ("--", ":", "-.")  # line styles of convergence guide lines
-# Units of well-known columns, for axis labels (timings are seconds, CONVENTIONS, Results).
-_UNITS = {"psnr": "dB", "fps": "frames/s"}
+# Axis labels in words, with units, for the well-known columns of the results table.
+_WORDS = {
+    "rmse": "RMSE against the reference (intensity 0–1)",
+    "psnr": "PSNR against the reference (dB)",
+    "ssim": "SSIM against the reference (1 = identical)",
+    "flip": "FLIP error against the reference (0 = identical)",
+    "max_error": "largest absolute error (intensity 0–1)",
+    "step_factor": "step size (voxels)",
+    "step": "step size (voxels)",
+    "fps": "frames per second",
+    "volume_size": "volume size (voxels along the longest axis)",
+    "image_size": "image size (pixels along a side)",
+}
 
 
 def _label(column):
-    """Axis label for ``column``, with its unit where known."""
+    """Axis label for ``column``: words and unit for known columns, else the name with its unit.
+
+    Timings are seconds (CONVENTIONS, Results) unless the column ends in ``_ms``.
+    """
     name = str(column)
-    unit = "s" if name.startswith("time") else _UNITS.get(name.lower())
-    return f"{name} [{unit}]" if unit else name
+    if name.lower() in _WORDS:
+        return _WORDS[name.lower()]
+    if name.startswith("time"):
+        unit = "ms" if name.endswith("_ms") else "s"
+        what = name.removeprefix("time_").removesuffix("_ms").replace("_", " ") or "time"
+        return f"{'frame' if what == 'total' else what} time ({unit})"
+    return name.replace("_", " ")
+
+
+def _tick_text(value, _position=None):
+    """A log-axis tick as a plain number (0.5, 2, 1e-05), never as a power expression."""
+    if value <= 0:
+        return ""
+    return f"{value:g}"
+
+
+def _readable_log(axis):
+    """Ticks at 1, 2 and 5 × 10^k labelled as plain numbers (or only the decades when too many)."""
+    low, high = sorted(axis.get_view_interval())
+    decades = np.log10(high / low) if low > 0 else 99
+    subs = (1.0, 2.0, 5.0) if decades <= 3 else (1.0,)
+    axis.set_major_locator(LogLocator(base=10, subs=subs, numticks=12))
+    axis.set_major_formatter(FuncFormatter(_tick_text))
+    axis.set_minor_formatter(NullFormatter())
 
 
 def _check_frame(df, columns):
@@ -124,7 +164,8 @@ def _plot(path, title, note, empty, draw):
 
 
 def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_col="backend",
-                   label_col=None, title=None, log_x=True, log_y=True, pareto=False):
+                   label_col=None, title=None, log_x=True, log_y=True, pareto=False,
+                   time_range_cols=None, x_label=None, y_label=None, better=None):
     """Scatter of time against error, one line-and-marker series per group.
 
     Each series is sorted by time, so the runs of a parameter sweep form a curve. Aggregate over
@@ -148,20 +189,31 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
         Logarithmic axes.
     pareto : bool, optional
         Also draw the Pareto front over all points (nothing else is both faster and more exact).
+    time_range_cols : (str, str), optional
+        Columns with the fastest and slowest frame (same unit as ``time_col``), drawn as
+        horizontal error bars.
+    x_label, y_label : str, optional
+        Axis labels; default words and units for known columns (see ``_label``).
+    better : str, optional
+        Where the good points lie (e.g. ``"upper left"``), written in the corner opposite.
 
     Returns
     -------
     pathlib.Path
         The written file.
     """
-    _check_frame(df, [time_col, error_col, group_col, label_col])
+    ranges = list(time_range_cols or ())
+    _check_frame(df, [time_col, error_col, group_col, label_col, *ranges])
     positive = [c for c, log in ((time_col, log_x), (error_col, log_y)) if log]
     rows, note = _clean(df, [time_col, error_col], positive)
 
     def draw(ax):
         for i, (name, group) in enumerate(_groups(rows, group_col)):
             group = group.sort_values(time_col, kind="stable")
-            ax.plot(group[time_col], group[error_col], label=name or error_col, **_style(i))
+            x = group[time_col].to_numpy(float)
+            xerr = _error_bars(group, x, ranges)
+            ax.errorbar(x, group[error_col], xerr=xerr, label=name or error_col, capsize=2,
+                        elinewidth=0.8, **_style(i))
             if label_col is not None:
                 for x, y, text in zip(group[time_col], group[error_col], group[label_col]):
                     ax.annotate(str(text), (x, y), xytext=(3, 3), textcoords="offset points",
@@ -169,13 +221,36 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
         if pareto:
             front = _pareto_front(rows[time_col].to_numpy(), rows[error_col].to_numpy())
             ax.step(*front, where="post", color="0.4", linestyle="--", label="Pareto front")
-        ax.set_xscale("log" if log_x else "linear")
-        ax.set_yscale("log" if log_y else "linear")
-        ax.set_xlabel(_label(time_col))
-        ax.set_ylabel(_label(error_col))
-        ax.legend()
+        _axes(ax, log_x, log_y, x_label or _label(time_col), y_label or _label(error_col))
+        if better:
+            ax.text(0.99, 0.01, f"better: {better}", transform=ax.transAxes, ha="right", va="bottom",
+                    fontsize=7, color="0.4")
+        ax.legend(title=group_col.replace("_", " ") if group_col else None)
 
-    return _plot(path, title or f"{error_col} vs {time_col}", note, rows.empty, draw)
+    return _plot(path, title or f"{_label(error_col)} against {_label(time_col)}", note, rows.empty, draw)
+
+
+def _error_bars(group, x, ranges):
+    """``[x − low, high − x]`` from the (low, high) columns, or None; missing values give no bar."""
+    if not ranges:
+        return None
+    low = pd.to_numeric(group[ranges[0]], errors="coerce").to_numpy(float)
+    high = pd.to_numeric(group[ranges[1]], errors="coerce").to_numpy(float)
+    below = np.where(np.isfinite(low), np.clip(x - low, 0, None), 0.0)
+    above = np.where(np.isfinite(high), np.clip(high - x, 0, None), 0.0)
+    return np.vstack([below, above])
+
+
+def _axes(ax, log_x, log_y, x_label, y_label):
+    """Scales, readable ticks and labels of a chart's axes."""
+    ax.set_xscale("log" if log_x else "linear")
+    ax.set_yscale("log" if log_y else "linear")
+    if log_x:
+        _readable_log(ax.xaxis)
+    if log_y:
+        _readable_log(ax.yaxis)
+    ax.set_xlabel(x_label)
+    ax.set_ylabel(y_label)
 
 
 def _pareto_front(times, errors):
@@ -190,7 +265,7 @@ def _pareto_front(times, errors):
 
 
 def convergence(df, path, *, x_col="step", y_col="rmse", group_col=None, reference_slopes=(1, 2),
-                title=None):
+                title=None, x_label=None, y_label=None):
     """Log-log plot of error against step size, with guide lines of known slopes.
 
     Each series shows the median of ``y_col`` per value of ``x_col``. A guide line of slope ``k``
@@ -211,6 +286,8 @@ def convergence(df, path, *, x_col="step", y_col="rmse", group_col=None, referen
         Slopes of the guide lines; empty for none.
     title : str, optional
         Figure title; default ``"<y_col> vs <x_col>"``.
+    x_label, y_label : str, optional
+        Axis labels; default words and units for known columns.
 
     Returns
     -------
@@ -228,17 +305,14 @@ def convergence(df, path, *, x_col="step", y_col="rmse", group_col=None, referen
         anchor_x, anchor_y = x[1], rows.loc[rows[x_col] == x[1], y_col].max()
         for i, k in enumerate(reference_slopes):
             ax.plot(x, anchor_y * (x / anchor_x) ** k, color="0.5", linestyle=_GUIDES[i % 3],
-                    label=f"slope {k:g}", zorder=1)
-        ax.set_xscale("log")
-        ax.set_yscale("log")
-        ax.set_xlabel(_label(x_col))
-        ax.set_ylabel(_label(y_col))
-        ax.legend()
+                    label=f"slope {k:g} (error ∝ step^{k:g})", zorder=1)
+        _axes(ax, True, True, x_label or _label(x_col), y_label or _label(y_col))
+        ax.legend(fontsize=7)
 
-    return _plot(path, title or f"{y_col} vs {x_col}", note, rows.empty, draw)
+    return _plot(path, title or f"{_label(y_col)} against {_label(x_col)}", note, rows.empty, draw)
 
 
-def stage_breakdown(df, path, *, stage_cols, group_col="backend", title="time per stage"):
+def stage_breakdown(df, path, *, stage_cols, group_col="backend", title="time per stage", unit="ms"):
     """Stacked horizontal bars of the median time of each stage, one bar per group.
 
     A NaN stage time means the stage does not exist for that run and counts as 0; infinite values
@@ -256,12 +330,17 @@ def stage_breakdown(df, path, *, stage_cols, group_col="backend", title="time pe
         Column naming the bars.
     title : str, optional
         Figure title.
+    unit : {"ms", "s"}, optional
+        Unit of the x axis (the columns are seconds).
 
     Returns
     -------
     pathlib.Path
         The written file.
     """
+    factor = {"s": 1.0, "ms": 1e3}.get(unit)
+    if factor is None:
+        raise InputError(f"unit: expected 's' or 'ms', got {unit!r}")
     stage_cols = list(stage_cols)
     if not stage_cols:
         raise InputError("stage_cols: expected at least one column")
@@ -270,23 +349,25 @@ def stage_breakdown(df, path, *, stage_cols, group_col="backend", title="time pe
     infinite = int(np.isinf(times).to_numpy().sum())
     times = times.replace([np.inf, -np.inf], np.nan)
     times[group_col] = df[group_col].astype(str)
-    medians = times.groupby(group_col, sort=False)[stage_cols].median().fillna(0.0)
+    medians = times.groupby(group_col, sort=False)[stage_cols].median().fillna(0.0) * factor
     note = f"dropped: {infinite} infinite values" if infinite else ""
 
     def draw(ax):
         left = np.zeros(len(medians))
         labels = list(medians.index)
         for i, stage in enumerate(stage_cols):
-            ax.barh(labels, medians[stage], left=left, label=stage, color=f"C{i % 10}")
+            ax.barh(labels, medians[stage], left=left, label=_label(stage).removesuffix(" (s)"),
+                    color=f"C{i % 10}")
             left += medians[stage].to_numpy()
         ax.invert_yaxis()  # first group on top
-        ax.set_xlabel("median time [s]")
-        ax.legend()
+        ax.set_xlabel(f"median time per frame ({unit})")
+        ax.legend(title="stage")
 
     return _plot(path, title, note, medians.empty, draw)
 
 
-def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False, title=None):
+def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False, title=None,
+            x_label=None, y_label=None):
     """Lines of the median of ``y_col`` against ``x_col``, one per group.
 
     Parameters
@@ -316,13 +397,10 @@ def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False,
     def draw(ax):
         for i, (name, group) in enumerate(_groups(rows, group_col)):
             ax.plot(*_median_curve(group, x_col, y_col), label=name or y_col, **_style(i))
-        ax.set_xscale("log" if log_x else "linear")
-        ax.set_yscale("log" if log_y else "linear")
-        ax.set_xlabel(_label(x_col))
-        ax.set_ylabel(_label(y_col))
+        _axes(ax, log_x, log_y, x_label or _label(x_col), y_label or _label(y_col))
         ax.legend()
 
-    return _plot(path, title or f"{y_col} vs {x_col}", note, rows.empty, draw)
+    return _plot(path, title or f"{_label(y_col)} against {_label(x_col)}", note, rows.empty, draw)
 
 
 def _bar_text(value):
@@ -386,3 +464,41 @@ def bar_compare(df, path, *, category_col, value_cols, value_label=None, title=N
         ax.legend()
 
     return _plot(path, title or f"{', '.join(value_cols)} by {category_col}", note, empty, draw)
+
+
+def difference_colorbar(path, scale, *, label=None):
+    """The colour bar of :func:`reports.metrics.difference_image` at ``scale``, as a small SVG.
+
+    Magma from 0 (black) to ``scale`` (pale yellow); the arrow at the top end says that larger
+    errors clip to pale yellow.
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+        Output ``.svg`` file.
+    scale : float
+        The absolute error at the top of the colour map (> 0).
+    label : str, optional
+        Text under the bar; default names the quantity and the scale.
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    if Path(path).suffix.lower() != ".svg":
+        raise InputError(f"path: expected a .svg file name, got {str(path)!r}")
+    try:
+        scale = float(scale)
+    except (TypeError, ValueError):
+        raise InputError(f"scale: expected a number, got {scale!r}") from None
+    if not (np.isfinite(scale) and scale > 0):
+        raise InputError(f"scale: expected a finite number > 0, got {scale!r}")
+    with mpl.rc_context({**_RC, "axes.grid": False}):
+        fig = Figure(figsize=(4.5, 0.85), layout="constrained")
+        ax = fig.add_subplot()
+        mappable = ScalarMappable(norm=Normalize(0.0, scale), cmap=colormaps["magma"])
+        bar = fig.colorbar(mappable, cax=ax, orientation="horizontal", extend="max")
+        bar.set_label(label or f"largest absolute RGBA error per pixel (0 → {scale:g}; larger clips)")
+        bar.ax.xaxis.set_major_formatter(FuncFormatter(lambda v, _p: f"{v:g}"))
+        return _save(fig, path)

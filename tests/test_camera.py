@@ -72,3 +72,53 @@ def test_bad_camera_inputs_are_named(kwargs, match):
 def test_framing_fills_only_missing_fields():
     camera = Camera(view_height=3).framed(np.zeros(3), 2.0)
     assert camera.view_height == 3 and camera.distance == pytest.approx(6.0)
+
+
+def test_zero_up_is_refused():
+    with pytest.raises(InputError, match="camera up: must be a non-zero vector"):
+        Camera(up=(0, 0, 0))
+
+
+@pytest.mark.parametrize("up", [(0, float("nan"), 0), (0, float("inf"), 0), "abc", (0, 1)])
+def test_non_finite_or_malformed_up_is_refused(up):
+    with pytest.raises(InputError, match="camera up"):
+        Camera(up=up)
+
+
+@pytest.mark.parametrize("elevation", [-90, -60, -30, -1e-3, 0, 15, 45, 89.5, 90])
+@pytest.mark.parametrize("azimuth", [0, 37, -120])
+@pytest.mark.parametrize("sign", [1, -1])
+def test_up_parallel_to_the_view_direction_is_refused_at_every_elevation(elevation, azimuth, sign):
+    az, el = np.radians(azimuth), np.radians(elevation)
+    direction = np.array([np.cos(el) * np.sin(az), np.sin(el), np.cos(el) * np.cos(az)])
+    with pytest.raises(InputError, match="parallel to the view direction"):
+        Camera(azimuth=azimuth, elevation=elevation, up=tuple(sign * 3.0 * direction))
+
+
+@pytest.mark.parametrize("elevation", [90, -90])
+def test_looking_straight_up_or_down_needs_another_up(elevation):
+    with pytest.raises(InputError, match="parallel"):
+        Camera(elevation=elevation)
+    camera = Camera(elevation=elevation, up=(0, 0, -1), distance=5, view_height=2)
+    origins, directions = camera.rays(3, 2)
+    assert np.isfinite(origins).all() and np.isfinite(directions).all()
+    np.testing.assert_allclose(directions[0, 0], (0, -np.sign(elevation), 0), atol=1e-12)
+
+
+def test_with_camera_revalidates_the_basis():
+    from core.scene import Scene, VolumeInstance
+    from core.transfer import TransferFunction
+    from core.volume import Volume
+
+    scene = Scene(VolumeInstance(Volume(np.zeros((4, 4, 4), np.uint8)), TransferFunction.constant(alpha=0.5)))
+    with pytest.raises(InputError, match="parallel"):
+        scene.with_camera(elevation=90)
+    with pytest.raises(InputError, match="non-zero"):
+        scene.with_camera(up=(0, 0, 0))
+
+
+@pytest.mark.parametrize("kwargs", [{"azimuth": float("inf")}, {"elevation": float("nan")},
+                                    {"distance": float("inf")}, {"view_height": float("nan")}])
+def test_non_finite_camera_numbers_are_refused(kwargs):
+    with pytest.raises(InputError, match=next(iter(kwargs))):
+        Camera(**kwargs)

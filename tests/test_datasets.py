@@ -242,3 +242,26 @@ def test_fbm_is_standardised_and_defined_in_normalised_coordinates():
     assert abs(float(large.mean())) < 1e-5 and float(large.std()) == pytest.approx(1, abs=1e-4)
     pooled = large.reshape(32, 2, 32, 2, 32, 2).mean(axis=(1, 3, 5))
     assert np.corrcoef(small.ravel(), pooled.ravel())[0, 1] > 0.95
+
+
+def test_cache_key_includes_the_generator_source_digest(monkeypatch):
+    from datasets import cache
+
+    key = datasets.cache_key("constant_cube", size=16)
+    spec = datasets.get("constant_cube")
+    assert cache.source_digest(spec.generator.__module__) in json.dumps(
+        {"code": cache.source_digest(spec.generator.__module__)})
+    monkeypatch.setattr(cache, "source_digest", lambda module_name: "edited-generator")
+    edited = datasets.cache_key("constant_cube", size=16)
+    assert edited != key  # editing a generator's source names a new cache entry
+    monkeypatch.setattr(cache, "source_digest", lambda module_name: "edited-again")
+    assert datasets.cache_key("constant_cube", size=16) not in (key, edited)
+
+
+def test_cache_of_an_edited_generator_is_not_reused(tmp_path, monkeypatch):
+    from datasets import cache
+
+    first = datasets.load("constant_cube", size=16, cache_dir=tmp_path)
+    monkeypatch.setattr(cache, "source_digest", lambda module_name: "edited-generator")
+    second = datasets.load("constant_cube", size=16, cache_dir=tmp_path)
+    assert second.meta["cache"]["hit"] is False and second.meta["key"] != first.meta["key"]

@@ -47,7 +47,7 @@ def test_raw_size_mismatch_names_the_file_and_the_numbers(tmp_path):
     ("a_5x3x4_uint8.raw", {"dims": (4, 3, 5)}, "disagree"),
     ("a_5x3x4_uint8.raw", {"dtype": "uint16"}, "disagrees"),
     ("plain.raw", {}, "pass dims and dtype"),
-    ("a_5x3x4_int8.raw", {}, "int8 is not supported"),
+    ("a_5x3x4_int8.raw", {}, "unknown dtype name 'int8'; use one of uint8, uint16, float32"),
     ("plain.raw", {"dims": (5, 3), "dtype": "uint8"}, "three positive integers"),
 ])
 def test_raw_bad_requests(tmp_path, name, kwargs, match):
@@ -187,3 +187,46 @@ def test_nrrd_magic_and_detached_data_file_are_checked(tmp_path):
                                     "data file": "missing.raw"}))
     with pytest.raises(InputError, match="missing.raw does not exist"):
         load_nrrd(header)
+
+
+def test_oversized_raw_file_is_refused(tmp_path):
+    path = tmp_path / "big_5x3x4_uint8.raw"
+    path.write_bytes(DATA8.tobytes() + b"\0")
+    with pytest.raises(InputError, match="file size 61 bytes does not match 5x3x4 uint8 = 60 bytes"):
+        load_raw(path)
+    path.write_bytes(DATA8.tobytes() + bytes(60))  # twice the size: a 16-bit file named 8-bit
+    with pytest.raises(InputError, match="120 bytes does not match"):
+        load_raw(path)
+    with pytest.raises(InputError, match="121 bytes does not match"):
+        (tmp_path / "c.raw").write_bytes(bytes(121))
+        load_raw(tmp_path / "c.raw", dims=(5, 3, 4), dtype="uint16")
+
+
+@pytest.mark.parametrize("name, dtype", [("uint8", np.uint8), ("uint16", np.uint16), ("float32", np.float32)])
+def test_raw_dtype_names_are_the_documented_ones(tmp_path, name, dtype):
+    data = DATA8.astype(dtype) if dtype != np.float32 else (DATA8 / 255).astype(np.float32)
+    path = tmp_path / f"v_5x3x4_{name}.raw"
+    data.astype(data.dtype.newbyteorder("<")).tofile(path)
+    assert load_raw(path).data.dtype == dtype
+    assert load_raw(path, dtype=name).data.dtype == dtype
+    assert load_raw(path, dtype=np.dtype(dtype)).data.dtype == dtype
+
+
+@pytest.mark.parametrize("name, hint", [
+    ("u8", "did you mean 'uint8'"), ("u1", "did you mean 'uint8'"), ("ubyte", "did you mean 'uint8'"),
+    ("f", "did you mean 'float32'"), ("f4", "did you mean 'float32'"), ("u16", "did you mean 'uint16'"),
+    ("int16", "use one of uint8, uint16, float32"), ("float64", "use one of uint8, uint16, float32"),
+    ("uint64", "use one of"), ("b1", "use one of"),
+])
+def test_loose_dtype_names_are_refused_clearly(tmp_path, name, hint):
+    path = tmp_path / f"v_5x3x4_{name}.raw"
+    path.write_bytes(DATA8.tobytes())
+    with pytest.raises(InputError, match=f"unknown dtype name '{name}'.*{hint}") as error:
+        load_raw(path)
+    if name == "u8":
+        assert "uint64" not in str(error.value)  # numpy would read u8 as 8 bytes
+    with pytest.raises(InputError, match=f"unknown dtype name '{name}'"):
+        load_raw(path, dtype="uint8")  # a bad name is an error even with an explicit dtype
+    (tmp_path / "plain.raw").write_bytes(DATA8.tobytes())
+    with pytest.raises(InputError, match=f"unknown dtype name '{name}'"):
+        load_raw(tmp_path / "plain.raw", dims=(5, 3, 4), dtype=name)

@@ -172,3 +172,45 @@ def test_compare_files(tmp_path):
     small = write_exr(tmp_path / "small.exr", textured(4, 4))
     with pytest.raises(InputError, match="small.exr"):
         metrics.compare_files(ref_path, small)
+
+
+def _noisy_pair():
+    reference = textured(24, 24, seed=3)
+    rng = np.random.default_rng(7)
+    test = np.clip(reference + np.float32(0.08) * rng.standard_normal(reference.shape).astype(np.float32), 0, 1)
+    test[..., 3] = 1
+    return reference, test.astype(np.float32)
+
+
+def test_ssim_uses_a_7_by_7_window():
+    # Pinned value for a fixed pair with skimage's uniform 7 x 7 window; windows 5 and 9 give
+    # 0.677 and 0.732, so a changed default window (in ssim or in compare) fails here.
+    reference, test = _noisy_pair()
+    pinned = 0.7173655831350247
+    assert metrics.ssim(reference, test) == pytest.approx(pinned, rel=1e-9)
+    assert metrics.ssim(reference, test, win_size=7) == pytest.approx(pinned, rel=1e-9)
+    assert metrics.compare(reference, test)["ssim"] == pytest.approx(pinned, rel=1e-9)
+    assert metrics.ssim(reference, test, win_size=5) == pytest.approx(0.6774013154556061, rel=1e-9)
+
+
+def test_default_threshold_is_five_percent():
+    reference = np.zeros((4, 4, 4), np.float32)
+    below, above = reference.copy(), reference.copy()
+    # The float32 neighbours of 0.05: just under and just over the default threshold.
+    below[0, 0, 0] = np.nextafter(np.float32(0.05), np.float32(0))
+    above[0, 0, 0] = np.nextafter(np.float32(0.05), np.float32(1))
+    assert float(below[0, 0, 0]) < 0.05 < float(above[0, 0, 0])
+    assert metrics.compare(reference, below)["frac_over_threshold"] == 0.0
+    assert metrics.compare(reference, above)["frac_over_threshold"] == pytest.approx(1 / 16)
+    assert metrics.fraction_over(reference, above) == pytest.approx(1 / 16)
+    assert metrics.fraction_over(reference, below) == 0.0
+
+
+def test_a_difference_equal_to_the_threshold_is_not_over_it():
+    reference = np.full((4, 4, 4), 0.5, np.float32)
+    test = reference.copy()
+    test[1, 2, 0] = 0.75  # exactly 0.25 more, in binary too
+    test[3, 3, 2] = 0.8125  # 0.3125 more
+    assert metrics.fraction_over(reference, test, threshold=0.25) == pytest.approx(1 / 16)
+    assert metrics.compare(reference, test, threshold=0.25)["frac_over_threshold"] == pytest.approx(1 / 16)
+    assert metrics.fraction_over(reference, test, threshold=0.3125) == 0.0

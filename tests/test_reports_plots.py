@@ -38,14 +38,14 @@ def svg_text(path):
 
 FIGURES = {
     "speed_accuracy": (plots.speed_accuracy, {"label_col": "step", "pareto": True},
-                       ["raycast", "shearwarp", "Pareto front", "time_total [s]"]),
+                       ["raycast", "shearwarp", "Pareto front", "frame time (s)", "RMSE against the reference"]),
     "convergence": (plots.convergence, {"group_col": "backend"},
                     ["raycast", "shearwarp", "slope 1", "slope 2"]),
     "stage_breakdown": (plots.stage_breakdown,
                         {"stage_cols": ["time_classify", "time_composite"]},
-                        ["raycast", "shearwarp", "time_classify", "time_composite"]),
+                        ["raycast", "shearwarp", "classify time", "composite time", "median time per frame (ms)"]),
     "scaling": (plots.scaling, {"x_col": "step", "y_col": "time_total", "group_col": "backend"},
-                ["raycast", "shearwarp", "time_total [s]"]),
+                ["raycast", "shearwarp", "frame time (s)", "step size (voxels)"]),
 }
 
 
@@ -119,3 +119,27 @@ def test_bad_input_is_named(tmp_path, runs):
         plots.scaling(runs, tmp_path / "a.png", x_col="step", y_col="rmse")
     with pytest.raises(InputError, match="DataFrame"):
         plots.convergence({"step": [1]}, tmp_path / "a.svg")
+
+
+def test_speed_accuracy_draws_error_bars_labels_and_readable_ticks(tmp_path, runs):
+    runs = runs.assign(time_ms=runs.time_total * 1e3, time_ms_min=runs.time_total * 900,
+                       time_ms_max=runs.time_total * 1300)
+    with_bars = svg_text(plots.speed_accuracy(runs, tmp_path / "a.svg", time_col="time_ms",
+                                              time_range_cols=("time_ms_min", "time_ms_max"),
+                                              x_label="median frame time (ms)", better="lower left",
+                                              title="raycast reaches 1e-3 at 2 ms"))
+    without = svg_text(plots.speed_accuracy(runs, tmp_path / "b.svg", time_col="time_ms"))
+    for text in ("median frame time (ms)", "better: lower left", "raycast reaches 1e-3 at 2 ms", "backend"):
+        assert text in with_bars
+    assert with_bars.count("<path") > without.count("<path")  # the error bars
+    assert "10^" not in with_bars and "10^{" not in with_bars and "$" not in with_bars  # plain-number ticks
+    assert ">1000<" in with_bars or ">2000<" in with_bars or ">500<" in with_bars
+
+
+def test_difference_colorbar_states_its_scale(tmp_path):
+    text = svg_text(plots.difference_colorbar(tmp_path / "bar.svg", 0.1))
+    assert "0 → 0.1" in text and ">0.1<" in text
+    with pytest.raises(InputError, match="scale"):
+        plots.difference_colorbar(tmp_path / "bar.svg", 0)
+    with pytest.raises(InputError, match=r"\.svg"):
+        plots.difference_colorbar(tmp_path / "bar.png", 0.1)

@@ -1,4 +1,5 @@
 import numpy as np
+import yaml
 import pytest
 
 from core.errors import InputError
@@ -75,3 +76,76 @@ def test_unreadable_scene_file(tmp_path):
     (tmp_path / "bad.yaml").write_text("volumes: [unclosed\n")
     with pytest.raises(InputError, match="invalid YAML"):
         load_scene(tmp_path / "bad.yaml")
+
+
+@pytest.mark.parametrize("volume, match", [
+    ({"transfer_function": "bone"}, "transfer_function: expected a mapping"),
+    ({"transfer_function": {"points": "abc"}}, r"transfer_function points: expected a list of \[x, r, g, b, a\]"),
+    ({"transfer_function": {"points": [[0, 1, 1, "x", 0]]}}, "transfer_function points"),
+    ({"gradient_opacity": {"points": "abc"}}, r"gradient_opacity points: expected a list of \[x, g\]"),
+    ({"spacing": "fast"}, "spacing: expected 3 numbers"),
+    ({"spacing": [1, 1, 0]}, "spacing: every entry must be finite and > 0"),
+    ({"value_range": [0, "high"]}, "value_range: expected 2 numbers"),
+    ({"value_range": [0, float("inf")]}, "value_range: both ends must be finite"),
+    ({"value_range": [5, 1]}, "value_range: expected lo < hi"),
+    ({"transform": {"translate": [1, 2]}}, "translate: expected 3 finite numbers"),
+    ({"transform": {"translate": "left"}}, "translate"),
+    ({"transform": {"scale": "big"}}, "scale: expected a number"),
+    ({"transform": {"scale": [1, 2]}}, "scale"),
+    ({"transform": {"rotate": {"axis": [0, 1, 0], "degrees": "ninety"}}}, "rotate degrees"),
+    ({"transform": {"rotate": {"axis": "y"}}}, "rotate axis"),
+    ({"transform": {"matrix": "identity"}}, "matrix: expected a 4x4 matrix"),
+    ({"params": "x"}, "params: expected a mapping"),
+])
+def test_non_numeric_yaml_values_are_input_errors_before_work(volume, match, tmp_path, monkeypatch):
+    import datasets
+
+    def no_generation(*args, **kwargs):
+        raise AssertionError("the volume must not be loaded before the entry is checked")
+
+    if "params" not in volume and "transform" not in volume and "transfer_function" not in volume \
+            and "gradient_opacity" not in volume:
+        monkeypatch.setattr(datasets, "load", no_generation)
+    with pytest.raises(InputError, match=match):
+        build_scene(_spec(**volume), cache_dir=tmp_path)
+
+
+def test_spacing_and_value_range_apply_to_data_sets_too(tmp_path):
+    volume = build_scene(_spec(spacing=[1, 1, 2], value_range=[10, 200]), cache_dir=tmp_path).volumes[0].volume
+    assert volume.spacing == (1, 1, 2) and volume.value_range == (10, 200)
+
+
+def test_size_on_a_real_data_set_is_an_error():
+    for key, value in (("size", 64), ("seed", 3), ("params", {"a": 1})):
+        with pytest.raises(InputError, match=f"real scan with its own size; remove '{key}'"):
+            build_scene({"volumes": [{"dataset": "cthead", key: value}]})
+
+
+def test_float_file_outside_unit_range_needs_value_range_and_then_loads(tmp_path):
+    data = np.linspace(-1, 3, 8, dtype=np.float32).reshape(2, 2, 2)
+    data.astype("<f4").tofile(tmp_path / "d_2x2x2_float32.raw")
+    entry = {"file": "d_2x2x2_float32.raw", "transfer_function": {"points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 1]]}}
+    (tmp_path / "a.yaml").write_text(yaml.safe_dump({"volumes": [entry]}))
+    with pytest.raises(InputError, match="outside the default range.*set value_range"):
+        load_scene(tmp_path / "a.yaml")
+    (tmp_path / "b.yaml").write_text(yaml.safe_dump({"volumes": [{**entry, "value_range": [-1, 3]}]}))
+    volume = load_scene(tmp_path / "b.yaml").volumes[0].volume
+    assert volume.value_range == (-1, 3)
+    np.testing.assert_allclose(volume.normalized().ravel(), np.linspace(0, 1, 8), atol=1e-6)
+
+
+def test_float_nrrd_outside_unit_range_takes_the_scene_value_range(tmp_path):
+    data = np.linspace(0, 10, 8, dtype=np.float32).reshape(2, 2, 2)
+    header = b"NRRD0004\ntype: float\ndimension: 3\nsizes: 2 2 2\nencoding: raw\nendian: little\n\n"
+    (tmp_path / "v.nrrd").write_bytes(header + data.astype("<f4").tobytes())
+    entry = {"file": str(tmp_path / "v.nrrd"), "transfer_function": {"points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 1]]}}
+    with pytest.raises(InputError, match="set value_range"):
+        build_scene({"volumes": [entry]})
+    assert build_scene({"volumes": [{**entry, "value_range": [0, 10]}]}).volumes[0].volume.value_range == (0, 10)
+
+
+def test_degenerate_camera_in_a_scene_file(tmp_path):
+    with pytest.raises(InputError, match="camera up: must be a non-zero vector"):
+        build_scene({**_spec(), "camera": {"up": [0, 0, 0]}}, cache_dir=tmp_path)
+    with pytest.raises(InputError, match="parallel"):
+        build_scene({**_spec(), "camera": {"elevation": -90}}, cache_dir=tmp_path)

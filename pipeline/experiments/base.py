@@ -18,6 +18,7 @@ import yaml
 
 from core.errors import InputError
 from core.papers import PAPERS
+from core.validation import check_scalar
 
 RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]*$")
 
@@ -49,6 +50,10 @@ class Profile:
         Output folder of the pipeline.
     cache : str
         Folder of generated phantoms (kept across profiles and ``make clean``).
+    render_time_limit : float, optional
+        Seconds one render job (every view and frame of one run) may take; past it the job is
+        killed and the run recorded as failed, so one bad job cannot stall the pipeline.
+        ``None``: no limit.
     """
 
     name: str
@@ -61,6 +66,13 @@ class Profile:
     real_data: str | None = None
     results: str = "results"
     cache: str = ".cache/volumes"
+    render_time_limit: float | None = None
+
+    def __post_init__(self):
+        if self.render_time_limit is not None:
+            object.__setattr__(self, "render_time_limit", check_scalar(
+                self.render_time_limit, name=f"profile {self.name!r} render_time_limit (seconds)",
+                low=0, low_open=True))
 
     @classmethod
     def from_mapping(cls, mapping):

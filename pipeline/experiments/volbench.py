@@ -6,13 +6,62 @@ import pandas as pd
 import datasets
 import renderers
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
-from reports import blocks
+from reports import blocks, takeaways
 
 HEADLINE_VIEW = {"view": "headline", "azimuth": 30.0, "elevation": 20.0}
 """The oblique view note 000 recommends for headline numbers (30° yaw, 20° pitch)."""
 
 UPRIGHT = {"rotate": {"axis": [1, 0, 0], "degrees": -90}}
 """Scanner z (the body axis of the phantoms and CT stacks) to world y (up), the face to +z."""
+
+STAND_INS = {"ct_skull": "cthead", "mri_head": "mrihead", "engine": "engine_real", "bonsai_like": "bonsai",
+             "folded_brain": "brainsmall"}
+"""Phantom → the real scan of the same kind it stands in for (the gallery shows them side by side)."""
+
+DIFF_SCALE = 0.1
+"""Absolute error at the top of the difference images' colour map in every gallery of these studies."""
+
+
+def _ms(frame, column="time_total"):
+    """Median, fastest and slowest frame of ``column`` in milliseconds, as three columns."""
+    out = pd.DataFrame(index=frame.index)
+    out["time (ms)"] = frame[column] * 1e3
+    for end, name in (("min", "fastest (ms)"), ("max", "slowest (ms)")):
+        out[name] = frame[f"{column}_{end}"] * 1e3 if f"{column}_{end}" in frame else np.nan
+    return out
+
+
+def _links(frame, ctx):
+    """Columns ``record`` and ``EXR``: each row's run record and image, copied into the report."""
+    linked = ctx.run_links(frame.reindex(columns=["record", "exr"]))
+    return linked.rename(columns={"exr": "EXR"})
+
+
+LINKS = {"record": "JSON", "EXR": "EXR"}
+METRICS = {"rmse": "RMSE", "psnr": "PSNR (dB)", "ssim": "SSIM", "flip": "FLIP"}
+"""Metric columns and their names in the report's tables."""
+
+
+def _voxels(step):
+    """A step in voxels as the notes write it: ``1/32`` rather than 0.03125."""
+    inverse = 1 / step
+    return f"1/{inverse:g}" if step < 1 and float(inverse).is_integer() else f"{step:g}"
+
+
+def _reference_exr(results, row):
+    """The EXR of ``row``'s reference run, same view (``None`` if it did not render)."""
+    match = results[(results.run == row.reference) & (results.view == row.view) & (results.status == "ok")]
+    return match.exr.iloc[0] if not match.empty else None
+
+
+def _frames_note(row):
+    """How a run was timed, in words: "single untimed frame" when there was one frame and no warm-up."""
+    frames, warmup = getattr(row, "info_frames", np.nan), getattr(row, "info_warmup", np.nan)
+    if frames == 1 and warmup == 0:
+        return "single untimed frame"
+    if pd.notna(frames):
+        return f"median of {int(frames)} frames after {int(warmup) if pd.notna(warmup) else '?'} warm-up"
+    return ""
 
 
 def _scene(volume, profile, *, image_size=None, shading="phong", mode="dvr", name=None):
@@ -100,21 +149,71 @@ class PhantomGallery(Experiment):
                 targets.extend({"dataset": name, "preset": preset, "statistic": stat, "target": value}
                                for stat, value in stats.items())
         table.reset_index(drop=True).to_csv(ctx.report_dir / "csv" / "phantom_statistics_all.csv", index=False)
-        out = [blocks.Table("Statistics under each rendered preset", table[shown].reset_index(drop=True),
+        linked = pd.concat([table[shown], _links(ok, ctx)], axis=1).reset_index(drop=True)
+        out = [blocks.Takeaways(_gallery_takeaways(results)),
+               blocks.Table("Statistics under each rendered preset", linked,
                             caption="Non-transparent: α > 0.05; empty block: an 8³ block with no voxel of α > 0; "
                                     "runs per scanline: runs of non-transparent voxels along x (VolPack's c_v). "
-                                    "Every statistic is in csv/phantom_statistics_all.csv.",
-                            csv_name="phantom_statistics.csv")]
+                                    "Every statistic is in csv/phantom_statistics_all.csv; each row links to its "
+                                    "run's JSON record and EXR image.",
+                            csv_name="phantom_statistics.csv", links=LINKS)]
         if targets:
             out.append(blocks.Table("Targets from the reproduction notes", pd.DataFrame(targets),
                                     caption="What each stand-in was tuned towards (the papers' data sets)."))
-        gallery = blocks.Gallery("Reference renders (headline view, default preset)")
+        paired = set()
+        pairs = blocks.Gallery(
+            "Phantoms beside the real scans they stand in for",
+            caption="Same view (30° yaw, 20° pitch), same orientation (body axis up) and the same preset; "
+                    "left the generated phantom, right the real scan. Click an image for full size.")
+        for phantom, real in STAND_INS.items():
+            real_rows = ok[ok.dataset == real]
+            if real_rows.empty:
+                continue
+            real_row = next(real_rows.itertuples())
+            match = ok[(ok.dataset == phantom) & (ok.preset == real_row.preset)]
+            if match.empty:
+                continue
+            row = next(match.itertuples())
+            paired.update({row.run, real_row.run})
+            real_spec = datasets.get(real)
+            pairs.items.append(blocks.GalleryItem(
+                caption=f"{phantom} stands in for {real} ({real_spec.modality}) — preset {row.preset}",
+                image=ctx.image(row.png), label=f"phantom {phantom}",
+                extra=((f"real scan {real}", ctx.image(real_row.png)),),
+                note=f"{datasets.get(phantom).description} Real: {real_spec.description} Both: "
+                     f"{_frames_note(row)}."))
+        gallery = blocks.Gallery("Every reference render (headline view)",
+                                 caption="Each a single untimed frame (no warm-up): pictures to judge, not timings. "
+                                         "Click an image for full size.")
         for row in ok.itertuples():
+            if row.run in paired:
+                continue
+            spec = datasets.get(row.dataset)
+            what = (f"Phantom: {spec.description}" if spec.kind == "phantom"
+                    else f"Real scan ({spec.modality}): {spec.description}")
             gallery.items.append(blocks.GalleryItem(
                 caption=f"{row.dataset} — {row.preset}", image=ctx.image(row.png),
-                note=f"{row.kind}; {format_number(row.time_total)} s"))
+                note=f"{what} {_frames_note(row).capitalize()}."))
+        if pairs.items:
+            out.append(pairs)
         out.append(gallery)
         return out
+
+
+def _gallery_takeaways(results):
+    """What the gallery shows, counted: how many phantoms and real scans, which scans are absent."""
+    per_run = results.drop_duplicates("run")
+    ok = per_run[per_run.status == "ok"]
+    sentences = []
+    if "kind" in ok:
+        phantoms, reals = int((ok.kind == "phantom").sum()), int((ok.kind == "real").sum())
+        sentences.append(f"{ok.dataset.nunique()} data sets rendered under {len(ok)} presets: "
+                         f"{phantoms} phantom renders and {reals} renders of real scans.")
+        pairs = [f"{p} ↔ {r}" for p, r in STAND_INS.items() if {p, r} <= set(ok.dataset)]
+        if pairs:
+            sentences.append(f"{len(pairs)} phantom{'s are' if len(pairs) != 1 else ' is'} shown beside the real scan {'they stand' if len(pairs) != 1 else 'it stands'} in for "
+                             f"({', '.join(pairs)}).")
+    return sentences
 
 
 def _target_claims():
@@ -197,18 +296,65 @@ class ReferenceConvergence(Experiment):
         ok["step_factor"] = ok.step_factor.astype(float)
         from reports import plots
 
+        orders = {}
+        for scene, group in ok.groupby("scene"):
+            try:
+                orders[scene] = _observed_order(group)
+            except ValueError:
+                pass
         path, rel = ctx.plot_path("convergence")
-        plots.convergence(ok, path, x_col="step_factor", y_col="rmse", group_col="scene")
-        table = ok[["scene", "step_factor", "rmse", "psnr", "ssim", "flip", "time_total"]].sort_values(["scene", "step_factor"])
-        gallery = blocks.Gallery("Coarsest and default steps against the finest render")
-        for row in ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].itertuples():
+        truth = _voxels(float(results[results.role == "truth"].step_factor.astype(float).min()))
+        plots.convergence(ok, path, x_col="step_factor", y_col="rmse", group_col="scene",
+                          title=_convergence_title(ok, orders),
+                          y_label=f"RMSE against a {truth}-voxel render (intensity 0–1)")
+        table = pd.concat([ok[["scene", "step_factor"]], _ms(ok), ok[list(METRICS)].rename(columns=METRICS),
+                           _links(ok, ctx)], axis=1).sort_values(["scene", "step_factor"])
+        table = table.rename(columns={"step_factor": "step (voxels)"})
+        gallery = blocks.Gallery("Coarsest and default steps against the finest render", diff_scale=DIFF_SCALE,
+                                 caption="Left each render, right its difference from the finest render.")
+        for row in ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].sort_values(["scene", "step_factor"]).itertuples():
             gallery.items.append(blocks.GalleryItem(
                 caption=f"{row.scene}, step {row.step_factor:g} voxel", image=ctx.image(row.png),
-                difference=ctx.image(row.diff_png), note=f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} dB"))
-        return [blocks.Figure("Error against step size (log–log)", rel,
-                              "RMSE against a 1/32-voxel render; guide lines of slope 1 and 2."),
-                blocks.Table("Errors and times", table.reset_index(drop=True), csv_name="convergence.csv"),
+                difference=ctx.difference(_reference_exr(results, row), row.exr, DIFF_SCALE),
+                note=f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} dB, "
+                     f"largest error {format_number(row.max_error)}"))
+        return [blocks.Takeaways(_convergence_takeaways(ok, orders)),
+                blocks.Figure("Error against step size (log–log)", rel,
+                              f"RMSE against a {truth}-voxel render, one line per scene; grey guide lines of "
+                              "slope 1 and 2 through the coarsest point. Parallel to a guide: that order."),
+                blocks.Table("Errors and times", table.reset_index(drop=True), csv_name="convergence.csv",
+                             caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
+                                     "Each row links to its run's JSON record and EXR image.", links=LINKS),
                 gallery]
+
+
+def _convergence_title(ok, orders):
+    """The finding of the convergence chart, from the numbers."""
+    if not orders:
+        return "Error against step size"
+    flat = [scene for scene, g in ok.sort_values("step_factor", ascending=False).groupby("scene")
+            if not (np.diff(g.rmse.to_numpy()) < 0).all()]
+    low, high = min(orders.values()), max(orders.values())
+    span = f"{low:.2g}" if f"{low:.2g}" == f"{high:.2g}" else f"{low:.2g}–{high:.2g}"
+    title = f"Error falls at observed order {span} as the step shrinks"
+    if flat:
+        title += f"\nbut not monotonically on {', '.join(flat)}"
+    return title
+
+
+def _convergence_takeaways(ok, orders):
+    sentences = takeaways.order_range(orders)
+    default = ok[np.isclose(ok.step_factor, 0.25)]
+    if not default.empty:
+        worst = default.loc[default.psnr.idxmin()]
+        sentences.append(f"At the default step of 1/4 voxel the worst scene is {worst.scene} at "
+                         f"{format_number(worst.psnr)} dB PSNR (RMSE {format_number(worst.rmse)}).")
+    coarse = ok[ok.step_factor == ok.step_factor.max()]
+    if not coarse.empty:
+        worst = coarse.loc[coarse.psnr.idxmin()]
+        sentences.append(f"At the coarsest step ({worst.step_factor:g} voxel) the worst scene is {worst.scene} at "
+                         f"{format_number(worst.psnr)} dB: where a coarse step visibly fails.")
+    return sentences
 
 
 def _sweep(df):
@@ -283,30 +429,90 @@ class SpeedAccuracy(Experiment):
               lambda df: _tradeoff(df)),
     )
 
+    overview = True
+    """The index's techniques × data sets table is built from this experiment's runs."""
+
     def report(self, results, ctx):
         from reports import plots
 
         ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
-        out = []
+        ok["setting"] = ok.setting.fillna("default").astype(str)
+        ok["technique"] = [f"{b} ({s})" if s != "default" else b for b, s in zip(ok.backend, ok.setting)]
+        ok["time_ms"] = ok.time_total * 1e3
+        ok["time_ms_min"] = ok.get("time_total_min", np.nan) * 1e3
+        ok["time_ms_max"] = ok.get("time_total_max", np.nan) * 1e3
+        out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
+                                + _stage_takeaways(ok))]
         for scene, group in ok.groupby("scene"):
             path, rel = ctx.plot_path(f"speed-accuracy-{scene}")
-            plots.speed_accuracy(group, path, time_col="time_total", error_col="rmse",
-                                 group_col="backend", label_col="setting", title=f"{scene}: time vs RMSE")
-            out.append(blocks.Figure(f"{scene}: median frame time against RMSE", rel,
-                                     "Each point is one quality setting; lower left is better."))
-        stages = [c for c in ok.columns if c.startswith("time_") and c != "time_total" and not c.endswith(("_min", "_max"))]
+            plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="backend",
+                                 label_col="setting", title=_speed_title(scene, group), log_y=False,
+                                 time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                                 x_label="median frame time (ms); bars: fastest to slowest frame",
+                                 y_label="PSNR against the reference (dB)")
+            out.append(blocks.Figure(f"{scene}: median frame time against PSNR", rel,
+                                     "Each point is one quality setting, labelled with it; higher and further "
+                                     "left is better. Error bars span the fastest and slowest timed frame."))
+        stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
+                  and not c.endswith(("_min", "_max"))]
         ok["backend_setting"] = ok.backend + " " + ok.setting
-        path, rel = ctx.plot_path("stages")
-        plots.stage_breakdown(ok, path, stage_cols=stages, group_col="backend_setting")
-        out.append(blocks.Figure("Time per stage (median over scenes)", rel,
-                                 "Each backend's own stages, as it reports them (CONVENTIONS, Results)."))
-        columns = ["scene", "backend", "setting", "time_total", "rmse", "psnr", "ssim", "flip"]
-        out.append(blocks.Table("All settings", ok[columns].sort_values(["scene", "backend", "time_total"]).reset_index(drop=True),
-                                csv_name="speed_accuracy.csv"))
+        if stages:
+            path, rel = ctx.plot_path("stages")
+            plots.stage_breakdown(ok, path, stage_cols=stages, group_col="backend_setting",
+                                  title=_stage_title(ok, stages))
+            out.append(blocks.Figure("Time per stage (median over scenes)", rel,
+                                     "Each backend's own stages, as it reports them (CONVENTIONS, Results)."))
+        columns = ["scene", "backend", "setting"]
+        table = pd.concat([ok[columns], _ms(ok), ok[list(METRICS)].rename(columns=METRICS), _links(ok, ctx)], axis=1)
+        out.append(blocks.Table("All settings", table.sort_values(["scene", "backend", "time (ms)"]).reset_index(drop=True),
+                                csv_name="speed_accuracy.csv", links=LINKS,
+                                caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
+                                        "Each row links to its run's JSON record and EXR image."))
+        for scene, group in ok.groupby("scene"):
+            gallery = blocks.Gallery(f"{scene}: every setting against the reference", diff_scale=DIFF_SCALE)
+            for row in group.sort_values("time_total").itertuples():
+                gallery.items.append(blocks.GalleryItem(
+                    caption=row.technique, image=ctx.image(row.png),
+                    difference=ctx.difference(_reference_exr(results, row), row.exr, DIFF_SCALE),
+                    note=f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} dB, "
+                         f"largest error {format_number(row.max_error)}"))
+            out.append(gallery)
         unavailable = [{"backend": info.name, "reason": info.reason} for info in renderers.available() if not info.available]
         if unavailable:
             out.append(blocks.Table("Backends that cannot run here", pd.DataFrame(unavailable)))
         return out
+
+
+def _speed_title(scene, group, psnr_min=takeaways.PSNR_GOOD):
+    """The finding of a speed-accuracy chart: the fastest setting that reaches ``psnr_min``."""
+    accurate = group[group.psnr >= psnr_min]
+    if accurate.empty:
+        return f"{scene}: no setting reaches {psnr_min:g} dB (best {format_number(group.psnr.max())} dB)"
+    best = accurate.loc[accurate.time_ms.idxmin()]
+    return f"{scene}: {psnr_min:g} dB at {format_number(best.time_ms)} ms with {best.technique}"
+
+
+def _stage_shares(ok, stages):
+    medians = ok[stages].median()
+    total = medians.sum()
+    return (medians / total).sort_values(ascending=False) if total > 0 else pd.Series(dtype=float)
+
+
+def _stage_title(ok, stages):
+    shares = _stage_shares(ok, stages)
+    if shares.empty:
+        return "Time per stage"
+    return f"The {shares.index[0].removeprefix('time_')} stage takes {shares.iloc[0]:.0%} of the median frame"
+
+
+def _stage_takeaways(ok):
+    stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
+              and not c.endswith(("_min", "_max"))]
+    shares = _stage_shares(ok, stages) if stages else pd.Series(dtype=float)
+    if shares.empty:
+        return []
+    parts = ", ".join(f"{name.removeprefix('time_')} {share:.0%}" for name, share in shares.items())
+    return [f"Where the time goes (median over every setting and scene): {parts}."]
 
 
 def _tradeoff(df):

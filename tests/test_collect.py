@@ -1,0 +1,50 @@
+"""Pipeline-side inputs of the report: the record column, real-data provenance, planned papers."""
+
+import json
+from types import SimpleNamespace
+
+from pipeline import environment
+from pipeline.experiments.planned import NEEDS, planned
+
+
+def test_runs_csv_rows_link_their_record(tmp_path):
+    from test_reports_html import synthetic_results
+
+    runs_df, _claims, _experiments, results = synthetic_results(tmp_path)
+    assert runs_df.record.notna().all()
+    for row in runs_df.drop_duplicates("run").itertuples():
+        assert json.loads(open(row.record).read())["run"] == row.run
+
+
+def test_planned_papers_disappear_as_backends_and_experiments_land():
+    none = planned([], [])
+    assert {row["paper"] for row in none} == set(NEEDS)
+    lacroute = next(r for r in none if r["paper"] == "lacroute1995")
+    assert lacroute["reason"] == "backend not implemented yet" and "shearwarp, volpack" in lacroute["needs"]
+    with_backends = planned(["shearwarp", "volpack"], [])
+    lacroute = next(r for r in with_backends if r["paper"] == "lacroute1995")
+    assert lacroute["reason"] == "experiments not written yet"
+    done = planned(["shearwarp", "volpack"], [SimpleNamespace(paper="lacroute1995")])
+    assert "lacroute1995" not in {row["paper"] for row in done}
+
+
+def test_real_data_provenance_reads_the_manifest_and_sources(tmp_path):
+    (tmp_path / "volumes.json").write_text(json.dumps({
+        "_about": "comment", "cthead": {"file": "cthead_2x2x2_uint8.raw", "dims": [2, 2, 2], "dtype": "uint8",
+                                        "modality": "CT head"}}))
+    (tmp_path / "SOURCES.md").write_text(
+        "| file | dims | source repo @ commit : path | licence |\n|---|---|---|---|\n"
+        "| `cthead_2x2x2_uint8.raw` | 2×2×2 | someone/repo @ `abc` : data/cthead | MIT |\n")
+    facts = environment.real_data_provenance(tmp_path)
+    assert facts["folder"] == str(tmp_path) and facts["error"] == ""
+    cthead = facts["datasets"][0]
+    assert cthead["name"] == "cthead" and cthead["modality"] == "CT head"
+    assert cthead["source"] == "someone/repo @ abc : data/cthead. MIT"
+    missing = environment.real_data_provenance(tmp_path / "nowhere")
+    assert "does not exist" in missing["error"]
+    assert {d["name"] for d in missing["datasets"]} <= {"brainsmall"}  # VolPack's example, if Debian has it
+
+
+def test_host_environment_records_date_memory_and_numba_threads():
+    env = environment.host_environment()
+    assert env["memory_bytes"] > 0 and env["numba_threads"] >= 1 and len(env["date"]) == 16

@@ -1,0 +1,164 @@
+"""The render-job time limit, retries of failed runs and the code digests that trigger reruns."""
+
+import json
+import os
+import shutil
+import time
+from dataclasses import replace
+from pathlib import Path
+
+import pytest
+
+import renderers
+from core.errors import InputError
+from pipeline import runner
+from pipeline.experiments import Profile, Run
+from pipeline.runner import execute_limited, mark_retry, run_record_path, time_limit_reason
+from renderers.base import Capabilities, Renderer
+
+ROOT = Path(__file__).resolve().parent.parent
+SCENE = {"width": 8, "height": 8, "volumes": [{"dataset": "sphere", "size": 8}]}
+
+
+class Hanging(Renderer):
+    """Spins like a kernel on NaN rays: never returns, ignores signals' Python handlers."""
+
+    name = "hanging"
+    capabilities = Capabilities()
+
+    def _render(self, scene):
+        while True:
+            time.sleep(0.05)
+
+
+class Crashing(Renderer):
+    name = "crashing"
+    capabilities = Capabilities()
+
+    def _render(self, scene):
+        os._exit(9)  # dies like a segfault in native code: no record, no exception
+
+
+@pytest.fixture
+def profile(tmp_path, monkeypatch):
+    # The child process is spawned fresh: it gets these registry entries from its parent.
+    monkeypatch.setitem(renderers.BACKENDS, "hanging", f"{__name__}:Hanging")
+    monkeypatch.setitem(renderers.BACKENDS, "crashing", f"{__name__}:Crashing")
+    return Profile(name="t", volume_size=8, results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
+                   render_time_limit=120)
+
+
+def _run(run_id, backend, **kw):
+    return Run("volbench-phantoms", run_id, backend, SCENE, ({"view": "front"},), warmup=0, repeat=1, **kw)
+
+
+def test_a_hanging_job_is_killed_at_the_limit_and_recorded_as_failed(profile):
+    limited = replace(profile, render_time_limit=3)
+    started = time.monotonic()
+    record = execute_limited(_run("stuck", "hanging"), profile=limited)
+    elapsed = time.monotonic() - started
+    assert record["status"] == "failed"
+    assert record["reason"] == "exceeded the profile's render_time_limit of 3 s" == time_limit_reason(3)
+    assert 3 <= elapsed < 15
+    on_disk = json.loads(run_record_path(limited.results, "volbench-phantoms", "stuck").read_text())
+    assert on_disk["status"] == "failed" and on_disk["reason"] == record["reason"]
+    # The rest of the pipeline goes on: the next run in the same process renders normally.
+    ok = execute_limited(_run("fine", "reference", options={"step_factor": 1.0}), profile=profile)
+    assert ok["status"] == "ok", ok["reason"]
+    assert Path(ok["views"][0]["exr"]).is_file()
+
+
+def test_a_crashed_render_process_is_recorded_as_failed(profile):
+    record = execute_limited(_run("crash", "crashing"), profile=profile)
+    assert record["status"] == "failed" and "exit code 9" in record["reason"]
+
+
+def test_an_error_in_the_child_is_recorded_with_its_message(profile):
+    bad = Run("volbench-phantoms", "bad", "reference", {"volumes": [{"dataset": "sphere", "size": 8}],
+                                                         "camera": {"up": [0, 0, 0]}}, ({"view": "v"},))
+    record = execute_limited(bad, profile=profile)
+    assert record["status"] == "failed" and "camera up: must be a non-zero vector" in record["reason"]
+
+
+def test_no_limit_runs_in_process(profile, monkeypatch):
+    calls = []
+    monkeypatch.setattr(runner, "execute", lambda run, **kw: calls.append(run) or {"status": "ok"})
+    assert execute_limited(_run("x", "reference"), profile=replace(profile, render_time_limit=None)) == {"status": "ok"}
+    assert len(calls) == 1
+
+
+@pytest.mark.parametrize("value", [0, -5, "soon", float("inf")])
+def test_render_time_limit_must_be_a_positive_number(value):
+    with pytest.raises(InputError, match="render_time_limit"):
+        Profile.from_mapping({"name": "p", "render_time_limit": value})
+
+
+def test_every_shipped_profile_sets_a_render_time_limit():
+    for name in ("smoke", "default", "full"):
+        profile = Profile.load(ROOT / "config" / f"{name}.yaml")
+        assert profile.render_time_limit is not None and profile.render_time_limit > 0, name
+
+
+def test_retry_marker_is_new_only_for_failed_records(tmp_path):
+    results = tmp_path / "r"
+    marker = mark_retry(results, "e", "run1")  # no record yet: never a trigger
+    assert marker.is_file() and marker.stat().st_mtime == 0
+    record = run_record_path(results, "e", "run1")
+    record.parent.mkdir(parents=True)
+    for status, retried in (("ok", False), ("skipped", False), ("failed", True)):
+        record.write_text(json.dumps({"status": status}))
+        assert (mark_retry(results, "e", "run1").stat().st_mtime > record.stat().st_mtime) == retried, status
+    record.write_text("{half a reco")
+    assert mark_retry(results, "e", "run1").stat().st_mtime > record.stat().st_mtime
+    record.write_text(json.dumps({"status": "ok"}))  # the retry succeeded: the marker goes back to 1970
+    assert mark_retry(results, "e", "run1").stat().st_mtime == 0
+
+
+def _copy_tree(tmp_path):
+    tree = tmp_path / "tree"
+    for entry in ("core", "datasets", "renderers", "reports", "pipeline"):
+        shutil.copytree(ROOT / entry, tree / entry, ignore=shutil.ignore_patterns("__pycache__"))
+    return tree
+
+
+@pytest.mark.parametrize("edited, reruns", [
+    ("core/camera.py", {"volume", "render", "evaluate", "collect", "report", "environment"}),
+    ("core/transfer.py", {"volume", "render", "evaluate", "collect", "report", "environment"}),
+    ("datasets/loaders.py", {"volume", "render"}),
+    ("renderers/base/interface.py", {"render"}),
+    ("renderers/reference/raycast.py", {"render"}),
+    ("pipeline/scene_io.py", {"render"}),
+    ("pipeline/timing.py", {"render"}),
+    ("pipeline/runner.py", {"render", "evaluate", "collect"}),
+    ("reports/imageio.py", {"render", "evaluate", "report"}),
+    ("reports/metrics.py", {"evaluate", "collect", "report"}),
+    ("pipeline/collect.py", {"collect"}),
+    ("pipeline/experiments/volbench.py", {"collect", "report"}),
+    ("reports/html.py", {"report"}),
+    ("pipeline/environment.py", {"environment", "render"}),
+])
+def test_editing_shared_code_changes_the_digest_of_the_jobs_it_shapes(tmp_path, edited, reruns):
+    tree = _copy_tree(tmp_path)
+    rules = ("volume", "environment", "render", "evaluate", "collect", "report")
+
+    def digests():
+        return {rule: runner.job_code_digest(rule, backend="reference" if rule == "render" else None, root=tree)
+                for rule in rules}
+
+    before = digests()
+    with open(tree / edited, "a") as f:
+        f.write("\n# an edit\n")
+    after = digests()
+    assert {rule for rule in rules if before[rule] != after[rule]} == reruns
+
+
+def test_job_sources_exist_and_cover_what_a_render_job_imports():
+    for rule, entries in runner.JOB_SOURCES.items():
+        assert runner.source_files(entries), rule
+    files = {p.relative_to(ROOT).as_posix() for p in runner.source_files(runner.JOB_SOURCES["render"])}
+    for module in ("core/scene.py", "core/transfer.py", "datasets/cache.py", "datasets/phantoms/heads.py",
+                   "renderers/base/interface.py", "pipeline/runner.py", "pipeline/scene_io.py", "pipeline/timing.py",
+                   "reports/imageio.py"):
+        assert module in files, module
+    with pytest.raises(FileNotFoundError):
+        runner.source_files(["no/such/file.py"])

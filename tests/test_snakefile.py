@@ -1,0 +1,100 @@
+"""The Snakefile reruns what an edit or a failure makes stale, and nothing else (dry runs on a copy)."""
+
+import json
+import re
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+import yaml
+
+ROOT = Path(__file__).resolve().parent.parent
+
+pytestmark = pytest.mark.slow
+
+
+def _snakemake(tree, profile, *args):
+    out = subprocess.run([sys.executable, "-m", "snakemake", "--cores", "1", "--snakefile", str(tree / "Snakefile"),
+                          "--directory", str(tree), "--configfile", str(profile), *args],
+                         capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, out.stdout[-2000:] + out.stderr[-3000:]
+    return out.stdout + out.stderr
+
+
+def _planned(tree, profile):
+    """``{rule: job count}`` a dry run would execute."""
+    text = _snakemake(tree, profile, "--dry-run", "--quiet", "rules")
+    return {m[1]: int(m[2]) for m in re.finditer(r"^(\w+)\s+(\d+)$", text, re.M) if m[1] not in ("total", "all")}
+
+
+@pytest.fixture
+def workflow(tmp_path):
+    """A copy of the workflow whose outputs all exist and are up to date (as after a finished run)."""
+    tree = tmp_path / "tree"
+    for entry in ("core", "datasets", "renderers", "reports", "pipeline", "config"):
+        shutil.copytree(ROOT / entry, tree / entry, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "Snakefile", tree / "Snakefile")
+    profile = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
+    profile.update(results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
+                   experiments=["volbench-convergence"])
+    profile_path = tmp_path / "profile.yaml"
+    profile_path.write_text(yaml.safe_dump(profile))
+    summary = _snakemake(tree, profile_path, "--summary")
+    for line in summary.splitlines():
+        path = Path(line.split("\t")[0])
+        if path.is_absolute():
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps({"status": "ok"}) if "/runs/" in str(path) else "")
+    _snakemake(tree, profile_path, "--touch", "--forceall")  # marks them finished, recording params (the code digests)
+    assert _planned(tree, profile_path) == {}
+    return tree, profile_path, tmp_path / "results"
+
+
+def _edit(path):
+    with open(path, "a") as f:
+        f.write("\n# an edit that changes the code's digest\n")
+
+
+def test_a_shared_module_edit_reruns_every_job_it_shapes(workflow):
+    tree, profile, _ = workflow
+    _edit(tree / "core" / "camera.py")
+    planned = _planned(tree, profile)
+    assert {"volume", "environment", "render", "evaluate", "collect", "report"} <= set(planned)
+    assert "Params have changed since last execution" in _snakemake(tree, profile, "--dry-run")
+
+
+def test_a_metrics_edit_reruns_evaluation_but_no_render(workflow):
+    tree, profile, _ = workflow
+    _edit(tree / "reports" / "metrics.py")
+    planned = _planned(tree, profile)
+    assert set(planned) == {"evaluate", "collect", "report"}
+
+
+def test_a_loader_edit_reruns_renders_and_a_backend_edit_only_its_renders(workflow):
+    tree, profile, _ = workflow
+    _edit(tree / "renderers" / "reference" / "raycast.py")
+    planned = _planned(tree, profile)
+    assert "render" in planned and "volume" not in planned and "environment" not in planned
+    _snakemake(tree, profile, "--touch", "--forceall")
+    _edit(tree / "datasets" / "loaders.py")
+    planned = _planned(tree, profile)
+    assert "render" in planned and "volume" in planned and "environment" not in planned
+
+
+def test_a_failed_run_is_retried_on_the_next_run(workflow):
+    tree, profile, results = workflow
+    records = sorted((results / "runs").rglob("*.json"))
+    failed = records[0]
+    failed.write_text(json.dumps({"status": "failed", "reason": "exceeded the profile's render_time_limit of 1 s"}))
+    _snakemake(tree, profile, "--touch", "--forceall")  # even as a finished output with current metadata ...
+    assert _planned(tree, profile)["render"] == 1  # ... the failed run is planned again
+    text = _snakemake(tree, profile, "--dry-run")
+    assert f"output: {failed}" in text and ".retry" in text
+    failed.write_text(json.dumps({"status": "ok"}))  # the retry succeeded
+    _snakemake(tree, profile, "--touch", "--forceall")
+    assert _planned(tree, profile) == {}
+    records[1].write_text(json.dumps({"status": "skipped", "reason": "backend unavailable"}))
+    _snakemake(tree, profile, "--touch", "--forceall")
+    assert _planned(tree, profile) == {}  # a skipped run cannot happen here: it is not retried
