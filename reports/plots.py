@@ -163,13 +163,18 @@ def _plot(path, title, note, empty, draw):
         return _save(fig, path)
 
 
+HIGHER_IS_BETTER = frozenset({"psnr", "ssim"})
+"""Accuracy columns that grow as images get closer to the reference (the others are errors)."""
+
+
 def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_col="backend",
                    label_col=None, title=None, log_x=True, log_y=True, pareto=False,
                    time_range_cols=None, x_label=None, y_label=None, better=None):
     """Scatter of time against error, one line-and-marker series per group.
 
-    Each series is sorted by time, so the runs of a parameter sweep form a curve. Aggregate over
-    views first (e.g. median per configuration) for clean curves.
+    Each series is joined from its least to its most accurate point, so the settings of a quality
+    sweep form a curve in quality order even where noisy timings would make a time-ordered line
+    zigzag. Aggregate over views first (e.g. median per configuration) for clean curves.
 
     Parameters
     ----------
@@ -209,7 +214,8 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
 
     def draw(ax):
         for i, (name, group) in enumerate(_groups(rows, group_col)):
-            group = group.sort_values(time_col, kind="stable")
+            least_accurate_first = error_col in HIGHER_IS_BETTER  # PSNR rises with accuracy, RMSE falls
+            group = group.sort_values([error_col, time_col], ascending=[least_accurate_first, True], kind="stable")
             x = group[time_col].to_numpy(float)
             xerr = _error_bars(group, x, ranges)
             ax.errorbar(x, group[error_col], xerr=xerr, label=name or error_col, capsize=2,
