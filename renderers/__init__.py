@@ -17,6 +17,8 @@ from core.errors import BackendUnavailableError, InputError
 
 BACKENDS = {
     "reference": "renderers.reference:ReferenceRenderer",
+    "shearwarp": "renderers.shearwarp.renderer:ShearWarpRenderer",
+    "volpack": "renderers.volpack.renderer:VolPackRenderer",
 }
 
 

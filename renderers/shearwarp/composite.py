@@ -1,0 +1,419 @@
+"""Numba kernels of the shear-warp compositing loop (Lacroute 1995, §4.1, Fig. 4.8; Ch. 6).
+
+Per-frame tables
+----------------
+* :func:`opacity_table`: ``α' = 1 − (1 − α)^(Δ/Δ0)`` for each 8-bit stored opacity (§4.1.6), rebuilt
+  per view (``Δ`` = the world length of a ray segment between two slices).
+* :func:`shade_table`: for each of the 8193 normal codes, the Blinn–Phong factors ``(f, h)`` with
+  ``f = ambient + diffuse·|N·L|`` and ``h = specular·|N·H|^shininess`` (two-sided, CONVENTIONS),
+  ``N`` the code's object-space direction carried to world space by the normal matrix; a voxel of
+  colour ``c`` shades to ``clamp(c·f + h)`` per channel, exactly the reference's formula with a
+  quantised normal. ``shading="procedural"`` evaluates the same formula per voxel from its stored
+  unquantised gradient instead (thesis Table 7.1's "no lookup tables").
+
+Compositing
+-----------
+The intermediate image is float32 premultiplied RGBA, pixel ``(row, column)`` at ``(u, v) =
+(column, row)``. Slice ``k`` lands at offset ``(u0, v0)`` with integer parts ``(iu, iv)`` and
+fractions ``(fu, fv)``; intermediate pixel ``(row, iu + x)`` of that slice is the bilinear
+combination of voxels ``x`` and ``x − 1`` of voxel scanlines ``j = row − iv`` and ``j − 1``, with the
+weights ``(1−fu)(1−fv)``, ``(1−fu)fv``, ``fu(1−fv)``, ``fu·fv``, the same for the whole slice
+(property 3). Each voxel is opacity-corrected (table), coloured (colour table, shaded by the LUT
+or procedurally) and premultiplied before resampling, as the thesis does (classify → shade →
+interpolate), and each sample is composited front to back, ``C += (1 − A)·c``, ``A += (1 − A)·α``.
+
+Along a row the two voxel scanlines are walked with run cursors, positions ``x = 0..n_i`` (the
+``n_i + 1`` pixels a scanline's bilinear footprint covers). Three cases per position, as in Fig.
+4.8: (1) the pixel is opaque (skip link ≠ 0): FIND the end of its opaque run and jump there,
+re-reading the voxel left of the landing position; (2) the current and the previous voxel of both
+scanlines are transparent: jump to the next non-transparent run start of either scanline (every
+skipped sample is exactly zero, so skipping changes no bit); (3) resample and composite. The
+brute-force path (``rle=False``) feeds the same loop an encoding where every voxel is one
+non-transparent run and turns case (2) off (``skip_empty``), so it resamples every position and
+both produce the same image bit for bit when early termination is off.
+
+Early ray termination (§4.1.3): a pixel with ``A >= opaque_threshold`` gets skip link 1
+(CREATE; UNION is free because links point forward). FIND follows links to the first
+non-opaque pixel and, with path compression, rewrites every visited link to point there. The
+``union="rank"`` variant keeps a parent pointer (stored as parent + 1), a rank and the run end per
+root, and unions a new opaque pixel with its opaque neighbours by rank, FIND also compressing
+paths. Links are int32 (the thesis's are 8-bit, capping one skip at 255 pixels).
+
+Threads (Ch. 6): the intermediate image's rows are cut into tasks of ``task_size`` rows; a task
+composites all slices front to back over its rows. Tasks are dealt to ``workers`` queues
+contiguously or round-robin; a worker takes its own queue's tasks in order and, in the
+``-steal`` schedules, then takes tasks from the other queues, with an atomic fetch-and-add per
+queue (:func:`_fetch_add`) so that each task is taken once. Compositing a row never reads another
+row, so the image and every counter are the same bits for any schedule and worker count.
+"""
+
+import math
+
+import numpy as np
+from numba import njit, prange, types
+from numba.core import cgutils
+from numba.extending import intrinsic
+
+from renderers.shearwarp.classify import NO_NORMAL, NORMAL_CODES, NORMAL_DIRECTIONS
+
+_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+
+SHADE_NONE, SHADE_LUT, SHADE_PROCEDURAL = 0, 1, 2
+N_COUNTERS = 5
+C_SAMPLES, C_RUNS, C_FINDS, C_CREATES, C_SKIPPED = range(N_COUNTERS)
+BIG = 1 << 60
+
+
+@intrinsic
+def _fetch_add(typingctx, array, index, value):
+    """Atomic ``old = array[index]; array[index] += value; return old`` on an int64 array."""
+    if not (isinstance(array, types.Array) and array.dtype == types.int64 and array.ndim == 1):
+        return None
+    signature = types.int64(array, types.intp, types.int64)
+
+    def codegen(context, builder, sig, args):
+        arr, idx, val = args
+        aryty = sig.args[0]
+        ary = context.make_array(aryty)(context, builder, arr)
+        pointer = cgutils.get_item_pointer(context, builder, aryty, ary, [idx])
+        return builder.atomic_rmw("add", pointer, val, "seq_cst")
+
+    return signature, codegen
+
+
+# ---------------------------------------------------------------------------------------------
+# Tables
+
+
+def opacity_table(ratio, correct=True):
+    """Corrected opacity for each stored 8-bit opacity, float64 (256,)."""
+    alpha = np.arange(256, dtype=np.float64) / 255.0
+    if not correct:
+        return alpha
+    with np.errstate(divide="ignore"):
+        return -np.expm1(ratio * np.log1p(-alpha))
+
+
+@njit(**_JIT)
+def _phong_factors(nx, ny, nz, light, half, has_half, ambient, diffuse, specular, shininess):
+    norm = math.sqrt(nx * nx + ny * ny + nz * nz)
+    if norm == 0.0:
+        return ambient, 0.0
+    factor = ambient + diffuse * abs(nx * light[0] + ny * light[1] + nz * light[2]) / norm
+    highlight = 0.0
+    if has_half:
+        highlight = specular * (abs(nx * half[0] + ny * half[1] + nz * half[2]) / norm) ** shininess
+    return factor, highlight
+
+
+@njit(**_JIT)
+def _shade_table_kernel(dirs, nmat, light, half, has_half, params, table):
+    for code in range(dirs.shape[0]):
+        gx, gy, gz = dirs[code, 0], dirs[code, 1], dirs[code, 2]
+        nx = nmat[0, 0] * gx + nmat[0, 1] * gy + nmat[0, 2] * gz
+        ny = nmat[1, 0] * gx + nmat[1, 1] * gy + nmat[1, 2] * gz
+        nz = nmat[2, 0] * gx + nmat[2, 1] * gy + nmat[2, 2] * gz
+        f, h = _phong_factors(nx, ny, nz, light, half, has_half, params[0], params[1], params[2], params[3])
+        table[code, 0] = f
+        table[code, 1] = h
+
+
+def shade_table(normal_matrix, light, half, has_half, params, out=None):
+    """``(8193, 2)`` float64 Blinn–Phong factors per normal code (see the module notes)."""
+    if out is None:
+        out = np.empty((NORMAL_CODES, 2))
+    _shade_table_kernel(NORMAL_DIRECTIONS, normal_matrix, light, half, has_half, params, out)
+    return out
+
+
+# ---------------------------------------------------------------------------------------------
+# Compositing
+
+
+@njit(**_JIT)
+def _voxel(voxels, gradients, index, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params):
+    """Premultiplied, opacity-corrected, shaded colour of one voxel record."""
+    record = voxels[index]
+    opacity = record & 255
+    if opacity == 0:
+        return 0.0, 0.0, 0.0, 0.0
+    a = optab[opacity]
+    ci = (record >> 8) & 255
+    r = coltab[ci, 0]
+    g = coltab[ci, 1]
+    b = coltab[ci, 2]
+    if shade_mode == SHADE_LUT:
+        code = record >> 16
+        f = shadetab[code, 0]
+        h = shadetab[code, 1]
+        r = min(max(r * f + h, 0.0), 1.0)
+        g = min(max(g * f + h, 0.0), 1.0)
+        b = min(max(b * f + h, 0.0), 1.0)
+    elif shade_mode == SHADE_PROCEDURAL:
+        gx = np.float64(gradients[index, 0])
+        gy = np.float64(gradients[index, 1])
+        gz = np.float64(gradients[index, 2])
+        nx = nmat[0, 0] * gx + nmat[0, 1] * gy + nmat[0, 2] * gz
+        ny = nmat[1, 0] * gx + nmat[1, 1] * gy + nmat[1, 2] * gz
+        nz = nmat[2, 0] * gx + nmat[2, 1] * gy + nmat[2, 2] * gz
+        f, h = _phong_factors(nx, ny, nz, light, half, has_half, params[0], params[1], params[2], params[3])
+        r = min(max(r * f + h, 0.0), 1.0)
+        g = min(max(g * f + h, 0.0), 1.0)
+        b = min(max(b * f + h, 0.0), 1.0)
+    return a * r, a * g, a * b, a
+
+
+@njit(**_JIT)
+def _advance(lengths, x, run, start, end, nontransparent, data):
+    """Move a run cursor forward until voxel ``x`` lies in its run; returns the cursor and runs passed."""
+    passed = 0
+    while x >= end:
+        if nontransparent:
+            data += end - start
+        start = end
+        run += 1
+        end = start + lengths[run]
+        nontransparent = not nontransparent
+        passed += 1
+    return run, start, end, nontransparent, data, passed
+
+
+@njit(**_JIT)
+def _find_compress(link, row, p):
+    """FIND with path compression (relative links): the first non-opaque pixel at or after ``p``."""
+    q = p
+    while link[row, q] != 0:
+        q += link[row, q]
+    x = p
+    while x != q:
+        nxt = x + link[row, x]
+        link[row, x] = q - x
+        x = nxt
+    return q
+
+
+@njit(**_JIT)
+def _root_rank(link, row, p):
+    """Root of ``p``'s set in the union-by-rank forest (links hold parent + 1), compressing the path."""
+    root = p
+    while link[row, root] - 1 != root:
+        root = link[row, root] - 1
+    x = p
+    while x != root:
+        nxt = link[row, x] - 1
+        link[row, x] = root + 1
+        x = nxt
+    return root
+
+
+@njit(**_JIT)
+def _union_rank(link, rank, runend, row, a, b):
+    if a == b:
+        return
+    end = max(runend[row, a], runend[row, b])
+    if rank[row, a] < rank[row, b]:
+        link[row, a] = b + 1
+        runend[row, b] = end
+    elif rank[row, a] > rank[row, b]:
+        link[row, b] = a + 1
+        runend[row, a] = end
+    else:
+        link[row, b] = a + 1
+        rank[row, a] += 1
+        runend[row, a] = end
+
+
+@njit(**_JIT)
+def _composite_row(row, j, sl_a, ni, nj, iu, wca, wcb, wpa, wpb, lengths, run_offsets, data_offsets, voxels,
+                   gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params,
+                   early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
+    """Composite one slice's contribution to intermediate row ``row`` (voxel scanlines ``j`` and ``j − 1``)."""
+    samples = 0
+    runs = 0
+    finds = 0
+    creates = 0
+    skipped = 0
+    a_ok = j < nj
+    b_ok = j >= 1
+    # Cursor A: scanline j (weight 1 − fv); cursor B: scanline j − 1 (weight fv).
+    a_run = 0
+    a_start = 0
+    a_end = BIG
+    a_nt = False
+    a_dat = 0
+    if a_ok:
+        a_run = run_offsets[sl_a]
+        a_end = np.int64(lengths[a_run])
+        a_dat = data_offsets[sl_a]
+    b_run = 0
+    b_start = 0
+    b_end = BIG
+    b_nt = False
+    b_dat = 0
+    if b_ok:
+        b_run = run_offsets[sl_a - 1]
+        b_end = np.int64(lengths[b_run])
+        b_dat = data_offsets[sl_a - 1]
+    par = pag = pab = paa = 0.0  # previous voxel (x − 1) of scanline A, premultiplied
+    pbr = pbg = pbb = pba = 0.0
+    x = 0
+    while x <= ni:
+        p = x + iu
+        if early and link[row, p] != 0:
+            if rank_mode:
+                q = runend[row, _root_rank(link, row, p)]
+            else:
+                q = _find_compress(link, row, p)
+            finds += 1
+            landing = q - iu
+            skipped += min(landing, ni + 1) - x
+            if landing > ni:
+                break
+            # Re-read the voxels left of the landing position (they may be non-transparent).
+            left = landing - 1
+            par = pag = pab = paa = 0.0
+            pbr = pbg = pbb = pba = 0.0
+            if a_ok:
+                a_run, a_start, a_end, a_nt, a_dat, n = _advance(lengths, left, a_run, a_start, a_end, a_nt, a_dat)
+                runs += n
+                if a_nt:
+                    par, pag, pab, paa = _voxel(voxels, gradients, a_dat + left - a_start, optab, coltab, shadetab,
+                                                shade_mode, nmat, light, half, has_half, params)
+            if b_ok:
+                b_run, b_start, b_end, b_nt, b_dat, n = _advance(lengths, left, b_run, b_start, b_end, b_nt, b_dat)
+                runs += n
+                if b_nt:
+                    pbr, pbg, pbb, pba = _voxel(voxels, gradients, b_dat + left - b_start, optab, coltab, shadetab,
+                                                shade_mode, nmat, light, half, has_half, params)
+            x = landing
+            continue
+        cur_a = False
+        cur_b = False
+        if x < ni:
+            if a_ok:
+                if x >= a_end:
+                    a_run, a_start, a_end, a_nt, a_dat, n = _advance(lengths, x, a_run, a_start, a_end, a_nt, a_dat)
+                    runs += n
+                cur_a = a_nt
+            if b_ok:
+                if x >= b_end:
+                    b_run, b_start, b_end, b_nt, b_dat, n = _advance(lengths, x, b_run, b_start, b_end, b_nt, b_dat)
+                    runs += n
+                cur_b = b_nt
+        if skip_empty and not cur_a and not cur_b and paa == 0.0 and pba == 0.0:
+            # Both scanlines transparent here and just before: jump to the next non-transparent run.
+            landing = ni + 1
+            if x < ni:
+                if a_ok:
+                    landing = min(landing, a_end)
+                if b_ok:
+                    landing = min(landing, b_end)
+            x = landing
+            continue
+        car = cag = cab = caa = 0.0
+        cbr = cbg = cbb = cba = 0.0
+        if cur_a:
+            car, cag, cab, caa = _voxel(voxels, gradients, a_dat + x - a_start, optab, coltab, shadetab, shade_mode,
+                                        nmat, light, half, has_half, params)
+        if cur_b:
+            cbr, cbg, cbb, cba = _voxel(voxels, gradients, b_dat + x - b_start, optab, coltab, shadetab, shade_mode,
+                                        nmat, light, half, has_half, params)
+        sa = wca * caa + wcb * cba + wpa * paa + wpb * pba
+        samples += 1
+        if sa > 0.0:
+            sr = wca * car + wcb * cbr + wpa * par + wpb * pbr
+            sg = wca * cag + wcb * cbg + wpa * pag + wpb * pbg
+            sb = wca * cab + wcb * cbb + wpa * pab + wpb * pbb
+            transparency = 1.0 - np.float64(image[row, p, 3])
+            image[row, p, 0] += transparency * sr
+            image[row, p, 1] += transparency * sg
+            image[row, p, 2] += transparency * sb
+            alpha = image[row, p, 3] + transparency * sa
+            image[row, p, 3] = alpha
+            if early and image[row, p, 3] >= threshold:
+                creates += 1
+                if rank_mode:
+                    link[row, p] = p + 1
+                    rank[row, p] = 0
+                    runend[row, p] = p + 1
+                    if p > 0 and link[row, p - 1] != 0:
+                        _union_rank(link, rank, runend, row, _root_rank(link, row, p - 1), p)
+                    if link[row, p + 1] != 0:
+                        _union_rank(link, rank, runend, row, _root_rank(link, row, p), _root_rank(link, row, p + 1))
+                else:
+                    link[row, p] = 1
+        par, pag, pab, paa = car, cag, cab, caa
+        pbr, pbg, pbb, pba = cbr, cbg, cbb, cba
+        x += 1
+    counters[row, C_SAMPLES] += samples
+    counters[row, C_RUNS] += runs
+    counters[row, C_FINDS] += finds
+    counters[row, C_CREATES] += creates
+    counters[row, C_SKIPPED] += skipped
+
+
+@njit(**_JIT)
+def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, voxels,
+                    gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params, early,
+                    threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
+    for s in range(slices.shape[0]):
+        k = slices[s]
+        for row in range(r0, r1):
+            j = row - iv[k]
+            if j < 0 or j > nj:
+                continue
+            _composite_row(row, j, k * nj + j, ni, nj, iu[k], weights[k, 0], weights[k, 1], weights[k, 2],
+                           weights[k, 3], lengths, run_offsets, data_offsets, voxels, gradients, optab, coltab,
+                           shadetab, shade_mode, nmat, light, half, has_half, params, early, threshold, rank_mode,
+                           skip_empty, image, link, rank, runend, counters)
+
+
+@njit(parallel=True, **_JIT)
+def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, iu, iv, weights,
+              ni, nj, lengths, run_offsets, data_offsets, voxels, gradients, optab, coltab, shadetab, shade_mode, nmat,
+              light, half, has_half, params, early, threshold, rank_mode, skip_empty, image, link, rank, runend,
+              counters):
+    """Composite every slice into the intermediate image, tasks dealt to ``workers`` queues.
+
+    ``queue_tasks[queue_start[w]:queue_start[w + 1]]`` is worker ``w``'s queue and ``queue_next[w]``
+    (set to ``queue_start[w]`` by the caller) its next position; ``worker_stats[w]`` receives the
+    tasks and samples worker ``w`` did.
+    """
+    height = image.shape[0]
+    for w in prange(workers):
+        done = 0
+        samples_before = 0
+        for t in range(workers if steal else 1):
+            queue = (w + t) % workers
+            while True:
+                position = _fetch_add(queue_next, queue, 1)
+                if position >= queue_start[queue + 1]:
+                    break
+                task = queue_tasks[position]
+                r0 = task * task_size
+                r1 = min(height, r0 + task_size)
+                for row in range(r0, r1):
+                    samples_before -= counters[row, C_SAMPLES]
+                _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, voxels,
+                                gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params,
+                                early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters)
+                for row in range(r0, r1):
+                    samples_before += counters[row, C_SAMPLES]
+                done += 1
+        worker_stats[w, 0] = done
+        worker_stats[w, 1] = samples_before
+
+
+@njit(parallel=True, **_JIT)
+def clear(image, link, counters):
+    """Zero the intermediate image, its skip links and the per-row counters."""
+    for row in prange(image.shape[0]):
+        for col in range(image.shape[1]):
+            image[row, col, 0] = 0.0
+            image[row, col, 1] = 0.0
+            image[row, col, 2] = 0.0
+            image[row, col, 3] = 0.0
+        for col in range(link.shape[1]):
+            link[row, col] = 0
+        for c in range(counters.shape[1]):
+            counters[row, c] = 0
