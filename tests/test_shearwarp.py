@@ -196,3 +196,37 @@ def test_preprocessing_is_cached_and_reported_once(volume):
     other = backend.render(scene_of(volume, TransferFunction.ramp(0.3, 0.6)))
     assert "classify" in other.timings  # a new classification is a new entry
     np.testing.assert_array_equal(backend.render(scene).image, first.image)
+
+
+def test_warp_skipping_of_empty_regions_changes_no_bit():
+    """The warp skips output pixels whose taps lie outside the intermediate rows' non-zero extents
+    (and output columns outside the non-zero rows' footprint); with every row marked full it
+    evaluates every pixel: both must give the same bits, for affine and projective warps."""
+    from renderers.shearwarp import warp as wp
+
+    rng = np.random.default_rng(3)
+    src = np.zeros((40, 52, 4), np.float32)
+    src[5:9, 30:34] = rng.uniform(0, 1, (4, 4, 4))  # a small island
+    src[20, 3] = 0.25  # a lone pixel
+    src[33:36, 10:45, 3] = rng.uniform(0, 1, (3, 35))  # alpha only
+    src[38, 50, 0] = 0.5  # colour only, at the border
+    theta = np.radians(33.0)
+    affine = np.array([[1.3 * np.cos(theta), -1.3 * np.sin(theta), 20.0],
+                       [1.1 * np.sin(theta), 1.1 * np.cos(theta), 4.5], [0.0, 0.0, 1.0]])
+    projective = affine.copy()
+    projective[2] = (0.002, -0.001, 1.0)
+    full = np.tile(np.array([[0, src.shape[1] - 1]], dtype=np.int64), (src.shape[0], 1))
+    extent = np.empty_like(full)
+    wp._row_extents(src, extent)
+    assert extent[0, 0] > extent[0, 1] and tuple(extent[5]) == (30, 33) and tuple(extent[38]) == (50, 50)
+    for matrix, is_affine in ((affine, True), (projective, False)):
+        inverse = np.linalg.inv(matrix)
+        if is_affine:
+            inverse[2] = (0.0, 0.0, 1.0)
+        skipped = np.full((70, 80, 4), np.nan, np.float32)
+        every = np.full((70, 80, 4), np.nan, np.float32)
+        wp._warp_kernel(src, inverse, is_affine, extent, skipped)
+        wp._warp_kernel(src, inverse, is_affine, full, every)
+        assert np.isfinite(skipped).all() and (skipped[..., 3] > 0).sum() > 20
+        np.testing.assert_array_equal(skipped.view(np.uint32), every.view(np.uint32))
+        np.testing.assert_array_equal(wp.warp_image(src, matrix, (70, 80)).view(np.uint32), skipped.view(np.uint32))

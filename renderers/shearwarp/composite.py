@@ -39,6 +39,18 @@ non-opaque pixel and, with path compression, rewrites every visited link to poin
 root, and unions a new opaque pixel with its opaque neighbours by rank, FIND also compressing
 paths. Links are int32 (the thesis's are 8-bit, capping one skip at 255 pixels).
 
+Speed notes: the row loop is written out inside :func:`_composite_task` (one call per task, not
+per slice and row), and inside the loops only scalars are passed to helper functions. Numba
+reference-counts array arguments at calls it does not inline (an atomic increment and decrement
+per array), which made a sample several times dearer than its arithmetic; the shading lookups
+and FIND are therefore written in place, with :func:`_procedural` and :func:`_premultiply`
+taking scalars only. Each voxel is shaded where it is first needed and carried in registers as
+the "previous" voxel of the next position (twice per slice: once per scanline of the pair);
+shading whole scanlines ahead of time would shade many voxels that early termination never
+reaches (on the bone phantom five times more voxels than samples). A lazily filled two-scanline
+cache (scanline ``j`` shaded once as A and reused as B by the next row) was measured and gained
+nothing: the time goes to run and FIND bookkeeping and the image update, not to shading.
+
 Threads (Ch. 6): the intermediate image's rows are cut into tasks of ``task_size`` rows; a task
 composites all slices front to back over its rows. Tasks are dealt to ``workers`` queues
 contiguously or round-robin; a worker takes its own queue's tasks in order and, in the
@@ -95,34 +107,49 @@ def opacity_table(ratio, correct=True):
 
 
 @njit(**_JIT)
-def _phong_factors(nx, ny, nz, light, half, has_half, ambient, diffuse, specular, shininess):
+def _phong_factors(nx, ny, nz, lx, ly, lz, hx, hy, hz, has_half, ambient, diffuse, specular, shininess):
     norm = math.sqrt(nx * nx + ny * ny + nz * nz)
     if norm == 0.0:
         return ambient, 0.0
-    factor = ambient + diffuse * abs(nx * light[0] + ny * light[1] + nz * light[2]) / norm
+    factor = ambient + diffuse * abs(nx * lx + ny * ly + nz * lz) / norm
     highlight = 0.0
     if has_half:
-        highlight = specular * (abs(nx * half[0] + ny * half[1] + nz * half[2]) / norm) ** shininess
+        highlight = specular * (abs(nx * hx + ny * hy + nz * hz) / norm) ** shininess
     return factor, highlight
 
 
 @njit(**_JIT)
-def _shade_table_kernel(dirs, nmat, light, half, has_half, params, table):
-    for code in range(dirs.shape[0]):
+def _shade_codes(first, last, dirs, nmat, light, half, has_half, params, table):
+    for code in range(first, last):
         gx, gy, gz = dirs[code, 0], dirs[code, 1], dirs[code, 2]
         nx = nmat[0, 0] * gx + nmat[0, 1] * gy + nmat[0, 2] * gz
         ny = nmat[1, 0] * gx + nmat[1, 1] * gy + nmat[1, 2] * gz
         nz = nmat[2, 0] * gx + nmat[2, 1] * gy + nmat[2, 2] * gz
-        f, h = _phong_factors(nx, ny, nz, light, half, has_half, params[0], params[1], params[2], params[3])
+        f, h = _phong_factors(nx, ny, nz, light[0], light[1], light[2], half[0], half[1], half[2], has_half,
+                              params[0], params[1], params[2], params[3])
         table[code, 0] = f
         table[code, 1] = h
 
 
-def shade_table(normal_matrix, light, half, has_half, params, out=None):
-    """``(8193, 2)`` float64 Blinn–Phong factors per normal code (see the module notes)."""
+@njit(parallel=True, **_JIT)
+def _shade_table_parallel(dirs, nmat, light, half, has_half, params, workers, table):
+    n = dirs.shape[0]
+    for w in prange(workers):  # contiguous chunks, one per worker: the same bits for any count
+        _shade_codes(w * n // workers, (w + 1) * n // workers, dirs, nmat, light, half, has_half, params, table)
+
+
+def shade_table(normal_matrix, light, half, has_half, params, out=None, workers=1):
+    """``(8193, 2)`` float64 Blinn–Phong factors per normal code (see the module notes).
+
+    ``workers > 1`` splits the codes over that many threads (same bits); one worker runs in the
+    calling thread without a parallel launch (cheaper for a table this small).
+    """
     if out is None:
         out = np.empty((NORMAL_CODES, 2))
-    _shade_table_kernel(NORMAL_DIRECTIONS, normal_matrix, light, half, has_half, params, out)
+    if workers > 1:
+        _shade_table_parallel(NORMAL_DIRECTIONS, normal_matrix, light, half, has_half, params, int(workers), out)
+    else:
+        _shade_codes(0, NORMAL_CODES, NORMAL_DIRECTIONS, normal_matrix, light, half, has_half, params, out)
     return out
 
 
@@ -131,65 +158,26 @@ def shade_table(normal_matrix, light, half, has_half, params, out=None):
 
 
 @njit(**_JIT)
-def _voxel(voxels, gradients, index, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params):
-    """Premultiplied, opacity-corrected, shaded colour of one voxel record."""
-    record = voxels[index]
-    opacity = record & 255
-    if opacity == 0:
-        return 0.0, 0.0, 0.0, 0.0
-    a = optab[opacity]
-    ci = (record >> 8) & 255
-    r = coltab[ci, 0]
-    g = coltab[ci, 1]
-    b = coltab[ci, 2]
-    if shade_mode == SHADE_LUT:
-        code = record >> 16
-        f = shadetab[code, 0]
-        h = shadetab[code, 1]
-        r = min(max(r * f + h, 0.0), 1.0)
-        g = min(max(g * f + h, 0.0), 1.0)
-        b = min(max(b * f + h, 0.0), 1.0)
-    elif shade_mode == SHADE_PROCEDURAL:
-        gx = np.float64(gradients[index, 0])
-        gy = np.float64(gradients[index, 1])
-        gz = np.float64(gradients[index, 2])
-        nx = nmat[0, 0] * gx + nmat[0, 1] * gy + nmat[0, 2] * gz
-        ny = nmat[1, 0] * gx + nmat[1, 1] * gy + nmat[1, 2] * gz
-        nz = nmat[2, 0] * gx + nmat[2, 1] * gy + nmat[2, 2] * gz
-        f, h = _phong_factors(nx, ny, nz, light, half, has_half, params[0], params[1], params[2], params[3])
+def _procedural(gx, gy, gz, m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz, has_half, ambient,
+                diffuse, specular, shininess):
+    """Phong factors ``(f, h)`` of an object-space gradient (float32 components), carried by the normal matrix."""
+    gx = np.float64(gx)
+    gy = np.float64(gy)
+    gz = np.float64(gz)
+    nx = m00 * gx + m01 * gy + m02 * gz
+    ny = m10 * gx + m11 * gy + m12 * gz
+    nz = m20 * gx + m21 * gy + m22 * gz
+    return _phong_factors(nx, ny, nz, lx, ly, lz, hx, hy, hz, has_half, ambient, diffuse, specular, shininess)
+
+
+@njit(**_JIT)
+def _premultiply(a, r, g, b, f, h, shaded):
+    """Premultiplied ``(a·r', a·g', a·b', a)`` with ``c' = clamp(c·f + h)`` when ``shaded``, else ``c' = c``."""
+    if shaded:
         r = min(max(r * f + h, 0.0), 1.0)
         g = min(max(g * f + h, 0.0), 1.0)
         b = min(max(b * f + h, 0.0), 1.0)
     return a * r, a * g, a * b, a
-
-
-@njit(**_JIT)
-def _advance(lengths, x, run, start, end, nontransparent, data):
-    """Move a run cursor forward until voxel ``x`` lies in its run; returns the cursor and runs passed."""
-    passed = 0
-    while x >= end:
-        if nontransparent:
-            data += end - start
-        start = end
-        run += 1
-        end = start + lengths[run]
-        nontransparent = not nontransparent
-        passed += 1
-    return run, start, end, nontransparent, data, passed
-
-
-@njit(**_JIT)
-def _find_compress(link, row, p):
-    """FIND with path compression (relative links): the first non-opaque pixel at or after ``p``."""
-    q = p
-    while link[row, q] != 0:
-        q += link[row, q]
-    x = p
-    while x != q:
-        nxt = x + link[row, x]
-        link[row, x] = q - x
-        x = nxt
-    return q
 
 
 @njit(**_JIT)
@@ -224,148 +212,242 @@ def _union_rank(link, rank, runend, row, a, b):
 
 
 @njit(**_JIT)
-def _composite_row(row, j, sl_a, ni, nj, iu, wca, wcb, wpa, wpb, lengths, run_offsets, data_offsets, voxels,
-                   gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params,
-                   early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
-    """Composite one slice's contribution to intermediate row ``row`` (voxel scanlines ``j`` and ``j − 1``)."""
-    samples = 0
-    runs = 0
-    finds = 0
-    creates = 0
-    skipped = 0
-    a_ok = j < nj
-    b_ok = j >= 1
-    # Cursor A: scanline j (weight 1 − fv); cursor B: scanline j − 1 (weight fv).
-    a_run = 0
-    a_start = 0
-    a_end = BIG
-    a_nt = False
-    a_dat = 0
-    if a_ok:
-        a_run = run_offsets[sl_a]
-        a_end = np.int64(lengths[a_run])
-        a_dat = data_offsets[sl_a]
-    b_run = 0
-    b_start = 0
-    b_end = BIG
-    b_nt = False
-    b_dat = 0
-    if b_ok:
-        b_run = run_offsets[sl_a - 1]
-        b_end = np.int64(lengths[b_run])
-        b_dat = data_offsets[sl_a - 1]
-    par = pag = pab = paa = 0.0  # previous voxel (x − 1) of scanline A, premultiplied
-    pbr = pbg = pbb = pba = 0.0
-    x = 0
-    while x <= ni:
-        p = x + iu
-        if early and link[row, p] != 0:
-            if rank_mode:
-                q = runend[row, _root_rank(link, row, p)]
-            else:
-                q = _find_compress(link, row, p)
-            finds += 1
-            landing = q - iu
-            skipped += min(landing, ni + 1) - x
-            if landing > ni:
-                break
-            # Re-read the voxels left of the landing position (they may be non-transparent).
-            left = landing - 1
-            par = pag = pab = paa = 0.0
-            pbr = pbg = pbb = pba = 0.0
-            if a_ok:
-                a_run, a_start, a_end, a_nt, a_dat, n = _advance(lengths, left, a_run, a_start, a_end, a_nt, a_dat)
-                runs += n
-                if a_nt:
-                    par, pag, pab, paa = _voxel(voxels, gradients, a_dat + left - a_start, optab, coltab, shadetab,
-                                                shade_mode, nmat, light, half, has_half, params)
-            if b_ok:
-                b_run, b_start, b_end, b_nt, b_dat, n = _advance(lengths, left, b_run, b_start, b_end, b_nt, b_dat)
-                runs += n
-                if b_nt:
-                    pbr, pbg, pbb, pba = _voxel(voxels, gradients, b_dat + left - b_start, optab, coltab, shadetab,
-                                                shade_mode, nmat, light, half, has_half, params)
-            x = landing
-            continue
-        cur_a = False
-        cur_b = False
-        if x < ni:
-            if a_ok:
-                if x >= a_end:
-                    a_run, a_start, a_end, a_nt, a_dat, n = _advance(lengths, x, a_run, a_start, a_end, a_nt, a_dat)
-                    runs += n
-                cur_a = a_nt
-            if b_ok:
-                if x >= b_end:
-                    b_run, b_start, b_end, b_nt, b_dat, n = _advance(lengths, x, b_run, b_start, b_end, b_nt, b_dat)
-                    runs += n
-                cur_b = b_nt
-        if skip_empty and not cur_a and not cur_b and paa == 0.0 and pba == 0.0:
-            # Both scanlines transparent here and just before: jump to the next non-transparent run.
-            landing = ni + 1
-            if x < ni:
-                if a_ok:
-                    landing = min(landing, a_end)
-                if b_ok:
-                    landing = min(landing, b_end)
-            x = landing
-            continue
-        car = cag = cab = caa = 0.0
-        cbr = cbg = cbb = cba = 0.0
-        if cur_a:
-            car, cag, cab, caa = _voxel(voxels, gradients, a_dat + x - a_start, optab, coltab, shadetab, shade_mode,
-                                        nmat, light, half, has_half, params)
-        if cur_b:
-            cbr, cbg, cbb, cba = _voxel(voxels, gradients, b_dat + x - b_start, optab, coltab, shadetab, shade_mode,
-                                        nmat, light, half, has_half, params)
-        sa = wca * caa + wcb * cba + wpa * paa + wpb * pba
-        samples += 1
-        if sa > 0.0:
-            sr = wca * car + wcb * cbr + wpa * par + wpb * pbr
-            sg = wca * cag + wcb * cbg + wpa * pag + wpb * pbg
-            sb = wca * cab + wcb * cbb + wpa * pab + wpb * pbb
-            transparency = 1.0 - np.float64(image[row, p, 3])
-            image[row, p, 0] += transparency * sr
-            image[row, p, 1] += transparency * sg
-            image[row, p, 2] += transparency * sb
-            alpha = image[row, p, 3] + transparency * sa
-            image[row, p, 3] = alpha
-            if early and image[row, p, 3] >= threshold:
-                creates += 1
-                if rank_mode:
-                    link[row, p] = p + 1
-                    rank[row, p] = 0
-                    runend[row, p] = p + 1
-                    if p > 0 and link[row, p - 1] != 0:
-                        _union_rank(link, rank, runend, row, _root_rank(link, row, p - 1), p)
-                    if link[row, p + 1] != 0:
-                        _union_rank(link, rank, runend, row, _root_rank(link, row, p), _root_rank(link, row, p + 1))
-                else:
-                    link[row, p] = 1
-        par, pag, pab, paa = car, cag, cab, caa
-        pbr, pbg, pbb, pba = cbr, cbg, cbb, cba
-        x += 1
-    counters[row, C_SAMPLES] += samples
-    counters[row, C_RUNS] += runs
-    counters[row, C_FINDS] += finds
-    counters[row, C_CREATES] += creates
-    counters[row, C_SKIPPED] += skipped
-
-
-@njit(**_JIT)
 def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, voxels,
                     gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params, early,
                     threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
+    """Composite every slice, front to back, into intermediate rows ``r0 .. r1 − 1``.
+
+    The row loop is written out here (one call per task, not per row and slice: a call with
+    this many array arguments costs more than a short row). For each slice and row, voxel
+    scanlines ``j = row − iv[k]`` (cursor A, weights ``wca``/``wpa``) and ``j − 1`` (cursor B)
+    are walked as the module notes describe.
+    """
+    # Scalars only inside the loops: array references created there would cost reference counting.
+    m00, m01, m02 = nmat[0, 0], nmat[0, 1], nmat[0, 2]
+    m10, m11, m12 = nmat[1, 0], nmat[1, 1], nmat[1, 2]
+    m20, m21, m22 = nmat[2, 0], nmat[2, 1], nmat[2, 2]
+    lx, ly, lz = light[0], light[1], light[2]
+    hx, hy, hz = half[0], half[1], half[2]
+    ambient, diffuse, specular, shininess = params[0], params[1], params[2], params[3]
     for s in range(slices.shape[0]):
         k = slices[s]
-        for row in range(r0, r1):
-            j = row - iv[k]
-            if j < 0 or j > nj:
-                continue
-            _composite_row(row, j, k * nj + j, ni, nj, iu[k], weights[k, 0], weights[k, 1], weights[k, 2],
-                           weights[k, 3], lengths, run_offsets, data_offsets, voxels, gradients, optab, coltab,
-                           shadetab, shade_mode, nmat, light, half, has_half, params, early, threshold, rank_mode,
-                           skip_empty, image, link, rank, runend, counters)
+        iuk = iu[k]
+        ivk = iv[k]
+        wca = weights[k, 0]
+        wcb = weights[k, 1]
+        wpa = weights[k, 2]
+        wpb = weights[k, 3]
+        row_lo = max(r0, ivk)
+        row_hi = min(r1, ivk + nj + 1)
+        for row in range(row_lo, row_hi):
+            j = row - ivk
+            sl_a = k * nj + j
+            samples = 0
+            runs = 0
+            finds = 0
+            creates = 0
+            skipped = 0
+            a_ok = j < nj
+            b_ok = j >= 1
+            # Cursor A: scanline j (weight 1 − fv); cursor B: scanline j − 1 (weight fv). A scanline
+            # outside the slice is one endless transparent run (end = BIG), so the loop needs no
+            # test for it.
+            a_run = 0
+            a_start = 0
+            a_end = BIG
+            a_nt = False
+            a_dat = 0
+            if a_ok:
+                a_run = run_offsets[sl_a]
+                a_end = np.int64(lengths[a_run])
+                a_dat = data_offsets[sl_a]
+            b_run = 0
+            b_start = 0
+            b_end = BIG
+            b_nt = False
+            b_dat = 0
+            if b_ok:
+                b_run = run_offsets[sl_a - 1]
+                b_end = np.int64(lengths[b_run])
+                b_dat = data_offsets[sl_a - 1]
+            par = pag = pab = paa = 0.0  # previous voxel (x − 1) of scanline A, premultiplied
+            pbr = pbg = pbb = pba = 0.0
+            x = 0
+            while x <= ni:
+                p = x + iuk
+                if early and link[row, p] != 0:
+                    if rank_mode:
+                        q = runend[row, _root_rank(link, row, p)]
+                    else:
+                        # FIND with path compression (relative links): the first non-opaque pixel
+                        # at or after p; every link on the way is rewritten to point there.
+                        q = p
+                        while link[row, q] != 0:
+                            q += link[row, q]
+                        y = p
+                        while y != q:
+                            nxt = y + link[row, y]
+                            link[row, y] = q - y
+                            y = nxt
+                    finds += 1
+                    landing = q - iuk
+                    skipped += min(landing, ni + 1) - x
+                    if landing > ni:
+                        break
+                    # Re-read the voxels left of the landing position (they may be non-transparent).
+                    left = landing - 1
+                    par = pag = pab = paa = 0.0
+                    pbr = pbg = pbb = pba = 0.0
+                    while left >= a_end:
+                        if a_nt:
+                            a_dat += a_end - a_start
+                        a_start = a_end
+                        a_run += 1
+                        a_end = a_start + lengths[a_run]
+                        a_nt = not a_nt
+                        runs += 1
+                    if a_nt:
+                        index = a_dat + left - a_start
+                        record = voxels[index]
+                        opacity = record & 255
+                        if opacity != 0:
+                            ci = (record >> 8) & 255
+                            f = 1.0
+                            h = 0.0
+                            if shade_mode == SHADE_LUT:
+                                f = shadetab[record >> 16, 0]
+                                h = shadetab[record >> 16, 1]
+                            elif shade_mode == SHADE_PROCEDURAL:
+                                f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
+                                                   m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
+                                                   has_half, ambient, diffuse, specular, shininess)
+                            par, pag, pab, paa = _premultiply(optab[opacity], coltab[ci, 0], coltab[ci, 1],
+                                                              coltab[ci, 2], f, h, shade_mode != SHADE_NONE)
+                    while left >= b_end:
+                        if b_nt:
+                            b_dat += b_end - b_start
+                        b_start = b_end
+                        b_run += 1
+                        b_end = b_start + lengths[b_run]
+                        b_nt = not b_nt
+                        runs += 1
+                    if b_nt:
+                        index = b_dat + left - b_start
+                        record = voxels[index]
+                        opacity = record & 255
+                        if opacity != 0:
+                            ci = (record >> 8) & 255
+                            f = 1.0
+                            h = 0.0
+                            if shade_mode == SHADE_LUT:
+                                f = shadetab[record >> 16, 0]
+                                h = shadetab[record >> 16, 1]
+                            elif shade_mode == SHADE_PROCEDURAL:
+                                f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
+                                                   m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
+                                                   has_half, ambient, diffuse, specular, shininess)
+                            pbr, pbg, pbb, pba = _premultiply(optab[opacity], coltab[ci, 0], coltab[ci, 1],
+                                                              coltab[ci, 2], f, h, shade_mode != SHADE_NONE)
+                    x = landing
+                    continue
+                cur_a = False
+                cur_b = False
+                if x < ni:
+                    while x >= a_end:
+                        if a_nt:
+                            a_dat += a_end - a_start
+                        a_start = a_end
+                        a_run += 1
+                        a_end = a_start + lengths[a_run]
+                        a_nt = not a_nt
+                        runs += 1
+                    cur_a = a_nt
+                    while x >= b_end:
+                        if b_nt:
+                            b_dat += b_end - b_start
+                        b_start = b_end
+                        b_run += 1
+                        b_end = b_start + lengths[b_run]
+                        b_nt = not b_nt
+                        runs += 1
+                    cur_b = b_nt
+                if skip_empty and not cur_a and not cur_b and paa == 0.0 and pba == 0.0:
+                    # Both scanlines transparent here and just before: jump to the next non-transparent run.
+                    landing = ni + 1
+                    if x < ni:
+                        landing = min(landing, a_end)
+                        landing = min(landing, b_end)
+                    x = landing
+                    continue
+                car = cag = cab = caa = 0.0
+                cbr = cbg = cbb = cba = 0.0
+                if cur_a:
+                    index = a_dat + x - a_start
+                    record = voxels[index]
+                    opacity = record & 255
+                    if opacity != 0:
+                        ci = (record >> 8) & 255
+                        f = 1.0
+                        h = 0.0
+                        if shade_mode == SHADE_LUT:
+                            f = shadetab[record >> 16, 0]
+                            h = shadetab[record >> 16, 1]
+                        elif shade_mode == SHADE_PROCEDURAL:
+                            f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
+                                               m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
+                                               has_half, ambient, diffuse, specular, shininess)
+                        car, cag, cab, caa = _premultiply(optab[opacity], coltab[ci, 0], coltab[ci, 1], coltab[ci, 2],
+                                                          f, h, shade_mode != SHADE_NONE)
+                if cur_b:
+                    index = b_dat + x - b_start
+                    record = voxels[index]
+                    opacity = record & 255
+                    if opacity != 0:
+                        ci = (record >> 8) & 255
+                        f = 1.0
+                        h = 0.0
+                        if shade_mode == SHADE_LUT:
+                            f = shadetab[record >> 16, 0]
+                            h = shadetab[record >> 16, 1]
+                        elif shade_mode == SHADE_PROCEDURAL:
+                            f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
+                                               m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
+                                               has_half, ambient, diffuse, specular, shininess)
+                        cbr, cbg, cbb, cba = _premultiply(optab[opacity], coltab[ci, 0], coltab[ci, 1], coltab[ci, 2],
+                                                          f, h, shade_mode != SHADE_NONE)
+                sa = wca * caa + wcb * cba + wpa * paa + wpb * pba
+                samples += 1
+                if sa > 0.0:
+                    sr = wca * car + wcb * cbr + wpa * par + wpb * pbr
+                    sg = wca * cag + wcb * cbg + wpa * pag + wpb * pbg
+                    sb = wca * cab + wcb * cbb + wpa * pab + wpb * pbb
+                    transparency = 1.0 - np.float64(image[row, p, 3])
+                    image[row, p, 0] += transparency * sr
+                    image[row, p, 1] += transparency * sg
+                    image[row, p, 2] += transparency * sb
+                    alpha = image[row, p, 3] + transparency * sa
+                    image[row, p, 3] = alpha
+                    if early and image[row, p, 3] >= threshold:
+                        creates += 1
+                        if rank_mode:
+                            link[row, p] = p + 1
+                            rank[row, p] = 0
+                            runend[row, p] = p + 1
+                            if p > 0 and link[row, p - 1] != 0:
+                                _union_rank(link, rank, runend, row, _root_rank(link, row, p - 1), p)
+                            if link[row, p + 1] != 0:
+                                _union_rank(link, rank, runend, row, _root_rank(link, row, p),
+                                            _root_rank(link, row, p + 1))
+                        else:
+                            link[row, p] = 1
+                par, pag, pab, paa = car, cag, cab, caa
+                pbr, pbg, pbb, pba = cbr, cbg, cbb, cba
+                x += 1
+            counters[row, C_SAMPLES] += samples
+            counters[row, C_RUNS] += runs
+            counters[row, C_FINDS] += finds
+            counters[row, C_CREATES] += creates
+            counters[row, C_SKIPPED] += skipped
 
 
 @njit(parallel=True, **_JIT)

@@ -48,6 +48,9 @@ from renderers.base import Capabilities, RenderResult, Renderer
 SCHEDULES = ("contiguous", "round-robin", "contiguous-steal", "round-robin-steal")
 SHADING_OPTIONS = ("lut", "procedural")
 UNIONS = ("path-compression", "rank")
+CLASSIFICATIONS = ("rle", "octree")
+OCTREE_CACHE_SIZE = 2
+"""Min-max octrees kept per renderer (one per volume), most recent first."""
 CLASSIFICATION_CACHE_SIZE = 4
 """Classified volumes (with their encodings) kept per renderer, most recent first."""
 
@@ -75,8 +78,10 @@ class _Classification:
     transfer_function: object
     gradient_opacity: object
     reference_step: float
-    classified: object
+    classified: object  # classify.Classified, or None when the octree classifies (classification="octree" etc.)
     encodings: dict  # (encoded: bool) -> tuple of 3 Encoding
+    procedural: bool = False  # built with per-voxel gradients kept
+    octree_classification: object = None  # octree.OctreeClassification (SAT + node statuses) or None
 
 
 class ShearWarpRenderer(Renderer):
@@ -106,6 +111,23 @@ class ShearWarpRenderer(Renderer):
         Intermediate-image scanlines per task.
     union : {"path-compression", "rank"}
         Union-find variant of the run-length-encoded image (§4.1.3).
+    classification : {"rle", "octree"}
+        ``"rle"``: classify the volume and build the three RLE copies once per volume and
+        classification (viewing mode). ``"octree"``: the thesis's fast classification (§4.3): a
+        min-max octree once per volume, a summed-area table per classification, and every frame the
+        view axis's voxel runs from the octree with their voxels classified on the fly (same image
+        as ``"rle"``, more samples; for interactive transfer-function edits). Needs ``rle=True``.
+    octree_rle_build : bool
+        Build the three RLE copies from the min-max octree (the thesis's mode switch, §4.4):
+        transparent octree nodes are skipped without classifying their voxels; the encodings are
+        byte-identical to the brute-force build. Off by default so that the ``classify`` and
+        ``rle_build`` stages keep measuring the plain build; applies to ``classification="rle"``
+        with ``rle=True``.
+    octree_threshold : int
+        Octree nodes whose scalar and gradient-magnitude ranges are both within this many of 256
+        bins keep no children (thesis: 4).
+    octree_base_size : int
+        Voxels per side of the smallest octree node (thesis: 4).
 
     Notes
     -----
@@ -116,6 +138,13 @@ class ShearWarpRenderer(Renderer):
     ``skipped_early_termination`` (samples skipped because their pixel was opaque), ``rle_bytes``
     (the three per-axis copies the frame reads: run lengths, 4-byte voxel records, per-scanline
     offsets; with ``rle=False`` the unencoded copies), ``raw_bytes`` (the volume's scalars).
+    With ``classification="octree"`` or ``octree_rle_build``: ``octree_build`` (once per volume) and
+    ``sat_build`` (summed-area table and node statuses, once per classification) replace
+    ``classify``; ``"octree"`` adds ``octree_classify`` to every frame (the view axis's runs and
+    on-the-fly classification, inside ``total``) and builds no ``rle_build``. Counters then add
+    ``octree_nodes``, ``octree_bytes`` and ``classified_on_the_fly`` (voxels classified from the
+    octree's candidate runs in this frame, 0 when nothing was built); in ``"octree"`` mode
+    ``rle_bytes`` is the one per-frame encoding.
     ``info["worker_tasks"]`` and ``info["worker_samples"]`` give each worker's share (a load-balance
     measure; busy time is not measured inside the kernel).
     """
@@ -153,15 +182,17 @@ class ShearWarpRenderer(Renderer):
     )
     """Option sets from fast to exact: thesis defaults; no early termination (exact up to the
     encoding); brute force (same image as the previous one); a stricter opaque threshold; and
-    nothing skipped but exactly-zero voxels."""
+    nothing skipped but exactly-zero voxels. (``classification="octree"`` is not a quality level:
+    it renders the same image as the default, only its speed differs.)"""
 
     def __init__(self, *, rle=True, early_termination=True, opaque_threshold=0.95, min_opacity=0.05,
                  opacity_correction=True, shading="lut", workers=None, schedule="round-robin-steal", task_size=8,
-                 union="path-compression"):
+                 union="path-compression", classification="rle", octree_rle_build=False, octree_threshold=4,
+                 octree_base_size=4):
         import numba
 
         for name, value in (("rle", rle), ("early_termination", early_termination),
-                            ("opacity_correction", opacity_correction)):
+                            ("opacity_correction", opacity_correction), ("octree_rle_build", octree_rle_build)):
             if not isinstance(value, bool):
                 raise InputError(f"shearwarp option {name}: expected True or False, got {value!r}")
         self.rle = rle
@@ -175,6 +206,19 @@ class ShearWarpRenderer(Renderer):
         self.schedule = check_choice(schedule, SCHEDULES, name="shearwarp option schedule")
         self.union = check_choice(union, UNIONS, name="shearwarp option union")
         self.task_size = check_positive_int(task_size, name="shearwarp option task_size")
+        self.classification = check_choice(classification, CLASSIFICATIONS, name="shearwarp option classification")
+        self.octree_rle_build = octree_rle_build
+        self.octree_threshold = check_positive_int(octree_threshold, name="shearwarp option octree_threshold",
+                                                   minimum=0)
+        self.octree_base_size = check_positive_int(octree_base_size, name="shearwarp option octree_base_size")
+        if not rle and (classification == "octree" or octree_rle_build):
+            raise InputError("shearwarp option rle=False (brute force over every voxel) cannot be combined with "
+                             f"classification={classification!r}, octree_rle_build={octree_rle_build!r}: the octree "
+                             "only builds run-length encodings; use rle=True or classification='rle' without "
+                             "octree_rle_build")
+        if classification == "octree" and octree_rle_build:
+            raise InputError("shearwarp option octree_rle_build=True does nothing with classification='octree' "
+                             "(no RLE copies are built); drop it or use classification='rle'")
         limit = numba.config.NUMBA_NUM_THREADS
         if workers is None:
             self.workers = limit
@@ -184,14 +228,17 @@ class ShearWarpRenderer(Renderer):
                 raise InputError(f"shearwarp option workers: {self.workers} is more than Numba's {limit} threads "
                                  "(NUMBA_NUM_THREADS); choose at most that many or raise NUMBA_NUM_THREADS")
         self._cache = []
+        self._octrees = []
         self._buffers = {}
         self._queues = {}
+        self._last_octree_classified = 0
         self._last_info = {}
         # Importing the kernels compiles them (or loads numba's cache) here, not in the first frame.
-        from renderers.shearwarp import classify, composite, factor, warp
+        from renderers.shearwarp import classify, composite, factor, octree, warp
 
         self._classify_module, self._composite_module, self._factor_module, self._warp_module = (
             classify, composite, factor, warp)
+        self._octree_module = octree
 
     @classmethod
     def probe(cls):
@@ -206,7 +253,9 @@ class ShearWarpRenderer(Renderer):
         return {"rle": self.rle, "early_termination": self.early_termination,
                 "opaque_threshold": self.opaque_threshold, "min_opacity": self.min_opacity,
                 "opacity_correction": self.opacity_correction, "shading": self.shading, "workers": self.workers,
-                "schedule": self.schedule, "task_size": self.task_size, "union": self.union}
+                "schedule": self.schedule, "task_size": self.task_size, "union": self.union,
+                "classification": self.classification, "octree_rle_build": self.octree_rle_build,
+                "octree_threshold": self.octree_threshold, "octree_base_size": self.octree_base_size}
 
     def environment(self):
         import numba
@@ -216,6 +265,7 @@ class ShearWarpRenderer(Renderer):
 
     def close(self):
         self._cache = []
+        self._octrees = []
         self._buffers = {}
 
     # -----------------------------------------------------------------------------------------
@@ -227,22 +277,56 @@ class ShearWarpRenderer(Renderer):
         step = instance.reference_step
         for entry in self._cache:
             if (entry.volume is volume and entry.transfer_function is tf and entry.gradient_opacity is go
-                    and entry.reference_step == step and (entry.classified.gradients is not None or not procedural)):
+                    and entry.reference_step == step and (entry.procedural or not procedural)):
                 self._cache.remove(entry)
                 self._cache.insert(0, entry)
                 return entry
-        start = time.perf_counter()
-        classified = self._classify_module.classify(
-            volume.normalized(np.float32), volume.spacing, tf, go, step, self.min_opacity, gradients=procedural)
-        timings["classify"] = time.perf_counter() - start
-        entry = _Classification(volume, tf, go, step, classified, {})
+        if self._uses_octree:
+            tree = self._octree(volume, timings)
+            start = time.perf_counter()
+            sat = self._octree_module.classify_octree(tree, tf, go, step, self.min_opacity)
+            timings["sat_build"] = time.perf_counter() - start
+            entry = _Classification(volume, tf, go, step, None, {}, procedural, sat)
+        else:
+            start = time.perf_counter()
+            classified = self._classify_module.classify(
+                volume.normalized(np.float32), volume.spacing, tf, go, step, self.min_opacity, gradients=procedural)
+            timings["classify"] = time.perf_counter() - start
+            entry = _Classification(volume, tf, go, step, classified, {}, procedural)
         self._cache.insert(0, entry)
         del self._cache[CLASSIFICATION_CACHE_SIZE:]
         return entry
 
+    @property
+    def _uses_octree(self):
+        return self.classification == "octree" or self.octree_rle_build
+
+    def _octree(self, volume, timings):
+        """The cached min-max octree of ``volume`` (built and timed as ``octree_build`` if new)."""
+        for tree_volume, tree in self._octrees:
+            if tree_volume is volume:
+                return tree
+        start = time.perf_counter()
+        tree = self._octree_module.build_octree(volume.normalized(np.float32), volume.spacing,
+                                                base_size=self.octree_base_size, threshold=self.octree_threshold)
+        timings["octree_build"] = time.perf_counter() - start
+        self._octrees.insert(0, (volume, tree))
+        del self._octrees[OCTREE_CACHE_SIZE:]
+        return tree
+
     def _encodings(self, entry, timings):
         """The three per-axis copies (RLE, or unencoded for ``rle=False``), built and timed as ``rle_build``."""
         copies = entry.encodings.get(self.rle)
+        if copies is None and entry.classified is None:  # the mode switch: RLE copies from the octree
+            start = time.perf_counter()
+            tree = self._octree(entry.volume, timings)
+            built = [self._octree_module.encode(tree, entry.octree_classification, axis, exact=True,
+                                                gradients=entry.procedural) for axis in range(3)]
+            copies = tuple(enc for enc, _ in built)
+            entry.encodings[self.rle] = copies
+            timings["rle_build"] = time.perf_counter() - start
+            self._last_octree_classified = sum(stats.classified for _, stats in built)
+            return copies
         if copies is None:
             start = time.perf_counter()
             build = self._classify_module.encode if self.rle else self._classify_module.dense_encoding
@@ -291,8 +375,24 @@ class ShearWarpRenderer(Renderer):
         m_view = view_matrix(scene, instance)
         fact = self._factor_module.factorize(m_view, instance.volume.shape_xyz)
         entry = self._classification(instance, procedural, timings)
-        encodings = self._encodings(entry, timings)
-        enc = encodings[fact.axis]
+        self._last_octree_classified = 0
+        if self.classification == "octree":
+            # Fast classification (§4.3): this view axis's runs from the octree, voxels classified on the fly.
+            tree = self._octree(instance.volume, timings)
+            t0 = time.perf_counter()
+            enc, octree_stats = self._octree_module.encode(tree, entry.octree_classification, fact.axis, exact=False,
+                                                           gradients=procedural)
+            timings["octree_classify"] = time.perf_counter() - t0
+            encodings = (enc,)
+            self._last_octree_classified = octree_stats.classified
+            nontransparent = octree_stats.nontransparent
+        else:
+            encodings = self._encodings(entry, timings)
+            enc = encodings[fact.axis]
+            nontransparent = (entry.classified.nontransparent if entry.classified is not None
+                              else int(encodings[0].voxels.size))
+        colour_table = (entry.classified.colour_table if entry.classified is not None
+                        else entry.octree_classification.colour_table)
         n_i, n_j, n_k = fact.shape_ijk
         height, width = fact.intermediate_shape
 
@@ -331,7 +431,8 @@ class ShearWarpRenderer(Renderer):
             if self.shading == "lut":
                 shade_mode = composite.SHADE_LUT
                 t0 = time.perf_counter()
-                composite.shade_table(normal_matrix, light, half, has_half, params, out=shadetab)
+                composite.shade_table(normal_matrix, light, half, has_half, params, out=shadetab,
+                                      workers=self.workers)
                 timings["shade_table"] = time.perf_counter() - t0
             else:
                 shade_mode = composite.SHADE_PROCEDURAL
@@ -357,7 +458,7 @@ class ShearWarpRenderer(Renderer):
             composite.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start, queue_next,
                 worker_stats, slices, iu, iv, weights, n_i, n_j, enc.lengths, enc.run_offsets, enc.data_offsets,
-                enc.voxels, gradients, optab, entry.classified.colour_table, shadetab, shade_mode, normal_matrix,
+                enc.voxels, gradients, optab, colour_table, shadetab, shade_mode, normal_matrix,
                 light, half, has_half, params, self.early_termination, self.opaque_threshold,
                 self.union == "rank", enc.encoded, image, link, rank, runend, counters)
             t2 = time.perf_counter()
@@ -380,6 +481,11 @@ class ShearWarpRenderer(Renderer):
             "rle_bytes": int(sum(e.nbytes for e in encodings)),
             "raw_bytes": int(instance.volume.data.nbytes),
         }
+        if self._uses_octree:
+            tree = self._octree(instance.volume, timings)
+            counters_out["octree_nodes"] = tree.nodes
+            counters_out["octree_bytes"] = tree.nbytes
+            counters_out["classified_on_the_fly"] = int(self._last_octree_classified)
         voxels = int(np.prod(instance.volume.shape_xyz))
         info = {
             "principal_axis": "xyz"[fact.axis],
@@ -387,7 +493,7 @@ class ShearWarpRenderer(Renderer):
             "slice_order": fact.slice_order,
             "intermediate_shape": list(fact.intermediate_shape),
             "sample_spacing_ratio": ratio,
-            "nontransparent_fraction": entry.classified.nontransparent / voxels,
+            "nontransparent_fraction": nontransparent / voxels,
             "classification": "pre-classified at voxel centres (shear-warp), 8-bit opacity, 13-bit normals",
             "worker_tasks": worker_stats[:, 0].tolist(),
             "worker_samples": worker_stats[:, 1].tolist(),

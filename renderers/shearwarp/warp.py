@@ -8,6 +8,12 @@ for a projective one), and the intermediate image is sampled bilinearly with its
 :mod:`renderers.shearwarp.factor`). Pixels outside the intermediate image are transparent (zero),
 so the footprint fades over half a pixel at its border. Premultiplied RGBA is interpolated as is.
 Rows are independent, so the ``prange`` over rows gives the same bits on any number of threads.
+
+Empty regions are skipped without changing a bit: a first pass records each intermediate row's
+first and last non-zero pixel; an affine warp then limits each output row to the columns whose
+taps can reach a non-zero row and column range (a conservative interval, the exact tests stay in
+the loop), and any pixel whose four taps all lie outside their rows' extents is zero without
+reading them. Interior pixels sum their four taps in the same order as the border code.
 """
 
 import math
@@ -20,41 +26,152 @@ from core.errors import InputError
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 
+@njit(**_JIT)
+def _column_range(c_x, c_0, limit, out_w):
+    """Columns ``[lo, hi)`` outside which ``−1 < c_x·x + c_0 < limit`` fails for every ``x = col + ½``.
+
+    Conservative by a column on each side (the exact test stays in the loop), so the range only
+    saves work and never changes a pixel.
+    """
+    if c_x == 0.0:
+        if c_0 > -1.0 and c_0 < limit:
+            return 0, out_w
+        return 0, 0
+    x_a = (-1.0 - c_0) / c_x
+    x_b = (limit - c_0) / c_x
+    lo_x = min(x_a, x_b)
+    hi_x = max(x_a, x_b)
+    if not (hi_x > -2.0 and lo_x < out_w + 2.0):
+        return 0, 0
+    lo_x = max(lo_x, -2.0)  # clamped before the integer conversion (c_x may be tiny)
+    hi_x = min(hi_x, out_w + 2.0)
+    lo = max(int(math.floor(lo_x - 0.5)) - 1, 0)
+    hi = min(int(math.ceil(hi_x - 0.5)) + 2, out_w)
+    return lo, max(lo, hi)
+
+
 @njit(parallel=True, **_JIT)
-def _warp_kernel(src, inverse, out):
+def _row_extents(src, extent):
+    """First and last column of each row holding a non-zero value (``(w, −1)`` for an empty row)."""
+    height, width = src.shape[0], src.shape[1]
+    for row in prange(height):
+        lo = 0
+        while lo < width and (src[row, lo, 0] == 0.0 and src[row, lo, 1] == 0.0 and src[row, lo, 2] == 0.0
+                              and src[row, lo, 3] == 0.0):
+            lo += 1
+        hi = width - 1
+        while hi > lo and (src[row, hi, 0] == 0.0 and src[row, hi, 1] == 0.0 and src[row, hi, 2] == 0.0
+                           and src[row, hi, 3] == 0.0):
+            hi -= 1
+        if lo == width:
+            hi = -1
+        extent[row, 0] = lo
+        extent[row, 1] = hi
+
+
+@njit(parallel=True, **_JIT)
+def _warp_kernel(src, inverse, affine, extent, out):
     height, width = src.shape[0], src.shape[1]
     out_h, out_w = out.shape[0], out.shape[1]
+    top = 0
+    while top < height and extent[top, 0] > extent[top, 1]:
+        top += 1
+    bottom = height - 1
+    while bottom > top and extent[bottom, 0] > extent[bottom, 1]:
+        bottom -= 1
     a00, a01, a02 = inverse[0, 0], inverse[0, 1], inverse[0, 2]
     a10, a11, a12 = inverse[1, 0], inverse[1, 1], inverse[1, 2]
     a20, a21, a22 = inverse[2, 0], inverse[2, 1], inverse[2, 2]
     for row in prange(out_h):
         y = row + 0.5
-        for col in range(out_w):
+        lo = 0
+        hi = out_w
+        if affine:
+            # w = 1: the footprint's columns on this row, from −1 < u < width and −1 < v < height
+            # narrowed to the non-zero rows ``[top, bottom]`` ...
+            lo_u, hi_u = _column_range(a00, a01 * y + a02, width, out_w)
+            lo_v, hi_v = _column_range(a10, a11 * y + a12 - top, bottom - top + 1, out_w)
+            lo = max(lo_u, lo_v)
+            hi = max(lo, min(hi_u, hi_v))
+            if lo < hi:
+                # ... then to the columns that the rows this output row crosses hold non-zero.
+                v_a = a10 * (lo + 0.5) + a11 * y + a12
+                v_b = a10 * (hi - 0.5) + a11 * y + a12
+                first = max(int(math.floor(min(v_a, v_b))) - 1, 0)
+                last = min(int(math.floor(max(v_a, v_b))) + 2, height - 1)
+                left = width
+                right = -1
+                for r in range(first, last + 1):
+                    if extent[r, 0] <= extent[r, 1]:
+                        left = min(left, extent[r, 0])
+                        right = max(right, extent[r, 1])
+                if left > right:
+                    hi = lo
+                else:
+                    lo_e, hi_e = _column_range(a00, a01 * y + a02 - left, right - left + 1, out_w)
+                    lo = max(lo, lo_e)
+                    hi = max(lo, min(hi, hi_e))
+        for col in range(lo):
+            out[row, col, 0] = 0.0
+            out[row, col, 1] = 0.0
+            out[row, col, 2] = 0.0
+            out[row, col, 3] = 0.0
+        for col in range(hi, out_w):
+            out[row, col, 0] = 0.0
+            out[row, col, 1] = 0.0
+            out[row, col, 2] = 0.0
+            out[row, col, 3] = 0.0
+        for col in range(lo, hi):
             x = col + 0.5
-            w = a20 * x + a21 * y + a22
             r = g = b = a = 0.0
-            if w > 0.0:
+            w = 1.0
+            if affine:
+                u = a00 * x + a01 * y + a02  # the same bits as dividing by w = 1
+                v = a10 * x + a11 * y + a12
+            else:
+                w = a20 * x + a21 * y + a22
                 u = (a00 * x + a01 * y + a02) / w
                 v = (a10 * x + a11 * y + a12) / w
+            if w > 0.0:
                 if u > -1.0 and v > -1.0 and u < width and v < height:
                     u0 = int(math.floor(u))
                     v0 = int(math.floor(v))
                     fu = u - u0
                     fv = v - v0
-                    for dv in range(2):
-                        vv = v0 + dv
-                        if vv < 0 or vv >= height:
-                            continue
-                        wv = fv if dv == 1 else 1.0 - fv
-                        for du in range(2):
-                            uu = u0 + du
-                            if uu < 0 or uu >= width:
+                    # Taps in rows v0, v0 + 1 and columns u0, u0 + 1; all zero outside the rows' extents.
+                    empty0 = v0 < 0 or u0 + 1 < extent[v0, 0] or u0 > extent[v0, 1]
+                    empty1 = v0 + 1 >= height or u0 + 1 < extent[v0 + 1, 0] or u0 > extent[v0 + 1, 1]
+                    if empty0 and empty1:
+                        pass  # every tap is zero: the sum below would be exactly 0.0
+                    elif u0 >= 0 and v0 >= 0 and u0 + 1 < width and v0 + 1 < height:
+                        # Interior: the four taps, summed from 0.0 in the same order as the border case.
+                        w00 = (1.0 - fv) * (1.0 - fu)
+                        w01 = (1.0 - fv) * fu
+                        w10 = fv * (1.0 - fu)
+                        w11 = fv * fu
+                        r = (0.0 + w00 * src[v0, u0, 0] + w01 * src[v0, u0 + 1, 0]
+                             + w10 * src[v0 + 1, u0, 0] + w11 * src[v0 + 1, u0 + 1, 0])
+                        g = (0.0 + w00 * src[v0, u0, 1] + w01 * src[v0, u0 + 1, 1]
+                             + w10 * src[v0 + 1, u0, 1] + w11 * src[v0 + 1, u0 + 1, 1])
+                        b = (0.0 + w00 * src[v0, u0, 2] + w01 * src[v0, u0 + 1, 2]
+                             + w10 * src[v0 + 1, u0, 2] + w11 * src[v0 + 1, u0 + 1, 2])
+                        a = (0.0 + w00 * src[v0, u0, 3] + w01 * src[v0, u0 + 1, 3]
+                             + w10 * src[v0 + 1, u0, 3] + w11 * src[v0 + 1, u0 + 1, 3])
+                    else:
+                        for dv in range(2):
+                            vv = v0 + dv
+                            if vv < 0 or vv >= height:
                                 continue
-                            weight = wv * (fu if du == 1 else 1.0 - fu)
-                            r += weight * src[vv, uu, 0]
-                            g += weight * src[vv, uu, 1]
-                            b += weight * src[vv, uu, 2]
-                            a += weight * src[vv, uu, 3]
+                            wv = fv if dv == 1 else 1.0 - fv
+                            for du in range(2):
+                                uu = u0 + du
+                                if uu < 0 or uu >= width:
+                                    continue
+                                weight = wv * (fu if du == 1 else 1.0 - fu)
+                                r += weight * src[vv, uu, 0]
+                                g += weight * src[vv, uu, 1]
+                                b += weight * src[vv, uu, 2]
+                                a += weight * src[vv, uu, 3]
             out[row, col, 0] = r
             out[row, col, 1] = g
             out[row, col, 2] = b
@@ -97,9 +214,13 @@ def warp_image(intermediate, warp, out_shape, *, out=None):
         out = np.empty((height, width, 4), dtype=np.float32)
     elif out.shape != (height, width, 4) or out.dtype != np.float32:
         raise InputError(f"warp_image out: expected ({height}, {width}, 4) float32, got {out.dtype} {out.shape}")
-    if np.array_equal(matrix[2], (0.0, 0.0, 1.0)):
+    affine = bool(np.array_equal(matrix[2], (0.0, 0.0, 1.0)))
+    if affine:
         inverse[2] = (0.0, 0.0, 1.0)  # affine: w is exactly 1 (no rounding in the last row)
     elif inverse[2] @ (0.5 * width, 0.5 * height, 1.0) < 0:
         inverse = -inverse  # projective: the same map, oriented so that w > 0 at the picture centre
-    _warp_kernel(np.ascontiguousarray(src), np.ascontiguousarray(inverse), out)
+    src = np.ascontiguousarray(src)
+    extent = np.empty((src.shape[0], 2), dtype=np.int64)
+    _row_extents(src, extent)
+    _warp_kernel(src, np.ascontiguousarray(inverse), affine, extent, out)
     return out

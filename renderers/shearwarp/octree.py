@@ -1,0 +1,728 @@
+"""Fast classification: min-max octree + summed-area table (Lacroute 1995, §4.3, §4.4, Fig. 4.17).
+
+Rendering a volume whose transfer function is being edited without re-encoding it: the
+classification-independent *min-max octree* bounds, per block of voxels, the two classification
+parameters (scalar ``s`` and gradient magnitude ``|∇s|``); a *summed-area table* (SAT) over the
+parameter domain, rebuilt on each transfer-function edit, says in O(1) whether any parameter pair
+in a node's box can be non-transparent. Scanlines are then cut into runs of possibly
+non-transparent voxels (``ComputeVoxelRuns``) and only those voxels are classified.
+
+Parameters and bins
+-------------------
+Both parameters are quantised to ``bins`` bins (256 by default, the thesis's 8-bit domain):
+
+* scalar bin ``b = ⌊s·bins⌋`` (clamped to ``bins − 1``) covers ``[b/bins, (b+1)/bins]``; for 8-bit
+  data and 256 bins each bin holds exactly one value (``v/255`` falls in bin ``v``);
+* gradient bin ``⌊m·bins/m_max⌋`` of the magnitude ``m = |∇s|`` (the central differences of
+  :mod:`.classify`, spacing included, evaluated exactly as the classification kernel does), with
+  ``m_max`` the volume's largest magnitude.
+
+Min-max octree (:func:`build_octree`, once per volume)
+------------------------------------------------------
+A full pyramid is built bottom-up: base nodes of ``base_size³`` voxels (4 in the thesis) hold the
+min and max bin of both parameters over their voxels (clipped at the volume's faces); each parent
+combines its (up to) 8 children, until one root covers the volume (``root_size = base_size·2^L ≥``
+every dimension). The pyramid is then laid out as a pointer tree, breadth first, with the 8
+children of a node contiguous (``child[n]`` = the first, −1 for a leaf; child ``c`` has offset
+``c = dx | dy << 1 | dz << 2``); the children of a node whose parameter ranges are both within
+``threshold`` (``max − min ≤ threshold``, 4 in the thesis) are pruned. Children that lie wholly
+outside a non-cubic volume are *empty* nodes (``min > max``), always transparent.
+:attr:`MinMaxOctree.nbytes` counts the node arrays (4 bytes of min/max bins per node with
+``bins ≤ 256`` and a 4-byte child pointer); the float32 scalars it also keeps are the volume.
+
+Summed-area table (:func:`classify_octree`, once per classification)
+--------------------------------------------------------------------
+For each scalar bin the maximum of the transfer function's opacity over the bin's interval, and
+for each gradient bin the maximum of the gradient-opacity factor ``g(u)``,
+``u = m·Δ0/(√3/2)``, over its interval (``g = 1`` without a table): both tables are interpolated
+linearly between entries (the classification rule), so each maximum is attained at an interval
+end or at an entry inside it, and those are evaluated with the classification kernel's own
+arithmetic. The indicator is ``f_T(p, q) = 1`` when ``max_α(p)·max_g(q)`` exceeds
+``min_opacity`` (with a relative margin of 1e-9 against rounding, and never where the bound is
+exactly 0), and the SAT is its 2-D prefix sum. A node is ``TRANSPARENT`` when the SAT integral
+over its box is 0 (or the node is empty), else ``NONTRANSPARENT`` if it is a leaf, else
+``SUBDIVIDE``. The verdict is conservative: a transparent node holds no voxel with
+``α > min_opacity`` (tested against brute-force classification).
+
+Voxel runs and encodings (:func:`encode`)
+-----------------------------------------
+For principal axis ``axis`` the scanlines run along ``i`` in standard object order ``[k, j, i]``.
+All scanlines of a ``base_size × base_size`` block of ``(j, k)`` cross the same nodes, so the
+candidate runs are computed once per block (the thesis's reuse over ``n_min`` scanlines) by a
+depth-first walk that visits, at each SUBDIVIDE node, the two children the scanline crosses.
+The voxels of candidate runs are classified on the fly with the arithmetic of
+:func:`renderers.shearwarp.classify.classify` (same records, same float32 gradients), every
+other voxel is transparent. Then:
+
+* ``exact=True`` (the mode switch, §4.4): the classified candidates are run-length encoded per
+  scanline with :mod:`.classify`'s own run writer, so the result is byte-identical to
+  ``classify.encode(classify.classify(...), axis)``, built without classifying or scanning the
+  voxels of transparent nodes;
+* ``exact=False`` (rendering unclassified volumes, Fig. 4.17): the candidate runs *are* the
+  non-transparent runs, transparent voxels inside them stored as zero records. The compositing
+  kernels resample them to exact zeros, so the image is bit-identical to the classified RLE's;
+  only the sample count grows (the thesis's "conservative runs produce more samples").
+
+The octree is stored once in ``[z, y, x]`` order (no transposes, as in the thesis): for
+``axis ≠ z`` the on-the-fly classification reads the scalars against the storage stride.
+"""
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit, prange
+
+from core.errors import InputError
+from core.transfer import MAX_GRADIENT
+from core.validation import check_positive_int
+from renderers.shearwarp.classify import Encoding, _scanline_runs, _table_position, encode_normal
+
+_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+
+TRANSPARENT, NONTRANSPARENT, SUBDIVIDE = 0, 1, 2
+MARGIN = 1e-9
+"""Relative margin of the SAT's opacity bound against floating-point rounding (conservative)."""
+
+
+# ---------------------------------------------------------------------------------------------
+# Octree build
+
+
+@njit(parallel=True, **_JIT)
+def _magnitudes(s, spacing, out):
+    """Gradient magnitude per voxel, the classification kernel's central differences (float64)."""
+    nz, ny, nx = s.shape
+    sx, sy, sz = spacing[0], spacing[1], spacing[2]
+    for z in prange(nz):
+        z0 = max(z - 1, 0)
+        z1 = min(z + 1, nz - 1)
+        for y in range(ny):
+            y0 = max(y - 1, 0)
+            y1 = min(y + 1, ny - 1)
+            for x in range(nx):
+                x0 = max(x - 1, 0)
+                x1 = min(x + 1, nx - 1)
+                gx = (np.float64(s[z, y, x1]) - np.float64(s[z, y, x0])) / (2.0 * sx)
+                gy = (np.float64(s[z, y1, x]) - np.float64(s[z, y0, x])) / (2.0 * sy)
+                gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
+                out[z, y, x] = math.sqrt(gx * gx + gy * gy + gz * gz)
+
+
+@njit(parallel=True, **_JIT)
+def _base_level(s, mag, bins, gscale, base, dims, smin, smax, gmin, gmax):
+    """Min/max parameter bins of every base node (``dims`` = nodes per axis, x, y, z)."""
+    nz, ny, nx = s.shape
+    bx, by, bz = dims[0], dims[1], dims[2]
+    for c in prange(bz):
+        for b in range(by):
+            for a in range(bx):
+                lo_s = bins
+                hi_s = -1
+                lo_g = bins
+                hi_g = -1
+                for z in range(c * base, min((c + 1) * base, nz)):
+                    for y in range(b * base, min((b + 1) * base, ny)):
+                        for x in range(a * base, min((a + 1) * base, nx)):
+                            p = int(math.floor(np.float64(s[z, y, x]) * bins))
+                            p = min(max(p, 0), bins - 1)
+                            q = int(math.floor(mag[z, y, x] * gscale))
+                            q = min(max(q, 0), bins - 1)
+                            lo_s = min(lo_s, p)
+                            hi_s = max(hi_s, p)
+                            lo_g = min(lo_g, q)
+                            hi_g = max(hi_g, q)
+                n = (c * by + b) * bx + a
+                smin[n] = lo_s
+                smax[n] = hi_s
+                gmin[n] = lo_g
+                gmax[n] = hi_g
+
+
+@njit(**_JIT)
+def _parent_level(dims_child, off_child, dims, off, smin, smax, gmin, gmax):
+    for c in range(dims[2]):
+        for b in range(dims[1]):
+            for a in range(dims[0]):
+                lo_s = smin[off_child]  # overwritten below; keeps the types
+                hi_s = smax[off_child]
+                lo_g = gmin[off_child]
+                hi_g = gmax[off_child]
+                first = True
+                for dz in range(2):
+                    cz = 2 * c + dz
+                    if cz >= dims_child[2]:
+                        continue
+                    for dy in range(2):
+                        cy = 2 * b + dy
+                        if cy >= dims_child[1]:
+                            continue
+                        for dx in range(2):
+                            cx = 2 * a + dx
+                            if cx >= dims_child[0]:
+                                continue
+                            m = off_child + (cz * dims_child[1] + cy) * dims_child[0] + cx
+                            if first:
+                                lo_s, hi_s, lo_g, hi_g = smin[m], smax[m], gmin[m], gmax[m]
+                                first = False
+                            else:
+                                lo_s = min(lo_s, smin[m])
+                                hi_s = max(hi_s, smax[m])
+                                lo_g = min(lo_g, gmin[m])
+                                hi_g = max(hi_g, gmax[m])
+                n = off + (c * dims[1] + b) * dims[0] + a
+                smin[n] = lo_s
+                smax[n] = hi_s
+                gmin[n] = lo_g
+                gmax[n] = hi_g
+
+
+@njit(**_JIT)
+def _prune(levels, offsets, dims, smin, smax, gmin, gmax, threshold, empty, out_smin, out_smax, out_gmin, out_gmax,
+           out_child):
+    """Lay the pyramid out as a breadth-first pointer tree, pruning uniform nodes' children."""
+    capacity = out_child.shape[0]
+    q_level = np.empty(capacity, np.int64)
+    q_a = np.empty(capacity, np.int64)
+    q_b = np.empty(capacity, np.int64)
+    q_c = np.empty(capacity, np.int64)
+    top = levels - 1
+    r = offsets[top]
+    out_smin[0], out_smax[0], out_gmin[0], out_gmax[0] = smin[r], smax[r], gmin[r], gmax[r]
+    q_level[0], q_a[0], q_b[0], q_c[0] = top, 0, 0, 0
+    count = 1
+    head = 0
+    while head < count:
+        level = q_level[head]
+        out_child[head] = -1
+        is_empty = out_smin[head] > out_smax[head]
+        uniform = (out_smax[head] - out_smin[head] <= threshold) and (out_gmax[head] - out_gmin[head] <= threshold)
+        if level > 0 and not is_empty and not uniform:
+            out_child[head] = count
+            cl = level - 1
+            for child in range(8):
+                dx = child & 1
+                dy = (child >> 1) & 1
+                dz = (child >> 2) & 1
+                a = 2 * q_a[head] + dx
+                b = 2 * q_b[head] + dy
+                c = 2 * q_c[head] + dz
+                n = count + child
+                q_level[n], q_a[n], q_b[n], q_c[n] = cl, a, b, c
+                if a < dims[cl, 0] and b < dims[cl, 1] and c < dims[cl, 2]:
+                    m = offsets[cl] + (c * dims[cl, 1] + b) * dims[cl, 0] + a
+                    out_smin[n], out_smax[n], out_gmin[n], out_gmax[n] = smin[m], smax[m], gmin[m], gmax[m]
+                else:  # outside the volume: an empty node
+                    q_level[n] = 0
+                    out_smin[n], out_smax[n], out_gmin[n], out_gmax[n] = empty, 0, empty, 0
+            count += 8
+        head += 1
+    return count
+
+
+@dataclass(frozen=True, eq=False)
+class MinMaxOctree:
+    """A min-max octree over (scalar, gradient magnitude) bins of one volume (see the module notes)."""
+
+    shape_zyx: tuple
+    spacing: tuple
+    base_size: int
+    threshold: int
+    bins: int
+    levels: int
+    root_size: int
+    gradient_max: float
+    scalars: np.ndarray  # float32 [z, y, x], normalised
+    smin: np.ndarray
+    smax: np.ndarray
+    gmin: np.ndarray
+    gmax: np.ndarray
+    child: np.ndarray  # int32, first child or -1
+
+    @property
+    def nodes(self):
+        return int(self.child.size)
+
+    @property
+    def nbytes(self):
+        """Bytes of the node arrays (min/max bins and child pointers; not the scalars)."""
+        return int(self.smin.nbytes + self.smax.nbytes + self.gmin.nbytes + self.gmax.nbytes + self.child.nbytes)
+
+    def gradient_bin_edges(self):
+        """``(lo, hi)`` float64 magnitude interval of each gradient bin."""
+        width = self.gradient_max / self.bins if self.gradient_max > 0 else 0.0
+        b = np.arange(self.bins, dtype=np.float64)
+        return b * width, (b + 1) * width
+
+
+def build_octree(scalars, spacing, *, base_size=4, threshold=4, bins=256):
+    """Build the min-max octree of normalised ``scalars`` (``[z, y, x]``, values in [0, 1]).
+
+    Parameters
+    ----------
+    scalars : numpy.ndarray
+        ``(nz, ny, nx)`` normalised scalars (converted to float32 as the classification does).
+    spacing : tuple of float
+        ``(sx, sy, sz)`` for the gradient magnitudes.
+    base_size : int
+        Voxels per side of a base (smallest) node (thesis: 4).
+    threshold : int
+        A node whose parameter ranges (in bins) are both at most this keeps no children (thesis: 4).
+    bins : int
+        Bins per parameter (2..65536; thesis: 256).
+
+    Returns
+    -------
+    MinMaxOctree
+    """
+    base_size = check_positive_int(base_size, name="octree base_size")
+    bins = check_positive_int(bins, name="octree bins", minimum=2)
+    if bins > 65536:
+        raise InputError(f"octree bins: at most 65536 bins per parameter, got {bins}")
+    if isinstance(threshold, bool) or not isinstance(threshold, (int, np.integer)) or threshold < 0:
+        raise InputError(f"octree threshold: expected an integer >= 0 (bins), got {threshold!r}")
+    s = np.ascontiguousarray(scalars, dtype=np.float32)
+    if s.ndim != 3 or min(s.shape) < 1:
+        raise InputError(f"octree scalars: expected a non-empty 3-D array, got shape {s.shape}")
+    spacing_arr = np.asarray(spacing, dtype=np.float64)
+    mag = np.empty(s.shape, dtype=np.float64)
+    _magnitudes(s, spacing_arr, mag)
+    gradient_max = float(mag.max())
+    gscale = bins / gradient_max if gradient_max > 0 else 0.0
+
+    nz, ny, nx = s.shape
+    dims = [(-(-nx // base_size), -(-ny // base_size), -(-nz // base_size))]
+    while max(dims[-1]) > 1:
+        dims.append(tuple(-(-d // 2) for d in dims[-1]))
+    levels = len(dims)
+    dims_arr = np.array(dims, dtype=np.int64)
+    offsets = np.zeros(levels + 1, dtype=np.int64)
+    np.cumsum([a * b * c for a, b, c in dims], out=offsets[1:])
+    total = int(offsets[-1])
+    dtype = np.uint8 if bins <= 256 else np.uint16
+    work = [np.empty(total, dtype=np.int32) for _ in range(4)]
+    _base_level(s, mag, bins, gscale, base_size, dims_arr[0], *work)
+    del mag
+    for level in range(1, levels):
+        _parent_level(dims_arr[level - 1], offsets[level - 1], dims_arr[level], offsets[level], *work)
+    capacity = 1 + 8 * int(offsets[-1] - offsets[1])
+    out = [np.empty(capacity, dtype=np.int32) for _ in range(4)]
+    child = np.empty(capacity, dtype=np.int32)
+    count = _prune(levels, offsets, dims_arr, *work, int(threshold), bins - 1, *out, child)
+    smin, smax, gmin, gmax = (np.ascontiguousarray(a[:count]).astype(dtype) for a in out)
+    # Empty nodes were written as (bins − 1, 0): min > max survives the narrowing cast (bins >= 2).
+    return MinMaxOctree((nz, ny, nx), tuple(float(v) for v in spacing_arr), base_size, int(threshold), bins, levels,
+                        base_size << (levels - 1), gradient_max, s, smin, smax, gmin, gmax,
+                        np.ascontiguousarray(child[:count]))
+
+
+# ---------------------------------------------------------------------------------------------
+# Summed-area table and node classification
+
+
+@njit(**_JIT)
+def _interval_maxima(table, lo, hi, out):
+    """Maximum of the linearly interpolated ``table`` over each ``[lo[b], hi[b]]`` (classification rule)."""
+    size = table.shape[0]
+    for b in range(lo.shape[0]):
+        i0, w = _table_position(lo[b], size)
+        best = table[i0] * (1.0 - w) + table[i0 + 1] * w
+        i0, w = _table_position(hi[b], size)
+        best = max(best, table[i0] * (1.0 - w) + table[i0 + 1] * w)
+        first = max(int(math.floor(lo[b] * (size - 1))), 0)
+        last = min(int(math.ceil(hi[b] * (size - 1))), size - 1)
+        for i in range(first, last + 1):
+            x = i / (size - 1)
+            if lo[b] <= x <= hi[b]:
+                best = max(best, table[i])
+        out[b] = best
+
+
+@dataclass(frozen=True, eq=False)
+class OctreeClassification:
+    """One classification of an octree: the SAT, node statuses and the per-voxel tables."""
+
+    sat: np.ndarray  # int32 (bins + 1, bins + 1), row/column 0 zero
+    status: np.ndarray  # uint8 per node
+    alpha_table: np.ndarray
+    gradient_table: np.ndarray  # (0,) without gradient opacity
+    reference_step: float
+    min_opacity: float
+    colour_table: np.ndarray
+
+    def box_sum(self, s_lo, s_hi, g_lo, g_hi):
+        """SAT integral of the indicator over bins ``[s_lo, s_hi] × [g_lo, g_hi]`` (arrays allowed)."""
+        sat = self.sat
+        return (sat[s_hi + 1, g_hi + 1] - sat[s_lo, g_hi + 1] - sat[s_hi + 1, g_lo] + sat[s_lo, g_lo])
+
+
+def classify_octree(octree, transfer_function, gradient_opacity, reference_step, min_opacity):
+    """Summed-area table of the classification and the status of every octree node (Fig. 4.17)."""
+    bins = octree.bins
+    alpha_table = np.ascontiguousarray(transfer_function.table[:, 3], dtype=np.float64)
+    gtab = (np.zeros(0) if gradient_opacity is None
+            else np.ascontiguousarray(gradient_opacity.table, dtype=np.float64))
+    b = np.arange(bins, dtype=np.float64)
+    pad = 1e-12
+    s_max = np.empty(bins)
+    _interval_maxima(alpha_table, b / bins - pad, (b + 1) / bins + pad, s_max)
+    if gtab.size:
+        m_lo, m_hi = octree.gradient_bin_edges()
+        m_lo = np.maximum(m_lo * (1 - MARGIN), 0.0)
+        m_hi = m_hi * (1 + MARGIN)
+        if octree.gradient_max == 0:
+            m_lo[:] = 0.0
+            m_hi[:] = 0.0
+        step = float(reference_step)
+        g_max = np.empty(bins)
+        _interval_maxima(gtab, m_lo * step / MAX_GRADIENT, m_hi * step / MAX_GRADIENT, g_max)
+    else:
+        g_max = np.ones(bins)
+    bound = s_max[:, None] * g_max[None, :]
+    indicator = (bound > 0) & (bound * (1 + MARGIN) > min_opacity)
+    sat = np.zeros((bins + 1, bins + 1), dtype=np.int32)
+    sat[1:, 1:] = indicator.astype(np.int32).cumsum(axis=0).cumsum(axis=1)
+    smin = octree.smin.astype(np.int64)
+    smax = octree.smax.astype(np.int64)
+    gmin = octree.gmin.astype(np.int64)
+    gmax = octree.gmax.astype(np.int64)
+    empty = smin > smax
+    lo_s, hi_s = np.where(empty, 0, smin), np.where(empty, 0, smax)
+    lo_g, hi_g = np.where(empty, 0, gmin), np.where(empty, 0, gmax)
+    total = sat[hi_s + 1, hi_g + 1] - sat[lo_s, hi_g + 1] - sat[hi_s + 1, lo_g] + sat[lo_s, lo_g]
+    status = np.where(empty | (total == 0), TRANSPARENT,
+                      np.where(octree.child < 0, NONTRANSPARENT, SUBDIVIDE)).astype(np.uint8)
+    colour_table = np.ascontiguousarray(transfer_function.lookup(np.arange(256) / 255.0)[:, :3])
+    return OctreeClassification(sat, status, alpha_table, gtab, float(reference_step), float(min_opacity),
+                                colour_table)
+
+
+# ---------------------------------------------------------------------------------------------
+# ComputeVoxelRuns and on-the-fly classification
+
+
+@njit(**_JIT)
+def _block_runs(status, child, root_size, ni, jc, kc, bit_i, bit_j, bit_k, levels, out):
+    """Candidate (possibly non-transparent) runs of the scanlines through ``(j, k) = (jc, kc)``.
+
+    Writes ``[start, end)`` pairs to ``out`` in increasing order, merged and clipped to ``[0, ni)``;
+    returns their number.
+    """
+    depth = 2 * levels + 2
+    st_node = np.empty(depth, np.int64)
+    st_oi = np.empty(depth, np.int64)
+    st_oj = np.empty(depth, np.int64)
+    st_ok = np.empty(depth, np.int64)
+    st_size = np.empty(depth, np.int64)
+    top = 0
+    st_node[0], st_oi[0], st_oj[0], st_ok[0], st_size[0] = 0, 0, 0, 0, root_size
+    top = 1
+    count = 0
+    while top > 0:
+        top -= 1
+        node = st_node[top]
+        oi, oj, ok, size = st_oi[top], st_oj[top], st_ok[top], st_size[top]
+        if oi >= ni:
+            continue
+        state = status[node]
+        if state == TRANSPARENT:
+            continue
+        if state == NONTRANSPARENT:
+            end = min(oi + size, ni)
+            if count > 0 and out[count - 1, 1] == oi:
+                out[count - 1, 1] = end
+            else:
+                out[count, 0] = oi
+                out[count, 1] = end
+                count += 1
+            continue
+        half = size // 2
+        cj = 1 if jc - oj >= half else 0
+        ck = 1 if kc - ok >= half else 0
+        first = child[node] + (cj << bit_j) + (ck << bit_k)
+        # Push the far child first so that the near one (lower i) is walked first.
+        for ci in (1, 0):
+            st_node[top] = first + (ci << bit_i)
+            st_oi[top] = oi + ci * half
+            st_oj[top] = oj + cj * half
+            st_ok[top] = ok + ck * half
+            st_size[top] = half
+            top += 1
+    return count
+
+
+@njit(parallel=True, **_JIT)
+def _all_block_runs(status, child, root_size, base, ni, nbj, nbk, bit_i, bit_j, bit_k, levels, runs, run_count):
+    for t in prange(nbj * nbk):
+        bk = t // nbj
+        bj = t - bk * nbj
+        run_count[t] = _block_runs(status, child, root_size, ni, bj * base, bk * base, bit_i, bit_j, bit_k, levels,
+                                   runs[t])
+
+
+@njit(**_JIT)
+def _classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity):
+    """One voxel's record and gradient, the arithmetic of ``classify._classify_kernel``."""
+    nz, ny, nx = s.shape
+    value = np.float64(s[z, y, x])
+    i0, w = _table_position(value, alpha_table.shape[0])
+    alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
+    if not alpha > min_opacity:
+        return np.uint32(0), 0.0, 0.0, 0.0
+    x0 = max(x - 1, 0)
+    x1 = min(x + 1, nx - 1)
+    y0 = max(y - 1, 0)
+    y1 = min(y + 1, ny - 1)
+    z0 = max(z - 1, 0)
+    z1 = min(z + 1, nz - 1)
+    gx = (np.float64(s[z, y, x1]) - np.float64(s[z, y, x0])) / (2.0 * sx)
+    gy = (np.float64(s[z, y1, x]) - np.float64(s[z, y0, x])) / (2.0 * sy)
+    gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
+    g_size = gtab.shape[0]
+    if g_size > 0:
+        magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
+        j0, wg = _table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
+        alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
+        if not alpha > min_opacity:
+            return np.uint32(0), 0.0, 0.0, 0.0
+    opacity = min(int(alpha * 255.0 + 0.5), 255)
+    colour = min(int(value * 255.0 + 0.5), 255)
+    code = encode_normal(gx, gy, gz)
+    return np.uint32(opacity | (colour << 8) | (code << 16)), gx, gy, gz
+
+
+@njit(**_JIT)
+def _object_index(i, j, k, ax_i, ax_j, ax_k):
+    """``(z, y, x)`` of standard-order voxel ``(i, j, k)``."""
+    x = i if ax_i == 0 else (j if ax_j == 0 else k)
+    y = i if ax_i == 1 else (j if ax_j == 1 else k)
+    z = i if ax_i == 2 else (j if ax_j == 2 else k)
+    return z, y, x
+
+
+@njit(parallel=True, **_JIT)
+def _classify_candidates(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, ax_i, ax_j, ax_k,
+                         ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records, gradients):
+    """Classify every candidate voxel, scanline by scanline, into the packed candidate arrays."""
+    sx, sy, sz = spacing[0], spacing[1], spacing[2]
+    for kk in prange(nk):
+        k = np.int64(kk)  # prange may index with uint64; mixed with int64 that would give floats
+        for j in range(nj):
+            t = (k // base) * nbj + j // base
+            d = cand_offsets[k * nj + j]
+            for r in range(run_count[t]):
+                for i in range(runs[t, r, 0], runs[t, r, 1]):
+                    z, y, x = _object_index(np.int64(i), np.int64(j), k, ax_i, ax_j, ax_k)
+                    rec, gx, gy, gz = _classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step,
+                                                      min_opacity)
+                    records[d] = rec
+                    if want_gradients:
+                        if rec != 0:
+                            gradients[d, 0] = gx
+                            gradients[d, 1] = gy
+                            gradients[d, 2] = gz
+                        else:
+                            gradients[d, 0] = 0.0
+                            gradients[d, 1] = 0.0
+                            gradients[d, 2] = 0.0
+                    d += 1
+
+
+@njit(**_JIT)
+def _emit(out, pos, length, write):
+    """Write one run of ``length`` (split at 255 by zero-length runs of the other kind); entries used."""
+    used = 0
+    while length > 255:
+        if write:
+            out[pos + used] = 255
+            out[pos + used + 1] = 0
+        used += 2
+        length -= 255
+    if write:
+        out[pos + used] = length
+    return used + 1
+
+
+@njit(**_JIT)
+def _interval_runs(runs, count, ni, out, pos, write):
+    """The run lengths of a scanline whose non-transparent runs are ``runs[:count]`` (classify's format)."""
+    used = 0
+    x = 0
+    for r in range(count):
+        used += _emit(out, pos + used, runs[r, 0] - x, write)
+        used += _emit(out, pos + used, runs[r, 1] - runs[r, 0], write)
+        x = runs[r, 1]
+    if x < ni or count == 0:
+        used += _emit(out, pos + used, ni - x, write)
+        used += _emit(out, pos + used, 0, write)
+    return used
+
+
+@njit(parallel=True, **_JIT)
+def _exact_counts(ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records, run_counts, voxel_counts):
+    dummy = np.zeros(1, dtype=np.uint8)
+    for k in prange(nk):
+        line = np.zeros(ni, dtype=np.uint32)
+        for j in range(nj):
+            t = (k // base) * nbj + j // base
+            d = cand_offsets[k * nj + j]
+            c = 0
+            for r in range(run_count[t]):
+                for i in range(runs[t, r, 0], runs[t, r, 1]):
+                    line[i] = records[d]
+                    if records[d] != 0:
+                        c += 1
+                    d += 1
+            run_counts[k * nj + j] = _scanline_runs(line, dummy, 0, False)
+            voxel_counts[k * nj + j] = c
+            for r in range(run_count[t]):
+                for i in range(runs[t, r, 0], runs[t, r, 1]):
+                    line[i] = 0
+
+
+@njit(parallel=True, **_JIT)
+def _exact_fill(ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records, cand_gradients, want_gradients,
+                run_offsets, data_offsets, lengths, voxels, gradients):
+    for k in prange(nk):
+        line = np.zeros(ni, dtype=np.uint32)
+        for j in range(nj):
+            sl = k * nj + j
+            t = (k // base) * nbj + j // base
+            d = cand_offsets[sl]
+            out = data_offsets[sl]
+            for r in range(run_count[t]):
+                for i in range(runs[t, r, 0], runs[t, r, 1]):
+                    rec = records[d]
+                    line[i] = rec
+                    if rec != 0:
+                        voxels[out] = rec
+                        if want_gradients:
+                            gradients[out, 0] = cand_gradients[d, 0]
+                            gradients[out, 1] = cand_gradients[d, 1]
+                            gradients[out, 2] = cand_gradients[d, 2]
+                        out += 1
+                    d += 1
+            _scanline_runs(line, lengths, run_offsets[sl], True)
+            for r in range(run_count[t]):
+                for i in range(runs[t, r, 0], runs[t, r, 1]):
+                    line[i] = 0
+
+
+@njit(parallel=True, **_JIT)
+def _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, lengths, write, run_counts):
+    dummy = np.zeros(1, dtype=np.uint8)
+    for k in prange(nk):
+        for j in range(nj):
+            sl = k * nj + j
+            t = (k // base) * nbj + j // base
+            if write:
+                _interval_runs(runs[t], run_count[t], ni, lengths, run_offsets[sl], True)
+            else:
+                run_counts[sl] = _interval_runs(runs[t], run_count[t], ni, dummy, 0, False)
+
+
+@dataclass(frozen=True, eq=False)
+class OctreeEncodingStats:
+    """What one octree encode did: voxels classified on the fly, candidate runs per block."""
+
+    classified: int
+    nontransparent: int
+    candidate_runs: int
+
+
+def encode(octree, classification, axis, *, exact=True, gradients=False):
+    """Run-length encoding of ``axis`` built from the octree (see the module notes).
+
+    Parameters
+    ----------
+    octree : MinMaxOctree
+    classification : OctreeClassification
+        From :func:`classify_octree` for this octree.
+    axis : int
+        Principal axis 0/1/2 (x/y/z).
+    exact : bool
+        ``True``: byte-identical to ``classify.encode`` (the mode switch); ``False``: the octree's
+        conservative runs, transparent voxels inside them stored as zero records.
+    gradients : bool
+        Keep each stored voxel's float32 gradient (procedural shading).
+
+    Returns
+    -------
+    (Encoding, OctreeEncodingStats)
+    """
+    from renderers.shearwarp.factor import axes_ijk
+
+    ax_i, ax_j, ax_k = axes_ijk(axis)
+    nz, ny, nx = octree.shape_zyx
+    n_xyz = (nx, ny, nz)
+    ni, nj, nk = n_xyz[ax_i], n_xyz[ax_j], n_xyz[ax_k]
+    base = octree.base_size
+    nbj, nbk = -(-nj // base), -(-nk // base)
+    max_runs = -(-ni // base) // 2 + 2
+    runs = np.empty((nbj * nbk, max_runs, 2), dtype=np.int64)
+    run_count = np.empty(nbj * nbk, dtype=np.int64)
+    _all_block_runs(classification.status, octree.child, octree.root_size, base, ni, nbj, nbk, ax_i, ax_j, ax_k,
+                    octree.levels, runs, run_count)
+    # Candidate voxels per scanline: the block's run lengths, the same for its base² scanlines.
+    block_voxels = (runs[:, :, 1] - runs[:, :, 0]) * (np.arange(max_runs)[None, :] < run_count[:, None])
+    block_voxels = block_voxels.sum(axis=1)
+    kk, jj = np.divmod(np.arange(nk * nj), nj)
+    cand_counts = block_voxels[(kk // base) * nbj + jj // base]
+    cand_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
+    np.cumsum(cand_counts, out=cand_offsets[1:])
+    n_cand = int(cand_offsets[-1])
+    records = np.empty(n_cand, dtype=np.uint32)
+    cand_gradients = np.empty((n_cand if gradients else 0, 3), dtype=np.float32)
+    scalars = octree.scalars
+    _classify_candidates(scalars, np.asarray(octree.spacing, dtype=np.float64), classification.alpha_table,
+                         classification.gradient_table, classification.reference_step, classification.min_opacity,
+                         bool(gradients), ax_i, ax_j, ax_k, ni, nj, nk, base, nbj, runs, run_count, cand_offsets,
+                         records, cand_gradients if gradients else np.zeros((1, 3), np.float32))
+    run_counts = np.empty(nk * nj, dtype=np.int64)
+    run_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
+    if exact:
+        voxel_counts = np.empty(nk * nj, dtype=np.int64)
+        _exact_counts(ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records, run_counts, voxel_counts)
+        np.cumsum(run_counts, out=run_offsets[1:])
+        data_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
+        np.cumsum(voxel_counts, out=data_offsets[1:])
+        lengths = np.empty(run_offsets[-1], dtype=np.uint8)
+        voxels = np.empty(data_offsets[-1], dtype=np.uint32)
+        out_gradients = np.empty((data_offsets[-1] if gradients else 0, 3), dtype=np.float32)
+        _exact_fill(ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records,
+                    cand_gradients if gradients else np.zeros((1, 3), np.float32), bool(gradients), run_offsets,
+                    data_offsets, lengths, voxels, out_gradients if gradients else np.zeros((1, 3), np.float32))
+        nontransparent = int(data_offsets[-1])
+    else:
+        dummy = np.zeros(1, dtype=np.uint8)
+        _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, dummy, False, run_counts)
+        np.cumsum(run_counts, out=run_offsets[1:])
+        lengths = np.empty(run_offsets[-1], dtype=np.uint8)
+        _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, lengths, True, run_counts)
+        data_offsets = cand_offsets
+        voxels = records
+        out_gradients = cand_gradients
+        nontransparent = int(np.count_nonzero(records))
+    encoding = Encoding(axis, (ni, nj, nk), lengths, run_offsets, data_offsets, voxels, out_gradients, True)
+    stats = OctreeEncodingStats(n_cand, nontransparent, int(run_count.sum()))
+    return encoding, stats
+
+
+def transparent_voxel_mask(octree, classification):
+    """``[z, y, x]`` bool mask of the voxels inside TRANSPARENT nodes (for tests and diagnostics)."""
+    nz, ny, nx = octree.shape_zyx
+    mask = np.zeros((nz, ny, nx), dtype=bool)
+    stack = [(0, 0, 0, 0, octree.root_size)]
+    status, child = classification.status, octree.child
+    while stack:
+        node, ox, oy, oz, size = stack.pop()
+        if ox >= nx or oy >= ny or oz >= nz:
+            continue
+        if status[node] == TRANSPARENT:
+            mask[oz:oz + size, oy:oy + size, ox:ox + size] = True
+        elif status[node] == SUBDIVIDE:
+            half = size // 2
+            for c in range(8):
+                stack.append((int(child[node]) + c, ox + (c & 1) * half, oy + ((c >> 1) & 1) * half,
+                              oz + ((c >> 2) & 1) * half, half))
+    return mask
