@@ -7,6 +7,7 @@ camera looking down ``−z``. Image row 0 is the top of the picture and pixel ce
 half-integer positions.
 """
 
+import functools
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -107,7 +108,15 @@ class Camera:
         return np.asarray(self.target) + self.distance * self._offset_direction()
 
     def basis(self):
-        """World-space unit vectors ``(right, up, back)`` of the view frame."""
+        """World-space unit vectors ``(right, up, back)`` of the view frame (read-only arrays).
+
+        Computed once per camera: a camera is immutable, and backends that render in a few
+        milliseconds ask for its frame several times a frame.
+        """
+        return self._frame
+
+    @functools.cached_property
+    def _frame(self):
         back = self._offset_direction()
         right = np.cross(np.asarray(self.up, dtype=np.float64), back)
         length = np.linalg.norm(right)
@@ -115,6 +124,8 @@ class Camera:
             raise InputError(f"camera: up {self.up} and the view direction do not span a view frame")
         right /= length
         up = np.cross(back, right)
+        for vector in (right, up, back):
+            vector.flags.writeable = False
         return right, up, back
 
     def view_matrix(self):

@@ -1,3 +1,5 @@
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -122,3 +124,13 @@ def test_with_camera_revalidates_the_basis():
 def test_non_finite_camera_numbers_are_refused(kwargs):
     with pytest.raises(InputError, match=next(iter(kwargs))):
         Camera(**kwargs)
+
+
+def test_basis_is_computed_once_and_cannot_be_changed_by_a_caller():
+    camera = Camera(azimuth=30, elevation=20, distance=5.0, view_height=3.0)
+    first = camera.basis()
+    assert all(a is b for a, b in zip(first, camera.basis()))
+    with pytest.raises(ValueError):
+        first[0][0] = 0.0
+    turned = dataclasses.replace(camera, azimuth=40)  # a new camera gets its own frame
+    assert not np.allclose(turned.basis()[0], first[0])
