@@ -60,11 +60,8 @@ def test_registry_and_options():
             renderers.get("shearwarp", **bad)
 
 
-def test_capabilities_refuse_perspective_and_several_volumes(volume):
+def test_capabilities_refuse_several_volumes_and_mip(volume):
     backend = ShearWarpRenderer()
-    scene = scene_of(volume).with_camera(projection="perspective")
-    with pytest.raises(UnsupportedFeatureError, match="projections"):
-        backend.render(scene)
     two = Scene((VolumeInstance(volume, SMOOTH), VolumeInstance(volume, SMOOTH)))
     with pytest.raises(UnsupportedFeatureError, match="slice order"):
         backend.render(two)

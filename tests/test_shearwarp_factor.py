@@ -104,7 +104,7 @@ def test_factorize_refuses_bad_views():
     projective[3, 2] = -1
     with pytest.raises(InputError, match="projective"):
         factorize(projective, (4, 4, 4))
-    with pytest.raises(NotImplementedError):
+    with pytest.raises(InputError, match="affine"):
         factorize(np.eye(4), (4, 4, 4), perspective=True)
 
 
