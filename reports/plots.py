@@ -409,6 +409,73 @@ def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False,
     return _plot(path, title or f"{_label(y_col)} against {_label(x_col)}", note, rows.empty, draw)
 
 
+def lines(frame, path, *, x, y, group, title, x_label, y_label, y_range=None, log_x=False, log_y=False,
+          vlines=(), guides=()):
+    """Lines of ``y`` against ``x`` per ``group``, with vertical error bars from ``y_range`` columns.
+
+    Unlike :func:`scaling` (medians, no bars) each row is one point, so a sweep whose rows carry
+    their fastest and slowest frame shows the spread.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Tidy results; non-numeric or (on log axes) non-positive values are dropped and counted.
+    path : str or os.PathLike
+        Output ``.svg`` file.
+    x, y : str
+        Columns on the axes.
+    group : str or None
+        Column naming the series.
+    title, x_label, y_label : str
+        Title (say the finding) and axis labels in words with units.
+    y_range : (str, str), optional
+        Columns of each point's low and high value, drawn as error bars.
+    log_x, log_y : bool, optional
+        Logarithmic axes.
+    vlines : sequence of float, optional
+        x positions marked with dotted lines (e.g. the principal-axis switches of shear-warp).
+    guides : sequence of (label, xs, ys), optional
+        Reference curves drawn in grey (e.g. the paper's slope).
+
+    Returns
+    -------
+    pathlib.Path
+        The written file.
+    """
+    _check_frame(frame, [x, y, group, *(y_range or ())])
+    rows = frame.copy()
+    for column in [x, y, *(y_range or ())]:
+        rows[column] = pd.to_numeric(rows[column], errors="coerce")
+    keep = np.isfinite(rows[[x, y]]).all(axis=1)
+    if log_x:
+        keep &= rows[x] > 0
+    if log_y:
+        keep &= rows[y] > 0
+    dropped = int((~keep).sum())
+    rows = rows[keep]
+
+    def draw(ax):
+        for i, (name, part) in enumerate(rows.groupby(group, sort=False) if group else [(None, rows)]):
+            part = part.sort_values(x)
+            yerr = None
+            if y_range:
+                low, high = part[y_range[0]].to_numpy(float), part[y_range[1]].to_numpy(float)
+                values = part[y].to_numpy(float)
+                yerr = np.vstack([np.where(np.isfinite(low), np.clip(values - low, 0, None), 0.0),
+                                  np.where(np.isfinite(high), np.clip(high - values, 0, None), 0.0)])
+            ax.errorbar(part[x], part[y], yerr=yerr, label=str(name) if name is not None else y, capsize=2,
+                        elinewidth=0.8, markersize=3, **_style(i))
+        for position in vlines:
+            ax.axvline(position, color="0.6", linestyle=":", linewidth=0.8, zorder=0)
+        for i, (label, gx, gy) in enumerate(guides):
+            ax.plot(gx, gy, color="0.5", linestyle=("--", ":", "-.")[i % 3], label=label, zorder=1)
+        _axes(ax, log_x, log_y, x_label, y_label)
+        ax.legend(fontsize=7)
+
+    note = f"dropped {dropped} rows without a value" if dropped else ""
+    return _plot(path, title, note, rows.empty, draw)
+
+
 def _bar_text(value):
     """Bar label: the value to 3 significant digits, nothing for a missing bar."""
     return "" if np.isnan(value) else f"{value:.3g}"

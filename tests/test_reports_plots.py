@@ -143,3 +143,20 @@ def test_difference_colorbar_states_its_scale(tmp_path):
         plots.difference_colorbar(tmp_path / "bar.svg", 0)
     with pytest.raises(InputError, match=r"\.svg"):
         plots.difference_colorbar(tmp_path / "bar.png", 0.1)
+
+
+def test_lines_draws_each_row_with_its_range_marks_and_guides(tmp_path):
+    frame = pd.DataFrame({"angle": [0, 30, 60, 90, "x"], "time_ms": [2.0, 2.2, 2.1, 2.3, 1.0],
+                          "low": [1.8, 2.0, 2.0, 2.1, 0.9], "high": [2.5, 2.4, 2.3, 2.6, 1.1],
+                          "dataset": ["sphere"] * 5})
+    common = dict(x="angle", y="time_ms", group="dataset", title="time stays flat across the 45° switch",
+                  x_label="view angle (degrees)", y_label="median frame time (ms)")
+    with_bars = svg_text(plots.lines(frame, tmp_path / "a.svg", y_range=("low", "high"), vlines=(45,),
+                                     guides=[("thesis ±6 %", [0, 90], [2.1, 2.1])], **common))
+    without = svg_text(plots.lines(frame, tmp_path / "b.svg", **common))
+    for text in ("view angle (degrees)", "median frame time (ms)", "sphere", "thesis ±6 %",
+                 "dropped 1 rows without a value"):
+        assert text in with_bars
+    assert with_bars.count("<path") > without.count("<path")  # error bars, the switch line, the guide
+    with pytest.raises(InputError, match="missing column"):
+        plots.lines(frame, tmp_path / "c.svg", y_range=("low", "nope"), **common)
