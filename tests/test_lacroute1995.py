@@ -22,7 +22,8 @@ from reports.imageio import write_exr
 
 ROOT = Path(__file__).resolve().parent.parent
 NAMES = ("lacroute1995-volpack", "lacroute1995-quality", "lacroute1995-matrix", "lacroute1995-angles",
-         "lacroute1995-scaling", "lacroute1995-throughput", "lacroute1995-parallel", "lacroute1995-shading")
+         "lacroute1995-scaling", "lacroute1995-throughput", "lacroute1995-parallel", "lacroute1995-shading",
+         "lacroute1995-projection", "lacroute1995-perspective")
 
 
 @pytest.fixture
@@ -58,7 +59,7 @@ def test_plan_times_comparisons_and_renders_truth_once(all_backends):
         if run.backend == "reference":  # ground truth: one untimed frame
             assert (run.warmup, run.repeat) == (0, 1), run.key
         elif run.warmup == 0:  # picture-only or cold (preprocessing) runs
-            assert run.experiment in ("lacroute1995-quality", "lacroute1995-shading"), run.key
+            assert run.experiment in ("lacroute1995-quality", "lacroute1995-shading", "lacroute1995-perspective"), run.key
         else:  # timed comparisons: at least one warm-up and three timed frames, whatever the profile
             assert run.warmup >= 1 and run.repeat >= 3, run.key
         assert run.reference is None or f"{run.experiment}/{run.reference}" in runs
@@ -86,7 +87,11 @@ def test_profile_settings_are_checked(all_backends):
                            ("lacroute1995-matrix", {"datasets": ["nucleon"]}),
                            ("lacroute1995-angles", {"angle_step": 0}),
                            ("lacroute1995-throughput", {"brute_force": "some"}),
-                           ("lacroute1995-parallel", {"schedules": ["random"]})):
+                           ("lacroute1995-parallel", {"schedules": ["random"]}),
+                           ("lacroute1995-projection", {"datasets": ["nucleon"]}),
+                           ("lacroute1995-projection", {"fov": 180}),
+                           ("lacroute1995-perspective", {"fovs": [30]}),
+                           ("lacroute1995-perspective", {"fovs": [30, 150]})):
         with pytest.raises(InputError, match=name):
             experiments.plan(_profile(**{name: settings}))
     with pytest.raises(InputError, match="unknown keys"):
@@ -98,7 +103,7 @@ def test_profile_settings_are_checked(all_backends):
 def test_smoke_profile_stays_small(all_backends):
     runs = experiments.plan(Profile.load(ROOT / "config" / "smoke.yaml"))
     ours = [r for r in runs.values() if r.experiment.startswith("lacroute1995")]
-    assert len(ours) <= 40  # about three minutes of jobs on two cores
+    assert len(ours) <= 50  # about four minutes of jobs on two cores (16–32³ volumes, 48² images)
     assert all(len(r.views) <= 8 for r in ours)
 
 
@@ -128,6 +133,36 @@ def test_plan_contents(all_backends):
     assert "transfer_function" in skull.scene["volumes"][0] and "preset" not in skull.scene["volumes"][0]
     cube = [r for r in quality if r.id.startswith("cube.") and r.backend == "shearwarp"]
     assert {r.options["opacity_correction"] for r in cube} == {True, False}
+
+
+def test_projection_and_perspective_plans(all_backends):
+    runs = experiments.plan(_profile(**{"lacroute1995-projection": {"datasets": ["brainsmall", "ct_skull"],
+                                                                    "angle_step": 90, "fov": 40},
+                                        "lacroute1995-perspective": {"fovs": [60, 15]}}))
+    projection = [r for r in runs.values() if r.experiment == "lacroute1995-projection"]
+    assert {(r.tags["dataset"], r.tags["config"]) for r in projection} == {
+        (d, c) for d in ("brainsmall", "ct_skull") for c in L.PROJECTION_CONFIGS}
+    for run in projection:
+        assert [v["view"] for v in run.views] == ["deg0", "deg90", "deg180", "deg270"]
+        assert all(v["up"] == [0.0, 0.0, 1.0] for v in run.views)  # both are z-up: turned about the body axis
+        camera = run.scene.get("camera", {})
+        if run.tags["config"] == "perspective":
+            assert camera == {"projection": "perspective", "fov_y": 40.0} and run.options == {"workers": 1}
+        else:
+            assert camera == {}
+        if run.tags["config"] == "fast-classification":
+            assert run.options == {"classification": "octree", "workers": 1}
+    assert {r.tags["thesis_dataset"] for r in projection} == {"brainsmall", "head"}
+    perspective = {r.id: r for r in runs.values() if r.experiment == "lacroute1995-perspective"}
+    assert set(perspective) == {f"{f}.{role}" for f in ("parallel", "fov15", "fov60") for role in ("truth", "shearwarp")}
+    assert perspective["fov15.shearwarp"].reference == "fov15.truth"
+    assert perspective["fov60.truth"].scene["camera"] == {"projection": "perspective", "fov_y": 60.0}
+    assert "camera" not in perspective["parallel.truth"].scene
+    assert perspective["fov60.truth"].scene == perspective["fov60.shearwarp"].scene
+    modes = {r.id: r.options for r in runs.values() if r.experiment == "lacroute1995-shading" and r.id.startswith("mode.")}
+    assert modes["mode.shearwarp-octree-rle-cold"] == {"octree_rle_build": True}
+    assert modes["mode.shearwarp-octree-cold"] == {"classification": "octree"}
+    assert modes["mode.shearwarp-cold"] == {}
 
 
 def test_scene_mappings_build(all_backends, tmp_path):
@@ -456,6 +491,97 @@ def test_variant_claims():
     assert _evaluate(name, "mode-switch", rows[:3]).holds is None
 
 
+def _mode_rows(octree_rle=(0.004, 0.01), octree_frame=0.02):
+    """Cold mode runs: brute force classify 20 ms + RLE 10 ms, frame 10 ms; the octree's SAT and RLE build given."""
+    sat, rle_build = octree_rle
+    return [{"part": "mode", "config": "shearwarp", "time_total": 0.01, "time_classify": 0.02, "time_rle_build": 0.01,
+             "count_rle_bytes": 1e5},
+            {"part": "mode", "config": "shearwarp-octree-rle", "time_total": 0.01, "time_octree_build": 0.03,
+             "time_sat_build": sat, "time_rle_build": rle_build},
+            {"part": "mode", "config": "shearwarp-octree", "time_total": octree_frame, "time_octree_build": 0.03,
+             "time_sat_build": 0.004, "time_octree_classify": 0.01, "count_octree_bytes": 2e4}]
+
+
+def test_our_mode_switch_claims():
+    name = "lacroute1995-shading"
+    rows = _mode_rows()
+    for claim in ("octree-rle-build", "fast-classification-render", "mode-switch-ours"):
+        assert _evaluate(name, claim, rows).holds is True, claim
+    result = _evaluate(name, "octree-rle-build", rows)
+    assert result.measured.startswith("14 ms vs 30 ms")
+    # The octree build takes longer than classify + encode; the octree frame is 6× the RLE frame.
+    rows = _mode_rows(octree_rle=(0.025, 0.01), octree_frame=0.06)
+    for claim in ("octree-rle-build", "fast-classification-render", "mode-switch-ours"):
+        assert _evaluate(name, claim, rows).holds is False, claim
+    # 0.004 + 0.06 = 64 ms after an edit against 40 ms for the RLE: the switch does not pay.
+    assert _evaluate(name, "octree-rle-build", rows[:1] + rows[2:]).holds is None  # no octree-built RLE run
+    rows[0].pop("time_classify")
+    assert _evaluate(name, "mode-switch-ours", rows).holds is None  # a missing stage is not a pass
+    table = L.mode_switch_table(pd.DataFrame(_mode_rows()))
+    assert list(table["mode"]) == ["RLE, brute-force build", "RLE built from the octree", "fast classification"]
+    assert np.allclose(table["after an edit (ms)"], [40.0, 24.0, 24.0])
+
+
+def _projection_rows(perspective=2.3, octree=2.0, octree_bytes=2e5, datasets=(("brainsmall", "brainsmall"),
+                                                                               ("ct_skull", "head"))):
+    rows = []
+    for dataset, thesis in datasets:
+        for config, factor in (("parallel", 1.0), ("perspective", perspective), ("fast-classification", octree)):
+            for index, angle in enumerate((0, 90, 180, 270)):
+                rows.append({"dataset": dataset, "thesis_dataset": thesis, "config": config, "view": f"deg{angle}",
+                             "time_total": 0.01 * factor * (1 + 0.1 * index), "count_raw_bytes": 1e6,
+                             "count_rle_bytes": 3e5 if config != "fast-classification" else 1e5,
+                             **({"count_octree_bytes": octree_bytes} if config == "fast-classification" else {})})
+    return rows
+
+
+def test_projection_claims():
+    name = "lacroute1995-projection"
+    rows = _projection_rows()
+    summary = L.projection_summary(pd.DataFrame(rows))
+    assert list(summary.config[:3]) == list(L.PROJECTION_CONFIGS) and set(summary.views) == {4}
+    parallel = summary[(summary.dataset == "brainsmall") & (summary.config == "parallel")].iloc[0]
+    assert math.isclose(parallel["mean"], 0.0115) and math.isclose(parallel.fastest, 0.01)
+    assert math.isclose(parallel.slowest, 0.013)
+    head = summary[(summary.dataset == "ct_skull") & (summary.config == "perspective")].iloc[0]
+    assert math.isclose(head["time / parallel"], 2.3) and math.isclose(head["thesis time / parallel"], 2.35 / 0.87)
+    for claim in ("perspective-cost", "fast-classification-cost", "fast-classification-memory"):
+        assert _evaluate(name, claim, rows).holds is True, claim
+    assert _evaluate(name, "perspective-cost", rows).measured == "×2.3 (brainsmall), ×2.3 (ct_skull)"
+    # What the backend engineer measured on small volumes: octree mode 4–7× the RLE.
+    rows = _projection_rows(perspective=1.2, octree=5.5, octree_bytes=4e6)
+    for claim in ("perspective-cost", "fast-classification-cost", "fast-classification-memory"):
+        assert _evaluate(name, claim, rows).holds is False, claim
+    only_parallel = [r for r in rows if r["config"] == "parallel"]
+    assert _evaluate(name, "perspective-cost", only_parallel).holds is None
+    assert _evaluate(name, "fast-classification-memory", only_parallel).holds is None
+
+
+def _fov_rows(psnrs, parallel=40.0):
+    rows = [{"role": "test", "dataset": "ct_skull", "fov": 0.0, "psnr": parallel, "ssim": 0.99, "view": "headline"}]
+    for fov, psnr in psnrs.items():
+        rows.append({"role": "test", "dataset": "ct_skull", "fov": fov, "psnr": psnr, "ssim": 0.98, "view": "headline",
+                     "info_max_ray_angle": fov / 2 + 10})
+        rows.append({"role": "truth", "dataset": "ct_skull", "fov": fov, "view": "headline"})
+    return rows
+
+
+def test_perspective_claims():
+    name = "lacroute1995-perspective"
+    rows = _fov_rows({15: 39.5, 30: 38.0, 60: 36.0, 90: 33.0})
+    for claim in ("quality-falls-with-fov", "narrow-fov-like-parallel"):
+        assert _evaluate(name, claim, rows).holds is True, claim
+    assert _evaluate(name, "quality-falls-with-fov", rows).measured == "6.5 dB lower at 90° than at 15°"
+    # A 2 dB rise from 30° to 60° breaks the trend; a 15° image 3 dB off the parallel one is not "alike".
+    rows = _fov_rows({15: 37.0, 30: 35.0, 60: 37.0, 90: 33.0})
+    for claim in ("quality-falls-with-fov", "narrow-fov-like-parallel"):
+        assert _evaluate(name, claim, rows).holds is False, claim
+    assert _evaluate(name, "quality-falls-with-fov", _fov_rows({15: 39.5, 90: 39.0})).holds is False  # < 1 dB
+    assert _evaluate(name, "quality-falls-with-fov", _fov_rows({15: 39.5})).holds is None
+    assert _evaluate(name, "narrow-fov-like-parallel", _fov_rows({15: 39.5})[1:]).holds is None
+    assert list(L.fov_rows(pd.DataFrame(_fov_rows({60: 36.0, 15: 39.5}))).fov) == [0.0, 15.0, 60.0]
+
+
 # ------------------------------------------------------------------------------------ reports
 def _context(tmp_path, name):
     report = tmp_path / "report"
@@ -479,6 +605,8 @@ def _finish(rows, name):
     ("lacroute1995-throughput", _throughput_rows()),
     ("lacroute1995-parallel", _parallel_rows(schedules={"round-robin": 0.0115, "contiguous-steal": 0.012,
                                                         "contiguous": 0.02}, tasks={1: 0.02, 64: 0.015})),
+    ("lacroute1995-projection", _projection_rows()),
+    ("lacroute1995-perspective", [{**r, "time_total": 0.1, "reference": "none"} for r in _fov_rows({15: 39.5, 30: 38.0, 60: 36.0, 90: 33.0})]),
 ])
 def test_reports_write_their_charts(tmp_path, name, rows):
     frame = _finish(rows, name)
