@@ -302,6 +302,21 @@ def _holds(value):
     return None
 
 
+def _experiment_blocks(experiment, frame, ctx):
+    """The experiment's report blocks; a column no run reported becomes a stated gap, not a crash.
+
+    As with claims (holds ``None`` when a needed column is missing), a section whose backend did
+    not report a counter or stage (a KeyError naming the column) says so in place of its charts,
+    so one missing measurement cannot take the whole report down.
+    """
+    try:
+        return experiment.report(frame, ctx)
+    except KeyError as exc:
+        missing = exc.args[0] if exc.args else exc
+        return [blocks.Text(f"Not measurable here: this section needs {missing}, which no successful "
+                            "run of this experiment reported.")]
+
+
 def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
                  real_data=None, psnr_min=takeaways.PSNR_GOOD):
     """Write the report into ``results_dir/report``; return the path of ``index.html``.
@@ -349,7 +364,8 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         counts, problems = _status_summary(frame, ctx)
         claims = claims_df[claims_df.experiment == experiment.name].to_dict("records")
         paper_table = experiment.paper_table()
-        rendered = ([_render_block(b, ctx) for b in experiment.report(frame, ctx)] if counts["ok"] else [])
+        rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
+                    if counts["ok"] else [])
         section = {
             "name": experiment.name, "title": experiment.title, "description": experiment.description,
             "counts": counts, "problems": problems, "claims": claims,
