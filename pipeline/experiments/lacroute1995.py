@@ -313,6 +313,63 @@ def _ok(results):
     return results[results.status == "ok"].copy() if "status" in results else results.copy()
 
 
+def _truth_run(experiment, prefix, scene, views, step_factor, tags, **extra_tags):
+    """The ground-truth run ``<prefix>.truth``: the reference renderer, one untimed frame.
+
+    Parameters
+    ----------
+    experiment, prefix : str
+        The experiment's name and the run id's prefix.
+    scene : dict
+    views : tuple of dict
+    step_factor : float
+        The reference's step, as a fraction of a voxel.
+    tags : dict
+        The run's tags; ``role="truth"`` and then ``extra_tags`` are added.
+    """
+    return Run(experiment, f"{prefix}.truth", REF, scene, views, options={"step_factor": step_factor}, **UNTIMED,
+               tags={**tags, "role": "truth", **extra_tags})
+
+
+def _truth_and_shearwarp(experiment, prefix, scene, views, step_factor, tags):
+    """``[<prefix>.truth, <prefix>.shearwarp]``: the reference and one untimed shear-warp frame checked against it."""
+    truth = _truth_run(experiment, prefix, scene, views, step_factor, tags)
+    return [truth, Run(experiment, f"{prefix}.shearwarp", SW, scene, views, reference=truth.id, **UNTIMED,
+                       tags={**tags, "role": "test"})]
+
+
+def _title_or(make, ok, fallback, errors=(KeyError, ValueError)):
+    """``make(ok)``, a chart title built from a claim's result, or ``fallback`` when it cannot be measured."""
+    try:
+        return make(ok)
+    except errors:
+        return fallback
+
+
+def _claim_sentences(ok, checks, template="{what}: {measured} ({detail}).", errors=(KeyError, ValueError)):
+    """Takeaway sentences from claim checks, skipping those the data cannot measure.
+
+    Parameters
+    ----------
+    ok : DataFrame
+        Successful rows.
+    checks : iterable of (callable, str)
+        A check returning a :class:`ClaimResult`, and the words that introduce its result.
+    template : str
+        The sentence, with ``{what}``, ``{measured}`` and ``{detail}`` fields.
+    errors : tuple of exception types
+        What a check raises when its data is missing.
+    """
+    sentences = []
+    for fn, what in checks:
+        try:
+            result = fn(ok)
+        except errors:
+            continue
+        sentences.append(template.format(what=what, measured=result.measured, detail=result.detail))
+    return sentences
+
+
 # =========================================================================== 1. against VolPack
 VOLPACK_CONFIGS = {
     # config: (backend, options, label)
@@ -365,8 +422,7 @@ class VolPackComparison(Experiment):
             scene = _scene(volume, profile, image_size=image, name=scene_name)
             views = (_headline(dataset),)
             tags = {"scene": scene_name, "dataset": dataset, "image_size": image}
-            truth = Run(self.name, f"{scene_name}.truth", REF, scene, views, options={"step_factor": truth_factor},
-                        **UNTIMED, tags={**tags, "role": "truth", "config": "reference"})
+            truth = _truth_run(self.name, scene_name, scene, views, truth_factor, tags, config="reference")
             runs.append(truth)
             for config, (backend, options, _label) in VOLPACK_CONFIGS.items():
                 if not _accepts(backend, *options):
@@ -639,10 +695,7 @@ class ImageQuality(Experiment):
                     volume = _phantom(dataset, size, transfer_function=_binary_points(choice))
                 scene = _scene(volume, profile, image_size=image, shading=shading, name=f"{dataset}-{tf}")
                 tags = {"part": "classification", "dataset": dataset, "tf": tf}
-                truth = Run(self.name, f"{dataset}.{tf}.truth", REF, scene, views,
-                            options={"step_factor": truth_factor}, **UNTIMED, tags={**tags, "role": "truth"})
-                runs += [truth, Run(self.name, f"{dataset}.{tf}.shearwarp", SW, scene, views, reference=truth.id,
-                                    **UNTIMED, tags={**tags, "role": "test"})]
+                runs += _truth_and_shearwarp(self.name, f"{dataset}.{tf}", scene, views, truth_factor, tags)
         if _accepts(SW, "opacity_correction", "min_opacity"):
             cube = profile.setting(self.name, "cube_size", size)
             value = cube_value(cube)
@@ -650,8 +703,7 @@ class ImageQuality(Experiment):
             scene = _scene(volume, profile, image_size=image, shading="none", name="cube")
             views = tuple({"view": name, "azimuth": az, "elevation": el} for name, az, el, _ in CUBE_VIEWS)
             tags = {"part": "opacity", "dataset": "constant_cube", "alpha": value / 255}
-            truth = Run(self.name, "cube.truth", REF, scene, views, options={"step_factor": 0.25}, **UNTIMED,
-                        tags={**tags, "role": "truth", "correction": "reference"})
+            truth = _truth_run(self.name, "cube", scene, views, 0.25, tags, correction="reference")
             runs.append(truth)
             for correction in (True, False):
                 runs.append(Run(self.name, f"cube.{'corrected' if correction else 'uncorrected'}", SW, scene, views,
@@ -849,14 +901,9 @@ def _quality_chart_title(tests):
 
 
 def _quality_takeaways(ok):
-    sentences = []
-    for claim_fn, label in ((lambda d: _quality_drop(d, "binary", True), "binary classification"),
-                            (lambda d: _quality_drop(d, "smooth", False), "smooth classification")):
-        try:
-            result = claim_fn(ok)
-        except (KeyError, ValueError):
-            continue
-        sentences.append(f"With a {label} the PSNR is {result.measured}: {result.detail}.")
+    sentences = _claim_sentences(ok, ((lambda d: _quality_drop(d, "binary", True), "binary classification"),
+                                      (lambda d: _quality_drop(d, "smooth", False), "smooth classification")),
+                                 "With a {what} the PSNR is {measured}: {detail}.")
     for correction, label in (("off", "without"), ("on", "with")):
         try:
             deficits = _cube_deficits(ok, correction)
@@ -1508,22 +1555,15 @@ def _growth_title(ok):
 
 
 def _warp_title(ok):
-    try:
-        return f"The warp costs {_warp_growth(ok).measured} of the image side (pixels: ×4)"
-    except (KeyError, ValueError, IndexError):
-        return "Warp time against the image size"
+    return _title_or(lambda d: f"The warp costs {_warp_growth(d).measured} of the image side (pixels: ×4)", ok,
+                     "Warp time against the image size", (KeyError, ValueError, IndexError))
 
 
 def _scaling_takeaways(ok):
-    sentences = []
-    for fn, what in ((_growth, "Frame time per doubling of the volume side"), (_rle_memory, "The three RLE copies take"),
-                     (_warp_growth, "The warp time grows"), (_warp_share, "The warp's share of the frame at the largest image")):
-        try:
-            result = fn(ok)
-        except (KeyError, ValueError, IndexError):
-            continue
-        sentences.append(f"{what}: {result.measured} ({result.detail}).")
-    return sentences
+    return _claim_sentences(ok, ((_growth, "Frame time per doubling of the volume side"),
+                                 (_rle_memory, "The three RLE copies take"), (_warp_growth, "The warp time grows"),
+                                 (_warp_share, "The warp's share of the frame at the largest image")),
+                            errors=(KeyError, ValueError, IndexError))
 
 
 # ==================================================================== 6. throughput (E12–E14)
@@ -1812,23 +1852,15 @@ def _cube_title(ok):
 
 
 def _runs_title(ok):
-    try:
-        return f"Time grows linearly with the runs: {_runs_linear(ok).detail.split(';')[0]}"
-    except (KeyError, ValueError):
-        return "Checkerboards: frame time against the number of runs"
+    return _title_or(lambda d: f"Time grows linearly with the runs: {_runs_linear(d).detail.split(';')[0]}", ok,
+                     "Checkerboards: frame time against the number of runs")
 
 
 def _throughput_takeaways(ok):
-    sentences = []
-    for fn, what in ((_cube_linear, "Cubes, time against visible voxels"), (_crossover, "Against brute force"),
-                     (_runs_linear, "Checkerboards, time against runs"), (_worst_runs, "1-voxel runs against brute force"),
-                     (_prediction, "The fitted cost model's error on real scenes")):
-        try:
-            result = fn(ok)
-        except (KeyError, ValueError):
-            continue
-        sentences.append(f"{what}: {result.measured} ({result.detail}).")
-    return sentences
+    return _claim_sentences(ok, ((_cube_linear, "Cubes, time against visible voxels"), (_crossover, "Against brute force"),
+                                 (_runs_linear, "Checkerboards, time against runs"),
+                                 (_worst_runs, "1-voxel runs against brute force"),
+                                 (_prediction, "The fitted cost model's error on real scenes")))
 
 
 # ======================================================================= 7. parallel (E16, E17)
@@ -2090,28 +2122,16 @@ def _imbalance_order(df):
 
 
 def _speedup_title(ok):
-    try:
-        return f"Speed-up: {_speedup(ok).measured}"
-    except (KeyError, ValueError):
-        return "Speed-up against the number of workers"
+    return _title_or(lambda d: f"Speed-up: {_speedup(d).measured}", ok, "Speed-up against the number of workers")
 
 
 def _task_title(ok):
-    try:
-        return f"Task size: {_task_u(ok).measured}"
-    except (KeyError, ValueError):
-        return "Frame time against the task size"
+    return _title_or(lambda d: f"Task size: {_task_u(d).measured}", ok, "Frame time against the task size")
 
 
 def _parallel_takeaways(ok):
-    sentences = []
-    for fn, what in ((_speedup, "Speed-up"), (_schedule_order, "Schedules"), (_task_u, "Task size")):
-        try:
-            result = fn(ok)
-        except (KeyError, ValueError):
-            continue
-        sentences.append(f"{what}: {result.measured}.")
-    return sentences
+    return _claim_sentences(ok, ((_speedup, "Speed-up"), (_schedule_order, "Schedules"), (_task_u, "Task size")),
+                            "{what}: {measured}.")
 
 
 # ============================================================ 8. shading, union-find, mode switch
@@ -2381,25 +2401,18 @@ def _mode_switch(df):
 
 
 def _lut_title(ok):
-    try:
-        return f"Lookup-table shading is {_lut_speed(ok).measured} faster than per-voxel Phong"
-    except (KeyError, ValueError):
-        return "Per-frame time by stage"
+    return _title_or(lambda d: f"Lookup-table shading is {_lut_speed(d).measured} faster than per-voxel Phong", ok,
+                     "Per-frame time by stage")
 
 
 def _variant_takeaways(ok):
-    sentences = []
-    for fn, what in ((_lut_speed, "Procedural / lookup-table shading time"), (_lut_accuracy, "Lookup-table against procedural image"),
-                     (_union, "Union by rank / path compression"), (_mode_switch, "Time to an image after a classification edit"),
-                     (_octree_rle_build, "Our RLE build from the octree against brute force"),
-                     (_octree_render, "Our fast-classification / RLE frame time"),
-                     (_mode_switch_ours, "Our time to an image after a classification edit")):
-        try:
-            result = fn(ok)
-        except (KeyError, ValueError):
-            continue
-        sentences.append(f"{what}: {result.measured} ({result.detail}).")
-    return sentences
+    return _claim_sentences(ok, ((_lut_speed, "Procedural / lookup-table shading time"),
+                                 (_lut_accuracy, "Lookup-table against procedural image"),
+                                 (_union, "Union by rank / path compression"),
+                                 (_mode_switch, "Time to an image after a classification edit"),
+                                 (_octree_rle_build, "Our RLE build from the octree against brute force"),
+                                 (_octree_render, "Our fast-classification / RLE frame time"),
+                                 (_mode_switch_ours, "Our time to an image after a classification edit")))
 
 
 # =================================================== 9. projections and fast classification (E2)
@@ -2642,17 +2655,11 @@ def _projection_title(ok):
 
 
 def _projection_takeaways(ok):
-    sentences = []
-    for fn, what in ((lambda d: _projection_ratio(d, "perspective", 0, np.inf), "Perspective / parallel mean time"),
-                     (lambda d: _projection_ratio(d, "fast-classification", 0, np.inf),
-                      "Fast classification / parallel mean time"),
-                     (_octree_memory, "Fast-classification memory")):
-        try:
-            result = fn(ok)
-        except (KeyError, ValueError):
-            continue
-        sentences.append(f"{what}: {result.measured} ({result.detail}).")
-    return sentences
+    return _claim_sentences(ok, ((lambda d: _projection_ratio(d, "perspective", 0, np.inf),
+                                  "Perspective / parallel mean time"),
+                                 (lambda d: _projection_ratio(d, "fast-classification", 0, np.inf),
+                                  "Fast classification / parallel mean time"),
+                                 (_octree_memory, "Fast-classification memory")))
 
 
 # ========================================================== 10. perspective quality (E21)
@@ -2700,10 +2707,7 @@ class PerspectiveQuality(Experiment):
                 scene["camera"] = {"projection": "perspective", "fov_y": fov}
             tags = {"dataset": dataset, "preset": preset, "fov": fov,
                     "projection": "perspective" if fov else "orthographic"}
-            truth = Run(self.name, f"{label}.truth", REF, scene, views, options={"step_factor": truth_factor},
-                        **UNTIMED, tags={**tags, "role": "truth"})
-            runs += [truth, Run(self.name, f"{label}.shearwarp", SW, scene, views, reference=truth.id, **UNTIMED,
-                                tags={**tags, "role": "test"})]
+            runs += _truth_and_shearwarp(self.name, label, scene, views, truth_factor, tags)
         return runs
 
     claims = (
@@ -2801,22 +2805,13 @@ def _fov_parallel(df):
 
 
 def _fov_title(ok):
-    try:
-        return f"PSNR {_fov_falls(ok).measured}"
-    except (KeyError, ValueError):
-        return "PSNR against the field of view"
+    return _title_or(lambda d: f"PSNR {_fov_falls(d).measured}", ok, "PSNR against the field of view")
 
 
 def _fov_takeaways(ok):
-    sentences = []
-    for fn, what in ((_fov_falls, "As the field of view widens the PSNR is"),
-                     (_fov_parallel, "The narrowest field against the parallel projection")):
-        try:
-            result = fn(ok)
-        except (KeyError, ValueError):
-            continue
-        sentences.append(f"{what} {result.measured} ({result.detail}).")
-    return sentences
+    return _claim_sentences(ok, ((_fov_falls, "As the field of view widens the PSNR is"),
+                                 (_fov_parallel, "The narrowest field against the parallel projection")),
+                            "{what} {measured} ({detail}).")
 
 
 EXPERIMENTS = (VolPackComparison, ImageQuality, OptimisationMatrix, ViewAngles, SizeScaling, Throughput, Parallel, Variants,
