@@ -64,7 +64,7 @@ def test_probe_reports_a_missing_numba(monkeypatch):
 
 @pytest.mark.parametrize("options", [
     {"step_factor": 0}, {"step_factor": -0.25}, {"step_factor": float("nan")}, {"step_factor": float("inf")},
-    {"step_factor": "fine"}, {"step": 0.0}, {"step": float("nan")}, {"depth": "yes"},
+    {"step_factor": "fine"}, {"step": 0.0}, {"step": float("nan")}, {"depth": "yes"}, {"classification": "late"},
 ])
 def test_bad_options_raise_input_error_naming_the_option(options):
     with pytest.raises(InputError, match=next(iter(options))):
@@ -157,6 +157,49 @@ def test_iso_without_isovalue_names_the_instance():
 def test_render_rejects_a_non_scene():
     with pytest.raises(InputError, match="Scene"):
         ReferenceRenderer().render("scene.yaml")
+
+
+# ---------------------------------------------------------------------------------------------
+# Pre-classification (the thesis's comparison caster)
+
+
+@pytest.mark.parametrize("projection", ["orthographic", "perspective"])
+def test_pre_classification_equals_post_for_a_linear_transfer_function(projection):
+    """Interpolation commutes with a linear classification: α = s, one colour, unshaded."""
+    volume = Volume(smooth_field((12, 14, 16), seed=5))
+    linear = TransferFunction.from_points([(0.0, 0.9, 0.6, 0.3, 0.0), (1.0, 0.9, 0.6, 0.3, 1.0)], name="linear")
+    scene = Scene([VolumeInstance(volume, linear)], width=24, height=24,
+                  camera=Camera(azimuth=30, elevation=20, view_height=30.0, distance=60.0, projection=projection))
+    post = render(scene, step_factor=0.5)
+    pre = render(scene, step_factor=0.5, classification="pre")
+    assert pre.info["classification"] == "pre" and post.info["classification"] == "post"
+    assert post.image[..., 3].max() > 0.3
+    np.testing.assert_allclose(pre.image, post.image, atol=2e-6)
+
+
+def test_pre_classification_blurs_a_step_transfer_function():
+    """A step classified per voxel is interpolated between voxels: a ramp where post-classification is sharp."""
+    data = np.zeros((1, 1, 8), np.float32)
+    data[..., 4:] = 1.0  # a step between voxels 3 and 4 along x
+    step_tf = TransferFunction.from_points([(0.0, 1, 1, 1, 0.0), (0.49, 1, 1, 1, 0.0), (0.51, 1, 1, 1, 1.0),
+                                            (1.0, 1, 1, 1, 1.0)], name="step")
+    scene = Scene([VolumeInstance(Volume(data), step_tf)], width=64, height=8,
+                  camera=Camera(azimuth=0, elevation=0, view_height=1.0, distance=20.0))
+    # Head-on through the one-voxel-thick row (Δ = Δ0 overall), pixel centres at x = (i + ½)/8 voxel units.
+    post = render(scene, step_factor=0.25).image[4, :, 3]
+    pre = render(scene, step_factor=0.25, classification="pre").image[4, :, 3]
+    x = (np.arange(64) + 0.5) / 8 - 0.5  # voxel coordinate of each pixel
+    inside = (x > 3.05) & (x < 3.95)
+    # Post: the interpolated scalar crosses 0.5 at x = 3.5; pre: α itself is interpolated, α = x − 3.
+    assert set(np.unique(post[inside & (x < 3.45)])) == {0.0} and (post[inside & (x > 3.55)] == 1.0).all()
+    np.testing.assert_allclose(pre[inside], x[inside] - 3, atol=1e-6)
+
+
+def test_pre_classification_is_for_dvr_only():
+    volume = Volume(smooth_field((8, 8, 8)))
+    scene = Scene([VolumeInstance(volume, RAMP)], mode="mip", width=8, height=8)
+    with pytest.raises(InputError, match="classification='pre' applies to dvr only"):
+        render(scene, classification="pre")
 
 
 # ---------------------------------------------------------------------------------------------

@@ -15,6 +15,9 @@ Conventions implemented here
   ``(f(p + s_x e_x) − f(p − s_x e_x)) / (2 s_x)`` per axis (the on-the-fly GPU estimator).
 * Classification: post-classification, linear interpolation between table entries, entry ``i``
   at ``s = i/(N − 1)``, clamped at the ends (:meth:`core.transfer.TransferFunction.lookup`).
+  Optionally (``dvr`` only) pre-classification: :func:`preclassify` classifies and shades the
+  voxels at their centres and the ray interpolates their premultiplied RGBA (the order of the
+  1990s casters that shear-warp was compared with); the ground truth stays post-classified.
 * Sampling: one world step ``Δ`` for all volumes. Each volume's span on the ray,
   ``[t_entry, t_exit]``, comes from a slab test in its object space, clipped to ``t >= 0``;
   ``t_first`` is the smallest ``t_entry`` (the entry into the union of the boxes). The ray is
@@ -184,14 +187,17 @@ def _boundary_cell(k, t_first, step, t_in, t_out, min_overlap):
 @njit(**_JIT)
 def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, nmat, phong, shading,
              light, half, has_half, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap, base, slope,
-             ratio, length):
+             ratio, length, pre):
     """Front-to-back emission–absorption along one ray: ``(r, g, b, a, depth, samples)``.
 
     Overlapping volumes are blended per cell as in Kainz et al. 2009: premultiplied colours
     and corrected opacities are summed, and a sum of opacities above 1 is clamped to 1 with the
     colour scaled by the same factor (so colour never exceeds alpha). ``depth`` is the nearest
-    contributing sample of the first cell that contributes.
+    contributing sample of the first cell that contributes. With a non-empty ``pre`` (see
+    :func:`preclassify`) the sample interpolates the voxels' classified, shaded, premultiplied
+    RGBA instead of classifying the interpolated scalar.
     """
+    pre_mode = pre.shape[1] > 0
     cr = cg = cb = ca = 0.0
     depth = np.nan
     samples = 0
@@ -216,8 +222,22 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
             u = base[vol, 0] + t * slope[vol, 0]
             v = base[vol, 1] + t * slope[vol, 1]
             w = base[vol, 2] + t * slope[vol, 2]
-            s = _trilinear(data, off, nx, ny, nz, u, v, w)
             samples += 1
+            if pre_mode:
+                alpha = _trilinear(pre[3], off, nx, ny, nz, u, v, w)
+                if alpha <= 0.0:
+                    continue
+                # The interpolated colour is premultiplied by the Δ0 opacity: rescale it to α'.
+                corrected = -math.expm1(vol_ratio * math.log1p(-min(alpha, 1.0)))
+                scale = corrected / alpha
+                sr += scale * _trilinear(pre[0], off, nx, ny, nz, u, v, w)
+                sg += scale * _trilinear(pre[1], off, nx, ny, nz, u, v, w)
+                sb += scale * _trilinear(pre[2], off, nx, ny, nz, u, v, w)
+                sa += corrected
+                if t < nearest:
+                    nearest = t
+                continue
+            s = _trilinear(data, off, nx, ny, nz, u, v, w)
             size = tf_size[vol]
             alpha = _tf_channel(tf, vol, size, s, 3)
             # A transparent sample adds exactly nothing, so skipping its shading changes no bit.
@@ -642,6 +662,50 @@ def _cell_range(t_first, step, t_in, t_out, min_overlap):
     return k, j
 
 
+@njit(parallel=True, **_JIT)
+def preclassify(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, nmat, phong, shading, light,
+                half, has_half, out):
+    """Classify and shade every voxel at its centre into ``out`` (4, packed size): premultiplied RGBA.
+
+    The classify → shade → interpolate order of Levoy 1988 and of the shear-warp thesis's
+    comparison ray caster: the transfer function (and gradient opacity) at the voxel's own
+    value, Blinn–Phong with the central-difference gradient at the voxel centre (clamp-to-edge,
+    as :func:`_gradient`) and one half vector for the whole volume (the view direction of an
+    orthographic camera). Opacities are those of one reference step ``Δ0``; the ray corrects
+    them for its step after interpolation.
+    """
+    for vol in range(offsets.shape[0]):
+        off = offsets[vol]
+        nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
+        size = tf_size[vol]
+        for z in prange(nz):
+            for y in range(ny):
+                for x in range(nx):
+                    index = off + (z * ny + y) * nx + x
+                    s = np.float64(data[index])
+                    alpha = _tf_channel(tf, vol, size, s, 3)
+                    gx = gy = gz = 0.0
+                    if alpha > 0.0 and (gtab_size[vol] > 0 or phong):
+                        gx, gy, gz = _gradient(data, off, nx, ny, nz, np.float64(x), np.float64(y), np.float64(z),
+                                               spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
+                    if alpha > 0.0 and gtab_size[vol] > 0:
+                        magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
+                        alpha *= _gradient_factor(gtab, vol, gtab_size[vol], magnitude * ref_step[vol] / MAX_GRADIENT)
+                    if alpha <= 0.0:
+                        for c in range(4):
+                            out[c, index] = 0.0
+                        continue
+                    r = _tf_channel(tf, vol, size, s, 0)
+                    g = _tf_channel(tf, vol, size, s, 1)
+                    b = _tf_channel(tf, vol, size, s, 2)
+                    if phong:
+                        r, g, b = _blinn_phong(r, g, b, gx, gy, gz, nmat, vol, light, half, has_half, shading)
+                    out[0, index] = alpha * r
+                    out[1, index] = alpha * g
+                    out[2, index] = alpha * b
+                    out[3, index] = alpha
+
+
 _f8, _f4, _i8 = types.float64, types.float32, types.int64
 _RENDER_SIGNATURE = types.void(
     _i8, _i8[::1],                              # mode, row order
@@ -653,13 +717,14 @@ _RENDER_SIGNATURE = types.void(
     _f8[::1], _f8[::1],                         # reference steps Δ0 (object units), isovalues
     _f8, _f8,                                   # world step, shortest overlap sampled
     _i8, _f8[::1], _f8[::1], _f8,               # phong flag, (ka, kd, ks, n), light, iso tolerance (fraction of a segment)
+    _f4[:, ::1],                                # pre-classified RGBA (4, packed size), or (4, 0): post-classify
     _f4[:, :, ::1], _f8[:, ::1], _i8[::1], _i8[::1],  # out: image, depth, hits and samples per row
 )
 
 
 @njit(_RENDER_SIGNATURE, parallel=True, **_JIT)
 def render(mode, row_order, origins, directions, data, offsets, dims, spacing, world_to_object, nmat, tf, tf_size,
-           gtab, gtab_size, ref_step, isovalue, step, min_overlap, phong, shading, light, tolerance,
+           gtab, gtab_size, ref_step, isovalue, step, min_overlap, phong, shading, light, tolerance, pre,
            image, depth, row_hits, row_samples):
     """Cast one ray per pixel into ``image`` (premultiplied RGBA) and ``depth``.
 
@@ -762,7 +827,7 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                     r, g, b, a, t_hit, n = _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size,
                                                     ref_step, nmat, phong, shading, light, half, has_half,
                                                     t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap,
-                                                    base, slope, ratio, length)
+                                                    base, slope, ratio, length, pre)
                 else:
                     r, g, b, a, t_hit, n = _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat,
                                                     phong, shading, light, half, has_half, t_in, t_out,

@@ -48,6 +48,13 @@ Choices where the conventions leave room
   zero) gives a transparent pixel with depth NaN; every loop in the kernels is bounded.
 * **Shading.** :class:`core.scene.Shading` exactly; the light direction is turned from view
   to world space with the camera basis and normals are world-space (normal matrix ``A^{-T}``).
+* **Pre-classification** (``classification="pre"``, ``dvr`` only; not the ground truth). Each
+  voxel is classified and shaded at its centre (central-difference gradient there, one half
+  vector from the camera's view direction) and the ray interpolates the premultiplied RGBA,
+  correcting the interpolated opacity for its step. This is the trilinear ray caster of
+  Levoy 1988 that the shear-warp thesis compares its images with (Figs 5.9, 5.10), so the
+  error of shear-warp's resampling can be told apart from the error of classifying before
+  interpolating, which every pre-classified method shares.
 """
 
 import time
@@ -76,6 +83,9 @@ Such slivers come from rounding where a box depth is a whole number of steps (th
 most ``1e-9·Δ/Δ0`` of a reference step, and keeps sample counts and images free of
 rounding-sized extra samples.
 """
+
+CLASSIFICATIONS = ("post", "pre")
+"""Values of the ``classification`` option: classify the interpolated scalar, or the voxels."""
 
 _NORMALISED = weakref.WeakKeyDictionary()
 """Volume → flat float32 normalised scalars; ``Volume`` is frozen, so its data is not expected to change."""
@@ -112,6 +122,9 @@ class ReferenceRenderer(Renderer):
         World step as a fraction of the smallest world-space voxel edge (default 0.25).
     step : float, optional
         Absolute world step; overrides ``step_factor``.
+    classification : {"post", "pre"}, optional
+        ``"post"`` (default, CONVENTIONS): classify the interpolated scalar. ``"pre"``: classify
+        and shade the voxels, interpolate their colours (``dvr`` only; see the module notes).
     depth : bool, optional
         Also return ``info["depth"]``: an ``(H, W)`` float64 array of the ray parameter (world
         distance from the ray origin) of the first contributing sample (``dvr``: the nearest
@@ -121,7 +134,8 @@ class ReferenceRenderer(Renderer):
     Notes
     -----
     Timings: ``prepare`` (normalised arrays, from a per-volume cache after the first frame;
-    packed tables, transforms and camera rays), ``render`` (the kernel) and ``total``.
+    packed tables, transforms and camera rays; with ``classification="pre"`` the per-frame
+    classification and shading of every voxel), ``render`` (the kernel) and ``total``.
     Counters: ``rays``, ``rays_hit`` (rays entering any volume box), ``samples`` and
     ``early_terminations`` (always 0). ``samples`` is, in ``dvr``, the volume samples taken: one
     per volume and cell it overlaps, so a box of depth ``L`` starting on a cell boundary gets
@@ -157,8 +171,12 @@ class ReferenceRenderer(Renderer):
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25, 0.125))
     """Speed-versus-accuracy settings, coarse to fine; the default quarter voxel is among them."""
 
-    def __init__(self, *, step_factor=0.25, step=None, depth=False):
+    def __init__(self, *, step_factor=0.25, step=None, classification="post", depth=False):
         self.step_factor = check_scalar(step_factor, name="reference option step_factor", low=0, low_open=True)
+        if classification not in CLASSIFICATIONS:
+            raise InputError(f"reference option classification: expected one of {', '.join(CLASSIFICATIONS)}, "
+                             f"got {classification!r}")
+        self.classification = classification
         self.step = None if step is None else check_scalar(step, name="reference option step", low=0, low_open=True)
         if not isinstance(depth, bool):
             raise InputError(f"reference option depth: expected True or False, got {depth!r}")
@@ -181,8 +199,8 @@ class ReferenceRenderer(Renderer):
     @property
     def options(self):
         """Options as given, plus ``effective_step``: the world step of the last render."""
-        return {"step_factor": self.step_factor, "step": self.step, "depth": self.depth,
-                "effective_step": self._last_step}
+        return {"step_factor": self.step_factor, "step": self.step, "classification": self.classification,
+                "depth": self.depth, "effective_step": self._last_step}
 
     def environment(self):
         import numba
@@ -200,6 +218,9 @@ class ReferenceRenderer(Renderer):
         return self.step if self.step is not None else self.step_factor * min_voxel
 
     def _check_scene(self, scene):
+        if self.classification == "pre" and scene.mode != "dvr":
+            raise InputError(f"reference option classification='pre' applies to dvr only, the scene's mode is "
+                             f"{scene.mode!r}; use classification='post' (mip and iso classify one value per ray)")
         if scene.mode == "iso":
             for instance in scene.volumes:
                 if instance.isovalue is None:
@@ -246,11 +267,19 @@ class ReferenceRenderer(Renderer):
         lx, ly, lz = shading.light_direction
         light = lx * right + ly * up + lz * back  # orthonormal basis: still a unit vector
         origins, directions = (np.ascontiguousarray(a) for a in scene.camera.rays(scene.width, scene.height))
+        phong = int(shading.model == "phong")
+        parameters = np.array([shading.ambient, shading.diffuse, shading.specular, shading.shininess])
+        pre = np.zeros((4, 0), dtype=np.float32)
+        if self.classification == "pre":
+            half = light + back
+            half_norm = np.linalg.norm(half)
+            pre = np.empty((4, data.size), dtype=np.float32)
+            self._raycast.preclassify(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step,
+                                      normal_matrix, phong, parameters, light,
+                                      half / half_norm if half_norm > 0 else half, bool(half_norm > 0), pre)
         return (self._raycast.MODE_CODES[scene.mode], interleaved_rows(scene.height), origins, directions,
                 data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size, gtab, gtab_size,
-                ref_step, isovalue, step, MIN_OVERLAP * step, int(shading.model == "phong"),
-                np.array([shading.ambient, shading.diffuse, shading.specular, shading.shininess]),
-                light, ISO_TOLERANCE)
+                ref_step, isovalue, step, MIN_OVERLAP * step, phong, parameters, light, ISO_TOLERANCE, pre)
 
     def _render(self, scene):
         start = time.perf_counter()
@@ -269,6 +298,7 @@ class ReferenceRenderer(Renderer):
         self._last_step = step
         info = {
             "step": step,
+            "classification": self.classification,
             "step_factor": step / min_voxel,
             "reference_steps": [instance.reference_step for instance in scene.volumes],
             "blending": "sum of premultiplied samples, opacity clamped to 1 (Kainz et al. 2009)",
