@@ -13,9 +13,8 @@ from core.camera import Camera
 from core.errors import InputError
 from pipeline import experiments
 from pipeline.experiments import Profile
+from pipeline.experiments import common as C
 from pipeline.experiments import lacroute1995 as L
-from pipeline.experiments.volbench import HEADLINE_VIEW, UPRIGHT
-from pipeline.scene_io import rotation_matrix
 from reports import blocks
 from reports.html import ReportContext
 from reports.imageio import write_exr
@@ -65,19 +64,13 @@ def test_plan_times_comparisons_and_renders_truth_once(all_backends):
         assert run.reference is None or f"{run.experiment}/{run.reference}" in runs
 
 
-def test_profile_frames_raise_the_floor_only():
-    profile = Profile(name="t", warmup=2, repeat=5)
-    assert L._timed(profile) == {"warmup": 2, "repeat": 5}
-    assert L._timed(Profile(name="t", warmup=0, repeat=1)) == {"warmup": 1, "repeat": 3}
-
-
 def test_runs_need_registered_backends(monkeypatch):
     monkeypatch.setattr(renderers, "BACKENDS", {"reference": renderers.BACKENDS["reference"]})
     runs = experiments.plan(_profile())
     assert not [r for r in runs.values() if r.experiment.startswith("lacroute1995")]
-    missing = L._unregistered("shearwarp", "volpack")
+    missing = C.unregistered("shearwarp", "volpack")
     assert [what for what, _ in missing] == ["shearwarp", "volpack"]
-    text = L._not_measurable_block(missing)[0].text
+    text = C.not_measurable(missing)[0].text
     assert "not registered" in text and "volpack" in text
 
 
@@ -178,28 +171,6 @@ def test_scene_mappings_build(all_backends, tmp_path):
             scene_io._check_keys(volume, scene_io.VOLUME_KEYS, where=run.key)
         for view in run.views:
             Camera(**{k: v for k, v in view.items() if k != "view"})
-
-
-# --------------------------------------------------------------------------------------- views
-def _upright_camera(azimuth, elevation):
-    return Camera(azimuth=azimuth, elevation=elevation, distance=1.0)
-
-
-@pytest.mark.parametrize("azimuth,elevation", [(0, 0), (30, 20), (90, 0), (135, -40), (200, 10), (300, 60)])
-def test_upright_view_matches_the_gallery_rotation(azimuth, elevation):
-    """Seeing the untransformed volume with this camera equals the gallery's view of the rotated one."""
-    inverse = np.linalg.inv(rotation_matrix(UPRIGHT["rotate"]["axis"], UPRIGHT["rotate"]["degrees"]))[:3, :3]
-    gallery = _upright_camera(azimuth, elevation).basis()  # world frame of the upright volume
-    view = L._upright_view("v", azimuth, elevation)
-    ours = Camera(**{k: v for k, v in view.items() if k != "view"}, distance=1.0).basis()
-    for upright_axis, our_axis in zip(gallery, ours):
-        np.testing.assert_allclose(inverse @ upright_axis, our_axis, atol=1e-6)
-
-
-def test_views_of_symmetric_controls_are_plain():
-    assert L._view("sphere", "a", 30) == {"view": "a", "azimuth": 30.0, "elevation": 0.0}
-    assert L._headline("ct_skull")["up"] == [0.0, 0.0, 1.0]
-    assert L._upright_view("front", 0, 0)["elevation"] == -90.0
 
 
 def test_principal_axis_switches_at_45_degrees():

@@ -37,13 +37,11 @@ be measured and why; a run that cannot happen here (backend unavailable, feature
 missing) is recorded as skipped by the runner, and its claims come out "not measured".
 
 Data sets whose body axis is the scanner's z (the heads, the brains, the engine) are viewed with
-the camera of the gallery's upright rendering (:func:`_upright_view`), without an object
+the camera of the gallery's upright rendering (:func:`upright_view`), without an object
 transform, so that the backends render them in their own voxel frame.
 """
 
-import functools
 import math
-import os
 import re
 from pathlib import Path
 
@@ -51,9 +49,12 @@ import numpy as np
 import pandas as pd
 
 import datasets
-import renderers
 from core.errors import InputError
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
+from pipeline.experiments.common import (UNTIMED, accepts, as_percent, as_ratio, dataset_view, file_exists, fit_line,
+                                         headline_view, is_registered, missing_options, not_measurable, numeric,
+                                         ok_rows, one_row, pair_metrics, read_exr, rows_matching, speed_points,
+                                         stage_time, text_column, timed_frames, unregistered, usable_cores)
 from pipeline.experiments.volbench import HEADLINE_VIEW, LINKS, _links, _ms, _phantom, _reference_exr, _scene
 from reports import blocks, plots
 
@@ -61,9 +62,6 @@ PAPER = "lacroute1995"
 SW, VP, REF = "shearwarp", "volpack", "reference"
 DIFF_SCALE = 0.1
 """Absolute error at the top of the colour map of every difference image in these reports."""
-
-UNTIMED = {"warmup": 0, "repeat": 1}
-"""Frames of a ground-truth or picture-only run: one untimed frame."""
 
 SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous")
 """The thesis's Ch. 6 task assignments, in its order of load imbalance (Table 6.4)."""
@@ -75,165 +73,6 @@ THESIS = "150 MHz SGI Indigo2 (R4400), 256² grey images"
 
 
 # ------------------------------------------------------------------------------------ helpers
-def _timed(profile, experiment=None):
-    """Frames of a timed comparison: at least one warm-up frame and three timed frames.
-
-    An experiment's ``repeat`` setting raises the timed frames above the profile's: these frames
-    take milliseconds, and on a shared machine the median of three is at the mercy of one
-    interruption.
-    """
-    repeat = int(profile.repeat if experiment is None else profile.setting(experiment, "repeat", profile.repeat))
-    return {"warmup": max(1, int(profile.warmup)), "repeat": max(3, repeat)}
-
-
-def _cores():
-    """Cores this process may use (the render jobs take them all)."""
-    try:
-        return len(os.sched_getaffinity(0))
-    except AttributeError:  # not on Linux
-        return os.cpu_count() or 1
-
-
-def _registered(backend):
-    return backend in renderers.names()
-
-
-def _unregistered(*backends):
-    """``[(what, reason)]`` for each backend of ``backends`` the registry does not hold."""
-    return [(backend, f"backend {backend!r} is not registered (renderers.names(): {', '.join(renderers.names())})")
-            for backend in backends if not _registered(backend)]
-
-
-def _accepts(backend, *options):
-    """Whether ``backend`` is registered and its constructor takes every option name given.
-
-    A backend whose module cannot be imported is planned anyway: the runner records its runs as
-    skipped with the import error, which the report shows.
-    """
-    if not _registered(backend):
-        return False
-    try:
-        valid = renderers.option_names(renderers.backend_class(backend))
-    except Exception:  # noqa: BLE001 - import failure: let the runner record the reason
-        return True
-    return valid is None or set(options) <= set(valid)
-
-
-def _missing_options(backend, *options):
-    """``[(what, reason)]`` for options of ``backend`` that it does not take."""
-    if not _registered(backend):
-        return []
-    try:
-        valid = renderers.option_names(renderers.backend_class(backend))
-    except Exception:  # noqa: BLE001
-        return []
-    if valid is None:
-        return []
-    return [(f"{backend} option {o!r}", f"backend {backend!r} has no option {o!r} (options: {', '.join(valid)})")
-            for o in options if o not in valid]
-
-
-CONTROLS = frozenset({"sphere", "constant_cube", "checkerboard", "fbm_control"})
-"""Symmetric controls: viewed with plain orbit angles (their up axis means nothing)."""
-
-
-def _z_up(name):
-    """Whether data set ``name`` stores its body axis along z (heads, brains, the engine)."""
-    return name not in CONTROLS and datasets.get(name).up_axis == "z"
-
-
-def _upright_view(view, azimuth, elevation=0.0):
-    """The camera override that sees a z-up volume (untransformed) as an upright one at these angles.
-
-    The gallery rotates such volumes by :data:`~pipeline.experiments.volbench.UPRIGHT` (scanner z
-    up, the face to +z); here the volume keeps its own frame and the camera moves instead, with
-    ``up`` along the scanner's z. Azimuth turns about the body axis, as the thesis's Fig. 5.3
-    turntable does.
-    """
-    a, e = math.radians(azimuth), math.radians(elevation)
-    upright = (math.cos(e) * math.sin(a), math.sin(e), math.cos(e) * math.cos(a))  # y up, face +z
-    x, y, z = upright[0], -upright[2], upright[1]  # scanner frame: z up, face −y
-    el = math.degrees(math.asin(max(-1.0, min(1.0, y))))
-    az = math.degrees(math.atan2(x, z)) if math.hypot(x, z) > 1e-12 else 0.0
-    return {"view": view, "azimuth": round(az, 6), "elevation": round(el, 6), "up": [0.0, 0.0, 1.0]}
-
-
-def _view(dataset, view, azimuth, elevation=0.0):
-    """A view of ``dataset`` at orbit angles of its upright rendering."""
-    if _z_up(dataset):
-        return _upright_view(view, azimuth, elevation)
-    return {"view": view, "azimuth": float(azimuth), "elevation": float(elevation)}
-
-
-def _headline(dataset):
-    """The gallery's headline view (30° yaw, 20° pitch) of ``dataset``."""
-    return _view(dataset, HEADLINE_VIEW["view"], HEADLINE_VIEW["azimuth"], HEADLINE_VIEW["elevation"])
-
-
-def _num(frame, column):
-    """``frame[column]`` as floats (NaN where missing); KeyError naming the column if absent."""
-    if column not in frame:
-        raise KeyError(f"column {column!r} (no run reported it)")
-    return pd.to_numeric(frame[column], errors="coerce")
-
-
-def _text(frame, column):
-    if column not in frame:
-        raise KeyError(f"column {column!r} (no run reported it)")
-    return frame[column].astype(str)
-
-
-def _only(frame, what, **match):
-    """The rows of ``frame`` whose tag columns equal ``match`` (compared as text)."""
-    rows = frame
-    for column, value in match.items():
-        rows = rows[_text(rows, column) == str(value)]
-    return rows
-
-
-def _one(frame, what, **match):
-    """The single row of ``frame`` matching ``match``; ValueError naming ``what`` when none."""
-    rows = _only(frame, what, **match)
-    if rows.empty:
-        raise ValueError(f"no successful run of {what}")
-    return rows.iloc[0]
-
-
-def _time(row, stage="total"):
-    value = float(row.get(f"time_{stage}", np.nan))
-    if not np.isfinite(value):
-        raise ValueError(f"run {row.get('run')} reported no {stage!r} time")
-    return value
-
-
-def _exists(path):
-    return isinstance(path, str) and path != "" and Path(path).is_file()
-
-
-@functools.lru_cache(maxsize=512)
-def _read(path, _mtime):
-    from reports.imageio import read_image
-
-    return read_image(path)
-
-
-def _image(path):
-    """An EXR of the results (cached per file and modification time)."""
-    if not _exists(path):
-        raise ValueError(f"image {path!r} is missing")
-    return _read(path, Path(path).stat().st_mtime_ns)
-
-
-def pair_metrics(reference_exr, test_exr):
-    """``{"psnr", "ssim", "rmse"}`` between two rendered EXRs (premultiplied RGBA, SSIM over black)."""
-    from reports.metrics import psnr, rmse, ssim
-
-    a, b = _image(reference_exr), _image(test_exr)
-    if a.shape != b.shape:
-        raise ValueError(f"{test_exr} and {reference_exr} differ in size")
-    return {"psnr": float(psnr(a, b)), "ssim": float(ssim(a, b)), "rmse": float(rmse(a, b))}
-
-
 def opacity_deficit(reference_exr, test_exr, *, low=0.05, high=0.95):
     """How much more transparent ``test`` is than ``reference``: ``1 − τ_test/τ_ref`` (median).
 
@@ -242,8 +81,8 @@ def opacity_deficit(reference_exr, test_exr, *, low=0.05, high=0.95):
     saturated). A renderer that leaves opacity uncorrected at a sample spacing ``Δ`` instead of
     ``Δ0`` shows ``1 − Δ0/Δ``: 29 % at 45° about one axis, 42 % about two.
     """
-    a = _image(reference_exr)[..., 3].astype(np.float64)
-    b = _image(test_exr)[..., 3].astype(np.float64)
+    a = read_exr(reference_exr)[..., 3].astype(np.float64)
+    b = read_exr(test_exr)[..., 3].astype(np.float64)
     if a.shape != b.shape:
         raise ValueError(f"{test_exr} and {reference_exr} differ in size")
     mask = (a >= low) & (a <= high)
@@ -252,19 +91,6 @@ def opacity_deficit(reference_exr, test_exr, *, low=0.05, high=0.95):
     tau_ref = -np.log1p(-a[mask])
     tau_test = -np.log1p(-np.clip(b[mask], 0.0, 1.0 - 1e-7))
     return float(1.0 - np.median(tau_test / tau_ref))
-
-
-def fit_line(x, y):
-    """Least-squares ``y = slope·x + intercept``: ``(slope, intercept, R²)``."""
-    x, y = np.asarray(x, float), np.asarray(y, float)
-    if len(x) < 3 or np.ptp(x) == 0:
-        raise ValueError(f"need at least three distinct points to fit a line, got {len(x)}")
-    slope, intercept = np.polyfit(x, y, 1)
-    residual = y - (slope * x + intercept)
-    total = np.sum((y - y.mean()) ** 2)
-    r2 = 1.0 - np.sum(residual ** 2) / total if total > 0 else 1.0
-    return float(slope), float(intercept), float(r2)
-
 
 def fit_cost_model(visible, runs, seconds):
     """Least squares ``T = N_v/a + N_r·b + c`` (numpy lstsq): ``(a voxels/s, b s/run, c s, R²)``.
@@ -283,34 +109,6 @@ def fit_cost_model(visible, runs, seconds):
     if per_voxel <= 0:
         raise ValueError(f"the fitted time per visible voxel is not positive ({per_voxel:.3g} s)")
     return float(1.0 / per_voxel), float(per_run), float(constant), float(r2)
-
-
-def _pct(value):
-    return f"{format_number(100 * value)} %"
-
-
-def _ratio(value):
-    return f"×{format_number(value)}"
-
-
-def _not_measurable_block(items):
-    """A paragraph listing what this experiment could not measure here, with the reasons."""
-    if not items:
-        return []
-    return [blocks.Text("Not measurable here: " + "; ".join(f"{what} — {why}" for what, why in items) + ".")]
-
-
-def _speed_points(frame):
-    """``time_ms``, ``time_ms_min``, ``time_ms_max`` columns (milliseconds) for speed charts."""
-    out = frame.copy()
-    out["time_ms"] = _num(frame, "time_total") * 1e3
-    out["time_ms_min"] = pd.to_numeric(frame.get("time_total_min", np.nan), errors="coerce") * 1e3
-    out["time_ms_max"] = pd.to_numeric(frame.get("time_total_max", np.nan), errors="coerce") * 1e3
-    return out
-
-
-def _ok(results):
-    return results[results.status == "ok"].copy() if "status" in results else results.copy()
 
 
 def _truth_run(experiment, prefix, scene, views, step_factor, tags, **extra_tags):
@@ -428,21 +226,21 @@ class VolPackComparison(Experiment):
         return {name: defs[name] for name in self.SCENES if name in wanted}
 
     def runs(self, profile):
-        if not (_registered(SW) or _registered(VP)):
+        if not (is_registered(SW) or is_registered(VP)):
             return []
         truth_factor = profile.setting(self.name, "truth_step_factor", 0.25)
         runs = []
         for scene_name, (dataset, volume, image) in self._scenes(profile).items():
             scene = _scene(volume, profile, image_size=image, name=scene_name)
-            views = (_headline(dataset),)
+            views = (headline_view(dataset),)
             tags = {"scene": scene_name, "dataset": dataset, "image_size": image}
             truth = _truth_run(self.name, scene_name, scene, views, truth_factor, tags, config="reference")
             runs.append(truth)
             for config, (backend, options, _label) in VOLPACK_CONFIGS.items():
-                if not _accepts(backend, *options):
+                if not accepts(backend, *options):
                     continue
                 runs.append(Run(self.name, f"{scene_name}.{config}", backend, scene, views, options=dict(options),
-                                reference=truth.id, **_timed(profile, self.name),
+                                reference=truth.id, **timed_frames(profile, self.name),
                                 tags={**tags, "role": "test", "config": config}))
         return runs
 
@@ -478,12 +276,12 @@ class VolPackComparison(Experiment):
 
     def report(self, results, ctx):
 
-        ok = _ok(results)
+        ok = ok_rows(results)
         tests = ok[ok.role == "test"].copy()
         out = [blocks.Takeaways(_volpack_takeaways(ok))]
         rows = []
         for row in tests.itertuples():
-            vp = _only(ok, "VolPack", scene=row.scene, config="volpack-rle")
+            vp = rows_matching(ok, "VolPack", scene=row.scene, config="volpack-rle")
             entry = {"scene": row.scene, "technique": VOLPACK_CONFIGS.get(row.config, (None, None, row.config))[2],
                      "time (ms)": row.time_total * 1e3,
                      "fastest (ms)": getattr(row, "time_total_min", np.nan) * 1e3,
@@ -508,7 +306,7 @@ class VolPackComparison(Experiment):
                                             "frame, preprocessing excluded. 'time / VolPack RLE' below 1: ours is "
                                             "faster. PSNR/SSIM against the reference ray caster and against VolPack's "
                                             "classified-RLE image of the same view."))
-        for scene, group in _speed_points(tests).groupby("scene"):
+        for scene, group in speed_points(tests).groupby("scene"):
             group = group.assign(technique=[VOLPACK_CONFIGS.get(c, (None, None, c))[2] for c in group.config])
             path, rel = ctx.plot_path(f"speed-{scene}")
             plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="technique",
@@ -543,16 +341,16 @@ class VolPackComparison(Experiment):
                          f"{format_number(getattr(row, 'psnr', np.nan))} dB; the difference is from "
                          f"{'the reference' if against is truth else 'VolPack RLE'}"))
             out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW, VP) + _missing_options(VP, "mode")
-                                           + _missing_options(SW, "workers"))
+        return out + not_measurable(unregistered(SW, VP) + missing_options(VP, "mode")
+                                           + missing_options(SW, "workers"))
 
 
 def _volpack_pairs(df, config):
     """``[(scene, ours row, VolPack RLE row)]`` for every scene where both rendered."""
     pairs = []
-    for scene in pd.unique(_text(df, "scene")):
-        ours = _only(df, "", scene=scene, config=config)
-        vp = _only(df, "", scene=scene, config="volpack-rle")
+    for scene in pd.unique(text_column(df, "scene")):
+        ours = rows_matching(df, "", scene=scene, config=config)
+        vp = rows_matching(df, "", scene=scene, config="volpack-rle")
         if not ours.empty and not vp.empty:
             pairs.append((scene, ours.iloc[0], vp.iloc[0]))
     if not pairs:
@@ -561,11 +359,11 @@ def _volpack_pairs(df, config):
 
 
 def _volpack_speed(df, config):
-    ratios = {scene: _time(ours) / _time(vp) for scene, ours, vp in _volpack_pairs(df, config)}
+    ratios = {scene: stage_time(ours) / stage_time(vp) for scene, ours, vp in _volpack_pairs(df, config)}
     worst = max(ratios, key=ratios.get)
-    detail = "; ".join(f"{s}: ours {format_number(_time(o) * 1e3)} ms, VolPack {format_number(_time(v) * 1e3)} ms"
+    detail = "; ".join(f"{s}: ours {format_number(stage_time(o) * 1e3)} ms, VolPack {format_number(stage_time(v) * 1e3)} ms"
                        for s, o, v in _volpack_pairs(df, config))
-    return ClaimResult(", ".join(f"{_ratio(r)} ({s})" for s, r in ratios.items()), bool(ratios[worst] <= 1.0), detail)
+    return ClaimResult(", ".join(f"{as_ratio(r)} ({s})" for s, r in ratios.items()), bool(ratios[worst] <= 1.0), detail)
 
 
 def _volpack_agree(df):
@@ -590,10 +388,10 @@ def _volpack_parity(df):
 
 
 def _volpack_octree(df):
-    ratios = {scene: _time(octree) / _time(rle) for scene, octree, rle in _volpack_pairs(df, "volpack-octree")}
+    ratios = {scene: stage_time(octree) / stage_time(rle) for scene, octree, rle in _volpack_pairs(df, "volpack-octree")}
     if not ratios:
         raise ValueError("no octree run")
-    return ClaimResult(", ".join(f"{_ratio(r)} ({s})" for s, r in ratios.items()),
+    return ClaimResult(", ".join(f"{as_ratio(r)} ({s})" for s, r in ratios.items()),
                        bool(all(1.4 <= r <= 3.2 for r in ratios.values())), "thesis: ×1.8 (brainsmall), ×2.3 (brain)")
 
 
@@ -691,7 +489,7 @@ class ImageQuality(Experiment):
     ANGLES = (0.0, 22.5, 45.0)
 
     def runs(self, profile):
-        if not _registered(SW):
+        if not is_registered(SW):
             return []
         wanted = profile.setting(self.name, "datasets", list(self.DATASETS))
         unknown = [d for d in wanted if d not in QUALITY_TFS]
@@ -705,7 +503,7 @@ class ImageQuality(Experiment):
         shading = profile.setting(self.name, "shading", "phong")
         runs = []
         for dataset in wanted:
-            views = tuple(_view(dataset, f"az{a:g}", a) for a in angles)
+            views = tuple(dataset_view(dataset, f"az{a:g}", a) for a in angles)
             for tf, choice in zip(("smooth", "binary"), QUALITY_TFS[dataset]):
                 if isinstance(choice, str):
                     volume = _phantom(dataset, size, preset=choice)
@@ -715,7 +513,7 @@ class ImageQuality(Experiment):
                 tags = {"part": "classification", "dataset": dataset, "tf": tf}
                 runs += _truth_and_shearwarp(self.name, f"{dataset}.{tf}", scene, views, truth_factor, tags,
                                              pre_classified=True)
-        if _accepts(SW, "opacity_correction", "min_opacity"):
+        if accepts(SW, "opacity_correction", "min_opacity"):
             cube = profile.setting(self.name, "cube_size", size)
             value = cube_value(cube)
             volume = _phantom("constant_cube", cube, preset="identity", params={"value": value})
@@ -765,7 +563,7 @@ class ImageQuality(Experiment):
 
     def report(self, results, ctx):
 
-        ok = _ok(results)
+        ok = ok_rows(results)
         out = [blocks.Takeaways(_quality_takeaways(ok))]
         tests = ok[(ok.get("part") == "classification") & (ok.role == "test")].copy() if "part" in ok else ok.iloc[:0]
         if not tests.empty:
@@ -826,7 +624,7 @@ class ImageQuality(Experiment):
                     difference=ctx.difference(_reference_exr(results, row), row.exr, DIFF_SCALE),
                     note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB; single untimed frame"))
             out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW) + _missing_options(SW, "opacity_correction", "min_opacity"))
+        return out + not_measurable(unregistered(SW) + missing_options(SW, "opacity_correction", "min_opacity"))
 
 
 def _angle_of(view):
@@ -843,12 +641,12 @@ TRUTHS = {"post": "the ground truth (post-classified)", "pre": "the pre-classifi
 
 def _quality_rows(df, tf, truth="post"):
     """Shear-warp rows of classification ``tf`` measured against the ``truth`` reference (see :data:`TRUTHS`)."""
-    rows = df[(_text(df, "part") == "classification") & (_text(df, "role") == "test") & (_text(df, "tf") == tf)
-              & (_text(df, "truth") == truth)].copy()
+    rows = df[(text_column(df, "part") == "classification") & (text_column(df, "role") == "test") & (text_column(df, "tf") == tf)
+              & (text_column(df, "truth") == truth)].copy()
     if rows.empty:
         raise ValueError(f"no successful shear-warp run with the {tf} classification against {TRUTHS[truth]}")
     rows["angle"] = [_angle_of(v) for v in rows.view]
-    rows["psnr"] = _num(rows, "psnr")
+    rows["psnr"] = numeric(rows, "psnr")
     return rows
 
 
@@ -891,8 +689,8 @@ def _quality_drop(df, tf, aliasing, truth="pre"):
 
 
 def _cube_deficits(df, correction):
-    rows = df[(_text(df, "part") == "opacity") & (_text(df, "role") == "test") & (_text(df, "correction") == correction)]
-    truth = df[(_text(df, "part") == "opacity") & (_text(df, "role") == "truth")]
+    rows = df[(text_column(df, "part") == "opacity") & (text_column(df, "role") == "test") & (text_column(df, "correction") == correction)]
+    truth = df[(text_column(df, "part") == "opacity") & (text_column(df, "role") == "truth")]
     if rows.empty or truth.empty:
         raise ValueError(f"no successful cube run with correction {correction} and its reference")
     deficits = {}
@@ -913,16 +711,16 @@ def _opacity_uncorrected(df):
     if not measured:
         raise ValueError("no oblique cube view")
     holds = all(abs(d - expected[v]) <= 0.07 for v, d in measured.items())
-    return ClaimResult(", ".join(f"{_pct(d)} ({v})" for v, d in measured.items()), bool(holds),
-                       ", ".join(f"{v}: expected {_pct(expected[v])}" for v in measured)
-                       + (f"; head-on: {_pct(deficits['az0'])}" if "az0" in deficits else ""))
+    return ClaimResult(", ".join(f"{as_percent(d)} ({v})" for v, d in measured.items()), bool(holds),
+                       ", ".join(f"{v}: expected {as_percent(expected[v])}" for v in measured)
+                       + (f"; head-on: {as_percent(deficits['az0'])}" if "az0" in deficits else ""))
 
 
 def _opacity_corrected(df):
     deficits = _cube_deficits(df, "on")
     worst = max(deficits, key=lambda v: abs(deficits[v]))
-    return ClaimResult(f"{_pct(deficits[worst])} ({worst})", bool(abs(deficits[worst]) <= 0.05),
-                       ", ".join(f"{v}: {_pct(d)}" for v, d in deficits.items()))
+    return ClaimResult(f"{as_percent(deficits[worst])} ({worst})", bool(abs(deficits[worst]) <= 0.05),
+                       ", ".join(f"{v}: {as_percent(d)}" for v, d in deficits.items()))
 
 
 def _quality_chart_title(tests):
@@ -975,7 +773,7 @@ def _quality_takeaways(ok):
         except (KeyError, ValueError):
             continue
         sentences.append(f"The uniform cube {label} opacity correction is too transparent by "
-                         + ", ".join(f"{_pct(d)} ({v})" for v, d in deficits.items()) + ".")
+                         + ", ".join(f"{as_percent(d)} ({v})" for v, d in deficits.items()) + ".")
     return sentences
 
 
@@ -1018,7 +816,7 @@ class OptimisationMatrix(Experiment):
     DATASETS = ("brainsmall", "folded_brain", "ct_skull")
 
     def runs(self, profile):
-        if not _accepts(SW, "rle", "early_termination"):
+        if not accepts(SW, "rle", "early_termination"):
             return []
         wanted = profile.setting(self.name, "datasets", list(self.DATASETS))
         unknown = [d for d in wanted if d not in MATRIX_DATASETS]
@@ -1032,8 +830,8 @@ class OptimisationMatrix(Experiment):
             volume = _phantom(dataset, size, preset=MATRIX_DATASETS[dataset])
             scene = _scene(volume, profile, image_size=image, name=dataset)
             for config, (options, _label, _test) in MATRIX_CONFIGS.items():
-                runs.append(Run(self.name, f"{dataset}.{config}", SW, scene, (_headline(dataset),), options=dict(options),
-                                **_timed(profile, self.name), tags={"dataset": dataset, "config": config}))
+                runs.append(Run(self.name, f"{dataset}.{config}", SW, scene, (headline_view(dataset),), options=dict(options),
+                                **timed_frames(profile, self.name), tags={"dataset": dataset, "config": config}))
         return runs
 
     claims = (
@@ -1062,7 +860,7 @@ class OptimisationMatrix(Experiment):
 
     def report(self, results, ctx):
 
-        ok = _ok(results)
+        ok = ok_rows(results)
         table = _matrix_table(ok)
         out = [blocks.Takeaways(_matrix_takeaways(table))]
         if table.empty:
@@ -1073,7 +871,7 @@ class OptimisationMatrix(Experiment):
                                 caption="Samples: the backend's `samples` counter (voxels resampled and composited). "
                                         "Thesis columns: Fig. 5.17's brain (brainsmall for brainsmall). Time: median "
                                         "frame after warm-up with the fastest and slowest timed frame."))
-        points = _speed_points(ok.loc[table.index]).assign(samples=table["samples"].to_numpy(float),
+        points = speed_points(ok.loc[table.index]).assign(samples=table["samples"].to_numpy(float),
                                                             optimisation=table["optimisation"].to_numpy())
         path, rel = ctx.plot_path("time-samples")
         plots.speed_accuracy(points, path, time_col="time_ms", error_col="samples", group_col="dataset",
@@ -1101,7 +899,7 @@ class OptimisationMatrix(Experiment):
             gallery.items.append(blocks.GalleryItem(f"{row.dataset}: {MATRIX_CONFIGS.get(row.config, (0, row.config))[1]}",
                                                     ctx.image(row.png), note=f"{format_number(row.time_total * 1e3)} ms"))
         out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW) + _missing_options(SW, "rle", "early_termination"))
+        return out + not_measurable(unregistered(SW) + missing_options(SW, "rle", "early_termination"))
 
 
 def _matrix_table(ok):
@@ -1130,9 +928,9 @@ def _matrix_table(ok):
 
 def _matrix_groups(df):
     groups = {}
-    for dataset in pd.unique(_text(df, "dataset")):
-        part = _only(df, "", dataset=dataset)
-        configs = {c: part[_text(part, "config") == c] for c in MATRIX_CONFIGS}
+    for dataset in pd.unique(text_column(df, "dataset")):
+        part = rows_matching(df, "", dataset=dataset)
+        configs = {c: part[text_column(part, "config") == c] for c in MATRIX_CONFIGS}
         if any(rows.empty for rows in configs.values()):
             continue
         groups[dataset] = {c: rows.iloc[0] for c, rows in configs.items()}
@@ -1155,11 +953,11 @@ def _matrix_samples(df):
 
 
 def _matrix_speedup(df, config, low, high):
-    speedups = {d: _time(rows["brute-force"]) / _time(rows[config]) for d, rows in _matrix_groups(df).items()}
+    speedups = {d: stage_time(rows["brute-force"]) / stage_time(rows[config]) for d, rows in _matrix_groups(df).items()}
     holds = all((low is None or s >= low) and (high is None or s <= high) for s in speedups.values())
-    return ClaimResult(", ".join(f"{_ratio(s)} ({d})" for d, s in speedups.items()), bool(holds),
-                       f"thesis: brainsmall {_ratio(1.1 / MATRIX_THESIS['brainsmall'][config][1])}, "
-                       f"brain {_ratio(8.2 / MATRIX_THESIS['brain'][config][1])}")
+    return ClaimResult(", ".join(f"{as_ratio(s)} ({d})" for d, s in speedups.items()), bool(holds),
+                       f"thesis: brainsmall {as_ratio(1.1 / MATRIX_THESIS['brainsmall'][config][1])}, "
+                       f"brain {as_ratio(8.2 / MATRIX_THESIS['brain'][config][1])}")
 
 
 def _matrix_title(table):
@@ -1209,7 +1007,7 @@ class ViewAngles(Experiment):
     DATASETS = ("sphere", "ct_skull")
 
     def runs(self, profile):
-        if not _registered(SW):
+        if not is_registered(SW):
             return []
         wanted = profile.setting(self.name, "datasets", list(self.DATASETS))
         unknown = [d for d in wanted if d not in ANGLE_DATASETS]
@@ -1226,8 +1024,8 @@ class ViewAngles(Experiment):
         for dataset in wanted:
             volume = _phantom(dataset, size, preset=ANGLE_DATASETS[dataset])
             scene = _scene(volume, profile, image_size=image, name=dataset)
-            views = tuple(_view(dataset, f"deg{a:g}", a) for a in angles)
-            runs.append(Run(self.name, f"{dataset}.turn", SW, scene, views, **_timed(profile, self.name),
+            views = tuple(dataset_view(dataset, f"deg{a:g}", a) for a in angles)
+            runs.append(Run(self.name, f"{dataset}.turn", SW, scene, views, **timed_frames(profile, self.name),
                             tags={"dataset": dataset, "angle_step": step}))
         return runs
 
@@ -1251,7 +1049,7 @@ class ViewAngles(Experiment):
         ], columns=["data set (Fig. 5.3)", "time variation over 360°", "jump at the 45° axis switch"]).assign(machine=THESIS)
 
     def report(self, results, ctx):
-        ok = _ok(results)
+        ok = ok_rows(results)
         frame = _angle_frame(ok)
         out = [blocks.Takeaways(_angles_takeaways(ok))]
         if frame.empty:
@@ -1271,10 +1069,10 @@ class ViewAngles(Experiment):
             stats = _angle_stats(part)
             summary.append({"data set": dataset, "views": len(part), "mean (ms)": stats["mean"] * 1e3,
                             "fastest view (ms)": stats["min"] * 1e3, "slowest view (ms)": stats["max"] * 1e3,
-                            "variation": _pct(stats["variation"]),
+                            "variation": as_percent(stats["variation"]),
                             "thesis variation": {"sphere": "6 %"}.get(dataset, "13 % (CT head)"),
-                            "largest change at a switch": _pct(stats["switch"]),
-                            "largest change elsewhere": _pct(stats["other"]),
+                            "largest change at a switch": as_percent(stats["switch"]),
+                            "largest change elsewhere": as_percent(stats["other"]),
                             **_sample_columns(part)})
         out.append(blocks.Table("Variation over the turn", pd.DataFrame(summary), csv_name="angles.csv",
                                 caption="Variation: (slowest − fastest view) / mean. Changes are between neighbouring "
@@ -1284,7 +1082,7 @@ class ViewAngles(Experiment):
             gallery.items.append(blocks.GalleryItem(f"{row.dataset} at {row.angle:g}°", ctx.image(row.png),
                                                     note=f"{format_number(row.time_ms)} ms"))
         out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW))
+        return out + not_measurable(unregistered(SW))
 
 
 def _angle_frame(df):
@@ -1292,14 +1090,14 @@ def _angle_frame(df):
         return pd.DataFrame()
     frame = df.copy()
     frame["angle"] = [_angle_of(v) for v in frame.view]
-    frame["time_total"] = _num(frame, "time_total")
+    frame["time_total"] = numeric(frame, "time_total")
     return frame.sort_values(["dataset", "angle"])
 
 
 def _angle_stats(part, column="time_total"):
     """Mean, extremes, variation and the largest neighbour-to-neighbour changes of ``column`` over a turn."""
     part = part.sort_values("angle")
-    times, angles = _num(part, column).to_numpy(float), part.angle.to_numpy(float)
+    times, angles = numeric(part, column).to_numpy(float), part.angle.to_numpy(float)
     if not np.isfinite(times).all():
         raise ValueError(f"{part.dataset.iloc[0]}: some views have no {column}")
     if len(times) < 3:
@@ -1324,8 +1122,8 @@ def _sample_columns(part):
         stats = _angle_stats(part, "count_samples")
     except (KeyError, ValueError):
         return {}
-    return {"samples: variation": _pct(stats["variation"]), "samples: largest change at a switch": _pct(stats["switch"]),
-            "samples: largest change elsewhere": _pct(stats["other"])}
+    return {"samples: variation": as_percent(stats["variation"]), "samples: largest change at a switch": as_percent(stats["switch"]),
+            "samples: largest change elsewhere": as_percent(stats["other"])}
 
 
 def _angles_jump(df, column="time_total"):
@@ -1335,7 +1133,7 @@ def _angles_jump(df, column="time_total"):
     stats = {d: _angle_stats(p, column) for d, p in frame.groupby("dataset")}
     holds = all(s["switch"] <= 1.5 * s["other"] for s in stats.values())
     what = "time; timings on a shared machine are noisy" if column == "time_total" else "sample count (machine-independent)"
-    return ClaimResult(", ".join(f"{_pct(s['switch'])} at a switch vs {_pct(s['other'])} elsewhere ({d})"
+    return ClaimResult(", ".join(f"{as_percent(s['switch'])} at a switch vs {as_percent(s['other'])} elsewhere ({d})"
                                  for d, s in stats.items()), bool(holds),
                        f"changes between neighbouring angles relative to the mean {what}")
 
@@ -1348,10 +1146,10 @@ def _angles_variation(df, dataset, bound):
     variation = _angle_stats(part)["variation"]
     detail = "thesis: 6 %"
     try:
-        detail += f"; samples vary {_pct(_angle_stats(part, 'count_samples')['variation'])}"
+        detail += f"; samples vary {as_percent(_angle_stats(part, 'count_samples')['variation'])}"
     except (KeyError, ValueError):
         pass
-    return ClaimResult(_pct(variation), bool(variation <= bound), detail)
+    return ClaimResult(as_percent(variation), bool(variation <= bound), detail)
 
 
 def _angles_head(df):
@@ -1364,7 +1162,7 @@ def _angles_head(df):
         raise ValueError("needs both the sphere and a head")
     s = _angle_stats(sphere)["variation"]
     h = {d: _angle_stats(p)["variation"] for d, p in heads.groupby("dataset")}
-    return ClaimResult(", ".join(f"{_pct(v)} ({d})" for d, v in h.items()) + f" vs sphere {_pct(s)}",
+    return ClaimResult(", ".join(f"{as_percent(v)} ({d})" for d, v in h.items()) + f" vs sphere {as_percent(s)}",
                        bool(all(v > s for v in h.values())), "thesis: head 13 %, sphere 6 %")
 
 
@@ -1374,8 +1172,8 @@ def _angles_title(part, dataset):
     except ValueError:
         return f"{dataset}: frame time over a full turn"
     jump = "no jump" if stats["switch"] <= 1.5 * stats["other"] else "a jump"
-    return (f"{dataset}: time varies {_pct(stats['variation'])} over the turn, {jump} at the axis switches\n"
-            f"(largest change there {_pct(stats['switch'])}, elsewhere {_pct(stats['other'])})")
+    return (f"{dataset}: time varies {as_percent(stats['variation'])} over the turn, {jump} at the axis switches\n"
+            f"(largest change there {as_percent(stats['switch'])}, elsewhere {as_percent(stats['other'])})")
 
 
 def _angles_takeaways(ok):
@@ -1387,8 +1185,8 @@ def _angles_takeaways(ok):
         except ValueError:
             continue
         sentences.append(f"{dataset}: over {len(part)} views the frame time runs from {format_number(stats['min'] * 1e3)} "
-                         f"to {format_number(stats['max'] * 1e3)} ms ({_pct(stats['variation'])}); the largest change "
-                         f"between neighbours across an axis switch is {_pct(stats['switch'])}, elsewhere {_pct(stats['other'])}.")
+                         f"to {format_number(stats['max'] * 1e3)} ms ({as_percent(stats['variation'])}); the largest change "
+                         f"between neighbours across an axis switch is {as_percent(stats['switch'])}, elsewhere {as_percent(stats['other'])}.")
     return sentences
 
 
@@ -1419,7 +1217,7 @@ class SizeScaling(Experiment):
     IMAGE_SIZES = (64, 128, 256)
 
     def runs(self, profile):
-        if not _registered(SW):
+        if not is_registered(SW):
             return []
         wanted = profile.setting(self.name, "datasets", list(self.DATASETS))
         unknown = [d for d in wanted if d not in SCALING_DATASETS]
@@ -1442,7 +1240,7 @@ class SizeScaling(Experiment):
         for (dataset, n, i), study in wanted_pairs.items():
             volume = _phantom(dataset, n, preset=SCALING_DATASETS[dataset])
             scene = _scene(volume, profile, image_size=i, name=f"{dataset}-{n}")
-            runs.append(Run(self.name, f"{dataset}.v{n}.i{i}", SW, scene, (_headline(dataset),), **_timed(profile, self.name),
+            runs.append(Run(self.name, f"{dataset}.v{n}.i{i}", SW, scene, (headline_view(dataset),), **timed_frames(profile, self.name),
                             tags={"dataset": dataset, "volume_size": n, "image_size": i,
                                   "growth": int(i == growth_image)}))
         return runs
@@ -1473,14 +1271,14 @@ class SizeScaling(Experiment):
         return pd.DataFrame(rows, columns=["quantity (thesis)", "value"]).assign(machine=THESIS)
 
     def report(self, results, ctx):
-        ok = _ok(results)
+        ok = ok_rows(results)
         out = [blocks.Takeaways(_scaling_takeaways(ok))]
         if ok.empty:
             return out
-        frame = _speed_points(ok)
-        frame["volume_size"] = _num(frame, "volume_size")
-        frame["image_size"] = _num(frame, "image_size")
-        growth = frame[_num(frame, "growth") == 1]
+        frame = speed_points(ok)
+        frame["volume_size"] = numeric(frame, "volume_size")
+        frame["image_size"] = numeric(frame, "image_size")
+        growth = frame[numeric(frame, "growth") == 1]
         if not growth.empty:
             lo = float(growth.volume_size.min())
             hi = float(growth.volume_size.max())
@@ -1495,7 +1293,7 @@ class SizeScaling(Experiment):
                                      f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 through "
                                      "the smallest size. Bars: fastest to slowest timed frame."))
         if "time_warp" in frame:
-            frame["warp_ms"] = _num(frame, "time_warp") * 1e3
+            frame["warp_ms"] = numeric(frame, "time_warp") * 1e3
             frame["warp_ms_min"] = pd.to_numeric(frame.get("time_warp_min"), errors="coerce") * 1e3
             frame["warp_ms_max"] = pd.to_numeric(frame.get("time_warp_max"), errors="coerce") * 1e3
             frame["volume"] = [f"{int(v)}³ {d}" for v, d in zip(frame.volume_size, frame.dataset)]
@@ -1516,7 +1314,7 @@ class SizeScaling(Experiment):
                 thesis = TABLE_5_4.get(int(row.volume_size), {}).get(int(row.image_size))
                 rows.append({"volume": row.volume, "image": f"{int(row.image_size)}²", "warp (ms)": row.warp_ms,
                              "thesis warp (ms)": TABLE_5_4["warp (ms)"].get(int(row.image_size), np.nan),
-                             "share of the frame": _pct(row.warp_ms / row.time_ms),
+                             "share of the frame": as_percent(row.warp_ms / row.time_ms),
                              "thesis share": f"{thesis} %" if thesis is not None else ""})
             out.append(blocks.Table("The warp's cost beside Table 5.4", pd.DataFrame(rows), csv_name="warp.csv",
                                     caption="Medians of the timed frames; thesis: MR brain prefiltered to each size."))
@@ -1532,21 +1330,21 @@ class SizeScaling(Experiment):
         table = pd.concat([ok[["dataset", "volume_size", "image_size"]].reset_index(drop=True),
                            _ms(ok).reset_index(drop=True), _links(ok.reset_index(drop=True), ctx)], axis=1)
         out.append(blocks.Table("Every run", table, csv_name="scaling.csv", links=LINKS))
-        return out + _not_measurable_block(_unregistered(SW))
+        return out + not_measurable(unregistered(SW))
 
 
 def _growth_ratios(df, stage="total"):
-    rows = df[_num(df, "growth") == 1]
+    rows = df[numeric(df, "growth") == 1]
     ratios = {}
-    for dataset in pd.unique(_text(rows, "dataset")):
-        part = rows[_text(rows, "dataset") == dataset].copy()
-        part["n"] = _num(part, "volume_size")
+    for dataset in pd.unique(text_column(rows, "dataset")):
+        part = rows[text_column(rows, "dataset") == dataset].copy()
+        part["n"] = numeric(part, "volume_size")
         part = part.sort_values("n")
         if len(part) < 2:
             continue
         a, b = part.iloc[-2], part.iloc[-1]
         doublings = math.log2(b.n / a.n)
-        ratios[dataset] = ((_time(b, stage) / _time(a, stage)) ** (1 / doublings), int(a.n), int(b.n))
+        ratios[dataset] = ((stage_time(b, stage) / stage_time(a, stage)) ** (1 / doublings), int(a.n), int(b.n))
     if not ratios:
         raise ValueError("no data set rendered at two sizes")
     return ratios
@@ -1557,17 +1355,17 @@ def _growth(df):
     detail = "; ".join(f"{d}: {a}³ → {b}³" for d, (_r, a, b) in ratios.items())
     try:
         composite = _growth_ratios(df, "composite")
-        detail += "; compositing alone " + ", ".join(f"{_ratio(r)} ({d})" for d, (r, _a, _b) in composite.items())
+        detail += "; compositing alone " + ", ".join(f"{as_ratio(r)} ({d})" for d, (r, _a, _b) in composite.items())
     except (KeyError, ValueError):
         pass
-    return ClaimResult(", ".join(f"{_ratio(r)} per doubling ({d})" for d, (r, _a, _b) in ratios.items()),
+    return ClaimResult(", ".join(f"{as_ratio(r)} per doubling ({d})" for d, (r, _a, _b) in ratios.items()),
                        bool(all(2.8 <= r <= 5.66 for r, _a, _b in ratios.values())), detail)
 
 
 def _rle_memory(df):
     """At each data set's largest size (the thesis's statement is about 256³ scans; at a few
     voxels the per-scanline offsets dominate), the RLE copies against 4 bytes per voxel."""
-    frame = df.assign(rle=_num(df, "count_rle_bytes"), raw=_num(df, "count_raw_bytes"), n=_num(df, "volume_size"))
+    frame = df.assign(rle=numeric(df, "count_rle_bytes"), raw=numeric(df, "count_raw_bytes"), n=numeric(df, "volume_size"))
     frame = frame[np.isfinite(frame.rle) & np.isfinite(frame.raw) & (frame.raw > 0)]
     if frame.empty:
         raise ValueError("no run reported rle_bytes and raw_bytes")
@@ -1582,9 +1380,9 @@ def _rle_memory(df):
 
 def _warp_rows(df):
     frame = df.copy()
-    frame["n"], frame["i"], frame["warp"] = _num(frame, "volume_size"), _num(frame, "image_size"), _num(frame, "time_warp")
-    first = _text(frame, "dataset").iloc[0]
-    return frame[(_text(frame, "dataset") == first) & np.isfinite(frame.warp)]
+    frame["n"], frame["i"], frame["warp"] = numeric(frame, "volume_size"), numeric(frame, "image_size"), numeric(frame, "time_warp")
+    first = text_column(frame, "dataset").iloc[0]
+    return frame[(text_column(frame, "dataset") == first) & np.isfinite(frame.warp)]
 
 
 def _warp_growth(df):
@@ -1594,19 +1392,19 @@ def _warp_growth(df):
         raise ValueError("fewer than two image sizes at the smallest volume")
     a, b = smallest.iloc[-2], smallest.iloc[-1]
     ratio = (b.warp / a.warp) ** (1 / math.log2(b.i / a.i))
-    return ClaimResult(f"{_ratio(ratio)} per doubling ({int(a.i)}² → {int(b.i)}²)", bool(2.5 <= ratio <= 5.5),
+    return ClaimResult(f"{as_ratio(ratio)} per doubling ({int(a.i)}² → {int(b.i)}²)", bool(2.5 <= ratio <= 5.5),
                        ", ".join(f"{int(r.i)}²: {format_number(r.warp * 1e3)} ms" for r in smallest.itertuples())
                        + "; thesis ×3.4, ×3.8")
 
 
 def _warp_share(df):
     frame = _warp_rows(df)
-    frame["total"] = _num(frame, "time_total")
+    frame["total"] = numeric(frame, "time_total")
     largest = frame[frame.i == frame.i.max()].sort_values("n")
     if len(largest) < 2:
         raise ValueError("fewer than two volume sizes at the largest image")
     shares = (largest.warp / largest.total).to_numpy()
-    return ClaimResult(", ".join(f"{_pct(s)} ({int(n)}³)" for s, n in zip(shares, largest.n)),
+    return ClaimResult(", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n)),
                        bool(np.all(np.diff(shares) < 0)), f"at {int(largest.i.iloc[0])}² images; thesis 48 %, 31 %, 9 %")
 
 
@@ -1668,7 +1466,7 @@ class Throughput(Experiment):
     MIN_OPACITY = 0.002
 
     def runs(self, profile):
-        if not _accepts(SW, "rle", "early_termination", "min_opacity"):
+        if not accepts(SW, "rle", "early_termination", "min_opacity"):
             return []
         n = int(profile.setting(self.name, "volume_size", profile.volume_size))
         image = profile.setting(self.name, "image_size", profile.image_size)
@@ -1681,7 +1479,7 @@ class Throughput(Experiment):
                                                    [n // 2 ** k for k in range(1, 20) if n // 2 ** k >= 1])]
         checker_alphas = profile.setting(self.name, "checker_alphas", list(self.CHECKER_ALPHAS))
         view = ({"view": "face-on", "azimuth": 0.0, "elevation": 0.0},)
-        timed = _timed(profile, self.name)
+        timed = timed_frames(profile, self.name)
         runs = []
 
         def add(run_id, volume, options, tags):
@@ -1712,7 +1510,7 @@ class Throughput(Experiment):
                                  f"known: {sorted(PREDICT_DATASETS)}")
             volume = _phantom(dataset, n, preset=PREDICT_DATASETS[dataset])
             scene = _scene(volume, profile, image_size=image, name=dataset)
-            runs.append(Run(self.name, f"predict.{dataset}", SW, scene, (_headline(dataset),), **timed,
+            runs.append(Run(self.name, f"predict.{dataset}", SW, scene, (headline_view(dataset),), **timed,
                             tags={"series": "predict", "dataset": dataset, "config": "optimised", "volume_size": n}))
         return runs
 
@@ -1745,12 +1543,12 @@ class Throughput(Experiment):
         return pd.DataFrame(rows, columns=["quantity (thesis §5.3)", "value"]).assign(machine=THESIS)
 
     def report(self, results, ctx):
-        ok = _ok(results)
+        ok = ok_rows(results)
         if ok.empty:
             return []
-        frame = _speed_points(ok)
-        frame["samples"] = _num(frame, "count_samples")
-        frame["runs"] = _num(frame, "count_voxel_runs")
+        frame = speed_points(ok)
+        frame["samples"] = numeric(frame, "count_samples")
+        frame["runs"] = numeric(frame, "count_voxel_runs")
         out = [blocks.Takeaways(_throughput_takeaways(ok))]
         cubes = frame[frame.series == "cube"].copy()
         if not cubes.empty:
@@ -1795,13 +1593,13 @@ class Throughput(Experiment):
         table = pd.concat([frame[columns].reset_index(drop=True), _ms(ok).reset_index(drop=True),
                            _links(ok.reset_index(drop=True), ctx)], axis=1)
         out.append(blocks.Table("Every run", table, csv_name="throughput.csv", links=LINKS))
-        return out + _not_measurable_block(_unregistered(SW) + _missing_options(SW, "rle", "early_termination", "min_opacity"))
+        return out + not_measurable(unregistered(SW) + missing_options(SW, "rle", "early_termination", "min_opacity"))
 
 
 def _series(df, series, config):
-    rows = df[(_text(df, "series") == series) & (_text(df, "config") == config)].copy()
-    rows["samples"], rows["runs"] = _num(rows, "count_samples"), _num(rows, "count_voxel_runs")
-    rows["time"] = _num(rows, "time_total")
+    rows = df[(text_column(df, "series") == series) & (text_column(df, "config") == config)].copy()
+    rows["samples"], rows["runs"] = numeric(rows, "count_samples"), numeric(rows, "count_voxel_runs")
+    rows["time"] = numeric(rows, "time_total")
     return rows[np.isfinite(rows.time)]
 
 
@@ -1817,7 +1615,7 @@ def _brute_flat(df):
     if len(rows) < 2:
         raise ValueError("fewer than two brute-force cubes")
     spread = float((rows.time.max() - rows.time.min()) / rows.time.median())
-    return ClaimResult(_pct(spread), bool(spread <= 0.25), f"{len(rows)} cubes, median {format_number(rows.time.median() * 1e3)} ms")
+    return ClaimResult(as_percent(spread), bool(spread <= 0.25), f"{len(rows)} cubes, median {format_number(rows.time.median() * 1e3)} ms")
 
 
 def _cube_visible(df):
@@ -1839,15 +1637,15 @@ def _crossover(df):
         raise ValueError("no cube with at most half of its voxels visible")
     holds = bool((low.time < level).all())
     slower = rows[rows.time >= level]
-    crossing = "never (optimised always faster)" if slower.empty else f"{_pct(float(slower.visible.min()))} visible"
+    crossing = "never (optimised always faster)" if slower.empty else f"{as_percent(float(slower.visible.min()))} visible"
     most = rows.iloc[-1]
     return ClaimResult(f"slower than brute force from {crossing}", holds,
-                       f"at {_pct(float(most.visible))} visible the optimised renderer takes {_ratio(float(most.time / level))} "
+                       f"at {as_percent(float(most.visible))} visible the optimised renderer takes {as_ratio(float(most.time / level))} "
                        "the brute-force time (thesis: ×1.25 at 100 %)")
 
 
 def _runs_linear(df):
-    series = [s for s in pd.unique(_text(df, "series")) if s.startswith("checker")]
+    series = [s for s in pd.unique(text_column(df, "series")) if s.startswith("checker")]
     fits = {}
     for s in series:
         rows = _series(df, s, "optimised")
@@ -1862,13 +1660,13 @@ def _runs_linear(df):
 
 
 def _worst_runs(df):
-    series = [s for s in pd.unique(_text(df, "series")) if s.startswith("checker")]
+    series = [s for s in pd.unique(text_column(df, "series")) if s.startswith("checker")]
     ratios = {}
     for s in series:
         opt, brute = _series(df, s, "optimised"), _series(df, s, "brute-force")
         if opt.empty or brute.empty:
             continue
-        opt["block"], brute["block"] = _num(opt, "block"), _num(brute, "block")
+        opt["block"], brute["block"] = numeric(opt, "block"), numeric(brute, "block")
         smallest = opt.block.min()
         match = brute[brute.block == smallest]
         if match.empty:
@@ -1879,21 +1677,21 @@ def _worst_runs(df):
     # The all-visible series is the thesis's worst case: the lowest opacity.
     key = min(ratios, key=lambda s: float(s.split("α")[-1]))
     ratio, block = ratios[key]
-    return ClaimResult(f"{_ratio(ratio)} ({key}, {block}-voxel blocks)", bool(ratio <= 1.3),
-                       ", ".join(f"{s}: {_ratio(r)}" for s, (r, _b) in ratios.items()) + "; thesis ×1.15")
+    return ClaimResult(f"{as_ratio(ratio)} ({key}, {block}-voxel blocks)", bool(ratio <= 1.3),
+                       ", ".join(f"{s}: {as_ratio(r)}" for s, (r, _b) in ratios.items()) + "; thesis ×1.15")
 
 
 def _cost_fit(df):
-    rows = df[_text(df, "config") == "optimised"]
-    rows = rows[_text(rows, "series") != "predict"]
-    samples, runs, time = _num(rows, "count_samples"), _num(rows, "count_voxel_runs"), _num(rows, "time_total")
+    rows = df[text_column(df, "config") == "optimised"]
+    rows = rows[text_column(rows, "series") != "predict"]
+    samples, runs, time = numeric(rows, "count_samples"), numeric(rows, "count_voxel_runs"), numeric(rows, "time_total")
     keep = np.isfinite(samples) & np.isfinite(runs) & np.isfinite(time)
     return fit_cost_model(samples[keep], runs[keep], time[keep])
 
 
 def _prediction(df):
     a, b, c, _r2 = _cost_fit(df)
-    rows = df[_text(df, "series") == "predict"]
+    rows = df[text_column(df, "series") == "predict"]
     if rows.empty:
         raise ValueError("no predicted scene rendered")
     errors = {}
@@ -1954,9 +1752,9 @@ class Parallel(Experiment):
     TASK_SIZES = (1, 2, 4, 8, 16, 32, 64)
 
     def runs(self, profile):
-        if not _accepts(SW, "workers", "schedule", "task_size"):
+        if not accepts(SW, "workers", "schedule", "task_size"):
             return []
-        cores = _cores()
+        cores = usable_cores()
         workers = [int(w) for w in profile.setting(self.name, "workers",
                                                    sorted({1, *[2 ** k for k in range(1, 8) if 2 ** k <= cores], cores}))]
         schedules = profile.setting(self.name, "schedules", list(SCHEDULES))
@@ -1981,8 +1779,8 @@ class Parallel(Experiment):
             for t in task_sizes:
                 configs.setdefault((most, DEFAULT_SCHEDULE, t), "task_size")
             for (w, s, t), study in configs.items():
-                runs.append(Run(self.name, f"{dataset}{n}.w{w}.{s}.t{t}", SW, scene, (_headline(dataset),),
-                                options={"workers": w, "schedule": s, "task_size": t}, **_timed(profile, self.name),
+                runs.append(Run(self.name, f"{dataset}{n}.w{w}.{s}.t{t}", SW, scene, (headline_view(dataset),),
+                                options={"workers": w, "schedule": s, "task_size": t}, **timed_frames(profile, self.name),
                                 tags={"dataset": dataset, "volume_size": n, "workers": w, "schedule": s,
                                       "task_size": t, "study": study}))
         return runs
@@ -2015,12 +1813,12 @@ class Parallel(Experiment):
         return pd.DataFrame(rows)
 
     def report(self, results, ctx):
-        ok = _ok(results)
+        ok = ok_rows(results)
         if ok.empty:
             return []
-        frame = _speed_points(ok)
+        frame = speed_points(ok)
         for column in ("workers", "task_size", "volume_size"):
-            frame[column] = _num(frame, column)
+            frame[column] = numeric(frame, column)
         out = [blocks.Takeaways(_parallel_takeaways(ok))]
         speed = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.task_size == DEFAULT_TASK_SIZE)].copy()
         if speed.workers.nunique() > 1:
@@ -2065,13 +1863,13 @@ class Parallel(Experiment):
         table = pd.concat([ok[["volume_size", "workers", "schedule", "task_size", "study"]].reset_index(drop=True),
                            _ms(ok).reset_index(drop=True), _links(ok.reset_index(drop=True), ctx)], axis=1)
         out.append(blocks.Table("Every run", table, csv_name="parallel.csv", links=LINKS))
-        missing = _unregistered(SW) + _missing_options(SW, "workers", "schedule", "task_size")
+        missing = unregistered(SW) + missing_options(SW, "workers", "schedule", "task_size")
         missing.append(("load imbalance in busy time (Table 6.4)", "the backend does not time inside its kernel; "
                         "the imbalance here is of the samples each worker composited"))
-        if _cores() < 4:
+        if usable_cores() < 4:
             missing.append(("speed-up beyond 2 workers and the thesis's 16–32-processor effects",
-                            f"this machine has {_cores()} cores"))
-        return out + _not_measurable_block(missing)
+                            f"this machine has {usable_cores()} cores"))
+        return out + not_measurable(missing)
 
 
 def worker_imbalance(record_path, view):
@@ -2083,7 +1881,7 @@ def worker_imbalance(record_path, view):
     """
     import json
 
-    if not _exists(record_path):
+    if not file_exists(record_path):
         raise ValueError(f"run record {record_path!r} is missing")
     record = json.loads(Path(record_path).read_text())
     for entry in record.get("views", []):
@@ -2100,30 +1898,30 @@ def _row_imbalance(row):
 
 
 def _speedup(df):
-    rows = df[(_text(df, "schedule") == DEFAULT_SCHEDULE) & (_num(df, "task_size") == DEFAULT_TASK_SIZE)].copy()
-    rows["w"], rows["n"] = _num(rows, "workers"), _num(rows, "volume_size")
+    rows = df[(text_column(df, "schedule") == DEFAULT_SCHEDULE) & (numeric(df, "task_size") == DEFAULT_TASK_SIZE)].copy()
+    rows["w"], rows["n"] = numeric(rows, "workers"), numeric(rows, "volume_size")
     results = {}
     for n, part in rows.groupby("n"):
         one, most = part[part.w == 1], part[part.w == part.w.max()]
         if one.empty or part.w.max() <= 1:
             continue
         p = float(most.w.iloc[0])
-        speedup = _time(one.iloc[0]) / _time(most.iloc[0])
+        speedup = stage_time(one.iloc[0]) / stage_time(most.iloc[0])
         results[int(n)] = (speedup, speedup / p, int(p))
     if not results:
         raise ValueError("no size rendered with one worker and with more")
-    return ClaimResult(", ".join(f"{_ratio(s)} on {p} workers ({_pct(e)}, {n}³)" for n, (s, e, p) in results.items()),
+    return ClaimResult(", ".join(f"{as_ratio(s)} on {p} workers ({as_percent(e)}, {n}³)" for n, (s, e, p) in results.items()),
                        bool(all(e >= 0.7 for _s, e, _p in results.values())),
-                       f"this machine: {_cores()} cores; timings on a shared machine are noisy")
+                       f"this machine: {usable_cores()} cores; timings on a shared machine are noisy")
 
 
 def _schedule_order(df):
-    rows = df[_num(df, "task_size") == DEFAULT_TASK_SIZE]
-    rows = rows[_num(rows, "workers") == _num(rows, "workers").max()]
+    rows = df[numeric(df, "task_size") == DEFAULT_TASK_SIZE]
+    rows = rows[numeric(rows, "workers") == numeric(rows, "workers").max()]
     outcomes = {}
-    for n, part in rows.groupby(_num(rows, "volume_size")):
-        times = {s: _time(part[_text(part, "schedule") == s].iloc[0]) for s in SCHEDULES
-                 if (_text(part, "schedule") == s).any()}
+    for n, part in rows.groupby(numeric(rows, "volume_size")):
+        times = {s: stage_time(part[text_column(part, "schedule") == s].iloc[0]) for s in SCHEDULES
+                 if (text_column(part, "schedule") == s).any()}
         if len(times) < 4:
             continue
         fastest = min(times.values())
@@ -2131,7 +1929,7 @@ def _schedule_order(df):
         outcomes[int(n)] = (holds, times)
     if not outcomes:
         raise ValueError("not all four schedules rendered at the most workers")
-    workers = int(_num(rows, "workers").max())
+    workers = int(numeric(rows, "workers").max())
     measured = "; ".join(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in sorted(times.items(), key=lambda kv: kv[1]))
                          for n, (_h, times) in outcomes.items())
     detail = f"{workers} workers" + ("; with 2 workers a contiguous split has only two blocks, so the thesis's "
@@ -2140,15 +1938,15 @@ def _schedule_order(df):
 
 
 def _task_u(df):
-    rows = df[_text(df, "schedule") == DEFAULT_SCHEDULE]
-    rows = rows[_num(rows, "workers") == _num(rows, "workers").max()].copy()
-    rows["t"] = _num(rows, "task_size")
+    rows = df[text_column(df, "schedule") == DEFAULT_SCHEDULE]
+    rows = rows[numeric(rows, "workers") == numeric(rows, "workers").max()].copy()
+    rows["t"] = numeric(rows, "task_size")
     outcomes = {}
-    for n, part in rows.groupby(_num(rows, "volume_size")):
+    for n, part in rows.groupby(numeric(rows, "volume_size")):
         if part.t.nunique() < 3:
             continue
         part = part.sort_values("t")
-        best = part.loc[_num(part, "time_total").idxmin()]
+        best = part.loc[numeric(part, "time_total").idxmin()]
         outcomes[int(n)] = (int(best.t), part.t.min() < best.t < part.t.max())
     if not outcomes:
         raise ValueError("fewer than three task sizes swept")
@@ -2158,22 +1956,22 @@ def _task_u(df):
 
 def _imbalance_text(row):
     try:
-        return _pct(_row_imbalance(row))
+        return as_percent(_row_imbalance(row))
     except ValueError:
         return "not reported"
 
 
 def _schedule_imbalance(df, schedule):
-    rows = df[(_text(df, "schedule") == schedule) & (_num(df, "task_size") == DEFAULT_TASK_SIZE)]
-    rows = rows[_num(rows, "workers") == _num(df, "workers").max()]
-    if rows.empty or float(_num(rows, "workers").max()) < 2:
+    rows = df[(text_column(df, "schedule") == schedule) & (numeric(df, "task_size") == DEFAULT_TASK_SIZE)]
+    rows = rows[numeric(rows, "workers") == numeric(df, "workers").max()]
+    if rows.empty or float(numeric(rows, "workers").max()) < 2:
         raise ValueError(f"no {schedule} run with two or more workers")
     return {int(float(row["volume_size"])): _row_imbalance(row) for _i, row in rows.iterrows()}
 
 
 def _imbalance(df):
     values = _schedule_imbalance(df, "round-robin-steal")
-    return ClaimResult(", ".join(f"{_pct(v)} ({n}³)" for n, v in values.items()), bool(max(values.values()) <= 0.2),
+    return ClaimResult(", ".join(f"{as_percent(v)} ({n}³)" for n, v in values.items()), bool(max(values.values()) <= 0.2),
                        "samples composited per worker; thesis 7 % in busy time (DASH, 32 processors)")
 
 
@@ -2182,7 +1980,7 @@ def _imbalance_order(df):
     sizes = sorted(set(good) & set(bad))
     if not sizes:
         raise ValueError("no size rendered with both schedules")
-    return ClaimResult(", ".join(f"contiguous {_pct(bad[n])} vs round-robin-steal {_pct(good[n])} ({n}³)" for n in sizes),
+    return ClaimResult(", ".join(f"contiguous {as_percent(bad[n])} vs round-robin-steal {as_percent(good[n])} ({n}³)" for n in sizes),
                        bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")
 
 
@@ -2227,17 +2025,17 @@ class Variants(Experiment):
         preset = profile.setting(self.name, "preset", "skin")
         volume = _phantom(dataset, size, preset=preset)
         scene = _scene(volume, profile, image_size=image, name=f"{dataset}-{preset}")
-        view = (_headline(dataset),)
-        timed = _timed(profile, self.name)
+        view = (headline_view(dataset),)
+        timed = timed_frames(profile, self.name)
         # Cold runs: the first frame builds (and times) the per-volume structures; with three frames
         # the median total is a warm frame.
         cold = {"warmup": 0, "repeat": timed["repeat"]}
         tags = {"dataset": dataset, "preset": preset}
         runs = []
-        if _accepts(SW, "shading", "union"):
+        if accepts(SW, "shading", "union"):
             # The baseline (lookup-table shading, path compression) serves both comparisons; its
             # reference is the procedural image, so the evaluation measures the table's error.
-            procedural = _accepts(SW, "shading")
+            procedural = accepts(SW, "shading")
             runs.append(Run(self.name, "baseline", SW, scene, view, options={"shading": "lut", "union": "path-compression"},
                             reference="shading.procedural" if procedural else None, **timed,
                             tags={**tags, "part": "baseline", "config": "lut, path-compression"}))
@@ -2245,16 +2043,16 @@ class Variants(Experiment):
                             tags={**tags, "part": "shading", "config": "procedural"}))
             runs.append(Run(self.name, "union.rank", SW, scene, view, options={"union": "rank"}, **timed,
                             tags={**tags, "part": "union", "config": "rank"}))
-        if _registered(SW):
+        if is_registered(SW):
             runs.append(Run(self.name, "mode.shearwarp-cold", SW, scene, view, **cold,
                             tags={**tags, "part": "mode", "config": "shearwarp"}))
-        if _accepts(SW, "classification", "octree_rle_build"):
+        if accepts(SW, "classification", "octree_rle_build"):
             # E22 with our backend: the three RLE copies built from the min-max octree, and rendering
             # with fast classification (octree + summed-area table, classified on the fly).
             for config, options in SW_MODE_CONFIGS.items():
                 runs.append(Run(self.name, f"mode.{config}-cold", SW, scene, view, options=dict(options), **cold,
                                 tags={**tags, "part": "mode", "config": config}))
-        if _accepts(VP, "mode"):
+        if accepts(VP, "mode"):
             for mode in ("rle", "octree"):
                 runs.append(Run(self.name, f"mode.volpack-{mode}-cold", VP, scene, view, options={"mode": mode}, **cold,
                                 tags={**tags, "part": "mode", "config": f"volpack-{mode}"}))
@@ -2293,11 +2091,11 @@ class Variants(Experiment):
 
     def report(self, results, ctx):
 
-        ok = _ok(results)
+        ok = ok_rows(results)
         if ok.empty:
             return []
         out = [blocks.Takeaways(_variant_takeaways(ok))]
-        frame = _speed_points(ok)
+        frame = speed_points(ok)
         stages = [c for c in frame.columns if c.startswith("time_") and not c.endswith(("_min", "_max"))
                   and c not in ("time_total", "time_ms")]
         warm = frame[frame.part != "mode"]
@@ -2342,8 +2140,8 @@ class Variants(Experiment):
                                                                         f"{format_number(getattr(row, 'psnr', np.nan))} dB"
                                                                         if diff else "")))
             out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW, VP) + _missing_options(SW, "shading", "union")
-                                           + _missing_options(VP, "mode"))
+        return out + not_measurable(unregistered(SW, VP) + missing_options(SW, "shading", "union")
+                                           + missing_options(VP, "mode"))
 
 
 SW_MODE_CONFIGS = {
@@ -2369,7 +2167,7 @@ def mode_switch_table(df):
     for config, label, edit in (("shearwarp", "RLE, brute-force build", ("classify", "rle_build")),
                                 ("shearwarp-octree-rle", "RLE built from the octree", ("sat_build", "rle_build")),
                                 ("shearwarp-octree", "fast classification", ("sat_build",))):
-        match = _only(df, config, part="mode", config=config)
+        match = rows_matching(df, config, part="mode", config=config)
         if match.empty:
             continue
         row = match.iloc[0]
@@ -2377,8 +2175,8 @@ def mode_switch_table(df):
         for stage in ("octree_build", "classify", "sat_build", "rle_build", "octree_classify"):
             value = float(row.get(f"time_{stage}", np.nan))
             entry[f"{stage} (ms)"] = value * 1e3 if np.isfinite(value) else np.nan
-        entry["frame (ms)"] = _time(row) * 1e3
-        entry["after an edit (ms)"] = (sum(_stage(row, s) for s in edit) + _time(row)) * 1e3
+        entry["frame (ms)"] = stage_time(row) * 1e3
+        entry["after an edit (ms)"] = (sum(_stage(row, s) for s in edit) + stage_time(row)) * 1e3
         for counter in ("rle_bytes", "octree_bytes", "classified_on_the_fly"):
             entry[counter] = float(row.get(f"count_{counter}", np.nan))
         rows.append(entry)
@@ -2391,7 +2189,7 @@ def _octree_rle_build(df):
     brute, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree-rle")
     plain = _stage(brute, "classify") + _stage(brute, "rle_build")
     fast = _stage(octree, "sat_build") + _stage(octree, "rle_build")
-    return ClaimResult(f"{format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms ({_ratio(plain / fast)} faster)",
+    return ClaimResult(f"{format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms ({as_ratio(plain / fast)} faster)",
                        bool(fast < plain),
                        f"octree: SAT {format_number(_stage(octree, 'sat_build') * 1e3)} ms + RLE "
                        f"{format_number(_stage(octree, 'rle_build') * 1e3)} ms (octree itself, once per volume: "
@@ -2402,37 +2200,37 @@ def _octree_rle_build(df):
 
 def _octree_render(df):
     rle, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree")
-    ratio = _time(octree) / _time(rle)
-    return ClaimResult(_ratio(ratio), bool(1.4 <= ratio <= 3.2),
-                       f"octree {format_number(_time(octree) * 1e3)} ms (of which octree_classify "
+    ratio = stage_time(octree) / stage_time(rle)
+    return ClaimResult(as_ratio(ratio), bool(1.4 <= ratio <= 3.2),
+                       f"octree {format_number(stage_time(octree) * 1e3)} ms (of which octree_classify "
                        f"{format_number(float(octree.get('time_octree_classify', np.nan)) * 1e3)} ms), RLE "
-                       f"{format_number(_time(rle) * 1e3)} ms; median warm frames; thesis ×1.8–2.5")
+                       f"{format_number(stage_time(rle) * 1e3)} ms; median warm frames; thesis ×1.8–2.5")
 
 
 def _mode_switch_ours(df):
     rle, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree")
-    edit_rle = _stage(rle, "classify") + _stage(rle, "rle_build") + _time(rle)
-    edit_octree = _stage(octree, "sat_build") + _time(octree)
+    edit_rle = _stage(rle, "classify") + _stage(rle, "rle_build") + stage_time(rle)
+    edit_octree = _stage(octree, "sat_build") + stage_time(octree)
     return ClaimResult(f"fast classification {format_number(edit_octree * 1e3)} ms vs RLE {format_number(edit_rle * 1e3)} ms",
                        bool(edit_octree < edit_rle),
                        f"octree: SAT {format_number(_stage(octree, 'sat_build') * 1e3)} ms + frame "
-                       f"{format_number(_time(octree) * 1e3)} ms; RLE: classify {format_number(_stage(rle, 'classify') * 1e3)} ms "
-                       f"+ build {format_number(_stage(rle, 'rle_build') * 1e3)} ms + frame {format_number(_time(rle) * 1e3)} ms")
+                       f"{format_number(stage_time(octree) * 1e3)} ms; RLE: classify {format_number(_stage(rle, 'classify') * 1e3)} ms "
+                       f"+ build {format_number(_stage(rle, 'rle_build') * 1e3)} ms + frame {format_number(stage_time(rle) * 1e3)} ms")
 
 
 def _config_row(df, part, config):
-    return _one(df, f"{part} {config}", part=part, config=config)
+    return one_row(df, f"{part} {config}", part=part, config=config)
 
 
 def _baseline(df):
-    return _one(df, "the baseline (lookup table, path compression)", part="baseline")
+    return one_row(df, "the baseline (lookup table, path compression)", part="baseline")
 
 
 def _lut_speed(df):
     lut, procedural = _baseline(df), _config_row(df, "shading", "procedural")
-    ratio = _time(procedural) / _time(lut)
-    return ClaimResult(_ratio(ratio), bool(ratio >= 2.0),
-                       f"LUT {format_number(_time(lut) * 1e3)} ms, procedural {format_number(_time(procedural) * 1e3)} ms; thesis ×4.3")
+    ratio = stage_time(procedural) / stage_time(lut)
+    return ClaimResult(as_ratio(ratio), bool(ratio >= 2.0),
+                       f"LUT {format_number(stage_time(lut) * 1e3)} ms, procedural {format_number(stage_time(procedural) * 1e3)} ms; thesis ×4.3")
 
 
 def _lut_accuracy(df):
@@ -2445,9 +2243,9 @@ def _lut_accuracy(df):
 
 def _union(df):
     rank, path = _config_row(df, "union", "rank"), _baseline(df)
-    ratio = _time(rank) / _time(path)
-    return ClaimResult(_ratio(ratio), bool(ratio >= 0.97),
-                       f"rank {format_number(_time(rank) * 1e3)} ms, path compression {format_number(_time(path) * 1e3)} ms; "
+    ratio = stage_time(rank) / stage_time(path)
+    return ClaimResult(as_ratio(ratio), bool(ratio >= 0.97),
+                       f"rank {format_number(stage_time(rank) * 1e3)} ms, path compression {format_number(stage_time(path) * 1e3)} ms; "
                        "thesis ×1.05–1.15; timings on a shared machine are noisy")
 
 
@@ -2539,7 +2337,7 @@ class Projections(Experiment):
     DATASETS = ("brainsmall", "folded_brain", "ct_skull")
 
     def runs(self, profile):
-        if not _accepts(SW, "classification"):
+        if not accepts(SW, "classification"):
             return []
         wanted = profile.setting(self.name, "datasets", list(self.DATASETS))
         unknown = [d for d in wanted if d not in PROJECTION_DATASETS]
@@ -2565,13 +2363,13 @@ class Projections(Experiment):
         for dataset in wanted:
             preset, thesis = PROJECTION_DATASETS[dataset]
             volume = _phantom(dataset, size, preset=preset)
-            views = tuple(_view(dataset, f"deg{a:g}", a, elevation) for a in angles)
+            views = tuple(dataset_view(dataset, f"deg{a:g}", a, elevation) for a in angles)
             for config, (projection, options, _label) in PROJECTION_CONFIGS.items():
                 scene = _scene(volume, profile, image_size=image, name=f"{dataset}-{projection}")
                 if projection == "perspective":
                     scene["camera"] = {"projection": "perspective", "fov_y": fov}
                 runs.append(Run(self.name, f"{dataset}.{config}", SW, scene, views,
-                                options={**options, "workers": workers}, **_timed(profile, self.name),
+                                options={**options, "workers": workers}, **timed_frames(profile, self.name),
                                 tags={"dataset": dataset, "config": config, "thesis_dataset": thesis,
                                       "projection": projection, "fov": fov if projection == "perspective" else 0.0}))
         return runs
@@ -2599,12 +2397,12 @@ class Projections(Experiment):
         return pd.DataFrame(rows).assign(machine=THESIS)
 
     def report(self, results, ctx):
-        ok = _ok(results)
+        ok = ok_rows(results)
         out = [blocks.Takeaways(_projection_takeaways(ok))]
         try:
             summary = projection_summary(ok)
         except (KeyError, ValueError):
-            return out + _not_measurable_block(_unregistered(SW) + _missing_options(SW, "classification"))
+            return out + not_measurable(unregistered(SW) + missing_options(SW, "classification"))
         table = summary.copy()
         for column in ("mean", "fastest", "slowest"):
             table[f"{column} (ms)"] = table.pop(column) * 1e3
@@ -2624,7 +2422,7 @@ class Projections(Experiment):
         out.append(blocks.Figure("Cost relative to parallel projection", rel,
                                  "Mean-view time of each algorithm over the parallel projection's, ours beside "
                                  "Table 5.3's data set of the same kind."))
-        frame = _speed_points(ok)
+        frame = speed_points(ok)
         frame["angle"] = [_angle_of(v) for v in frame.view]
         for dataset, part in frame.groupby("dataset"):
             path, rel = ctx.plot_path(f"turn-{dataset}")
@@ -2642,14 +2440,14 @@ class Projections(Experiment):
             gallery.items.append(blocks.GalleryItem(f"{row.dataset}: {PROJECTION_CONFIGS.get(row.config, ('', {}, row.config))[2]}",
                                                     ctx.image(row.png), note=f"{format_number(row.time_ms)} ms"))
         out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW) + _missing_options(SW, "classification"))
+        return out + not_measurable(unregistered(SW) + missing_options(SW, "classification"))
 
 
 def projection_summary(df):
     """Per data set and algorithm: views, mean/fastest/slowest view time (s), memory and the thesis's numbers."""
     rows = []
-    for (dataset, config), part in df.groupby([_text(df, "dataset"), _text(df, "config")], sort=False):
-        times = _num(part, "time_total")
+    for (dataset, config), part in df.groupby([text_column(df, "dataset"), text_column(df, "config")], sort=False):
+        times = numeric(part, "time_total")
         times = times[np.isfinite(times)]
         if times.empty:
             continue
@@ -2684,8 +2482,8 @@ def _projection_ratio(df, config, low, high):
     ratios = dict(zip(rows.dataset, rows["time / parallel"]))
     detail = "; ".join(f"{r['dataset']}: {format_number(r['mean'] * 1e3)} ms mean over {r['views']} views "
                        f"({format_number(r['fastest'] * 1e3)}–{format_number(r['slowest'] * 1e3)} ms), thesis "
-                       f"{r['thesis data set']} {_ratio(r['thesis time / parallel'])}" for _i, r in rows.iterrows())
-    return ClaimResult(", ".join(f"{_ratio(r)} ({d})" for d, r in ratios.items()),
+                       f"{r['thesis data set']} {as_ratio(r['thesis time / parallel'])}" for _i, r in rows.iterrows())
+    return ClaimResult(", ".join(f"{as_ratio(r)} ({d})" for d, r in ratios.items()),
                        bool(all(low <= r <= high for r in ratios.values())),
                        detail + "; timings on a shared machine are noisy")
 
@@ -2750,7 +2548,7 @@ class PerspectiveQuality(Experiment):
     FOVS = (15.0, 30.0, 60.0, 90.0)
 
     def runs(self, profile):
-        if not _registered(SW):
+        if not is_registered(SW):
             return []
         dataset = profile.setting(self.name, "dataset", "ct_skull")
         preset = profile.setting(self.name, "preset", datasets.get(dataset).default_preset)
@@ -2763,7 +2561,7 @@ class PerspectiveQuality(Experiment):
         image = profile.setting(self.name, "image_size", profile.image_size)
         truth_factor = profile.setting(self.name, "truth_step_factor", 0.25)
         volume = _phantom(dataset, size, preset=preset)
-        views = (_headline(dataset),)
+        views = (headline_view(dataset),)
         runs = []
         for fov in [0.0, *sorted(fovs)]:
             label = "parallel" if fov == 0 else f"fov{fov:g}"
@@ -2793,12 +2591,12 @@ class PerspectiveQuality(Experiment):
         ], columns=["thesis", "case", "finding (qualitative in the thesis)"])
 
     def report(self, results, ctx):
-        ok = _ok(results)
+        ok = ok_rows(results)
         out = [blocks.Takeaways(_fov_takeaways(ok))]
         try:
             rows = fov_rows(ok)
         except (KeyError, ValueError):
-            return out + _not_measurable_block(_unregistered(SW))
+            return out + not_measurable(unregistered(SW))
         columns = {"fov": "field of view (°, 0: parallel)", "psnr": "PSNR (dB)", "ssim": "SSIM", "rmse": "RMSE",
                    "max_ray_angle": "largest ray-to-axis angle (°)"}
         table = rows.reindex(columns=list(columns)).rename(columns=columns)
@@ -2828,15 +2626,15 @@ class PerspectiveQuality(Experiment):
                 note=f"PSNR {format_number(row.psnr)} dB, SSIM {format_number(getattr(row, 'ssim', np.nan))}"
                      + (f"; largest ray angle {format_number(row.max_ray_angle)}°" if np.isfinite(row.max_ray_angle) else "")))
         out.append(gallery)
-        return out + _not_measurable_block(_unregistered(SW) + [
+        return out + not_measurable(unregistered(SW) + [
             ("the visibility error of Fig. 4.12 (plates A, B before C)", "no registered data set holds thin plates "
              "before a plane, and scenes take volumes from the registry only")])
 
 
 def fov_rows(df):
     """The shear-warp rows with their field of view (0: parallel), PSNR and largest ray angle, by field."""
-    rows = df[_text(df, "role") == "test"].copy()
-    rows["fov"], rows["psnr"] = _num(rows, "fov"), _num(rows, "psnr")
+    rows = df[text_column(df, "role") == "test"].copy()
+    rows["fov"], rows["psnr"] = numeric(rows, "fov"), numeric(rows, "psnr")
     rows["max_ray_angle"] = pd.to_numeric(rows.get("info_max_ray_angle", np.nan), errors="coerce")
     rows = rows[np.isfinite(rows.psnr)]
     if rows.empty:
