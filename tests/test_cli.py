@@ -60,7 +60,7 @@ def test_unknown_backend_option_lists_the_valid_ones(capsys):
 
     assert main(["render", "sphere", "--size", "8", "--option", "stepfactor=0.5"]) == 2
     err = capsys.readouterr().err
-    assert "unknown option stepfactor; valid options: step_factor, step, depth" in err
+    assert "unknown option stepfactor; valid options: step_factor, step, classification, depth" in err
     assert "Traceback" not in err
     with pytest.raises(InputError, match="stepfactor"):
         renderers.get("reference", stepfactor=0.5)
