@@ -19,6 +19,8 @@ BACKENDS = {
     "reference": "renderers.reference:ReferenceRenderer",
     "shearwarp": "renderers.shearwarp.renderer:ShearWarpRenderer",
     "volpack": "renderers.volpack.renderer:VolPackRenderer",
+    "vtk-gpu": "renderers.vtk.gpu:VtkGpuRenderer",
+    "vtk-cpu": "renderers.vtk.cpu:VtkCpuRenderer",
 }
 
 

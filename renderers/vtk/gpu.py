@@ -1,0 +1,276 @@
+"""The ``vtk-gpu`` backend: VTK's ``vtkOpenGLGPUVolumeRayCastMapper`` as a peer of our ray casters.
+
+VTK does all the volume work (texture upload, ray setup, sampling, classification, shading,
+compositing) in its own shaders; Python builds the VTK objects from the scene and reads the
+float image back (:mod:`.common`).
+
+How the scene maps onto VTK, and what differs
+---------------------------------------------
+Measured against the reference (``tests/test_vtk.py`` has the numbers) with VTK 9.7.2:
+
+* **Cell data.** Each volume is an ``(n + 1)``-point grid with the ``n`` scalars per axis as cell
+  data, so VTK's box and its clamp-to-edge texture equal ours. VTK's usual point layout (a
+  point per voxel, which ``vtk-cpu`` must use) makes the box half a voxel smaller on every side
+  (a 24³ homogeneous box at two pixels per voxel: 13.7 dB). Scalars are our normalised float32
+  values (a ``GL_R32F`` texture).
+* **Sampling.** ``AutoAdjustSampleDistances`` off, ``ImageSampleDistance`` 1, jittering off,
+  linear interpolation, ``SampleDistance`` = ``step_factor`` times the smallest voxel edge in
+  the volume's object space, where VTK steps (its ray direction is normalised in data
+  coordinates); with several volumes VTK steps through their world-aligned bounding box, so the
+  step is ``step_factor`` times the smallest world-space voxel edge. VTK samples at
+  ``entry + k·Δ`` for ``k = 1, 2, ...`` up to the exit and drops the partial step left there
+  (a sample landing on the exit face counts or not as rounding decides); ours samples at cell
+  midpoints and weighs the partial cells at the box faces by their length. The difference is
+  small but systematic (through 24 homogeneous voxels at Δ = 0.35 voxel VTK composites 68
+  samples, 23.8 voxels of path); it is recorded, not corrected.
+* **Classification.** Post-classified through lookup textures over the data range: the
+  transfer function is given as 1024 (or more) nodes that fill VTK's texture with our table at
+  its texel centres (:func:`.common.dense_functions`). ``ScalarOpacityUnitDistance`` is the
+  reference step Δ0. VTK corrects opacity per table entry (before interpolation, ours after)
+  and skips the correction for entries ≤ 1e-4, so faint rims come out brighter.
+* **Gradient opacity.** VTK's gradient measure is central differences of the normalised scalar
+  over one texel step per mean voxel edge (:func:`.common.gradient_function` maps our ``u``
+  onto it) and its table covers ``[0, ¼·data range]``, clamped beyond: ``g`` is evaluated
+  correctly only where ``u <= data range/(4·√3/2)``, about 0.29 for data spanning [0, 1].
+  VTK's texel step is ``1/(n − 1)`` of the texture, slightly more than one voxel.
+* **Early ray termination.** VTK stops a ray when its opacity exceeds ``1 − 1/255`` (a
+  constant in its shader). ``early_termination=True`` (default) keeps that, as VTK is used;
+  ``False`` replaces the constant by 2 (a fragment-shader replacement, never reached) for runs
+  that compare accuracy with the reference, which never terminates early.
+* **Modes.** ``dvr`` is VTK's composite blend; ``mip`` its maximum-intensity blend, the maximum
+  over the samples (ours is the exact maximum of the trilinear field), classified without
+  opacity correction or shading; ``iso`` its isosurface blend, which detects the crossing
+  between two samples and composites the transfer-function colour at the isovalue with
+  opacity 1 at the sample after the crossing (ours bisects to the exact crossing), shaded there;
+  a thin feature that exceeds the isovalue for less than a step is missed (the 32³ skull's bone
+  at Δ = ¼ voxel: 90 of the reference's 103 pixels hit). Gradient opacity applies to ``dvr``
+  only, as in the reference.
+* **Shading.** Two-sided, ambient and diffuse as ours. With our default headlight the light is
+  VTK's headlight, which VTK's shader places at the eye (a point light): for orthographic views
+  the VTK camera is moved :data:`FAR_EYE` times further out along the view axis, which changes
+  nothing in the image but makes that light directional; in perspective the eye cannot move,
+  so the light direction differs from ours by the pixel's angle off the view axis. Any other
+  light direction is a directional camera light, which takes VTK's multi-light path, where the
+  ambient term is ``ambient · light colour`` instead of ``ambient · sample colour`` (they agree
+  for white transfer-function colours). VTK's specular term is Phong (the reflected light
+  vector against the view vector), ours Blinn–Phong (the half vector); this is not matched.
+  VTK's shading gradient is taken one texel step (``1/(n − 1)`` of the texture) apart.
+* **Several volumes.** A ``vtkMultiVolume`` with one input port per volume, composite blending
+  only. VTK composites the volumes one after the other at each sample (in input order), ours
+  sums their premultiplied samples (Kainz et al. 2009); the two differ at second order where
+  volumes overlap. VTK shades several volumes with its headlight only, and its shader declares
+  gradient opacity for all inputs or none (after the first), so volumes without one get
+  ``g = 1``.
+
+Timing
+------
+Stages: ``setup`` (building the VTK objects for a new volume set, classification, mode,
+shading, projection or image size, and VTK's first ``Render()`` with it, which uploads the
+textures and compiles the shader), measured when the pipeline is built and reported with every
+frame that uses it, so that the timing harness's median over repeated frames keeps it; it is
+not part of ``total``. Per frame: ``render`` (``Render()`` forced to finish with ``glFinish``,
+wall clock), ``readback`` (the float colour texture to our image) and ``total`` (the frame,
+camera and light updates included, setup excluded). Counters: ``pixels``, ``voxels``
+(summed over volumes), ``volumes``.
+"""
+
+import numpy as np
+
+from core.errors import InputError, UnsupportedFeatureError
+from core.validation import check_scalar
+from renderers.base import Capabilities, RenderResult
+from renderers.vtk import common
+
+MAX_VOLUMES = 7
+"""Largest ``vtkMultiVolume`` offered. Each input binds up to four textures (volume, colour,
+opacity and gradient-opacity tables) plus a few shared ones; 7 fit the 32 fragment-shader
+texture units of Mesa's and the GPU vendors' drivers (measured on llvmpipe: 7 shaded volumes
+with gradient opacity link, 8 fail with "too many fragment shader texture samplers"). A driver
+with fewer units fails to link the shader, which the backend raises as an error."""
+
+FAR_EYE = 1000.0
+"""How much further out the VTK camera sits in orthographic views with the headlight."""
+
+MIN_TABLE_WIDTH = 1024
+"""VTK's smallest lookup texture (``vtkOpenGLVolumeLookupTable``)."""
+
+TERMINATION = "const float g_opacityThreshold = 1.0 - 1.0 / 255.0;"
+"""VTK's early-termination constant, as its shader composer writes it (VTK 9.3 to 9.7)."""
+
+NO_TERMINATION = "const float g_opacityThreshold = 2.0;"
+
+BLEND_MODES = {"dvr": "SetBlendModeToComposite", "mip": "SetBlendModeToMaximumIntensity",
+               "iso": "SetBlendModeToIsoSurface"}
+
+
+def table_width(transfer_function):
+    """The lookup-texture width VTK picks for :func:`.common.dense_functions`: a power of two, >= 1024."""
+    return max(MIN_TABLE_WIDTH, 1 << (transfer_function.size - 1).bit_length())
+
+
+class VtkGpuRenderer(common.VtkRenderer):
+    """VTK's OpenGL GPU ray caster (``vtkOpenGLGPUVolumeRayCastMapper``), offscreen through EGL.
+
+    Parameters
+    ----------
+    step_factor : float, optional
+        ``SampleDistance`` as a fraction of the smallest voxel edge (default 0.25, the
+        reference's default); in object space for one volume, in world space for several.
+    early_termination : bool, optional
+        Keep VTK's early ray termination at opacity ``1 − 1/255`` (default ``True``, VTK as
+        used). ``False`` disables it through a shader replacement, for accuracy runs.
+
+    Notes
+    -----
+    See the module notes for how the scene maps onto VTK, what differs from the reference,
+    and the timing stages.
+    """
+
+    name = "vtk-gpu"
+    description = ("VTK vtkOpenGLGPUVolumeRayCastMapper (offscreen EGL): cell-data textures, "
+                   "post-classified, early termination at 1 - 1/255 unless disabled")
+    capabilities = Capabilities(
+        projections=frozenset({"orthographic", "perspective"}),
+        modes=frozenset({"dvr", "mip", "iso"}),
+        shading=frozenset({"none", "phong"}),
+        max_volumes=MAX_VOLUMES,
+        gradient_opacity=True,
+        transforms=True,
+        anisotropic_spacing=True,
+        meshes=False,
+        lenses=False,
+        camera_inside_volume=True,
+        reasons={
+            "max_volumes": f"VTK's vtkMultiVolume binds up to four textures per volume: {MAX_VOLUMES} volumes "
+                           "fit the 32 fragment-shader texture units of common drivers",
+            "meshes": "the backend renders volumes only (VTK's polygon mappers are not wired in)",
+            "lenses": "VTK's GPU mapper has no lens volumes",
+        },
+    )
+    quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
+    """Sample distance from one voxel to the reference's quarter voxel."""
+
+    def __init__(self, *, step_factor=0.25, early_termination=True):
+        self.step_factor = check_scalar(step_factor, name="vtk-gpu option step_factor", low=0, low_open=True)
+        if not isinstance(early_termination, bool):
+            raise InputError(f"vtk-gpu option early_termination: expected True or False, got {early_termination!r}")
+        self.early_termination = early_termination
+        self._open()
+
+    @property
+    def options(self):
+        """Options as given, plus ``effective_step``: the ``SampleDistance`` of the last render."""
+        return {"step_factor": self.step_factor, "early_termination": self.early_termination,
+                "effective_step": self._last_step}
+
+    def environment(self):
+        return {**super().environment(), "vtk_mapper": "vtkOpenGLGPUVolumeRayCastMapper"}
+
+    def check(self, scene):
+        """Also refuse what the capabilities cannot express: several volumes outside ``dvr``, or
+        lit by another light than the headlight."""
+        super().check(scene)
+        if len(scene.volumes) > 1:
+            if scene.mode != "dvr":
+                raise UnsupportedFeatureError(
+                    self.name, f"{len(scene.volumes)} volumes in mode {scene.mode!r}",
+                    "VTK's multi-volume rendering (vtkMultiVolume) composites only (dvr)")
+            if scene.shading.model == "phong" and not common.is_headlight(scene.shading):
+                raise UnsupportedFeatureError(
+                    self.name, f"{len(scene.volumes)} volumes lit from {scene.shading.light_direction}",
+                    "VTK's multi-volume shader shades with its headlight only")
+
+    # ------------------------------------------------------------------------------------------
+    def _key(self, scene):
+        """Everything that needs new VTK objects or a new shader (not the camera's pose).
+
+        Volumes and classifications compare by identity (they are immutable), and the key holds
+        them, so an identity cannot be reused by another object while the key lives.
+        """
+        instances = tuple((i.volume, i.transfer_function, i.gradient_opacity, i.isovalue, i.transform.tobytes())
+                          for i in scene.volumes)
+        if len(scene.volumes) == 1:
+            step = self.step_factor * scene.volumes[0].volume.min_spacing
+        else:
+            step = self.step_factor * common.min_world_voxel_size(scene)
+        return (instances, scene.mode, scene.shading, scene.camera.projection, scene.width, scene.height, step)
+
+    def _build(self, scene, key):
+        modules = common.vtk_modules()
+        step = key[-1]
+        mapper = modules.vtkOpenGLGPUVolumeRayCastMapper()
+        mapper.SetAutoAdjustSampleDistances(0)
+        mapper.SetLockSampleDistanceToInputSpacing(0)
+        mapper.SetImageSampleDistance(1.0)
+        mapper.SetUseJittering(0)
+        mapper.SetSampleDistance(step)
+        getattr(mapper, BLEND_MODES[scene.mode])()
+        any_gradient = scene.mode == "dvr" and any(i.gradient_opacity is not None for i in scene.volumes)
+        images = {}
+        volumes = []
+        for port, instance in enumerate(scene.volumes):
+            image, _, (lo, hi) = self._image(instance.volume, images)
+            mapper.SetInputDataObject(port, image)
+            volume = modules.vtkVolume()
+            volume.SetProperty(self._property(instance, scene, lo, hi, any_gradient))
+            volume.SetUserMatrix(common.vtk_matrix(instance.transform))
+            volumes.append(volume)
+        if len(volumes) == 1:
+            prop3d = volumes[0]
+        else:
+            prop3d = modules.vtkMultiVolume()
+            for port, volume in enumerate(volumes):
+                prop3d.SetVolume(volume, port)
+        prop3d.SetMapper(mapper)
+        if not self.early_termination:
+            prop3d.GetShaderProperty().AddFragmentShaderReplacement(TERMINATION, False, NO_TERMINATION, False)
+        return common.Pipeline(key, prop3d, mapper, step, images, volumes)
+
+    def _property(self, instance, scene, lo, hi, any_gradient):
+        transfer_function = instance.transfer_function
+        colour, opacity = common.dense_functions(transfer_function, lo, hi, table_width(transfer_function))
+        gradient = None
+        if scene.mode == "iso":
+            # VTK composites the hit with the opacity table at the isovalue; ours is opaque.
+            opacity = common.constant_function(1.0)
+        elif any_gradient:  # dvr only; all inputs or none (module notes), g = 1 where a volume has none
+            gradient = (common.constant_function(1.0) if instance.gradient_opacity is None else
+                        common.gradient_function(instance.gradient_opacity, instance.reference_step,
+                                                 instance.volume.spacing))
+        prop = common.volume_property(colour=colour, opacity=opacity, unit_distance=instance.reference_step,
+                                      shading=scene.shading if scene.mode != "mip" else None, gradient=gradient)
+        if scene.mode == "iso":
+            prop.GetIsoSurfaceValues().SetValue(0, instance.isovalue)
+        return prop
+
+    def _render(self, scene):
+        if scene.mode == "iso":
+            for instance in scene.volumes:
+                if instance.isovalue is None:
+                    raise InputError(f"volume instance {instance.name!r}: iso mode needs an isovalue; "
+                                     "set VolumeInstance.isovalue")
+        headlight = common.is_headlight(scene.shading)
+        orthographic = scene.camera.projection == "orthographic"
+        pipeline, image, timings = self._frame(scene, headlight=headlight,
+                                               eye_factor=FAR_EYE if headlight and orthographic else 1.0)
+        counters = {"pixels": scene.width * scene.height,
+                    "voxels": sum(int(np.prod(i.volume.shape_xyz)) for i in scene.volumes),
+                    "volumes": len(scene.volumes)}
+        if scene.shading.model == "none" or scene.mode == "mip":
+            light = None
+        elif headlight:
+            light = "VTK headlight, " + ("eye moved out: directional" if orthographic else "a point light at the eye")
+        else:
+            light = "directional camera light (VTK's multi-light path: ambient not tinted by the colour)"
+        info = {
+            "step": pipeline.step,
+            "step_space": "object" if len(scene.volumes) == 1 else "world (the multi-volume bounding box)",
+            "early_termination": 1 - 1 / 255 if self.early_termination else None,
+            "data_layout": "cell data on an (n+1)-point grid: box and clamp-to-edge as ours",
+            "sampling": "entry + k*step for k >= 1, last partial step dropped (ours: cell midpoints)",
+            "light": light,
+            "specular": "Phong reflection vector (ours: Blinn-Phong half vector)",
+            "readback": "float32 framebuffer-pass texture, premultiplied RGBA",
+            "timing": "wall clock around Render() + glFinish",
+        }
+        return RenderResult(image=image, timings=timings, counters=counters, info=info)
