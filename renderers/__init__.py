@@ -21,6 +21,8 @@ BACKENDS = {
     "volpack": "renderers.volpack.renderer:VolPackRenderer",
     "vtk-gpu": "renderers.vtk.gpu:VtkGpuRenderer",
     "vtk-cpu": "renderers.vtk.cpu:VtkCpuRenderer",
+    "gl-raycast": "renderers.gl.raycast:GLRaycastRenderer",
+    "gl-slicer": "renderers.gl.slicer:GLSlicerRenderer",
 }
 
 

@@ -171,8 +171,8 @@ class Table1(Experiment):
             Claim("rcb-over-sbvr-head", "RC-b over slicing on the head at least the paper's 3.3× (23.4 / 7.1 fps, "
                   "\"up to a factor of 3\")", f"SBVR / RC-b ≥ {format_number(HEAD_RCB_OVER_SBVR)} on the head",
                   lambda df: _gain(df, "sbvr", "rc-b", ("head", "mrihead"), HEAD_RCB_OVER_SBVR)),
-            Claim("accuracy", "Every GL method renders the reference's image (same step and shading)",
-                  "PSNR ≥ 40 dB against the reference (every method, data set and view)", _accuracy),
+            Claim("accuracy", "The paper's four methods render the reference's image (\"the same image quality\")",
+                  "PSNR ≥ 40 dB against the reference (SBVR, RC, RC-a, RC-b; every data set and view)", _accuracy),
             Claim("ess-lossless", "Empty-space skipping is conservative: RC-b's image is RC-a's",
                   "PSNR(RC-b, RC-a) ≥ 60 dB (every data set and view)", _ess_lossless),
             Claim("ert-bound", "Early termination changes a pixel by at most what the opacity threshold leaves",
@@ -277,8 +277,12 @@ def _rc_versus_sbvr(df):
                        ", ".join(f"{s}: RC at {as_ratio(1 / v)} of SBVR's speed" for s, v in values.items()))
 
 
+PAPER_METHODS = ("sbvr", "rc", "rc-a", "rc-b")
+"""Table 1's methods; the single-pass caster (ours) is reported beside them, not judged with them."""
+
+
 def _accuracy(df):
-    tests = df[text_column(df, "role") == "test"]
+    tests = df[(text_column(df, "role") == "test") & text_column(df, "config").isin(PAPER_METHODS)]
     psnr = numeric(tests, "psnr")
     if psnr.notna().sum() == 0:
         raise ValueError("no PSNR against the reference")

@@ -1,0 +1,690 @@
+"""GPU ray casting after Krüger & Westermann 2003: the ``gl-raycast`` backend (OpenGL 4.3, moderngl).
+
+Variants (option ``variant``; note 000 §2.3–2.5, §4):
+
+* ``rc``: the multi-pass caster without acceleration. Two setup passes — the box's front faces
+  write each pixel's entry point into ``TMP``; its back faces read it and write ``DIR``
+  (texture-space direction per world unit, ray length) and ``START`` — then ⌈K/M⌉ main passes
+  (``K`` the longest ray in steps, ``M = samples_per_pass``) each composite ``M`` samples of
+  every ray front to back into the float target ``RES``.
+* ``rc-a``: + early ray termination. After every main pass but the last, an intermediate pass
+  writes ``gl_FragDepth = 1`` where the ray is finished (``RES.a > opaque_threshold``, or its
+  next segment starts past its end) and 0 elsewhere; main passes run with the depth test
+  ``GREATER``, no depth writes and ``layout(early_fragment_tests)``, so the fragments of finished
+  rays are dropped before their shader runs.
+* ``rc-b``: + empty-space skipping. The intermediate pass also walks the blocks of a min–max grid
+  (``block_size³`` voxels, one-voxel apron) under the ray's *next* segment and writes 1 where
+  the CT(min, max) table (rebuilt when the transfer function changes) calls all of them empty
+  (in ``iso`` mode: where no block's range reaches across the isovalue from the ray's entry
+  state). Rays re-enter the depth test with 0 as soon as a segment is not empty.
+* ``single-pass``: the modern caster (not in the paper): one draw, the ray's span by a slab
+  test in the shader, a loop over its samples that stops at the end or at ``opaque_threshold``.
+
+Sampling is the reference renderer's (:mod:`renderers.reference.raycast`): the ray from its
+box entry (clipped to ``t >= 0``) is cut into cells of the world step ``Δ = step_factor ×`` the
+smallest world voxel edge; a whole cell samples at its centre with opacity corrected for ``Δ``,
+the last, partial cell at the midpoint of its part with opacity corrected for that length, so
+path lengths count exactly. The trilinear sample, the classification, the correction and the
+shading are the shared GLSL of :mod:`renderers.gl.glsl`.
+
+Modes
+-----
+* ``dvr``: front-to-back emission–absorption, premultiplied.
+* ``iso`` (the paper's Sec. 2.2): within each main pass the ``M`` samples, at the cell ends
+  ``min((k + 1)Δ, L)``, are visited back to front and the last crossing kept — the nearest one
+  of the segment. A crossing is a change of ``s < isovalue`` from its state at the box entry (the
+  reference's definition). The hit is then refined by ``iso_refine`` bisection steps inside its
+  cell (the paper takes the sample itself), shaded once (gradient texture, Blinn–Phong) and
+  written with opacity 1, which ends the ray at the next intermediate pass.
+* ``mip``: passes keep the largest sampled scalar (cell samples plus both ends of the ray) with
+  ``GL_MAX`` blending; a resolve pass classifies it (no correction, no shading, as the reference).
+  Only ray exits end rays early: a block of transparent voxels can still hold the maximum, so
+  ``rc-b`` skips no empty space in ``mip``.
+
+Implementation gaps of the paper, decided here (note 000 §2.3)
+--------------------------------------------------------------
+1. **Depth functions.** Main passes: ``GL_GREATER``, depth writes off, early fragment tests.
+   Intermediate passes: ``GL_ALWAYS`` with depth writes, so a pixel culled after one segment
+   is re-enabled (z = 0) when a later segment is not empty. The depth buffer is cleared to 0
+   before the first main pass; the setup passes run with the depth test off and leave it alone.
+2. **Read-modify-write of RES.** Hardware blending into the RGBA32F target:
+   ``glBlendFuncSeparate(ONE_MINUS_DST_ALPHA, ONE, ONE_MINUS_DST_ALPHA, ONE)`` with each pass
+   writing its segment's premultiplied colour and opacity (the under operator); the intermediate
+   pass reads RES as a texture through a depth-only framebuffer (no feedback loop).
+3. **Ray exit.** The paper writes α = 1 into RES when a ray leaves the volume so that the
+   opacity test stops it; that would put α = 1 in the image. Here RES keeps the true opacity and
+   the intermediate pass compares the next segment's start with the ray length in ``DIR.a``
+   itself — the same culling.
+4. **Opacity correction, gradients, lighting** (unspecified in the paper): the conventions' (see
+   above); gradients from a precomputed texture (RGB16F central differences, as the paper's
+   gradient texture).
+5. **Camera inside the volume.** Where the near plane clips the front faces no entry point is
+   written; the back-face pass then starts the ray at its analytic box entry clipped to
+   ``t >= 0`` (the eye). Main and intermediate passes rasterise the *back* faces, which cover
+   every pixel whose ray meets the box in front of the eye (the paper draws front faces, the
+   same pixels when the eye is outside).
+6. **Which segment the empty-space test checks**: the upcoming one (it gates the next main pass),
+   walked with a 3-D DDA over all blocks its sample positions lie in — exact, where sampling the
+   grid every ``8·Δ`` (the paper's coarse step, OCR-uncertain) can step over a block the segment
+   clips at a corner. An intermediate pass follows every main pass except the last.
+7. **Shader work per pass.** As in the paper, every main pass computes all ``M`` samples of every
+   fragment that passes the depth test (samples past the ray's end add nothing), so the
+   ``samples`` counter is ``M ×`` the fragments of the main passes.
+
+Timing and counters
+-------------------
+Stages (seconds, :mod:`renderers.gl.timing`): ``setup`` (the two setup passes and the clears),
+``main``, ``intermediate`` and ``resolve`` (each summed over its passes), ``readback`` and
+``total`` (wall clock of the frame, preparation excluded; with ``timing="finish"`` it includes
+waiting for each pass, which on llvmpipe also stops it from rasterising several passes tile by
+tile in one go: measured +10–20 % on 40–80-pass frames). Preparation, only in frames that
+build something: ``upload`` (every transfer), ``gradients``, ``minmax``, ``ct_table``.
+Counters: ``rays`` (pixels whose ray meets the box), ``fragments_main`` (fragments that passed the
+depth test in the main passes, from ``GL_SAMPLES_PASSED``), ``fragments_intermediate``,
+``fragments_culled`` (main-pass fragments dropped by early-z), ``passes_main``,
+``passes_intermediate`` and ``samples``. ``info["fragments_per_main_pass"]`` lists the main
+passes' counts.
+"""
+
+import time
+
+import numpy as np
+
+from core.errors import InputError
+from core.validation import check_choice, check_positive_int, check_scalar
+from renderers.base import Capabilities, RenderResult
+from renderers.gl import context, emptyspace, glsl
+from renderers.gl.base import SCREEN_TRIANGLE, GLRenderer, set_uniforms
+from renderers.gl.view import SLIVER, cube_triangles, make_view, ray_lengths
+
+VARIANTS = ("rc", "rc-a", "rc-b", "single-pass")
+MULTI_PASS = ("rc", "rc-a", "rc-b")
+
+# Texture units, fixed for every program of the backend.
+UNITS = {"u_volume": 0, "u_tf": 1, "u_gradient": 2, "u_entry": 3, "u_dir": 4, "u_start": 5, "u_res": 6,
+         "u_blocks": 7, "u_ct": 8}
+
+ENTRY_FRAGMENT = """
+in vec3 v_tex;
+out vec4 o_entry;
+void main() {
+    o_entry = vec4(v_tex, 1.0);   // front face: where the ray enters (a = 1: written)
+}
+"""
+
+DIRECTION_FRAGMENT = """
+uniform sampler2D u_entry;
+in vec3 v_tex;
+layout(location = 0) out vec4 o_dir;
+layout(location = 1) out vec4 o_start;
+void main() {
+    vec4 entry = texelFetch(u_entry, ivec2(gl_FragCoord.xy), 0);
+    vec3 start = entry.xyz;
+    if (entry.a == 0.0) {
+        // The near plane clipped the front face: start at the box entry clipped to t >= 0.
+        vec3 origin, direction;
+        pixel_ray(gl_FragCoord.xy, origin, direction);
+        vec3 o = (u_world_to_tex * vec4(origin, 1.0)).xyz;
+        vec3 d = mat3(u_world_to_tex) * direction;
+        vec2 span = slab(o, d);
+        start = o + min(span.x, span.y) * d;
+    }
+    vec3 path = v_tex - start;                     // back face: where the ray leaves
+    float len = length(u_tex_to_world * path);     // world length of the ray in the box
+    o_dir = len > 0.0 ? vec4(path / len, len) : vec4(0.0);
+    o_start = vec4(start, 1.0);
+}
+"""
+
+SAMPLING = """
+uniform float u_sliver;          // a partial last cell this short (world) is not sampled
+
+// Ray parameter of cell k's sample; `ratio` = its object-space length over the reference step
+// (0: no sample), `full` that of a whole cell.
+float cell_sample(int k, float len, float full, out float ratio) {
+    float a = float(k) * u_step;
+    if (a + u_step <= len) {
+        ratio = full;
+        return a + 0.5 * u_step;
+    }
+    float part = len - a;
+    ratio = part > u_sliver ? full * part / u_step : 0.0;
+    return 0.5 * (a + len);
+}
+
+#ifdef MODE_DVR
+void composite_sample(vec3 start, vec3 dir, float t, float ratio, vec3 ray_dir, inout vec4 acc) {
+    vec3 p = start + t * dir;
+    vec4 c = classify(scalar_at(p));
+    float alpha = ratio > 0.0 ? correct_opacity(c.a, ratio) : 0.0;
+    if (alpha > 0.0) {
+        vec3 rgb = c.rgb;
+#ifdef PHONG
+        rgb = shade(rgb, p, ray_dir);
+#endif
+        acc += (1.0 - acc.a) * vec4(alpha * rgb, alpha);
+    }
+}
+#endif
+
+#ifdef MODE_ISO
+uniform float u_iso;
+uniform int u_refine;
+
+bool crossed(vec3 start, vec3 dir, float t, bool below) {
+    return (scalar_at(start + t * dir) < u_iso) != below;
+}
+
+// The surface inside [lo, hi] (lo not crossed, hi crossed), refined and shaded; opacity 1.
+vec4 iso_hit(vec3 start, vec3 dir, float lo, float hi, bool below, vec3 ray_dir) {
+    for (int j = 0; j < u_refine; j++) {
+        float mid = 0.5 * (lo + hi);
+        if (crossed(start, dir, mid, below)) {
+            hi = mid;
+        } else {
+            lo = mid;
+        }
+    }
+    vec3 rgb = classify(u_iso).rgb;
+#ifdef PHONG
+    rgb = shade(rgb, start + 0.5 * (lo + hi) * dir, ray_dir);
+#endif
+    return vec4(rgb, 1.0);
+}
+#endif
+"""
+
+MAIN_FRAGMENT = """
+layout(early_fragment_tests) in;
+uniform sampler2D u_start;
+uniform sampler2D u_dir;
+uniform int u_first;             // first cell of this pass
+uniform int u_samples;           // M
+out vec4 o_color;
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec3 start = texelFetch(u_start, px, 0).xyz;
+    vec4 dir = texelFetch(u_dir, px, 0);
+    vec3 origin, ray_dir;
+    pixel_ray(gl_FragCoord.xy, origin, ray_dir);
+#if defined(MODE_DVR)
+    float full = length(dir.xyz * u_extent) * u_step / u_ref_step;
+    vec4 acc = vec4(0.0);
+    for (int i = 0; i < u_samples; i++) {
+        float ratio;
+        float t = cell_sample(u_first + i, dir.a, full, ratio);
+        composite_sample(start, dir.xyz, t, ratio, ray_dir, acc);
+    }
+    o_color = acc;                                  // blended under RES
+#elif defined(MODE_MIP)
+    float best = u_first == 0 ? scalar_at(start) : 0.0;
+    for (int i = 0; i < u_samples; i++) {
+        float ratio;
+        float t = cell_sample(u_first + i, dir.a, 1.0, ratio);
+        float s = scalar_at(start + t * dir.xyz);
+        best = ratio > 0.0 ? max(best, s) : best;
+    }
+    float end = float(u_first + u_samples) * u_step;
+    if (end >= dir.a - u_sliver && float(u_first) * u_step < dir.a) {
+        best = max(best, scalar_at(start + dir.a * dir.xyz));   // the exit face
+    }
+    o_color = vec4(best, 1.0, 0.0, 0.0);            // GL_MAX blending
+#else
+    bool below = scalar_at(start) < u_iso;
+    int hit = -1;
+    for (int i = u_samples - 1; i >= 0; i--) {      // back to front: the last crossing is the nearest
+        float a = float(u_first + i) * u_step;
+        bool c = crossed(start, dir.xyz, min(a + u_step, dir.a), below);
+        hit = (c && a < dir.a - u_sliver) ? i : hit;
+    }
+    o_color = vec4(0.0);
+    if (hit >= 0) {
+        float lo = float(u_first + hit) * u_step;
+        o_color = iso_hit(start, dir.xyz, lo, min(lo + u_step, dir.a), below, ray_dir);
+    }
+#endif
+}
+"""
+
+INTERMEDIATE_FRAGMENT = """
+uniform sampler2D u_res;
+uniform sampler2D u_dir;
+uniform sampler2D u_start;
+uniform int u_next_first;        // first cell of the next main pass
+uniform int u_samples;
+uniform float u_threshold;       // early ray termination: RES.a above it
+uniform float u_sliver;
+#ifdef SKIP_EMPTY
+uniform usampler3D u_blocks;     // (min, max) levels per block, apron included
+uniform usampler2D u_ct;         // CT[max][min] != 0: some visible scalar in [min, max]
+uniform vec3 u_block_scale;      // texture coordinate -> block coordinate
+uniform ivec3 u_block_count;
+uniform float u_top_level;       // the level of scalar 1 in the block ranges
+#ifdef MODE_ISO
+uniform float u_iso;
+#endif
+
+bool block_visible(ivec3 cell, bool below) {
+    uvec2 range = texelFetch(u_blocks, clamp(cell, ivec3(0), u_block_count - 1), 0).rg;
+#ifdef MODE_ISO
+    // A crossing needs a value on the other side of the isovalue from the entry state.
+    return below ? float(range.y) >= u_iso * u_top_level - 1e-3 : float(range.x) <= u_iso * u_top_level + 1e-3;
+#else
+    return texelFetch(u_ct, ivec2(range.x, range.y), 0).r != 0u;
+#endif
+}
+
+// Whether every block the segment [pa, pb] (texture space) passes through is empty (3-D DDA).
+bool segment_empty(vec3 pa, vec3 pb, bool below) {
+    vec3 a = pa * u_block_scale;
+    vec3 d = pb * u_block_scale - a;
+    ivec3 cell = ivec3(floor(a));
+    ivec3 stride = ivec3(sign(d));
+    vec3 inv = 1.0 / max(abs(d), vec3(1e-20));
+    vec3 frac = a - floor(a);
+    vec3 next = mix(1.0 - frac, frac, lessThan(d, vec3(0.0))) * inv;
+    next = mix(next, vec3(1e30), equal(d, vec3(0.0)));
+    int bound = int(abs(d.x)) + int(abs(d.y)) + int(abs(d.z)) + 4;
+    for (int i = 0; i < bound; i++) {
+        if (block_visible(cell, below)) {
+            return false;
+        }
+        float t = min(next.x, min(next.y, next.z));
+        if (t > 1.0) {
+            return true;
+        }
+        if (next.x == t) {
+            cell.x += stride.x;
+            next.x += inv.x;
+        } else if (next.y == t) {
+            cell.y += stride.y;
+            next.y += inv.y;
+        } else {
+            cell.z += stride.z;
+            next.z += inv.z;
+        }
+    }
+    return false;   // more blocks than the segment can cross (rounding): not empty
+}
+#endif
+
+void main() {
+    ivec2 px = ivec2(gl_FragCoord.xy);
+    vec4 dir = texelFetch(u_dir, px, 0);
+    float a = float(u_next_first) * u_step;
+    bool done = texelFetch(u_res, px, 0).a > u_threshold || a >= dir.a - u_sliver;
+#ifdef SKIP_EMPTY
+    if (!done) {
+        vec3 start = texelFetch(u_start, px, 0).xyz;
+        float b = min(a + float(u_samples) * u_step, dir.a);
+        bool below = true;
+#ifdef MODE_ISO
+        below = scalar_at(start) < u_iso;
+#endif
+        done = segment_empty(start + a * dir.xyz, start + b * dir.xyz, below);
+    }
+#endif
+    gl_FragDepth = done ? 1.0 : 0.0;
+}
+"""
+
+SINGLE_PASS_FRAGMENT = """
+layout(std430, binding = 0) buffer Counters {
+    uint samples_taken;
+};
+uniform float u_threshold;
+out vec4 o_color;
+
+void main() {
+    vec3 origin, ray_dir;
+    pixel_ray(gl_FragCoord.xy, origin, ray_dir);
+    vec3 o = (u_world_to_tex * vec4(origin, 1.0)).xyz;
+    vec3 d = mat3(u_world_to_tex) * ray_dir;       // texture displacement per world unit
+    vec2 span = slab(o, d);
+    float len = max(span.y - span.x, 0.0);
+    vec3 start = o + span.x * d;
+    int cells = len > u_sliver ? int(ceil((len - u_sliver) / u_step)) : 0;
+    uint taken = 0u;
+#if defined(MODE_DVR)
+    float full = length(d * u_extent) * u_step / u_ref_step;
+    vec4 acc = vec4(0.0);
+    for (int k = 0; k < cells && acc.a <= u_threshold; k++) {
+        float ratio;
+        float t = cell_sample(k, len, full, ratio);
+        composite_sample(start, d, t, ratio, ray_dir, acc);
+        taken++;
+    }
+    o_color = acc;
+#elif defined(MODE_MIP)
+    float best = max(scalar_at(start), scalar_at(start + len * d));
+    for (int k = 0; k < cells; k++) {
+        float ratio;
+        best = max(best, scalar_at(start + cell_sample(k, len, 1.0, ratio) * d));
+        taken++;
+    }
+    o_color = vec4(best, len > 0.0 ? 1.0 : 0.0, 0.0, 0.0);
+#else
+    bool below = scalar_at(start) < u_iso;
+    o_color = vec4(0.0);
+    for (int k = 0; k < cells; k++) {
+        float t = min(float(k + 1) * u_step, len);
+        taken++;
+        if (crossed(start, d, t, below)) {
+            o_color = iso_hit(start, d, float(k) * u_step, t, below, ray_dir);
+            break;
+        }
+    }
+#endif
+    atomicAdd(samples_taken, taken);
+}
+"""
+
+
+class GLRaycastRenderer(GLRenderer):
+    """Multi-pass GPU ray caster (Krüger & Westermann 2003) and a single-pass one, OpenGL 4.3.
+
+    Parameters
+    ----------
+    variant : {"rc", "rc-a", "rc-b", "single-pass"}
+        ``rc``: plain multi-pass; ``rc-a``: + early ray termination; ``rc-b``: + empty-space
+        skipping (the paper's fastest); ``single-pass``: one loop-with-break draw (extension).
+    step_factor : float
+        World step as a fraction of the smallest world-space voxel edge (default 0.5).
+    samples_per_pass : int
+        ``M``, samples per ray per main pass (paper: 8).
+    opaque_threshold : float
+        ``T`` in (0, 1]: rays whose opacity exceeds it stop (``rc-a``, ``rc-b``, ``single-pass``;
+        1 never stops a ray). Default 0.95.
+    block_size : int
+        Edge of the min–max grid's blocks in voxels (paper: 8; ``rc-b``).
+    min_opacity : float
+        Transfer-function opacities at or below it count as empty for skipping (``rc-b``); the
+        paper's 0 makes skipping exact.
+    iso_refine : int
+        Bisection steps refining an iso hit inside its cell (0: the sample itself, as the paper).
+    timing : {"auto", "query", "finish"}
+        Pass timing (:mod:`renderers.gl.timing`).
+    """
+
+    name = "gl-raycast"
+    description = ("OpenGL multi-pass GPU ray caster (Krüger & Westermann 2003): setup passes, M samples per main "
+                   "pass, early ray termination and empty-space skipping by early-z; or single-pass")
+    capabilities = Capabilities(
+        projections=frozenset({"orthographic", "perspective"}),
+        modes=frozenset({"dvr", "mip", "iso"}),
+        shading=frozenset({"none", "phong"}),
+        max_volumes=1,
+        gradient_opacity=False,
+        transforms=True,
+        anisotropic_spacing=True,
+        meshes=False,
+        lenses=False,
+        camera_inside_volume=True,
+        reasons={
+            "max_volumes": "the ray caster's setup passes rasterise one volume's box (one entry and exit per pixel)",
+            "gradient_opacity": "gradient-magnitude opacity modulation is not in the shaders (the paper classifies "
+                                "by scalar only)",
+            "meshes": "no polygon pass (added with the Kainz 2009 issue)",
+            "lenses": "lens volumes are added with the Ropinski 2005 issue",
+        },
+    )
+    quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
+    """Step sizes from coarse to fine for the default variant (``rc-b``)."""
+
+    def __init__(self, *, variant="rc-b", step_factor=0.5, samples_per_pass=8, opaque_threshold=0.95, block_size=8,
+                 min_opacity=0.0, iso_refine=6, timing="auto"):
+        super().__init__(step_factor=step_factor, timing=timing)
+        self.variant = check_choice(variant, VARIANTS, name="gl-raycast option variant")
+        self.samples_per_pass = check_positive_int(samples_per_pass, name="gl-raycast option samples_per_pass")
+        self.opaque_threshold = check_scalar(opaque_threshold, name="gl-raycast option opaque_threshold", low=0,
+                                             high=1, low_open=True)
+        self.block_size = check_positive_int(block_size, name="gl-raycast option block_size")
+        self.min_opacity = check_scalar(min_opacity, name="gl-raycast option min_opacity", low=0, high=1,
+                                        high_open=True)
+        self.iso_refine = check_positive_int(iso_refine, name="gl-raycast option iso_refine", minimum=0)
+        if self.iso_refine > 24:
+            raise InputError(f"gl-raycast option iso_refine: {iso_refine} bisection steps refine below float32 "
+                             "resolution; use at most 24")
+        self._vaos = {}
+        self._ray_key = None
+        self._ray_max = 0.0
+
+    @property
+    def options(self):
+        return {"variant": self.variant, "step_factor": self.step_factor, "samples_per_pass": self.samples_per_pass,
+                "opaque_threshold": self.opaque_threshold, "block_size": self.block_size,
+                "min_opacity": self.min_opacity, "iso_refine": self.iso_refine, "timing": self.timing,
+                "effective_step": self._last_step, "effective_timing": self._effective_timing}
+
+    def _forget(self):
+        super()._forget()
+        self._vaos = {}
+
+    def _release(self):
+        for vao in self._vaos.values():
+            vao.release()
+        super()._release()
+
+    # -----------------------------------------------------------------------------------------
+
+    def _programs(self, ctx, mode, phong):
+        """The programs of this variant for ``mode`` and shading (compiled once per process)."""
+        main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if self.variant in MULTI_PASS else SINGLE_PASS_FRAGMENT,
+                                    phong=phong, mode=mode)
+        programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
+        if self.variant in MULTI_PASS:
+            programs["entry"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(ENTRY_FRAGMENT))
+            programs["direction"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(DIRECTION_FRAGMENT))
+        if self.variant in ("rc-a", "rc-b"):
+            skip = self.variant == "rc-b" and mode != "mip"
+            source = glsl.fragment_source(INTERMEDIATE_FRAGMENT, mode=mode, defines=["SKIP_EMPTY"] if skip else [])
+            programs["intermediate"] = context.program(ctx, glsl.CUBE_VERTEX, source)
+        if mode == "mip":
+            programs["resolve"] = context.program(ctx, glsl.SCREEN_VERTEX, glsl.fragment_source(glsl.MIP_RESOLVE))
+        return programs
+
+    def _vao(self, ctx, program, screen=False):
+        vao = self._vaos.get(program)
+        if vao is None:
+            if screen:
+                vao = ctx.vertex_array(program, [(self._buffer("screen", SCREEN_TRIANGLE), "2f", "in_position")])
+            else:
+                vao = ctx.vertex_array(program, [(self._buffer("cube", cube_triangles()), "3f", "in_tex")])
+            self._vaos[program] = vao
+        return vao
+
+    def _frame_targets(self, width, height):
+        def build():
+            size = (width, height)
+            entry, direction, start, res, out = (self._float_texture(size) for _ in range(5))
+            depth = self._ctx.depth_texture(size)
+            targets = {"entry": entry, "direction": direction, "start": start, "res": res, "out": out,
+                       "depth": depth,
+                       "entry_fbo": self._ctx.framebuffer([entry]),
+                       "direction_fbo": self._ctx.framebuffer([direction, start]),
+                       "main_fbo": self._ctx.framebuffer([res], depth),
+                       "depth_fbo": self._ctx.framebuffer([], depth),
+                       "out_fbo": self._ctx.framebuffer([out])}
+            targets["main_fbo"].depth_mask = False
+            return targets
+
+        return self._target((width, height), build)
+
+    def _longest_ray(self, scene):
+        """World length of the longest pixel ray inside the box (cached for the last view)."""
+        instance = scene.volumes[0]
+        key = (scene.camera, scene.width, scene.height, instance.transform.tobytes(), instance.volume.extent)
+        if key != self._ray_key:
+            self._ray_key, self._ray_max = key, float(ray_lengths(scene).max())
+        return self._ray_max
+
+    def _render(self, scene):
+        import moderngl
+
+        instance = scene.volumes[0]
+        mode = scene.mode
+        if mode == "iso" and instance.isovalue is None:
+            raise InputError(f"volume instance {instance.name!r}: iso mode needs an isovalue; "
+                             "set VolumeInstance.isovalue")
+        phong = scene.shading.model == "phong" and mode != "mip"
+        skip = self.variant == "rc-b" and mode != "mip"
+        ctx, prep = self._begin_frame(scene)
+        cache = self._cache
+        scalars = cache.scalars(instance.volume, prep)
+        textures = {"u_volume": scalars.texture,
+                    "u_tf": cache.transfer_function(instance.transfer_function, prep)}
+        if phong:
+            textures["u_gradient"] = cache.gradients(instance.volume, prep)
+        block_count = (1, 1, 1)
+        if skip:
+            textures["u_blocks"], block_count = cache.blocks(instance.volume, self.block_size, prep)
+            if mode == "dvr":
+                textures["u_ct"] = cache.visibility_table(instance.transfer_function, self.min_opacity, prep)
+        programs = self._programs(ctx, mode, phong)
+
+        start = time.perf_counter()
+        view = make_view(scene, self.step_factor)
+        step = view.step
+        width, height = scene.width, scene.height
+        targets = self._frame_targets(width, height)
+        textures.update(u_entry=targets["entry"], u_dir=targets["direction"], u_start=targets["start"],
+                        u_res=targets["res"])
+        nx, ny, nz = instance.volume.shape_xyz
+        uniforms = {
+            **view.uniforms, **UNITS,
+            "u_mvp": view.mvp,
+            "u_value_map": scalars.value_map,
+            "u_tf_size": instance.transfer_function.size,
+            "u_samples": self.samples_per_pass,
+            "u_sliver": SLIVER * step,
+            "u_threshold": self.opaque_threshold if mode != "mip" else 2.0,
+            "u_iso": instance.isovalue if instance.isovalue is not None else 0.0,
+            "u_refine": self.iso_refine,
+            "u_block_scale": (nx / self.block_size, ny / self.block_size, nz / self.block_size),
+            "u_block_count": block_count,
+            "u_top_level": float(emptyspace.LEVELS - 1),
+        }
+        for program in programs.values():
+            set_uniforms(program, uniforms)
+        for name, texture in textures.items():
+            texture.use(location=UNITS[name])
+        ctx.front_face = "cw" if view.mirrored else "ccw"
+
+        timer = self._timer
+        cells = int(np.ceil(max(self._longest_ray(scene) - SLIVER * step, 0.0) / step))
+        if self.variant == "single-pass":
+            passes_main, passes_intermediate = 1, 0
+            counter = self._single_pass(ctx, timer, programs, targets)
+        else:
+            counter = None
+            passes_main = -(-cells // self.samples_per_pass)
+            passes_intermediate = max(passes_main - 1, 0) if self.variant != "rc" else 0
+            self._multi_pass(ctx, timer, programs, targets, mode, passes_main, passes_intermediate)
+        output = targets["res"]
+        if mode == "mip":
+            ctx.enable_only(moderngl.NOTHING)
+            targets["res"].use(location=UNITS["u_res"])
+            targets["out_fbo"].use()
+            timer.run("resolve", self._vao(ctx, programs["resolve"], screen=True).render)
+            output = targets["out"]
+        seconds, fragments = timer.results()
+        image, readback = self._readback(output, height, width)
+        total = time.perf_counter() - start
+
+        main_counts = fragments.get("main", [])
+        # The direction pass draws every ray's back face once; so does the single pass.
+        rays = (fragments.get("setup") or main_counts or [0])[0]
+        if counter is None:
+            samples = sum(main_counts) * self.samples_per_pass  # every main-pass fragment takes M samples
+        else:
+            samples = int(np.frombuffer(counter.read(4), dtype=np.uint32)[0])
+        self._last_step = step
+        timings = {stage: seconds.get(stage, 0.0) for stage in ("setup", "main", "intermediate", "resolve")}
+        timings.update(readback=readback, total=total, **prep.timings)
+        counters = {
+            "rays": int(rays),
+            "fragments_main": int(sum(main_counts)),
+            "fragments_intermediate": int(sum(fragments.get("intermediate", []))),
+            "fragments_culled": int(passes_main * rays - sum(main_counts)) if self.variant in MULTI_PASS else 0,
+            "passes_main": passes_main,
+            "passes_intermediate": passes_intermediate,
+            "samples": samples,
+        }
+        info = {
+            "variant": self.variant,
+            "step": step,
+            "step_factor": self.step_factor,
+            "samples_per_pass": self.samples_per_pass,
+            "longest_ray_steps": cells,
+            "fragments_per_main_pass": [int(c) for c in main_counts],
+            "timing": self._timer.method,
+            "uploaded": list(prep.uploaded),
+            "scalar_format": scalars.format,
+            "empty_space_skipping": skip,
+            "shading_applied": phong,
+        }
+        return RenderResult(image=image, timings=timings, counters=counters, info=info)
+
+    def _multi_pass(self, ctx, timer, programs, targets, mode, passes_main, passes_intermediate):
+        """Setup passes, then main passes with an intermediate pass after each but the last."""
+        import moderngl
+
+        cube = {name: self._vao(ctx, program) for name, program in programs.items() if name != "resolve"}
+
+        def entry_pass():
+            targets["entry_fbo"].clear(0.0, 0.0, 0.0, 0.0)
+            targets["entry_fbo"].use()
+            ctx.cull_face = "back"
+            cube["entry"].render()
+
+        def direction_pass():
+            targets["direction_fbo"].clear(0.0, 0.0, 0.0, 0.0)
+            targets["direction_fbo"].use()
+            ctx.cull_face = "front"
+            cube["direction"].render()
+
+        def clear_targets():
+            targets["main_fbo"].clear(0.0, 0.0, 0.0, 0.0)
+            targets["depth_fbo"].clear(depth=0.0)
+
+        ctx.enable_only(moderngl.CULL_FACE)
+        timer.run("setup", entry_pass)
+        timer.run("setup", direction_pass, count=True)  # its fragments are the rays
+        timer.run("setup", clear_targets)
+        ctx.cull_face = "front"  # main and intermediate passes rasterise the back faces
+        main_state = moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE
+        for index in range(passes_main):
+            ctx.enable_only(main_state)
+            ctx.depth_func = ">"
+            if mode == "mip":
+                ctx.blend_equation = moderngl.MAX
+            else:
+                ctx.blend_equation = moderngl.FUNC_ADD
+                ctx.blend_func = (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE,
+                                  moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)
+            programs["main"]["u_first"].value = index * self.samples_per_pass
+            targets["main_fbo"].use()
+            timer.run("main", cube["main"].render, count=True)
+            if index < passes_intermediate:
+                ctx.enable_only(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+                ctx.depth_func = "1"
+                programs["intermediate"]["u_next_first"].value = (index + 1) * self.samples_per_pass
+                targets["depth_fbo"].use()
+                timer.run("intermediate", cube["intermediate"].render, count=True)
+        ctx.blend_equation = moderngl.FUNC_ADD
+
+    def _single_pass(self, ctx, timer, programs, targets):
+        """One loop-with-break draw of the back faces; returns the buffer counting its samples."""
+        import moderngl
+
+        counter = self._buffer("samples", np.zeros(1, np.float32))  # one uint 0
+        counter.bind_to_storage_buffer(0)
+        targets["main_fbo"].clear(0.0, 0.0, 0.0, 0.0)
+        ctx.enable_only(moderngl.CULL_FACE)
+        ctx.cull_face = "front"
+        targets["main_fbo"].use()
+        timer.run("main", self._vao(ctx, programs["main"]).render, count=True)
+        ctx.memory_barrier()
+        return counter
+
