@@ -60,6 +60,8 @@ import math
 import numpy as np
 from numba import njit, prange, types
 
+from renderers.base.numba_kernels import table_position
+
 MODE_DVR, MODE_MIP, MODE_ISO = 0, 1, 2
 MODE_CODES = {"dvr": MODE_DVR, "mip": MODE_MIP, "iso": MODE_ISO}
 
@@ -116,26 +118,14 @@ def _gradient(data, off, nx, ny, nz, u, v, w, sx, sy, sz):
 
 
 @njit(**_JIT)
-def _table_position(x, size):
-    """Lower entry and weight of ``x`` in [0, 1] on a table of ``size`` entries (clamped)."""
-    if x <= 0.0:
-        return 0, 0.0
-    if x >= 1.0:
-        return size - 2, 1.0
-    f = x * (size - 1)
-    i0 = min(int(math.floor(f)), size - 2)
-    return i0, f - i0
-
-
-@njit(**_JIT)
 def _tf_channel(tf, vol, size, s, channel):
-    i0, w = _table_position(s, size)
+    i0, w = table_position(s, size)
     return tf[vol, i0, channel] * (1.0 - w) + tf[vol, i0 + 1, channel] * w
 
 
 @njit(**_JIT)
 def _gradient_factor(gtab, vol, size, u):
-    i0, w = _table_position(u, size)
+    i0, w = table_position(u, size)
     return gtab[vol, i0] * (1.0 - w) + gtab[vol, i0 + 1] * w
 
 

@@ -65,6 +65,7 @@ import numpy as np
 from core.errors import InputError
 from core.validation import check_scalar
 from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.base.probes import numba_probe
 
 ROW_INTERLEAVE = 16
 """Rows are handed to threads as residue classes modulo this (see :func:`interleaved_rows`)."""
@@ -190,11 +191,7 @@ class ReferenceRenderer(Renderer):
 
     @classmethod
     def probe(cls):
-        try:
-            import numba  # noqa: F401
-        except ImportError as exc:
-            return False, f"numba cannot be imported: {exc}"
-        return True, ""
+        return numba_probe()
 
     @property
     def options(self):

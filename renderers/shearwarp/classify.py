@@ -64,6 +64,7 @@ import numpy as np
 from numba import njit, prange
 
 from core.transfer import MAX_GRADIENT
+from renderers.base.numba_kernels import table_position
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -109,18 +110,6 @@ def normal_directions():
 NORMAL_DIRECTIONS = normal_directions()
 
 
-@njit(**_JIT)
-def _table_position(x, size):
-    """Lower entry and weight of ``x`` in [0, 1] on a table of ``size`` entries (the reference's rule)."""
-    if x <= 0.0:
-        return 0, 0.0
-    if x >= 1.0:
-        return size - 2, 1.0
-    f = x * (size - 1)
-    i0 = min(int(math.floor(f)), size - 2)
-    return i0, f - i0
-
-
 @njit(parallel=True, **_JIT)
 def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, records, gradients, nontransparent):
     nz, ny, nx = s.shape
@@ -138,7 +127,7 @@ def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_
                 x0 = max(x - 1, 0)
                 x1 = min(x + 1, nx - 1)
                 value = np.float64(s[z, y, x])
-                i0, w = _table_position(value, tf_size)
+                i0, w = table_position(value, tf_size)
                 alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
                 records[z, y, x] = 0
                 if want_gradients:
@@ -152,7 +141,7 @@ def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_
                 gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
                 if g_size > 0:
                     magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
-                    j0, wg = _table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
+                    j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
                     alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
                     if not alpha > min_opacity:
                         continue

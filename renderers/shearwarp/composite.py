@@ -66,7 +66,7 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from renderers.shearwarp.classify import NO_NORMAL, NORMAL_CODES, NORMAL_DIRECTIONS
+from renderers.shearwarp.classify import NORMAL_CODES, NORMAL_DIRECTIONS
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 

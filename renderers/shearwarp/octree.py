@@ -76,7 +76,8 @@ from numba import njit, prange
 from core.errors import InputError
 from core.transfer import MAX_GRADIENT
 from core.validation import check_positive_int
-from renderers.shearwarp.classify import Encoding, _scanline_runs, _table_position, encode_normal
+from renderers.base.numba_kernels import table_position
+from renderers.shearwarp.classify import Encoding, _scanline_runs, encode_normal
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -325,9 +326,9 @@ def _interval_maxima(table, lo, hi, out):
     """Maximum of the linearly interpolated ``table`` over each ``[lo[b], hi[b]]`` (classification rule)."""
     size = table.shape[0]
     for b in range(lo.shape[0]):
-        i0, w = _table_position(lo[b], size)
+        i0, w = table_position(lo[b], size)
         best = table[i0] * (1.0 - w) + table[i0 + 1] * w
-        i0, w = _table_position(hi[b], size)
+        i0, w = table_position(hi[b], size)
         best = max(best, table[i0] * (1.0 - w) + table[i0 + 1] * w)
         first = max(int(math.floor(lo[b] * (size - 1))), 0)
         last = min(int(math.ceil(hi[b] * (size - 1))), size - 1)
@@ -465,7 +466,7 @@ def _classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opa
     """One voxel's record and gradient, the arithmetic of ``classify._classify_kernel``."""
     nz, ny, nx = s.shape
     value = np.float64(s[z, y, x])
-    i0, w = _table_position(value, alpha_table.shape[0])
+    i0, w = table_position(value, alpha_table.shape[0])
     alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
     if not alpha > min_opacity:
         return np.uint32(0), 0.0, 0.0, 0.0
@@ -481,7 +482,7 @@ def _classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opa
     g_size = gtab.shape[0]
     if g_size > 0:
         magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
-        j0, wg = _table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
+        j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
         alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
         if not alpha > min_opacity:
             return np.uint32(0), 0.0, 0.0, 0.0

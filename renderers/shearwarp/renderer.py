@@ -57,6 +57,7 @@ import numpy as np
 from core.errors import InputError
 from core.validation import check_choice, check_positive_int, check_scalar
 from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.base.probes import numba_probe
 
 SCHEDULES = ("contiguous", "round-robin", "contiguous-steal", "round-robin-steal")
 SHADING_OPTIONS = ("lut", "procedural")
@@ -272,11 +273,7 @@ class ShearWarpRenderer(Renderer):
 
     @classmethod
     def probe(cls):
-        try:
-            import numba  # noqa: F401
-        except ImportError as exc:
-            return False, f"numba cannot be imported: {exc}"
-        return True, ""
+        return numba_probe()
 
     @property
     def options(self):
