@@ -110,50 +110,66 @@ def normal_directions():
 NORMAL_DIRECTIONS = normal_directions()
 
 
+@njit(inline="always", **_JIT)  # inlined in Numba IR: no per-voxel call or array reference counting
+def central_gradient(s, z, y, x, sx, sy, sz):
+    """Object-space gradient at voxel ``(z, y, x)`` by central differences (one-sided at the faces)."""
+    nz, ny, nx = s.shape
+    x0 = max(x - 1, 0)
+    x1 = min(x + 1, nx - 1)
+    y0 = max(y - 1, 0)
+    y1 = min(y + 1, ny - 1)
+    z0 = max(z - 1, 0)
+    z1 = min(z + 1, nz - 1)
+    gx = (np.float64(s[z, y, x1]) - np.float64(s[z, y, x0])) / (2.0 * sx)
+    gy = (np.float64(s[z, y1, x]) - np.float64(s[z, y0, x])) / (2.0 * sy)
+    gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
+    return gx, gy, gz
+
+
+@njit(inline="always", **_JIT)  # inlined in Numba IR: no per-voxel call or array reference counting
+def classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity):
+    """One voxel's ``(record, gx, gy, gz, visible)``: record and gradient 0 where it is transparent.
+
+    ``visible`` says the opacity passed ``min_opacity`` (a faint voxel's record can still be 0 once
+    its opacity is rounded to 8 bits). The one classification rule of the RLE build
+    (:func:`_classify_kernel`) and the octree's on-the-fly classification.
+    """
+    value = np.float64(s[z, y, x])
+    i0, w = table_position(value, alpha_table.shape[0])
+    alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
+    if not alpha > min_opacity:
+        return np.uint32(0), 0.0, 0.0, 0.0, False
+    gx, gy, gz = central_gradient(s, z, y, x, sx, sy, sz)
+    g_size = gtab.shape[0]
+    if g_size > 0:
+        magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
+        j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
+        alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
+        if not alpha > min_opacity:
+            return np.uint32(0), 0.0, 0.0, 0.0, False
+    opacity = min(int(alpha * 255.0 + 0.5), 255)
+    colour = min(int(value * 255.0 + 0.5), 255)
+    code = encode_normal(gx, gy, gz)
+    return np.uint32(opacity | (colour << 8) | (code << 16)), gx, gy, gz, True
+
+
 @njit(parallel=True, **_JIT)
 def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, records, gradients, nontransparent):
     nz, ny, nx = s.shape
     sx, sy, sz = spacing[0], spacing[1], spacing[2]
-    tf_size = alpha_table.shape[0]
-    g_size = gtab.shape[0]
     for z in prange(nz):
         count = 0
-        z0 = max(z - 1, 0)
-        z1 = min(z + 1, nz - 1)
         for y in range(ny):
-            y0 = max(y - 1, 0)
-            y1 = min(y + 1, ny - 1)
             for x in range(nx):
-                x0 = max(x - 1, 0)
-                x1 = min(x + 1, nx - 1)
-                value = np.float64(s[z, y, x])
-                i0, w = table_position(value, tf_size)
-                alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
-                records[z, y, x] = 0
-                if want_gradients:
-                    gradients[z, y, x, 0] = 0.0
-                    gradients[z, y, x, 1] = 0.0
-                    gradients[z, y, x, 2] = 0.0
-                if not alpha > min_opacity:
-                    continue
-                gx = (np.float64(s[z, y, x1]) - np.float64(s[z, y, x0])) / (2.0 * sx)
-                gy = (np.float64(s[z, y1, x]) - np.float64(s[z, y0, x])) / (2.0 * sy)
-                gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
-                if g_size > 0:
-                    magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
-                    j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
-                    alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
-                    if not alpha > min_opacity:
-                        continue
-                opacity = min(int(alpha * 255.0 + 0.5), 255)
-                colour = min(int(value * 255.0 + 0.5), 255)
-                code = encode_normal(gx, gy, gz)
-                records[z, y, x] = np.uint32(opacity | (colour << 8) | (code << 16))
+                record, gx, gy, gz, visible = classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step,
+                                                             min_opacity)
+                records[z, y, x] = record
                 if want_gradients:
                     gradients[z, y, x, 0] = gx
                     gradients[z, y, x, 1] = gy
                     gradients[z, y, x, 2] = gz
-                count += 1
+                if visible:
+                    count += 1
         nontransparent[z] = count
 
 

@@ -77,7 +77,7 @@ from core.errors import InputError
 from core.transfer import MAX_GRADIENT
 from core.validation import check_positive_int
 from renderers.base.numba_kernels import table_position
-from renderers.shearwarp.classify import Encoding, _scanline_runs, encode_normal
+from renderers.shearwarp.classify import Encoding, _scanline_runs, central_gradient, classify_voxel
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -92,21 +92,13 @@ MARGIN = 1e-9
 
 @njit(parallel=True, **_JIT)
 def _magnitudes(s, spacing, out):
-    """Gradient magnitude per voxel, the classification kernel's central differences (float64)."""
+    """Gradient magnitude per voxel, the classification's central differences (float64)."""
     nz, ny, nx = s.shape
     sx, sy, sz = spacing[0], spacing[1], spacing[2]
     for z in prange(nz):
-        z0 = max(z - 1, 0)
-        z1 = min(z + 1, nz - 1)
         for y in range(ny):
-            y0 = max(y - 1, 0)
-            y1 = min(y + 1, ny - 1)
             for x in range(nx):
-                x0 = max(x - 1, 0)
-                x1 = min(x + 1, nx - 1)
-                gx = (np.float64(s[z, y, x1]) - np.float64(s[z, y, x0])) / (2.0 * sx)
-                gy = (np.float64(s[z, y1, x]) - np.float64(s[z, y0, x])) / (2.0 * sy)
-                gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
+                gx, gy, gz = central_gradient(s, z, y, x, sx, sy, sz)
                 out[z, y, x] = math.sqrt(gx * gx + gy * gy + gz * gz)
 
 
@@ -462,37 +454,6 @@ def _all_block_runs(status, child, root_size, base, ni, nbj, nbk, bit_i, bit_j, 
 
 
 @njit(**_JIT)
-def _classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity):
-    """One voxel's record and gradient, the arithmetic of ``classify._classify_kernel``."""
-    nz, ny, nx = s.shape
-    value = np.float64(s[z, y, x])
-    i0, w = table_position(value, alpha_table.shape[0])
-    alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
-    if not alpha > min_opacity:
-        return np.uint32(0), 0.0, 0.0, 0.0
-    x0 = max(x - 1, 0)
-    x1 = min(x + 1, nx - 1)
-    y0 = max(y - 1, 0)
-    y1 = min(y + 1, ny - 1)
-    z0 = max(z - 1, 0)
-    z1 = min(z + 1, nz - 1)
-    gx = (np.float64(s[z, y, x1]) - np.float64(s[z, y, x0])) / (2.0 * sx)
-    gy = (np.float64(s[z, y1, x]) - np.float64(s[z, y0, x])) / (2.0 * sy)
-    gz = (np.float64(s[z1, y, x]) - np.float64(s[z0, y, x])) / (2.0 * sz)
-    g_size = gtab.shape[0]
-    if g_size > 0:
-        magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
-        j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
-        alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
-        if not alpha > min_opacity:
-            return np.uint32(0), 0.0, 0.0, 0.0
-    opacity = min(int(alpha * 255.0 + 0.5), 255)
-    colour = min(int(value * 255.0 + 0.5), 255)
-    code = encode_normal(gx, gy, gz)
-    return np.uint32(opacity | (colour << 8) | (code << 16)), gx, gy, gz
-
-
-@njit(**_JIT)
 def _object_index(i, j, k, ax_i, ax_j, ax_k):
     """``(z, y, x)`` of standard-order voxel ``(i, j, k)``."""
     x = i if ax_i == 0 else (j if ax_j == 0 else k)
@@ -514,8 +475,8 @@ def _classify_candidates(s, spacing, alpha_table, gtab, ref_step, min_opacity, w
             for r in range(run_count[t]):
                 for i in range(runs[t, r, 0], runs[t, r, 1]):
                     z, y, x = _object_index(np.int64(i), np.int64(j), k, ax_i, ax_j, ax_k)
-                    rec, gx, gy, gz = _classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step,
-                                                      min_opacity)
+                    rec, gx, gy, gz, _visible = classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab,
+                                                               ref_step, min_opacity)
                     records[d] = rec
                     if want_gradients:
                         if rec != 0:
