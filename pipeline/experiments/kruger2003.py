@@ -214,12 +214,9 @@ class Table1(Experiment):
                                          "Bars are the paper's ratio of frame rates and ours of median frame times."))
             timing = speed_points(headline)
             timing["method"] = [METHODS[c][2] for c in timing.config]
-            table = timing[["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"]].rename(
-                columns={"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)",
-                         "psnr": "PSNR (dB)", "ssim": "SSIM"})
-            table = pd.concat([table.reset_index(drop=True), _links(timing.reset_index(drop=True), ctx)], axis=1)
-            out.append(blocks.Table("Frame times and accuracy (headline view)", table, csv_name="table1.csv",
-                                    links=LINKS, caption=_frames_caption(timing)))
+            out.append(_timing_table("Frame times and accuracy (headline view)", timing,
+                                     ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
+                                     csv_name="table1.csv", caption=_frames_caption(timing)))
             path, rel = ctx.plot_path("table1-speed-accuracy")
             plots.speed_accuracy(timing, path, time_col="time_ms", error_col="psnr", group_col="method",
                                  label_col="scene", title="Median frame time against PSNR, every method and scene",
@@ -244,6 +241,28 @@ class Table1(Experiment):
                          f"{format_number(row.time_total * 1e3)} ms"))
             out.append(gallery)
         return out + _gl_missing()
+
+
+COLUMN_NAMES = {"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)",
+                "psnr": "PSNR (dB)", "ssim": "SSIM"}
+"""Report names of the result columns these tables show."""
+
+
+def _timing_table(title, frame, columns, ctx, **table_options):
+    """A table of ``columns`` of ``frame`` (named by :data:`COLUMN_NAMES`), each row linked to its run."""
+    table = frame[columns].rename(columns=COLUMN_NAMES).reset_index(drop=True)
+    table = pd.concat([table, _links(frame.reset_index(drop=True), ctx)], axis=1)
+    return blocks.Table(title, table, links=LINKS, **table_options)
+
+
+def _claim_takeaways(claims, ok):
+    """Take-aways: each measurable claim's statement with what was measured."""
+    sentences = []
+    for claim in claims:
+        result = claim.evaluate(ok)
+        if result.holds is not None:
+            sentences.append(f"{claim.statement}: {result.measured} ({result.detail}).")
+    return blocks.Takeaways(sentences)
 
 
 def _frames_caption(frame):
@@ -423,23 +442,14 @@ class NoCue(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = []
-        sentences = []
-        for claim in self.claims:
-            result = claim.evaluate(ok)
-            if result.holds is not None:
-                sentences.append(f"{claim.statement}: {result.measured} ({result.detail}).")
-        out.append(blocks.Takeaways(sentences))
+        out = [_claim_takeaways(self.claims, ok)]
         if not tests.empty:
             timing = speed_points(tests)
             timing["method"] = [METHODS[c][2] for c in timing.config]
             stages = [c for c in ("time_setup", "time_main", "time_intermediate", "time_readback") if c in timing]
-            table = timing[["method", "time_ms", "time_ms_min", "time_ms_max", "psnr"] + stages].rename(
-                columns={"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)",
-                         "psnr": "PSNR (dB)"})
-            table = pd.concat([table.reset_index(drop=True), _links(timing.reset_index(drop=True), ctx)], axis=1)
-            out.append(blocks.Table("Frame time per method on the control", table, csv_name="nocue.csv", links=LINKS,
-                                    caption="Stage columns in seconds, timed on the device."))
+            out.append(_timing_table("Frame time per method on the control", timing,
+                                     ["method", "time_ms", "time_ms_min", "time_ms_max", "psnr"] + stages, ctx,
+                                     csv_name="nocue.csv", caption="Stage columns in seconds, timed on the device."))
             if stages:
                 path, rel = ctx.plot_path("nocue-stages")
                 plots.stage_breakdown(timing, path, stage_cols=stages, group_col="method",
@@ -532,8 +542,7 @@ class Passes(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [blocks.Takeaways([f"{c.statement}: {r.measured} ({r.detail})." for c in self.claims
-                                 for r in [c.evaluate(ok)] if r.holds is not None])]
+        out = [_claim_takeaways(self.claims, ok)]
         curves = _pass_curves(ok)
         if not curves.empty:
             path, rel = ctx.plot_path("fragments-per-pass")
@@ -553,11 +562,8 @@ class Passes(Experiment):
                         y_label="median frame time (ms)", log_x=True, vlines=(8,))
             out.append(blocks.Figure("Frame time against M", rel, "Bars from the fastest to the slowest frame; "
                                      "dotted: the paper's M = 8."))
-            table = sweep[["M", "time_ms", "time_ms_min", "time_ms_max", "psnr"]].rename(
-                columns={"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)",
-                         "psnr": "PSNR (dB)"})
-            table = pd.concat([table.reset_index(drop=True), _links(sweep.reset_index(drop=True), ctx)], axis=1)
-            out.append(blocks.Table("M sweep", table, csv_name="m_sweep.csv", links=LINKS))
+            out.append(_timing_table("M sweep", sweep, ["M", "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
+                                     csv_name="m_sweep.csv"))
         return out + _gl_missing()
 
 
@@ -686,8 +692,7 @@ class Stability(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [blocks.Takeaways([f"{c.statement}: {r.measured} ({r.detail})." for c in self.claims
-                                 for r in [c.evaluate(ok)] if r.holds is not None])]
+        out = [_claim_takeaways(self.claims, ok)]
         tests = ok[ok.get("role") == "test"] if "role" in ok else ok.iloc[:0]
         for sweep, label in (("threshold", "early-termination threshold T (fraction of full opacity)"),
                              ("block", "block edge of the min–max grid (voxels)")):
@@ -704,12 +709,9 @@ class Stability(Experiment):
                             title=f"{y_label.split(' (')[0].capitalize()} against the {sweep}", x_label=label,
                             y_label=y_label, log_x=sweep == "block")
                 out.append(blocks.Figure(f"{sweep.capitalize()} sweep: {name}", rel, "RC-b, headline view."))
-            table = rows[["scene", "setting", "time_ms", "time_ms_min", "time_ms_max", "psnr"]].rename(
-                columns={"setting": label, "time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)",
-                         "time_ms_max": "slowest (ms)", "psnr": "PSNR (dB)"})
-            table = pd.concat([table.reset_index(drop=True), _links(rows.reset_index(drop=True), ctx)], axis=1)
-            out.append(blocks.Table(f"{sweep.capitalize()} sweep", table, csv_name=f"stability_{sweep}.csv",
-                                    links=LINKS))
+            out.append(_timing_table(f"{sweep.capitalize()} sweep", rows.rename(columns={"setting": label}),
+                                     ["scene", label, "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
+                                     csv_name=f"stability_{sweep}.csv"))
         return out + _gl_missing()
 
 
