@@ -112,6 +112,7 @@ def test_table1_claims_hold_on_the_papers_own_numbers():
                   "rcb-over-rc-head", "rcb-over-sbvr-head", "accuracy"):
         assert _evaluate(name, claim, rows).holds is True, claim
     assert _evaluate(name, "rcb-over-sbvr-head", rows).measured == "×3.3 (head)"
+    assert "head: RC at ×0.676 of SBVR's speed" in _evaluate(name, "rc-slower-than-sbvr", rows).detail
 
 
 def test_table1_claims_fail_where_the_numbers_do():

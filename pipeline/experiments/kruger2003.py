@@ -218,12 +218,13 @@ class Table1(Experiment):
                                      ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
                                      csv_name="table1.csv", caption=_frames_caption(timing)))
             path, rel = ctx.plot_path("table1-speed-accuracy")
-            plots.speed_accuracy(timing, path, time_col="time_ms", error_col="psnr", group_col="method",
-                                 label_col="scene", title="Median frame time against PSNR, every method and scene",
+            plots.speed_accuracy(timing, path, time_col="time_ms", error_col="psnr", group_col="scene",
+                                 label_col="method", title="Median frame time against PSNR, every method and scene",
                                  log_y=False, time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
                                  x_label="median frame time (ms); bars: fastest to slowest frame",
                                  y_label="PSNR against the reference (dB)")
-            out.append(blocks.Figure("Speed against accuracy", rel, "Each point one method on one scene, headline view."))
+            out.append(blocks.Figure("Speed against accuracy", rel, "One series per scene, each point one method "
+                                     "(labelled), headline view; higher and further left is better."))
             orbit = speed_points(tests)
             orbit["method"] = [METHODS[c][2] for c in orbit.config]
             summary = orbit.groupby(["scene", "method"]).time_ms.agg(["median", "min", "max"]).reset_index().rename(
@@ -268,8 +269,13 @@ def _claim_takeaways(claims, ok):
 def _frames_caption(frame):
     frames = numeric(frame, "info_frames") if "info_frames" in frame else pd.Series(dtype=float)
     counted = f"median of {int(frames.median())} frames" if frames.notna().any() else "median frame"
+    methods = set(frame.option_effective_timing.dropna()) if "option_effective_timing" in frame else set()
+    how = {"query": "passes timed on the device with GL timer queries",
+           "finish": "each pass timed by waiting for it (glFinish): a software rasterizer's timer queries do not "
+                     "cover its deferred work"}
+    timed = "; ".join(how.get(m, f"passes timed by {m!r}") for m in sorted(methods)) or "timing method not recorded"
     return (f"{counted} after warm-up, uploads (volume, gradients, min–max grid, transfer-function tables) "
-            "excluded as their own stage; timed on the device with GL timer queries.")
+            f"excluded as their own stage; {timed}.")
 
 
 def _scene_groups(df, scenes):
@@ -293,7 +299,7 @@ def _rc_versus_sbvr(df):
     values = {s: _speedup(headline, "sbvr", "rc", scene=s) for s in _scene_groups(headline, None)}
     worst = max(values, key=values.get)
     return ClaimResult(f"SBVR / RC time {as_ratio(values[worst])} ({worst})", bool(all(v < 1 for v in values.values())),
-                       ", ".join(f"{s}: RC at {as_ratio(1 / v)} of SBVR's speed" for s, v in values.items()))
+                       ", ".join(f"{s}: RC at {as_ratio(v)} of SBVR's speed" for s, v in values.items()))
 
 
 PAPER_METHODS = ("sbvr", "rc", "rc-a", "rc-b")
@@ -694,8 +700,9 @@ class Stability(Experiment):
         ok = ok_rows(results)
         out = [_claim_takeaways(self.claims, ok)]
         tests = ok[ok.get("role") == "test"] if "role" in ok else ok.iloc[:0]
-        for sweep, label in (("threshold", "early-termination threshold T (fraction of full opacity)"),
-                             ("block", "block edge of the min–max grid (voxels)")):
+        for sweep, words, label in (("threshold", "the early-termination threshold",
+                                     "early-termination threshold T (fraction of full opacity)"),
+                                    ("block", "the block size", "block edge of the min–max grid (voxels)")):
             rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]
             if rows.empty:
                 continue
@@ -705,9 +712,9 @@ class Stability(Experiment):
                                                "time"),
                                               ("psnr", "PSNR against the reference (dB)", None, "psnr")):
                 path, rel = ctx.plot_path(f"stability-{sweep}-{name}")
+                what = "Median frame time" if name == "time" else "PSNR"
                 plots.lines(rows, path, x="setting", y=y, group="scene", y_range=y_range,
-                            title=f"{y_label.split(' (')[0].capitalize()} against the {sweep}", x_label=label,
-                            y_label=y_label, log_x=sweep == "block")
+                            title=f"{what} against {words}", x_label=label, y_label=y_label, log_x=sweep == "block")
                 out.append(blocks.Figure(f"{sweep.capitalize()} sweep: {name}", rel, "RC-b, headline view."))
             out.append(_timing_table(f"{sweep.capitalize()} sweep", rows.rename(columns={"setting": label}),
                                      ["scene", label, "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
