@@ -156,6 +156,14 @@ class Scene:
         corners = np.concatenate([v.world_corners() for v in self.volumes])
         return corners.min(axis=0), corners.max(axis=0)
 
+    def min_world_voxel_size(self):
+        """Smallest world-space voxel edge over all volumes (``|A·e_i|·s_i``, transforms included).
+
+        The unit of every backend's ``step_factor``: a step of 1 is one such voxel edge.
+        """
+        return min(float(np.min(np.linalg.norm(v.transform[:3, :3], axis=0) * np.asarray(v.volume.spacing)))
+                   for v in self.volumes)
+
     def bounding_sphere(self):
         lo, hi = self.bounds()
         return (lo + hi) / 2, float(np.linalg.norm(hi - lo) / 2)

@@ -101,3 +101,12 @@ def test_bad_instance_inputs():
         VolumeInstance(make_volume(), "bone")
     with pytest.raises(InputError, match="shading model"):
         Shading(model="toon")
+
+
+def test_min_world_voxel_size_takes_spacing_and_transforms_into_account():
+    tf = TransferFunction.constant(alpha=0.1)
+    scaled = np.diag([3.0, 0.5, 1.0, 1.0])
+    a = VolumeInstance(Volume(np.zeros((4, 4, 4), np.uint8), spacing=(2.0, 1.0, 1.5)), tf, name="a")
+    b = VolumeInstance(Volume(np.zeros((4, 4, 4), np.uint8), spacing=(1.0, 1.0, 1.0)), tf, transform=scaled, name="b")
+    assert Scene([a]).min_world_voxel_size() == 1.0
+    assert Scene([a, b]).min_world_voxel_size() == 0.5  # b's y edge: 1.0 · 0.5

@@ -42,13 +42,6 @@ def cube_triangles():
     return np.asarray(faces, dtype=np.float32)
 
 
-def min_world_voxel_size(scene):
-    """Smallest world-space voxel edge over the scene's volumes (as the reference renderer)."""
-    return min(
-        float(np.min(np.linalg.norm(instance.transform[:3, :3], axis=0) * np.asarray(instance.volume.spacing)))
-        for instance in scene.volumes
-    )
-
 
 @dataclass(frozen=True)
 class View:
@@ -105,7 +98,7 @@ def make_view(scene, step_factor):
     lx, ly, lz = scene.shading.light_direction
     light = lx * right + ly * up + lz * back
     shading = scene.shading
-    step = step_factor * min_world_voxel_size(scene)
+    step = step_factor * scene.min_world_voxel_size()
     uniforms = {
         "u_extent": extent,
         "u_world_to_tex": np.linalg.inv(model),

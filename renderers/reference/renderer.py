@@ -106,13 +106,6 @@ def interleaved_rows(height):
     return np.concatenate([np.arange(start, height, ROW_INTERLEAVE) for start in range(ROW_INTERLEAVE)])
 
 
-def min_world_voxel_size(scene):
-    """Smallest world-space voxel edge over the scene's volumes (transforms included)."""
-    return min(
-        float(np.min(np.linalg.norm(instance.transform[:3, :3], axis=0) * np.asarray(instance.volume.spacing)))
-        for instance in scene.volumes
-    )
-
 
 class ReferenceRenderer(Renderer):
     """Double-precision CPU ray caster (numba), the accuracy reference.
@@ -209,7 +202,7 @@ class ReferenceRenderer(Renderer):
 
     def world_step(self, scene):
         """The world step this renderer uses for ``scene``."""
-        return self._step(min_world_voxel_size(scene))
+        return self._step(scene.min_world_voxel_size())
 
     def _step(self, min_voxel):
         return self.step if self.step is not None else self.step_factor * min_voxel
@@ -281,7 +274,7 @@ class ReferenceRenderer(Renderer):
     def _render(self, scene):
         start = time.perf_counter()
         self._check_scene(scene)
-        min_voxel = min_world_voxel_size(scene)
+        min_voxel = scene.min_world_voxel_size()
         step = self._step(min_voxel)
         arguments = self._scene_arguments(scene, step)
         image = np.zeros((scene.height, scene.width, 4), dtype=np.float32)

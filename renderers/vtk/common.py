@@ -131,11 +131,6 @@ def offscreen_support():
 
 # -- the scene as VTK data -----------------------------------------------------------------------
 
-def min_world_voxel_size(scene):
-    """Smallest world-space voxel edge over the scene's volumes (transforms included)."""
-    return min(float(np.min(np.linalg.norm(instance.transform[:3, :3], axis=0) * np.asarray(instance.volume.spacing)))
-               for instance in scene.volumes)
-
 
 def vtk_matrix(array):
     """A ``vtkMatrix4x4`` holding a 4×4 array."""

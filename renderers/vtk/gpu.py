@@ -192,7 +192,7 @@ class VtkGpuRenderer(common.VtkRenderer):
         if len(scene.volumes) == 1:
             step = self.step_factor * scene.volumes[0].volume.min_spacing
         else:
-            step = self.step_factor * common.min_world_voxel_size(scene)
+            step = self.step_factor * scene.min_world_voxel_size()
         return (instances, scene.mode, scene.shading, scene.camera.projection, scene.width, scene.height, step)
 
     def _build(self, scene, key):
