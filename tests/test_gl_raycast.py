@@ -87,6 +87,7 @@ def test_registered_with_its_options_and_sweep():
     ({"opaque_threshold": 0.0}, "opaque_threshold"), ({"opaque_threshold": 1.5}, "opaque_threshold"),
     ({"block_size": 0}, "block_size"), ({"min_opacity": 1.0}, "min_opacity"), ({"min_opacity": -0.1}, "min_opacity"),
     ({"iso_refine": -1}, "iso_refine"), ({"iso_refine": 40}, "iso_refine"), ({"timing": "wallclock"}, "timing"),
+    ({"occluder": 1.5}, "occluder"), ({"occluder": 0.5, "variant": "single-pass"}, "occluder"),
 ])
 def test_bad_options_name_the_option(options, match):
     with pytest.raises(InputError, match=f"gl-raycast option {match}"):
@@ -306,6 +307,31 @@ def test_early_z_culls_finished_rays(volume):
     assert rca.counters["fragments_intermediate"] == rays * rca.counters["passes_intermediate"]
     assert rc.counters["fragments_culled"] == 0
     np.testing.assert_allclose(rca.image, rc.image, atol=0.05 + 1e-4)
+
+
+@needs_gl
+@pytest.mark.parametrize("variant", ["rc", "rc-b"])
+def test_the_occluder_hides_its_part_of_the_footprint_and_culls_its_rays(volume, variant):
+    scene = scene_of(volume, size=40)
+    clear = GLRaycastRenderer(variant=variant).render(scene)
+    rays, passes = clear.counters["rays"], clear.counters["passes_main"]
+    covered = {}
+    for fraction in (0.0, 0.5, 1.0):
+        result = GLRaycastRenderer(variant=variant, occluder=fraction).render(scene)
+        occluded = result.counters.get("rays_occluded", 0)
+        covered[fraction] = occluded
+        # No main-pass fragment of an occluded ray survives early-z, in any pass.
+        assert max(result.info["fragments_per_main_pass"]) <= rays - occluded
+        if variant == "rc":
+            assert result.counters["fragments_main"] == passes * (rays - occluded)
+        hidden = result.image[..., 3] == 1.0
+        grey = np.all(np.isclose(result.image[hidden], [0.5, 0.5, 0.5, 1.0]), axis=-1)
+        assert grey.sum() >= occluded  # every occluded ray shows the plane, nothing of the volume
+        visible = ~np.all(np.isclose(result.image, [0.5, 0.5, 0.5, 1.0]), axis=-1)
+        np.testing.assert_array_equal(result.image[visible], clear.image[visible])
+    assert covered[0.0] == 0 and 0.3 * rays < covered[0.5] < 0.7 * rays and covered[1.0] == rays
+    with pytest.raises(InputError, match="occluder"):
+        GLRaycastRenderer(variant=variant, occluder=0.5).render(scene_of(volume, size=16, mode="mip"))
 
 
 @needs_gl

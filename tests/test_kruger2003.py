@@ -15,7 +15,7 @@ from pipeline.experiments import kruger2003 as K
 from reports.imageio import write_exr
 
 ROOT = Path(__file__).resolve().parent.parent
-NAMES = ("kruger2003-table1", "kruger2003-nocue", "kruger2003-passes", "kruger2003-stability")
+NAMES = ("kruger2003-table1", "kruger2003-nocue", "kruger2003-passes", "kruger2003-stability", "kruger2003-occluder")
 
 
 @pytest.fixture
@@ -55,7 +55,9 @@ def test_plan_times_methods_and_renders_truth_once(gl_backends):
             assert (run.warmup, run.repeat) == (0, 1), run.key
         else:
             assert run.warmup >= 1 and run.repeat >= 3, run.key
-            assert run.reference is not None and "step_factor" in run.options, run.key
+            assert "step_factor" in run.options, run.key
+            # The occluder's plane hides the volume on purpose: those images have no truth.
+            assert (run.reference is None) == (run.experiment == "kruger2003-occluder"), run.key
     table1 = [r for r in runs if r.experiment == "kruger2003-table1" and r.backend != "reference"]
     assert {r.tags["config"] for r in table1} == set(K.METHODS)
     assert {r.tags["scene"] for r in table1} == set(K.TABLE1)
@@ -72,7 +74,7 @@ def test_profiles_name_only_known_settings_and_smoke_stays_small(gl_backends):
         experiments.check_settings(Profile.load(ROOT / "config" / f"{profile}.yaml"))
     smoke = dataclasses.replace(Profile.load(ROOT / "config" / "smoke.yaml"), experiments=list(NAMES))
     smoke = list(experiments.plan(smoke).values())
-    assert 0 < len(smoke) <= 40
+    assert 0 < len(smoke) <= 48
     assert all(r.scene["width"] <= 64 for r in smoke)
 
 
@@ -207,3 +209,32 @@ def test_stability_claims():
     assert _evaluate(name, "blocks-lossless", rows).holds is False
     rows[0]["psnr"] = 51.0
     assert _evaluate(name, "threshold-trades-error", rows).holds is False
+
+
+def _occluder_rows(main_ms, fractions=(0.0, 0.5, 1.0), rays=1000, passes=10):
+    rows = []
+    for fraction, ms in zip(fractions, main_ms):
+        occluded = round(fraction * rays)
+        rows.append({"role": "test", "config": "rc", "fraction": fraction, "time_total": ms * 1.2e-3,
+                     "time_main": ms * 1e-3, "count_rays": rays, "count_rays_occluded": occluded,
+                     "count_passes_main": passes, "count_fragments_main": passes * (rays - occluded)})
+    return rows
+
+
+def test_occluder_plan_sweeps_coverage_for_rc_and_rca(gl_backends):
+    runs = [r for r in experiments.plan(_profile()).values() if r.experiment == "kruger2003-occluder"]
+    assert {(r.options["variant"], r.options["occluder"]) for r in runs} == {
+        (v, f) for v in ("rc", "rc-a") for f in K.OCCLUDED}
+    with pytest.raises(Exception, match="fractions"):
+        experiments.plan(_profile(**{"kruger2003-occluder": {"fractions": [0, 1]}}))
+
+
+def test_occluder_claims():
+    name = "kruger2003-occluder"
+    rows = _occluder_rows([10.0, 5.2, 0.4])
+    assert _evaluate(name, "occluded-rays-culled", rows).holds is True
+    assert _evaluate(name, "time-proportional", rows).holds is True
+    rows[1]["count_fragments_main"] += 7  # a pass drew fragments of hidden rays
+    assert _evaluate(name, "occluded-rays-culled", rows).holds is False
+    assert _evaluate(name, "time-proportional", _occluder_rows([10.0, 9.5, 9.0])).holds is False  # no fall
+    assert _evaluate(name, "time-proportional", _occluder_rows([10.0, 1.0, 0.9])).holds is False  # not linear

@@ -67,7 +67,14 @@ Implementation gaps of the paper, decided here (note 000 §2.3)
    walked with a 3-D DDA over all blocks its sample positions lie in — exact, where sampling the
    grid every ``8·Δ`` (the paper's coarse step, OCR-uncertain) can step over a block the segment
    clips at a corner. An intermediate pass follows every main pass except the last.
-7. **Shader work per pass.** As in the paper, every main pass computes all ``M`` samples of every
+7. **The occluder demonstration** (the paper's Sec. 1, note 000 E8; option ``occluder``): an
+   opaque grey plane in front of the volume covering the left part ``f`` of the box's screen
+   footprint (its bounding rectangle) is drawn after the setup passes, writing depth 1 where it
+   covers a ray, as a finished ray does; every later main pass drops those fragments by early-z,
+   so the frame time should fall with the covered area. Its fragments are counted
+   (``rays_occluded``). Multi-pass variants and ``dvr``/``iso`` only: ``mip`` blends by maximum,
+   which an opaque plane does not stop.
+8. **Shader work per pass.** As in the paper, every main pass computes all ``M`` samples of every
    fragment that passes the depth test (samples past the ray's end add nothing), so the
    ``samples`` counter is ``M ×`` the fragments of the main passes.
 
@@ -82,7 +89,8 @@ build something: ``upload`` (every transfer), ``gradients``, ``minmax``, ``ct_ta
 Counters: ``rays`` (pixels whose ray meets the box), ``fragments_main`` (fragments that passed the
 depth test in the main passes, from ``GL_SAMPLES_PASSED``), ``fragments_intermediate``,
 ``fragments_culled`` (main-pass fragments dropped by early-z), ``passes_main``,
-``passes_intermediate`` and ``samples``. ``info["fragments_per_main_pass"]`` lists the main
+``passes_intermediate``, ``samples`` and, with an occluder, ``rays_occluded`` (its stage:
+``occluder``). ``info["fragments_per_main_pass"]`` lists the main
 passes' counts.
 """
 
@@ -133,6 +141,17 @@ void main() {
     float len = length(u_tex_to_world * path);     // world length of the ray in the box
     o_dir = len > 0.0 ? vec4(path / len, len) : vec4(0.0);
     o_start = vec4(start, 1.0);
+}
+"""
+
+OCCLUDER_FRAGMENT = """
+uniform float u_cut;             // window x (pixels) left of which the occluder covers the box
+in vec3 v_tex;
+out vec4 o_res;
+void main() {
+    if (gl_FragCoord.x >= u_cut) discard;
+    o_res = vec4(0.5, 0.5, 0.5, 1.0);   // opaque grey in front of the volume
+    gl_FragDepth = 1.0;                 // as a finished ray: every main pass fails the depth test
 }
 """
 
@@ -381,6 +400,21 @@ void main() {
 """
 
 
+def occluder_cut(mvp, width, fraction):
+    """Window x (pixels) left of which the occluder covers ``fraction`` of the box's footprint.
+
+    The footprint is the bounding rectangle of the projected box corners, clamped to the image
+    (the whole width when a corner lies behind the eye).
+    """
+    corners = np.array([[x, y, z, 1.0] for x in (0, 1) for y in (0, 1) for z in (0, 1)]) @ np.asarray(mvp).T
+    if np.any(corners[:, 3] <= 0):
+        left, right = 0.0, float(width)
+    else:
+        pixels = (corners[:, 0] / corners[:, 3] + 1.0) * 0.5 * width
+        left, right = np.clip([pixels.min(), pixels.max()], 0.0, width)
+    return float(left + fraction * (right - left))
+
+
 class GLRaycastRenderer(GLRenderer):
     """Multi-pass GPU ray caster (Krüger & Westermann 2003) and a single-pass one, OpenGL 4.3.
 
@@ -403,6 +437,10 @@ class GLRaycastRenderer(GLRenderer):
         paper's 0 makes skipping exact.
     iso_refine : int
         Bisection steps refining an iso hit inside its cell (0: the sample itself, as the paper).
+    occluder : float
+        Fraction in [0, 1] of the box's screen footprint, from the left, hidden behind an opaque
+        plane drawn before the main passes (the paper's early-z demonstration; 0: none). The
+        covered pixels show the plane's grey, so images compare with the reference only at 0.
     timing : {"auto", "query", "finish"}
         Pass timing (:mod:`renderers.gl.timing`).
     """
@@ -433,7 +471,7 @@ class GLRaycastRenderer(GLRenderer):
     """Step sizes from coarse to fine for the default variant (``rc-b``)."""
 
     def __init__(self, *, variant="rc-b", step_factor=0.5, samples_per_pass=8, opaque_threshold=0.95, block_size=8,
-                 min_opacity=0.0, iso_refine=6, timing="auto"):
+                 min_opacity=0.0, iso_refine=6, occluder=0.0, timing="auto"):
         super().__init__(step_factor=step_factor, timing=timing)
         self.variant = check_choice(variant, VARIANTS, name="gl-raycast option variant")
         self.samples_per_pass = check_positive_int(samples_per_pass, name="gl-raycast option samples_per_pass")
@@ -446,6 +484,10 @@ class GLRaycastRenderer(GLRenderer):
         if self.iso_refine > 24:
             raise InputError(f"gl-raycast option iso_refine: {iso_refine} bisection steps refine below float32 "
                              "resolution; use at most 24")
+        self.occluder = check_scalar(occluder, name="gl-raycast option occluder", low=0, high=1)
+        if self.occluder > 0 and self.variant not in MULTI_PASS:
+            raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
+                             f"use a multi-pass variant ({', '.join(MULTI_PASS)}), not {variant!r}")
         self._vaos = {}
         self._ray_key = None
         self._ray_max = 0.0
@@ -454,7 +496,8 @@ class GLRaycastRenderer(GLRenderer):
     def options(self):
         return {"variant": self.variant, "step_factor": self.step_factor, "samples_per_pass": self.samples_per_pass,
                 "opaque_threshold": self.opaque_threshold, "block_size": self.block_size,
-                "min_opacity": self.min_opacity, "iso_refine": self.iso_refine, "timing": self.timing,
+                "min_opacity": self.min_opacity, "iso_refine": self.iso_refine, "occluder": self.occluder,
+                "timing": self.timing,
                 "effective_step": self._last_step, "effective_timing": self._effective_timing}
 
     def _forget(self):
@@ -482,6 +525,8 @@ class GLRaycastRenderer(GLRenderer):
             programs["intermediate"] = context.program(ctx, glsl.CUBE_VERTEX, source)
         if mode == "mip":
             programs["resolve"] = context.program(ctx, glsl.SCREEN_VERTEX, glsl.fragment_source(glsl.MIP_RESOLVE))
+        if self.occluder > 0:
+            programs["occluder"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(OCCLUDER_FRAGMENT))
         return programs
 
     def _vao(self, ctx, program, screen=False):
@@ -527,6 +572,9 @@ class GLRaycastRenderer(GLRenderer):
         if mode == "iso" and instance.isovalue is None:
             raise InputError(f"volume instance {instance.name!r}: iso mode needs an isovalue; "
                              "set VolumeInstance.isovalue")
+        if mode == "mip" and self.occluder > 0:
+            raise InputError("gl-raycast option occluder: an opaque plane does not stop a maximum-intensity "
+                             "projection; use occluder=0 in mip mode")
         phong = scene.shading.model == "phong" and mode != "mip"
         skip = self.variant == "rc-b" and mode != "mip"
         ctx, prep = self._begin_frame(scene)
@@ -564,6 +612,7 @@ class GLRaycastRenderer(GLRenderer):
             "u_block_scale": (nx / self.block_size, ny / self.block_size, nz / self.block_size),
             "u_block_count": block_count,
             "u_top_level": float(emptyspace.LEVELS - 1),
+            "u_cut": occluder_cut(view.mvp, width, self.occluder),
         }
         for program in programs.values():
             set_uniforms(program, uniforms)
@@ -600,7 +649,9 @@ class GLRaycastRenderer(GLRenderer):
         else:
             samples = int(np.frombuffer(counter.read(4), dtype=np.uint32)[0])
         self._last_step = step
-        timings = {stage: seconds.get(stage, 0.0) for stage in ("setup", "main", "intermediate", "resolve")}
+        stages = ("setup", "occluder", "main", "intermediate", "resolve") if self.occluder > 0 else \
+            ("setup", "main", "intermediate", "resolve")
+        timings = {stage: seconds.get(stage, 0.0) for stage in stages}
         timings.update(readback=readback, total=total, **prep.timings)
         counters = {
             "rays": int(rays),
@@ -611,6 +662,8 @@ class GLRaycastRenderer(GLRenderer):
             "passes_intermediate": passes_intermediate,
             "samples": samples,
         }
+        if self.occluder > 0:
+            counters["rays_occluded"] = int(sum(fragments.get("occluder", [])))
         info = {
             "variant": self.variant,
             "step": step,
@@ -652,6 +705,17 @@ class GLRaycastRenderer(GLRenderer):
         timer.run("setup", entry_pass)
         timer.run("setup", direction_pass, count=True)  # its fragments are the rays
         timer.run("setup", clear_targets)
+        if self.occluder > 0:
+            def occluder_pass():
+                targets["main_fbo"].depth_mask = True
+                targets["main_fbo"].use()
+                cube["occluder"].render()
+                targets["main_fbo"].depth_mask = False
+
+            ctx.enable_only(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+            ctx.depth_func = "1"
+            ctx.cull_face = "front"  # the back faces: one fragment per ray, the camera inside the box too
+            timer.run("occluder", occluder_pass, count=True)
         ctx.cull_face = "front"  # main and intermediate passes rasterise the back faces
         main_state = moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE
         for index in range(passes_main):
