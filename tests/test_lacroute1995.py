@@ -264,7 +264,14 @@ def test_volpack_claims(tmp_path):
     rows[2]["exr"] = _write(tmp_path / "far.exr", far)
     assert _evaluate(name, "images-agree", rows).holds is False
     missing = _evaluate(name, "speed-1-worker", [r for r in rows if not r["config"].startswith("volpack")])
-    assert missing.holds is None and "VolPack" in missing.detail
+    assert missing.holds is None and "volpack-rle" in missing.detail
+    assert _evaluate(name, "beats-vtk-cpu", rows).holds is None  # no VTK run
+    rows.append({"scene": "s", "role": "test", "config": "vtk-cpu-1", "time_total": 0.030, "psnr": 41.0,
+                 "exr": _write(tmp_path / "vtk.exr", base), "run": "vtk"})
+    beats = _evaluate(name, "beats-vtk-cpu", rows)
+    assert beats.holds is True and "VTK 30 ms" in beats.detail
+    rows[-1]["time_total"] = 0.004
+    assert _evaluate(name, "beats-vtk-cpu", rows).holds is False
 
 
 def _quality_rows(psnr, truth):
