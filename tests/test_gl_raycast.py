@@ -75,8 +75,11 @@ def test_registered_with_its_options_and_sweep():
     assert backend.options["variant"] == "rc-a" and backend.options["samples_per_pass"] == 4
     assert backend.options["opaque_threshold"] == 0.95 and backend.options["block_size"] == 8
     sweep = GLRaycastRenderer.quality_sweep
-    assert 1 <= len(sweep) <= 4 and [s["step_factor"] for s in sweep] == sorted((s["step_factor"] for s in sweep),
-                                                                              reverse=True)
+    steps = [s["step_factor"] for s in sweep if "step_factor" in s]
+    assert len(steps) >= 2 and steps == sorted(steps, reverse=True)
+    # Every speed–accuracy option of the caster appears, each once.
+    swept = {name for options in sweep for name in options}
+    assert swept == {"step_factor", "opaque_threshold", "samples_per_pass", "block_size"} and len(sweep) <= 8
     for options in sweep:
         GLRaycastRenderer(**options)
 
