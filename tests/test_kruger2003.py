@@ -238,3 +238,19 @@ def test_occluder_claims():
     assert _evaluate(name, "occluded-rays-culled", rows).holds is False
     assert _evaluate(name, "time-proportional", _occluder_rows([10.0, 9.5, 9.0])).holds is False  # no fall
     assert _evaluate(name, "time-proportional", _occluder_rows([10.0, 1.0, 0.9])).holds is False  # not linear
+
+
+def test_device_sentence_and_ratios_per_device():
+    rows = pd.DataFrame([{"config": c, "scene": "head", "view": "headline", "time_total": t, "gl_renderer": device,
+                          "gl_software_rasterizer": device.startswith("llvmpipe")}
+                         for device, scale in (("llvmpipe (LLVM 15)", 1.0), ("NVIDIA H100", 0.01))
+                         for c, t in (("sbvr", 3.0 * scale), ("rc", 5.0 * scale), ("rc-a", 2.0 * scale),
+                                      ("rc-b", 1.0 * scale))])
+    software = K._device_takeaways(rows[rows.gl_renderer.str.startswith("llvmpipe")])
+    assert "CPU rasterizer" in software[0] and "no GPU run" in software[0]
+    both = K._device_takeaways(rows)
+    assert "per device" in both[0] and "NVIDIA H100" in both[0]
+    groups = dict(list(rows.groupby(K._devices(rows))))
+    assert set(groups) == {"llvmpipe (LLVM 15)", "NVIDIA H100"}
+    ratio = K._ratio_table(groups["NVIDIA H100"])
+    assert ratio["RC-b / RC (ours)"].iloc[0] == pytest.approx(5.0)

@@ -202,10 +202,11 @@ class Table1(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [blocks.Takeaways(_table1_takeaways(ok))]
+        out = [blocks.Takeaways(_device_takeaways(tests) + _table1_takeaways(ok))]
         if not tests.empty:
             headline = tests[tests.view == "headline"]
-            ratios = _ratio_table(headline)
+            ratios = pd.concat([_ratio_table(group).assign(device=device)
+                                for device, group in headline.groupby(_devices(headline))], ignore_index=True)
             if not ratios.empty:
                 out.append(blocks.Table("Table 1 beside ours: speed-ups between methods (headline view)", ratios,
                                         csv_name="table1_ratios.csv",
@@ -394,6 +395,31 @@ def _bar_title(ratios):
         return "RC-b over slicing"
     best = ratios.loc[ours.idxmax()]
     return f"RC-b over slicing: up to {as_ratio(best['RC-b / SBVR (ours)'])} here ({best.scene}), paper up to ×3.3"
+
+
+def _devices(frame):
+    """The GL device each row was timed on (VTK's own context for its rows)."""
+    device = frame.get("gl_renderer", pd.Series(np.nan, index=frame.index))
+    if "vtk_gl_renderer" in frame:
+        device = device.fillna(frame.vtk_gl_renderer)
+    return device.fillna("unknown device").astype(str)
+
+
+def _device_takeaways(tests):
+    """Which GL devices timed this page, and what a CPU rasterizer's numbers mean."""
+    if tests.empty:
+        return []
+    devices = sorted(set(_devices(tests)))
+    software = "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all()
+    sentence = f"GL frame times on this page were measured on {', '.join(devices)}"
+    if software:
+        sentence += (", a CPU rasterizer: fragment shaders run on the CPU's cores and early-z rejects whole tiles "
+                     "in software, so its frame times are not a GPU's and only ratios between methods measured in "
+                     "one run compare with the paper's (the samples-passed counts show what each method drew); no "
+                     "GPU run is in these results")
+    elif len(devices) > 1:
+        sentence += "; ratios are computed per device, never across devices"
+    return [sentence + "."]
 
 
 def _table1_takeaways(ok):
