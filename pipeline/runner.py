@@ -251,8 +251,9 @@ def job_code_digest(rule, *, backend=None, root=ROOT):
 
     entries = list(JOB_SOURCES[rule])
     if backend is not None:
-        module = renderers.backend_module(backend)
-        package = Path(*module.split("."))
+        # The backend's whole package under renderers/ (its shaders, kernels and helper modules too),
+        # not only the module the registry names.
+        package = Path(*renderers.backend_module(backend).split(".")[:2])
         entries.append(str(package) if (Path(root) / package).is_dir() else f"{package}.py")
     return source_digest(entries, root=root, extra=[inspect.getsource(getattr(jobs, rule))])
 

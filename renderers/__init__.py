@@ -23,6 +23,7 @@ BACKENDS = {
     "vtk-cpu": "renderers.vtk.cpu:VtkCpuRenderer",
     "gl-raycast": "renderers.gl.raycast:GLRaycastRenderer",
     "gl-slicer": "renderers.gl.slicer:GLSlicerRenderer",
+    "cl-tiled": "renderers.cl.tiled:ClTiledRenderer",
 }
 
 

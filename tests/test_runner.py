@@ -152,6 +152,19 @@ def test_editing_shared_code_changes_the_digest_of_the_jobs_it_shapes(tmp_path, 
     assert {rule for rule in rules if before[rule] != after[rule]} == reruns
 
 
+@pytest.mark.parametrize("backend, edited", [("gl-raycast", "renderers/gl/glsl.py"),
+                                             ("cl-tiled", "renderers/cl/kernels/pixel.cl"),
+                                             ("reference", "renderers/reference/raycast.py")])
+def test_a_backend_job_reruns_when_any_file_of_its_package_changes(tmp_path, backend, edited):
+    tree = _copy_tree(tmp_path)
+    before = runner.job_code_digest("render", backend=backend, root=tree)
+    other = runner.job_code_digest("render", backend="shearwarp", root=tree)
+    with open(tree / edited, "a") as f:
+        f.write("\n// an edit\n")
+    assert runner.job_code_digest("render", backend=backend, root=tree) != before
+    assert runner.job_code_digest("render", backend="shearwarp", root=tree) == other
+
+
 def test_job_sources_exist_and_cover_what_a_render_job_imports():
     for rule, entries in runner.JOB_SOURCES.items():
         assert runner.source_files(entries), rule

@@ -1,0 +1,449 @@
+"""The tile-based multi-volume ray caster of Kainz et al. 2009 on OpenCL: the ``cl-tiled`` backend.
+
+Per frame (note 002 §2.2, §2.9):
+
+1. **Boundaries.** Every volume instance is an object bounded by a closed triangle mesh in its
+   object space: its box (12 triangles) or, with ``empty_space="hull"``, the tight hull around
+   its non-empty ``brick_size³`` bricks (:mod:`renderers.cl.resources`, built on the device and
+   rebuilt when the transfer function changes). All meshes go into one triangle list with the
+   object each triangle bounds.
+2. **Binning** (``kernels/binning.cl``): one work-item per triangle transforms it, stores its
+   world plane and a code (object, front/back, triangle), and appends a 64-bit coverage mask per
+   8×8 tile to the tile's chunked record list (64 records per chunk from a pool, at most 64 chunks
+   per tile, chunks allocated with atomics). Masks are exact (integer edge functions, a
+   canonical tie rule), so a closed mesh covers each pixel once per crossing. The pool grows and
+   the binning reruns when a frame needs more chunks than it has.
+3. **Pixel kernel** (``kernels/pixel.cl``): one 64-work-item group per tile. Each pixel gathers
+   its fragments (depth from the triangle's plane) into a depth-sorted list in local memory
+   (insertion sort, interleaved slots, at most ``depth_cap`` entries: the nearest are kept),
+   then walks the segments between consecutive fragments with the set of objects it is inside
+   (entering on front faces, leaving on back faces; the objects around the ray origin come from
+   the parity of the crossings behind it). Segments with no object are skipped; in the others
+   every active volume is sampled at one common world step and blended as the reference does.
+   With ``fragments="global"`` the lists live in global memory, sized exactly by a counting pass
+   (``count_fragments``): no fragment is dropped, the ground truth for the depth cap's error.
+
+Sampling matches :mod:`renderers.reference` in float32: the world step ``Δ = step_factor ×`` the
+smallest world voxel edge; cells ``[t_a + kΔ, t_a + (k + 1)Δ]`` from ``t_a``, the start of the
+first non-empty segment (the reference's entry into the union of the boxes, when boundaries are
+boxes); a whole cell samples at its centre, a cell that a segment boundary cuts at the midpoint of
+its part with opacity corrected for the part's length, so path lengths count exactly; cell parts
+of at most 10⁻³ Δ are skipped. Every volume samples the cells it overlaps; corrected premultiplied
+samples are summed, the opacity clamped to 1 (colour scaled alike), and composited front to back.
+With hulls, the cells are anchored at the first hull face instead of the box, which moves sample
+positions by a fraction of a step where that differs (an ``O(Δ²)`` difference for smooth data).
+Trilinear reconstruction, classification, gradient opacity and Blinn–Phong are the reference's.
+Early ray termination stops a ray whose opacity passes ``opaque_threshold``.
+
+Timings (seconds, OpenCL profiling events): ``upload`` (atlas, first use of a set of volumes),
+``bricks`` (brick ranges, first use of a volume and brick size), ``hull`` (hull build, first use
+of a classification), ``setup`` (the frame's triangle list, object table and cleared tile lists),
+``binning``, ``count`` (global lists only), ``pixel``, ``readback``; ``total`` is the wall clock of
+the frame. Counters: ``rays``, ``rays_hit`` (pixels with a fragment), ``triangles``, ``records``
+(tile records), ``records_per_tile_max``, ``records_per_tile_mean`` (over tiles with records),
+``records_dropped`` (past 4096 per tile), ``pool_chunks``, ``pool_chunks_used``,
+``fragments`` (kept, depth ≥ 0), ``fragments_max``, ``fragments_mean`` (over hit pixels),
+``fragments_dropped`` (past the depth cap), ``samples`` (volume samples) and
+``early_terminations``.
+"""
+
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from core.errors import InputError, UnsupportedFeatureError
+from core.validation import check_choice, check_positive_int, check_scalar
+from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.cl import context
+from renderers.cl import scene as scene_arrays
+from renderers.cl.resources import DeviceCache, Stages
+
+TILE = 8
+CHUNK = 64
+MAX_CHUNKS = 64
+EMPTY_CHUNK = 0xFFFFFFFF
+MAX_TRIANGLES = 1 << 23
+"""Triangle ids have 23 bits in a fragment code (object << 24 | front << 23 | triangle)."""
+
+INITIAL_POOL_CHUNKS = 8192
+"""Chunks in the first pool: the paper's 6 MB (8192 × 64 records of 12 bytes)."""
+
+FRAGMENT_STORES = ("local", "global")
+EMPTY_SPACE = ("hull", "box")
+
+
+def _atlas_defines(dtype):
+    """Build options for the atlas element type: uint8 scaled by 1/255, or normalised float32."""
+    if dtype == np.uint8:
+        return ["-DATLAS_T=uchar", "-DATLAS_SCALE=(1.0f/255.0f)"]
+    return ["-DATLAS_T=float", "-DATLAS_SCALE=1.0f"]
+
+
+@dataclass
+class Binned:
+    """A frame up to the pixel kernel (:meth:`ClTiledRenderer._bin`)."""
+
+    pixel: dict
+    atlas: object
+    hulls: list
+    triangles: int
+    object_buffer: object
+    transfer: np.ndarray
+    gradient_tables: np.ndarray
+    camera: tuple
+    tile_lists: tuple
+    global_size: tuple
+    passes: int
+    bin_counters: np.ndarray
+    phong: bool
+
+
+class ClTiledRenderer(Renderer):
+    """Tile-based multi-volume ray caster with polygonal boundaries (Kainz et al. 2009), OpenCL.
+
+    Parameters
+    ----------
+    step_factor : float
+        World step as a fraction of the smallest world-space voxel edge (default 0.5).
+    depth_cap : int
+        Fragments kept per pixel in local memory (paper: 63); the farthest are dropped.
+    fragments : {"local", "global"}
+        ``"local"``: the paper's capped lists in local memory. ``"global"``: unbounded lists in
+        global memory (the ground truth for the cap's error; ``depth_cap`` does not apply).
+    opaque_threshold : float
+        Early ray termination when the accumulated opacity exceeds it (1 never stops a ray).
+        Default 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel.
+    empty_space : {"hull", "box"}
+        Boundaries: tight hulls around the non-empty bricks (paper) or the volumes' boxes.
+    brick_size : int
+        Brick edge in voxels for the hulls (paper: 8).
+    min_opacity : float
+        Transfer-function opacities at or below it count as empty for the hulls (paper: 0, exact).
+    device : str, optional
+        OpenCL device selector (:mod:`renderers.cl.context`); default: ``$VOLBENCH_CL_DEVICE``,
+        else the first GPU, else the first device.
+    """
+
+    name = "cl-tiled"
+    description = ("OpenCL tile-based multi-volume ray caster (Kainz et al. 2009): polygonal boundaries binned "
+                   "into 8x8 tiles, per-pixel depth-sorted fragments, segment walk over overlapping volumes")
+    capabilities = Capabilities(
+        projections=frozenset({"orthographic", "perspective"}),
+        modes=frozenset({"dvr"}),
+        shading=frozenset({"none", "phong"}),
+        max_volumes=64,
+        gradient_opacity=True,
+        transforms=True,
+        anisotropic_spacing=True,
+        meshes=False,
+        lenses=False,
+        camera_inside_volume=False,
+        reasons={
+            "modes": "the segment walk composites emission-absorption (dvr) only",
+            "max_volumes": "the active-object set is one 64-bit mask",
+            "meshes": "mesh boundaries, surfaces, media and CSG come with the scene's mesh fields (issue 9)",
+            "lenses": "lens volumes are added with the Ropinski 2005 issue",
+            "camera_inside_volume": "boundary triangles are not clipped at a near plane: under perspective every "
+                                    "volume box must lie in front of the eye",
+        },
+    )
+    quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
+    """Step sizes from coarse to fine."""
+
+    def __init__(self, *, step_factor=0.5, depth_cap=63, fragments="local", opaque_threshold=0.99,
+                 empty_space="hull", brick_size=8, min_opacity=0.0, device=None):
+        self.step_factor = check_scalar(step_factor, name="cl-tiled option step_factor", low=0, low_open=True)
+        self.depth_cap = check_positive_int(depth_cap, name="cl-tiled option depth_cap")
+        self.fragments = check_choice(fragments, FRAGMENT_STORES, name="cl-tiled option fragments")
+        self.opaque_threshold = check_scalar(opaque_threshold, name="cl-tiled option opaque_threshold", low=0,
+                                             high=1, low_open=True)
+        self.empty_space = check_choice(empty_space, EMPTY_SPACE, name="cl-tiled option empty_space")
+        self.brick_size = check_positive_int(brick_size, name="cl-tiled option brick_size")
+        self.min_opacity = check_scalar(min_opacity, name="cl-tiled option min_opacity", low=0, high=1,
+                                        high_open=True)
+        if device is not None and not isinstance(device, str):
+            raise InputError(f"cl-tiled option device: expected a selector string such as '0:0' or 'pocl', "
+                             f"got {device!r}")
+        self.device = device
+        self._entry = None
+        self._cache = None
+        self._buffers = {}
+        self._pool_chunks = INITIAL_POOL_CHUNKS
+        self._last_step = None
+        if self.fragments == "local":
+            entry = self._device()
+            needed = self.depth_cap * TILE * TILE * 8 + CHUNK * 12
+            if needed > entry.device.local_mem_size:
+                most = (entry.device.local_mem_size - CHUNK * 12) // (TILE * TILE * 8)
+                raise InputError(f"cl-tiled option depth_cap: {depth_cap} fragments per pixel need {needed} bytes of "
+                                 f"local memory, {entry.device.name.strip()} has {entry.device.local_mem_size}; use "
+                                 f"at most {most}, or fragments='global'")
+
+    @classmethod
+    def probe(cls):
+        return context.probe(context.selector_for(None))
+
+    @property
+    def options(self):
+        return {"step_factor": self.step_factor, "depth_cap": self.depth_cap, "fragments": self.fragments,
+                "opaque_threshold": self.opaque_threshold, "empty_space": self.empty_space,
+                "brick_size": self.brick_size, "min_opacity": self.min_opacity, "device": self.device,
+                "effective_step": self._last_step}
+
+    def environment(self):
+        return context.environment(context.selector_for(self.device))
+
+    def close(self):
+        self._cache = None
+        self._buffers = {}
+
+    def _device(self):
+        if self._entry is None:
+            self._entry = context.shared(context.selector_for(self.device))
+            self._cache = DeviceCache(self._entry)
+        return self._entry
+
+    # -----------------------------------------------------------------------------------------
+
+    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity):
+        """``(binning, hull, pixel)`` kernels by name for this frame's variant, built once per process."""
+        atlas_defines = _atlas_defines(atlas_dtype)
+        binning = context.kernels(entry, context.kernel_source("common.cl", "binning.cl"))
+        hull = context.kernels(entry, context.kernel_source("common.cl", "hull.cl"), atlas_defines)
+        defines = list(atlas_defines)
+        defines.append("-DGLOBAL_FRAGMENTS" if fragments == "global" else f"-DMAXF={self.depth_cap}")
+        if phong:
+            defines.append("-DPHONG")
+        if gradient_opacity:
+            defines.append("-DGRADIENT_OPACITY")
+        pixel = context.kernels(entry, context.kernel_source("common.cl", "pixel.cl"), defines)
+        return binning, hull, pixel
+
+    def _buffer(self, name, nbytes):
+        """A device buffer kept across frames, reallocated when it must grow."""
+        import pyopencl as cl
+
+        buffer = self._buffers.get(name)
+        if buffer is None or buffer.size < nbytes:
+            buffer = cl.Buffer(self._entry.context, cl.mem_flags.READ_WRITE, size=max(int(nbytes), 16))
+            self._buffers[name] = buffer
+        return buffer
+
+    def _upload(self, name, array, stages, stage):
+        """Copy ``array`` into the kept buffer ``name`` (timed as ``stage``)."""
+        import pyopencl as cl
+
+        array = np.ascontiguousarray(array)
+        buffer = self._buffer(name, array.nbytes)
+        stages.add(stage, cl.enqueue_copy(self._entry.queue, buffer, array, is_blocking=True))
+        return buffer
+
+    def _fill(self, name, value, count, stages):
+        import pyopencl as cl
+
+        buffer = self._buffer(name, count * value.itemsize)
+        stages.add("setup", cl.enqueue_fill_buffer(self._entry.queue, buffer, value, 0, count * value.itemsize))
+        return buffer
+
+    def _bin(self, scene, fragments, stages):
+        """Everything up to the pixel kernel: resources, the frame's triangle list, binned tile lists."""
+        import pyopencl as cl
+        import pyopencl.cltypes as cltypes
+
+        problem = scene_arrays.screen_problem(scene)
+        if problem:
+            raise UnsupportedFeatureError(self.name, "this view", problem)
+        entry = self._device()
+        queue = entry.queue
+        phong = scene.shading.model == "phong"
+        gradient_opacity = any(instance.gradient_opacity is not None for instance in scene.volumes)
+
+        volumes, volume_index = scene_arrays.distinct_volumes(scene)
+        atlas = self._cache.atlas(volumes, stages)
+        binning, hull_kernels, pixel = self._programs(entry, atlas.dtype, fragments, phong, gradient_opacity)
+        brick = self.brick_size if self.empty_space == "hull" else None
+        hulls = [self._cache.hull(hull_kernels, atlas, instance, brick, self.min_opacity, stages)
+                 for instance in scene.volumes]
+        triangles = sum(h.triangles for h in hulls)
+        if triangles >= MAX_TRIANGLES:
+            raise InputError(f"scene {scene.name!r}: {triangles} boundary triangles exceed the {MAX_TRIANGLES} a "
+                             "fragment code can name; use a larger brick_size or empty_space='box'")
+
+        vertex_buffer = self._buffer("vertices", 48 * max(triangles, 1))
+        offset = 0
+        for h in hulls:
+            if h.triangles:
+                stages.add("setup", cl.enqueue_copy(queue, vertex_buffer, h.buffer, byte_count=48 * h.triangles,
+                                                    dst_offset=48 * offset))
+            offset += h.triangles
+        owners = np.repeat(np.arange(len(hulls), dtype=np.uint32), [h.triangles for h in hulls])
+        owner_buffer = self._upload("owners", owners if triangles else np.zeros(1, np.uint32), stages, "setup")
+        transfer, tf_offsets, gradient_tables, g_offsets = scene_arrays.tables(scene)
+        slots = [atlas.layout.origins[i] for i in volume_index]
+        objects = scene_arrays.object_records(scene, slots, tf_offsets, g_offsets)
+        object_buffer = self._upload("objects", objects, stages, "setup")
+
+        width, height = scene.width, scene.height
+        tiles_x, tiles_y = -(-width // TILE), -(-height // TILE)
+        tiles = tiles_x * tiles_y
+        eye, right, up, back, half_size, perspective = scene_arrays.camera_arguments(scene)
+        camera = (cltypes.make_float4(*eye, 0), cltypes.make_float4(*right, 0), cltypes.make_float4(*up, 0),
+                  cltypes.make_float4(*back, 0), cltypes.make_float2(*half_size), np.int32(perspective),
+                  np.int32(width), np.int32(height), np.int32(tiles_x))
+        planes = self._buffer("planes", 16 * max(triangles, 1))
+        codes = self._buffer("codes", 4 * max(triangles, 1))
+
+        # Binning, again with a larger pool if this frame ran out of chunks.
+        passes = 0
+        while True:
+            passes += 1
+            tile_count = self._fill("tile_count", np.uint32(0), tiles, stages)
+            tile_chunks = self._fill("tile_chunks", np.uint32(EMPTY_CHUNK), tiles * MAX_CHUNKS, stages)
+            counters = self._fill("bin_counters", np.uint32(0), 2, stages)
+            pool_mask = self._buffer("pool_mask", 8 * CHUNK * self._pool_chunks)
+            pool_triangle = self._buffer("pool_triangle", 4 * CHUNK * self._pool_chunks)
+            if triangles:
+                stages.add("binning", binning["bin_triangles"](
+                    queue, (-(-triangles // 64) * 64,), (64,), vertex_buffer, owner_buffer, object_buffer,
+                    np.uint32(triangles), *camera, planes, codes, tile_count, tile_chunks, pool_mask, pool_triangle,
+                    np.uint32(self._pool_chunks), counters))
+            bin_counters = np.empty(2, np.uint32)
+            stages.add("binning", cl.enqueue_copy(queue, bin_counters, counters))
+            if bin_counters[0] <= self._pool_chunks:
+                break
+            self._pool_chunks = int(max(2 * self._pool_chunks, bin_counters[0]))
+        return Binned(pixel=pixel, atlas=atlas, hulls=hulls, triangles=triangles, object_buffer=object_buffer,
+                      transfer=transfer, gradient_tables=gradient_tables, camera=camera,
+                      tile_lists=(tile_count, tile_chunks, pool_mask, pool_triangle, planes, codes),
+                      global_size=(tiles_x * TILE, tiles_y * TILE), passes=passes, bin_counters=bin_counters,
+                      phong=phong)
+
+    def _fragment_counts(self, binned, pixels, stages):
+        """Front- and back-facing fragments at depth >= 0 per pixel, ``(pixels, 2)`` uint32."""
+        import pyopencl as cl
+
+        counts = self._buffer("counts", 8 * pixels)
+        stages.add("count", binned.pixel["count_fragments"](self._entry.queue, binned.global_size, (TILE, TILE),
+                                                            *binned.tile_lists, *binned.camera, counts))
+        per_pixel = np.empty((pixels, 2), np.uint32)
+        stages.add("count", cl.enqueue_copy(self._entry.queue, per_pixel, counts))
+        return per_pixel
+
+    def boundary_mesh(self, scene, index=0):
+        """The boundary of volume instance ``index`` as the kernels bin it: ``(T, 3, 3)`` object-space vertices.
+
+        The tight hull around the instance's non-empty bricks (``empty_space="hull"``) or its
+        box, triangles counter-clockwise seen from outside.
+        """
+        import pyopencl as cl
+
+        self.check(scene)
+        if not 0 <= index < len(scene.volumes):
+            raise InputError(f"boundary_mesh index: {index} is not an instance of scene {scene.name!r} "
+                             f"(it has {len(scene.volumes)})")
+        stages = Stages()
+        entry = self._device()
+        volumes, _ = scene_arrays.distinct_volumes(scene)
+        atlas = self._cache.atlas(volumes, stages)
+        hull_kernels = context.kernels(entry, context.kernel_source("common.cl", "hull.cl"), _atlas_defines(atlas.dtype))
+        brick = self.brick_size if self.empty_space == "hull" else None
+        hull = self._cache.hull(hull_kernels, atlas, scene.volumes[index], brick, self.min_opacity, stages)
+        vertices = np.empty((max(hull.triangles, 1) * 3, 4), np.float32)
+        cl.enqueue_copy(self._entry.queue, vertices, hull.buffer, is_blocking=True)
+        return vertices[:3 * hull.triangles, :3].reshape(hull.triangles, 3, 3)
+
+    def coverage(self, scene):
+        """Fragments per pixel of ``scene``'s boundaries, front- and back-facing: ``(H, W, 2)`` uint32.
+
+        The binning's watertightness check (note 002, E11): a closed mesh in front of the camera
+        gives every pixel as many front as back fragments, one of each per crossing.
+        """
+        self.check(scene)
+        stages = Stages()
+        binned = self._bin(scene, "global", stages)
+        return self._fragment_counts(binned, scene.width * scene.height, stages).reshape(scene.height, scene.width, 2)
+
+    def _render(self, scene):
+        import pyopencl as cl
+        import pyopencl.cltypes as cltypes
+
+        start = time.perf_counter()
+        stages = Stages()
+        binned = self._bin(scene, self.fragments, stages)
+        queue = self._entry.queue
+        width, height = scene.width, scene.height
+        pixels = width * height
+        transfer_buffer = self._upload("transfer", binned.transfer, stages, "setup")
+        gradient_buffer = self._upload("gradient_tables", binned.gradient_tables, stages, "setup")
+        image = self._buffer("image", 16 * pixels)
+        stats = self._buffer("stats", 16 * pixels)
+        step = self.step_factor * scene.min_world_voxel_size()
+        shading = scene.shading
+        light = scene_arrays.light_direction(scene)
+        atlas = binned.atlas
+        shade_args = (binned.object_buffer, atlas.buffer, cltypes.make_int4(*atlas.layout.shape_xyz, 0),
+                      transfer_buffer, gradient_buffer, np.float32(step), np.float32(self.opaque_threshold),
+                      cltypes.make_float4(*light, 0),
+                      cltypes.make_float4(shading.ambient, shading.diffuse, shading.specular, shading.shininess))
+        list_args = ()
+        if self.fragments == "global":
+            offsets = np.concatenate([[0], np.cumsum(self._fragment_counts(binned, pixels, stages).sum(axis=1))])
+            total = int(offsets[-1])
+            list_args = (self._upload("offsets", offsets.astype(np.uint32), stages, "count"),
+                         self._buffer("list_depth", 4 * total), self._buffer("list_code", 4 * total))
+        stages.add("pixel", binned.pixel["cast_tiles"](queue, binned.global_size, (TILE, TILE), *binned.tile_lists,
+                                                       *binned.camera, *shade_args, *list_args, image, stats))
+        result = np.empty((height, width, 4), np.float32)
+        per_pixel = np.empty((pixels, 4), np.uint32)
+        records_per_tile = np.empty(binned.global_size[0] * binned.global_size[1] // (TILE * TILE), np.uint32)
+        stages.add("readback", cl.enqueue_copy(queue, result, image, is_blocking=False))
+        stages.add("readback", cl.enqueue_copy(queue, per_pixel, stats, is_blocking=False))
+        stages.add("readback", cl.enqueue_copy(queue, records_per_tile, binned.tile_lists[0], is_blocking=False))
+        queue.finish()
+        seconds = stages.seconds()
+        total_time = time.perf_counter() - start
+
+        self._last_step = step
+        kept = per_pixel[:, 0]
+        hit = kept > 0
+        records = np.minimum(records_per_tile, CHUNK * MAX_CHUNKS)
+        chunks_used = int(binned.bin_counters[0])
+        timings = {stage: seconds.get(stage, 0.0)
+                   for stage in ("upload", "bricks", "hull", "setup", "binning", "count", "pixel", "readback")}
+        timings["total"] = total_time
+        counters = {
+            "rays": pixels,
+            "rays_hit": int(hit.sum()),
+            "triangles": binned.triangles,
+            "records": int(records.sum()),
+            "records_per_tile_max": int(records.max(initial=0)),
+            "records_per_tile_mean": float(records[records > 0].mean()) if records.any() else 0.0,
+            "records_dropped": int(binned.bin_counters[1]),
+            "pool_chunks": self._pool_chunks,
+            "pool_chunks_used": chunks_used,
+            "fragments": int(kept.sum()),
+            "fragments_max": int(kept.max(initial=0)),
+            "fragments_mean": float(kept[hit].mean()) if hit.any() else 0.0,
+            "fragments_dropped": int(per_pixel[:, 1].sum()),
+            "samples": int(per_pixel[:, 2].sum()),
+            "early_terminations": int(per_pixel[:, 3].sum()),
+        }
+        info = {
+            "step": step,
+            "step_factor": self.step_factor,
+            "fragments": self.fragments,
+            "depth_cap": self.depth_cap if self.fragments == "local" else None,
+            "tile": TILE,
+            "empty_space": self.empty_space,
+            "hull_triangles": [h.triangles for h in binned.hulls],
+            "binning_passes": binned.passes,
+            "pool_bytes_used": chunks_used * CHUNK * 12,
+            "atlas_shape_xyz": list(atlas.layout.shape_xyz),
+            "atlas_dtype": str(atlas.dtype),
+            "atlas_bytes": atlas.nbytes,
+            "blending": "sum of premultiplied samples, opacity clamped to 1 (Kainz et al. 2009)",
+            "shading_applied": binned.phong,
+            "built": sorted(stage for stage in ("upload", "bricks", "hull") if stage in seconds),
+        }
+        return RenderResult(image=result, timings=timings, counters=counters, info=info)

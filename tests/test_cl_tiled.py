@@ -1,0 +1,384 @@
+"""The OpenCL tiled multi-volume caster (Kainz et al. 2009): atlas packing, exactly-once binning
+coverage, depth sorting under the cap, conservative hulls, images against the reference for one
+and several volumes, caching, early termination, options and errors."""
+
+import numpy as np
+import pytest
+from scipy.ndimage import map_coordinates
+
+import renderers
+from core.camera import Camera
+from core.errors import InputError, UnsupportedFeatureError
+from core.scene import Scene, Shading, VolumeInstance
+from core.transfer import GradientOpacity, TransferFunction
+from core.volume import Volume
+from renderers.cl import atlas, context
+from renderers.cl.scene import OBJECT_DTYPE
+from renderers.cl.tiled import ClTiledRenderer
+from reports.metrics import psnr
+
+CL_OK, CL_REASON = context.probe(context.selector_for(None))
+needs_cl = pytest.mark.skipif(not CL_OK, reason=f"no OpenCL device here: {CL_REASON}")
+
+
+def blob(n=32, seed=0, *, dtype=np.uint8, centres=((0.5, 0.5, 0.5),), radius=0.42):
+    """Smooth blobs with internal structure, zero at the box faces."""
+    z, y, x = np.meshgrid(*(np.arange(n) + 0.5,) * 3, indexing="ij")
+    field = np.zeros((n, n, n))
+    for cx, cy, cz in centres:
+        r = np.sqrt((x - cx * n) ** 2 + (y - cy * n) ** 2 + (z - cz * n) ** 2)
+        field = np.maximum(field, np.clip(1 - r / (radius * n), 0, 1))
+    phase = np.random.default_rng(seed).uniform(0, 6, 3)
+    field = np.clip(field + 0.15 * np.sin(x / 3 + phase[0]) * np.cos(y / 4 + phase[1]) * (field > 0), 0, 1)
+    if dtype == np.float32:
+        return Volume(field.astype(np.float32), name=f"blob{seed}-f32", spacing=(1.0, 1.25, 0.8))
+    return Volume((field * 255).astype(np.uint8), name=f"blob{seed}")
+
+
+SMOOTH = TransferFunction.from_points([(0, 1, 0.5, 0.2, 0), (0.15, 1, 0.5, 0.2, 0), (0.5, 0.3, 0.8, 1, 0.5),
+                                       (1, 1, 1, 1, 0.9)], name="smooth")
+GREEN = TransferFunction.from_points([(0, 0.2, 1, 0.3, 0), (0.3, 0.2, 1, 0.3, 0), (0.7, 0.8, 1, 0.2, 0.4),
+                                      (1, 1, 1, 1, 0.6)], name="green")
+OPAQUE = TransferFunction.from_points([(0, 1, 1, 1, 0), (0.3, 1, 0.8, 0.6, 0), (0.45, 1, 0.8, 0.6, 1),
+                                       (1, 1, 1, 1, 1)], name="opaque")
+
+
+def rotation(degrees, axis):
+    c, s = np.cos(np.radians(degrees)), np.sin(np.radians(degrees))
+    i, j = [(1, 2), (2, 0), (0, 1)][axis]
+    matrix = np.eye(4)
+    matrix[i, i] = matrix[j, j] = c
+    matrix[i, j], matrix[j, i] = -s, s
+    return matrix
+
+
+def placed(volume, *, degrees=0.0, axis=1, scale=1.0, shift=(0.0, 0.0, 0.0)):
+    """Object→world: centre the box, scale, rotate, shift."""
+    centre = np.eye(4)
+    centre[:3, 3] = -0.5 * np.asarray(volume.extent)
+    move = np.eye(4)
+    move[:3, 3] = shift
+    return move @ rotation(degrees, axis) @ np.diag([scale, scale, scale, 1.0]) @ centre
+
+
+def multi_scene(*, size=40, shading="phong", **camera):
+    """Three overlapping instances: uint8 and float32 data, transforms, anisotropic spacing,
+    gradient opacity, two transfer functions and one volume instanced twice."""
+    a, b = blob(seed=1), blob(seed=2, dtype=np.float32)
+    gradient = GradientOpacity.from_points([(0, 0.2), (0.1, 1), (1, 1)])
+    instances = (
+        VolumeInstance(a, SMOOTH, name="a"),
+        VolumeInstance(b, GREEN, transform=placed(b, degrees=35, axis=1, scale=0.9, shift=(6, 2, -3)),
+                       gradient_opacity=gradient, name="b"),
+        VolumeInstance(a, GREEN, transform=placed(a, degrees=-50, axis=0, scale=0.7, shift=(-7, -4, 5)), name="a2"),
+    )
+    camera = {"azimuth": 25.0, "elevation": 15.0, **camera}
+    return Scene(instances, camera=Camera(**camera), width=size, height=size, shading=Shading(model=shading))
+
+
+@pytest.fixture(scope="module")
+def tiled():
+    """Renderers by option set, kept for the module (their programs and caches are reused)."""
+    made = {}
+
+    def get(**options):
+        key = tuple(sorted(options.items()))
+        if key not in made:
+            made[key] = renderers.get("cl-tiled", **options)
+        return made[key]
+
+    return get
+
+
+# ---------------------------------------------------------------------------------------------
+# Pure Python: atlas packing, object records, options
+
+
+def test_atlas_packs_volumes_without_overlap_and_round_trips_them():
+    shapes = [(16, 20, 24), (32, 32, 32), (5, 7, 9), (32, 8, 32), (3, 3, 3), (16, 20, 24)]
+    layout = atlas.pack(shapes)
+    boxes = [(np.array(origin), np.array(origin) + np.array(shape)) for origin, shape in zip(layout.origins, shapes)]
+    for low, high in boxes:
+        assert np.all(low >= 0) and np.all(high <= np.array(layout.shape_xyz))
+    for i, (low_a, high_a) in enumerate(boxes):
+        for low_b, high_b in boxes[i + 1:]:
+            assert np.any(high_a <= low_b) or np.any(high_b <= low_a), "slots overlap"
+    rng = np.random.default_rng(3)
+    volumes = [Volume(rng.integers(0, 256, (nz, ny, nx), dtype=np.uint8)) for nx, ny, nz in shapes]
+    packed = atlas.fill(volumes, layout, atlas.storage_dtype(volumes))
+    for volume, (ox, oy, oz) in zip(volumes, layout.origins):
+        nz, ny, nx = volume.data.shape
+        np.testing.assert_array_equal(packed[oz:oz + nz, oy:oy + ny, ox:ox + nx], volume.data)
+
+
+def test_atlas_of_fifty_equal_volumes_is_a_cube_and_mixed_data_is_stored_normalised():
+    layout = atlas.pack([(64, 64, 64)] * 50)
+    assert layout.shape_xyz == (256, 256, 256) and len(set(layout.origins)) == 50
+    uint8 = Volume(np.zeros((4, 4, 4), np.uint8))
+    ranged = Volume(np.full((4, 4, 4), 100, np.uint8), value_range=(50, 150))
+    assert atlas.storage_dtype([uint8]) == np.uint8
+    assert atlas.storage_dtype([uint8, ranged]) == np.float32
+    filled = atlas.fill([ranged], atlas.pack([ranged.shape_xyz]), np.dtype(np.float32))
+    np.testing.assert_allclose(filled, 0.5)
+
+
+def test_object_record_matches_the_kernel_struct_layout():
+    # kernels/common.cl: 3 × (3 float4) matrices, 2 float4, 3 int4, no padding.
+    offsets = [OBJECT_DTYPE.fields[name][1] for name in OBJECT_DTYPE.names]
+    assert offsets == [0, 48, 96, 144, 160, 176, 192, 208] and OBJECT_DTYPE.itemsize == 224
+
+
+@needs_cl
+def test_registered_with_options_and_capabilities():
+    assert renderers.backend_module("cl-tiled") == "renderers.cl.tiled"
+    backend = renderers.get("cl-tiled", depth_cap=32, brick_size=4)
+    assert backend.options["depth_cap"] == 32 and backend.options["brick_size"] == 4
+    assert backend.options["fragments"] == "local" and backend.options["empty_space"] == "hull"
+    caps = ClTiledRenderer.capabilities
+    assert caps.max_volumes == 64 and "perspective" in caps.projections and caps.gradient_opacity
+    environment = backend.environment()
+    assert environment["cl_device"] and environment["cl_platform"]
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"depth_cap": 0}, "depth_cap"),
+    ({"fragments": "shared"}, "fragments"),
+    ({"empty_space": "octree"}, "empty_space"),
+    ({"opaque_threshold": 0.0}, "opaque_threshold"),
+    ({"step_factor": -1}, "step_factor"),
+    ({"brick_size": 2.5}, "brick_size"),
+    ({"min_opacity": 1.0}, "min_opacity"),
+    ({"device": 3}, "device"),
+])
+def test_bad_options_are_named(options, match):
+    with pytest.raises(InputError, match=match):
+        ClTiledRenderer(**{"fragments": "global", **options})
+
+
+@needs_cl
+def test_device_selection_errors_list_the_devices_and_local_memory_is_checked(monkeypatch):
+    with pytest.raises(InputError, match="matches no device; available: 0:0"):
+        ClTiledRenderer(device="no-such-device")
+    monkeypatch.setenv(context.DEVICE_VARIABLE, "9:9")
+    with pytest.raises(InputError, match="no such platform:device"):
+        ClTiledRenderer()
+    monkeypatch.delenv(context.DEVICE_VARIABLE)
+    with pytest.raises(InputError, match="local memory.*fragments='global'"):
+        ClTiledRenderer(depth_cap=10 ** 6)
+
+
+# ---------------------------------------------------------------------------------------------
+# Binning: every pixel of a closed mesh covered once per crossing
+
+
+@needs_cl
+@pytest.mark.parametrize("empty_space", ["box", "hull"])
+def test_box_edges_through_pixel_centres_are_covered_exactly_once(tiled, empty_space):
+    # One world unit per pixel; the box's x and y faces (and, as a hull of 4³ bricks, every
+    # brick edge) project exactly onto pixel centres, where the tie rule must pick one side.
+    volume = Volume(np.full((32, 32, 32), 100, np.uint8))
+    transform = np.eye(4)
+    transform[:3, 3] = -16.5                                     # faces at x, y = -16.5 and 15.5
+    scene = Scene((VolumeInstance(volume, SMOOTH, transform=transform),),
+                  camera=Camera(view_height=44.0, distance=80.0), width=44, height=44)
+    counts = tiled(empty_space=empty_space, brick_size=4, fragments="global").coverage(scene)
+    front, back = counts[..., 0], counts[..., 1]
+    np.testing.assert_array_equal(front, back)
+    covered = front > 0
+    # Pixel centres x = i + 0.5 - 22 lie on the faces at -16.5 and 15.5: one side each is kept.
+    assert np.all(covered.sum(axis=1)[covered.any(axis=1)] == 32)
+    assert covered.sum() == 32 * 32
+    if empty_space == "box":
+        assert front.max() == 1
+
+
+@needs_cl
+@pytest.mark.parametrize("projection", ["orthographic", "perspective"])
+def test_overlapping_rotated_hulls_are_watertight(tiled, projection):
+    scene = multi_scene(size=48, projection=projection)
+    renderer = tiled(empty_space="hull", brick_size=4, fragments="global")
+    counts = renderer.coverage(scene)
+    np.testing.assert_array_equal(counts[..., 0], counts[..., 1])
+    assert counts[..., 0].max() >= 3     # concave hulls of three instances overlap
+
+
+@needs_cl
+def test_box_coverage_matches_the_analytic_silhouette(tiled):
+    volume = blob()
+    scene = Scene((VolumeInstance(volume, SMOOTH, transform=placed(volume, degrees=33, axis=2, shift=(1, 2, 0))),),
+                  camera=Camera(azimuth=40, elevation=25), width=40, height=40)
+    counts = tiled(empty_space="box", fragments="global").coverage(scene)
+    origins, directions = scene.camera.rays(scene.width, scene.height)
+    inverse = np.linalg.inv(scene.volumes[0].transform)
+    o = origins @ inverse[:3, :3].T + inverse[:3, 3]
+    d = directions @ inverse[:3, :3].T
+    with np.errstate(divide="ignore", invalid="ignore"):
+        ta, tb = -o / d, (np.asarray(volume.extent) - o) / d
+    span = np.minimum(ta, tb).max(axis=-1), np.maximum(ta, tb).min(axis=-1)
+    hit = span[1] - span[0] > 1e-3
+    assert counts[..., 0].max() == 1
+    assert np.count_nonzero((counts[..., 0] == 1) != hit) <= 2   # only pixel centres within 1/512 px of an edge
+
+
+# ---------------------------------------------------------------------------------------------
+# Hulls
+
+
+def inside_mesh(points, triangles):
+    """Parity of crossings of a ray from each point (a skewed +x direction) with the mesh."""
+    direction = np.array([1.0, 0.123, 0.0571])
+    v0, v1, v2 = triangles[:, 0], triangles[:, 1], triangles[:, 2]
+    e1, e2 = v1 - v0, v2 - v0
+    p = np.cross(direction, e2)
+    det = np.einsum("ij,ij->i", e1, p)
+    crossings = np.zeros(len(points), dtype=np.int64)
+    for start in range(0, len(points), 512):
+        s = points[start:start + 512, None, :] - v0[None]
+        u = np.einsum("ptj,tj->pt", s, p) / det
+        q = np.cross(s, e1[None])
+        v = q @ direction / det
+        t = np.einsum("ptj,tj->pt", q, e2) / det
+        crossings[start:start + 512] = ((u >= 0) & (v >= 0) & (u + v <= 1) & (t > 0)).sum(axis=1)
+    return crossings % 2 == 1
+
+
+@needs_cl
+def test_hull_is_closed_conservative_and_tighter_than_the_box(tiled):
+    volume = blob(centres=((0.25, 0.3, 0.3), (0.75, 0.7, 0.65)), radius=0.2)
+    scene = Scene((VolumeInstance(volume, OPAQUE),), width=32, height=32)
+    mesh = tiled(empty_space="hull", brick_size=4).boundary_mesh(scene).astype(np.float64)
+    assert 12 < len(mesh) < 8 * 8 * 8 * 12
+    # Closed and consistently oriented: every directed edge meets its reverse exactly once.
+    edges = {}
+    for a, b, c in mesh:
+        for p, q in ((a, b), (b, c), (c, a)):
+            key = (tuple(p), tuple(q))
+            edges[key] = edges.get(key, 0) + 1
+    assert all(edges.get((q, p)) == n for (p, q), n in edges.items())
+    signed_volume = np.einsum("ij,ij->i", mesh[:, 0], np.cross(mesh[:, 1], mesh[:, 2])).sum() / 6
+    assert 0 < signed_volume < np.prod(volume.extent)
+    # Conservative: every visible sample of the trilinear field lies inside the hull.
+    points = np.random.default_rng(0).uniform(0, 32, (6000, 3))
+    values = map_coordinates(volume.normalized(np.float64), (points[:, ::-1] - 0.5).T, order=1, mode="nearest")
+    visible = OPAQUE.lookup(values)[:, 3] > 0
+    assert visible.sum() > 100
+    inside = inside_mesh(points, mesh)
+    assert np.all(inside[visible])
+    assert not np.all(inside), "the hull should leave empty bricks out"
+
+
+# ---------------------------------------------------------------------------------------------
+# Images against the reference
+
+
+@needs_cl
+@pytest.mark.parametrize("shading", ["none", "phong"])
+def test_single_volume_matches_the_reference(tiled, shading):
+    scene = Scene((VolumeInstance(blob(), SMOOTH),), camera=Camera(azimuth=30, elevation=20), width=40, height=40,
+                  shading=Shading(model=shading))
+    truth = renderers.get("reference", step_factor=0.5).render(scene).image
+    result = tiled().render(scene)
+    assert psnr(truth, result.image) >= 50
+    assert result.counters["fragments_max"] >= 2 and result.counters["samples"] > 0
+
+
+@needs_cl
+@pytest.mark.parametrize("projection", ["orthographic", "perspective"])
+def test_overlapping_volumes_match_the_reference(tiled, projection):
+    scene = multi_scene(projection=projection)
+    truth = renderers.get("reference", step_factor=0.5).render(scene).image
+    hull = tiled().render(scene)
+    box = tiled(empty_space="box").render(scene)
+    assert psnr(truth, hull.image) >= 50 and psnr(truth, box.image) >= 50
+    assert hull.info["atlas_dtype"] == "float32" and len(hull.info["hull_triangles"]) == 3
+    assert hull.counters["samples"] < box.counters["samples"]   # the hulls skip empty bricks
+
+
+@needs_cl
+def test_eye_plane_through_a_volume_starts_inside_it(tiled):
+    # An orthographic eye plane cutting the box: the object is active from t = 0 (parity of the
+    # crossings behind the ray origin), as the reference clips its rays to t >= 0.
+    volume = blob()
+    scene = Scene((VolumeInstance(volume, SMOOTH),), camera=Camera(azimuth=10, elevation=5, distance=4.0),
+                  width=32, height=32)
+    truth = renderers.get("reference", step_factor=0.5).render(scene).image
+    for empty_space in ("box", "hull"):
+        assert psnr(truth, tiled(empty_space=empty_space).render(scene).image) >= 50
+
+
+@needs_cl
+def test_depth_cap_keeps_the_nearest_fragments(tiled):
+    # Twelve thin slabs along the view axis (24 fragments per pixel), listed back to front. A cap
+    # of 8 keeps the four nearest slabs: the same picture as a scene of only those four.
+    slab = Volume(np.full((2, 16, 16), 200, np.uint8), name="slab")
+    tf = TransferFunction.constant(color=(0.9, 0.6, 0.3), alpha=0.15)
+
+    def slabs(count):
+        instances = []
+        for k in reversed(range(count)):
+            transform = np.eye(4)
+            transform[:3, 3] = (-8, -8, 20 - 4 * k)
+            instances.append(VolumeInstance(slab, tf, transform=transform, name=f"slab{k}"))
+        return Scene(tuple(instances), camera=Camera(distance=60.0, view_height=24.0), width=24, height=24)
+
+    capped = tiled(depth_cap=8, opaque_threshold=1.0).render(slabs(12))
+    nearest = tiled(fragments="global", opaque_threshold=1.0).render(slabs(4))
+    full = tiled(fragments="global", opaque_threshold=1.0).render(slabs(12))
+    covered = capped.image[..., 3] > 0
+    assert covered.sum() == 16 * 16                         # one world unit per pixel
+    np.testing.assert_array_equal(capped.image, nearest.image)
+    assert capped.counters["fragments_max"] == 8 and full.counters["fragments_max"] == 24
+    assert capped.counters["fragments_dropped"] == 16 * covered.sum() and full.counters["fragments_dropped"] == 0
+    assert np.all(full.image[covered, 3] > capped.image[covered, 3])
+
+
+@needs_cl
+def test_local_lists_equal_the_global_ground_truth_below_the_cap(tiled):
+    scene = multi_scene(size=32, shading="none")
+    local = tiled().render(scene)
+    assert local.counters["fragments_dropped"] == 0
+    np.testing.assert_array_equal(local.image, tiled(fragments="global").render(scene).image)
+
+
+@needs_cl
+def test_early_termination_stops_rays_past_the_threshold(tiled):
+    scene = Scene((VolumeInstance(blob(), OPAQUE),), width=32, height=32)
+    never = tiled(opaque_threshold=1.0).render(scene)
+    early = tiled(opaque_threshold=0.5).render(scene)
+    assert never.counters["early_terminations"] == 0 and early.counters["early_terminations"] > 0
+    assert early.counters["samples"] < never.counters["samples"]
+    stopped = early.image[..., 3] != never.image[..., 3]
+    assert stopped.any() and np.all(early.image[stopped, 3] > 0.5)
+
+
+# ---------------------------------------------------------------------------------------------
+# Caching, counters, refusals
+
+
+@needs_cl
+def test_uploads_and_hulls_are_built_once_per_volume_and_classification():
+    renderer = renderers.get("cl-tiled")
+    volume = blob(seed=4)
+    scene = Scene((VolumeInstance(volume, SMOOTH),), width=24, height=24)
+    first = renderer.render(scene)
+    assert first.info["built"] == ["bricks", "hull", "upload"] and first.timings["upload"] > 0
+    assert renderer.render(scene).info["built"] == []
+    reclassified = Scene((VolumeInstance(volume, OPAQUE),), width=24, height=24)
+    assert renderer.render(reclassified).info["built"] == ["hull"]
+    counters = first.counters
+    assert counters["records"] > 0 and counters["pool_chunks_used"] >= 1 and counters["records_dropped"] == 0
+    assert 0 < counters["fragments_mean"] <= counters["fragments_max"]
+    assert set(first.timings) >= {"binning", "pixel", "hull", "upload", "total"}
+
+
+@needs_cl
+def test_unsupported_mode_and_views_are_refused_before_work(tiled):
+    volume = blob()
+    with pytest.raises(UnsupportedFeatureError, match="mip"):
+        tiled().render(Scene((VolumeInstance(volume, SMOOTH),), mode="mip", width=16, height=16))
+    # A perspective eye beside a box that reaches behind it (not inside it).
+    beside = placed(volume, shift=(30, 0, 60))
+    scene = Scene((VolumeInstance(volume, SMOOTH, transform=beside),),
+                  camera=Camera(projection="perspective", distance=60.0), width=16, height=16)
+    with pytest.raises(UnsupportedFeatureError, match="behind the perspective eye"):
+        tiled().render(scene)
