@@ -1,9 +1,33 @@
 """The declarative scene every backend renders (CONVENTIONS, all sections).
 
 A scene holds only what it uses: volume instances (data, transform, classification), the camera,
-the image size, the mode and the shading. Later features (polygon meshes with CSG, lens volumes)
+the image size, the mode and the shading. Later features (closed meshes with CSG, lens volumes)
 are optional fields that default to empty, so a scene that does not use them does not carry them,
 and :meth:`Scene.features` lists what a scene needs so that backends can refuse early.
+
+Meshes and CSG (Kainz et al. 2009)
+----------------------------------
+Every instance, volume or mesh, is a *leaf* with an inside: a volume's inside is its box,
+intersected with the interior of its ``boundary`` mesh when it has one; a mesh instance's inside
+is its interior by ray parity. A :class:`CsgNode` tree combines named leaves (``union``,
+``intersection``, ``difference``); an instance in no tree stands alone. Along a ray the fragments
+(boundary crossings) cut it into segments with a fixed set of active (inside) leaves, and in each
+segment a leaf *contributes* when it is active and every CSG node above it lets it through:
+``union`` passes its children through; ``intersection`` passes them only where all its children
+are inside; ``difference`` passes its first child only where the first is inside and none of the
+others is, and never passes the others (they only carve). A volume contributes its own transfer
+function's samples only where it contributes (so a volume is sampled only inside its boundary and
+where its CSG expression holds); a mesh instance contributes its :class:`~core.mesh.HomogeneousMedium`.
+Contributions of several leaves in one place are blended as overlapping volumes are (CONVENTIONS:
+premultiplied colours and corrected opacities summed, the opacity clamped to 1).
+
+A crossing of a mesh instance is drawn with its :class:`~core.mesh.SurfaceMaterial` where it is a
+boundary of its tree's solid: where the root's inside/outside changes across it (for a standalone
+instance, every crossing). So the cut face that a ``difference`` leaves is drawn with the material
+of the subtracted instance if it has one, and not at all if it has none (the paper's toggle of
+"including the boundary in the operation"). Along the ray everything is composited front to back
+in depth order: the material between the previous crossing and a surface, then the surface, then
+what lies behind it. Meshes and CSG are ``dvr`` only: ``mip`` and ``iso`` are defined on volumes.
 """
 
 from dataclasses import dataclass, field, replace
@@ -13,11 +37,13 @@ import numpy as np
 from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
+from core.mesh import Mesh, MeshInstance
 from core.transfer import GradientOpacity, TransferFunction
 from core.validation import check_choice, check_finite_vector, check_matrix4, check_positive_int, check_scalar
 
 MODES = ("dvr", "mip", "iso")
 SHADING_MODELS = ("none", "phong")
+CSG_OPERATIONS = ("union", "intersection", "difference")
 
 
 def centering_transform(volume):
@@ -42,6 +68,11 @@ class VolumeInstance:
     isovalue : float, optional
         Normalised isovalue used in ``iso`` mode.
     name : str, optional
+    boundary : Mesh, optional
+        A closed polygonal boundary in the volume's object space (the frame of its box
+        ``[0, extent]``, moved by ``transform``): the volume is sampled only inside both the box
+        and this mesh (a tight hull, a segmentation region). ``None``: the box alone. Its
+        crossings are never drawn.
     """
 
     volume: Volume
@@ -50,6 +81,7 @@ class VolumeInstance:
     gradient_opacity: GradientOpacity | None = None
     isovalue: float | None = None
     name: str = ""
+    boundary: Mesh | None = None
 
     def __post_init__(self):
         if not isinstance(self.volume, Volume):
@@ -64,6 +96,9 @@ class VolumeInstance:
             object.__setattr__(self, "isovalue", check_scalar(self.isovalue, name=f"volume instance {self.name!r} isovalue", low=0, high=1))
         if not self.name:
             object.__setattr__(self, "name", self.volume.name)
+        if self.boundary is not None and not isinstance(self.boundary, Mesh):
+            raise InputError(f"volume instance {self.name!r}: boundary must be a Mesh or None, "
+                             f"got {type(self.boundary).__name__}")
 
     @property
     def reference_step(self):
@@ -109,38 +144,86 @@ class Shading:
 
 
 @dataclass(frozen=True, eq=False)
+class CsgNode:
+    """A CSG operation over named instances and sub-trees (see the module notes for the semantics).
+
+    Parameters
+    ----------
+    operation : {'union', 'intersection', 'difference'}
+        ``difference`` subtracts every child after the first from the first.
+    children : sequence of str or CsgNode
+        At least two; a string names a volume or mesh instance of the scene.
+    """
+
+    operation: str
+    children: tuple
+
+    def __post_init__(self):
+        check_choice(self.operation, CSG_OPERATIONS, name="csg operation")
+        if isinstance(self.children, (str, CsgNode)) or not np.iterable(self.children):
+            raise InputError(f"csg {self.operation}: children must be a list of instance names or CSG nodes")
+        children = tuple(self.children)
+        if len(children) < 2:
+            raise InputError(f"csg {self.operation}: needs at least two children, got {len(children)}")
+        for child in children:
+            if not isinstance(child, (str, CsgNode)) or child == "":
+                raise InputError(f"csg {self.operation}: a child must be an instance name or a CsgNode, got {child!r}")
+        object.__setattr__(self, "children", children)
+
+    def leaves(self):
+        """Instance names of the leaves, left to right."""
+        return [name for child in self.children
+                for name in ((child,) if isinstance(child, str) else child.leaves())]
+
+
+@dataclass(frozen=True, eq=False)
 class Scene:
     """What to render.
 
     Parameters
     ----------
     volumes : sequence of VolumeInstance
-        At least one.
+        At least one volume or mesh instance in all.
     camera : Camera, optional
-        Unset ``distance``/``view_height`` are framed to the volumes' bounding sphere.
+        Unset ``distance``/``view_height`` are framed to the scene's bounding sphere.
     width, height : int
         Image size in pixels.
     mode : {'dvr', 'mip', 'iso'}
     shading : Shading, optional
     name : str, optional
+    meshes : sequence of MeshInstance, optional
+        Closed meshes with surface materials and/or homogeneous interiors (``dvr`` only).
+    csg : sequence of CsgNode, optional
+        CSG trees; each leaf names exactly one instance of the scene, and an instance is a leaf
+        of at most one tree. Instances in no tree stand alone.
     """
 
-    volumes: tuple
+    volumes: tuple = ()
     camera: Camera = field(default_factory=Camera)
     width: int = 256
     height: int = 256
     mode: str = "dvr"
     shading: Shading = field(default_factory=Shading)
     name: str = "scene"
+    meshes: tuple = ()
+    csg: tuple = ()
 
     def __post_init__(self):
         volumes = tuple(self.volumes) if not isinstance(self.volumes, VolumeInstance) else (self.volumes,)
-        if not volumes:
-            raise InputError(f"scene {self.name!r}: needs at least one volume instance")
         for instance in volumes:
             if not isinstance(instance, VolumeInstance):
                 raise InputError(f"scene {self.name!r}: volumes must be VolumeInstance objects, got {type(instance).__name__}")
         object.__setattr__(self, "volumes", volumes)
+        meshes = tuple(self.meshes) if not isinstance(self.meshes, MeshInstance) else (self.meshes,)
+        for instance in meshes:
+            if not isinstance(instance, MeshInstance):
+                raise InputError(f"scene {self.name!r}: meshes must be MeshInstance objects, got {type(instance).__name__}")
+        object.__setattr__(self, "meshes", meshes)
+        if not volumes and not meshes:
+            raise InputError(f"scene {self.name!r}: needs at least one volume or mesh instance")
+        csg = tuple(self.csg) if not isinstance(self.csg, CsgNode) else (self.csg,)
+        self._check_csg(csg)
+        object.__setattr__(self, "csg", csg)
         check_positive_int(self.width, name=f"scene {self.name!r} width")
         check_positive_int(self.height, name=f"scene {self.name!r} height")
         check_choice(self.mode, MODES, name=f"scene {self.name!r} mode")
@@ -148,19 +231,49 @@ class Scene:
             raise InputError(f"scene {self.name!r}: camera must be a Camera")
         if not isinstance(self.shading, Shading):
             raise InputError(f"scene {self.name!r}: shading must be a Shading")
+        if self.has_geometry() and self.mode != "dvr":
+            raise InputError(f"scene {self.name!r}: meshes, volume boundaries and CSG render in mode 'dvr' only "
+                             f"(mip and iso are defined on volumes), got mode {self.mode!r}")
         center, radius = self.bounding_sphere()
         object.__setattr__(self, "camera", self.camera.framed(center, radius))
 
+    def _check_csg(self, trees):
+        names = [v.name for v in self.volumes] + [m.name for m in self.meshes]
+        used = set()
+        for tree in trees:
+            if not isinstance(tree, CsgNode):
+                raise InputError(f"scene {self.name!r}: csg must hold CsgNode trees, got {type(tree).__name__}")
+            for leaf in tree.leaves():
+                if names.count(leaf) != 1:
+                    found = "no instance" if leaf not in names else f"{names.count(leaf)} instances"
+                    raise InputError(f"scene {self.name!r} csg: leaf {leaf!r} must name exactly one volume or mesh "
+                                     f"instance, found {found}; instances: {sorted(set(names))}")
+                if leaf in used:
+                    raise InputError(f"scene {self.name!r} csg: instance {leaf!r} is a leaf more than once; "
+                                     "instance its mesh or volume again under another name instead")
+                used.add(leaf)
+
+    def has_geometry(self):
+        """Whether the scene has mesh instances, volume boundaries or CSG (anything beyond boxes)."""
+        return bool(self.meshes or self.csg or any(v.boundary is not None for v in self.volumes))
+
     def bounds(self):
-        """World-space axis-aligned bounds of all volume boxes, ``(min_xyz, max_xyz)``."""
-        corners = np.concatenate([v.world_corners() for v in self.volumes])
-        return corners.min(axis=0), corners.max(axis=0)
+        """World-space axis-aligned bounds of all volume boxes and mesh instances, ``(min_xyz, max_xyz)``."""
+        points = np.concatenate([v.world_corners() for v in self.volumes] + [m.world_vertices() for m in self.meshes])
+        return points.min(axis=0), points.max(axis=0)
 
     def min_world_voxel_size(self):
         """Smallest world-space voxel edge over all volumes (``|A·e_i|·s_i``, transforms included).
 
         The unit of every backend's ``step_factor``: a step of 1 is one such voxel edge.
+
+        Raises
+        ------
+        InputError
+            The scene has no volume, so there is no voxel to measure a step by.
         """
+        if not self.volumes:
+            raise InputError(f"scene {self.name!r}: has no volume, so no voxel size; give an absolute step instead")
         return min(float(np.min(np.linalg.norm(v.transform[:3, :3], axis=0) * np.asarray(v.volume.spacing)))
                    for v in self.volumes)
 
@@ -191,6 +304,14 @@ class Scene:
         if any(v.volume.spacing[0] != v.volume.spacing[1] or v.volume.spacing[1] != v.volume.spacing[2]
                for v in self.volumes):
             needs["anisotropic_spacing"] = True
+        if self.meshes or any(v.boundary is not None for v in self.volumes):
+            needs["meshes"] = True
+        if self.csg:
+            needs["csg"] = True
+        if any(m.surface is not None and m.surface.translucent for m in self.meshes):
+            needs["translucent_geometry"] = True
+        if any(m.medium is not None for m in self.meshes):
+            needs["homogeneous_media"] = True
         return needs
 
     def camera_inside_volume(self):

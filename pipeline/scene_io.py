@@ -24,6 +24,28 @@ A scene file lists only what it uses; every key has a default except ``volumes``
 
 The box is centred on the world origin first; ``transform`` then scales, rotates and translates
 it (``matrix:`` gives a full object→world 4×4 instead, no centring).
+
+Closed meshes, their materials, instancing and CSG (Kainz et al. 2009; semantics in
+:mod:`core.scene`) are optional; a scene may hold meshes only::
+
+    meshes:
+      - name: rods
+        generator: rod               # a generator of datasets.meshes ...
+        params: {sides: 20, radius: 0.05}
+        surface: {colour: [1, 0.8, 0.2], alpha: 0.4, specular: 0.5}   # SurfaceMaterial fields
+        medium: {colour: [1, 0.5, 0], extinction: 2.0}                 # HomogeneousMedium fields
+        transform: {rotate: {axis: [1, 0, 0], degrees: 30}}             # no centring for meshes
+      - name: rod2
+        instance_of: rods            # ... or the mesh of an earlier entry (instancing) ...
+        transform: {translate: [0.3, 0, 0]}
+      - file: models/liver.obj       # ... or a file trimesh reads (OBJ, STL, PLY, OFF, glTF)
+    volumes:
+      - dataset: sphere
+        boundary: {generator: phantom_isosurface, params: {dataset: sphere, level: 0.3}}
+    csg:
+      - difference: [sphere, {union: [rods, rod2]}]   # one operation key: a list of names or nodes
+
+An entry's own keys do not carry over to the instances of its mesh.
 Unknown keys are errors, so a typo never silently falls back to a default.
 """
 
@@ -36,13 +58,16 @@ import datasets
 from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
-from core.scene import Scene, Shading, VolumeInstance, centering_transform
+from core.mesh import HomogeneousMedium, MeshInstance, SurfaceMaterial
+from core.scene import CSG_OPERATIONS, CsgNode, Scene, Shading, VolumeInstance, centering_transform
 from core.transfer import GradientOpacity, TransferFunction
 from core.validation import check_finite_vector, check_matrix4, check_positive_vector, check_scalar, check_value_range
 
-SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes"}
+SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes", "meshes", "csg"}
 VOLUME_KEYS = {"dataset", "size", "seed", "params", "file", "spacing", "value_range", "preset",
-               "transfer_function", "gradient_opacity", "isovalue", "transform", "name"}
+               "transfer_function", "gradient_opacity", "isovalue", "transform", "name", "boundary"}
+MESH_KEYS = {"name", "generator", "params", "file", "instance_of", "transform", "surface", "medium"}
+MESH_SOURCE_KEYS = ("generator", "file", "instance_of")
 TRANSFORM_KEYS = {"translate", "rotate", "scale", "matrix"}
 
 
@@ -83,7 +108,10 @@ def rotation_matrix(axis, degrees):
 
 
 def build_transform(spec, volume, *, where="transform"):
-    """Object→world matrix from a ``transform`` mapping (see the module docstring)."""
+    """Object→world matrix from a ``transform`` mapping (see the module docstring).
+
+    ``volume`` is the volume whose box is centred first; ``None`` (meshes) centres nothing.
+    """
     if spec is None:
         return None
     _check_keys(spec, TRANSFORM_KEYS, where=where)
@@ -104,7 +132,7 @@ def build_transform(spec, volume, *, where="transform"):
         rotate = rotation_matrix(spec["rotate"].get("axis", (0, 1, 0)), spec["rotate"].get("degrees", 0))
     translate = np.eye(4)
     translate[:3, 3] = check_finite_vector(spec.get("translate", (0, 0, 0)), length=3, name=f"{where} translate")
-    return translate @ rotate @ scale @ centering_transform(volume)
+    return translate @ rotate @ scale @ (np.eye(4) if volume is None else centering_transform(volume))
 
 
 def dataset_arguments(spec, *, size=None):
@@ -192,6 +220,10 @@ def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, dat
             points = _points(g_spec.pop("points", None), 1, where=f"{where} gradient_opacity points")
             gradient_opacity = GradientOpacity.from_points(points, **g_spec)
     isovalue = spec.get("isovalue", preset.effective_isovalue if preset is not None else None)
+    boundary = None
+    if spec.get("boundary") is not None:
+        boundary = load_mesh_source(spec["boundary"], base_dir=base_dir, cache_dir=cache_dir,
+                                    where=f"{where} boundary")
     return VolumeInstance(
         volume=volume,
         transfer_function=transfer_function,
@@ -199,7 +231,86 @@ def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, dat
         gradient_opacity=gradient_opacity,
         isovalue=isovalue,
         name=spec.get("name", volume.name),
+        boundary=boundary,
     )
+
+
+def load_mesh_source(spec, *, base_dir=None, cache_dir=None, where="mesh"):
+    """The :class:`~core.mesh.Mesh` of a ``{generator:, params:}`` or ``{file:}`` mapping."""
+    from datasets import meshes
+
+    _check_keys(spec, {"generator", "params", "file", "name"}, where=where)
+    if ("generator" in spec) == ("file" in spec):
+        raise InputError(f"{where}: give exactly one of 'generator' or 'file'")
+    if "file" in spec:
+        if "params" in spec:
+            raise InputError(f"{where}: 'params' belongs to a 'generator', not a 'file'")
+        path = Path(spec["file"])
+        if base_dir is not None and not path.is_absolute():
+            path = Path(base_dir) / path
+        return meshes.load_mesh(path, name=spec.get("name"))
+    params = spec.get("params") or {}
+    if not isinstance(params, dict):
+        raise InputError(f"{where} params: expected a mapping of generator parameters, got {params!r}")
+    if spec["generator"] == "phantom_isosurface":
+        params = {"cache_dir": cache_dir, **params}
+    mesh = meshes.generate(spec["generator"], **params)
+    return mesh if "name" not in spec else type(mesh)(mesh.vertices, mesh.faces, name=spec["name"], meta=mesh.meta)
+
+
+def _material(spec, cls, *, where):
+    if spec is None:
+        return None
+    _check_keys(spec, set(cls.__dataclass_fields__), where=where)
+    return cls(**spec)
+
+
+def build_mesh_instances(entries, *, base_dir=None, cache_dir=None):
+    """The :class:`~core.mesh.MeshInstance` of every entry of ``meshes``, in order (see the module docstring)."""
+    if not isinstance(entries, list):
+        raise InputError(f"scene meshes: expected a list of mesh entries, got {type(entries).__name__}")
+    instances = []
+    by_name = {}
+    for index, spec in enumerate(entries):
+        where = f"meshes[{index}]"
+        _check_keys(spec, MESH_KEYS, where=where)
+        sources = [key for key in MESH_SOURCE_KEYS if key in spec]
+        if len(sources) != 1:
+            raise InputError(f"{where}: give exactly one of {', '.join(repr(k) for k in MESH_SOURCE_KEYS)}, "
+                             f"got {sources or 'none'}")
+        transform = build_transform(spec.get("transform"), None, where=f"{where} transform")
+        surface = _material(spec.get("surface"), SurfaceMaterial, where=f"{where} surface")
+        medium = _material(spec.get("medium"), HomogeneousMedium, where=f"{where} medium")
+        if "instance_of" in spec:
+            if "params" in spec:
+                raise InputError(f"{where}: 'params' belongs to a 'generator', not to 'instance_of'")
+            if spec["instance_of"] not in by_name:
+                raise InputError(f"{where} instance_of: {spec['instance_of']!r} is not the name of an earlier mesh "
+                                 f"entry; earlier: {sorted(by_name)}")
+            mesh = by_name[spec["instance_of"]].mesh
+        else:
+            source = {key: spec[key] for key in ("generator", "params", "file") if key in spec}
+            mesh = load_mesh_source(source, base_dir=base_dir, cache_dir=cache_dir, where=where)
+        instance = MeshInstance(mesh, transform=transform, surface=surface, medium=medium,
+                                name=spec.get("name", ""))
+        by_name[instance.name] = instance
+        instances.append(instance)
+    return tuple(instances)
+
+
+def build_csg(spec, *, where="csg"):
+    """A :class:`~core.scene.CsgNode` from ``{operation: [child, ...]}``; a child is a name or such a mapping."""
+    if isinstance(spec, str):
+        return spec
+    if not isinstance(spec, dict) or len(spec) != 1:
+        raise InputError(f"{where}: expected an instance name or a mapping with one operation key "
+                         f"({', '.join(CSG_OPERATIONS)}), got {spec!r}")
+    (operation, children), = spec.items()
+    if operation not in CSG_OPERATIONS:
+        raise InputError(f"{where}: unknown operation {operation!r}; expected one of {list(CSG_OPERATIONS)}")
+    if not isinstance(children, list):
+        raise InputError(f"{where} {operation}: expected a list of instance names or operations, got {children!r}")
+    return CsgNode(operation, [build_csg(child, where=f"{where} {operation}[{i}]") for i, child in enumerate(children)])
 
 
 def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None):
@@ -219,12 +330,20 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
         Folder of the real scans (see :func:`datasets.load`).
     """
     _check_keys(spec, SCENE_KEYS, where="scene")
-    if not spec.get("volumes"):
-        raise InputError("scene: 'volumes' must list at least one volume")
+    if not spec.get("volumes") and not spec.get("meshes"):
+        raise InputError("scene: 'volumes' or 'meshes' must list at least one volume or mesh")
+    csg_spec = spec.get("csg") or []
+    if not isinstance(csg_spec, list):
+        raise InputError(f"scene csg: expected a list of operations, got {csg_spec!r}")
+    # CSG is checked before any volume or mesh is built.
+    csg = tuple(build_csg(tree, where=f"csg[{i}]") for i, tree in enumerate(csg_spec))
+    if any(isinstance(tree, str) for tree in csg):
+        raise InputError("scene csg: each entry must be an operation such as {union: [a, b]}, not a bare name")
     instances = tuple(
         build_volume_instance(v, cache_dir=cache_dir, size=size, base_dir=base_dir, data_dir=data_dir, index=i)
-        for i, v in enumerate(spec["volumes"])
+        for i, v in enumerate(spec.get("volumes") or [])
     )
+    meshes = build_mesh_instances(spec.get("meshes") or [], base_dir=base_dir, cache_dir=cache_dir)
     camera_spec = spec.get("camera") or {}
     _check_keys(camera_spec, set(Camera.__dataclass_fields__), where="scene camera")
     shading_spec = spec.get("shading") or {}
@@ -237,6 +356,8 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
         mode=spec.get("mode", "dvr"),
         shading=Shading(**shading_spec),
         name=spec.get("name", "scene"),
+        meshes=meshes,
+        csg=csg,
     )
 
 

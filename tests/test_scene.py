@@ -4,7 +4,7 @@ import pytest
 from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
-from core.scene import Scene, Shading, VolumeInstance
+from core.scene import CsgNode, Scene, Shading, VolumeInstance
 from core.transfer import GradientOpacity, TransferFunction
 
 TF = TransferFunction.ramp(0.2, 0.8)
@@ -110,3 +110,57 @@ def test_min_world_voxel_size_takes_spacing_and_transforms_into_account():
     b = VolumeInstance(Volume(np.zeros((4, 4, 4), np.uint8), spacing=(1.0, 1.0, 1.0)), tf, transform=scaled, name="b")
     assert Scene([a]).min_world_voxel_size() == 1.0
     assert Scene([a, b]).min_world_voxel_size() == 0.5  # b's y edge: 1.0 · 0.5
+
+
+def _cube():
+    import trimesh
+
+    from core.mesh import Mesh
+
+    box = trimesh.creation.box(extents=(2, 2, 2))
+    return Mesh(box.vertices, box.faces, name="cube")
+
+
+def test_geometry_features_and_bounds_include_meshes():
+    from core.mesh import HomogeneousMedium, MeshInstance, SurfaceMaterial
+
+    far = np.eye(4)
+    far[:3, 3] = (50, 0, 0)
+    cube = _cube()
+    volume = VolumeInstance(make_volume(), TF, name="v")
+    plain = Scene(volumes=[volume])
+    assert not plain.has_geometry() and plain.meshes == () and plain.csg == ()
+    scene = Scene(volumes=[volume], meshes=[MeshInstance(cube, transform=far, surface=SurfaceMaterial(alpha=0.5),
+                                                         medium=HomogeneousMedium(), name="c")],
+                  csg=[CsgNode("difference", ["v", "c"])])
+    features = scene.features()
+    assert features["meshes"] and features["csg"] and features["translucent_geometry"] and features["homogeneous_media"]
+    assert scene.bounds()[1][0] == 51 and scene.camera.view_height > 54
+    opaque = Scene(meshes=[MeshInstance(cube, surface=SurfaceMaterial())])
+    assert "translucent_geometry" not in opaque.features() and opaque.features()["meshes"]
+    bounded = Scene(volumes=[VolumeInstance(make_volume(), TF, boundary=cube)])
+    assert bounded.has_geometry() and bounded.features()["meshes"]
+    with pytest.raises(InputError, match="no volume"):
+        opaque.min_world_voxel_size()
+
+
+@pytest.mark.parametrize("make, match", [
+    (lambda v, m: Scene(), "at least one volume or mesh"),
+    (lambda v, m: Scene(volumes=[v], meshes=["cube"]), "MeshInstance"),
+    (lambda v, m: Scene(volumes=[v], meshes=[m], csg=[CsgNode("union", ["v", "nope"])]), "leaf 'nope'.*no instance"),
+    (lambda v, m: Scene(volumes=[v, v], meshes=[m], csg=[CsgNode("union", ["v", "c"])]), "leaf 'v'.*2 instances"),
+    (lambda v, m: Scene(volumes=[v], meshes=[m], csg=[CsgNode("union", ["v", "c"]), CsgNode("union", ["c", "v"])]),
+     "more than once"),
+    (lambda v, m: Scene(volumes=[v], meshes=[m], csg=["v"]), "CsgNode"),
+    (lambda v, m: CsgNode("xor", ["v", "c"]), "csg operation"),
+    (lambda v, m: CsgNode("union", ["v"]), "at least two"),
+    (lambda v, m: CsgNode("union", "vc"), "children must be a list"),
+    (lambda v, m: Scene(volumes=[v], meshes=[m], mode="iso"), "mode 'dvr' only"),
+    (lambda v, m: VolumeInstance(make_volume(), TF, boundary="box"), "boundary must be a Mesh"),
+])
+def test_bad_geometry_inputs(make, match):
+    from core.mesh import MeshInstance
+
+    with pytest.raises(InputError, match=match):
+        make(VolumeInstance(make_volume(), TF, name="v"), MeshInstance(_cube(), name="c"))
+

@@ -149,3 +149,65 @@ def test_degenerate_camera_in_a_scene_file(tmp_path):
         build_scene({**_spec(), "camera": {"up": [0, 0, 0]}}, cache_dir=tmp_path)
     with pytest.raises(InputError, match="parallel"):
         build_scene({**_spec(), "camera": {"elevation": -90}}, cache_dir=tmp_path)
+
+
+def _mesh_spec(**entry):
+    return {"width": 8, "height": 8, "meshes": [{"name": "r", "generator": "rod", **entry}]}
+
+
+def test_meshes_materials_instancing_and_csg_from_a_scene_file(tmp_path):
+    import trimesh
+
+    trimesh.creation.box(extents=(4, 4, 4)).export(tmp_path / "clip.obj")
+    (tmp_path / "scene.yaml").write_text(yaml.safe_dump({
+        "volumes": [{"dataset": "sphere", "size": 16, "name": "ball"}],
+        "meshes": [
+            {"name": "rod", "generator": "rod", "params": {"sides": 8, "radius": 1, "length": 20},
+             "surface": {"colour": [1, 0.5, 0], "alpha": 0.5, "specular": 0.1},
+             "medium": {"colour": [0, 0, 1], "extinction": 0.2},
+             "transform": {"rotate": {"axis": [1, 0, 0], "degrees": 90}}},
+            {"name": "rod2", "instance_of": "rod", "transform": {"translate": [3, 0, 0]}},
+            {"name": "clip", "file": "clip.obj"},
+        ],
+        "csg": [{"difference": ["ball", {"union": ["clip", "rod2"]}]}],
+    }))
+    scene = load_scene(tmp_path / "scene.yaml", cache_dir=tmp_path)
+    rod, rod2, clip = scene.meshes
+    assert rod2.mesh is rod.mesh and rod.mesh.triangle_count == 4 * 8 - 4
+    assert rod.surface.alpha == 0.5 and rod.medium.extinction == 0.2 and rod2.surface is None
+    np.testing.assert_allclose(rod.transform[:3, :3] @ (0, 0, 1), (0, -1, 0), atol=1e-12)
+    np.testing.assert_allclose(rod2.transform[:3, 3], (3, 0, 0))
+    assert clip.mesh.triangle_count == 12
+    assert scene.csg[0].operation == "difference" and scene.csg[0].leaves() == ["ball", "clip", "rod2"]
+    assert {"meshes", "csg", "translucent_geometry", "homogeneous_media"} <= set(scene.features())
+
+
+def test_a_volume_boundary_from_a_generator(tmp_path):
+    spec = _spec(boundary={"generator": "phantom_isosurface", "params": {"dataset": "sphere", "size": 16}})
+    boundary = build_scene(spec, cache_dir=tmp_path).volumes[0].boundary
+    assert boundary is not None and boundary.meta["generator"] == "phantom_isosurface"
+
+
+@pytest.mark.parametrize("spec, match", [
+    (_mesh_spec(params={"sides": 2}), "rod sides"),
+    (_mesh_spec(params={"corners": 5}), "rod.*takes"),
+    (_mesh_spec(generator="blob"), "unknown mesh generator 'blob'"),
+    (_mesh_spec(file="x.obj"), r"meshes\[0\]: give exactly one of"),
+    (_mesh_spec(colour=[1, 0, 0]), r"meshes\[0\]: unknown keys.*colour"),
+    (_mesh_spec(surface={"color": [1, 0, 0]}), r"meshes\[0\] surface: unknown keys.*color"),
+    (_mesh_spec(surface={"alpha": 2}), "surface material alpha"),
+    (_mesh_spec(medium={"extinction": "thick"}), "medium extinction"),
+    (_mesh_spec(transform={"translate": [1, 2]}), r"meshes\[0\] transform translate"),
+    ({"meshes": [{"instance_of": "ghost"}]}, "instance_of: 'ghost' is not the name of an earlier mesh"),
+    ({"meshes": [{"file": "missing.obj"}]}, "does not exist"),
+    ({**_mesh_spec(), "csg": [{"xor": ["r", "r"]}]}, r"csg\[0\]: unknown operation 'xor'"),
+    ({**_mesh_spec(), "csg": [{"union": "r"}]}, "expected a list"),
+    ({**_mesh_spec(), "csg": ["r"]}, "not a bare name"),
+    ({**_mesh_spec(), "csg": [{"union": ["r", "nope"]}]}, "leaf 'nope'"),
+    ({**_mesh_spec(), "mode": "mip"}, "dvr"),
+    ({"meshes": []}, "at least one volume or mesh"),
+    (_spec(boundary={"generator": "rod", "file": "x.obj"}), r"boundary: give exactly one of 'generator' or 'file'"),
+])
+def test_bad_mesh_and_csg_keys_name_the_key(spec, match, tmp_path):
+    with pytest.raises(InputError, match=match):
+        build_scene(spec, cache_dir=tmp_path, base_dir=tmp_path)

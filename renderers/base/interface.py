@@ -8,6 +8,9 @@ import numpy as np
 from core.errors import InputError, UnsupportedFeatureError
 from core.scene import Scene
 
+GEOMETRY_FEATURES = ("csg", "translucent_geometry", "homogeneous_media")
+"""Features that build on ``meshes``: a backend without meshes lacks them for the same reason."""
+
 
 @dataclass(frozen=True)
 class Capabilities:
@@ -20,7 +23,12 @@ class Capabilities:
     max_volumes : int
         Largest number of volume instances in one scene.
     gradient_opacity, transforms, anisotropic_spacing, meshes, lenses : bool
-        Optional features.
+        Optional features. ``meshes``: closed mesh instances and polygonal volume boundaries
+        (:mod:`core.mesh`) with opaque surfaces.
+    csg, translucent_geometry, homogeneous_media : bool
+        CSG trees, surfaces with alpha < 1, and mesh interiors filled with a homogeneous medium
+        (:class:`core.scene.Scene` keys of the same names). Where the reason for one of them is
+        not given, a backend without ``meshes`` refuses it with its reason for ``meshes``.
     camera_inside_volume : bool
         Whether a perspective eye may sit inside a volume box.
     reasons : dict
@@ -35,6 +43,9 @@ class Capabilities:
     transforms: bool = False
     anisotropic_spacing: bool = True
     meshes: bool = False
+    csg: bool = False
+    translucent_geometry: bool = False
+    homogeneous_media: bool = False
     lenses: bool = False
     camera_inside_volume: bool = False
     reasons: dict = field(default_factory=dict)
@@ -54,7 +65,10 @@ class Capabilities:
                 ok = bool(supported)
                 label = feature
             if not ok:
-                problems.append((label, self.reasons.get(feature, "not implemented")))
+                fallback = "not implemented"
+                if feature in GEOMETRY_FEATURES and not self.meshes:
+                    fallback = self.reasons.get("meshes", fallback)
+                problems.append((label, self.reasons.get(feature, fallback)))
         if scene.camera.projection == "perspective" and not self.camera_inside_volume:
             inside = scene.camera_inside_volume()
             if inside:

@@ -175,6 +175,57 @@ def _boundary_cell(k, t_first, step, t_in, t_out, min_overlap):
 
 
 @njit(**_JIT)
+def volume_sample(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, nmat, phong, shading,
+                  light, half, has_half, vol, t, vol_ratio, base, slope, pre):
+    """Volume ``vol``'s classified, shaded, opacity-corrected sample at ray parameter ``t``.
+
+    Returns premultiplied ``(r, g, b, α', contributes)``; ``vol_ratio`` is the sample's length in
+    units of the volume's ``Δ0``. A transparent sample (α ≤ 0) does not contribute and is not
+    shaded. With a non-empty ``pre`` (see :func:`preclassify`) the voxels' classified RGBA is
+    interpolated instead of the scalar.
+    """
+    off = offsets[vol]
+    nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
+    u = base[vol, 0] + t * slope[vol, 0]
+    v = base[vol, 1] + t * slope[vol, 1]
+    w = base[vol, 2] + t * slope[vol, 2]
+    if pre.shape[1] > 0:
+        alpha = _trilinear(pre[3], off, nx, ny, nz, u, v, w)
+        if alpha <= 0.0:
+            return 0.0, 0.0, 0.0, 0.0, False
+        # The interpolated colour is premultiplied by the Δ0 opacity: rescale it to α'.
+        corrected = -math.expm1(vol_ratio * math.log1p(-min(alpha, 1.0)))
+        scale = corrected / alpha
+        return (scale * _trilinear(pre[0], off, nx, ny, nz, u, v, w), scale * _trilinear(pre[1], off, nx, ny, nz, u, v, w),
+                scale * _trilinear(pre[2], off, nx, ny, nz, u, v, w), corrected, True)
+    s = _trilinear(data, off, nx, ny, nz, u, v, w)
+    size = tf_size[vol]
+    alpha = _tf_channel(tf, vol, size, s, 3)
+    # A transparent sample adds exactly nothing, so skipping its shading changes no bit.
+    if alpha <= 0.0:
+        return 0.0, 0.0, 0.0, 0.0, False
+    gx = gy = gz = 0.0
+    have_gradient = False
+    if gtab_size[vol] > 0:
+        gx, gy, gz = _gradient(data, off, nx, ny, nz, u, v, w, spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
+        have_gradient = True
+        magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
+        alpha *= _gradient_factor(gtab, vol, gtab_size[vol], magnitude * ref_step[vol] / MAX_GRADIENT)
+        if alpha <= 0.0:
+            return 0.0, 0.0, 0.0, 0.0, False
+    # α' = 1 − (1 − α)^(L_obj/Δ0), in the log1p/expm1 form that keeps small α accurate.
+    alpha = -math.expm1(vol_ratio * math.log1p(-alpha))
+    r = _tf_channel(tf, vol, size, s, 0)
+    g = _tf_channel(tf, vol, size, s, 1)
+    b = _tf_channel(tf, vol, size, s, 2)
+    if phong:
+        if not have_gradient:
+            gx, gy, gz = _gradient(data, off, nx, ny, nz, u, v, w, spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
+        r, g, b = _blinn_phong(r, g, b, gx, gy, gz, nmat, vol, light, half, has_half, shading)
+    return alpha * r, alpha * g, alpha * b, alpha, True
+
+
+@njit(**_JIT)
 def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, nmat, phong, shading,
              light, half, has_half, t_first, step, count, k_lo, k_hi, t_in, t_out, min_overlap, base, slope,
              ratio, length, pre):
@@ -187,7 +238,6 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
     :func:`preclassify`) the sample interpolates the voxels' classified, shaded, premultiplied
     RGBA instead of classifying the interpolated scalar.
     """
-    pre_mode = pre.shape[1] > 0
     cr = cg = cb = ca = 0.0
     depth = np.nan
     samples = 0
@@ -207,58 +257,17 @@ def _dvr_ray(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_ste
                     continue
                 if not full:
                     vol_ratio = length[vol] * overlap / ref_step[vol]
-            off = offsets[vol]
-            nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
-            u = base[vol, 0] + t * slope[vol, 0]
-            v = base[vol, 1] + t * slope[vol, 1]
-            w = base[vol, 2] + t * slope[vol, 2]
             samples += 1
-            if pre_mode:
-                alpha = _trilinear(pre[3], off, nx, ny, nz, u, v, w)
-                if alpha <= 0.0:
-                    continue
-                # The interpolated colour is premultiplied by the Δ0 opacity: rescale it to α'.
-                corrected = -math.expm1(vol_ratio * math.log1p(-min(alpha, 1.0)))
-                scale = corrected / alpha
-                sr += scale * _trilinear(pre[0], off, nx, ny, nz, u, v, w)
-                sg += scale * _trilinear(pre[1], off, nx, ny, nz, u, v, w)
-                sb += scale * _trilinear(pre[2], off, nx, ny, nz, u, v, w)
-                sa += corrected
+            ar, ag, ab, aa, hit = volume_sample(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step,
+                                                nmat, phong, shading, light, half, has_half, vol, t, vol_ratio,
+                                                base, slope, pre)
+            if hit:
+                sr += ar
+                sg += ag
+                sb += ab
+                sa += aa
                 if t < nearest:
                     nearest = t
-                continue
-            s = _trilinear(data, off, nx, ny, nz, u, v, w)
-            size = tf_size[vol]
-            alpha = _tf_channel(tf, vol, size, s, 3)
-            # A transparent sample adds exactly nothing, so skipping its shading changes no bit.
-            if alpha <= 0.0:
-                continue
-            gx = gy = gz = 0.0
-            have_gradient = False
-            if gtab_size[vol] > 0:
-                gx, gy, gz = _gradient(data, off, nx, ny, nz, u, v, w,
-                                       spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
-                have_gradient = True
-                magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
-                alpha *= _gradient_factor(gtab, vol, gtab_size[vol], magnitude * ref_step[vol] / MAX_GRADIENT)
-                if alpha <= 0.0:
-                    continue
-            # α' = 1 − (1 − α)^(L_obj/Δ0), in the log1p/expm1 form that keeps small α accurate.
-            alpha = -math.expm1(vol_ratio * math.log1p(-alpha))
-            r = _tf_channel(tf, vol, size, s, 0)
-            g = _tf_channel(tf, vol, size, s, 1)
-            b = _tf_channel(tf, vol, size, s, 2)
-            if phong:
-                if not have_gradient:
-                    gx, gy, gz = _gradient(data, off, nx, ny, nz, u, v, w,
-                                           spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
-                r, g, b = _blinn_phong(r, g, b, gx, gy, gz, nmat, vol, light, half, has_half, shading)
-            sr += alpha * r
-            sg += alpha * g
-            sb += alpha * b
-            sa += alpha
-            if t < nearest:
-                nearest = t
         if sa > 0.0:
             if sa > 1.0:
                 sr /= sa
@@ -696,6 +705,67 @@ def preclassify(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_
                     out[3, index] = alpha
 
 
+@njit(**_JIT)
+def volume_spans(world_to_object, dims, spacing, ref_step, step, o, d, t_in, t_out, base, slope, length, ratio):
+    """Each volume box's span ``[t_in, t_out]`` on the ray ``o + t·d`` (``t >= 0``) and its sampling set-up.
+
+    Fills ``base``/``slope`` (voxel coordinates ``base + t·slope``), ``length`` (``|A⁻¹·d|``,
+    world → object length) and ``ratio`` (a full cell in units of ``Δ0``); returns ``t_first``,
+    the entry into the union of the boxes (inf when the ray misses them all). A missed box has
+    ``t_in >= t_out``.
+    """
+    t_first = np.inf
+    for vol in range(dims.shape[0]):
+        m = world_to_object[vol]
+        # Slab test in object space; starting at t = 0 clips everything behind the origin.
+        lo = 0.0
+        hi = np.inf
+        length2 = 0.0
+        for axis in range(3):
+            po = m[axis, 0] * o[0] + m[axis, 1] * o[1] + m[axis, 2] * o[2] + m[axis, 3]
+            pd = m[axis, 0] * d[0] + m[axis, 1] * d[1] + m[axis, 2] * d[2]
+            length2 += pd * pd
+            size = spacing[vol, axis]
+            extent = dims[vol, axis] * size
+            base[vol, axis] = po / size - 0.5
+            slope[vol, axis] = pd / size
+            if pd == 0.0:
+                if po < 0.0 or po > extent:
+                    lo = np.inf
+            else:
+                ta = -po / pd
+                tb = (extent - po) / pd
+                lo = max(lo, min(ta, tb))
+                hi = min(hi, max(ta, tb))
+        if not math.isfinite(hi):
+            lo = np.inf  # an unbounded span (singular transform): the volume is not entered
+        t_in[vol] = lo
+        t_out[vol] = hi
+        # |A⁻¹·d| turns a world length on this ray into object units; a full cell is Δ.
+        length[vol] = math.sqrt(length2)
+        ratio[vol] = length[vol] * step / ref_step[vol]
+        if lo < hi:
+            t_first = min(t_first, lo)
+    return t_first
+
+
+@njit(**_JIT)
+def half_vector(light, d, half):
+    """Blinn–Phong half vector between the light and ``V = −d`` (towards the viewer) into ``half``.
+
+    Returns whether it exists (``False`` when the light points straight away from the viewer).
+    """
+    half[0] = light[0] - d[0]
+    half[1] = light[1] - d[1]
+    half[2] = light[2] - d[2]
+    half_norm = math.sqrt(half[0] ** 2 + half[1] ** 2 + half[2] ** 2)
+    if half_norm > 0.0:
+        half[0] /= half_norm
+        half[1] /= half_norm
+        half[2] /= half_norm
+    return half_norm > 0.0
+
+
 _f8, _f4, _i8 = types.float64, types.float32, types.int64
 _RENDER_SIGNATURE = types.void(
     _i8, _i8[::1],                              # mode, row order
@@ -754,38 +824,8 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                 pixel[:] = 0.0
                 depth[row, col] = np.nan
                 continue
-            t_first = np.inf
-            for vol in range(nvol):
-                m = world_to_object[vol]
-                # Slab test in object space; starting at t = 0 clips everything behind the origin.
-                lo = 0.0
-                hi = np.inf
-                length2 = 0.0
-                for axis in range(3):
-                    po = m[axis, 0] * o[0] + m[axis, 1] * o[1] + m[axis, 2] * o[2] + m[axis, 3]
-                    pd = m[axis, 0] * d[0] + m[axis, 1] * d[1] + m[axis, 2] * d[2]
-                    length2 += pd * pd
-                    size = spacing[vol, axis]
-                    extent = dims[vol, axis] * size
-                    base[vol, axis] = po / size - 0.5
-                    slope[vol, axis] = pd / size
-                    if pd == 0.0:
-                        if po < 0.0 or po > extent:
-                            lo = np.inf
-                    else:
-                        ta = -po / pd
-                        tb = (extent - po) / pd
-                        lo = max(lo, min(ta, tb))
-                        hi = min(hi, max(ta, tb))
-                if not math.isfinite(hi):
-                    lo = np.inf  # an unbounded span (singular transform): the volume is not entered
-                t_in[vol] = lo
-                t_out[vol] = hi
-                # |A⁻¹·d| turns a world length on this ray into object units; a full cell is Δ.
-                length[vol] = math.sqrt(length2)
-                ratio[vol] = length[vol] * step / ref_step[vol]
-                if lo < hi:
-                    t_first = min(t_first, lo)
+            t_first = volume_spans(world_to_object, dims, spacing, ref_step, step, o, d, t_in, t_out, base, slope,
+                                   length, ratio)
             if t_first == np.inf:
                 pixel[:] = 0.0
                 depth[row, col] = np.nan
@@ -795,16 +835,7 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
                 r, g, b, a, t_hit, n = _mip_ray(data, offsets, dims, tf, tf_size, t_in, t_out, min_overlap,
                                                 base, slope)
             else:
-                # Blinn–Phong half vector between the light and V = −d (towards the viewer).
-                half[0] = light[0] - d[0]
-                half[1] = light[1] - d[1]
-                half[2] = light[2] - d[2]
-                half_norm = math.sqrt(half[0] ** 2 + half[1] ** 2 + half[2] ** 2)
-                has_half = half_norm > 0.0
-                if has_half:
-                    half[0] /= half_norm
-                    half[1] /= half_norm
-                    half[2] /= half_norm
+                has_half = half_vector(light, d, half)
                 if mode == MODE_DVR:
                     count = 0
                     for vol in range(nvol):
