@@ -1,5 +1,6 @@
 """OpenCL backends (pyopencl; PoCL on a CPU, any OpenCL device elsewhere): the tile-based
-multi-volume ray caster of Kainz et al. 2009 (``cl-tiled``).
+multi-volume ray caster of Kainz et al. 2009 (``cl-tiled``), with meshes, surfaces, homogeneous
+media and CSG.
 
 Layout:
 
@@ -8,8 +9,8 @@ Layout:
   triangle kernel; ``hull.cl``: brick ranges and hulls; ``pixel.cl``: fragment lists and the
   segment walk);
 * :mod:`.atlas`: packing volumes into one 3-D atlas;
-* :mod:`.scene`: the scene as object records, tables and camera arguments;
-* :mod:`.resources`: the atlas, brick ranges and hulls cached on the device, profiling stages;
+* :mod:`.scene`: the scene as object records, leaves and the CSG program, tables and camera arguments;
+* :mod:`.resources`: the atlas, brick ranges, hulls and mesh triangles cached on the device, profiling stages;
 * :mod:`.tiled`: :class:`~renderers.cl.tiled.ClTiledRenderer`.
 
 The registry names this package (not :mod:`.tiled`), so that the pipeline's code digest of a

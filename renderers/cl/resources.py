@@ -7,10 +7,12 @@ A :class:`DeviceCache` (one per renderer) holds, least recently used first out:
   volume and the brick size, built by the ``brick_minmax`` kernel from the atlas;
 * each classification's **hull** (closed triangle mesh around the non-empty bricks, or the box),
   keyed by volume, transfer function, brick size and minimum opacity, built by ``build_hull``
-  and rebuilt whenever the transfer function changes (a new key).
+  and rebuilt whenever the transfer function changes (a new key);
+* each :class:`core.mesh.Mesh`'s **triangles** (mesh instances and volume boundaries), uploaded
+  once and shared by every instance of the mesh.
 
-Keys are the frozen :class:`core.volume.Volume` and :class:`core.transfer.TransferFunction`
-objects themselves (identity, held strongly while cached) and plain numbers. Every command a
+Keys are the frozen :class:`core.volume.Volume`, :class:`core.transfer.TransferFunction` and
+:class:`core.mesh.Mesh` objects themselves (identity, held strongly while cached) and plain numbers. Every command a
 frame issues is recorded in :class:`Stages` with its profiling event and summed per stage.
 """
 
@@ -25,6 +27,7 @@ from renderers.cl import atlas as atlas_module
 ATLAS_CACHE_SIZE = 2
 VOLUME_CACHE_SIZE = 64
 HULL_CACHE_SIZE = 128
+MESH_CACHE_SIZE = 128
 
 
 class Stages:
@@ -66,7 +69,7 @@ class Atlas:
 
 @dataclass
 class Hull:
-    """A boundary mesh in object space: ``3 × triangles`` float4 vertices."""
+    """A closed triangle mesh in object space on the device: ``3 × triangles`` float4 vertices."""
 
     buffer: object
     triangles: int
@@ -175,6 +178,19 @@ class DeviceCache:
                 capacity = int(found[0])
 
         return self._get("hull", key, HULL_CACHE_SIZE, build)
+
+    def mesh(self, mesh, stages):
+        """The :class:`Hull` of ``mesh``'s triangles (object space, float32), uploaded on first use."""
+        import pyopencl as cl
+
+        def build():
+            corners = np.zeros((mesh.triangle_count, 3, 4), np.float32)
+            corners[..., :3] = mesh.vertices[mesh.faces]
+            buffer = cl.Buffer(self.device.context, cl.mem_flags.READ_ONLY, size=corners.nbytes)
+            stages.add("upload", cl.enqueue_copy(self.device.queue, buffer, corners, is_blocking=True))
+            return Hull(buffer=buffer, triangles=mesh.triangle_count)
+
+        return self._get("mesh", mesh, MESH_CACHE_SIZE, build)
 
 
 def _int4(values):

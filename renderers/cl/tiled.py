@@ -5,8 +5,12 @@ Per frame (note 002 §2.2, §2.9):
 1. **Boundaries.** Every volume instance is an object bounded by a closed triangle mesh in its
    object space: its box (12 triangles) or, with ``empty_space="hull"``, the tight hull around
    its non-empty ``brick_size³`` bricks (:mod:`renderers.cl.resources`, built on the device and
-   rebuilt when the transfer function changes). All meshes go into one triangle list with the
-   object each triangle bounds.
+   rebuilt when the transfer function changes). A volume that is a CSG operand keeps its box,
+   since its inside decides where other leaves are carved or kept even where its data is
+   transparent. Every mesh instance is an object with its mesh and transform (a mesh's
+   triangles are uploaded once, whatever the number of its instances), and so is every volume's
+   polygonal ``boundary`` (in the volume's object space). All go into one triangle list with the
+   object each triangle bounds: at most 64 objects, one bit each of the inside mask.
 2. **Binning** (``kernels/binning.cl``): one work-item per triangle transforms it, stores its
    world plane and a code (object, front/back, triangle), and appends a 64-bit coverage mask per
    8×8 tile to the tile's chunked record list (64 records per chunk from a pool, at most 64 chunks
@@ -16,22 +20,36 @@ Per frame (note 002 §2.2, §2.9):
 3. **Pixel kernel** (``kernels/pixel.cl``): one 64-work-item group per tile. Each pixel gathers
    its fragments (depth from the triangle's plane) into a depth-sorted list in local memory
    (insertion sort, interleaved slots, at most ``depth_cap`` entries: the nearest are kept),
-   then walks the segments between consecutive fragments with the set of objects it is inside
-   (entering on front faces, leaving on back faces; the objects around the ray origin come from
-   the parity of the crossings behind it). Segments with no object are skipped; in the others
-   every active volume is sampled at one common world step and blended as the reference does.
+   then walks the fragments front to back toggling each object's inside bit (parity; the
+   objects around the ray origin come from the crossings behind it). After each group of
+   fragments at one depth the leaves' state is evaluated (:mod:`renderers.cl.scene`): a volume
+   leaf is inside its box or hull and its boundary, and the CSG forest (a postfix program over
+   the leaves' inside mask, uploaded once per frame) says which leaves contribute and which
+   trees' roots are inside. A segment runs until the contributing set changes or a surface is
+   shown; empty segments are skipped. In a segment every contributing volume is sampled at one
+   common world step, and contributing homogeneous media (extinctions added, colours
+   ``σ``-weighted) join each cell part's sum with ``1 − exp(−σL)`` of its length, or are
+   composited analytically over the whole segment when no volume contributes. A mesh's surface
+   is composited at a crossing where its tree's root changes inside/outside (every crossing of
+   a standalone mesh): two-sided Blinn–Phong with the triangle's normal, or its flat colour,
+   at its alpha. Everything is composited front to back in depth order, as the reference does.
    With ``fragments="global"`` the lists live in global memory, sized exactly by a counting pass
    (``count_fragments``): no fragment is dropped, the ground truth for the depth cap's error.
 
 Sampling matches :mod:`renderers.reference` in float32: the world step ``Δ = step_factor ×`` the
-smallest world voxel edge; cells ``[t_a + kΔ, t_a + (k + 1)Δ]`` from ``t_a``, the start of the
-first non-empty segment (the reference's entry into the union of the boxes, when boundaries are
-boxes); a whole cell samples at its centre, a cell that a segment boundary cuts at the midpoint of
-its part with opacity corrected for the part's length, so path lengths count exactly; cell parts
+smallest world voxel edge; cells ``[t_a + kΔ, t_a + (k + 1)Δ]`` from ``t_a``, the first entry
+into a volume's box or hull object (the reference's entry into the union of the boxes, when
+boundaries are boxes); a whole cell samples at its centre, a cell that a segment boundary cuts at
+the midpoint of its part with opacity corrected for the part's length, so path lengths count exactly; cell parts
 of at most 10⁻³ Δ are skipped. Every volume samples the cells it overlaps; corrected premultiplied
 samples are summed, the opacity clamped to 1 (colour scaled alike), and composited front to back.
 With hulls, the cells are anchored at the first hull face instead of the box, which moves sample
 positions by a fraction of a step where that differs (an ``O(Δ²)`` difference for smooth data).
+The reference cuts cells only at visible surfaces and medium ends and samples each volume over
+its own interval; here a cell is also cut where another volume starts or stops contributing
+(again ``O(Δ²)``). Mesh vertices are float32 on the device, and fragment depths come from each
+triangle's float32 plane: pixels whose centre passes within ~1/256 pixel of a silhouette edge
+may be covered differently than by the reference's exact test.
 Trilinear reconstruction, classification, gradient opacity and Blinn–Phong are the reference's.
 Early ray termination stops a ray whose opacity passes ``opaque_threshold``.
 
@@ -44,7 +62,8 @@ the frame. Counters: ``rays``, ``rays_hit`` (pixels with a fragment), ``triangle
 ``records_dropped`` (past 4096 per tile), ``pool_chunks``, ``pool_chunks_used``,
 ``fragments`` (kept, depth ≥ 0), ``fragments_max``, ``fragments_mean`` (over hit pixels),
 ``fragments_dropped`` (past the depth cap), ``samples`` (volume samples) and
-``early_terminations``.
+``early_terminations``. Info adds ``objects`` (inside-mask bits used) and ``csg_nodes``. A scene
+without volumes has no step (``info["step"]`` is ``None``) and no atlas.
 """
 
 import time
@@ -97,6 +116,7 @@ class Binned:
     passes: int
     bin_counters: np.ndarray
     phong: bool
+    leaves: scene_arrays.Leaves
 
 
 class ClTiledRenderer(Renderer):
@@ -115,7 +135,8 @@ class ClTiledRenderer(Renderer):
         Early ray termination when the accumulated opacity exceeds it (1 never stops a ray).
         Default 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel.
     empty_space : {"hull", "box"}
-        Boundaries: tight hulls around the non-empty bricks (paper) or the volumes' boxes.
+        Boundaries: tight hulls around the non-empty bricks (paper) or the volumes' boxes. Volumes
+        that are CSG operands always use their boxes.
     brick_size : int
         Brick edge in voxels for the hulls (paper: 8).
     min_opacity : float
@@ -126,8 +147,9 @@ class ClTiledRenderer(Renderer):
     """
 
     name = "cl-tiled"
-    description = ("OpenCL tile-based multi-volume ray caster (Kainz et al. 2009): polygonal boundaries binned "
-                   "into 8x8 tiles, per-pixel depth-sorted fragments, segment walk over overlapping volumes")
+    description = ("OpenCL tile-based multi-volume ray caster (Kainz et al. 2009): polygonal boundaries and meshes "
+                   "binned into 8x8 tiles, per-pixel depth-sorted fragments, segment walk over overlapping volumes, "
+                   "surfaces, homogeneous media and CSG")
     capabilities = Capabilities(
         projections=frozenset({"orthographic", "perspective"}),
         modes=frozenset({"dvr"}),
@@ -136,13 +158,15 @@ class ClTiledRenderer(Renderer):
         gradient_opacity=True,
         transforms=True,
         anisotropic_spacing=True,
-        meshes=False,
+        meshes=True,
+        csg=True,
+        translucent_geometry=True,
+        homogeneous_media=True,
         lenses=False,
         camera_inside_volume=False,
         reasons={
             "modes": "the segment walk composites emission-absorption (dvr) only",
             "max_volumes": "the active-object set is one 64-bit mask",
-            "meshes": "mesh boundaries, surfaces, media and CSG come with the scene's mesh fields (issue 9)",
             "lenses": "lens volumes are added with the Ropinski 2005 issue",
             "camera_inside_volume": "boundary triangles are not clipped at a near plane: under perspective every "
                                     "volume box must lie in front of the eye",
@@ -206,7 +230,7 @@ class ClTiledRenderer(Renderer):
 
     # -----------------------------------------------------------------------------------------
 
-    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity):
+    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity, csg):
         """``(binning, hull, pixel)`` kernels by name for this frame's variant, built once per process."""
         atlas_defines = _atlas_defines(atlas_dtype)
         binning = context.kernels(entry, context.kernel_source("common.cl", "binning.cl"))
@@ -217,6 +241,8 @@ class ClTiledRenderer(Renderer):
             defines.append("-DPHONG")
         if gradient_opacity:
             defines.append("-DGRADIENT_OPACITY")
+        if csg:
+            defines.append("-DCSG")
         pixel = context.kernels(entry, context.kernel_source("common.cl", "pixel.cl"), defines)
         return binning, hull, pixel
 
@@ -258,26 +284,39 @@ class ClTiledRenderer(Renderer):
         queue = entry.queue
         phong = scene.shading.model == "phong"
         gradient_opacity = any(instance.gradient_opacity is not None for instance in scene.volumes)
+        leaves = scene_arrays.leaves(scene)
+        if leaves.objects > scene_arrays.MAX_OBJECTS:
+            raise UnsupportedFeatureError(
+                self.name, f"{leaves.objects} objects",
+                f"volume instances, mesh instances and volume boundaries are one bit each of a 64-bit inside mask; "
+                f"this scene has {len(scene.volumes)} + {len(scene.meshes)} + {len(leaves.boundary_volumes)}")
 
         volumes, volume_index = scene_arrays.distinct_volumes(scene)
-        atlas = self._cache.atlas(volumes, stages)
-        binning, hull_kernels, pixel = self._programs(entry, atlas.dtype, fragments, phong, gradient_opacity)
+        atlas = self._cache.atlas(volumes, stages) if volumes else None
+        binning, hull_kernels, pixel = self._programs(entry, atlas.dtype if atlas else np.dtype(np.uint8), fragments,
+                                                      phong, gradient_opacity, bool(scene.csg))
+        # A CSG operand's inside is its box (∩ boundary) wherever its data is transparent too.
+        in_trees = {name for tree in scene.csg for name in tree.leaves()}
         brick = self.brick_size if self.empty_space == "hull" else None
-        hulls = [self._cache.hull(hull_kernels, atlas, instance, brick, self.min_opacity, stages)
+        hulls = [self._cache.hull(hull_kernels, atlas, instance, None if instance.name in in_trees else brick,
+                                  self.min_opacity, stages)
                  for instance in scene.volumes]
-        triangles = sum(h.triangles for h in hulls)
+        # Objects in order (renderers.cl.scene): volume boxes or hulls, mesh instances, volume boundaries.
+        parts = hulls + [self._cache.mesh(instance.mesh, stages) for instance in scene.meshes]
+        parts += [self._cache.mesh(scene.volumes[i].boundary, stages) for i in leaves.boundary_volumes]
+        triangles = sum(part.triangles for part in parts)
         if triangles >= MAX_TRIANGLES:
             raise InputError(f"scene {scene.name!r}: {triangles} boundary triangles exceed the {MAX_TRIANGLES} a "
-                             "fragment code can name; use a larger brick_size or empty_space='box'")
+                             "fragment code can name; use a larger brick_size, empty_space='box' or coarser meshes")
 
         vertex_buffer = self._buffer("vertices", 48 * max(triangles, 1))
         offset = 0
-        for h in hulls:
-            if h.triangles:
-                stages.add("setup", cl.enqueue_copy(queue, vertex_buffer, h.buffer, byte_count=48 * h.triangles,
-                                                    dst_offset=48 * offset))
-            offset += h.triangles
-        owners = np.repeat(np.arange(len(hulls), dtype=np.uint32), [h.triangles for h in hulls])
+        for part in parts:
+            if part.triangles:
+                stages.add("setup", cl.enqueue_copy(queue, vertex_buffer, part.buffer,
+                                                    byte_count=48 * part.triangles, dst_offset=48 * offset))
+            offset += part.triangles
+        owners = np.repeat(np.arange(len(parts), dtype=np.uint32), [part.triangles for part in parts])
         owner_buffer = self._upload("owners", owners if triangles else np.zeros(1, np.uint32), stages, "setup")
         transfer, tf_offsets, gradient_tables, g_offsets = scene_arrays.tables(scene)
         slots = [atlas.layout.origins[i] for i in volume_index]
@@ -317,7 +356,7 @@ class ClTiledRenderer(Renderer):
                       transfer=transfer, gradient_tables=gradient_tables, camera=camera,
                       tile_lists=(tile_count, tile_chunks, pool_mask, pool_triangle, planes, codes),
                       global_size=(tiles_x * TILE, tiles_y * TILE), passes=passes, bin_counters=bin_counters,
-                      phong=phong)
+                      phong=phong, leaves=leaves)
 
     def _fragment_counts(self, binned, pixels, stages):
         """Front- and back-facing fragments at depth >= 0 per pixel, ``(pixels, 2)`` uint32."""
@@ -378,14 +417,26 @@ class ClTiledRenderer(Renderer):
         gradient_buffer = self._upload("gradient_tables", binned.gradient_tables, stages, "setup")
         image = self._buffer("image", 16 * pixels)
         stats = self._buffer("stats", 16 * pixels)
-        step = self.step_factor * scene.min_world_voxel_size()
+        # Without volumes nothing is sampled: the step and the atlas are placeholders.
+        step = self.step_factor * scene.min_world_voxel_size() if scene.volumes else None
         shading = scene.shading
         light = scene_arrays.light_direction(scene)
         atlas = binned.atlas
-        shade_args = (binned.object_buffer, atlas.buffer, cltypes.make_int4(*atlas.layout.shape_xyz, 0),
-                      transfer_buffer, gradient_buffer, np.float32(step), np.float32(self.opaque_threshold),
+        leaves = binned.leaves
+        shade_args = (binned.object_buffer, atlas.buffer if atlas else self._buffer("no_atlas", 16),
+                      cltypes.make_int4(*(atlas.layout.shape_xyz if atlas else (1, 1, 1)), 0),
+                      transfer_buffer, gradient_buffer, np.float32(step or 1.0), np.float32(self.opaque_threshold),
                       cltypes.make_float4(*light, 0),
                       cltypes.make_float4(shading.ambient, shading.diffuse, shading.specular, shading.shininess))
+        boundary_volume = np.array(leaves.boundary_volumes or (0,), np.int32)
+        leaf_args = (self._upload("materials", leaves.materials, stages, "setup"),
+                     self._upload("boundary_volume", boundary_volume, stages, "setup"), np.int32(leaves.count),
+                     np.int32(len(leaves.boundary_volumes)),
+                     self._upload("csg_nodes", leaves.nodes if len(leaves.nodes) else np.zeros((1, 4), np.int32),
+                                  stages, "setup"),
+                     self._upload("csg_children", leaves.children if len(leaves.children) else np.zeros(1, np.int32),
+                                  stages, "setup"), np.int32(len(leaves.nodes)),
+                     *(leaves.masks[key] for key in ("leaves", "volumes", "surfaces", "media", "trees")))
         list_args = ()
         if self.fragments == "global":
             offsets = np.concatenate([[0], np.cumsum(self._fragment_counts(binned, pixels, stages).sum(axis=1))])
@@ -393,7 +444,8 @@ class ClTiledRenderer(Renderer):
             list_args = (self._upload("offsets", offsets.astype(np.uint32), stages, "count"),
                          self._buffer("list_depth", 4 * total), self._buffer("list_code", 4 * total))
         stages.add("pixel", binned.pixel["cast_tiles"](queue, binned.global_size, (TILE, TILE), *binned.tile_lists,
-                                                       *binned.camera, *shade_args, *list_args, image, stats))
+                                                       *binned.camera, *shade_args, *leaf_args, *list_args, image,
+                                                       stats))
         result = np.empty((height, width, 4), np.float32)
         per_pixel = np.empty((pixels, 4), np.uint32)
         records_per_tile = np.empty(binned.global_size[0] * binned.global_size[1] // (TILE * TILE), np.uint32)
@@ -437,12 +489,15 @@ class ClTiledRenderer(Renderer):
             "tile": TILE,
             "empty_space": self.empty_space,
             "hull_triangles": [h.triangles for h in binned.hulls],
+            "objects": leaves.objects,
+            "csg_nodes": len(leaves.nodes),
             "binning_passes": binned.passes,
             "pool_bytes_used": chunks_used * CHUNK * 12,
-            "atlas_shape_xyz": list(atlas.layout.shape_xyz),
-            "atlas_dtype": str(atlas.dtype),
-            "atlas_bytes": atlas.nbytes,
-            "blending": "sum of premultiplied samples, opacity clamped to 1 (Kainz et al. 2009)",
+            "atlas_shape_xyz": list(atlas.layout.shape_xyz) if atlas else None,
+            "atlas_dtype": str(atlas.dtype) if atlas else None,
+            "atlas_bytes": atlas.nbytes if atlas else 0,
+            "blending": "sum of premultiplied samples and media, opacity clamped to 1 (Kainz et al. 2009); surfaces "
+                        "composited at their depth",
             "shading_applied": binned.phong,
             "built": sorted(stage for stage in ("upload", "bricks", "hull") if stage in seconds),
         }

@@ -1,13 +1,16 @@
 // Pixel kernel (Kainz et al. 2009, §3.2-3.3): one 8x8 work-group per tile, one work-item per pixel.
 // Each work-item gathers the fragments of its pixel from the tile's records, keeps them sorted by
-// depth, then walks the homogeneous segments between consecutive fragments front to back with the
-// set of objects the ray is inside, sampling every active volume at one common world step.
+// depth, then walks them front to back with the set of objects the ray is inside (one bit each),
+// evaluates which leaves contribute (volume boundaries, the CSG forest), samples the contributing
+// volumes at one common world step, composites homogeneous media analytically and draws surfaces
+// where their tree's root changes inside/outside.
 //
 // Build options:
 //   ATLAS_T, ATLAS_SCALE  atlas element type and its factor to the normalised scalar
 //   MAXF                  fragments kept per pixel in local memory (the depth cap; paper: 63)
 //   GLOBAL_FRAGMENTS      unbounded per-pixel lists in global memory instead (the ground truth)
 //   PHONG, GRADIENT_OPACITY
+//   CSG                   the scene has CSG trees (evaluate_forest); without, every leaf stands alone
 //
 // Fragment records are (depth, code), code = object << 24 | front << 23 | triangle.
 
@@ -193,6 +196,200 @@ void count_fragments(__global const uint* tile_count, __global const uint* tile_
 }
 #endif
 
+// ---------------------------------------------------------------------------------------------
+// Leaves and CSG (core.scene semantics; objects and leaves as renderers/cl/scene.py numbers them).
+
+// Leaves the ray is inside, from the objects' inside mask: leaf i is object i, and a volume with
+// a polygonal boundary (object leaf_count + j bounds volume boundary_volume[j]) is inside only
+// where its box (or hull) and its boundary both are.
+ulong leaves_inside(ulong inside, ulong leaf_bits, __global const int* boundary_volume, int leaf_count,
+                    int boundary_count) {
+    ulong leaves = inside & leaf_bits;
+    for (int j = 0; j < boundary_count; j++) {
+        if (!((inside >> (leaf_count + j)) & 1UL)) {
+            leaves &= ~(1UL << boundary_volume[j]);
+        }
+    }
+    return leaves;
+}
+
+#ifdef CSG
+#define MAX_CSG_NODES 128            // trees over at most 64 leaves have at most 127 nodes
+#define OP_LEAF 0
+#define OP_UNION 1
+#define OP_INTERSECTION 2
+#define OP_OPERATION 3               // the operation bits of a node's code
+#define OP_FIRST 4                   // flag: the node is its parent's first child
+
+// The CSG forest, a postfix program (int4 per node: code, leaf or first child entry, child count,
+// parent), over the leaves' inside mask. Returns the tree leaves that contribute (inside, and let
+// through by every ancestor) and sets *roots to the tree leaves whose tree's root is inside.
+ulong evaluate_forest(ulong leaves, __global const int4* nodes, __global const int* children, int count,
+                      ulong* roots) {
+    uchar value[MAX_CSG_NODES], pass[MAX_CSG_NODES], root[MAX_CSG_NODES];
+    for (int j = 0; j < count; j++) {
+        int4 node = nodes[j];
+        int op = node.x & OP_OPERATION;
+        bool v;
+        if (op == OP_LEAF) {
+            v = (leaves >> node.y) & 1UL;
+        } else {
+            v = op != OP_UNION;          // union: any child; intersection: all; difference: the first, no other
+            for (int c = 0; c < node.z; c++) {
+                bool child = value[children[node.y + c]];
+                v = op == OP_UNION ? (v || child) : op == OP_INTERSECTION ? (v && child) : (v && (c == 0) == child);
+            }
+        }
+        value[j] = v;
+    }
+    ulong contributing = 0UL, inside_roots = 0UL;
+    for (int j = count - 1; j >= 0; j--) {   // parents come after their children
+        int4 node = nodes[j];
+        if (node.w < 0) {
+            pass[j] = 1;
+            root[j] = value[j];
+        } else {
+            int op = nodes[node.w].x & OP_OPERATION;
+            pass[j] = pass[node.w] && (op == OP_UNION
+                                       || (value[node.w] && (op == OP_INTERSECTION || (node.x & OP_FIRST))));
+            root[j] = root[node.w];
+        }
+        if ((node.x & OP_OPERATION) == OP_LEAF) {
+            contributing |= (ulong)(value[j] && pass[j]) << node.y;
+            inside_roots |= (ulong)root[j] << node.y;
+        }
+    }
+    *roots = inside_roots;
+    return contributing;
+}
+#endif
+
+// The leaves contributing in a segment and (*roots) the leaves whose tree's root is inside; a
+// standalone leaf is its own root.
+ulong leaf_state(ulong inside, ulong leaf_bits, ulong tree_leaves, __global const int* boundary_volume,
+                 int leaf_count, int boundary_count, __global const int4* csg_nodes, __global const int* csg_children,
+                 int csg_count, ulong* roots) {
+    ulong leaves = leaves_inside(inside, leaf_bits, boundary_volume, leaf_count, boundary_count);
+#ifdef CSG
+    ulong tree_roots;
+    ulong contributing = evaluate_forest(leaves, csg_nodes, csg_children, csg_count, &tree_roots);
+    *roots = (leaves & ~tree_leaves) | tree_roots;
+    return (leaves & ~tree_leaves) | contributing;
+#else
+    *roots = leaves;
+    return leaves;
+#endif
+}
+
+// Overlapping homogeneous media: (sum of sigma * colour, sum of sigma) over the contributing leaves.
+float4 media_of(ulong contributing, __global const float4* materials) {
+    float4 sum = (float4)(0.0f);
+    while (contributing) {
+        ulong lowest = contributing & (~contributing + 1UL);
+        int leaf = 63 - (int)clz(lowest);
+        contributing ^= lowest;
+        float4 medium = materials[3 * leaf + 2];
+        sum += (float4)(medium.w * medium.xyz, medium.w);
+    }
+    return sum;
+}
+
+// Premultiplied colour and opacity of media (sigma-weighted colour) over a world length.
+float4 media_sample(float4 media, float length) {
+    float alpha = -expm1(-media.w * length);
+    return (float4)(alpha * media.xyz / media.w, alpha);
+}
+
+// ---------------------------------------------------------------------------------------------
+
+// Composite the segment [t0, t1] in which the volumes of `volumes` and the media `media` (see
+// media_of) contribute into *color. Volumes are sampled on the cells [anchor + k*step, ...]; media
+// alone are composited analytically over the whole segment. Returns 1 on early termination.
+int composite_segment(float t0, float t1, ulong volumes, float4 media, float anchor, float step, float threshold,
+                      float3 origin, float3 direction, __constant Object* objects, __global const ATLAS_T* atlas,
+                      int4 atlas_dims, __global const float4* transfer, __global const float* gradient_tables,
+                      float3 light_dir, float3 half_vector, bool has_half, float4 phong, float4* color,
+                      uint* samples) {
+    if (!volumes) {
+        *color += (1.0f - color->w) * media_sample(media, t1 - t0);
+        return color->w > threshold;
+    }
+    int cell = max((int)floor((t0 - anchor) / step), 0);
+    while (cell > 0 && anchor + (float)cell * step > t0) cell--;
+    while (anchor + (float)(cell + 1) * step <= t0) cell++;
+    for (;; cell++) {
+        float a = anchor + (float)cell * step;
+        if (a >= t1) {
+            break;
+        }
+        float b = anchor + (float)(cell + 1) * step;
+        float lo = fmax(a, t0), hi = fmin(b, t1);
+        float span = hi - lo;
+        if (span <= SLIVER * step) {
+            continue;
+        }
+        // A whole cell samples at its centre, one a boundary cuts at its part's midpoint.
+        float t = (lo == a && hi == b) ? anchor + ((float)cell + 0.5f) * step : 0.5f * (lo + hi);
+        float3 p = origin + t * direction;
+        float4 sum = media.w > 0.0f ? media_sample(media, span) : (float4)(0.0f);
+        ulong pending = volumes;
+        while (pending) {
+            ulong lowest = pending & (~pending + 1UL);
+            int obj = 63 - (int)clz(lowest);
+            pending ^= lowest;
+            __constant Object* o = &objects[obj];
+            float4 hp = (float4)(p, 1.0f);
+            float3 u = (float3)(dot(o->to_voxel[0], hp), dot(o->to_voxel[1], hp), dot(o->to_voxel[2], hp));
+            (*samples)++;
+            float s = trilinear(atlas, atlas_dims, o->slot, o->dims, u);
+            int i0;
+            float w;
+            table_position(s, o->tables.y, &i0, &w);
+            float4 c = mix(transfer[o->tables.x + i0], transfer[o->tables.x + i0 + 1], w);
+            float alpha = c.w;
+            if (alpha <= 0.0f) {
+                continue;
+            }
+#if defined(PHONG) || defined(GRADIENT_OPACITY)
+            float3 diff = voxel_differences(atlas, atlas_dims, o->slot, o->dims, u);
+#endif
+#ifdef GRADIENT_OPACITY
+            if (o->tables.w > 0) {
+                float magnitude = length(diff * 0.5f / o->spacing.xyz);
+                table_position(magnitude * o->params.y, o->tables.w, &i0, &w);
+                alpha *= mix(gradient_tables[o->tables.z + i0], gradient_tables[o->tables.z + i0 + 1], w);
+                if (alpha <= 0.0f) {
+                    continue;
+                }
+            }
+#endif
+            // Opacity correction for the object-space length of this sample's cell part.
+            float3 d_voxel = (float3)(dot(o->to_voxel[0].xyz, direction), dot(o->to_voxel[1].xyz, direction),
+                                      dot(o->to_voxel[2].xyz, direction));
+            float ratio = length(d_voxel * o->spacing.xyz) * span / o->spacing.w;
+            alpha = -expm1(ratio * log1p(-alpha));
+            float3 rgb = c.xyz;
+#ifdef PHONG
+            float3 normal = (float3)(dot(o->gradient[0].xyz, diff), dot(o->gradient[1].xyz, diff),
+                                     dot(o->gradient[2].xyz, diff));
+            rgb = blinn_phong(rgb, normal, light_dir, half_vector, has_half, phong);
+#endif
+            sum += (float4)(alpha * rgb, alpha);
+        }
+        if (sum.w > 0.0f) {
+            // Overlapping volumes and media: premultiplied samples summed, opacity clamped to 1.
+            if (sum.w > 1.0f) {
+                sum /= sum.w;
+            }
+            *color += (1.0f - color->w) * sum;
+            if (color->w > threshold) {
+                return 1;
+            }
+        }
+    }
+    return 0;
+}
+
 __kernel __attribute__((reqd_work_group_size(TILE, TILE, 1)))
 void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunks,
                 __global const ulong* pool_mask, __global const uint* pool_triangle,
@@ -202,6 +399,9 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
                 __constant Object* objects, __global const ATLAS_T* atlas, int4 atlas_dims,
                 __global const float4* transfer, __global const float* gradient_tables,
                 float step, float threshold, float4 light, float4 phong,
+                __global const float4* materials, __global const int* boundary_volume, int leaf_count,
+                int boundary_count, __global const int4* csg_nodes, __global const int* csg_children, int csg_count,
+                ulong leaf_bits, ulong volume_leaves, ulong surface_leaves, ulong medium_leaves, ulong tree_leaves,
 #ifdef GLOBAL_FRAGMENTS
                 __global const uint* offsets, __global float* list_depth, __global uint* list_code,
 #endif
@@ -242,102 +442,65 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
 
     float4 color = (float4)(0.0f);
     uint samples = 0;
-    uint terminated = 0;
-    ulong active = inside;
-    float t0 = 0.0f;
+    int terminated = 0;
+    ulong roots;
+    ulong contributing = leaf_state(inside, leaf_bits, tree_leaves, boundary_volume, leaf_count, boundary_count,
+                                    csg_nodes, csg_children, csg_count, &roots);
+    float t0 = 0.0f;                     // start of the open segment: `contributing` holds since t0
+    bool anchored = (inside & volume_leaves) != 0UL;
     float anchor = 0.0f;                 // cells [anchor + k*step, anchor + (k+1)*step]
-    bool anchored = false;
-    for (int k = 0; k <= n && !terminated; k++) {
-        float t1 = k < n ? depths[k * stride] : t0;
-        if (active && t1 > t0) {
-            // A homogeneous segment [t0, t1] with the objects of `active` (empty ones are skipped).
-            if (!anchored) {
-                anchor = t0;             // the first entry: the reference's t_first
-                anchored = true;
-            }
-            int cell = max((int)floor((t0 - anchor) / step), 0);
-            while (cell > 0 && anchor + (float)cell * step > t0) cell--;
-            while (anchor + (float)(cell + 1) * step <= t0) cell++;
-            for (;; cell++) {
-                float a = anchor + (float)cell * step;
-                if (a >= t1) {
-                    break;
+    // Fragments at one depth form a group; the open segment closes where a group changes the
+    // contributing leaves or shows a surface (where its tree's root changes inside/outside).
+    for (int k = 0; k < n && !terminated;) {
+        float t1 = depths[k * stride];
+        int end = k;
+        ulong after = inside;
+        while (end < n && depths[end * stride] == t1) {
+            after ^= 1UL << CODE_OBJECT(frag_codes[end * stride]);
+            end++;
+        }
+        ulong roots_after;
+        ulong contributing_after = leaf_state(after, leaf_bits, tree_leaves, boundary_volume, leaf_count,
+                                              boundary_count, csg_nodes, csg_children, csg_count, &roots_after);
+        ulong shown = (roots ^ roots_after) & surface_leaves;
+        if (contributing_after != contributing || shown) {
+            ulong volumes = contributing & volume_leaves;
+            if (contributing && t1 > t0 && (volumes || (contributing & medium_leaves))) {
+                if (volumes && !anchored) {
+                    anchor = t0;
+                    anchored = true;
                 }
-                float b = anchor + (float)(cell + 1) * step;
-                float lo = fmax(a, t0), hi = fmin(b, t1);
-                float span = hi - lo;
-                if (span <= SLIVER * step) {
+                terminated = composite_segment(t0, t1, volumes, media_of(contributing & medium_leaves, materials),
+                                               anchor, step, threshold, origin, direction, objects, atlas,
+                                               atlas_dims, transfer, gradient_tables, light_dir, half_vector,
+                                               has_half, phong, &color, &samples);
+            }
+            for (int j = k; j < end && shown && !terminated; j++) {
+                uint code = frag_codes[j * stride];
+                uint leaf = CODE_OBJECT(code);
+                if (!((shown >> leaf) & 1UL)) {
                     continue;
                 }
-                // A whole cell samples at its centre, one a boundary cuts at its part's midpoint.
-                float t = (lo == a && hi == b) ? anchor + ((float)cell + 0.5f) * step : 0.5f * (lo + hi);
-                float3 p = origin + t * direction;
-                float4 sum = (float4)(0.0f);
-                ulong pending = active;
-                while (pending) {
-                    ulong lowest = pending & (~pending + 1UL);
-                    int obj = 63 - (int)clz(lowest);
-                    pending ^= lowest;
-                    __constant Object* o = &objects[obj];
-                    float4 hp = (float4)(p, 1.0f);
-                    float3 u = (float3)(dot(o->to_voxel[0], hp), dot(o->to_voxel[1], hp), dot(o->to_voxel[2], hp));
-                    samples++;
-                    float s = trilinear(atlas, atlas_dims, o->slot, o->dims, u);
-                    int i0;
-                    float w;
-                    table_position(s, o->tables.y, &i0, &w);
-                    float4 c = mix(transfer[o->tables.x + i0], transfer[o->tables.x + i0 + 1], w);
-                    float alpha = c.w;
-                    if (alpha <= 0.0f) {
-                        continue;
-                    }
-#if defined(PHONG) || defined(GRADIENT_OPACITY)
-                    float3 diff = voxel_differences(atlas, atlas_dims, o->slot, o->dims, u);
-#endif
-#ifdef GRADIENT_OPACITY
-                    if (o->tables.w > 0) {
-                        float magnitude = length(diff * 0.5f / o->spacing.xyz);
-                        table_position(magnitude * o->params.y, o->tables.w, &i0, &w);
-                        alpha *= mix(gradient_tables[o->tables.z + i0], gradient_tables[o->tables.z + i0 + 1], w);
-                        if (alpha <= 0.0f) {
-                            continue;
-                        }
-                    }
-#endif
-                    // Opacity correction for the object-space length of this sample's cell part.
-                    float3 d_voxel = (float3)(dot(o->to_voxel[0].xyz, direction), dot(o->to_voxel[1].xyz, direction),
-                                              dot(o->to_voxel[2].xyz, direction));
-                    float ratio = length(d_voxel * o->spacing.xyz) * span / o->spacing.w;
-                    alpha = -expm1(ratio * log1p(-alpha));
-                    float3 rgb = c.xyz;
+                float4 surface = materials[3 * leaf];
+                float3 rgb = surface.xyz;
 #ifdef PHONG
-                    float3 normal = (float3)(dot(o->gradient[0].xyz, diff), dot(o->gradient[1].xyz, diff),
-                                             dot(o->gradient[2].xyz, diff));
-                    rgb = blinn_phong(rgb, normal, light_dir, half_vector, has_half, phong);
+                rgb = blinn_phong(rgb, planes[code & 0x7FFFFFu].xyz, light_dir, half_vector, has_half,
+                                  materials[3 * leaf + 1]);
 #endif
-                    sum += (float4)(alpha * rgb, alpha);
-                }
-                if (sum.w > 0.0f) {
-                    // Overlapping volumes: premultiplied samples summed, opacity clamped to 1.
-                    if (sum.w > 1.0f) {
-                        sum /= sum.w;
-                    }
-                    color += (1.0f - color.w) * sum;
-                    if (color.w > threshold) {
-                        terminated = 1;
-                        break;
-                    }
-                }
+                color += (1.0f - color.w) * (float4)(surface.w * rgb, surface.w);
+                terminated = color.w > threshold;
             }
+            t0 = t1;
         }
-        if (k == n) {
-            break;
+        if (!anchored && (after & volume_leaves)) {
+            anchor = t1;                 // the first entry into a volume's box or hull
+            anchored = true;
         }
-        uint code = frag_codes[k * stride];
-        ulong bit = 1UL << CODE_OBJECT(code);
-        active = CODE_FRONT(code) ? (active | bit) : (active & ~bit);
-        t0 = t1;
+        inside = after;
+        contributing = contributing_after;
+        roots = roots_after;
+        k = end;
     }
     image[row * width + col] = color;
-    stats[row * width + col] = (uint4)((uint)n, dropped, samples, terminated);
+    stats[row * width + col] = (uint4)((uint)n, dropped, samples, (uint)terminated);
 }
