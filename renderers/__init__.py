@@ -24,6 +24,7 @@ BACKENDS = {
     "gl-raycast": "renderers.gl.raycast:GLRaycastRenderer",
     "gl-slicer": "renderers.gl.slicer:GLSlicerRenderer",
     "cl-tiled": "renderers.cl.tiled:ClTiledRenderer",
+    "gl-peel": "renderers.gl.peeling:GLPeelRenderer",
 }
 
 

@@ -1,5 +1,7 @@
 """OpenGL backends (moderngl, headless EGL): the multi-pass GPU ray caster of Krüger & Westermann
-2003 (``gl-raycast``) and view-aligned 3D-texture slicing (``gl-slicer``).
+2003 (``gl-raycast``), view-aligned 3D-texture slicing (``gl-slicer``) and the depth-peeling
+multi-volume caster that Kainz et al. 2009 measure against (``gl-peel``, :mod:`.peeling` with its
+shaders in :mod:`.peeling_glsl`).
 
 Layout, so that later GL backends (early-z iso slicing, lens volumes) reuse the pieces:
 

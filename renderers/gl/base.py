@@ -15,7 +15,7 @@ from core.errors import InputError
 from core.validation import check_choice, check_scalar
 from renderers.base import Renderer
 from renderers.gl import context
-from renderers.gl.resources import Preparation, ResourceCache
+from renderers.gl.resources import VOLUME_CACHE_SIZE, Preparation, ResourceCache
 from renderers.gl.timing import TIMING_METHODS, PassTimer
 
 SCREEN_TRIANGLE = np.array([-1.0, -1.0, 3.0, -1.0, -1.0, 3.0], dtype=np.float32)
@@ -52,6 +52,9 @@ class GLRenderer(Renderer):
         rasterizer, whose timer queries do not cover its deferred work, and ``"query"`` otherwise.
     """
 
+    cached_volumes = VOLUME_CACHE_SIZE
+    """Volumes whose textures the renderer's cache keeps alive together (a multi-volume frame needs all)."""
+
     def __init__(self, *, step_factor, timing):
         self.step_factor = check_scalar(step_factor, name=f"{self.name} option step_factor", low=0, low_open=True)
         self.timing = check_choice(timing, TIMING_METHODS, name=f"{self.name} option timing")
@@ -87,7 +90,7 @@ class GLRenderer(Renderer):
         if ctx is not self._ctx:
             self._forget()
             self._ctx = ctx
-            self._cache = ResourceCache(ctx)
+            self._cache = ResourceCache(ctx, volumes=self.cached_volumes)
         return ctx
 
     def _forget(self):

@@ -123,10 +123,13 @@ class ResourceCache:
     Parameters
     ----------
     ctx : moderngl.Context
+    volumes : int
+        Volumes whose textures stay alive together: a multi-volume frame needs all of its own.
     """
 
-    def __init__(self, ctx):
+    def __init__(self, ctx, *, volumes=VOLUME_CACHE_SIZE):
         self.ctx = ctx
+        self.volumes = volumes
         self._entries = {}
 
     def _get(self, kind, key, capacity, build):
@@ -165,13 +168,22 @@ class ResourceCache:
             texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         return texture
 
+    def transfer_tables(self, tfs, prep):
+        """``(buffer, offsets)``: every table of ``tfs`` in order as one RGBA32F storage buffer."""
+        def build():
+            with prep.upload("transfer_functions"):
+                buffer = self.ctx.buffer(np.concatenate([tf.table for tf in tfs]).astype(np.float32).tobytes())
+            return buffer, tuple(np.cumsum([0] + [tf.size for tf in tfs[:-1]]).tolist())
+
+        return self._get("tables", tuple(tfs), CLASSIFICATION_CACHE_SIZE, build)
+
     def scalars(self, volume, prep):
         """The :class:`ScalarTexture` of ``volume``."""
         def build():
             array, dtype, value_map, name = texture_source(volume)
             return ScalarTexture(self._texture3d(array, 1, dtype, prep, "volume", linear=True), value_map, name)
 
-        return self._get("scalars", (volume,), VOLUME_CACHE_SIZE, build)
+        return self._get("scalars", (volume,), self.volumes, build)
 
     def gradients(self, volume, prep):
         """The gradient texture of ``volume``."""
@@ -181,7 +193,7 @@ class ResourceCache:
                 gradient = central_gradients(volume.normalized(np.float32), volume.spacing).astype(np.float16)
             return self._texture3d(gradient, 3, "f2", prep, "gradients", linear=True)
 
-        return self._get("gradients", (volume,), VOLUME_CACHE_SIZE, build)
+        return self._get("gradients", (volume,), self.volumes, build)
 
     def blocks(self, volume, block_size, prep):
         """``(texture, (bx, by, bz))``: the min–max grid of ``volume`` in ``block_size³`` blocks."""
@@ -191,7 +203,7 @@ class ResourceCache:
             bz, by, bx = grid.shape[:3]
             return self._texture3d(grid, 2, "u1", prep, "minmax", linear=False), (bx, by, bz)
 
-        return self._get("blocks", (volume, block_size), VOLUME_CACHE_SIZE, build)
+        return self._get("blocks", (volume, block_size), self.volumes, build)
 
     def transfer_function(self, tf, prep):
         """The ``N × 1`` RGBA32F texture of ``tf``'s table."""
