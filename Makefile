@@ -1,6 +1,8 @@
 # volbench: two commands on a fresh Debian machine (as root):
 #   make reproduce   # set up, run the pipeline on PROFILE (default), print where the report is
-#   make test        # set up, run the test suite
+#   make test        # set up, run the test suite (all but the `cluster` tests)
+# and, after `make reproduce PROFILE=smoke`:
+#   make cluster-test  # the smoke profile again on a one-node SLURM started here, compared with it
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
@@ -9,19 +11,32 @@ PROFILE ?= default
 CORES ?= $(shell nproc)
 # Mesa EGL + llvmpipe for headless OpenGL; VolPack (library, headers and its brainsmall.den example).
 APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libgomp1 libvolpack1 libvolpack1-dev
+# The one-node SLURM of the cluster tests (scripts/slurm-single-node): controller, node daemon,
+# client commands (sbatch, srun, squeue, scontrol) and munge for their authentication.
+CLUSTER_PACKAGES := slurmctld slurmd slurm-client munge
+# The local smoke run the cluster test compares with.
+CLUSTER_BASELINE ?= results/smoke
 STAMP := $(VENV)/.volbench-installed
 
-.PHONY: setup system-packages reproduce smoke test clean
+.PHONY: setup system-packages cluster-packages reproduce smoke test cluster-test clean
 
 setup: system-packages $(STAMP)
 
-system-packages:
-	@missing=$$(for p in $(APT_PACKAGES); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
+# apt-get install the packages of $(1) that are missing.
+define install_missing
+	@missing=$$(for p in $(1); do dpkg -s $$p >/dev/null 2>&1 || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "volbench: installing Debian packages:" $$missing; \
 	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
 	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
 	fi
+endef
+
+system-packages:
+	$(call install_missing,$(APT_PACKAGES))
+
+cluster-packages:
+	$(call install_missing,$(CLUSTER_PACKAGES))
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
@@ -36,7 +51,12 @@ smoke:
 	$(MAKE) reproduce PROFILE=smoke
 
 test: setup
-	$(PY) -m pytest -q -n $(CORES)
+	$(PY) -m pytest -q -n $(CORES) -m "not cluster"
+
+# Starts (and stops) the one-node SLURM itself; needs root. VOLBENCH_REQUIRE_CLUSTER=1 turns its
+# skips (no root, SLURM will not start, no baseline) into failures, as CI wants.
+cluster-test: setup cluster-packages
+	VOLBENCH_CLUSTER_BASELINE=$(CLUSTER_BASELINE) $(PY) -m pytest -q -p no:cacheprovider -m cluster tests/test_cluster.py
 
 clean:
 	rm -rf results .snakemake

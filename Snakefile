@@ -3,7 +3,14 @@
 #
 #   snakemake --cores 2 --configfile config/default.yaml        (what `make reproduce` runs)
 #   snakemake -n --configfile config/full.yaml                   (dry run: list the jobs)
-#   snakemake --executor slurm --jobs 64 --configfile config/full.yaml   (a cluster, via the plugin)
+#   snakemake --workflow-profile config/profiles/slurm --cores 32 --configfile config/full.yaml
+#                                                                (a SLURM cluster, via the executor plugin)
+#
+# Cluster resources. The workflow profile (config/profiles/slurm) gives every rule its SLURM
+# resources; what depends on the run is set here: a render job's wall time follows the profile's
+# render_time_limit (so SLURM never kills a run that volbench would record as failed), and a render
+# job whose backend draws on a device (OpenGL, OpenCL) asks for one `gpu`. collect and report read
+# every record and are quick, so they run where Snakemake runs (localrules).
 #
 # Reruns. Every job carries, as the param `code`, a content digest of all the code that shapes its
 # output (pipeline.runner.JOB_SOURCES: e.g. a render job's core/, datasets/, renderers/base, its
@@ -23,12 +30,14 @@
 # digests off.)
 import dataclasses
 import json
+import math
 import sys
 from pathlib import Path
 
 sys.path.insert(0, workflow.basedir)
 
 import datasets
+import renderers
 from pipeline import runner
 from pipeline.experiments import Profile, plan
 from pipeline.scene_io import dataset_arguments
@@ -51,6 +60,17 @@ BACKEND_CODE = {backend: runner.job_code_digest("render", backend=backend)
 RETRY = {key: str(runner.mark_retry(R, run.experiment, run.id)) for key, run in RUNS.items()}
 PROFILE_JSON = json.dumps(dataclasses.asdict(PROFILE), sort_keys=True)
 ROOT = Path(workflow.basedir)
+
+# Backends that render on a device: their render jobs ask for one `gpu` on a cluster.
+DEVICE_PACKAGES = ("renderers.gl", "renderers.cl", "renderers.vtk.gpu")
+RENDER_RESOURCES = {
+    "gpu": lambda w: int(renderers.backend_module(run_of(w).backend).startswith(DEVICE_PACKAGES)),
+}
+if PROFILE.render_time_limit is not None:
+    # Minutes: the run's limit plus ten for start-up and writing the images and the record.
+    RENDER_RESOURCES["runtime"] = math.ceil(PROFILE.render_time_limit / 60) + 10
+
+localrules: all, collect, report
 
 wildcard_constraints:
     experiment="[A-Za-z0-9._+-]+",
@@ -108,7 +128,8 @@ rule environment:
         "{PY} -m pipeline.jobs environment --output {output}"
 
 
-# Render jobs take every core: timings are taken with nothing else running beside them.
+# Render jobs take every core (on a cluster: `--cores` per job, on a node of their own; see the
+# workflow profile): timings are taken with nothing else running beside them.
 rule render:
     input:
         volumes=lambda w: [f"{CACHE}/{key}.npy" for key in volume_requests(run_of(w))],
@@ -121,6 +142,8 @@ rule render:
         spec_hash=lambda w: run_of(w).spec_hash(),
         code=lambda w: BACKEND_CODE[run_of(w).backend],
     threads: workflow.cores
+    resources:
+        **RENDER_RESOURCES,
     shell:
         "NUMBA_NUM_THREADS={threads} {PY} -m pipeline.jobs render --run {params.run:q}"
         " --profile {PROFILE_JSON:q} --device-env {input.environment}"

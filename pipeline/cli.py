@@ -10,6 +10,7 @@ Examples
     volbench compare reference.exr test.exr --diff diff.png
     volbench run --profile default            # the whole pipeline, through Snakemake
     volbench run --experiment volbench-convergence --dry-run
+    volbench run --profile full --cores 32 -- --workflow-profile config/profiles/slurm   # a SLURM cluster
 """
 
 import argparse
@@ -149,18 +150,20 @@ def cmd_run(args):
     if args.dry_run:
         command.append("--dry-run")
     extra = list(args.snakemake_args)
-    if args.experiment:
+    items = [f"experiments={json.dumps(args.experiment)}"] if args.experiment else []
+    items += [f"{key}={value}" for key, value in (("results", args.results), ("cache", args.cache)) if value]
+    if items:
         # Snakemake keeps only the last --config, so ours joins the user's when there is one.
-        item = f"experiments={json.dumps(args.experiment)}"
         if "--config" in extra:
-            extra.insert(extra.index("--config") + 1, item)
+            at = extra.index("--config") + 1
+            extra[at:at] = items
         else:
-            extra += ["--config", item]
+            extra += ["--config", *items]
     command += extra
     print("volbench:", " ".join(command), flush=True)
     completed = subprocess.run(command)
     if completed.returncode == 0 and not args.dry_run:
-        results = yaml.safe_load(profile.read_text()).get("results", "results")
+        results = args.results or yaml.safe_load(profile.read_text()).get("results", "results")
         print(f"volbench: report at {(ROOT / results / 'report' / 'index.html')}")
     return completed.returncode
 
@@ -201,9 +204,13 @@ def build_parser():
     p = commands.add_parser("run", help="run experiments through Snakemake")
     p.add_argument("--profile", default="default", help="smoke, default, full, or a YAML path")
     p.add_argument("--experiment", action="append", help="only this experiment (repeatable)")
-    p.add_argument("--cores", type=int, default=2)
+    p.add_argument("--cores", type=int, default=2, help="cores of this machine; on a cluster (a workflow "
+                   "profile or --executor after '--'), the cores each render job takes on its node")
+    p.add_argument("--results", help="output folder instead of the profile's `results` (relative to the project)")
+    p.add_argument("--cache", help="phantom cache folder instead of the profile's `cache`")
     p.add_argument("--dry-run", "-n", action="store_true")
-    p.add_argument("snakemake_args", nargs="*", help="passed to snakemake after '--' (e.g. --executor slurm)")
+    p.add_argument("snakemake_args", nargs="*", help="passed to snakemake after '--' "
+                   "(e.g. --workflow-profile config/profiles/slurm)")
     p.set_defaults(func=cmd_run)
     return parser
 

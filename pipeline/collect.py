@@ -1,7 +1,9 @@
 """Run records → tidy tables: ``runs.csv`` (one row per run and view), per-experiment CSVs, claims.
 
 Every row names its run's JSON record (``record``) and, per view, its images (``png``, ``exr``), so
-the report can link each number to where it came from.
+the report can link each number to where it came from, and the node it was measured on (``node``:
+see :func:`pipeline.environment.node_name`), so timings from several machines or clusters merged in
+one table stay apart.
 """
 
 import json
@@ -9,6 +11,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from pipeline.environment import node_name
 from pipeline.runner import metrics_record_path
 from reports.metrics import METRIC_KEYS
 
@@ -31,6 +34,7 @@ def rows_for(record_path, *, results_dir):
         **_flatten("option_", record.get("options")),
         **_flatten("stat_", record.get("statistics")),
         **record["environment"], **(record.get("backend_environment") or {}),
+        "node": node_name(record["environment"]),
     }
     if record["status"] != "ok":
         return [base]
@@ -56,10 +60,23 @@ def collect(record_paths, experiments, *, results_dir):
     results_dir = Path(results_dir)
     frame = pd.DataFrame([row for path in record_paths for row in rows_for(path, results_dir=results_dir)])
     frame.to_csv(results_dir / "runs.csv", index=False)
+    for experiment in experiments:
+        experiment_rows(frame, experiment).to_csv(results_dir / f"{experiment.name}.csv", index=False)
+    claims = claims_table(frame, experiments)
+    claims.to_csv(results_dir / "claims.csv", index=False)
+    return frame, claims
+
+
+def experiment_rows(frame, experiment):
+    """The rows of ``frame`` (``runs.csv``) that belong to ``experiment``, without all-empty columns."""
+    return frame[frame.experiment == experiment.name].dropna(axis=1, how="all")
+
+
+def claims_table(frame, experiments):
+    """Every claim of ``experiments`` checked on the successful rows of ``frame``: ``claims.csv``'s table."""
     claim_rows = []
     for experiment in experiments:
-        part = frame[frame.experiment == experiment.name].dropna(axis=1, how="all")
-        part.to_csv(results_dir / f"{experiment.name}.csv", index=False)
+        part = experiment_rows(frame, experiment)
         ok = part[part.status == "ok"] if not part.empty else part
         for claim in experiment.claims:
             result = claim.evaluate(ok)
@@ -68,7 +85,5 @@ def collect(record_paths, experiments, *, results_dir):
                 "statement": claim.statement, "expected": claim.expected, "measured": result.measured,
                 "holds": result.holds, "detail": result.detail,
             })
-    claims = pd.DataFrame(claim_rows, columns=["experiment", "paper", "claim", "statement", "expected",
-                                               "measured", "holds", "detail"])
-    claims.to_csv(results_dir / "claims.csv", index=False)
-    return frame, claims
+    return pd.DataFrame(claim_rows, columns=["experiment", "paper", "claim", "statement", "expected",
+                                             "measured", "holds", "detail"])

@@ -1,6 +1,7 @@
 """The environment stamped on every result (CONVENTIONS, Results).
 
-Cheap facts (CPU, Python, package versions, git commit) are read in every process; the OpenGL and
+Cheap facts (CPU, Python, package versions, git commit, the node and the SLURM job it runs in) are
+read in every process, so a run executed on a cluster node records that node; the OpenGL and
 OpenCL devices are probed by :func:`probe_devices`, which the pipeline runs once per run of the
 workflow (creating a GL context and initialising OpenCL costs seconds) and backends that use a
 device add their own context's facts to their records.
@@ -77,6 +78,47 @@ def numba_threads():
         return None
 
 
+def usable_cpus():
+    """The CPUs this process may run on (a SLURM allocation or ``taskset`` can give fewer than the node has)."""
+    try:
+        return len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        return os.cpu_count()
+
+
+SLURM_FACTS = {
+    "slurm_cluster": ("SLURM_CLUSTER_NAME",),
+    "slurm_job_id": ("SLURM_JOB_ID",),
+    "slurm_partition": ("SLURM_JOB_PARTITION",),
+    "slurm_cpus_per_task": ("SLURM_CPUS_PER_TASK",),
+    # A job step (srun, as the executor plugin runs every job) sees its own GPUs, a batch script the job's.
+    "slurm_gpus": ("SLURM_STEP_GPUS", "SLURM_JOB_GPUS"),
+}
+"""Column → the environment variables SLURM sets in a job, first found wins: where a cluster run
+executed and what it held."""
+
+
+def slurm_job(environ=None):
+    """``{column: value}`` of :data:`SLURM_FACTS` (``None`` each outside a SLURM job)."""
+    environ = os.environ if environ is None else environ
+    return {column: next((environ[v] for v in variables if environ.get(v)), None)
+            for column, variables in SLURM_FACTS.items()}
+
+
+def node_name(environment):
+    """The node a record was measured on: its host name, prefixed by the SLURM cluster's name in a job.
+
+    Host names repeat across clusters (``node001``) and a run under SLURM holds its node on other
+    terms than one started by hand, so ``cluster/host`` and ``host`` count as different nodes.
+    ``None`` when the record names no host.
+    """
+    host = environment.get("hostname")
+    if host is None or (isinstance(host, float) and host != host):
+        return None
+    cluster = environment.get("slurm_cluster")
+    return f"{cluster}/{host}" if isinstance(cluster, str) and cluster else str(host)
+
+
 def now_utc():
     """The current date and time, UTC, to the minute (``2025-01-31 14:05``)."""
     return datetime.now(timezone.utc).strftime("%Y-%m-%d %H:%M")
@@ -91,11 +133,13 @@ def host_environment():
         "cpu_cores": os.cpu_count(),
         "memory_bytes": memory_bytes(),
         "numba_threads": numba_threads(),
+        "usable_cpus": usable_cpus(),
         "hostname": platform.node(),
         "os": platform.platform(),
         "python": platform.python_version(),
         "git_commit": git_commit(),
     }
+    env.update(slurm_job())
     env.update({f"pkg_{name}": version for name, version in package_versions().items()})
     return env
 

@@ -22,7 +22,7 @@ import numpy as np
 import pandas as pd
 
 from core.papers import PAPERS
-from reports import blocks, takeaways
+from reports import blocks, nodes, takeaways
 from reports.imageio import read_image, write_png
 from reports.metrics import difference_image
 
@@ -307,14 +307,18 @@ def _experiment_blocks(experiment, frame, ctx):
 
     As with claims (holds ``None`` when a needed column is missing), a section whose backend did
     not report a counter or stage (a KeyError naming the column) says so in place of its charts,
-    so one missing measurement cannot take the whole report down.
+    so one missing measurement cannot take the whole report down. Where the experiment's timings
+    come from more than one node, the section opens by saying so (:func:`reports.nodes.node_warning`).
     """
+    measured = frame[frame.status == "ok"] if "status" in frame else frame
+    warning = nodes.node_warning(measured, what=f"Every ratio and comparison of {experiment.name}")
+    across_nodes = [blocks.Text(warning)] if warning else []
     try:
-        return experiment.report(frame, ctx)
+        return across_nodes + experiment.report(frame, ctx)
     except KeyError as exc:
         missing = exc.args[0] if exc.args else exc
-        return [blocks.Text(f"Not measurable here: this section needs {missing}, which no successful "
-                            "run of this experiment reported.")]
+        return across_nodes + [blocks.Text(f"Not measurable here: this section needs {missing}, which no "
+                                           "successful run of this experiment reported.")]
 
 
 def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
@@ -357,6 +361,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         claims_df["holds"] = claims_df["holds"].map(_holds).astype(object)
     env = _jinja()
     facts = provenance(environment, runs_df, real_data)
+    node_rows = nodes.nodes_table(runs_df)
     pages, overview_rows = {}, []
     for experiment in experiments:
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
@@ -386,7 +391,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         page_takeaways = takeaways.claims(pd.DataFrame(claims)) + [t for s in sections for t in s["takeaways"]]
         (report_dir / f"{paper}.html").write_text(page_template.render(
             paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
-            provenance=facts, takeaways=page_takeaways))
+            nodes=node_rows, provenance=facts, takeaways=page_takeaways))
         summaries.append({
             "paper": paper, "title": PAPERS.get(paper, paper), "page": f"{paper}.html",
             "experiments": [(s["name"], s["title"]) for s in sections],
@@ -411,7 +416,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     )
     index = report_dir / "index.html"
     index.write_text(env.get_template("index.html").render(
-        papers=summaries, environment=environment, provenance=facts, takeaways=index_takeaways,
+        papers=summaries, environment=environment, nodes=node_rows, provenance=facts, takeaways=index_takeaways,
         matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends, planned=list(planned or []),
         real_data=real_data))
     return index

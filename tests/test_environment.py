@@ -27,3 +27,25 @@ def test_device_probes_report_failures_as_values(monkeypatch):
     facts = environment.probe_devices()
     assert facts["gl_renderer"] is None and "hidden by the test" in facts["gl_error"]
     assert facts["cl_device"] is None and "hidden by the test" in facts["cl_error"]
+
+
+def test_a_run_records_the_slurm_job_it_ran_in():
+    inside = environment.slurm_job({"SLURM_CLUSTER_NAME": "lab", "SLURM_JOB_ID": "42", "SLURM_JOB_PARTITION": "gpu",
+                                    "SLURM_CPUS_PER_TASK": "16", "SLURM_JOB_GPUS": "0", "HOME": "/root"})
+    assert inside == {"slurm_cluster": "lab", "slurm_job_id": "42", "slurm_partition": "gpu",
+                      "slurm_cpus_per_task": "16", "slurm_gpus": "0"}
+    assert environment.slurm_job({"SLURM_JOB_GPUS": "0,1", "SLURM_STEP_GPUS": "1"})["slurm_gpus"] == "1"
+    assert set(environment.slurm_job({})) == set(environment.SLURM_FACTS)
+    assert all(value is None for value in environment.slurm_job({"SLURM_JOB_ID": ""}).values())
+    env = environment.host_environment()
+    assert set(environment.SLURM_FACTS) <= set(env)
+    assert 1 <= env["usable_cpus"] <= env["cpu_cores"]
+
+
+def test_node_names_keep_clusters_and_hand_started_runs_apart():
+    assert environment.node_name({"hostname": "node001"}) == "node001"
+    assert environment.node_name({"hostname": "node001", "slurm_cluster": "lab"}) == "lab/node001"
+    assert environment.node_name({"hostname": "node001", "slurm_cluster": None}) == "node001"
+    assert environment.node_name({"hostname": "node001", "slurm_cluster": float("nan")}) == "node001"
+    assert environment.node_name({}) is None
+    assert environment.node_name({"hostname": float("nan")}) is None

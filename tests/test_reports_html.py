@@ -20,7 +20,7 @@ from pipeline.collect import collect
 from pipeline.experiments import Profile, plan, selected
 from pipeline.experiments.planned import planned
 from pipeline.runner import evaluate, metrics_record_path, run_record_path, write_json
-from reports import takeaways
+from reports import blocks, takeaways
 from reports.html import build_report, provenance
 from reports.imageio import read_image, write_exr, write_png
 
@@ -303,10 +303,14 @@ def test_a_section_whose_column_no_run_reported_says_so_instead_of_crashing():
     from reports.html import _experiment_blocks
 
     class NeedsACounter:
+        name = "needs-a-counter"
+
         def report(self, results, ctx):
             return [results["count_voxel_runs"]]
 
     class Broken:
+        name = "broken"
+
         def report(self, results, ctx):
             raise ValueError("a real bug stays loud")
 
@@ -315,3 +319,21 @@ def test_a_section_whose_column_no_run_reported_says_so_instead_of_crashing():
     assert "Not measurable here" in block.text and "count_voxel_runs" in block.text
     with pytest.raises(ValueError, match="stays loud"):
         _experiment_blocks(Broken(), frame, None)
+
+
+def test_a_section_whose_timings_span_nodes_opens_by_saying_so():
+    from reports.html import _experiment_blocks
+
+    class Ratio:
+        name = "ratio"
+
+        def report(self, results, ctx):
+            return [blocks.Text("a ratio")]
+
+    one = pd.DataFrame({"status": ["ok", "ok"], "node": ["a", "a"]})
+    assert [b.text for b in _experiment_blocks(Ratio(), one, None)] == ["a ratio"]
+    two = one.assign(node=["a", "b"])
+    warning, body = _experiment_blocks(Ratio(), two, None)
+    assert "different nodes (a, b)" in warning.text and "ratio" in warning.text and body.text == "a ratio"
+    failed_elsewhere = pd.DataFrame({"status": ["ok", "failed"], "node": ["a", "b"]})
+    assert len(_experiment_blocks(Ratio(), failed_elsewhere, None)) == 1

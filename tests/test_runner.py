@@ -135,7 +135,7 @@ def _copy_tree(tmp_path):
     ("pipeline/collect.py", {"collect"}),
     ("pipeline/experiments/volbench.py", {"collect", "report"}),
     ("reports/html.py", {"report"}),
-    ("pipeline/environment.py", {"environment", "render"}),
+    ("pipeline/environment.py", {"environment", "render", "collect"}),
 ])
 def test_editing_shared_code_changes_the_digest_of_the_jobs_it_shapes(tmp_path, edited, reruns):
     tree = _copy_tree(tmp_path)

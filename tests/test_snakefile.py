@@ -98,3 +98,32 @@ def test_a_failed_run_is_retried_on_the_next_run(workflow):
     records[1].write_text(json.dumps({"status": "skipped", "reason": "backend unavailable"}))
     _snakemake(tree, profile, "--touch", "--forceall")
     assert _planned(tree, profile) == {}  # a skipped run cannot happen here: it is not retried
+
+
+def test_the_slurm_profile_gives_each_render_a_node_its_runtime_and_a_gpu_where_it_needs_one(tmp_path):
+    """A dry run through the SLURM workflow profile: per-job resources as the executor will see them."""
+    import math
+
+    import renderers
+    from pipeline.experiments import Profile, plan
+
+    profile = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
+    profile.update(results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
+                   experiments=["volbench-convergence", "kruger2003-nocue"])
+    profile_path = tmp_path / "profile.yaml"
+    profile_path.write_text(yaml.safe_dump(profile))
+    text = _snakemake(ROOT, profile_path, "--dry-run", "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"))
+    runs = plan(Profile.from_mapping(profile))
+    # (A dry run executes nothing, so it shows no job as local: tests/test_cluster.py checks that.)
+    jobs = re.findall(r"^(?:localrule|rule) (\w+):\n(.*?)(?=^\S|\Z)", text, re.M | re.S)
+    renders = [body for name, body in jobs if name == "render"]
+    devices = set()
+    for body in renders:
+        run = runs["/".join(re.search(r"wildcards: experiment=(\S+), run=(\S+)", body).groups())]
+        resources = dict(item.split("=", 1) for item in re.search(r"resources: (.*)", body)[1].split(", "))
+        assert resources["slurm_extra"] == "--exclusive" and resources["mem_mb"] == "4000"
+        assert int(resources["runtime"]) == math.ceil(profile["render_time_limit"] / 60) + 10
+        uses_device = renderers.backend_module(run.backend).startswith(("renderers.gl", "renderers.cl", "renderers.vtk.gpu"))
+        assert resources["gpu"] == str(int(uses_device)), run.key
+        devices.add(uses_device)
+    assert devices == {True, False}  # both kinds of render job were checked

@@ -1,0 +1,211 @@
+"""The smoke profile on a real SLURM cluster, through snakemake-executor-plugin-slurm.
+
+A one-node SLURM (munged, slurmctld, slurmd: ``scripts/slurm-single-node``) is started here, and
+the smoke profile runs on it with the project's workflow profile (``config/profiles/slurm``). The
+result is compared with a finished local smoke run, the one ``.ci/run`` makes just before (named
+by ``VOLBENCH_CLUSTER_BASELINE``; ``make cluster-test`` points it at ``results/smoke``), instead of
+running the profile locally a second time:
+
+- the same runs: the same (experiment, run, view) rows with the same status and the same values in
+  every column but timings, paths and the environment (date, host, SLURM job);
+- the same images: bit-identical EXRs for the CPU backends, within :data:`DEVICE_TOLERANCE` for
+  those that render through a device driver;
+- the same claims: the same set, and the same outcome and measured value for each once the timing
+  columns are the local run's (a timing claim may flip with the machine's load, the others not).
+
+It needs root and Debian's slurmctld, slurmd, slurm-client and munge (``make cluster-packages``);
+without them, or without a baseline, it skips with the reason, unless ``VOLBENCH_REQUIRE_CLUSTER``
+is set (``.ci/run`` sets it), where a skip is a failure. ``VOLBENCH_CLUSTER_EXPERIMENTS`` (names,
+comma-separated) runs only those experiments of the profile on the cluster, compared with the same
+experiments of the baseline.
+"""
+
+import dataclasses
+import os
+import shutil
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipeline.collect import claims_table
+from pipeline.environment import SLURM_FACTS, host_environment
+from pipeline.experiments import Profile, selected
+from reports.imageio import read_image
+
+pytestmark = pytest.mark.cluster
+
+ROOT = Path(__file__).resolve().parent.parent
+SCRIPT = ROOT / "scripts" / "slurm-single-node"
+SLURM_TOOLS = ("munged", "slurmctld", "slurmd", "sbatch", "srun", "squeue", "scontrol")
+CPU_BACKENDS = frozenset({"reference", "shearwarp", "volpack", "vtk-cpu"})
+"""Backends whose images must be bit-identical between the two runs (same code, same CPU)."""
+DEVICE_TOLERANCE = 1e-6
+"""Largest difference of a pixel channel allowed for the other backends (OpenGL through Mesa's
+llvmpipe, OpenCL through PoCL): they render deterministically on one machine in practice."""
+PATH_COLUMNS = ("record", "png", "exr", "diff_png")
+KEY = ["experiment", "run", "view"]
+
+
+def unavailable(reason):
+    """Skip with ``reason``, or fail where CI requires the cluster test to run."""
+    if os.environ.get("VOLBENCH_REQUIRE_CLUSTER"):
+        pytest.fail(f"VOLBENCH_REQUIRE_CLUSTER is set, but {reason}")
+    pytest.skip(reason)
+
+
+def experiments():
+    """The names of the experiments both runs hold: the smoke profile's, or ``VOLBENCH_CLUSTER_EXPERIMENTS``."""
+    names = [n.strip() for n in os.environ.get("VOLBENCH_CLUSTER_EXPERIMENTS", "").split(",") if n.strip()]
+    profile = Profile.load(ROOT / "config" / "smoke.yaml")
+    if names:
+        profile = dataclasses.replace(profile, experiments=names)
+    return selected(profile)
+
+
+@pytest.fixture(scope="module")
+def baseline():
+    folder = os.environ.get("VOLBENCH_CLUSTER_BASELINE")
+    if not folder:
+        unavailable("VOLBENCH_CLUSTER_BASELINE names no local smoke run to compare with "
+                    "(make reproduce PROFILE=smoke, then make cluster-test)")
+    folder = ROOT / folder
+    if not (folder / "runs.csv").is_file() or not (folder / "claims.csv").is_file():
+        unavailable(f"{folder} holds no finished smoke run (runs.csv, claims.csv); run make reproduce PROFILE=smoke")
+    return folder
+
+
+@pytest.fixture(scope="module")
+def slurm():
+    if os.geteuid() != 0:
+        unavailable("starting munged, slurmctld and slurmd needs root")
+    missing = [tool for tool in SLURM_TOOLS if shutil.which(tool) is None]
+    if missing:
+        unavailable(f"SLURM is not installed ({', '.join(missing)} missing): make cluster-packages")
+    started = subprocess.run([str(SCRIPT), "start"], capture_output=True, text=True, timeout=120)
+    if started.returncode != 0:
+        unavailable(f"SLURM did not start:\n{started.stdout}{started.stderr}")
+    conf = subprocess.run([str(SCRIPT), "env"], capture_output=True, text=True, check=True).stdout
+    yield {**os.environ, "SLURM_CONF": conf.strip().split("=", 1)[1]}
+    subprocess.run([str(SCRIPT), "stop"], check=False, timeout=60)
+
+
+@pytest.fixture(scope="module")
+def cluster_run(baseline, slurm):
+    """The smoke profile through the SLURM executor into its own results and cache folders."""
+    results = os.environ.get("VOLBENCH_CLUSTER_RESULTS", "results/smoke-slurm")
+    cache = f"{results}/.volumes"  # generated on the cluster too, not taken from the local run
+    shutil.rmtree(ROOT / results, ignore_errors=True)
+    command = [
+        sys.executable, "-m", "pipeline.cli", "run", "--profile", "smoke", "--cores", str(os.cpu_count()),
+        "--results", results, "--cache", cache, "--",
+        "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"),
+        # No accounting database here: no account to validate or guess.
+        "--slurm-no-account",
+        # Jobs take seconds here, not hours: poll SLURM every 2 s instead of the default 40 s
+        # (still far below MinJobAge, which the plugin checks before it trusts squeue).
+        "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
+    ]
+    if os.environ.get("VOLBENCH_CLUSTER_EXPERIMENTS"):
+        command[command.index("--"):command.index("--")] = [f"--experiment={e.name}" for e in experiments()]
+    started = time.monotonic()
+    completed = subprocess.run(command, cwd=ROOT, env=slurm, capture_output=True, text=True)
+    wall = time.monotonic() - started
+    log = completed.stdout + completed.stderr
+    assert completed.returncode == 0, f"SLURM smoke run failed after {wall:.0f} s:\n{log[-6000:]}"
+    submitted = log.count("has been submitted with SLURM jobid")
+    print(f"\nSLURM smoke run: {wall:.0f} s wall, {submitted} SLURM jobs, results in {results}")
+    return ROOT / results, log
+
+
+def non_timing_columns(frame):
+    environment = set(host_environment()) | set(SLURM_FACTS) | {"node"}
+    return [c for c in frame.columns if not c.startswith("time_") and c not in environment and c not in PATH_COLUMNS]
+
+
+def runs(folder):
+    """``runs.csv`` of ``folder``: the rows of :func:`experiments`, in a stable order."""
+    frame = pd.read_csv(folder / "runs.csv", low_memory=False)
+    frame = frame[frame.experiment.isin([e.name for e in experiments()])].dropna(axis=1, how="all")
+    frame["view"] = frame["view"].fillna("")
+    return frame.sort_values(KEY).reset_index(drop=True)
+
+
+def relative(paths, folder):
+    return [os.path.relpath(ROOT / p, ROOT / folder) if isinstance(p, str) else p for p in paths]
+
+
+def test_render_jobs_ran_as_slurm_jobs_on_the_node(cluster_run):
+    results, log = cluster_run
+    frame = runs(results)
+    timed = frame[frame.status == "ok"]
+    assert timed["slurm_job_id"].notna().all(), "a render ran outside a SLURM job"
+    assert timed["node"].str.startswith("volbench/").all(), sorted(pd.unique(timed["node"]))
+    # Phantoms, runs and comparisons go through sbatch; collect and report run where Snakemake runs.
+    assert "has been submitted with SLURM jobid" in log
+    assert "localrule collect:" in log and "localrule report:" in log
+
+
+def test_the_same_runs_with_the_same_non_timing_values(cluster_run, baseline):
+    results, _ = cluster_run
+    local, cluster = runs(baseline), runs(results)
+    assert local[KEY].values.tolist() == cluster[KEY].values.tolist()
+    # Only a cluster run fills the SLURM columns (runs() drops the columns no row fills).
+    assert set(local.columns) - set(SLURM_FACTS) == set(cluster.columns) - set(SLURM_FACTS)
+    for column in PATH_COLUMNS:
+        if column in local:
+            assert relative(local[column], baseline) == relative(cluster[column], results), column
+    device = ~local["backend"].isin(CPU_BACKENDS)
+    for column in non_timing_columns(local):
+        a, b = local[column], cluster[column]
+        if pd.api.types.is_float_dtype(a) and pd.api.types.is_float_dtype(b):
+            # Metrics of device renders follow their images' tolerance; the rest are exact.
+            close = np.isclose(a, b, rtol=0, atol=0, equal_nan=True)
+            close |= device & np.isclose(a, b, rtol=1e-4, atol=1e-6, equal_nan=True)
+            assert close.all(), (column, local.loc[~close, KEY + [column]].to_dict("records"),
+                                 cluster.loc[~close, [column]].to_dict("records"))
+        else:
+            differ = ~((a == b) | (a.isna() & b.isna()))
+            assert not differ.any(), (column, local.loc[differ, KEY + [column]].to_dict("records"),
+                                      cluster.loc[differ, [column]].to_dict("records"))
+
+
+def test_the_same_images(cluster_run, baseline):
+    results, _ = cluster_run
+    local, cluster = runs(baseline), runs(results)
+    rows = local[local.status == "ok"]
+    assert not rows.empty
+    worst = {}
+    for index, row in rows.iterrows():
+        a = read_image(ROOT / row["exr"])
+        b = read_image(ROOT / cluster.loc[index, "exr"])
+        assert a.shape == b.shape, row["exr"]
+        if row["backend"] in CPU_BACKENDS:
+            assert np.array_equal(a, b), f"{row['exr']}: a CPU backend's image differs on the cluster"
+        else:
+            difference = float(np.max(np.abs(a - b)))
+            worst[row["backend"]] = max(worst.get(row["backend"], 0.0), difference)
+            assert difference <= DEVICE_TOLERANCE, f"{row['exr']}: differs by {difference:g}"
+    print(f"\nlargest pixel difference of device backends: {worst}")
+
+
+def test_the_same_claims(cluster_run, baseline):
+    results, _ = cluster_run
+    names = [e.name for e in experiments()]
+    local_claims, cluster_claims = (pd.read_csv(folder / "claims.csv") for folder in (baseline, results))
+    local_claims, cluster_claims = (claims[claims.experiment.isin(names)].reset_index(drop=True)
+                                    for claims in (local_claims, cluster_claims))
+    claim_key = ["experiment", "claim", "statement", "expected"]
+    assert local_claims[claim_key].values.tolist() == cluster_claims[claim_key].values.tolist()
+    flipped = local_claims.loc[local_claims["holds"].astype(str) != cluster_claims["holds"].astype(str), "claim"]
+    print(f"\nclaims whose outcome differs with the cluster's timings: {sorted(flipped) or 'none'}")
+    # With the local run's timings in place of the cluster's, every claim must come out the same.
+    local, cluster = runs(baseline), runs(results)
+    timing = [c for c in local.columns if c.startswith("time_")]
+    cluster[timing] = local[timing]
+    expected, measured = claims_table(local, experiments()), claims_table(cluster, experiments())
+    pd.testing.assert_frame_equal(expected, measured)
