@@ -16,6 +16,7 @@ Phantoms are generated on first use and cached on disk (``$VOLBENCH_CACHE``, def
 
 import hashlib
 import json
+import time
 
 from datasets import cache as _cache
 from datasets import real as _real
@@ -152,7 +153,8 @@ def load(name, *, size=None, seed=0, cache_dir=None, data_dir=None, **params):
     -------
     Volume
         ``meta`` records the data set, kind and provenance; a phantom's also its size, seed,
-        parameters, cache key and ``cache`` (``key``, ``path``, ``hit``).
+        parameters, cache key, ``generation_seconds`` (wall time of the generator when it was
+        generated, kept by the cache) and ``cache`` (``key``, ``path``, ``hit``).
 
     Raises
     ------
@@ -174,10 +176,12 @@ def load(name, *, size=None, seed=0, cache_dir=None, data_dir=None, **params):
         cached = _cache.read(directory, key)
         if cached is not None:
             return cached
+    started = time.perf_counter()
     generated = spec.generator(size, seed, **params)
     meta = {**generated.meta, "dataset": name, "kind": "phantom", "generator": spec.generator.__module__
             + "." + spec.generator.__name__, "version": spec.version, "size": size, "seed": seed,
-            "params": params, "key": key, "targets": spec.targets_by_preset}
+            "params": params, "key": key, "targets": spec.targets_by_preset,
+            "generation_seconds": time.perf_counter() - started}
     volume = Volume(generated.data, spacing=generated.spacing, value_range=generated.value_range, name=name,
                     labels=generated.labels, meta=meta)
     if directory is not None:

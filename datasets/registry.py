@@ -136,6 +136,13 @@ def _skin_and_bone(bone_low, bone_high, *, band=(25, 40, 65, 85), scale=255.0, a
                     description=f"semi-transparent skin (α {alpha:g}) over opaque bone")
 
 
+def _bonsai_tree():
+    """The bonsai's classification (phantom and real scan alike): faint leaves, wood, opaque pot."""
+    return P.points([(25, LEAF, 0.0), (40, LEAF, 0.15), (70, LEAF, 0.15), (90, WOOD, 0.0), (110, WOOD, 0.6),
+                     (170, WOOD, 0.8), (190, TERRACOTTA, 1.0)], name="tree",
+                    description="leaves α 0.15, wood 0.6–0.8, pot opaque (the real bonsai's levels)")
+
+
 def _engine_presets(a_low, a_high, b_low, b_high):
     """The engine's classifications, given where material A and material B start."""
     alu, steel = P.ALUMINIUM_COLOR, P.STEEL_COLOR
@@ -158,8 +165,9 @@ def _phantoms():
     skull_bone = P.opaque(160, 200, P.BONE_COLOR, name="bone", description="opaque bone: α 0 → 1 over 160–200")
     return [
         _phantom("mri_head", heads.mri_head,
-                 "T1 MRI head with a neck and shoulders over Rayleigh background noise: stand-in for "
-                 "Krüger & Westermann's 256³ MRI head (note 000 §6). Rays saturate at the scalp.",
+                 "T1 MRI head with face, nose, lips, ears, neck and shoulders: scalp, dark skull with marrow, "
+                 "CSF, folded grey over white matter, over Rayleigh background noise. Stand-in for Krüger & "
+                 "Westermann's 256³ MRI head (note 000 §6). Rays saturate at the scalp.",
                  ["kruger2003"],
                  {"skin": P.opaque(40, 80, P.SKIN_COLOR, alpha=0.8, name="skin",
                                    description="opaque skin: α 0 → 0.8 over 40–80, 0 below (note 000)"),
@@ -169,8 +177,9 @@ def _phantoms():
                   "volpack": volpack},
                  "skin", targets={"skin": {"nontransparent_fraction": 0.425}}),
         _phantom("ct_skull", heads.ct_skull,
-                 "CT head: two-table skull with face, mandible, teeth, sinuses and cervical vertebrae in "
-                 "soft tissue with subcutaneous fat. Stands in for Lacroute's CT head (note 003), the "
+                 "CT head: cranium of varying thickness over a folded brain, orbits, nasal cavity, sinuses, "
+                 "zygomatic arches, maxilla and mandible with 32 teeth, cervical vertebrae; a face with nose, "
+                 "lips and ears on the scanner's head rest. Stands in for Lacroute's CT head (note 003), the "
                  "iSBVR Head (note 001) and Ropinski's skull (note 004).",
                  ["lacroute1995", "xue2005", "ropinski2005", "kainz2009"],
                  {"bone": skull_bone,
@@ -184,15 +193,16 @@ def _phantoms():
                                                     "mean_run_length": 2.4},
                                   "skin": {"nontransparent_fraction": 0.11}}),
         _phantom("folded_brain", heads.folded_brain,
-                 "MR head with a sulcated cortex (256×256×167 at size 256): Lacroute's brain; with "
-                 "decimate=2 at size 128 his brainsmall (128×128×84), note 003 §5.",
+                 "MR head whose scalp and skull are cut away over the upper left, showing a cortex folded "
+                 "by gyri and sulci (256×256×167 at size 256): Lacroute's brain; with decimate=2 at size "
+                 "128 his brainsmall (128×128×84), note 003 §5.",
                  ["lacroute1995"],
                  {"volpack": P.volpack(BRAIN),
                   "opaque": P.opaque(60, 100, BRAIN, name="opaque")},
                  "volpack", targets={"volpack": {"nontransparent_fraction": 0.11, "runs_per_scanline": 12.5}}),
         _phantom("aneurysm", vessels.aneurysm,
-                 "3-D rotational angiography: three branching arterial trees and a saccular aneurysm over "
-                 "a near-zero background; most 8³ blocks empty (notes 000, 001).",
+                 "3-D rotational angiography: three arterial trees whose radii taper by Murray's law and a "
+                 "saccular aneurysm over a near-zero background; most 8³ blocks empty (notes 000, 001).",
                  ["kruger2003", "xue2005"],
                  {"vessels": P.opaque(60, 100, P.VESSEL_COLOR, alpha=0.9, name="vessels",
                                       description="α 0 below 60, 0.9 above 100 (note 000)"),
@@ -200,8 +210,8 @@ def _phantoms():
                                     description="iso_t 50, iso_p 150 (note 001)")},
                  "vessels", targets={"vessels": {"nontransparent_fraction": 0.02}}),
         _phantom("foot", foot.foot,
-                 "CT foot lying diagonally: about twenty bones with cortical shells in a soft-tissue "
-                 "envelope (notes 000, 004).",
+                 "CT foot lying diagonally: the 26 bones of the foot (tarsals, metatarsals, phalanges) with "
+                 "tibia and fibula, cortical shells over cancellous bone, in soft tissue with toes (notes 000, 004).",
                  ["kruger2003", "ropinski2005"],
                  {"bone": P.opaque(120, 170, P.BONE_COLOR, name="bone",
                                    description="soft tissue transparent, bone opaque (note 000)"),
@@ -214,8 +224,9 @@ def _phantoms():
                                           description="the soft-tissue envelope as an opaque surface")},
                  "bone", targets={"soft_tissue": {"nontransparent_fraction": 0.25}}),
         _phantom("engine", engine.engine,
-                 "Engine block, size × size × size/2: aluminium casting (A) with bores, crankcase, "
-                 "coolant channels; steel liners, crankshaft and studs (B). Notes 000, 003, 004; the "
+                 "Engine block, size × size × size/2: thin-walled aluminium casting (A) with bores, water "
+                 "jacket, webs, cooling ribs and bosses; steel valves, studs, bolts and crankshaft (B). "
+                 "Notes 000, 003, 004; the "
                  "binary and smooth presets are the Fig. 5.10 aliasing test.",
                  ["kruger2003", "lacroute1995", "ropinski2005"],
                  _engine_presets(50, 90, 160, 200),
@@ -223,7 +234,8 @@ def _phantoms():
                                   "surfaces": {"nontransparent_fraction": 0.08, "runs_per_scanline": 10.7}}),
         _phantom("torso", torso.torso,
                  "Contrast-enhanced abdomen CT (257×257×159 at size 257) with an integer label volume: "
-                 "spine, ribs, kidneys, liver with tumour, aorta and arterial trees (notes 003, 002).",
+                 "lung bases, spine with processes, lower rib cage with costal cartilage, iliac crests, "
+                 "kidneys, liver with tumour, spleen, aorta, vena cava and arterial trees (notes 003, 002).",
                  ["lacroute1995", "kainz2009"],
                  {"abdomen": P.points([(15, P.SKIN_COLOR, 0.0), (30, P.SKIN_COLOR, 0.2), (50, P.SKIN_COLOR, 0.2),
                                        (60, P.SKIN_COLOR, 0.0), (103, LIVER, 0.0), (108, LIVER, 0.06),
@@ -269,8 +281,8 @@ def _phantoms():
                   "dense": P.opaque(60, 160, (0.85, 0.85, 0.9), name="dense")},
                  "smoke", size=64),
         _phantom("golden_lady", clouds.golden_lady,
-                 "A standing figure in a broad low-density haze (`haze` scales it): iSBVR's fuzzy "
-                 "golden lady (note 001).",
+                 "A standing woman in a long dress inside a broad low-density haze (`haze` scales it): "
+                 "iSBVR's fuzzy golden lady (note 001).",
                  ["xue2005"],
                  {"fuzzy": P.points([(28, GOLD, 0.0), (32, GOLD, 0.02), (60, GOLD, 0.05), (150, GOLD, 0.3),
                                      (190, GOLD, 1.0)], name="fuzzy"),
@@ -284,11 +296,10 @@ def _phantoms():
                                       (230, (0.9, 0.25, 0.15), 0.8)], name="layers")},
                  "layers"),
         _phantom("bonsai_like", bonsai.bonsai_like,
-                 "Bonsai in a pot: opaque pot and trunk, fine foliage, much air (note 001).",
+                 "Bonsai on a board: deep pot of soil, flaring trunk, branches and foliage pads of leaf "
+                 "clusters, much air; the real bonsai's grey levels and classification (note 001).",
                  ["xue2005"],
-                 {"tree": P.points([(60, LEAF, 0.0), (85, LEAF, 0.3), (110, LEAF, 0.3), (120, WOOD, 0.05),
-                                    (140, WOOD, 0.05), (170, WOOD, 0.9), (205, WOOD, 0.9), (215, TERRACOTTA, 1.0)],
-                                   name="tree"),
+                 {"tree": _bonsai_tree(),
                   "isbvr": P.points([(50, LEAF, 0.0), (170, WOOD, 1.0)], name="isbvr",
                                     description="iso_t 50, iso_p 170 (note 001)")},
                  "tree"),
@@ -316,8 +327,7 @@ def _reals():
               ["kruger2003", "lacroute1995", "ropinski2005"],
               _engine_presets(90, 120, 165, 190), "semi", "industrial CT", source="engine"),
         _real("bonsai", "CT of a bonsai tree, 256³.", ["xue2005"],
-              {"tree": P.points([(25, LEAF, 0.0), (40, LEAF, 0.15), (70, LEAF, 0.15), (90, WOOD, 0.0),
-                                 (110, WOOD, 0.6), (170, WOOD, 0.8), (190, TERRACOTTA, 1.0)], name="tree"),
+              {"tree": _bonsai_tree(),
                "isbvr": P.points([(50, LEAF, 0.0), (170, WOOD, 1.0)], name="isbvr")}, "tree", "CT", up_axis="y"),
         _real("tooth", "Industrial CT of a tooth, 103×94×161 (background ≈75).", [],
               {"tooth": P.points([(100, (0.95, 0.9, 0.75), 0.0), (130, (0.95, 0.9, 0.75), 0.2),

@@ -248,6 +248,39 @@ class SmoothUnion(Shape):
         return np.minimum(alo, blo) - self.k, np.maximum(ahi, bhi) + self.k
 
 
+class Blend(Shape):
+    """``base`` smoothly joined to small ``parts``, each evaluated only near itself.
+
+    The same surface as nesting :class:`SmoothUnion` (``parts`` is a list of ``(shape, k)``),
+    but a part's distance is computed only inside its bounding box grown by ``2k``: farther
+    out the smooth minimum equals the base's distance wherever a coverage is non-zero. Needs
+    the axis-aligned coordinates a :class:`Grid` passes (``x (1,1,n), y (1,n,1), z (n,1,1)``).
+    """
+
+    def __init__(self, base, parts):
+        self.base, self.parts = base, [(shape, float(k)) for shape, k in parts]
+
+    def sdf(self, x, y, z):
+        shape = np.broadcast_shapes(np.shape(x), np.shape(y), np.shape(z))
+        d = np.array(np.broadcast_to(self.base.sdf(x, y, z), shape), dtype=np.float32)
+        axes = (z.ravel(), y.ravel(), x.ravel())
+        for part, k in self.parts:
+            lo, hi = part.bounds()
+            window = tuple(slice(int(np.searchsorted(axis, lo[c] - 2 * k)), int(np.searchsorted(axis, hi[c] + 2 * k, "right")))
+                           for axis, c in zip(axes, (2, 1, 0)))
+            if any(w.stop <= w.start for w in window):
+                continue
+            db = part.sdf(x[..., window[2]], y[:, window[1], :], z[window[0]])
+            da = d[window]
+            h = np.clip(0.5 + 0.5 * (db - da) / np.float32(k), 0, 1)
+            d[window] = db + (da - db) * h - np.float32(k) * h * (1 - h)
+        return d
+
+    def bounds(self):
+        los, his = zip(self.base.bounds(), *(part.bounds() for part, _ in self.parts))
+        return np.min(los, axis=0), np.max(his, axis=0)
+
+
 class Offset(Shape):
     """``shape`` grown by ``amount`` (shrunk when negative).
 
@@ -415,9 +448,30 @@ class Grid:
         d = np.broadcast_to(d, tuple(b - a for a, b in zip(start, stop)))
         return Region(start, self.coverage(d.astype(np.float32, copy=False)))
 
-    def region_of(self, d):
-        """The :class:`Region` of a full-grid signed-distance array (for noise-displaced surfaces)."""
-        return Region((0, 0, 0), self.coverage(d))
+    def region_of(self, d, start=(0, 0, 0)):
+        """The :class:`Region` of a signed-distance array whose voxel ``[0, 0, 0]`` is ``start``.
+
+        For noise-displaced surfaces (full-grid arrays) and for distances that several regions
+        share (see :meth:`distance`); ``d`` must have the full shape of its window.
+        """
+        return Region(tuple(start), self.coverage(np.asarray(d, dtype=np.float32)))
+
+    def distance(self, shape):
+        """``(start, d)``: the signed distance of ``shape`` over its bounding box, evaluated once.
+
+        Shells and offsets of an expensive shape (a smooth union of many parts) are then plain
+        arithmetic on ``d``: ``region_of(np.maximum(d, -(d + t)), start)`` is a shell ``t`` thick.
+        """
+        start, stop = self._window(*shape.bounds())
+        window = tuple(max(b - a, 0) for a, b in zip(start, stop))
+        if 0 in window:
+            return start, np.zeros(window, np.float32)
+        d = shape.sdf(*self.coords(start, stop))
+        return start, np.ascontiguousarray(np.broadcast_to(d, window), dtype=np.float32)
+
+    def coords_of(self, start, d):
+        """The broadcastable coordinates of the window of ``d`` that starts at ``start``."""
+        return self.coords(start, tuple(a + n for a, n in zip(start, d.shape)))
 
     def union(self, shapes):
         """Coverage of the union of many shapes, each evaluated in its own bounding box."""

@@ -116,6 +116,8 @@ def statistics(volume, preset, *, threshold=0.05, block=8):
 
         ``nx, ny, nz, voxels, megabytes``
             Dimensions and raw size in MiB (2²⁰ bytes, as the thesis's Table 5.1).
+        ``sx, sy, sz``
+            The voxel spacing (what :func:`in_box` needs to place the volume in another box).
         ``value_mean, value_std, value_min, value_max``
             Raw voxel values; ``scalar_mean`` is the mean normalised scalar.
         ``nonzero_fraction``
@@ -135,6 +137,8 @@ def statistics(volume, preset, *, threshold=0.05, block=8):
             Non-transparent voxels per run.
         ``threshold``, ``block``
             The parameters used.
+        ``generation_seconds``
+            Phantoms only: how long the generator took (from ``volume.meta``).
 
     Notes
     -----
@@ -162,6 +166,7 @@ def statistics(volume, preset, *, threshold=0.05, block=8):
         scalar_mean = float(volume.normalized().mean(dtype=np.float64))
     return {
         "nx": nx, "ny": ny, "nz": nz, "voxels": int(voxels),
+        "sx": float(volume.spacing[0]), "sy": float(volume.spacing[1]), "sz": float(volume.spacing[2]),
         "megabytes": data.nbytes / 2**20,
         "value_mean": mean,
         "value_std": float(data.std(dtype=np.float64)),
@@ -180,4 +185,65 @@ def statistics(volume, preset, *, threshold=0.05, block=8):
         "mean_run_length": count / runs if runs else 0.0,
         "threshold": threshold,
         "block": block,
+        **({"generation_seconds": float(volume.meta["generation_seconds"])}
+           if "generation_seconds" in volume.meta else {}),
+    }
+
+
+BOX_STATISTICS = ("nontransparent_fraction", "empty_block_fraction", "runs_per_scanline", "mean_run_length")
+"""The statistics the stand-ins are compared on: what the papers' speed-ups depend on."""
+
+
+def in_box(stats, box, *, voxel=None):
+    """The statistics a volume would have, centred in a larger box of transparent background.
+
+    A real scan is cropped to its subject while a phantom fills a box of the papers' size, so
+    their statistics compare only in one box at one voxel size. This places the measured volume
+    (``stats`` from :func:`statistics`, which records its dimensions and spacing) in ``box``
+    voxels of edge ``voxel`` (default: the volume's finest spacing), padding with voxels of
+    opacity 0, and returns the four :data:`BOX_STATISTICS` (and ``nonzero_fraction``) exactly as
+    :func:`statistics` would measure them there when the volume's spacing equals ``voxel`` and it sits at a multiple of
+    the block size: the fractions scale by the volume's share of the box, runs per scanline by
+    its share of the scanlines, run lengths by the spacing along x. An anisotropic volume is
+    counted as if resampled to ``voxel`` (its native 8³ blocks are then taller than the box's;
+    the empty-block fraction is the one estimate).
+
+    Parameters
+    ----------
+    stats : dict
+        Output of :func:`statistics` (``nx, ny, nz, sx, sy, sz`` and the four statistics).
+    box : sequence of 3 int
+        ``(nx, ny, nz)`` of the box.
+    voxel : float, optional
+        Edge of the box's voxels in the volume's units.
+
+    Returns
+    -------
+    dict
+        The five statistics in the box.
+
+    Raises
+    ------
+    InputError
+        ``stats`` lacks a key, or the volume does not fit in the box.
+    """
+    missing = [k for k in ("nx", "ny", "nz", "sx", "sy", "sz", *BOX_STATISTICS) if k not in stats]
+    if missing:
+        raise InputError(f"in_box: stats lack {', '.join(missing)}; pass the dict statistics() returns")
+    if len(box) != 3:
+        raise InputError(f"in_box box: expected (nx, ny, nz), got {box!r}")
+    box = [check_positive_int(n, name="in_box box") for n in box]
+    spacing = np.array([stats["sx"], stats["sy"], stats["sz"]], dtype=np.float64)
+    voxel = float(spacing.min()) if voxel is None else check_scalar(voxel, name="in_box voxel", low=0, low_open=True)
+    extent = np.array([stats["nx"], stats["ny"], stats["nz"]]) * spacing / voxel
+    if np.any(extent > np.array(box) + 0.5):
+        raise InputError(f"in_box: a volume of {np.round(extent, 1).tolist()} voxels does not fit in the box {box}; "
+                         f"measure the phantom at a larger size")
+    fill = float(np.prod(extent) / np.prod(box))
+    return {
+        "nontransparent_fraction": stats["nontransparent_fraction"] * fill,
+        **({"nonzero_fraction": stats["nonzero_fraction"] * fill} if "nonzero_fraction" in stats else {}),
+        "empty_block_fraction": 1 - (1 - stats["empty_block_fraction"]) * fill,
+        "runs_per_scanline": stats["runs_per_scanline"] * extent[1] * extent[2] / (box[1] * box[2]),
+        "mean_run_length": stats["mean_run_length"] * spacing[0] / voxel,
     }

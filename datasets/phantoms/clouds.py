@@ -5,7 +5,7 @@
 import numpy as np
 
 from datasets import noise
-from datasets.shapes import Canvas, Capsule, Ellipsoid, Grid, Sphere, rotation
+from datasets.shapes import Blend, Canvas, Capsule, Ellipsoid, Field, Grid, SmoothUnion, Sphere, rotation
 from core.volume import Volume
 from core.validation import check_scalar
 
@@ -41,15 +41,44 @@ def smoke_cloud(size, seed):
     return Volume(np.rint(255 * density).astype(np.uint8), name="smoke_cloud")
 
 
+def _figure():
+    """A standing woman in a long dress, arms at her sides, facing −y: solid shapes (normalised)."""
+    dress_top, hem = -0.1, -0.46
+
+    def skirt(x, y, z):
+        t = np.clip((np.float32(dress_top) - z) / np.float32(dress_top - hem), 0, 1)   # 0 at the waist
+        rx, ry = np.float32(0.075) + np.float32(0.13) * t, np.float32(0.06) + np.float32(0.09) * t
+        side = (np.sqrt((x / rx) ** 2 + (y / ry) ** 2) - 1) * np.minimum(rx, ry)
+        return np.maximum(side, np.maximum(np.float32(hem) - z, z - np.float32(dress_top)))
+
+    body = SmoothUnion(Ellipsoid((0, 0, 0.12), (0.105, 0.065, 0.12)),                 # chest
+                       Ellipsoid((0, 0, -0.04), (0.085, 0.06, 0.09)), 0.04)           # waist
+    parts = [(Field(skirt, (-0.21, -0.16, hem), (0.21, 0.16, dress_top)), 0.05)]
+    parts += [(Sphere((side * 0.04, -0.055, 0.14), 0.04), 0.02) for side in (-1, 1)]  # bust
+    parts.append((Capsule((0, 0, 0.22), (0, -0.005, 0.31), 0.027), 0.03))              # neck
+    parts.append((SmoothUnion(Ellipsoid((0, -0.005, 0.36), (0.048, 0.056, 0.066)),
+                              Sphere((0, 0.04, 0.4), 0.035), 0.02), 0.02))             # head, hair in a bun
+    for side in (-1, 1):
+        shoulder, elbow = (side * 0.115, 0.0, 0.2), (side * 0.15, 0.01, 0.04)
+        wrist = (side * 0.1, -0.07, -0.07)
+        arm = SmoothUnion(Capsule(shoulder, elbow, 0.032, 0.026), Capsule(elbow, wrist, 0.025, 0.019), 0.015)
+        hand = Ellipsoid((side * 0.085, -0.085, -0.1), (0.018, 0.028, 0.04))
+        parts.append((SmoothUnion(arm, hand, 0.012), 0.03))
+        parts.append((Ellipsoid((side * 0.05, -0.05, -0.475), (0.03, 0.06, 0.022)), 0.01))  # shoes
+    figure = Blend(body, parts)
+    return figure
+
+
 def golden_lady(size, seed, haze=1.0):
-    """A standing figure (≈210) inside a broad low-density haze (≈30–60), note 001 §5.
+    """A standing woman in a long dress (≈205) inside a broad low-density haze (≈30–55), note 001 §5.
 
     Parameters
     ----------
     haze : float
         Scales the haze's extent (the E11 fuzziness sweep): 0 removes it, 0.5 keeps it near the
-        figure (≈10 % of the box above the iso_t of 30), 1 fills about two thirds of the box,
-        1.5 nearly all of it. The haze is densest (≈65) at the figure.
+        figure, 1 fills about two thirds of the box, 1.5 nearly all of it. The haze is densest
+        (≈55) at the figure and falls to the iSBVR iso_t of 30 at its edge, so that the figure
+        shows through it.
     """
     haze = check_scalar(haze, name="golden_lady haze", low=0, high=3)
     rng = np.random.default_rng(seed)
@@ -58,15 +87,7 @@ def golden_lady(size, seed, haze=1.0):
     field = noise.fbm(grid, noise.fork(rng), wavelength=0.25, octaves=3)
     if haze > 0:
         envelope = np.exp(-((_radius(grid, (0, 0, -0.05), (0.45, 0.4, 0.6), np.eye(3)) / haze) ** 2))
-        canvas.data[...] = np.clip((65 + 14 * field) * np.sqrt(envelope), 0, None)
-    figure = [
-        Ellipsoid((0, 0, 0.02), (0.12, 0.075, 0.19)),                          # torso
-        Sphere((0, -0.01, 0.32), 0.065),                                        # head
-        Capsule((0, 0, 0.2), (0, -0.005, 0.27), 0.035),                         # neck
-    ]
-    for side in (-1, 1):
-        figure.append(Capsule((side * 0.06, 0, -0.14), (side * 0.08, 0.02, -0.47), 0.045, 0.03))   # legs
-        figure.append(Capsule((side * 0.13, 0, 0.15), (side * 0.2, -0.06, -0.1), 0.032, 0.024))   # arms
-    canvas.paint(grid.union(figure), 205 + 6 * field)
+        canvas.data[...] = np.clip((55 + 12 * field) * np.sqrt(envelope), 0, None)
+    canvas.paint(_figure(), 205 + 6 * field)
     noise.add_gaussian(canvas.data, noise.fork(rng), 2.0)
     return Volume(canvas.to_uint8(), name="golden_lady")
