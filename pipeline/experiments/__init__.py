@@ -9,7 +9,7 @@ import importlib
 from core.errors import InputError
 from pipeline.experiments.base import PAPERS, Claim, ClaimResult, Experiment, Profile, Run
 
-MODULES = ("pipeline.experiments.volbench", "pipeline.experiments.peers", "pipeline.experiments.lacroute1995", "pipeline.experiments.kruger2003")
+MODULES = ("pipeline.experiments.volbench", "pipeline.experiments.peers", "pipeline.experiments.lacroute1995", "pipeline.experiments.kruger2003", "pipeline.experiments.kainz2009")
 
 __all__ = ["PAPERS", "Claim", "ClaimResult", "Experiment", "Profile", "Run", "all_experiments", "check_settings", "get", "plan",
            "selected"]
