@@ -97,3 +97,14 @@ def test_profile_setting_typos_are_errors():
         selected(Profile("p", experiments="volbench-convergence"))
     for name in ("smoke", "default", "full"):  # the shipped profiles use only real keys
         check_settings(Profile.load(ROOT / "config" / f"{name}.yaml"))
+
+
+def test_speed_accuracy_runs_only_the_scenes_a_profile_names():
+    def planned(scenes):
+        profile = Profile(name="t", volume_size=8, image_size=8, experiments=["volbench-speed-accuracy"],
+                          settings={"volbench-speed-accuracy": {"scenes": scenes}})
+        return {run.tags["scene"] for run in experiments.plan(profile).values()}
+
+    assert planned(["skull-bone"]) == {"skull-bone"}
+    with pytest.raises(InputError, match="volbench-speed-accuracy.scenes"):
+        planned(["teapot"])

@@ -6,6 +6,7 @@ import numpy as np
 import pandas as pd
 
 import datasets
+from core.errors import InputError
 from datasets.stats import BOX_STATISTICS, in_box
 import renderers
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
@@ -581,7 +582,7 @@ class SpeedAccuracy(Experiment):
 
     name = "volbench-speed-accuracy"
     title = "Speed against accuracy, every backend"
-    settings = frozenset({"volume_size", "image_size"})
+    settings = frozenset({"scenes", "volume_size", "image_size"})
     description = (
         "Each registered backend renders the same scenes over its own quality settings (its "
         "``quality_sweep``: step size, and later slice count, thresholds, ...). Error is measured "
@@ -591,8 +592,14 @@ class SpeedAccuracy(Experiment):
     TRUTH_FACTOR = 1 / 16
 
     def runs(self, profile):
+        wanted = profile.setting(self.name, "scenes", list(SPEED_ACCURACY_SCENES))
+        unknown = [name for name in wanted if name not in SPEED_ACCURACY_SCENES]
+        if unknown:
+            raise InputError(f"profile {profile.name!r} settings.{self.name}.scenes: unknown {unknown}; "
+                             f"known: {list(SPEED_ACCURACY_SCENES)}")
         runs = []
-        for scene_name, scene_def in SPEED_ACCURACY_SCENES.items():
+        for scene_name in wanted:
+            scene_def = SPEED_ACCURACY_SCENES[scene_name]
             scene, truth = _scene_and_truth(self.name, scene_name, scene_def, profile, self.TRUTH_FACTOR,
                                             {"setting": "truth"})
             runs.append(truth)
