@@ -24,7 +24,6 @@ from pipeline.scene_io import build_scene, build_volume_instance
 from pipeline.timing import measure
 from core.transfer import Preset
 from reports.imageio import read_image, write_exr, write_png
-from reports.metrics import compare, difference_image
 
 
 def write_json(path, payload):
@@ -166,6 +165,10 @@ def execute(run, *, profile, device_environment=None):
 
 def evaluate(record_path, reference_path, output_path):
     """Compare each view of a run with the same view of its reference run; write the metrics."""
+    # Imported here: the metrics pull in scikit-image and SciPy's statistics (over a second per
+    # process), which the render and volume jobs importing this module never use.
+    from reports.metrics import compare, difference_image
+
     record = json.loads(Path(record_path).read_text())
     truth = json.loads(Path(reference_path).read_text())
     metrics = {"experiment": record["experiment"], "run": record["run"], "reference": truth["run"],
