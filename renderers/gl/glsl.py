@@ -85,15 +85,13 @@ vec2 slab(vec3 o, vec3 d) {
 }
 """
 
-SHADING = """
-uniform sampler3D u_gradient;    // object-space gradient (central differences), RGB
-uniform mat3 u_normal_matrix;    // object gradient -> world normal (A^-T)
+LIGHTING = """
 uniform vec3 u_light;            // world-space unit direction towards the light
 uniform vec4 u_phong;            // ambient, diffuse, specular, shininess
 
-// Two-sided Blinn-Phong of `color` at texture point p for a ray travelling along `ray_dir`.
-vec3 shade(vec3 color, vec3 p, vec3 ray_dir) {
-    vec3 n = u_normal_matrix * texture(u_gradient, p).rgb;
+// Two-sided Blinn-Phong of `color` with the world normal n (any length; 0: ambient only) for a
+// ray travelling along `ray_dir`.
+vec3 blinn_phong(vec3 color, vec3 n, vec3 ray_dir) {
     float norm = length(n);
     float factor = u_phong.x;
     float highlight = 0.0;
@@ -106,6 +104,17 @@ vec3 shade(vec3 color, vec3 p, vec3 ray_dir) {
         }
     }
     return clamp(color * factor + highlight, 0.0, 1.0);
+}
+"""
+"""The conventions' Blinn–Phong of a normal; every GL backend shades through it."""
+
+SHADING = LIGHTING + """
+uniform sampler3D u_gradient;    // object-space gradient (central differences), RGB
+uniform mat3 u_normal_matrix;    // object gradient -> world normal (A^-T)
+
+// Blinn-Phong of `color` at texture point p, with the volume's gradient as the normal.
+vec3 shade(vec3 color, vec3 p, vec3 ray_dir) {
+    return blinn_phong(color, u_normal_matrix * texture(u_gradient, p).rgb, ray_dir);
 }
 """
 

@@ -18,6 +18,8 @@ box (its entry or exit, whichever is nearer the rasterised point), so segment en
 and the volumes' spans agree bit for bit.
 """
 
+from renderers.gl import glsl
+
 VOLUME_VERTEX = """
 uniform mat4 u_viewproj;
 uniform mat4 u_models[N_VOLUMES];    // unit cube (texture coordinates) -> world, per volume
@@ -128,24 +130,10 @@ layout(std430, binding = 0) readonly buffer Tables { vec4 u_tables[]; };   // ev
 #ifdef SHADED
 uniform sampler3D u_gradients[N_VOLUMES];
 uniform mat3 u_normals[N_VOLUMES];   // object gradient -> world normal (A^-T)
-uniform vec3 u_light;
-uniform vec4 u_phong;                // ambient, diffuse, specular, shininess
-
-// Two-sided Blinn-Phong as renderers.gl.glsl.shade, with volume v's gradient texture.
+""" + glsl.LIGHTING + """
+// Blinn-Phong as renderers.gl.glsl.shade, with volume v's gradient texture.
 vec3 shade_volume(int v, vec3 color, vec3 p, vec3 ray_dir) {
-    vec3 n = u_normals[v] * texture(u_gradients[v], p).rgb;
-    float norm = length(n);
-    float factor = u_phong.x;
-    float highlight = 0.0;
-    if (norm > 0.0) {
-        factor += u_phong.y * abs(dot(n, u_light)) / norm;
-        vec3 h = u_light - ray_dir;
-        float h_norm = length(h);
-        if (h_norm > 0.0) {
-            highlight = u_phong.z * pow(min(abs(dot(n, h)) / (h_norm * norm), 1.0), u_phong.w);
-        }
-    }
-    return clamp(color * factor + highlight, 0.0, 1.0);
+    return blinn_phong(color, u_normals[v] * texture(u_gradients[v], p).rgb, ray_dir);
 }
 #endif
 
