@@ -441,6 +441,14 @@ def _table1_takeaways(ok):
 
 
 # ========================================================================= 2. the no-cue control (E2)
+def _no_cue_control(profile, size, image):
+    """``(scene, views, tags)`` of the control: smooth, faint noise filling the cube, unshaded, headline view."""
+    scene = _scene(_phantom("fbm_control", size, preset="no_cue"), profile, image_size=image, shading="none",
+                   name="no_cue")
+    return scene, ({"view": "headline", "azimuth": 30.0, "elevation": 20.0},), {"scene": "no_cue",
+                                                                              "dataset": "fbm_control"}
+
+
 class NoCue(Experiment):
     """A dense, faint volume: no ray terminates and no block is empty, so the extra passes only cost."""
 
@@ -462,10 +470,7 @@ class NoCue(Experiment):
         size = profile.setting(self.name, "volume_size", profile.volume_size)
         image = profile.setting(self.name, "image_size", profile.image_size)
         step = profile.setting(self.name, "step_factor", 0.5)
-        scene = _scene(_phantom("fbm_control", size, preset="no_cue"), profile, image_size=image, shading="none",
-                       name="no_cue")
-        views = ({"view": "headline", "azimuth": 30.0, "elevation": 20.0},)
-        tags = {"scene": "no_cue", "dataset": "fbm_control"}
+        scene, views, tags = _no_cue_control(profile, size, image)
         truth = _truth(self.name, "no_cue", scene, views, profile.setting(self.name, "truth_step_factor", 0.25), tags)
         return [truth] + _method_runs(self.name, "no_cue", scene, views, ("rc", "rc-a", "rc-b", "single-pass"),
                                       step, truth.id, tags, timed_frames(profile, self.name))
@@ -821,10 +826,7 @@ class Occluder(Experiment):
         if len(fractions) < 3 or not all(0 <= f <= 1 for f in fractions):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.fractions: need at least three "
                              f"fractions in [0, 1] to fit a line, got {fractions}")
-        scene = _scene(_phantom("fbm_control", size, preset="no_cue"), profile, image_size=image, shading="none",
-                       name="no_cue")
-        views = ({"view": "headline", "azimuth": 30.0, "elevation": 20.0},)
-        tags = {"scene": "no_cue", "dataset": "fbm_control"}
+        scene, views, tags = _no_cue_control(profile, size, image)
         frames = timed_frames(profile, self.name)
         return [Run(self.name, f"no_cue.{config}.f{fraction:g}", RAYCAST, scene, views,
                     options={"variant": config, "occluder": fraction, "step_factor": step}, **frames,
