@@ -17,6 +17,7 @@ from renderers.base import Renderer
 from renderers.gl import context
 from renderers.gl.resources import VOLUME_CACHE_SIZE, Preparation, ResourceCache
 from renderers.gl.timing import TIMING_METHODS, PassTimer
+from renderers.gl.view import cube_triangles
 
 SCREEN_TRIANGLE = np.array([-1.0, -1.0, 3.0, -1.0, -1.0, 3.0], dtype=np.float32)
 """One triangle covering the viewport (full-screen passes)."""
@@ -63,6 +64,7 @@ class GLRenderer(Renderer):
         self._timer = None
         self._targets = {}
         self._buffers = {}
+        self._vaos = {}
         self._last_step = None
 
     @classmethod
@@ -96,6 +98,7 @@ class GLRenderer(Renderer):
     def _forget(self):
         """Drop every GL object reference (their context is gone, or they were released)."""
         self._cache, self._ctx, self._timer, self._targets, self._buffers = None, None, None, {}, {}
+        self._vaos = {}
 
     def _release(self):
         """Release this renderer's GL objects (its context is current)."""
@@ -105,6 +108,8 @@ class GLRenderer(Renderer):
                 item.release()
         for buffer in self._buffers.values():
             buffer.release()
+        for vao in self._vaos.values():
+            vao.release()
 
     def close(self):
         if self._ctx is not None and context.activate(self._ctx):
@@ -139,6 +144,22 @@ class GLRenderer(Renderer):
             self._buffers[name] = buffer
         buffer.write(data.tobytes())
         return buffer
+
+    def _cube_vao(self, ctx, program):
+        """``program``'s vertex array over the unit box's triangles (``in_tex``), made once."""
+        return self._vao(program, lambda: ctx.vertex_array(
+            program, [(self._buffer("cube", cube_triangles()), "3f", "in_tex")]))
+
+    def _screen_vao(self, ctx, program):
+        """``program``'s vertex array over one triangle covering the screen (``in_position``), made once."""
+        return self._vao(program, lambda: ctx.vertex_array(
+            program, [(self._buffer("screen", SCREEN_TRIANGLE), "2f", "in_position")]))
+
+    def _vao(self, program, build):
+        vao = self._vaos.get(program)
+        if vao is None:
+            vao = self._vaos[program] = build()
+        return vao
 
     def _target(self, key, build):
         """Frame targets (textures, framebuffers) cached per key (usually the image size)."""

@@ -77,8 +77,8 @@ from core.errors import InputError, UnsupportedFeatureError
 from core.validation import check_positive_int, check_scalar
 from renderers.base import Capabilities, RenderResult
 from renderers.gl import context, glsl, peeling_glsl
-from renderers.gl.base import SCREEN_TRIANGLE, GLRenderer, set_uniforms
-from renderers.gl.view import NEAR_FRACTION, SLIVER, cube_triangles, make_view
+from renderers.gl.base import GLRenderer, set_uniforms
+from renderers.gl.view import NEAR_FRACTION, SLIVER, make_view
 
 MAX_VOLUMES = 32
 """Volumes per scene: the bits of the per-pixel parity mask (and the texture units of common drivers)."""
@@ -141,7 +141,6 @@ class GLPeelRenderer(GLRenderer):
         self.opaque_threshold = check_scalar(opaque_threshold, name="gl-peel option opaque_threshold", low=0,
                                              high=1, low_open=True)
         self.max_layers = check_positive_int(max_layers, name="gl-peel option max_layers")
-        self._vaos = {}
         self._queries = []
 
     @property
@@ -152,12 +151,7 @@ class GLPeelRenderer(GLRenderer):
 
     def _forget(self):
         super()._forget()
-        self._vaos, self._queries = {}, []
-
-    def _release(self):
-        for vao in self._vaos.values():
-            vao.release()
-        super()._release()
+        self._queries = []
 
     # -----------------------------------------------------------------------------------------
 
@@ -199,16 +193,6 @@ class GLPeelRenderer(GLRenderer):
             "raycast": screen(peeling_glsl.VOLUMES, peeling_glsl.SAMPLING, peeling_glsl.RAYCAST_FRAGMENT),
             "resolve": screen(peeling_glsl.SAMPLING, peeling_glsl.RESOLVE_FRAGMENT),
         }
-
-    def _vao(self, ctx, program, screen):
-        vao = self._vaos.get(program)
-        if vao is None:
-            if screen:
-                vao = ctx.vertex_array(program, [(self._buffer("screen", SCREEN_TRIANGLE), "2f", "in_position")])
-            else:
-                vao = ctx.vertex_array(program, [(self._buffer("cube", cube_triangles()), "3f", "in_tex")])
-            self._vaos[program] = vao
-        return vao
 
     def _frame_targets(self, width, height):
         def build():
@@ -307,8 +291,8 @@ class GLPeelRenderer(GLRenderer):
             for name, unit in IMAGE_UNITS.items():
                 if program.get(name, None) is not None:
                     program[name].value = unit
-        screen = {name: self._vao(ctx, programs[name], True) for name in ("setup", "raycast", "resolve")}
-        boxes = self._vao(ctx, programs["peel"], False)
+        screen = {name: self._screen_vao(ctx, programs[name]) for name in ("setup", "raycast", "resolve")}
+        boxes = self._cube_vao(ctx, programs["peel"])
 
         timer = self._timer
         ctx.enable_only(moderngl.NOTHING)

@@ -102,8 +102,8 @@ from core.errors import InputError
 from core.validation import check_choice, check_positive_int, check_scalar
 from renderers.base import Capabilities, RenderResult
 from renderers.gl import context, emptyspace, glsl
-from renderers.gl.base import SCREEN_TRIANGLE, GLRenderer, set_uniforms
-from renderers.gl.view import SLIVER, cube_triangles, make_view, ray_lengths
+from renderers.gl.base import GLRenderer, set_uniforms
+from renderers.gl.view import SLIVER, make_view, ray_lengths
 
 VARIANTS = ("rc", "rc-a", "rc-b", "single-pass")
 MULTI_PASS = ("rc", "rc-a", "rc-b")
@@ -492,7 +492,6 @@ class GLRaycastRenderer(GLRenderer):
         if self.occluder > 0 and self.variant not in MULTI_PASS:
             raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
                              f"use a multi-pass variant ({', '.join(MULTI_PASS)}), not {variant!r}")
-        self._vaos = {}
         self._ray_key = None
         self._ray_max = 0.0
 
@@ -503,15 +502,6 @@ class GLRaycastRenderer(GLRenderer):
                 "min_opacity": self.min_opacity, "iso_refine": self.iso_refine, "occluder": self.occluder,
                 "timing": self.timing,
                 "effective_step": self._last_step, "effective_timing": self._effective_timing}
-
-    def _forget(self):
-        super()._forget()
-        self._vaos = {}
-
-    def _release(self):
-        for vao in self._vaos.values():
-            vao.release()
-        super()._release()
 
     # -----------------------------------------------------------------------------------------
 
@@ -532,16 +522,6 @@ class GLRaycastRenderer(GLRenderer):
         if self.occluder > 0:
             programs["occluder"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(OCCLUDER_FRAGMENT))
         return programs
-
-    def _vao(self, ctx, program, screen=False):
-        vao = self._vaos.get(program)
-        if vao is None:
-            if screen:
-                vao = ctx.vertex_array(program, [(self._buffer("screen", SCREEN_TRIANGLE), "2f", "in_position")])
-            else:
-                vao = ctx.vertex_array(program, [(self._buffer("cube", cube_triangles()), "3f", "in_tex")])
-            self._vaos[program] = vao
-        return vao
 
     def _frame_targets(self, width, height):
         def build():
@@ -639,7 +619,7 @@ class GLRaycastRenderer(GLRenderer):
             ctx.enable_only(moderngl.NOTHING)
             targets["res"].use(location=UNITS["u_res"])
             targets["out_fbo"].use()
-            timer.run("resolve", self._vao(ctx, programs["resolve"], screen=True).render)
+            timer.run("resolve", self._screen_vao(ctx, programs["resolve"]).render)
             output = targets["out"]
         seconds, fragments = timer.results()
         image, readback = self._readback(output, height, width)
@@ -687,7 +667,7 @@ class GLRaycastRenderer(GLRenderer):
         """Setup passes, then main passes with an intermediate pass after each but the last."""
         import moderngl
 
-        cube = {name: self._vao(ctx, program) for name, program in programs.items() if name != "resolve"}
+        cube = {name: self._cube_vao(ctx, program) for name, program in programs.items() if name != "resolve"}
 
         def entry_pass():
             targets["entry_fbo"].clear(0.0, 0.0, 0.0, 0.0)
@@ -752,7 +732,7 @@ class GLRaycastRenderer(GLRenderer):
         ctx.enable_only(moderngl.CULL_FACE)
         ctx.cull_face = "front"
         targets["main_fbo"].use()
-        timer.run("main", self._vao(ctx, programs["main"]).render, count=True)
+        timer.run("main", self._cube_vao(ctx, programs["main"]).render, count=True)
         ctx.memory_barrier()
         return counter
 

@@ -53,8 +53,8 @@ from core.errors import InputError
 from core.validation import check_choice
 from renderers.base import Capabilities, RenderResult
 from renderers.gl import context, glsl
-from renderers.gl.base import SCREEN_TRIANGLE, GLRenderer, set_uniforms
-from renderers.gl.view import cube_triangles, make_view
+from renderers.gl.base import GLRenderer, set_uniforms
+from renderers.gl.view import make_view
 
 ORDERS = ("back-to-front", "front-to-back")
 
@@ -264,28 +264,11 @@ class GLSlicerRenderer(GLRenderer):
         if not isinstance(count_contributing, bool):
             raise InputError(f"gl-slicer option count_contributing: expected True or False, got {count_contributing!r}")
         self.count_contributing = count_contributing
-        self._vaos = {}
 
     @property
     def options(self):
         return {"step_factor": self.step_factor, "order": self.order, "count_contributing": self.count_contributing,
                 "timing": self.timing, "effective_step": self._last_step, "effective_timing": self._effective_timing}
-
-    def _forget(self):
-        super()._forget()
-        self._vaos = {}
-
-    def _release(self):
-        for vao in self._vaos.values():
-            vao.release()
-        super()._release()
-
-    def _vao(self, ctx, program, buffer, layout, attribute):
-        vao = self._vaos.get(program)
-        if vao is None:
-            vao = ctx.vertex_array(program, [(buffer, layout, attribute)])
-            self._vaos[program] = vao
-        return vao
 
     def _frame_targets(self, width, height):
         def build():
@@ -351,8 +334,7 @@ class GLSlicerRenderer(GLRenderer):
             targets["res"].use(location=UNITS["u_res"])
             targets["out_fbo"].use()
             ctx.enable_only(moderngl.NOTHING)
-            timer.run("resolve", self._vao(ctx, resolve, self._buffer("screen", SCREEN_TRIANGLE), "2f",
-                                           "in_position").render)
+            timer.run("resolve", self._screen_vao(ctx, resolve).render)
             output = targets["out"]
         seconds, fragments = timer.results()
         vao.release()
@@ -388,7 +370,7 @@ class GLSlicerRenderer(GLRenderer):
         ctx.enable_only(moderngl.CULL_FACE)
         ctx.front_face = "cw" if np.linalg.det(uniforms["u_tex_to_world"]) < 0 else "ccw"
         ctx.cull_face = "front"  # the back faces cover every pixel whose ray meets the box
-        self._vao(ctx, program, self._buffer("cube", cube_triangles()), "3f", "in_tex").render()
+        self._cube_vao(ctx, program).render()
         ctx.memory_barrier()
         generated, contributing = np.frombuffer(counters.read(8), dtype=np.uint32)
         return int(generated), int(contributing)
