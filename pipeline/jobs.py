@@ -44,7 +44,7 @@ def render(args):
 
 
 def evaluate(args):
-    from pipeline.runner import evaluate as evaluate_run
+    from pipeline.rendering import evaluate as evaluate_run
 
     evaluate_run(args.record, args.reference, args.output)
 

@@ -1,4 +1,4 @@
-"""Executes one run (a Snakemake job) and compares it with its reference run.
+"""A run's record, its time limit and what makes Snakemake rerun it; :mod:`pipeline.rendering` renders it.
 
 A run's record is a JSON file; its images sit in a folder of the same name, one EXR (exact) and one
 PNG (to look at) per view. A run that cannot happen here is recorded as ``skipped`` with the reason
@@ -14,16 +14,8 @@ import time
 import traceback
 from pathlib import Path
 
-import numpy as np
-
-import datasets
 import renderers
 from pipeline.environment import host_environment
-from core.errors import BackendUnavailableError, UnsupportedFeatureError
-from pipeline.scene_io import build_scene, build_volume_instance
-from pipeline.timing import measure
-from core.transfer import Preset
-from reports.imageio import read_image, write_exr, write_png
 
 
 def write_json(path, payload):
@@ -36,6 +28,8 @@ def write_json(path, payload):
 
 
 def _json_default(value):
+    import numpy as np  # only a render's record holds NumPy values, and a render has it loaded
+
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
@@ -81,6 +75,8 @@ def execute_limited(run, *, profile, device_environment=None):
     """
     limit = profile.render_time_limit
     if limit is None:
+        from pipeline.rendering import execute
+
         return execute(run, profile=profile, device_environment=device_environment)
     record_path = run_record_path(profile.results, run.experiment, run.id)
     record_path.unlink(missing_ok=True)  # an old record must not pass for this attempt's
@@ -110,6 +106,8 @@ def _execute_child(run, profile, device_environment, backends):
     An error :func:`execute` lets through (a scene that cannot be built) is recorded as a failed
     run here, since the parent only sees an exit code.
     """
+    from pipeline.rendering import execute
+
     renderers.BACKENDS.update(backends)
     try:
         execute(run, profile=profile, device_environment=device_environment)
@@ -117,81 +115,6 @@ def _execute_child(run, profile, device_environment, backends):
         record = _new_record(run, device_environment)
         record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc(limit=8))
         write_json(run_record_path(profile.results, run.experiment, run.id), record)
-
-
-def execute(run, *, profile, device_environment=None):
-    """Render every view of ``run``, write its images and record; return the record."""
-    record_path = run_record_path(profile.results, run.experiment, run.id)
-    record = _new_record(run, device_environment)
-    try:
-        scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size, data_dir=profile.real_data)
-        renderer = renderers.get(run.backend, **run.options)
-        renderer.check(scene)
-    except (datasets.DataUnavailableError, BackendUnavailableError, UnsupportedFeatureError) as exc:
-        record.update(status="skipped", reason=str(exc))
-        write_json(record_path, record)
-        return record
-    image_dir = record_path.with_suffix("")
-    image_dir.mkdir(parents=True, exist_ok=True)
-    try:
-        with renderer:
-            record["backend_environment"] = renderer.environment()
-            if run.statistics:
-                measured = build_volume_instance(run.statistics, cache_dir=profile.cache, size=profile.volume_size,
-                                                 data_dir=profile.real_data)
-                preset = Preset(measured.transfer_function, measured.gradient_opacity, measured.isovalue)
-                record["statistics"] = {**datasets.statistics(measured.volume, preset),
-                                        "size": max(measured.volume.shape_xyz)}
-            for view in run.views:
-                overrides = {k: v for k, v in view.items() if k != "view"}
-                view_scene = scene.with_camera(**overrides) if overrides else scene
-                result = measure(renderer, view_scene, warmup=run.warmup, repeat=run.repeat)
-                exr, png = image_dir / f"{view['view']}.exr", image_dir / f"{view['view']}.png"
-                write_exr(exr, result.image, metadata={"run": run.key, "view": view["view"], "backend": run.backend})
-                write_png(png, result.image)
-                record["views"].append({
-                    "view": view["view"], "camera": overrides, "exr": str(exr), "png": str(png),
-                    "timings": result.timings, "timings_min": result.timings_min,
-                    "timings_max": result.timings_max, "counters": result.counters, "info": result.info,
-                })
-            # After rendering: some effective options (a step derived from the scene) exist only now.
-            record["options"] = {**run.options, **renderer.options}
-    except Exception as exc:  # recorded with its traceback: the pipeline must not lose the pair
-        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}",
-                      traceback=traceback.format_exc(limit=8))
-    write_json(record_path, record)
-    return record
-
-
-def evaluate(record_path, reference_path, output_path):
-    """Compare each view of a run with the same view of its reference run; write the metrics."""
-    # Imported here: the metrics pull in scikit-image and SciPy's statistics (over a second per
-    # process), which the render and volume jobs importing this module never use.
-    from reports.metrics import compare, difference_image
-
-    record = json.loads(Path(record_path).read_text())
-    truth = json.loads(Path(reference_path).read_text())
-    metrics = {"experiment": record["experiment"], "run": record["run"], "reference": truth["run"],
-               "status": "ok", "reason": "", "views": {}}
-    if truth["status"] != "ok":
-        metrics.update(status="skipped", reason=f"reference run {truth['run']} is {truth['status']}: {truth['reason']}")
-    elif record["status"] != "ok":
-        metrics.update(status="skipped", reason=f"run is {record['status']}")
-    else:
-        truth_views = {v["view"]: v for v in truth["views"]}
-        diff_dir = Path(output_path).with_suffix("")
-        diff_dir.mkdir(parents=True, exist_ok=True)
-        for view in record["views"]:
-            if view["view"] not in truth_views:
-                continue
-            test_image = read_image(view["exr"])
-            truth_image = read_image(truth_views[view["view"]]["exr"])
-            values = compare(truth_image, test_image)
-            diff_path = diff_dir / f"{view['view']}-diff.png"
-            write_png(diff_path, difference_image(truth_image, test_image))
-            metrics["views"][view["view"]] = {**values, "diff_png": str(diff_path)}
-    write_json(output_path, metrics)
-    return metrics
 
 
 # ---------------------------------------------------------------------------------------------
@@ -202,10 +125,10 @@ ROOT = Path(__file__).resolve().parent.parent
 JOB_SOURCES = {
     "volume": ("core", "datasets"),
     "environment": ("core", "pipeline/environment.py"),
-    "render": ("core", "datasets", "renderers/__init__.py", "renderers/base", "pipeline/runner.py",
+    "render": ("core", "datasets", "renderers/__init__.py", "renderers/base", "pipeline/runner.py", "pipeline/rendering.py",
                "pipeline/scene_io.py", "pipeline/timing.py", "pipeline/environment.py",
                "pipeline/experiments/base.py", "reports/imageio.py"),
-    "evaluate": ("core", "pipeline/runner.py", "reports/metrics.py", "reports/imageio.py"),
+    "evaluate": ("core", "pipeline/runner.py", "pipeline/rendering.py", "reports/metrics.py", "reports/imageio.py"),
     "collect": ("core", "pipeline/runner.py", "pipeline/collect.py", "pipeline/environment.py", "pipeline/experiments",
                 "reports/metrics.py"),
     "report": ("core", "pipeline/experiments", "reports"),

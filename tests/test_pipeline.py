@@ -5,7 +5,6 @@ import subprocess
 import sys
 from pathlib import Path
 
-import numpy as np
 import pandas as pd
 import pytest
 
@@ -13,7 +12,8 @@ import renderers
 from pipeline.collect import collect
 from pipeline.experiments import Profile, Run
 from pipeline.experiments.volbench import PhantomGallery
-from pipeline.runner import evaluate, execute, metrics_record_path, run_record_path
+from pipeline.rendering import evaluate, execute
+from pipeline.runner import metrics_record_path, run_record_path
 from renderers.base import Capabilities, Renderer
 
 ROOT = Path(__file__).resolve().parent.parent

@@ -19,7 +19,8 @@ import pytest
 from pipeline.collect import collect
 from pipeline.experiments import Profile, plan, selected
 from pipeline.experiments.planned import planned
-from pipeline.runner import evaluate, metrics_record_path, run_record_path, write_json
+from pipeline.rendering import evaluate
+from pipeline.runner import metrics_record_path, run_record_path, write_json
 from reports import blocks, takeaways
 from reports.html import build_report, provenance
 from reports.imageio import read_image, write_exr, write_png

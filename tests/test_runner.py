@@ -11,7 +11,7 @@ import pytest
 
 import renderers
 from core.errors import InputError
-from pipeline import runner
+from pipeline import rendering, runner
 from pipeline.experiments import Profile, Run
 from pipeline.runner import execute_limited, mark_retry, run_record_path, time_limit_reason
 from renderers.base import Capabilities, Renderer
@@ -82,7 +82,7 @@ def test_an_error_in_the_child_is_recorded_with_its_message(profile):
 
 def test_no_limit_runs_in_process(profile, monkeypatch):
     calls = []
-    monkeypatch.setattr(runner, "execute", lambda run, **kw: calls.append(run) or {"status": "ok"})
+    monkeypatch.setattr(rendering, "execute", lambda run, **kw: calls.append(run) or {"status": "ok"})
     assert execute_limited(_run("x", "reference"), profile=replace(profile, render_time_limit=None)) == {"status": "ok"}
     assert len(calls) == 1
 
