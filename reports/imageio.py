@@ -14,7 +14,6 @@ from pathlib import Path
 
 import numpy as np
 import OpenImageIO as oiio
-from matplotlib.colors import to_rgb
 
 from core.errors import InputError
 
@@ -108,6 +107,8 @@ def _background_rgb(background):
     """Return ``background`` as three linear floats (see :func:`composite_over`)."""
     if isinstance(background, str):
         try:
+            from matplotlib.colors import to_rgb  # here: matplotlib costs every render job 0.3 s to import
+
             return tuple(float(v) for v in decode_srgb(to_rgb(background)))
         except ValueError:
             raise InputError(f"background: unknown colour name {background!r}") from None

@@ -10,7 +10,6 @@ The CT skull adds the bones of the face, the jaw, the teeth and the cervical spi
 """
 
 import numpy as np
-from scipy import ndimage
 
 from datasets import noise
 from datasets.shapes import (
@@ -326,6 +325,8 @@ def folded_brain(size, seed, decimate=1):
         ventricle = Ellipsoid(head.p(side * 0.045, 0.07, 0.12), head.r(0.025, 0.1, 0.045), rotation("y", side * 15))
         canvas.paint(ventricle, 30)
     # The scanner's point-spread function, about one output voxel wide, before the noise.
+    from scipy import ndimage  # here, not at the top: render jobs import the registry, never generate
+
     data = ndimage.gaussian_filter(canvas.data, sigma=0.8 * decimate, mode="nearest")
     noise.rician(data, noise.fork(rng), 3.5)
     if decimate > 1:
