@@ -1,6 +1,6 @@
 """OpenCL backends (pyopencl; PoCL on a CPU, any OpenCL device elsewhere): the tile-based
 multi-volume ray caster of Kainz et al. 2009 (``cl-tiled``), with meshes, surfaces, homogeneous
-media and CSG.
+media and CSG, in ``dvr`` and ``mip``.
 
 Layout:
 

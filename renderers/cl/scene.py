@@ -227,13 +227,16 @@ def camera_arguments(scene):
     return camera.eye, right, up, back, (half_h * aspect, half_h), int(camera.projection == "perspective")
 
 
-def screen_problem(scene):
-    """Why the boundary geometry cannot be rasterised in this view, or ``""``.
+def rasterisation(scene):
+    """How the binning rasterises this view: ``(homogeneous, problem)``.
 
-    Perspective: every volume box and mesh instance must lie in front of the eye (triangles are
-    not clipped at a near plane). Any projection: box corners and mesh vertices must project
-    within :data:`SCREEN_LIMIT` pixels. Points inside a box project inside the hull of its
-    projected corners, so hulls and volume boundaries (inside the box) obey too.
+    Snapped integer edge functions (``homogeneous`` False, exact) need every box corner and mesh
+    vertex in front of the eye and projected within :data:`SCREEN_LIMIT` pixels. Points inside a
+    box project inside the hull of its projected corners, so hulls and volume boundaries (inside
+    the box) obey too. A perspective view where some geometry reaches behind the eye (an eye
+    inside a volume or a mesh) or projects further is rasterised with homogeneous edge functions
+    instead (``kernels/binning.cl``, ``HOMOGENEOUS``). An orthographic view that projects further
+    cannot be rasterised: ``problem`` says why (``""`` otherwise).
     """
     eye, right, up, back, (half_w, half_h), perspective = camera_arguments(scene)
     _, radius = scene.bounding_sphere()
@@ -244,11 +247,48 @@ def screen_problem(scene):
         x, y, depth = v @ right, v @ up, -(v @ back)
         if perspective:
             if np.any(depth <= 1e-6 * radius):
-                return (f"{label} reaches behind the perspective eye; boundary triangles are not clipped at a near "
-                        "plane, so every box and mesh must lie in front of the camera")
+                return True, ""
             x, y = x / depth, y / depth
         sx = (x / half_w + 1) * 0.5 * scene.width
         sy = (1 - y / half_h) * 0.5 * scene.height
         if np.abs(np.concatenate([sx, sy])).max() >= SCREEN_LIMIT:
-            return f"{label} projects beyond {SCREEN_LIMIT} pixels from the picture; move the camera away from it"
-    return ""
+            if perspective:
+                return True, ""
+            return False, f"{label} projects beyond {SCREEN_LIMIT} pixels from the picture; move the camera away from it"
+    return False, ""
+
+
+def winding_number(point, mesh):
+    """The generalised winding number of closed ``mesh`` around ``point`` (its object space).
+
+    The sum of the solid angles its triangles subtend at ``point`` over ``4π`` (van Oosterom and
+    Strackee 1983): ±1 inside a closed mesh and 0 outside, whatever the triangulation, with no
+    ray to graze an edge or a vertex.
+    """
+    a, b, c = (mesh.vertices[mesh.faces[:, k]] - point for k in range(3))
+    la, lb, lc = (np.linalg.norm(x, axis=1) for x in (a, b, c))
+    volume = np.einsum("ij,ij->i", a, np.cross(b, c))
+    denominator = (la * lb * lc + np.einsum("ij,ij->i", a, b) * lc + np.einsum("ij,ij->i", b, c) * la
+                   + np.einsum("ij,ij->i", c, a) * lb)
+    return float(np.arctan2(volume, denominator).sum() / (2 * np.pi))
+
+
+def eye_inside(scene, leaves):
+    """The objects (bits, as :func:`leaves` numbers them) whose inside holds a perspective eye.
+
+    A perspective ray starts at the eye, so the pixel kernel starts it inside these; an
+    orthographic ray finds them from the crossings behind its origin (0 here). A volume whose box
+    holds the eye is its box object (the caller gives it no hull); mesh instances and volume
+    boundaries are tested by their winding number.
+    """
+    if scene.camera.projection != "perspective":
+        return np.uint64(0)
+    eye = np.append(scene.camera.eye, 1.0)
+    names = set(scene.camera_inside_volume())
+    objects = [i for i, v in enumerate(scene.volumes) if v.name in names]
+    placed = [(m.mesh, m.transform) for m in scene.meshes]
+    placed += [(scene.volumes[i].boundary, scene.volumes[i].transform) for i in leaves.boundary_volumes]
+    for index, (mesh, transform) in enumerate(placed, start=len(scene.volumes)):
+        if abs(winding_number(np.linalg.solve(transform, eye)[:3], mesh)) > 0.5:
+            objects.append(index)
+    return _mask(objects)

@@ -21,7 +21,8 @@ Per frame (note 002 §2.2, §2.9):
    its fragments (depth from the triangle's plane) into a depth-sorted list in local memory
    (insertion sort, interleaved slots, at most ``depth_cap`` entries: the nearest are kept),
    then walks the fragments front to back toggling each object's inside bit (parity; the
-   objects around the ray origin come from the crossings behind it). After each group of
+   objects around the ray origin come from the crossings behind it, or from the host for a
+   perspective eye, see below). After each group of
    fragments at one depth the leaves' state is evaluated (:mod:`renderers.cl.scene`): a volume
    leaf is inside its box or hull and its boundary, and the CSG forest (a postfix program over
    the leaves' inside mask, uploaded once per frame) says which leaves contribute and which
@@ -53,6 +54,30 @@ may be covered differently than by the reference's exact test.
 Trilinear reconstruction, classification, gradient opacity and Blinn–Phong are the reference's.
 Early ray termination stops a ray whose opacity passes ``opaque_threshold``.
 
+**Maximum intensity projection** (``mode="mip"``; the reference's definition, sampled): each
+contributing volume samples both ends of every segment and the cells above, and the ray keeps the
+largest normalised scalar of all volumes (the nearer sample on ties, then the lower instance);
+the pixel is that value classified by its own volume's transfer function, premultiplied, without
+opacity correction, shading or gradient opacity (as the reference and VTK). The reference finds
+the exact maximum of the trilinear field; sampling at ``Δ`` can only miss a peak between samples.
+The raw scalar is compared, not its opacity, so the maximum may lie in voxels that an opacity hull
+leaves out: every volume is bounded by its box in this mode. No early termination but at a
+maximum of 1, the top of the range, which no later sample can replace (counted in
+``early_terminations``); ``opaque_threshold`` does not apply. Meshes, boundaries and CSG are
+``dvr`` only (:class:`core.scene.Scene` refuses them in ``mip``, for every backend).
+
+**A perspective eye inside volumes or meshes.** The parity walk of a perspective ray starts with
+the objects that hold the eye (:func:`renderers.cl.scene.eye_inside`: a point-in-box test per
+volume, the winding number of each mesh instance and volume boundary); a volume whose box holds
+the eye is bounded by its box. Its rays start at the eye, as the reference's do (``t >= 0``, no
+near plane), with the cells anchored at ``t = 0``. Triangles reaching behind the eye cannot be
+projected, so such a frame is binned with homogeneous edge functions (Olano and Greer 1997;
+``kernels/binning.cl``, ``HOMOGENEOUS``): float32 instead of snapped integers, the same
+exactly-once tie rule, every triangle counted only where it lies in front of the eye (info
+``rasterisation``: ``"homogeneous"`` or ``"integer"``; ``coverage`` applies to the integer one).
+An orthographic ray starts on the image plane and finds the objects around it from the crossings
+behind it, wherever the eye is.
+
 Timings (seconds, OpenCL profiling events): ``upload`` (atlas, first use of a set of volumes),
 ``bricks`` (brick ranges, first use of a volume and brick size), ``hull`` (hull build, first use
 of a classification), ``setup`` (the frame's triangle list, object table and cleared tile lists),
@@ -61,9 +86,28 @@ the frame. Counters: ``rays``, ``rays_hit`` (pixels with a fragment), ``triangle
 (tile records), ``records_per_tile_max``, ``records_per_tile_mean`` (over tiles with records),
 ``records_dropped`` (past 4096 per tile), ``pool_chunks``, ``pool_chunks_used``,
 ``fragments`` (kept, depth ≥ 0), ``fragments_max``, ``fragments_mean`` (over hit pixels),
-``fragments_dropped`` (past the depth cap), ``samples`` (volume samples) and
-``early_terminations``. Info adds ``objects`` (inside-mask bits used) and ``csg_nodes``. A scene
-without volumes has no step (``info["step"]`` is ``None``) and no atlas.
+``fragments_dropped`` (past the depth cap), ``sort_moves`` (entries the insertion sorts shifted:
+0 for fragments arriving in depth order, ``n(n − 1)/2`` per pixel for ``n`` in reverse),
+``samples`` (volume samples), ``medium_steps`` (media composited without a volume: one per
+segment analytically, one per cell part sampled) and ``early_terminations``; with
+``fragments="global"`` also ``unpaired_pixels``, the pixels whose front- and back-facing fragment
+counts differ (0 when every boundary is closed and in front of the eye: the watertightness check;
+every pixel whose ray starts inside a closed object, too). Info adds ``objects`` (inside-mask bits
+used), ``csg_nodes``, ``rasterisation`` and ``eye_inside`` (the mask of the objects holding a
+perspective eye). A scene without volumes has no
+step (``info["step"]`` is ``None``) and no atlas.
+
+Ablation switches (note 002 §5): ``triangle_order`` submits the triangles to binning in scene
+order or sorted by view depth (E7: the insertion sort meets sorted or reversed input; the image
+does not change, since fragments are ordered by depth and triangle id whatever their arrival);
+``stop_after="sort"`` ends the pixel kernel after gathering and sorting (E7: its time is the
+gather and sort share; the image is left transparent); ``media="sampled"`` composites segments of
+media alone cell by cell at the common step instead of analytically (E9: the same image up to
+float rounding, cells shorter than 10⁻³ Δ and early termination at a cell end; a scene needs a
+volume for the step); ``coverage="edge"`` computes the binning's masks by evaluating the edge
+functions at each pixel centre of the tile instead of by bit shifts (E11: the same masks). The
+depth order is computed per frame (a kernel for the centroids' depths, a host sort) and timed
+as ``setup``.
 """
 
 import time
@@ -90,6 +134,13 @@ INITIAL_POOL_CHUNKS = 8192
 
 FRAGMENT_STORES = ("local", "global")
 EMPTY_SPACE = ("hull", "box")
+TRIANGLE_ORDERS = ("scene", "front-to-back", "back-to-front")
+MEDIA = ("analytic", "sampled")
+COVERAGE = ("bitmask", "edge")
+STOP_AFTER = ("composite", "sort")
+STATS = 8
+"""Per-pixel counters the pixel kernel writes (a ``uint8``): kept, dropped, samples, terminated,
+sort moves, medium steps and two unused."""
 
 
 def _atlas_defines(dtype):
@@ -117,6 +168,8 @@ class Binned:
     bin_counters: np.ndarray
     phong: bool
     leaves: scene_arrays.Leaves
+    eye_inside: np.uint64
+    homogeneous: bool
 
 
 class ClTiledRenderer(Renderer):
@@ -134,13 +187,25 @@ class ClTiledRenderer(Renderer):
     opaque_threshold : float
         Early ray termination when the accumulated opacity exceeds it (1 never stops a ray).
         Default 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel.
+        ``mip`` does not composite, so it does not apply there.
     empty_space : {"hull", "box"}
         Boundaries: tight hulls around the non-empty bricks (paper) or the volumes' boxes. Volumes
-        that are CSG operands always use their boxes.
+        that are CSG operands, that hold a perspective eye, or in ``mip`` always use their boxes.
     brick_size : int
         Brick edge in voxels for the hulls (paper: 8).
     min_opacity : float
         Transfer-function opacities at or below it count as empty for the hulls (paper: 0, exact).
+    triangle_order : {"scene", "front-to-back", "back-to-front"}
+        The order the triangles are submitted to binning: as the scene lists them, or sorted by
+        the view depth of their centroid (E7's best and worst case for the insertion sort).
+    media : {"analytic", "sampled"}
+        Segments of homogeneous media alone: composited analytically (paper) or sampled at the
+        common step (the shortcut's ablation, E9).
+    coverage : {"bitmask", "edge"}
+        Coverage masks by bit-shifted row/column masks (paper) or by per-pixel edge functions (E11).
+    stop_after : {"composite", "sort"}
+        ``"sort"`` ends the pixel kernel after gathering and sorting the fragments: an ablation
+        that times them (E7); the image is transparent.
     device : str, optional
         OpenCL device selector (:mod:`renderers.cl.context`); default: ``$VOLBENCH_CL_DEVICE``,
         else the first GPU, else the first device.
@@ -152,7 +217,7 @@ class ClTiledRenderer(Renderer):
                    "surfaces, homogeneous media and CSG")
     capabilities = Capabilities(
         projections=frozenset({"orthographic", "perspective"}),
-        modes=frozenset({"dvr"}),
+        modes=frozenset({"dvr", "mip"}),
         shading=frozenset({"none", "phong"}),
         max_volumes=64,
         gradient_opacity=True,
@@ -163,20 +228,19 @@ class ClTiledRenderer(Renderer):
         translucent_geometry=True,
         homogeneous_media=True,
         lenses=False,
-        camera_inside_volume=False,
+        camera_inside_volume=True,
         reasons={
-            "modes": "the segment walk composites emission-absorption (dvr) only",
+            "modes": "the segment walk composites (dvr) or keeps the maximum (mip); iso is not implemented",
             "max_volumes": "the active-object set is one 64-bit mask",
             "lenses": "lens volumes are added with the Ropinski 2005 issue",
-            "camera_inside_volume": "boundary triangles are not clipped at a near plane: under perspective every "
-                                    "volume box must lie in front of the eye",
         },
     )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Step sizes from coarse to fine."""
 
     def __init__(self, *, step_factor=0.5, depth_cap=63, fragments="local", opaque_threshold=0.99,
-                 empty_space="hull", brick_size=8, min_opacity=0.0, device=None):
+                 empty_space="hull", brick_size=8, min_opacity=0.0, triangle_order="scene", media="analytic",
+                 coverage="bitmask", stop_after="composite", device=None):
         self.step_factor = check_scalar(step_factor, name="cl-tiled option step_factor", low=0, low_open=True)
         self.depth_cap = check_positive_int(depth_cap, name="cl-tiled option depth_cap")
         self.fragments = check_choice(fragments, FRAGMENT_STORES, name="cl-tiled option fragments")
@@ -186,6 +250,10 @@ class ClTiledRenderer(Renderer):
         self.brick_size = check_positive_int(brick_size, name="cl-tiled option brick_size")
         self.min_opacity = check_scalar(min_opacity, name="cl-tiled option min_opacity", low=0, high=1,
                                         high_open=True)
+        self.triangle_order = check_choice(triangle_order, TRIANGLE_ORDERS, name="cl-tiled option triangle_order")
+        self.media = check_choice(media, MEDIA, name="cl-tiled option media")
+        self.coverage_method = check_choice(coverage, COVERAGE, name="cl-tiled option coverage")
+        self.stop_after = check_choice(stop_after, STOP_AFTER, name="cl-tiled option stop_after")
         if device is not None and not isinstance(device, str):
             raise InputError(f"cl-tiled option device: expected a selector string such as '0:0' or 'pocl', "
                              f"got {device!r}")
@@ -212,7 +280,9 @@ class ClTiledRenderer(Renderer):
     def options(self):
         return {"step_factor": self.step_factor, "depth_cap": self.depth_cap, "fragments": self.fragments,
                 "opaque_threshold": self.opaque_threshold, "empty_space": self.empty_space,
-                "brick_size": self.brick_size, "min_opacity": self.min_opacity, "device": self.device,
+                "brick_size": self.brick_size, "min_opacity": self.min_opacity, "triangle_order": self.triangle_order,
+                "media": self.media, "coverage": self.coverage_method, "stop_after": self.stop_after,
+                "device": self.device,
                 "effective_step": self._last_step}
 
     def environment(self):
@@ -230,10 +300,15 @@ class ClTiledRenderer(Renderer):
 
     # -----------------------------------------------------------------------------------------
 
-    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity, csg):
+    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity, csg, mip, homogeneous):
         """``(binning, hull, pixel)`` kernels by name for this frame's variant, built once per process."""
         atlas_defines = _atlas_defines(atlas_dtype)
-        binning = context.kernels(entry, context.kernel_source("common.cl", "binning.cl"))
+        binning_defines = ["-DEDGE_COVERAGE"] if self.coverage_method == "edge" else []
+        if self.triangle_order != "scene":
+            binning_defines.append("-DORDERED")
+        if homogeneous:
+            binning_defines.append("-DHOMOGENEOUS")
+        binning = context.kernels(entry, context.kernel_source("common.cl", "binning.cl"), binning_defines)
         hull = context.kernels(entry, context.kernel_source("common.cl", "hull.cl"), atlas_defines)
         defines = list(atlas_defines)
         defines.append("-DGLOBAL_FRAGMENTS" if fragments == "global" else f"-DMAXF={self.depth_cap}")
@@ -243,6 +318,12 @@ class ClTiledRenderer(Renderer):
             defines.append("-DGRADIENT_OPACITY")
         if csg:
             defines.append("-DCSG")
+        if self.media == "sampled":
+            defines.append("-DSAMPLED_MEDIA")
+        if self.stop_after == "sort":
+            defines.append("-DSORT_ONLY")
+        if mip:
+            defines.append("-DMIP")
         pixel = context.kernels(entry, context.kernel_source("common.cl", "pixel.cl"), defines)
         return binning, hull, pixel
 
@@ -277,13 +358,18 @@ class ClTiledRenderer(Renderer):
         import pyopencl as cl
         import pyopencl.cltypes as cltypes
 
-        problem = scene_arrays.screen_problem(scene)
+        homogeneous, problem = scene_arrays.rasterisation(scene)
         if problem:
             raise UnsupportedFeatureError(self.name, "this view", problem)
+        if self.media == "sampled" and not scene.volumes and any(m.medium is not None for m in scene.meshes):
+            raise InputError(f"cl-tiled option media: 'sampled' steps media at the volumes' common step, and scene "
+                             f"{scene.name!r} has no volume; use media='analytic'")
         entry = self._device()
         queue = entry.queue
-        phong = scene.shading.model == "phong"
-        gradient_opacity = any(instance.gradient_opacity is not None for instance in scene.volumes)
+        mip = scene.mode == "mip"
+        # mip classifies one value per ray: no shading and no gradient opacity (the reference).
+        phong = scene.shading.model == "phong" and not mip
+        gradient_opacity = not mip and any(instance.gradient_opacity is not None for instance in scene.volumes)
         leaves = scene_arrays.leaves(scene)
         if leaves.objects > scene_arrays.MAX_OBJECTS:
             raise UnsupportedFeatureError(
@@ -294,11 +380,15 @@ class ClTiledRenderer(Renderer):
         volumes, volume_index = scene_arrays.distinct_volumes(scene)
         atlas = self._cache.atlas(volumes, stages) if volumes else None
         binning, hull_kernels, pixel = self._programs(entry, atlas.dtype if atlas else np.dtype(np.uint8), fragments,
-                                                      phong, gradient_opacity, bool(scene.csg))
-        # A CSG operand's inside is its box (∩ boundary) wherever its data is transparent too.
-        in_trees = {name for tree in scene.csg for name in tree.leaves()}
-        brick = self.brick_size if self.empty_space == "hull" else None
-        hulls = [self._cache.hull(hull_kernels, atlas, instance, None if instance.name in in_trees else brick,
+                                                      phong, gradient_opacity, bool(scene.csg), mip, homogeneous)
+        # Boxes where a hull would be wrong: a CSG operand's inside is its box (∩ boundary) wherever
+        # its data is transparent too; mip's maximum may lie in transparent voxels; and an eye
+        # inside a box is inside that object (eye_inside tests boxes, not hulls).
+        boxed = {name for tree in scene.csg for name in tree.leaves()}
+        if scene.camera.projection == "perspective":
+            boxed.update(scene.camera_inside_volume())
+        brick = self.brick_size if self.empty_space == "hull" and not mip else None
+        hulls = [self._cache.hull(hull_kernels, atlas, instance, None if instance.name in boxed else brick,
                                   self.min_opacity, stages)
                  for instance in scene.volumes]
         # Objects in order (renderers.cl.scene): volume boxes or hulls, mesh instances, volume boundaries.
@@ -332,6 +422,10 @@ class ClTiledRenderer(Renderer):
                   np.int32(width), np.int32(height), np.int32(tiles_x))
         planes = self._buffer("planes", 16 * max(triangles, 1))
         codes = self._buffer("codes", 4 * max(triangles, 1))
+        order = ()
+        if self.triangle_order != "scene" and triangles:
+            order = (self._submission_order(binning, vertex_buffer, owner_buffer, object_buffer, triangles, camera,
+                                            stages),)
 
         # Binning, again with a larger pool if this frame ran out of chunks.
         passes = 0
@@ -346,7 +440,7 @@ class ClTiledRenderer(Renderer):
                 stages.add("binning", binning["bin_triangles"](
                     queue, (-(-triangles // 64) * 64,), (64,), vertex_buffer, owner_buffer, object_buffer,
                     np.uint32(triangles), *camera, planes, codes, tile_count, tile_chunks, pool_mask, pool_triangle,
-                    np.uint32(self._pool_chunks), counters))
+                    np.uint32(self._pool_chunks), counters, *order))
             bin_counters = np.empty(2, np.uint32)
             stages.add("binning", cl.enqueue_copy(queue, bin_counters, counters))
             if bin_counters[0] <= self._pool_chunks:
@@ -356,7 +450,23 @@ class ClTiledRenderer(Renderer):
                       transfer=transfer, gradient_tables=gradient_tables, camera=camera,
                       tile_lists=(tile_count, tile_chunks, pool_mask, pool_triangle, planes, codes),
                       global_size=(tiles_x * TILE, tiles_y * TILE), passes=passes, bin_counters=bin_counters,
-                      phong=phong, leaves=leaves)
+                      phong=phong, leaves=leaves, eye_inside=scene_arrays.eye_inside(scene, leaves),
+                      homogeneous=homogeneous)
+
+    def _submission_order(self, binning, vertex_buffer, owner_buffer, object_buffer, triangles, camera, stages):
+        """The triangles sorted by view depth (stable), nearest or farthest first, uploaded as uint32."""
+        import pyopencl as cl
+
+        depths = self._buffer("view_depths", 4 * triangles)
+        eye, _right, _up, back = camera[:4]
+        stages.add("setup", binning["view_depths"](self._entry.queue, (-(-triangles // 64) * 64,), (64,), vertex_buffer,
+                                                   owner_buffer, object_buffer, np.uint32(triangles), eye, back,
+                                                   depths))
+        keys = np.empty(triangles, np.float32)
+        stages.add("setup", cl.enqueue_copy(self._entry.queue, keys, depths))
+        if self.triangle_order == "back-to-front":
+            keys = -keys
+        return self._upload("order", np.argsort(keys, kind="stable").astype(np.uint32), stages, "setup")
 
     def _fragment_counts(self, binned, pixels, stages):
         """Front- and back-facing fragments at depth >= 0 per pixel, ``(pixels, 2)`` uint32."""
@@ -416,7 +526,7 @@ class ClTiledRenderer(Renderer):
         transfer_buffer = self._upload("transfer", binned.transfer, stages, "setup")
         gradient_buffer = self._upload("gradient_tables", binned.gradient_tables, stages, "setup")
         image = self._buffer("image", 16 * pixels)
-        stats = self._buffer("stats", 16 * pixels)
+        stats = self._buffer("stats", 4 * STATS * pixels)
         # Without volumes nothing is sampled: the step and the atlas are placeholders.
         step = self.step_factor * scene.min_world_voxel_size() if scene.volumes else None
         shading = scene.shading
@@ -436,10 +546,14 @@ class ClTiledRenderer(Renderer):
                                   stages, "setup"),
                      self._upload("csg_children", leaves.children if len(leaves.children) else np.zeros(1, np.int32),
                                   stages, "setup"), np.int32(len(leaves.nodes)),
-                     *(leaves.masks[key] for key in ("leaves", "volumes", "surfaces", "media", "trees")))
+                     *(leaves.masks[key] for key in ("leaves", "volumes", "surfaces", "media", "trees")),
+                     binned.eye_inside)
         list_args = ()
+        unpaired = None
         if self.fragments == "global":
-            offsets = np.concatenate([[0], np.cumsum(self._fragment_counts(binned, pixels, stages).sum(axis=1))])
+            facing = self._fragment_counts(binned, pixels, stages)
+            unpaired = int(np.count_nonzero(facing[:, 0] != facing[:, 1]))
+            offsets = np.concatenate([[0], np.cumsum(facing.sum(axis=1))])
             total = int(offsets[-1])
             list_args = (self._upload("offsets", offsets.astype(np.uint32), stages, "count"),
                          self._buffer("list_depth", 4 * total), self._buffer("list_code", 4 * total))
@@ -447,7 +561,7 @@ class ClTiledRenderer(Renderer):
                                                        *binned.camera, *shade_args, *leaf_args, *list_args, image,
                                                        stats))
         result = np.empty((height, width, 4), np.float32)
-        per_pixel = np.empty((pixels, 4), np.uint32)
+        per_pixel = np.empty((pixels, STATS), np.uint32)
         records_per_tile = np.empty(binned.global_size[0] * binned.global_size[1] // (TILE * TILE), np.uint32)
         stages.add("readback", cl.enqueue_copy(queue, result, image, is_blocking=False))
         stages.add("readback", cl.enqueue_copy(queue, per_pixel, stats, is_blocking=False))
@@ -478,9 +592,13 @@ class ClTiledRenderer(Renderer):
             "fragments_max": int(kept.max(initial=0)),
             "fragments_mean": float(kept[hit].mean()) if hit.any() else 0.0,
             "fragments_dropped": int(per_pixel[:, 1].sum()),
+            "sort_moves": int(per_pixel[:, 4].sum(dtype=np.int64)),
             "samples": int(per_pixel[:, 2].sum()),
+            "medium_steps": int(per_pixel[:, 5].sum()),
             "early_terminations": int(per_pixel[:, 3].sum()),
         }
+        if unpaired is not None:
+            counters["unpaired_pixels"] = unpaired
         info = {
             "step": step,
             "step_factor": self.step_factor,
@@ -488,6 +606,10 @@ class ClTiledRenderer(Renderer):
             "depth_cap": self.depth_cap if self.fragments == "local" else None,
             "tile": TILE,
             "empty_space": self.empty_space,
+            "triangle_order": self.triangle_order,
+            "media": self.media,
+            "coverage": self.coverage_method,
+            "stop_after": self.stop_after,
             "hull_triangles": [h.triangles for h in binned.hulls],
             "objects": leaves.objects,
             "csg_nodes": len(leaves.nodes),
@@ -496,8 +618,12 @@ class ClTiledRenderer(Renderer):
             "atlas_shape_xyz": list(atlas.layout.shape_xyz) if atlas else None,
             "atlas_dtype": str(atlas.dtype) if atlas else None,
             "atlas_bytes": atlas.nbytes if atlas else 0,
-            "blending": "sum of premultiplied samples and media, opacity clamped to 1 (Kainz et al. 2009); surfaces "
-                        "composited at their depth",
+            "blending": ("the largest scalar of all volumes, classified by its volume's transfer function" if
+                         scene.mode == "mip" else
+                         "sum of premultiplied samples and media, opacity clamped to 1 (Kainz et al. 2009); surfaces "
+                         "composited at their depth"),
+            "rasterisation": "homogeneous" if binned.homogeneous else "integer",
+            "eye_inside": int(binned.eye_inside),
             "shading_applied": binned.phong,
             "built": sorted(stage for stage in ("upload", "bricks", "hull") if stage in seconds),
         }

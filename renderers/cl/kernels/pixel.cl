@@ -11,6 +11,16 @@
 //   GLOBAL_FRAGMENTS      unbounded per-pixel lists in global memory instead (the ground truth)
 //   PHONG, GRADIENT_OPACITY
 //   CSG                   the scene has CSG trees (evaluate_forest); without, every leaf stands alone
+//   SAMPLED_MEDIA         segments of media alone are composited cell by cell at the common step
+//                         instead of analytically over the segment (the shortcut's ablation, E9)
+//   SORT_ONLY             stop after gathering and sorting the fragments (the ablation that times
+//                         them, E7): the image stays transparent, the counters are written
+//   MIP                   keep the largest scalar along the ray instead of compositing (mip_segment)
+//
+// The objects around the ray origin: an orthographic ray starts on the image plane, and the
+// crossings behind it (depth < 0) toggle their objects; a perspective ray starts at the eye, whose
+// objects the host finds (eye_inside), and every crossing it bins lies in front of the eye, so a
+// depth below 0 is rounding and counts as 0.
 //
 // Fragment records are (depth, code), code = object << 24 | front << 23 | triangle.
 
@@ -69,8 +79,9 @@
 
 // Insert (depth, code) into the list base[0], base[stride], ... of n entries sorted by depth then
 // code, keeping at most `cap`: a full list drops its farthest entry. Returns 1 if one was dropped.
+// Adds the entries it shifts to *moves (the insertion sort's work: 0 for input in depth order).
 int insert_fragment(FRAG_SPACE float* depths, FRAG_SPACE uint* codes_out, int stride, int* n, int cap,
-                    float depth, uint code) {
+                    float depth, uint code, uint* moves) {
     int j = *n;
     int dropped = 0;
     if (j == cap) {
@@ -93,6 +104,7 @@ int insert_fragment(FRAG_SPACE float* depths, FRAG_SPACE uint* codes_out, int st
         depths[j * stride] = d;
         codes_out[j * stride] = c;
         j--;
+        (*moves)++;
     }
     depths[j * stride] = depth;
     codes_out[j * stride] = code;
@@ -186,7 +198,7 @@ void count_fragments(__global const uint* tile_count, __global const uint* tile_
     PIXEL_SETUP
     uint2 found = (uint2)(0u);
     FOR_EACH_FRAGMENT(
-        if (depth >= 0.0f) {
+        if (depth >= 0.0f || perspective) {
             if (CODE_FRONT(code)) found.x++; else found.y++;
         }
     )
@@ -304,16 +316,21 @@ float4 media_sample(float4 media, float length) {
 
 // Composite the segment [t0, t1] in which the volumes of `volumes` and the media `media` (see
 // media_of) contribute into *color. Volumes are sampled on the cells [anchor + k*step, ...]; media
-// alone are composited analytically over the whole segment. Returns 1 on early termination.
+// alone are composited analytically over the whole segment (one step), or on the cells with
+// SAMPLED_MEDIA. Adds volume samples to *samples and media steps to *medium_steps. Returns 1 on
+// early termination.
 int composite_segment(float t0, float t1, ulong volumes, float4 media, float anchor, float step, float threshold,
                       float3 origin, float3 direction, __constant Object* objects, __global const ATLAS_T* atlas,
                       int4 atlas_dims, __global const float4* transfer, __global const float* gradient_tables,
                       float3 light_dir, float3 half_vector, bool has_half, float4 phong, float4* color,
-                      uint* samples) {
+                      uint* samples, uint* medium_steps) {
+#ifndef SAMPLED_MEDIA
     if (!volumes) {
+        (*medium_steps)++;
         *color += (1.0f - color->w) * media_sample(media, t1 - t0);
         return color->w > threshold;
     }
+#endif
     int cell = max((int)floor((t0 - anchor) / step), 0);
     while (cell > 0 && anchor + (float)cell * step > t0) cell--;
     while (anchor + (float)(cell + 1) * step <= t0) cell++;
@@ -331,7 +348,11 @@ int composite_segment(float t0, float t1, ulong volumes, float4 media, float anc
         // A whole cell samples at its centre, one a boundary cuts at its part's midpoint.
         float t = (lo == a && hi == b) ? anchor + ((float)cell + 0.5f) * step : 0.5f * (lo + hi);
         float3 p = origin + t * direction;
-        float4 sum = media.w > 0.0f ? media_sample(media, span) : (float4)(0.0f);
+        float4 sum = (float4)(0.0f);
+        if (media.w > 0.0f) {
+            sum = media_sample(media, span);
+            *medium_steps += !volumes;
+        }
         ulong pending = volumes;
         while (pending) {
             ulong lowest = pending & (~pending + 1UL);
@@ -390,6 +411,63 @@ int composite_segment(float t0, float t1, ulong volumes, float4 media, float anc
     return 0;
 }
 
+#ifdef MIP
+// The normalised scalar of object `obj` at ray parameter t, kept in *best (and its object) when it
+// is larger than the maximum so far, so ties keep the nearer sample and then the lower object.
+void mip_sample(float t, int obj, float3 origin, float3 direction, __constant Object* objects,
+                __global const ATLAS_T* atlas, int4 atlas_dims, float* best, int* best_object, uint* samples) {
+    __constant Object* o = &objects[obj];
+    float4 hp = (float4)(origin + t * direction, 1.0f);
+    float3 u = (float3)(dot(o->to_voxel[0], hp), dot(o->to_voxel[1], hp), dot(o->to_voxel[2], hp));
+    float s = trilinear(atlas, atlas_dims, o->slot, o->dims, u);
+    (*samples)++;
+    if (s > *best) {
+        *best = s;
+        *best_object = obj;
+    }
+}
+
+// Maximum intensity along the segment [t0, t1] of the volumes of `volumes`: each samples both ends
+// and the cells of composite_segment (a whole cell at its centre, a cut one at its part's middle),
+// as gl-raycast does. The raw scalar is compared, not its classification (the reference's mip), so
+// a transparent voxel can hold the maximum: empty space is never skipped in this mode. Returns 1
+// once the maximum reaches 1, the top of the normalised range: no later sample can replace it.
+int mip_segment(float t0, float t1, ulong volumes, float anchor, float step, float3 origin, float3 direction,
+                __constant Object* objects, __global const ATLAS_T* atlas, int4 atlas_dims, float* best,
+                int* best_object, uint* samples) {
+    int cell = max((int)floor((t0 - anchor) / step), 0);
+    while (cell > 0 && anchor + (float)cell * step > t0) cell--;
+    while (anchor + (float)(cell + 1) * step <= t0) cell++;
+    for (float t = t0;;) {
+        for (ulong pending = volumes; pending;) {
+            ulong lowest = pending & (~pending + 1UL);
+            pending ^= lowest;
+            mip_sample(t, 63 - (int)clz(lowest), origin, direction, objects, atlas, atlas_dims, best, best_object,
+                       samples);
+        }
+        if (*best >= 1.0f) {
+            return 1;
+        }
+        if (t == t1) {
+            return 0;
+        }
+        for (;; cell++) {                // the next cell's sample, or the segment's end
+            float a = anchor + (float)cell * step, b = anchor + (float)(cell + 1) * step;
+            float lo = fmax(a, t0), hi = fmin(b, t1);
+            if (a >= t1) {
+                t = t1;
+                break;
+            }
+            if (hi - lo > SLIVER * step) {
+                t = (lo == a && hi == b) ? anchor + ((float)cell + 0.5f) * step : 0.5f * (lo + hi);
+                cell++;
+                break;
+            }
+        }
+    }
+}
+#endif
+
 __kernel __attribute__((reqd_work_group_size(TILE, TILE, 1)))
 void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunks,
                 __global const ulong* pool_mask, __global const uint* pool_triangle,
@@ -402,10 +480,11 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
                 __global const float4* materials, __global const int* boundary_volume, int leaf_count,
                 int boundary_count, __global const int4* csg_nodes, __global const int* csg_children, int csg_count,
                 ulong leaf_bits, ulong volume_leaves, ulong surface_leaves, ulong medium_leaves, ulong tree_leaves,
+                ulong eye_inside,
 #ifdef GLOBAL_FRAGMENTS
                 __global const uint* offsets, __global float* list_depth, __global uint* list_code,
 #endif
-                __global float4* image, __global uint4* stats) {
+                __global float4* image, __global uint8* stats) {
     PIXEL_SETUP
 #ifdef GLOBAL_FRAGMENTS
     uint pixel = in_image ? row * width + col : 0;
@@ -422,18 +501,23 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
     int cap = MAXF;
 #endif
     int n = 0;
-    uint dropped = 0;
-    ulong inside = 0UL;                  // objects around the ray origin: parity of crossings behind it
+    uint dropped = 0, moves = 0;
+    ulong inside = eye_inside;           // objects around the ray origin (see the notes at the top)
     FOR_EACH_FRAGMENT(
-        if (depth < 0.0f) {
+        if (depth < 0.0f && !perspective) {
             inside ^= 1UL << CODE_OBJECT(code);
         } else {
-            dropped += insert_fragment(depths, frag_codes, stride, &n, cap, depth, code);
+            dropped += insert_fragment(depths, frag_codes, stride, &n, cap, fmax(depth, 0.0f), code, &moves);
         }
     )
     if (!in_image) {
         return;
     }
+#ifdef SORT_ONLY
+    image[row * width + col] = (float4)(0.0f);
+    stats[row * width + col] = (uint8)((uint)n, dropped, 0u, 0u, moves, 0u, 0u, 0u);
+    return;
+#endif
 
     float3 light_dir = light.xyz;
     float3 half_vector = light_dir - direction;
@@ -441,7 +525,11 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
     half_vector = has_half ? normalize(half_vector) : half_vector;
 
     float4 color = (float4)(0.0f);
-    uint samples = 0;
+    uint samples = 0, medium_steps = 0;
+#ifdef MIP
+    float best = -INFINITY;              // the largest scalar so far, and its object (-1: none)
+    int best_object = -1;
+#endif
     int terminated = 0;
     ulong roots;
     ulong contributing = leaf_state(inside, leaf_bits, tree_leaves, boundary_volume, leaf_count, boundary_count,
@@ -470,10 +558,15 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
                     anchor = t0;
                     anchored = true;
                 }
+#ifdef MIP
+                terminated = mip_segment(t0, t1, volumes, anchor, step, origin, direction, objects, atlas, atlas_dims,
+                                         &best, &best_object, &samples);
+#else
                 terminated = composite_segment(t0, t1, volumes, media_of(contributing & medium_leaves, materials),
                                                anchor, step, threshold, origin, direction, objects, atlas,
                                                atlas_dims, transfer, gradient_tables, light_dir, half_vector,
-                                               has_half, phong, &color, &samples);
+                                               has_half, phong, &color, &samples, &medium_steps);
+#endif
             }
             for (int j = k; j < end && shown && !terminated; j++) {
                 uint code = frag_codes[j * stride];
@@ -501,6 +594,17 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
         roots = roots_after;
         k = end;
     }
+#ifdef MIP
+    if (best_object >= 0) {
+        // Classified by its volume's transfer function, no opacity correction or shading (the reference).
+        __constant Object* o = &objects[best_object];
+        int i0;
+        float w;
+        table_position(best, o->tables.y, &i0, &w);
+        float4 c = mix(transfer[o->tables.x + i0], transfer[o->tables.x + i0 + 1], w);
+        color = (float4)(c.w * c.xyz, c.w);
+    }
+#endif
     image[row * width + col] = color;
-    stats[row * width + col] = (uint4)((uint)n, dropped, samples, (uint)terminated);
+    stats[row * width + col] = (uint8)((uint)n, dropped, samples, (uint)terminated, moves, medium_steps, 0u, 0u);
 }
