@@ -90,23 +90,29 @@ uniform vec3 u_light;            // world-space unit direction towards the light
 uniform vec4 u_phong;            // ambient, diffuse, specular, shininess
 
 // Two-sided Blinn-Phong of `color` with the world normal n (any length; 0: ambient only) for a
-// ray travelling along `ray_dir`.
-vec3 blinn_phong(vec3 color, vec3 n, vec3 ray_dir) {
+// ray travelling along `ray_dir`, with `terms` = ambient, diffuse, specular, shininess.
+vec3 blinn_phong_terms(vec3 color, vec3 n, vec3 ray_dir, vec4 terms) {
     float norm = length(n);
-    float factor = u_phong.x;
+    float factor = terms.x;
     float highlight = 0.0;
     if (norm > 0.0) {
-        factor += u_phong.y * abs(dot(n, u_light)) / norm;
+        factor += terms.y * abs(dot(n, u_light)) / norm;
         vec3 h = u_light - ray_dir;
         float h_norm = length(h);
         if (h_norm > 0.0) {
-            highlight = u_phong.z * pow(min(abs(dot(n, h)) / (h_norm * norm), 1.0), u_phong.w);
+            highlight = terms.z * pow(min(abs(dot(n, h)) / (h_norm * norm), 1.0), terms.w);
         }
     }
     return clamp(color * factor + highlight, 0.0, 1.0);
 }
+
+// The scene's Blinn-Phong (volume samples).
+vec3 blinn_phong(vec3 color, vec3 n, vec3 ray_dir) {
+    return blinn_phong_terms(color, n, ray_dir, u_phong);
+}
 """
-"""The conventions' Blinn–Phong of a normal; every GL backend shades through it."""
+"""The conventions' Blinn–Phong of a normal, with the scene's terms or a surface material's (every GL backend
+shades through it)."""
 
 SHADING = LIGHTING + """
 uniform sampler3D u_gradient;    // object-space gradient (central differences), RGB
