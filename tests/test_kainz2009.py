@@ -228,19 +228,39 @@ def test_table1_claims():
     assert _evaluate(name, "accuracy", _table1_rows({"C1": 0.1, "C2": 0.1})).holds is None  # C3 missing
 
 
+DEPTHS = {"S1": 21, "S2": 40, "S3": 82, "boxes5": 10, "boxes20": 40, "boxes40": 80}
+
+
+def _depth_rows(dual_ms, *, tiled_ms=lambda d: 2 + 0.1 * d, dual_psnr=90.0):
+    """Depth rows: cl-tiled takes ``tiled_ms(depth)`` and dual depth peeling ``dual_ms(depth)`` per frame."""
+    rows = [{"scene": s, "role": "depth", "config": "global", "count_fragments_max": d} for s, d in DEPTHS.items()]
+    for config, ms, psnr in ((K.TILED, tiled_ms, 45.0), (K.DUAL, dual_ms, dual_psnr)):
+        rows += [{"scene": s, "role": "test", "config": config, "part": "table2" if s in K.TABLE2 else "sweep",
+                  "psnr": psnr, "time_total": ms(d) * 1e-3} for s, d in DEPTHS.items()]
+    return rows
+
+
 def test_depth_claims():
     name = "kainz2009-depth"
-    depths = {"S1": 21, "S2": 40, "S3": 82, "boxes5": 10, "boxes20": 40, "boxes40": 80}
-    rows = [{"scene": s, "role": "depth", "count_fragments_max": d} for s, d in depths.items()]
-    rows += [{"scene": s, "role": "test", "part": "table2" if s in K.TABLE2 else "sweep", "psnr": 45.0,
-              "time_total": (2 + 0.1 * d) * 1e-3} for s, d in depths.items()]
-    for claim in ("depths-match", "linear-in-depth", "accuracy"):
+    rows = _depth_rows(lambda d: 0.8 + 0.14 * d)  # dual cheaper until depth 30
+    for claim in ("depths-match", "linear-in-depth", "accuracy", "dual-accuracy", "dual-wins-shallow",
+                  "tiled-wins-deep", "crossover"):
         assert _evaluate(name, claim, rows).holds is True, claim
+    assert _evaluate(name, "crossover", rows).measured == "depth 30"
     rows[0]["count_fragments_max"] = 12  # a coil far shallower than the dragon
-    rows[-1]["time_total"] = 0.1  # the deepest point far off the line
-    rows[-4]["psnr"] = 30.0
+    tiled = [r for r in rows if r.get("config") == K.TILED]
+    tiled[-1]["time_total"] = 0.1  # the deepest point far off the line
+    tiled[0]["psnr"] = 30.0
     for claim in ("depths-match", "linear-in-depth", "accuracy"):
         assert _evaluate(name, claim, rows).holds is False, claim
+    # Dual slower from depth 15 on: it loses S1 and the crossover falls below 20.
+    rows = _depth_rows(lambda d: 0.5 + 0.2 * d, dual_psnr=30.0)
+    for claim in ("dual-accuracy", "dual-wins-shallow", "crossover"):
+        assert _evaluate(name, claim, rows).holds is False, claim
+    # Dual faster at every depth: no crossover, and the tiled caster never wins.
+    rows = _depth_rows(lambda d: 0.05 * d)
+    assert _evaluate(name, "tiled-wins-deep", rows).holds is False
+    assert _evaluate(name, "crossover", rows).measured.startswith("no crossover: dual depth peeling")
 
 
 def _ess_rows(box, hulls, psnr_box=45.0, psnr_hull=44.5, build_ms=2.0):
@@ -300,3 +320,128 @@ def test_peeling_is_planned_when_registered_and_listed_as_missing_otherwise(monk
     monkeypatch.setattr(renderers, "BACKENDS", {k: v for k, v in renderers.BACKENDS.items() if k != "gl-peel"})
     assert "not registered" in K._peeling_missing()[0].text
     assert not [r for r in _runs(_profile()) if r.backend == K.PEEL]
+
+
+# ------------------------------------------- E7, E9, E11: sorting worst case, media shortcut, coverage masks
+ABLATIONS = ("kainz2009-sorting", "kainz2009-media", "kainz2009-coverage")
+
+
+def _ablation_runs(**settings):
+    profile = Profile(name="t", volume_size=16, image_size=24, warmup=0, repeat=1, experiments=list(ABLATIONS),
+                      settings=settings)
+    return [r for r in experiments.plan(profile).values() if r.experiment in ABLATIONS]
+
+
+def test_ablation_experiments_are_registered_and_planned(tmp_path):
+    registry = experiments.all_experiments()
+    for name in ABLATIONS:
+        experiment = registry[name]
+        assert experiment.paper == "kainz2009" and experiment.claims and experiment.paper_table() is not None
+    assert K.Sorting in K.EXPERIMENTS and K.Media in K.EXPERIMENTS and K.Coverage in K.EXPERIMENTS
+    runs = _ablation_runs(**{"kainz2009-sorting": {"small_size": 8, "triangles": 500},
+                             "kainz2009-coverage": {"triangle_counts": [500, 2000], "views": 3}})
+    sorting = [r for r in runs if r.experiment == "kainz2009-sorting"]
+    assert {(r.tags["scene"], r.options["triangle_order"], r.options.get("stop_after", "composite"))
+            for r in sorting} == {(s, o, p) for s in K.SORT_SCENES for o in K.ORDERS
+                                  for p in ("composite", "sort") if p == "composite" or o != "scene"}
+    boxes = {r.scene["name"] for r in sorting if r.tags["scene"] == "boxes"}
+    assert len(boxes) == 1  # one scene for every order
+    media = [r for r in runs if r.experiment == "kainz2009-media"]
+    tests = {r.options["media"]: r for r in media if r.backend == K.TILED}
+    assert set(tests) == {"analytic", "sampled"} and {r.reference for r in tests.values()} == {"apple.truth"}
+    scene = build_scene(tests["analytic"].scene, cache_dir=tmp_path)
+    assert len(scene.meshes) == K.ROD_COUNT and all(m.medium is not None for m in scene.meshes)
+    assert all(m.mesh.triangle_count == 76 for m in scene.meshes) and len(scene.volumes) == 1
+    coverage = [r for r in runs if r.experiment == "kainz2009-coverage"]
+    timed = {(r.tags["triangles"], r.options["coverage"]) for r in coverage if r.tags["role"] == "test"}
+    assert timed == {(t, m) for t in (500, 2000) for m in K.COVERAGE_METHODS}
+    tight = [r for r in coverage if r.tags["role"] == "watertight"]
+    assert {r.options["coverage"] for r in tight} == set(K.COVERAGE_METHODS)
+    assert all(r.options["fragments"] == "global" and len(r.views) == 3 for r in tight)
+
+
+def test_ablation_experiments_stay_tiny_in_smoke():
+    smoke = dataclasses.replace(Profile.load(ROOT / "config" / "smoke.yaml"), experiments=list(ABLATIONS))
+    runs = [r for r in experiments.plan(smoke).values() if r.experiment in ABLATIONS]
+    for name in ABLATIONS:
+        assert 0 < sum(r.experiment == name for r in runs) <= 4, name
+    assert all(r.scene["width"] <= 48 and r.scene["height"] <= 48 for r in runs)
+    assert all(v.get("size", 0) <= 32 for r in runs for v in r.scene["volumes"])
+
+
+def _sorting_rows(tmp_path, *, sort_only, pixel, changed=0.0):
+    """Full and gather + sort rows of one scene: pixel-kernel seconds per order."""
+    image = np.full((8, 8, 4), 0.25, np.float32)
+    rows = []
+    for order, seconds in pixel.items():
+        shown = image + (changed if order == "back-to-front" else 0.0)
+        rows.append({"scene": "boxes", "order": order, "part": "full", "role": "test", "time_total": 2 * seconds,
+                     "time_pixel": seconds, "time_binning": 0.1 * seconds,
+                     "exr": _image(tmp_path, f"full-{order}", shown)})
+    for order, seconds in sort_only.items():
+        rows.append({"scene": "boxes", "order": order, "part": "gather+sort", "role": "ablation",
+                     "time_total": 2 * seconds, "time_pixel": seconds})
+    return rows
+
+
+def test_sorting_claims(tmp_path):
+    name = "kainz2009-sorting"
+    pixel = {"scene": 0.011, "front-to-back": 0.010, "back-to-front": 0.012}
+    rows = _sorting_rows(tmp_path, sort_only={"front-to-back": 0.002, "back-to-front": 0.004}, pixel=pixel)
+    result = _evaluate(name, "sort-small", rows)
+    assert result.holds is True and result.measured == "sort / traversal ×0.25 (boxes)"   # 2 ms against 8 ms
+    assert _evaluate(name, "order-invariant", rows).holds is True
+    table = K._sorting_rows(pd.DataFrame(rows)).set_index(["order", "part"])
+    assert table.loc[("back-to-front", "full"), "gather+sort share (%)"] == pytest.approx(100 / 3)
+    sentences = K._sorting_takeaways(K._sorting_rows(pd.DataFrame(rows)))
+    assert "worst / best ×1.2" in sentences[0]
+    rows = _sorting_rows(tmp_path, sort_only={"front-to-back": 0.002, "back-to-front": 0.009}, pixel=pixel,
+                         changed=1e-3)
+    assert _evaluate(name, "sort-small", rows).holds is False                              # 7 ms against 3 ms
+    assert _evaluate(name, "order-invariant", rows).holds is False
+    assert _evaluate(name, "sort-small", rows[:3]).holds is None                           # no ablation runs
+
+
+def _media_rows(analytic, sampled, *, psnr=(50.0, 50.0), steps=(10, 400)):
+    return [{"scene": "apple", "role": "test", "config": c, "time_total": 2 * t, "time_pixel": t, "psnr": p,
+             "count_medium_steps": n} for c, t, p, n in zip(("analytic", "sampled"), (analytic, sampled), psnr, steps)]
+
+
+def test_media_claims():
+    name = "kainz2009-media"
+    rows = _media_rows(0.010, 0.011)
+    assert _evaluate(name, "shortcut-gain", rows).measured == "×1.1 (10 % gain)"
+    for claim in ("shortcut-gain", "shortcut-exact", "fewer-steps"):
+        assert _evaluate(name, claim, rows).holds is True, claim
+    rows = _media_rows(0.010, 0.009, psnr=(50.0, 45.0), steps=(10, 10))
+    for claim in ("shortcut-gain", "shortcut-exact", "fewer-steps"):
+        assert _evaluate(name, claim, rows).holds is False, claim
+    assert _evaluate(name, "shortcut-gain", rows[:1]).holds is None
+
+
+def _coverage_rows(tmp_path, binning, *, unpaired=0, fragments=(100, 100), changed=0.0):
+    rows = [{"scene": f"sphere{t}", "triangles": t, "role": "test", "config": m, "time_total": 0.01,
+             "time_binning": seconds} for t, by_method in binning.items() for m, seconds in by_method.items()]
+    image = np.full((8, 8, 4), 0.5, np.float32)
+    for method, count in zip(K.COVERAGE_METHODS, fragments):
+        for view in ("az0el0", "az37el12"):
+            rows.append({"scene": "watertight", "role": "watertight", "config": method, "view": view,
+                         "count_unpaired_pixels": unpaired if method == "edge" else 0, "count_fragments": count,
+                         "exr": _image(tmp_path, f"{method}-{view}", image + (changed if method == "edge" else 0))})
+    return rows
+
+
+def test_coverage_claims(tmp_path):
+    name = "kainz2009-coverage"
+    rows = _coverage_rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.003}, 4000: {"bitmask": 0.002,
+                                                                                     "edge": 0.005}})
+    result = _evaluate(name, "bitshift-faster", rows)
+    assert result.holds is True and result.measured == "×2.5 at 4000 triangles"
+    for claim in ("watertight", "same-fragments"):
+        assert _evaluate(name, claim, rows).holds is True, claim
+    rows = _coverage_rows(tmp_path, {1000: {"bitmask": 0.003, "edge": 0.002}}, unpaired=3, fragments=(100, 98))
+    for claim in ("bitshift-faster", "watertight", "same-fragments"):
+        assert _evaluate(name, claim, rows).holds is False, claim
+    rows = _coverage_rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.003}}, changed=0.1)
+    assert _evaluate(name, "same-fragments", rows).holds is False                          # same counts, other image
+    assert _evaluate(name, "bitshift-faster", [r for r in rows if r["config"] == "bitmask"]).holds is None
