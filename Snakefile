@@ -72,6 +72,14 @@ if PROFILE.render_time_limit is not None:
 
 localrules: all, collect, report
 
+# Job groups (they take effect only off this machine, e.g. through the SLURM executor): every render
+# and evaluate job of one experiment is one group, and the workflow profile bundles each group's
+# jobs into a single cluster job (`group-components`), so an experiment's runs are timed on one node
+# one after another (their ratios compare like with like) and a profile of hundreds of small runs
+# costs tens of cluster jobs, not hundreds. Phantom generation is one more group.
+RUN_GROUP = "runs-{experiment}"
+VOLUME_GROUP = "volumes"
+
 wildcard_constraints:
     experiment="[A-Za-z0-9._+-]+",
     run="[A-Za-z0-9._+-]+",
@@ -112,6 +120,7 @@ rule all:
 rule volume:
     output:
         f"{CACHE}/{{key}}.npy",
+    group: VOLUME_GROUP
     params:
         request=lambda w: json.dumps(VOLUMES[w.key]),
         code=CODE["volume"],
@@ -137,6 +146,7 @@ rule render:
         retry=lambda w: RETRY[f"{w.experiment}/{w.run}"],
     output:
         f"{R}/runs/{{experiment}}/{{run}}.json",
+    group: RUN_GROUP
     params:
         run=lambda w: json.dumps(run_of(w).as_dict()),
         spec_hash=lambda w: run_of(w).spec_hash(),
@@ -155,6 +165,7 @@ rule evaluate:
         reference=lambda w: record(RUNS[f"{w.experiment}/{run_of(w).reference}"]),
     output:
         f"{R}/metrics/{{experiment}}/{{run}}.json",
+    group: RUN_GROUP
     params:
         code=CODE["evaluate"],
     shell:

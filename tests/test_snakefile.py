@@ -115,7 +115,9 @@ def test_the_slurm_profile_gives_each_render_a_node_its_runtime_and_a_gpu_where_
     text = _snakemake(ROOT, profile_path, "--dry-run", "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"))
     runs = plan(Profile.from_mapping(profile))
     # (A dry run executes nothing, so it shows no job as local: tests/test_cluster.py checks that.)
-    jobs = re.findall(r"^(?:localrule|rule) (\w+):\n(.*?)(?=^\S|\Z)", text, re.M | re.S)
+    # Render and evaluate jobs run bundled per experiment, phantoms in one more bundle (cluster jobs).
+    assert set(re.findall(r"Group job (\S+) ", text)) == {"volumes", "runs-volbench-convergence", "runs-kruger2003-nocue"}
+    jobs = re.findall(r"^(?:localrule|rule) (\w+):\n(.*?)(?=^\S|\Z)", re.sub(r"^    ", "", text, flags=re.M), re.M | re.S)
     renders = [body for name, body in jobs if name == "render"]
     devices = set()
     for body in renders:
