@@ -41,7 +41,7 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, volume_sample,
+from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, is_ray, volume_sample,
                                          volume_spans)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
@@ -289,9 +289,7 @@ def render(origins, directions,
             pixel = image[row, col]
             pixel[:] = 0.0
             depth[row, col] = np.nan
-            if not (math.isfinite(o[0]) and math.isfinite(o[1]) and math.isfinite(o[2])
-                    and math.isfinite(d[0]) and math.isfinite(d[1]) and math.isfinite(d[2])
-                    and (d[0] != 0.0 or d[1] != 0.0 or d[2] != 0.0)):
+            if not is_ray(o, d):
                 continue
             t_first = volume_spans(world_to_object, dims, spacing, ref_step, step, o, d, t_in, t_out, base, slope,
                                    length, ratio)

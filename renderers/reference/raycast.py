@@ -78,6 +78,15 @@ _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 
 @njit(**_JIT)
+def is_ray(origin, direction):
+    """Whether a camera ray is usable: a finite origin and a finite, non-zero direction."""
+    for k in range(3):
+        if not (math.isfinite(origin[k]) and math.isfinite(direction[k])):
+            return False
+    return direction[0] != 0.0 or direction[1] != 0.0 or direction[2] != 0.0
+
+
+@njit(**_JIT)
 def _axis_cell(u, n):
     """Clamp-to-edge linear filter along one axis: ``(i0, i1, weight of i1)``."""
     top = n - 1
@@ -817,9 +826,7 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
             o = origins[row, col]
             d = directions[row, col]
             pixel = image[row, col]
-            if not (math.isfinite(o[0]) and math.isfinite(o[1]) and math.isfinite(o[2])
-                    and math.isfinite(d[0]) and math.isfinite(d[1]) and math.isfinite(d[2])
-                    and (d[0] != 0.0 or d[1] != 0.0 or d[2] != 0.0)):
+            if not is_ray(o, d):
                 # A ray that is no ray: transparent, before any loop could run away with it.
                 pixel[:] = 0.0
                 depth[row, col] = np.nan
