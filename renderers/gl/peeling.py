@@ -136,6 +136,20 @@ VERTEX_FORMAT = ("3f 4f 1i", "in_world", "in_plane", "in_object")
 """Geometry vertices: world position, the triangle's plane (unit normal, offset), object index."""
 
 
+def _draw_blended(ctx, drawn, vertices, equation, query):
+    """Draw the peel geometry with blending by ``equation`` (MIN: nearest layer; MAX: dual peeling's
+    min/max depths) under ``query``, then restore additive blending and make the image writes visible."""
+    import moderngl
+
+    ctx.enable_only(moderngl.BLEND)
+    ctx.blend_equation = equation
+    with query:
+        drawn.render(vertices=vertices)
+    ctx.enable_only(moderngl.NOTHING)
+    ctx.blend_equation = moderngl.FUNC_ADD
+    ctx.memory_barrier()
+
+
 def _vertices(points, planes, objects):
     """Interleave ``(n, 3)`` points, ``(n, 4)`` planes and ``(n,)`` object indices as :data:`VERTEX_FORMAT`."""
     data = np.empty((len(points), 8), dtype=np.float32)
@@ -511,13 +525,7 @@ class GLPeelRenderer(GLRenderer):
             targets[f"layer_fbo{layer}"].clear(FAR_LAYER, FAR_LAYER, FAR_LAYER, FAR_LAYER)
             targets[f"layer_fbo{layer}"].use()
             programs["peel"]["u_surface_pass"].value = 0
-            ctx.enable_only(moderngl.BLEND)
-            ctx.blend_equation = moderngl.MIN
-            with query:
-                drawn.render(vertices=vertices)
-            ctx.enable_only(moderngl.NOTHING)
-            ctx.blend_equation = moderngl.FUNC_ADD
-            ctx.memory_barrier()
+            _draw_blended(ctx, drawn, vertices, moderngl.MIN, query)
 
         def surface_pass():
             targets["surface_fbo"].clear(0.0, 0.0, 0.0, 0.0)
@@ -593,13 +601,7 @@ class GLPeelRenderer(GLRenderer):
         def geometry_pass(fbo, query, init):
             fbo.use()
             peel["u_dual_init"].value = int(init)
-            ctx.enable_only(moderngl.BLEND)
-            ctx.blend_equation = moderngl.MAX
-            with query:
-                drawn.render(vertices=vertices)
-            ctx.enable_only(moderngl.NOTHING)
-            ctx.blend_equation = moderngl.FUNC_ADD
-            ctx.memory_barrier()
+            _draw_blended(ctx, drawn, vertices, moderngl.MAX, query)
 
         def init_pass(query):
             targets["colours_fbo"].clear(0.0, 0.0, 0.0, 0.0)
