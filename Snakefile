@@ -57,7 +57,10 @@ PY = sys.executable
 CODE = {rule: runner.job_code_digest(rule) for rule in ("volume", "environment", "evaluate", "collect", "report")}
 BACKEND_CODE = {backend: runner.job_code_digest("render", backend=backend)
                 for backend in sorted({run.backend for run in RUNS.values()})}
-RETRY = {key: str(runner.mark_retry(R, run.experiment, run.id)) for key, run in RUNS.items()}
+# Only the Snakemake a user starts marks the retries; the ones it spawns to run a job (a cluster job,
+# a job step of a group) need the markers' paths only, and must not re-date them mid-run.
+_retry_marker = runner.mark_retry if workflow.is_main_process else runner.retry_marker_path
+RETRY = {key: str(_retry_marker(R, run.experiment, run.id)) for key, run in RUNS.items()}
 PROFILE_JSON = json.dumps(dataclasses.asdict(PROFILE), sort_keys=True)
 ROOT = Path(workflow.basedir)
 
