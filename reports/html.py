@@ -388,7 +388,9 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     summaries = []
     for paper, sections in pages.items():
         claims = [c for s in sections for c in s["claims"]]
-        page_takeaways = takeaways.claims(pd.DataFrame(claims)) + [t for s in sections for t in s["takeaways"]]
+        # Sections of one paper may say the same thing (the device every run of the page used): once.
+        page_takeaways = list(dict.fromkeys(takeaways.claims(pd.DataFrame(claims))
+                                            + [t for s in sections for t in s["takeaways"]]))
         (report_dir / f"{paper}.html").write_text(page_template.render(
             paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
             nodes=node_rows, provenance=facts, takeaways=page_takeaways))
