@@ -39,8 +39,8 @@ sys.path.insert(0, workflow.basedir)
 import datasets
 import renderers
 from pipeline import runner
-from pipeline.experiments import Profile, plan
-from pipeline.scene_io import dataset_arguments
+from pipeline.experiments import Profile, plan, selected
+from pipeline.scene_io import phantom_requests
 
 import yaml
 
@@ -54,7 +54,8 @@ RUNS = plan(PROFILE)
 R = PROFILE.results
 CACHE = PROFILE.cache
 PY = sys.executable
-CODE = {rule: runner.job_code_digest(rule) for rule in ("volume", "environment", "evaluate", "collect", "report")}
+CODE = {rule: runner.job_code_digest(rule)
+        for rule in ("volume", "phantoms", "environment", "evaluate", "tabulate", "collect", "report")}
 BACKEND_CODE = {backend: runner.job_code_digest("render", backend=backend)
                 for backend in sorted({run.backend for run in RUNS.values()})}
 # Only the Snakemake a user starts marks the retries; the ones it spawns to run a job (a cluster job,
@@ -76,10 +77,15 @@ if PROFILE.render_time_limit is not None:
 localrules: all, collect, report
 
 # Job groups (they take effect only off this machine, e.g. through the SLURM executor): every render
-# and evaluate job of one experiment is one group, and the workflow profile bundles each group's
-# jobs into a single cluster job (`group-components`), so an experiment's runs are timed on one node
-# one after another (their ratios compare like with like) and a profile of hundreds of small runs
-# costs tens of cluster jobs, not hundreds. Phantom generation is one more group.
+# and evaluate job of one experiment, and its tabulate job, are one group, and the workflow profile
+# bundles each group's jobs into a single cluster job (`group-components`), so an experiment's runs
+# are timed on one node one after another (their ratios compare like with like) and a profile of
+# hundreds of small runs costs tens of cluster jobs, not hundreds. Phantom generation (the volume
+# jobs and the phantoms list) is one more group. Each group is one connected piece of the job graph
+# (tabulate reads every run of its experiment; the phantoms list every volume) because inside a
+# cluster job the SLURM plugin starts one job step, with its own Snakemake, per connected piece, one
+# piece after another: connected, a group costs one step and runs its jobs in parallel where their
+# threads allow.
 RUN_GROUP = "runs-{experiment}"
 VOLUME_GROUP = "volumes"
 
@@ -91,16 +97,12 @@ wildcard_constraints:
 
 def volume_requests(run):
     """``{cache_key: request}`` for the generated phantoms a run's scene uses."""
-    requests = {}
-    for entry in [*run.scene["volumes"], *([run.statistics] if run.statistics else [])]:
-        if "dataset" not in entry or datasets.get(entry["dataset"]).kind != "phantom":
-            continue
-        kwargs = dataset_arguments(entry, size=PROFILE.volume_size)
-        requests[datasets.cache_key(entry["dataset"], **kwargs)] = {"dataset": entry["dataset"], "kwargs": kwargs}
-    return requests
+    return phantom_requests(run.volume_entries, size=PROFILE.volume_size)
 
 
 VOLUMES = {key: request for run in RUNS.values() for key, request in volume_requests(run).items()}
+EXPERIMENT_RUNS = {experiment.name: [run for run in RUNS.values() if run.experiment == experiment.name]
+                   for experiment in selected(PROFILE)}
 
 
 def run_of(wildcards):
@@ -129,6 +131,20 @@ rule volume:
         code=CODE["volume"],
     shell:
         "{PY} -m pipeline.jobs volume --request {params.request:q} --cache {CACHE}"
+
+
+# The digests of every phantom the profile generated, for the report (and so the phantoms are one
+# connected group: see the groups above).
+rule phantoms:
+    input:
+        [f"{CACHE}/{key}.npy" for key in VOLUMES],
+    output:
+        f"{R}/volumes.csv",
+    group: VOLUME_GROUP
+    params:
+        code=CODE["phantoms"],
+    shell:
+        "{PY} -m pipeline.jobs phantoms --profile {PROFILE_JSON:q} --output {output}"
 
 
 rule environment:
@@ -175,10 +191,26 @@ rule evaluate:
         "{PY} -m pipeline.jobs evaluate --record {input.record} --reference {input.reference} --output {output}"
 
 
+# An experiment's table and claims are made in its group, beside its runs: on a cluster, in the
+# same job (and they join the group's jobs into one: see the groups above).
+rule tabulate:
+    input:
+        records=lambda w: [record(run) for run in EXPERIMENT_RUNS[w.experiment]],
+        metrics=lambda w: [metrics(run) for run in EXPERIMENT_RUNS[w.experiment] if run.reference is not None],
+    output:
+        f"{R}/tables/{{experiment}}.csv",
+        f"{R}/claims/{{experiment}}.csv",
+    group: RUN_GROUP
+    params:
+        code=CODE["tabulate"],
+    shell:
+        "{PY} -m pipeline.jobs tabulate --profile {PROFILE_JSON:q} --experiment {wildcards.experiment}"
+
+
 rule collect:
     input:
-        records=[record(run) for run in RUNS.values()],
-        metrics=[metrics(run) for run in RUNS.values() if run.reference is not None],
+        tables=[f"{R}/tables/{name}.csv" for name in EXPERIMENT_RUNS],
+        claims=[f"{R}/claims/{name}.csv" for name in EXPERIMENT_RUNS],
     output:
         f"{R}/runs.csv",
         f"{R}/claims.csv",
@@ -193,6 +225,7 @@ rule report:
         f"{R}/runs.csv",
         f"{R}/claims.csv",
         f"{R}/environment.json",
+        f"{R}/volumes.csv",
     output:
         f"{R}/report/index.html",
     params:

@@ -1,11 +1,18 @@
 """Run records → tidy tables: ``runs.csv`` (one row per run and view), per-experiment CSVs, claims.
 
+Two steps, so each experiment's tables are made beside its runs (one Snakemake job per experiment,
+in the experiment's job group: on a cluster, in the same job as its renders) and only the
+concatenation waits for every experiment: :func:`tabulate` writes one experiment's rows
+(``tables/<experiment>.csv``) and checks its claims (``claims/<experiment>.csv``); :func:`merge`
+concatenates them into ``runs.csv`` and ``claims.csv``.
+
 Every row names its run's JSON record (``record``) and, per view, its images (``png``, ``exr``), so
 the report can link each number to where it came from, and the node it was measured on (``node``:
 see :func:`pipeline.environment.node_name`), so timings from several machines or clusters merged in
 one table stay apart.
 """
 
+import hashlib
 import json
 from pathlib import Path
 
@@ -55,20 +62,107 @@ def rows_for(record_path, *, results_dir):
     return rows
 
 
-def collect(record_paths, experiments, *, results_dir):
-    """Write ``runs.csv``, ``<experiment>.csv`` and ``claims.csv``; return ``(runs_df, claims_df)``."""
-    results_dir = Path(results_dir)
+def table_path(results_dir, experiment_name):
+    """``results/tables/<experiment>.csv``: the experiment's rows of ``runs.csv``."""
+    return Path(results_dir) / "tables" / f"{experiment_name}.csv"
+
+
+def claims_path(results_dir, experiment_name):
+    """``results/claims/<experiment>.csv``: the experiment's rows of ``claims.csv``."""
+    return Path(results_dir) / "claims" / f"{experiment_name}.csv"
+
+
+def tabulate(record_paths, experiment, *, results_dir):
+    """One experiment's run records → its table and its checked claims; return ``(rows, claims)``.
+
+    Parameters
+    ----------
+    record_paths : list of path
+        The experiment's run records (``runs/<experiment>/<run>.json``); their metrics records are
+        read from beside them in ``results_dir``.
+    experiment : Experiment
+    results_dir : path
+        Where :func:`table_path` and :func:`claims_path` are written.
+    """
     frame = pd.DataFrame([row for path in record_paths for row in rows_for(path, results_dir=results_dir)])
-    frame.to_csv(results_dir / "runs.csv", index=False)
-    for experiment in experiments:
-        experiment_rows(frame, experiment).to_csv(results_dir / f"{experiment.name}.csv", index=False)
-    claims = claims_table(frame, experiments)
-    claims.to_csv(results_dir / "claims.csv", index=False)
-    return frame, claims
+    rows = experiment_rows(frame, experiment)
+    claims = claims_table(rows, [experiment])
+    for path, table in ((table_path(results_dir, experiment.name), rows),
+                        (claims_path(results_dir, experiment.name), claims)):
+        path.parent.mkdir(parents=True, exist_ok=True)
+        table.to_csv(path, index=False)
+    return rows, claims
+
+
+def merge(experiments, *, results_dir):
+    """Concatenate the experiments' tables and claims (from :func:`tabulate`) into ``runs.csv`` and ``claims.csv``.
+
+    The tables are read as text and written back unchanged (a column one experiment lacks is left
+    empty in its rows), so no value is re-typed on the way.
+    """
+    results_dir = Path(results_dir)
+    for name, path_of in (("runs.csv", table_path), ("claims.csv", claims_path)):
+        parts = [_read_text(path_of(results_dir, experiment.name)) for experiment in experiments]
+        pd.concat(parts, ignore_index=True).to_csv(results_dir / name, index=False)
+
+
+def _read_text(path):
+    try:
+        return pd.read_csv(path, dtype=str, keep_default_na=False)
+    except pd.errors.EmptyDataError:  # an experiment without runs writes no columns
+        return pd.DataFrame()
+
+
+def collect(record_paths, experiments, *, results_dir):
+    """:func:`tabulate` every experiment (its records among ``record_paths``), then :func:`merge`.
+
+    What the workflow's tabulate and collect jobs do, in one call; returns the concatenated
+    ``(runs, claims)`` tables as computed (before they are written as text).
+    """
+    record_paths = [Path(p) for p in record_paths]
+    tables = [tabulate([p for p in record_paths if p.parent.name == experiment.name], experiment,
+                       results_dir=results_dir) for experiment in experiments]
+    merge(experiments, results_dir=results_dir)
+    return (pd.concat([rows for rows, _ in tables], ignore_index=True),
+            pd.concat([claims for _, claims in tables], ignore_index=True))
+
+
+def phantom_manifest(requests, *, cache_dir):
+    """One row per generated phantom: its request, what was stored and a digest of the stored bytes.
+
+    ``requests`` is ``{cache key: {"dataset", "kwargs"}}`` (:func:`pipeline.scene_io.phantom_requests`);
+    every one must already be in ``cache_dir``. The digest (SHA-256 of the ``.npy`` file, and of
+    the labels file where there is one) lets two runs, on two machines or a cluster, show that they
+    rendered bit-identical phantoms; the key only names the request.
+    """
+    cache_dir = Path(cache_dir)
+    rows = []
+    for key, request in sorted(requests.items(), key=lambda item: (item[1]["dataset"], item[0])):
+        data = cache_dir / f"{key}.npy"
+        if not data.is_file():
+            raise FileNotFoundError(f"phantom {key} ({request['dataset']}) is not in the cache {cache_dir}: "
+                                    "generate it first (the workflow's volume job)")
+        stored = json.loads((cache_dir / f"{key}.json").read_text())
+        digest = hashlib.sha256(data.read_bytes())
+        labels = cache_dir / f"{key}.labels.npy"
+        if stored["labels"]:
+            digest.update(labels.read_bytes())
+        kwargs = dict(request["kwargs"])
+        rows.append({
+            "key": key, "dataset": request["dataset"], "size": kwargs.pop("size", None), "seed": kwargs.pop("seed", None),
+            "params": json.dumps(kwargs, sort_keys=True), "shape": "×".join(map(str, stored["shape"])),
+            "dtype": stored["dtype"], "labels": stored["labels"],
+            "bytes": data.stat().st_size + (labels.stat().st_size if stored["labels"] else 0),
+            "generation_seconds": stored["meta"].get("generation_seconds"), "sha256": digest.hexdigest(),
+        })
+    return pd.DataFrame(rows, columns=["key", "dataset", "size", "seed", "params", "shape", "dtype", "labels", "bytes",
+                                       "generation_seconds", "sha256"])
 
 
 def experiment_rows(frame, experiment):
     """The rows of ``frame`` (``runs.csv``) that belong to ``experiment``, without all-empty columns."""
+    if frame.empty:
+        return frame
     return frame[frame.experiment == experiment.name].dropna(axis=1, how="all")
 
 

@@ -11,6 +11,7 @@ import json
 import sys
 from pathlib import Path
 
+from core.errors import InputError
 from pipeline.experiments import Profile, Run, plan, selected
 
 
@@ -49,14 +50,35 @@ def evaluate(args):
     evaluate_run(args.record, args.reference, args.output)
 
 
-def collect(args):
-    from pipeline.collect import collect as collect_results
+def phantoms(args):
+    from pipeline.collect import phantom_manifest
+    from pipeline.scene_io import phantom_requests
+
+    profile = _profile(args.profile)
+    requests = {key: request for run in plan(profile).values()
+                for key, request in phantom_requests(run.volume_entries, size=profile.volume_size).items()}
+    phantom_manifest(requests, cache_dir=profile.cache).to_csv(args.output, index=False)
+
+
+def tabulate(args):
+    from pipeline.collect import tabulate as tabulate_experiment
     from pipeline.runner import run_record_path
 
     profile = _profile(args.profile)
-    runs = plan(profile)
-    records = [run_record_path(profile.results, run.experiment, run.id) for run in runs.values()]
-    collect_results(records, selected(profile), results_dir=profile.results)
+    experiment = next((e for e in selected(profile) if e.name == args.experiment), None)
+    if experiment is None:
+        raise InputError(f"experiment {args.experiment!r} is not in profile {profile.name!r}; "
+                         f"it has {', '.join(e.name for e in selected(profile))}")
+    records = [run_record_path(profile.results, run.experiment, run.id)
+               for run in plan(profile).values() if run.experiment == experiment.name]
+    tabulate_experiment(records, experiment, results_dir=profile.results)
+
+
+def collect(args):
+    from pipeline.collect import merge
+
+    profile = _profile(args.profile)
+    merge(selected(profile), results_dir=profile.results)
 
 
 def report(args):
@@ -80,7 +102,8 @@ def report(args):
                 for b in renderers.available()]
     index = build_report(runs_df, claims_df, selected(profile), results_dir=results, environment=environment_,
                          backends=backends, planned=planned(renderers.names(), all_experiments().values()),
-                         real_data=real_data_provenance(profile.real_data))
+                         real_data=real_data_provenance(profile.real_data),
+                         phantoms=pd.read_csv(results / "volumes.csv", dtype={"params": str}))
     print(f"volbench report: {index.resolve()}")
 
 
@@ -104,8 +127,17 @@ def main(argv=None):
     p.add_argument("--reference", required=True)
     p.add_argument("--output", required=True)
     p.set_defaults(func=evaluate)
-    for name, func in (("collect", collect), ("report", report)):
-        p = steps.add_parser(name)
+    p = steps.add_parser("phantoms", help="list the profile's generated phantoms with digests of their data")
+    p.add_argument("--profile", required=True)
+    p.add_argument("--output", required=True)
+    p.set_defaults(func=phantoms)
+    p = steps.add_parser("tabulate", help="one experiment's runs → its table and its checked claims")
+    p.add_argument("--profile", required=True)
+    p.add_argument("--experiment", required=True)
+    p.set_defaults(func=tabulate)
+    for name, func, text in (("collect", collect, "concatenate the experiments' tables into runs.csv and claims.csv"),
+                             ("report", report, "write the HTML report")):
+        p = steps.add_parser(name, help=text)
         p.add_argument("--profile", required=True)
         p.set_defaults(func=func)
     args = parser.parse_args(argv)

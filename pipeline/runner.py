@@ -129,8 +129,10 @@ JOB_SOURCES = {
                "pipeline/scene_io.py", "pipeline/timing.py", "pipeline/environment.py",
                "pipeline/experiments/base.py", "reports/imageio.py"),
     "evaluate": ("core", "pipeline/runner.py", "pipeline/rendering.py", "reports/metrics.py", "reports/imageio.py"),
-    "collect": ("core", "pipeline/runner.py", "pipeline/collect.py", "pipeline/environment.py", "pipeline/experiments",
-                "reports/metrics.py"),
+    "phantoms": ("core", "datasets", "pipeline/collect.py", "pipeline/scene_io.py", "pipeline/experiments"),
+    "tabulate": ("core", "pipeline/runner.py", "pipeline/collect.py", "pipeline/environment.py", "pipeline/experiments",
+                 "reports/metrics.py"),
+    "collect": ("pipeline/collect.py",),
     "report": ("core", "pipeline/experiments", "reports"),
 }
 """Per Snakemake rule, the files and folders (relative to the repository) whose code shapes its

@@ -158,6 +158,22 @@ def dataset_arguments(spec, *, size=None):
     return kwargs
 
 
+def phantom_requests(entries, *, size=None):
+    """``{cache key: {"dataset": name, "kwargs": ...}}`` for the generated phantoms among volume ``entries``.
+
+    What the pipeline generates (and caches) before any run reads it: one request per distinct
+    phantom, keyed as :func:`datasets.cache_key` names its cache files; files and real scans are
+    read in place and are left out.
+    """
+    requests = {}
+    for entry in entries:
+        if "dataset" not in entry or datasets.get(entry["dataset"]).kind != "phantom":
+            continue
+        kwargs = dataset_arguments(entry, size=size)
+        requests[datasets.cache_key(entry["dataset"], **kwargs)] = {"dataset": entry["dataset"], "kwargs": kwargs}
+    return requests
+
+
 def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None, where="volume"):
     """The :class:`Volume` a volume entry refers to (a registered data set or a file)."""
     if ("dataset" in spec) == ("file" in spec):

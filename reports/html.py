@@ -322,7 +322,7 @@ def _experiment_blocks(experiment, frame, ctx):
 
 
 def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
-                 real_data=None, psnr_min=takeaways.PSNR_GOOD):
+                 real_data=None, phantoms=None, psnr_min=takeaways.PSNR_GOOD):
     """Write the report into ``results_dir/report``; return the path of ``index.html``.
 
     Parameters
@@ -344,6 +344,8 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     real_data : dict, optional
         ``folder``, ``error`` (when unreadable) and ``datasets``: ``name``, ``file``, ``modality``,
         ``source``.
+    phantoms : pandas.DataFrame, optional
+        ``volumes.csv``: one row per generated phantom (:func:`pipeline.collect.phantom_manifest`).
     psnr_min : float
         The PSNR (dB) the take-aways and the table call accurate.
     """
@@ -352,8 +354,8 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     if report_dir.exists():
         shutil.rmtree(report_dir)
     (report_dir / "csv").mkdir(parents=True)
-    for csv in [results_dir / "runs.csv", results_dir / "claims.csv",
-                *(results_dir / f"{e.name}.csv" for e in experiments)]:
+    for csv in [results_dir / "runs.csv", results_dir / "claims.csv", results_dir / "volumes.csv",
+                *(results_dir / "tables" / f"{e.name}.csv" for e in experiments)]:
         if csv.exists():
             shutil.copyfile(csv, report_dir / "csv" / csv.name)
     claims_df = claims_df.copy()
@@ -420,8 +422,18 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     index.write_text(env.get_template("index.html").render(
         papers=summaries, environment=environment, nodes=node_rows, provenance=facts, takeaways=index_takeaways,
         matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends, planned=list(planned or []),
-        real_data=real_data))
+        real_data=real_data, phantoms=_phantom_summary(phantoms)))
     return index
+
+
+def _phantom_summary(phantoms):
+    """What the index says of the generated phantoms (``volumes.csv``), or ``None`` without them."""
+    if phantoms is None or phantoms.empty:
+        return None
+    rows = [{**row, "seconds": takeaways.number(row["generation_seconds"]) if pd.notna(row["generation_seconds"]) else "",
+             "digest": row["sha256"][:16]} for row in phantoms.fillna({"params": ""}).to_dict("records")]
+    return {"count": len(phantoms), "megabytes": takeaways.number(phantoms["bytes"].sum() / 1e6),
+            "seconds": takeaways.number(phantoms["generation_seconds"].sum()), "rows": rows}
 
 
 def _backend_sentences(backends, planned):

@@ -68,3 +68,48 @@ def test_claims_table_is_what_collect_writes(tmp_path):
     recomputed = claims_table(runs_df, experiments)
     assert recomputed[["experiment", "claim", "measured"]].values.tolist() == \
         written[["experiment", "claim", "measured"]].fillna("").values.tolist()
+
+
+def test_runs_and_claims_csv_are_the_experiments_tables_as_written(tmp_path):
+    import pandas as pd
+
+    from pipeline.collect import claims_path, table_path
+    from test_reports_html import synthetic_results
+
+    runs_df, _claims, experiments, results = synthetic_results(tmp_path)
+    tables = [pd.read_csv(table_path(results, e.name), dtype=str, keep_default_na=False) for e in experiments]
+    assert sum(map(len, tables)) == len(runs_df) and len(experiments) > 1
+    # Text in, text out: every cell of runs.csv is its experiment's table's cell, blank where it has no column.
+    merged = pd.read_csv(results / "runs.csv", dtype=str, keep_default_na=False)
+    assert merged.equals(pd.concat(tables, ignore_index=True).fillna("")[merged.columns])
+    own = set(tables[0].columns) - set(tables[1].columns)
+    assert own and (merged.loc[len(tables[0]):, sorted(own)] == "").all().all()
+    claims = pd.concat([pd.read_csv(claims_path(results, e.name), dtype=str, keep_default_na=False) for e in experiments],
+                       ignore_index=True)
+    assert pd.read_csv(results / "claims.csv", dtype=str, keep_default_na=False).equals(claims)
+
+
+def test_phantom_manifest_digests_the_stored_bytes_and_names_a_missing_phantom(tmp_path):
+    import hashlib
+
+    import pytest
+
+    import datasets
+    from pipeline.collect import phantom_manifest
+    from pipeline.scene_io import phantom_requests
+
+    entries = [{"dataset": "sphere", "seed": 3}, {"dataset": "ct_skull"}, {"dataset": "sphere", "seed": 3}]
+    requests = phantom_requests(entries, size=8)
+    assert len(requests) == 2  # one request per distinct phantom
+    for request in requests.values():
+        datasets.load(request["dataset"], cache_dir=tmp_path, **request["kwargs"])
+    manifest = phantom_manifest(requests, cache_dir=tmp_path).set_index("key")
+    for key, request in requests.items():
+        stored = hashlib.sha256((tmp_path / f"{key}.npy").read_bytes())
+        if manifest.loc[key, "labels"]:
+            stored.update((tmp_path / f"{key}.labels.npy").read_bytes())
+        assert manifest.loc[key, "sha256"] == stored.hexdigest() and manifest.loc[key, "dataset"] == request["dataset"]
+    assert manifest.loc[datasets.cache_key("sphere", size=8, seed=3), "seed"] == 3
+    (tmp_path / f"{datasets.cache_key('ct_skull', size=8, seed=0)}.npy").unlink()
+    with pytest.raises(FileNotFoundError, match="ct_skull.*not in the cache"):
+        phantom_manifest(requests, cache_dir=tmp_path)

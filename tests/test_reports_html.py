@@ -16,11 +16,13 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.collect import collect
+import datasets
+from pipeline.collect import collect, phantom_manifest
 from pipeline.experiments import Profile, plan, selected
 from pipeline.experiments.planned import planned
 from pipeline.rendering import evaluate
 from pipeline.runner import metrics_record_path, run_record_path, write_json
+from pipeline.scene_io import phantom_requests
 from reports import blocks, takeaways
 from reports.html import build_report, provenance
 from reports.imageio import read_image, write_exr, write_png
@@ -112,6 +114,11 @@ def synthetic_results(root):
     experiments = selected(profile)
     runs_df, claims_df = collect(paths, experiments, results_dir=results)
     write_json(results / "environment.json", ENVIRONMENT)
+    requests = {key: request for run in runs.values()
+                for key, request in phantom_requests(run.volume_entries, size=profile.volume_size).items()}
+    for request in requests.values():
+        datasets.load(request["dataset"], cache_dir=profile.cache, **request["kwargs"])
+    phantom_manifest(requests, cache_dir=profile.cache).to_csv(results / "volumes.csv", index=False)
     return pd.read_csv(results / "runs.csv", low_memory=False), claims_df, experiments, results
 
 
@@ -119,7 +126,8 @@ def synthetic_report(root):
     """Build the report of :func:`synthetic_results`; return the path of ``index.html``."""
     runs_df, claims_df, experiments, results = synthetic_results(root)
     return build_report(runs_df, claims_df, experiments, results_dir=results, environment=ENVIRONMENT,
-                        backends=BACKENDS, planned=planned(["reference"], experiments), real_data=REAL_DATA)
+                        backends=BACKENDS, planned=planned(["reference"], experiments), real_data=REAL_DATA,
+                        phantoms=pd.read_csv(results / "volumes.csv"))
 
 
 class _Links(HTMLParser):
@@ -241,6 +249,15 @@ def test_phantom_beside_real_scan_and_untimed_frames_labelled(report):
     assert "phantom ct_skull" in gallery and "real scan cthead" in gallery
     assert "single untimed frame" in page.lower()
     assert "Real scan (CT head)" not in gallery.split("Every reference render")[1]  # paired scans are not repeated
+
+
+def test_index_lists_every_phantom_with_the_digest_of_its_data(report):
+    phantoms = pd.read_csv(report.parent / "csv" / "volumes.csv")
+    assert not phantoms.empty and phantoms["sha256"].str.len().eq(64).all()
+    section = report.read_text().split('id="phantoms"')[1].split("<h2")[0]
+    assert f"{len(phantoms)} phantoms" in section and 'href="csv/volumes.csv"' in section
+    for row in phantoms.itertuples():
+        assert f"<code>{row.sha256[:16]}</code>" in section and row.dataset in section
 
 
 def test_images_open_full_size(report):

@@ -122,24 +122,24 @@ def _copy_tree(tmp_path):
 
 
 @pytest.mark.parametrize("edited, reruns", [
-    ("core/camera.py", {"volume", "render", "evaluate", "collect", "report", "environment"}),
-    ("core/transfer.py", {"volume", "render", "evaluate", "collect", "report", "environment"}),
-    ("datasets/loaders.py", {"volume", "render"}),
+    ("core/camera.py", {"volume", "phantoms", "render", "evaluate", "tabulate", "report", "environment"}),
+    ("core/transfer.py", {"volume", "phantoms", "render", "evaluate", "tabulate", "report", "environment"}),
+    ("datasets/loaders.py", {"volume", "phantoms", "render"}),
     ("renderers/base/interface.py", {"render"}),
     ("renderers/reference/raycast.py", {"render"}),
-    ("pipeline/scene_io.py", {"render"}),
+    ("pipeline/scene_io.py", {"phantoms", "render"}),
     ("pipeline/timing.py", {"render"}),
-    ("pipeline/runner.py", {"render", "evaluate", "collect"}),
+    ("pipeline/runner.py", {"render", "evaluate", "tabulate"}),
     ("reports/imageio.py", {"render", "evaluate", "report"}),
-    ("reports/metrics.py", {"evaluate", "collect", "report"}),
-    ("pipeline/collect.py", {"collect"}),
-    ("pipeline/experiments/volbench.py", {"collect", "report"}),
+    ("reports/metrics.py", {"evaluate", "tabulate", "report"}),
+    ("pipeline/collect.py", {"phantoms", "tabulate", "collect"}),
+    ("pipeline/experiments/volbench.py", {"phantoms", "tabulate", "report"}),
     ("reports/html.py", {"report"}),
-    ("pipeline/environment.py", {"environment", "render", "collect"}),
+    ("pipeline/environment.py", {"environment", "render", "tabulate"}),
 ])
 def test_editing_shared_code_changes_the_digest_of_the_jobs_it_shapes(tmp_path, edited, reruns):
     tree = _copy_tree(tmp_path)
-    rules = ("volume", "environment", "render", "evaluate", "collect", "report")
+    rules = ("volume", "phantoms", "environment", "render", "evaluate", "tabulate", "collect", "report")
 
     def digests():
         return {rule: runner.job_code_digest(rule, backend="reference" if rule == "render" else None, root=tree)

@@ -61,7 +61,7 @@ def test_a_shared_module_edit_reruns_every_job_it_shapes(workflow):
     tree, profile, _ = workflow
     _edit(tree / "core" / "camera.py")
     planned = _planned(tree, profile)
-    assert {"volume", "environment", "render", "evaluate", "collect", "report"} <= set(planned)
+    assert {"volume", "phantoms", "environment", "render", "evaluate", "tabulate", "collect", "report"} <= set(planned)
     assert "Params have changed since last execution" in _snakemake(tree, profile, "--dry-run")
 
 
@@ -69,7 +69,7 @@ def test_a_metrics_edit_reruns_evaluation_but_no_render(workflow):
     tree, profile, _ = workflow
     _edit(tree / "reports" / "metrics.py")
     planned = _planned(tree, profile)
-    assert set(planned) == {"evaluate", "collect", "report"}
+    assert set(planned) == {"evaluate", "tabulate", "collect", "report"}
 
 
 def test_a_loader_edit_reruns_renders_and_a_backend_edit_only_its_renders(workflow):
@@ -116,7 +116,13 @@ def test_the_slurm_profile_gives_each_render_a_node_its_runtime_and_a_gpu_where_
     runs = plan(Profile.from_mapping(profile))
     # (A dry run executes nothing, so it shows no job as local: tests/test_cluster.py checks that.)
     # Render and evaluate jobs run bundled per experiment, phantoms in one more bundle (cluster jobs).
-    assert set(re.findall(r"Group job (\S+) ", text)) == {"volumes", "runs-volbench-convergence", "runs-kruger2003-nocue"}
+    groups = {"volumes", "runs-volbench-convergence", "runs-kruger2003-nocue"}
+    assert set(re.findall(r"Group job (\S+) ", text)) == groups
+    # Each group is one connected piece of the job graph (inside a cluster job the plugin runs one
+    # job step per piece, one after another): bundling one piece per cluster job changes nothing.
+    pieces = _snakemake(ROOT, profile_path, "--dry-run", "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"),
+                        "--group-components", "runs-{experiment}=1", "volumes=1")
+    assert sorted(re.findall(r"Group job (\S+) ", pieces)) == sorted(groups)
     jobs = re.findall(r"^(?:localrule|rule) (\w+):\n(.*?)(?=^\S|\Z)", re.sub(r"^    ", "", text, flags=re.M), re.M | re.S)
     renders = [body for name, body in jobs if name == "render"]
     devices = set()

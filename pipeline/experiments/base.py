@@ -147,6 +147,11 @@ class Run:
     def key(self):
         return f"{self.experiment}/{self.id}"
 
+    @property
+    def volume_entries(self):
+        """The volume entries (scene format) the run reads: its scene's, and its statistics entry."""
+        return [*self.scene["volumes"], *([self.statistics] if self.statistics else [])]
+
     def as_dict(self):
         return {name: getattr(self, name) for name in self.__dataclass_fields__}
 
