@@ -7,11 +7,12 @@ by ``VOLBENCH_CLUSTER_BASELINE``; ``make cluster-test`` points it at ``results/s
 running the profile locally a second time:
 
 - the same runs: the same (experiment, run, view) rows with the same status and the same values in
-  every column but timings, paths and the environment (date, host, SLURM job);
+  every column but timings and durations, paths and the environment (date, host, SLURM job);
 - the same images: bit-identical EXRs for the CPU backends, within :data:`DEVICE_TOLERANCE` for
   those that render through a device driver;
 - the same claims: the same set, and the same outcome and measured value for each once the timing
-  columns are the local run's (a timing claim may flip with the machine's load, the others not).
+  columns are the local run's (a timing claim may flip with the machine's load, the others not);
+- the same phantoms: generated afresh on the cluster, the same bytes (``volumes.csv`` digests).
 
 It needs root and Debian's slurmctld, slurmd, slurm-client and munge (``make cluster-packages``);
 without them, or without a baseline, it skips with the reason, unless ``VOLBENCH_REQUIRE_CLUSTER``
@@ -34,7 +35,8 @@ import pytest
 
 from pipeline.collect import claims_table
 from pipeline.environment import SLURM_FACTS, host_environment
-from pipeline.experiments import Profile, selected
+from pipeline.experiments import Profile, plan, selected
+from pipeline.scene_io import phantom_requests
 from reports.imageio import read_image
 
 pytestmark = pytest.mark.cluster
@@ -122,9 +124,14 @@ def cluster_run(baseline, slurm):
     return ROOT / results, log
 
 
+def is_timing(column):
+    """Timings (``time_*``) and durations (``*_seconds``: e.g. a phantom's generation time) differ run to run."""
+    return column.startswith("time_") or column.endswith("_seconds")
+
+
 def non_timing_columns(frame):
     environment = set(host_environment()) | set(SLURM_FACTS) | {"node"}
-    return [c for c in frame.columns if not c.startswith("time_") and c not in environment and c not in PATH_COLUMNS]
+    return [c for c in frame.columns if not is_timing(c) and c not in environment and c not in PATH_COLUMNS]
 
 
 def runs(folder):
@@ -201,11 +208,25 @@ def test_the_same_claims(cluster_run, baseline):
                                     for claims in (local_claims, cluster_claims))
     claim_key = ["experiment", "claim", "statement", "expected"]
     assert local_claims[claim_key].values.tolist() == cluster_claims[claim_key].values.tolist()
-    flipped = local_claims.loc[local_claims["holds"].astype(str) != cluster_claims["holds"].astype(str), "claim"]
+    outcome = [claims["holds"].fillna("not measured").astype(str) for claims in (local_claims, cluster_claims)]
+    flipped = local_claims.loc[outcome[0] != outcome[1], "claim"]
     print(f"\nclaims whose outcome differs with the cluster's timings: {sorted(flipped) or 'none'}")
     # With the local run's timings in place of the cluster's, every claim must come out the same.
     local, cluster = runs(baseline), runs(results)
-    timing = [c for c in local.columns if c.startswith("time_")]
+    timing = [c for c in local.columns if is_timing(c)]
     cluster[timing] = local[timing]
     expected, measured = claims_table(local, experiments()), claims_table(cluster, experiments())
     pd.testing.assert_frame_equal(expected, measured)
+
+
+def test_the_same_phantoms(cluster_run, baseline):
+    """Phantoms generated on the cluster (into their own cache) hold the local run's bytes."""
+    results, _ = cluster_run
+    names = {e.name for e in experiments()}
+    profile = Profile.load(ROOT / "config" / "smoke.yaml")
+    keys = {key for run in plan(profile).values() if run.experiment in names
+            for key in phantom_requests(run.volume_entries, size=profile.volume_size)}
+    local, cluster = (pd.read_csv(folder / "volumes.csv").set_index("key") for folder in (baseline, results))
+    assert keys and keys <= set(cluster.index) and keys <= set(local.index)
+    keys = sorted(keys)
+    assert local.loc[keys, "sha256"].tolist() == cluster.loc[keys, "sha256"].tolist()

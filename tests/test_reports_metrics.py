@@ -52,6 +52,17 @@ def test_constant_offset_gives_analytic_rmse_and_psnr():
     assert result["alpha_rmse"] == pytest.approx(0.1, rel=1e-5)
 
 
+@pytest.mark.parametrize("data_range", [1.0, 2.0])
+def test_psnr_is_scikit_images(data_range):
+    from skimage.metrics import peak_signal_noise_ratio
+
+    rng = np.random.default_rng(4)
+    reference = textured()
+    test = np.clip(reference + rng.normal(0, 0.05, reference.shape), 0, 1).astype(np.float32)
+    assert metrics.psnr(reference, test, data_range=data_range) == pytest.approx(
+        peak_signal_noise_ratio(reference, test, data_range=data_range), rel=1e-8)  # it subtracts in float32
+
+
 def test_data_range_is_respected():
     reference = textured()
     test = reference + np.float32(0.1)
