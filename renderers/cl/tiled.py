@@ -84,7 +84,8 @@ of a classification), ``setup`` (the frame's triangle list, object table and cle
 ``binning``, ``count`` (global lists only), ``pixel``, ``readback``; ``total`` is the wall clock of
 the frame. Counters: ``rays``, ``rays_hit`` (pixels with a fragment), ``triangles``, ``records``
 (tile records), ``records_per_tile_max``, ``records_per_tile_mean`` (over tiles with records),
-``records_dropped`` (past 4096 per tile), ``pool_chunks``, ``pool_chunks_used``,
+``records_dropped`` (past 4096 per tile), ``pool_chunks``, ``pool_chunks_used`` (see
+:data:`SCHEDULING_COUNTERS`),
 ``fragments`` (kept, depth ≥ 0), ``fragments_max``, ``fragments_mean`` (over hit pixels),
 ``fragments_dropped`` (past the depth cap), ``sort_moves`` (entries the insertion sorts shifted:
 0 for fragments arriving in depth order, ``n(n − 1)/2`` per pixel for ``n`` in reverse),
@@ -136,6 +137,11 @@ FRAGMENT_STORES = ("local", "global")
 EMPTY_SPACE = ("hull", "box")
 TRIANGLE_ORDERS = ("scene", "front-to-back", "back-to-front")
 MEDIA = ("analytic", "sampled")
+SCHEDULING_COUNTERS = ("pool_chunks_used", "sort_moves")
+"""Counters that follow the order in which the device ran its work-items, not only the scene:
+a tile's records are appended through an atomic index, so their order (and the insertion sort's
+moves) can change from frame to frame, and the loser of a race for a tile's next chunk leaves the
+chunk it took unused. The image does not change (fragments are ordered by depth and triangle id)."""
 COVERAGE = ("bitmask", "edge")
 STOP_AFTER = ("composite", "sort")
 STATS = 8
