@@ -135,7 +135,7 @@ def non_timing_columns(frame):
     from renderers.cl.tiled import SCHEDULING_COUNTERS
 
     excluded = set(host_environment()) | set(SLURM_FACTS) | {"node"} | set(PATH_COLUMNS)
-    excluded |= {f"count_{name}" for name in SCHEDULING_COUNTERS}
+    excluded |= {f"{kind}_{name}" for name in SCHEDULING_COUNTERS for kind in ("count", "info")}
     return [c for c in frame.columns if not is_timing(c) and c not in excluded]
 
 
@@ -221,7 +221,8 @@ def test_the_same_claims(cluster_run, baseline):
     local, cluster = runs(baseline), runs(results)
     from renderers.cl.tiled import SCHEDULING_COUNTERS
 
-    timing = [c for c in local.columns if is_timing(c) or c in {f"count_{n}" for n in SCHEDULING_COUNTERS}]
+    scheduling = {f"{kind}_{name}" for name in SCHEDULING_COUNTERS for kind in ("count", "info")}
+    timing = [c for c in local.columns if is_timing(c) or c in scheduling]
     cluster[timing] = local[timing]
     expected, measured = claims_table(local, experiments()), claims_table(cluster, experiments())
     pd.testing.assert_frame_equal(expected, measured)

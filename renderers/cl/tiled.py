@@ -137,8 +137,8 @@ FRAGMENT_STORES = ("local", "global")
 EMPTY_SPACE = ("hull", "box")
 TRIANGLE_ORDERS = ("scene", "front-to-back", "back-to-front")
 MEDIA = ("analytic", "sampled")
-SCHEDULING_COUNTERS = ("pool_chunks_used", "sort_moves")
-"""Counters that follow the order in which the device ran its work-items, not only the scene:
+SCHEDULING_COUNTERS = ("pool_chunks_used", "pool_bytes_used", "sort_moves")
+"""Counters (and ``info["pool_bytes_used"]``, from the chunks used) that follow the order in which the device ran its work-items, not only the scene:
 a tile's records are appended through an atomic index, so their order (and the insertion sort's
 moves) can change from frame to frame, and the loser of a race for a tile's next chunk leaves the
 chunk it took unused. The image does not change (fragments are ordered by depth and triangle id)."""
