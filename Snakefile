@@ -100,7 +100,7 @@ def volume_requests(run):
     return phantom_requests(run.volume_entries, size=PROFILE.volume_size)
 
 
-VOLUMES = {key: request for run in RUNS.values() for key, request in volume_requests(run).items()}
+VOLUMES = phantom_requests([entry for run in RUNS.values() for entry in run.volume_entries], size=PROFILE.volume_size)
 EXPERIMENT_RUNS = {experiment.name: [run for run in RUNS.values() if run.experiment == experiment.name]
                    for experiment in selected(PROFILE)}
 

@@ -55,8 +55,8 @@ def phantoms(args):
     from pipeline.scene_io import phantom_requests
 
     profile = _profile(args.profile)
-    requests = {key: request for run in plan(profile).values()
-                for key, request in phantom_requests(run.volume_entries, size=profile.volume_size).items()}
+    requests = phantom_requests([entry for run in plan(profile).values() for entry in run.volume_entries],
+                                size=profile.volume_size)
     phantom_manifest(requests, cache_dir=profile.cache).to_csv(args.output, index=False)
 
 

@@ -233,8 +233,8 @@ def test_the_same_phantoms(cluster_run, baseline):
     results, _ = cluster_run
     names = {e.name for e in experiments()}
     profile = Profile.load(ROOT / "config" / "smoke.yaml")
-    keys = {key for run in plan(profile).values() if run.experiment in names
-            for key in phantom_requests(run.volume_entries, size=profile.volume_size)}
+    keys = set(phantom_requests([entry for run in plan(profile).values() if run.experiment in names
+                                 for entry in run.volume_entries], size=profile.volume_size))
     local, cluster = (pd.read_csv(folder / "volumes.csv").set_index("key") for folder in (baseline, results))
     assert keys and keys <= set(cluster.index) and keys <= set(local.index)
     keys = sorted(keys)

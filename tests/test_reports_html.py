@@ -114,8 +114,8 @@ def synthetic_results(root):
     experiments = selected(profile)
     runs_df, claims_df = collect(paths, experiments, results_dir=results)
     write_json(results / "environment.json", ENVIRONMENT)
-    requests = {key: request for run in runs.values()
-                for key, request in phantom_requests(run.volume_entries, size=profile.volume_size).items()}
+    requests = phantom_requests([entry for run in runs.values() for entry in run.volume_entries],
+                                size=profile.volume_size)
     for request in requests.values():
         datasets.load(request["dataset"], cache_dir=profile.cache, **request["kwargs"])
     phantom_manifest(requests, cache_dir=profile.cache).to_csv(results / "volumes.csv", index=False)
