@@ -10,8 +10,10 @@ running the profile locally a second time:
   every column but timings and durations, paths and the environment (date, host, SLURM job);
 - the same images: bit-identical EXRs for the CPU backends, within :data:`DEVICE_TOLERANCE` for
   those that render through a device driver;
-- the same claims: the same set, and the same outcome and measured value for each once the timing
-  columns are the local run's (a timing claim may flip with the machine's load, the others not);
+- the same claims: the same set, and the same outcome and measured value for each once the timings
+  and the values the backends declare scheduling-dependent (``Renderer.scheduling_dependent``:
+  counters in runs.csv, entries in the run records) are the local run's (a timing claim may flip
+  with the machine's load, the others not);
 - the same phantoms: generated afresh on the cluster, the same bytes (``volumes.csv`` digests).
 
 It needs root and Debian's slurmctld, slurmd, slurm-client and munge (``make cluster-packages``);
@@ -22,6 +24,7 @@ experiments of the baseline.
 """
 
 import dataclasses
+import json
 import os
 import shutil
 import subprocess
@@ -33,6 +36,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import renderers
 from pipeline.collect import claims_table
 from pipeline.environment import SLURM_FACTS, host_environment
 from pipeline.experiments import Profile, plan, selected
@@ -129,14 +133,48 @@ def is_timing(column):
     return column.startswith("time_") or column.endswith("_seconds")
 
 
-def non_timing_columns(frame):
-    """Columns two runs must agree on: not timings, paths or the environment, nor the counters a
-    device's work-item scheduling decides (:data:`renderers.cl.tiled.SCHEDULING_COUNTERS`)."""
-    from renderers.cl.tiled import SCHEDULING_COUNTERS
+def scheduling_dependent():
+    """``{backend: names}``: each backend's counters and info entries that its scheduling decides."""
+    return {name: tuple(renderers.backend_class(name).scheduling_dependent) for name in renderers.names()}
 
-    excluded = set(host_environment()) | set(SLURM_FACTS) | {"node"} | set(PATH_COLUMNS)
-    excluded |= {f"{kind}_{name}" for name in SCHEDULING_COUNTERS for kind in ("count", "info")}
+
+def scheduling_columns():
+    """The runs.csv columns of :func:`scheduling_dependent` (``count_<name>``, ``info_<name>``)."""
+    return {f"{kind}_{name}" for names in scheduling_dependent().values() for name in names for kind in ("count", "info")}
+
+
+def non_timing_columns(frame):
+    """Columns two runs must agree on: not timings, paths or the environment, nor the values
+    that the backends' thread or work-item scheduling decides (:func:`scheduling_dependent`)."""
+    excluded = set(host_environment()) | set(SLURM_FACTS) | {"node"} | set(PATH_COLUMNS) | scheduling_columns()
     return [c for c in frame.columns if not is_timing(c) and c not in excluded]
+
+
+def with_local_scheduling(cluster, local, folder):
+    """``cluster`` whose records hold the local records' scheduling-dependent entries (copies in ``folder``).
+
+    Claims read some values from the run records (e.g. the shear-warp workers' shares); each view's
+    entries named by its backend's ``scheduling_dependent`` are replaced, the rest is the cluster's.
+    """
+    dependent = scheduling_dependent()
+    written = {}
+    for index, row in cluster.iterrows():
+        names = dependent.get(row["backend"], ())
+        if not names or not isinstance(row["record"], str):
+            continue
+        if row["record"] not in written:
+            record = json.loads((ROOT / row["record"]).read_text())
+            theirs = {view["view"]: view for view in json.loads((ROOT / local.loc[index, "record"]).read_text())["views"]}
+            for view in record["views"]:
+                for part in ("counters", "info"):
+                    source = theirs.get(view["view"], {}).get(part, {})
+                    view.get(part, {}).update({name: source[name] for name in names if name in source})
+            path = folder / row["experiment"] / Path(row["record"]).name
+            path.parent.mkdir(parents=True, exist_ok=True)
+            path.write_text(json.dumps(record))
+            written[row["record"]] = str(path)
+        cluster.loc[index, "record"] = written[row["record"]]
+    return cluster
 
 
 def runs(folder):
@@ -205,7 +243,7 @@ def test_the_same_images(cluster_run, baseline):
     print(f"\nlargest pixel difference of device backends: {worst}")
 
 
-def test_the_same_claims(cluster_run, baseline):
+def test_the_same_claims(cluster_run, baseline, tmp_path):
     results, _ = cluster_run
     names = [e.name for e in experiments()]
     local_claims, cluster_claims = (pd.read_csv(folder / "claims.csv") for folder in (baseline, results))
@@ -216,14 +254,12 @@ def test_the_same_claims(cluster_run, baseline):
     outcome = [claims["holds"].fillna("not measured").astype(str) for claims in (local_claims, cluster_claims)]
     flipped = local_claims.loc[outcome[0] != outcome[1], "claim"]
     print(f"\nclaims whose outcome differs with the cluster's timings: {sorted(flipped) or 'none'}")
-    # With the local run's timings (and scheduling-dependent counters) in place of the cluster's,
+    # With the local run's timings and scheduling-dependent values in place of the cluster's,
     # every claim must come out the same.
     local, cluster = runs(baseline), runs(results)
-    from renderers.cl.tiled import SCHEDULING_COUNTERS
-
-    scheduling = {f"{kind}_{name}" for name in SCHEDULING_COUNTERS for kind in ("count", "info")}
-    timing = [c for c in local.columns if is_timing(c) or c in scheduling]
+    timing = [c for c in local.columns if is_timing(c) or c in scheduling_columns()]
     cluster[timing] = local[timing]
+    cluster = with_local_scheduling(cluster, local, tmp_path)
     expected, measured = claims_table(local, experiments()), claims_table(cluster, experiments())
     pd.testing.assert_frame_equal(expected, measured)
 

@@ -132,6 +132,10 @@ class Renderer(abc.ABC):
     capabilities = Capabilities()
     quality_sweep = ({},)
     """Option sets from fast/coarse to slow/fine for the speed-versus-accuracy study."""
+    scheduling_dependent = ()
+    """Names of counters and info entries whose values follow how threads or work-items were
+    scheduled, not only the scene and options: they may differ from run to run (and between a
+    loaded and an idle machine) where the image does not. Comparisons of two runs leave them out."""
 
     @classmethod
     def probe(cls):

@@ -243,6 +243,7 @@ class ClTiledRenderer(Renderer):
     )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Step sizes from coarse to fine."""
+    scheduling_dependent = SCHEDULING_COUNTERS
 
     def __init__(self, *, step_factor=0.5, depth_cap=63, fragments="local", opaque_threshold=0.99,
                  empty_space="hull", brick_size=8, min_opacity=0.0, triangle_order="scene", media="analytic",

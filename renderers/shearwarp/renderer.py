@@ -214,6 +214,10 @@ class ShearWarpRenderer(Renderer):
     encoding); brute force (same image as the previous one); a stricter opaque threshold; and
     nothing skipped but exactly-zero voxels. (``classification="octree"`` is not a quality level:
     it renders the same image as the default, only its speed differs.)"""
+    scheduling_dependent = ("worker_tasks", "worker_samples")
+    """With a ``-steal`` schedule a worker that finishes its queue takes tasks from the others', so
+    each worker's share follows which thread ran when (on a busy machine one worker may do all of
+    it); the image and the totals do not change."""
 
     def __init__(self, *, rle=True, early_termination=True, opaque_threshold=0.95, min_opacity=0.05,
                  opacity_correction=True, shading="lut", workers=None, schedule="round-robin-steal", task_size=8,
