@@ -16,6 +16,7 @@ import hashlib
 import json
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from pipeline.environment import node_name
@@ -137,7 +138,7 @@ def phantom_manifest(requests, *, cache_dir):
     """
     cache_dir = Path(cache_dir)
     rows = []
-    for key, request in sorted(requests.items(), key=lambda item: (item[1]["dataset"], item[0])):
+    for key, request in requests.items():
         data = cache_dir / f"{key}.npy"
         if not data.is_file():
             raise FileNotFoundError(f"phantom {key} ({request['dataset']}) is not in the cache {cache_dir}: "
@@ -151,10 +152,11 @@ def phantom_manifest(requests, *, cache_dir):
         rows.append({
             "key": key, "dataset": request["dataset"], "size": kwargs.pop("size", None), "seed": kwargs.pop("seed", None),
             "params": json.dumps(kwargs, sort_keys=True), "shape": "×".join(map(str, stored["shape"])),
-            "dtype": stored["dtype"], "labels": stored["labels"],
+            "dtype": np.dtype(stored["dtype"]).name, "labels": stored["labels"],
             "bytes": data.stat().st_size + (labels.stat().st_size if stored["labels"] else 0),
             "generation_seconds": stored["meta"].get("generation_seconds"), "sha256": digest.hexdigest(),
         })
+    rows.sort(key=lambda row: (row["dataset"], row["size"] or 0, row["seed"] or 0, row["params"]))
     return pd.DataFrame(rows, columns=["key", "dataset", "size", "seed", "params", "shape", "dtype", "labels", "bytes",
                                        "generation_seconds", "sha256"])
 

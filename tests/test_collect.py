@@ -3,14 +3,22 @@
 import json
 from types import SimpleNamespace
 
+import pytest
+
 from pipeline import environment
 from pipeline.experiments.planned import NEEDS, planned
 
 
-def test_runs_csv_rows_link_their_record(tmp_path):
+@pytest.fixture(scope="module")
+def synthetic(tmp_path_factory):
+    """The report tests' results folder (records, metrics, CSVs as collect writes them), read-only here."""
     from test_reports_html import synthetic_results
 
-    runs_df, _claims, _experiments, results = synthetic_results(tmp_path)
+    return synthetic_results(tmp_path_factory.mktemp("synthetic"))
+
+
+def test_runs_csv_rows_link_their_record(synthetic):
+    runs_df, _claims, _experiments, results = synthetic
     assert runs_df.record.notna().all()
     for row in runs_df.drop_duplicates("run").itertuples():
         assert json.loads(open(row.record).read())["run"] == row.run
@@ -50,33 +58,29 @@ def test_host_environment_records_date_memory_and_numba_threads():
     assert env["memory_bytes"] > 0 and env["numba_threads"] >= 1 and len(env["date"]) == 16
 
 
-def test_every_row_names_the_node_that_measured_it(tmp_path):
-    from test_reports_html import synthetic_results
-
-    runs_df, *_ = synthetic_results(tmp_path)
+def test_every_row_names_the_node_that_measured_it(synthetic):
+    runs_df, *_ = synthetic
     assert (runs_df["node"] == "test").all()  # the synthetic records' host, outside SLURM
 
 
-def test_claims_table_is_what_collect_writes(tmp_path):
+def test_claims_table_is_what_collect_writes(synthetic):
     import pandas as pd
 
     from pipeline.collect import claims_table
-    from test_reports_html import synthetic_results
 
-    runs_df, claims_df, experiments, results = synthetic_results(tmp_path)
+    runs_df, claims_df, experiments, results = synthetic
     written = pd.read_csv(results / "claims.csv")
     recomputed = claims_table(runs_df, experiments)
     assert recomputed[["experiment", "claim", "measured"]].values.tolist() == \
         written[["experiment", "claim", "measured"]].fillna("").values.tolist()
 
 
-def test_runs_and_claims_csv_are_the_experiments_tables_as_written(tmp_path):
+def test_runs_and_claims_csv_are_the_experiments_tables_as_written(synthetic):
     import pandas as pd
 
     from pipeline.collect import claims_path, table_path
-    from test_reports_html import synthetic_results
 
-    runs_df, _claims, experiments, results = synthetic_results(tmp_path)
+    runs_df, _claims, experiments, results = synthetic
     tables = [pd.read_csv(table_path(results, e.name), dtype=str, keep_default_na=False) for e in experiments]
     assert sum(map(len, tables)) == len(runs_df) and len(experiments) > 1
     # Text in, text out: every cell of runs.csv is its experiment's table's cell, blank where it has no column.
@@ -98,12 +102,17 @@ def test_phantom_manifest_digests_the_stored_bytes_and_names_a_missing_phantom(t
     from pipeline.collect import phantom_manifest
     from pipeline.scene_io import phantom_requests
 
-    entries = [{"dataset": "sphere", "seed": 3}, {"dataset": "ct_skull"}, {"dataset": "sphere", "seed": 3}]
+    entries = [{"dataset": "sphere", "seed": 10}, {"dataset": "ct_skull"}, {"dataset": "sphere", "seed": 3},
+               {"dataset": "sphere", "seed": 10}, {"dataset": "sphere", "seed": 2}]
     requests = phantom_requests(entries, size=8)
-    assert len(requests) == 2  # one request per distinct phantom
+    assert len(requests) == 4  # one request per distinct phantom
     for request in requests.values():
         datasets.load(request["dataset"], cache_dir=tmp_path, **request["kwargs"])
-    manifest = phantom_manifest(requests, cache_dir=tmp_path).set_index("key")
+    table = phantom_manifest(requests, cache_dir=tmp_path)
+    # Listed by data set, then by seed as a number; types by name, as people read them.
+    assert list(zip(table.dataset, table.seed)) == [("ct_skull", 0), ("sphere", 2), ("sphere", 3), ("sphere", 10)]
+    assert set(table.dtype) == {"uint8"}
+    manifest = table.set_index("key")
     for key, request in requests.items():
         stored = hashlib.sha256((tmp_path / f"{key}.npy").read_bytes())
         if manifest.loc[key, "labels"]:
