@@ -21,6 +21,8 @@ STAMP := $(VENV)/.volbench-installed
 .PHONY: setup system-packages cluster-packages reproduce smoke test cluster-test clean
 
 setup: system-packages $(STAMP)
+	@# Every job and test process imports the project: its bytecode once here (pipeline.cli).
+	@$(PY) -c 'from pipeline.cli import compile_packages; compile_packages()'
 
 # apt-get install the packages of $(1) that are missing.
 define install_missing

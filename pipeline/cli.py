@@ -138,12 +138,30 @@ def cmd_compare(args):
     print(json.dumps(values, indent=1, default=str))
 
 
+PACKAGES = ("core", "datasets", "renderers", "reports", "pipeline")
+"""The project's packages: every job of the workflow imports some of them."""
+
+
+def compile_packages():
+    """Write the bytecode of :data:`PACKAGES` where it is missing or stale.
+
+    Every Snakemake job is a fresh interpreter that imports these modules; where Python may not
+    write bytecode itself (``PYTHONDONTWRITEBYTECODE``, a read-only checkout) each job would compile
+    them again, about 0.2 s a job.
+    """
+    import compileall
+
+    for package in PACKAGES:
+        compileall.compile_dir(ROOT / package, quiet=1)
+
+
 def cmd_run(args):
     profile = Path(args.profile)
     if not profile.suffix:
         profile = ROOT / "config" / f"{args.profile}.yaml"
     if not profile.exists():
         raise VolbenchError(f"profile {args.profile!r}: no file {profile}; see config/ for the profiles")
+    compile_packages()
     command = [sys.executable, "-m", "snakemake", "--snakefile", str(ROOT / "Snakefile"),
                "--directory", str(ROOT), "--configfile", str(profile.resolve()),
                "--cores", str(args.cores), "--rerun-incomplete",

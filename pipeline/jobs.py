@@ -40,7 +40,8 @@ def render(args):
     run = Run(**{**fields, "views": tuple(fields["views"])})
     device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
     device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
-    record = execute_limited(run, profile=_profile(args.profile), device_environment=device_env)
+    # This process has only parsed its arguments: a forked child needs no fresh interpreter.
+    record = execute_limited(run, profile=_profile(args.profile), device_environment=device_env, start_method="fork")
     print(f"{run.key}: {record['status']} {record['reason']}".rstrip())
 
 

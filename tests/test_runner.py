@@ -3,8 +3,10 @@
 import json
 import os
 import shutil
+import subprocess
+import sys
 import time
-from dataclasses import replace
+from dataclasses import asdict, replace
 from pathlib import Path
 
 import pytest
@@ -52,10 +54,11 @@ def _run(run_id, backend, **kw):
     return Run("volbench-phantoms", run_id, backend, SCENE, ({"view": "front"},), warmup=0, repeat=1, **kw)
 
 
-def test_a_hanging_job_is_killed_at_the_limit_and_recorded_as_failed(profile):
+@pytest.mark.parametrize("start_method", runner.START_METHODS)
+def test_a_hanging_job_is_killed_at_the_limit_and_recorded_as_failed(profile, start_method):
     limited = replace(profile, render_time_limit=3)
     started = time.monotonic()
-    record = execute_limited(_run("stuck", "hanging"), profile=limited)
+    record = execute_limited(_run("stuck", "hanging"), profile=limited, start_method=start_method)
     elapsed = time.monotonic() - started
     assert record["status"] == "failed"
     assert record["reason"] == "exceeded the profile's render_time_limit of 3 s" == time_limit_reason(3)
@@ -68,9 +71,26 @@ def test_a_hanging_job_is_killed_at_the_limit_and_recorded_as_failed(profile):
     assert Path(ok["views"][0]["exr"]).is_file()
 
 
-def test_a_crashed_render_process_is_recorded_as_failed(profile):
-    record = execute_limited(_run("crash", "crashing"), profile=profile)
+@pytest.mark.parametrize("start_method", runner.START_METHODS)
+def test_a_crashed_render_process_is_recorded_as_failed(profile, start_method):
+    record = execute_limited(_run("crash", "crashing"), profile=profile, start_method=start_method)
     assert record["status"] == "failed" and "exit code 9" in record["reason"]
+
+
+def test_a_render_job_forks_its_limited_run(profile):
+    # The Snakefile's render job: a fresh process that forks the run (Numba compiled in the child).
+    run = _run("job", "reference", options={"step_factor": 1.0})
+    job = subprocess.run([sys.executable, "-m", "pipeline.jobs", "render", "--run", json.dumps(run.as_dict()),
+                          "--profile", json.dumps(asdict(profile))], cwd=ROOT, capture_output=True, text=True, timeout=300)
+    assert job.returncode == 0, job.stderr
+    record = json.loads(run_record_path(profile.results, run.experiment, run.id).read_text())
+    assert record["status"] == "ok", record["reason"]
+    assert Path(record["views"][0]["exr"]).is_file()
+
+
+def test_start_method_is_checked(profile):
+    with pytest.raises(InputError, match="start_method 'forkserver': use one of spawn, fork"):
+        execute_limited(_run("x", "reference"), profile=profile, start_method="forkserver")
 
 
 def test_an_error_in_the_child_is_recorded_with_its_message(profile):
