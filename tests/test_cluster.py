@@ -7,7 +7,7 @@ by ``VOLBENCH_CLUSTER_BASELINE``; ``make cluster-test`` points it at ``results/s
 running the profile locally a second time:
 
 - the same runs: the same (experiment, run, view) rows with the same status and the same values in
-  every column but timings and durations, paths and the environment (date, host, SLURM job);
+  every column but timings and durations, paths and the environment (date, host, device, SLURM job);
 - the same images: bit-identical EXRs for the CPU backends, within :data:`DEVICE_TOLERANCE` for
   those that render through a device driver;
 - the same claims: the same set, and the same outcome and measured value for each once the timings
@@ -143,10 +143,21 @@ def scheduling_columns():
     return {f"{kind}_{name}" for names in scheduling_dependent().values() for name in names for kind in ("count", "info")}
 
 
+def environment_columns(frame):
+    """The runs.csv columns that describe where a run ran, not what it rendered: the host's facts
+    (``environment`` of each run record), the device's (``backend_environment``: e.g. PoCL sizes
+    ``cl_global_mem_bytes`` by the memory free when it starts), the SLURM job's and the node."""
+    columns = set(host_environment()) | set(SLURM_FACTS) | {"node"}
+    for path in frame["record"].dropna().unique():
+        record = json.loads((ROOT / path).read_text())
+        columns |= set(record["environment"]) | set(record.get("backend_environment") or {})
+    return columns
+
+
 def non_timing_columns(frame):
     """Columns two runs must agree on: not timings, paths or the environment, nor the values
     that the backends' thread or work-item scheduling decides (:func:`scheduling_dependent`)."""
-    excluded = set(host_environment()) | set(SLURM_FACTS) | {"node"} | set(PATH_COLUMNS) | scheduling_columns()
+    excluded = environment_columns(frame) | set(PATH_COLUMNS) | scheduling_columns()
     return [c for c in frame.columns if not is_timing(c) and c not in excluded]
 
 
