@@ -1,10 +1,11 @@
 """The smoke profile on a real SLURM cluster, through snakemake-executor-plugin-slurm.
 
 A one-node SLURM (munged, slurmctld, slurmd: ``scripts/slurm-single-node``) is started here, and
-the smoke profile runs on it with the project's workflow profile (``config/profiles/slurm``). The
-result is compared with a finished local smoke run, the one ``.ci/run`` makes just before (named
-by ``VOLBENCH_CLUSTER_BASELINE``; ``make cluster-test`` points it at ``results/smoke``), instead of
-running the profile locally a second time:
+the smoke profile runs on it with the project's workflow profile (``config/profiles/slurm``). Side
+by side with it, the local smoke run is brought up to date (``volbench run --profile smoke`` into
+``VOLBENCH_CLUSTER_BASELINE``, default ``results/smoke``: where ``make reproduce PROFILE=smoke``
+writes; Snakemake reruns only what is stale, so after that command it has nothing to do), and the
+two are compared:
 
 - the same runs: the same (experiment, run, view) rows with the same status and the same values in
   every column but timings and durations, paths and the environment (date, host, device, SLURM job);
@@ -17,10 +18,10 @@ running the profile locally a second time:
 - the same phantoms: generated afresh on the cluster, the same bytes (``volumes.csv`` digests).
 
 It needs root and Debian's slurmctld, slurmd, slurm-client and munge (``make cluster-packages``);
-without them, or without a baseline, it skips with the reason, unless ``VOLBENCH_REQUIRE_CLUSTER``
-is set (``.ci/run`` sets it), where a skip is a failure. ``VOLBENCH_CLUSTER_EXPERIMENTS`` (names,
-comma-separated) runs only those experiments of the profile on the cluster, compared with the same
-experiments of the baseline.
+without them it skips with the reason, unless ``VOLBENCH_REQUIRE_CLUSTER`` is set (``.ci/run`` sets
+it), where a skip is a failure. ``VOLBENCH_CLUSTER_EXPERIMENTS`` (names, comma-separated) runs only
+those experiments of the profile on the cluster, compared with the same experiments of the local run
+(which is always the whole profile).
 """
 
 import dataclasses
@@ -73,16 +74,15 @@ def experiments():
     return selected(profile)
 
 
-@pytest.fixture(scope="module")
-def baseline():
-    folder = os.environ.get("VOLBENCH_CLUSTER_BASELINE")
-    if not folder:
-        unavailable("VOLBENCH_CLUSTER_BASELINE names no local smoke run to compare with "
-                    "(make reproduce PROFILE=smoke, then make cluster-test)")
-    folder = ROOT / folder
-    if not (folder / "runs.csv").is_file() or not (folder / "claims.csv").is_file():
-        unavailable(f"{folder} holds no finished smoke run (runs.csv, claims.csv); run make reproduce PROFILE=smoke")
-    return folder
+SLURM_OPTIONS = (
+    "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"),
+    # No accounting database here: no account to validate or guess.
+    "--slurm-no-account",
+    # Jobs take seconds here, not hours: poll SLURM every 2 s instead of the default 40 s
+    # (still far below MinJobAge, which the plugin checks before it trusts squeue).
+    "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
+)
+"""Snakemake options of the cluster run: the project's workflow profile and this test cluster's settings."""
 
 
 @pytest.fixture(scope="module")
@@ -100,32 +100,70 @@ def slurm():
     subprocess.run([str(SCRIPT), "stop"], check=False, timeout=60)
 
 
+def smoke_command(results, *options):
+    """``volbench run`` of the smoke profile into ``results`` (then ``options``), on this machine's cores."""
+    return [sys.executable, "-m", "pipeline.cli", "run", "--profile", "smoke", "--cores", str(os.cpu_count()),
+            "--results", results, *options]
+
+
 @pytest.fixture(scope="module")
-def cluster_run(baseline, slurm):
-    """The smoke profile through the SLURM executor into its own results and cache folders."""
+def side_by_side(slurm, tmp_path_factory):
+    """The smoke profile through the SLURM executor and, beside it, the local smoke run it is compared with.
+
+    The cluster run writes its own results and phantoms (``VOLBENCH_CLUSTER_RESULTS``, default
+    ``results/smoke-slurm``), afresh. The local run is ``volbench run --profile smoke`` into
+    ``VOLBENCH_CLUSTER_BASELINE`` (default ``results/smoke``, where ``make reproduce PROFILE=smoke``
+    writes): Snakemake reruns only what is stale there, so after that command it has nothing to do.
+    What it does render shares the machine with the cluster's jobs, so its timings are not
+    measurements; nothing here compares timings. The two run side by side because the cluster run
+    leaves most of the machine idle between its SLURM jobs (one core of two, on this 2-core VM).
+    Returns ``(local results, cluster results, cluster log)``.
+    """
+    baseline = os.environ.get("VOLBENCH_CLUSTER_BASELINE", "results/smoke")
     results = os.environ.get("VOLBENCH_CLUSTER_RESULTS", "results/smoke-slurm")
-    cache = f"{results}/.volumes"  # generated on the cluster too, not taken from the local run
     shutil.rmtree(ROOT / results, ignore_errors=True)
-    command = [
-        sys.executable, "-m", "pipeline.cli", "run", "--profile", "smoke", "--cores", str(os.cpu_count()),
-        "--results", results, "--cache", cache, "--",
-        "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"),
-        # No accounting database here: no account to validate or guess.
-        "--slurm-no-account",
-        # Jobs take seconds here, not hours: poll SLURM every 2 s instead of the default 40 s
-        # (still far below MinJobAge, which the plugin checks before it trusts squeue).
-        "--slurm-init-seconds-before-status-checks", "2", "--seconds-between-status-checks", "2",
-    ]
-    if os.environ.get("VOLBENCH_CLUSTER_EXPERIMENTS"):
-        command[command.index("--"):command.index("--")] = [f"--experiment={e.name}" for e in experiments()]
+    subset = [f"--experiment={e.name}" for e in experiments()] if os.environ.get("VOLBENCH_CLUSTER_EXPERIMENTS") else []
+    commands = {
+        # Generated on the cluster too, not taken from the local run.
+        "SLURM": (smoke_command(results, "--cache", f"{results}/.volumes", *subset, "--", *SLURM_OPTIONS), slurm),
+        # The whole profile, so that a subset on the cluster never leaves a partial local report.
+        "local": (smoke_command(baseline), {k: v for k, v in os.environ.items() if k != "SLURM_CONF"}),
+    }
+    logs = tmp_path_factory.mktemp("logs")
     started = time.monotonic()
-    completed = subprocess.run(command, cwd=ROOT, env=slurm, capture_output=True, text=True)
-    wall = time.monotonic() - started
-    log = completed.stdout + completed.stderr
-    assert completed.returncode == 0, f"SLURM smoke run failed after {wall:.0f} s:\n{log[-6000:]}"
+    processes, walls = {}, {}
+    for name, (command, env) in commands.items():
+        with (logs / f"{name}.log").open("w") as log:
+            processes[name] = subprocess.Popen(command, cwd=ROOT, env=env, stdout=log, stderr=subprocess.STDOUT)
+    while len(walls) < len(processes):
+        for name, process in processes.items():
+            if name not in walls and process.poll() is not None:
+                walls[name] = time.monotonic() - started
+                if process.returncode != 0:
+                    for other in processes.values():
+                        other.terminate()  # Snakemake cancels its SLURM jobs on SIGTERM
+                    for other in processes.values():
+                        other.wait()
+                    log = (logs / f"{name}.log").read_text()
+                    pytest.fail(f"the {name} smoke run failed after {walls[name]:.0f} s:\n{log[-6000:]}")
+        time.sleep(1)
+    log = (logs / "SLURM.log").read_text()
     submitted = log.count("has been submitted with SLURM jobid")
-    print(f"\nSLURM smoke run: {wall:.0f} s wall, {submitted} SLURM jobs, results in {results}")
-    return ROOT / results, log
+    print(f"\nside by side: local smoke run {walls['local']:.0f} s, SLURM smoke run {walls['SLURM']:.0f} s wall "
+          f"({submitted} SLURM jobs, results in {results})")
+    for folder in (baseline, results):
+        assert (ROOT / folder / "runs.csv").is_file() and (ROOT / folder / "claims.csv").is_file(), folder
+    return ROOT / baseline, ROOT / results, log
+
+
+@pytest.fixture(scope="module")
+def baseline(side_by_side):
+    return side_by_side[0]
+
+
+@pytest.fixture(scope="module")
+def cluster_run(side_by_side):
+    return side_by_side[1:]
 
 
 def is_timing(column):
@@ -286,3 +324,13 @@ def test_the_same_phantoms(cluster_run, baseline):
     assert keys and keys <= set(cluster.index) and keys <= set(local.index)
     keys = sorted(keys)
     assert local.loc[keys, "sha256"].tolist() == cluster.loc[keys, "sha256"].tolist()
+
+
+def test_stopping_slurm_leaves_nothing_that_slows_later_commands(slurm):
+    """After ``stop``, SLURM's commands (and every Snakemake start, through the executor plugin's
+    ``scontrol show config``) must not go looking for the stopped controller (9 s each here)."""
+    subprocess.run([str(SCRIPT), "stop"], check=True, timeout=60)
+    assert not Path("/run/slurm/conf/slurm.conf").exists()
+    started = time.monotonic()
+    subprocess.run(["scontrol", "show", "config"], capture_output=True, env={k: v for k, v in os.environ.items() if k != "SLURM_CONF"})
+    assert time.monotonic() - started < 3
