@@ -1,8 +1,9 @@
 # volbench: two commands on a fresh Debian machine (as root):
 #   make reproduce   # set up, run the pipeline on PROFILE (default), print where the report is
 #   make test        # set up, run the test suite (all but the `cluster` tests)
-# and, after `make reproduce PROFILE=smoke`:
-#   make cluster-test  # the smoke profile again on a one-node SLURM started here, compared with it
+# and
+#   make cluster-test  # the smoke profile on a one-node SLURM started here and, side by side, the
+#                      # local smoke run brought up to date (results/smoke); then the two compared
 SHELL := /bin/bash
 PYTHON ?= python3
 VENV := .venv
@@ -14,7 +15,7 @@ APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libgomp1 libvolpac
 # The one-node SLURM of the cluster tests (scripts/slurm-single-node): controller, node daemon,
 # client commands (sbatch, srun, squeue, scontrol) and munge for their authentication.
 CLUSTER_PACKAGES := slurmctld slurmd slurm-client munge
-# The local smoke run the cluster test compares with.
+# The local smoke run the cluster test brings up to date and compares with.
 CLUSTER_BASELINE ?= results/smoke
 STAMP := $(VENV)/.volbench-installed
 
@@ -56,7 +57,7 @@ test: setup
 	$(PY) -m pytest -q -n $(CORES) -m "not cluster"
 
 # Starts (and stops) the one-node SLURM itself; needs root. VOLBENCH_REQUIRE_CLUSTER=1 turns its
-# skips (no root, SLURM will not start, no baseline) into failures, as CI wants.
+# skips (no root, SLURM will not start) into failures, as CI wants.
 cluster-test: setup cluster-packages
 	VOLBENCH_CLUSTER_BASELINE=$(CLUSTER_BASELINE) $(PY) -m pytest -q -p no:cacheprovider -m cluster tests/test_cluster.py
 
