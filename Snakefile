@@ -1,5 +1,5 @@
-# volbench workflow: phantoms → one job per run (images + JSON record) → metrics against each run's
-# reference → tidy CSV → HTML report.
+# volbench workflow: phantoms → one job per run (images + JSON record) → per experiment, metrics of
+# each run against its reference and the experiment's table and claims → tidy CSV → HTML report.
 #
 #   snakemake --cores 2 --configfile config/default.yaml        (what `make reproduce` runs)
 #   snakemake -n --configfile config/full.yaml                   (dry run: list the jobs)
@@ -117,6 +117,12 @@ def metrics(run):
     return f"{R}/metrics/{run.experiment}/{run.id}.json"
 
 
+# Per experiment, its runs that have a reference: [run record, reference record, metrics record].
+EVALUATIONS = {name: [[record(run), record(RUNS[f"{name}/{run.reference}"]), metrics(run)]
+                      for run in runs if run.reference is not None]
+               for name, runs in EXPERIMENT_RUNS.items()}
+
+
 rule all:
     input:
         f"{R}/report/index.html",
@@ -178,17 +184,20 @@ rule render:
         " --profile {PROFILE_JSON:q} --device-env {input.environment}"
 
 
+# One job compares every run of an experiment that has a reference with it (a comparison of small
+# images takes milliseconds, a job's start a second): results/metrics/<experiment>/<run>.json and
+# the difference images beside each. Any render of the experiment recomputes all its metrics.
 rule evaluate:
     input:
-        record=f"{R}/runs/{{experiment}}/{{run}}.json",
-        reference=lambda w: record(RUNS[f"{w.experiment}/{run_of(w).reference}"]),
+        lambda w: sorted({path for pair in EVALUATIONS[w.experiment] for path in pair[:2]}),
     output:
-        f"{R}/metrics/{{experiment}}/{{run}}.json",
+        directory(f"{R}/metrics/{{experiment}}"),
     group: RUN_GROUP
     params:
+        pairs=lambda w: json.dumps(EVALUATIONS[w.experiment]),
         code=CODE["evaluate"],
     shell:
-        "{PY} -m pipeline.jobs evaluate --record {input.record} --reference {input.reference} --output {output}"
+        "{PY} -m pipeline.jobs evaluate --pairs {params.pairs:q}"
 
 
 # An experiment's table and claims are made in its group, beside its runs: on a cluster, in the
@@ -196,7 +205,7 @@ rule evaluate:
 rule tabulate:
     input:
         records=lambda w: [record(run) for run in EXPERIMENT_RUNS[w.experiment]],
-        metrics=lambda w: [metrics(run) for run in EXPERIMENT_RUNS[w.experiment] if run.reference is not None],
+        metrics=lambda w: [f"{R}/metrics/{w.experiment}"] if EVALUATIONS[w.experiment] else [],
     output:
         f"{R}/tables/{{experiment}}.csv",
         f"{R}/claims/{{experiment}}.csv",

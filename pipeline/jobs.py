@@ -46,9 +46,17 @@ def render(args):
 
 
 def evaluate(args):
+    """Compare every run of one experiment that has a reference with it, one run after another.
+
+    One process for the experiment rather than one per run: a comparison of small images takes
+    milliseconds and a process start a second.
+    """
     from pipeline.rendering import evaluate as evaluate_run
 
-    evaluate_run(args.record, args.reference, args.output)
+    pairs = json.loads(args.pairs)
+    for done, (record, reference, output) in enumerate(pairs, 1):
+        metrics = evaluate_run(record, reference, output)
+        print(f"evaluated {done}/{len(pairs)}: {metrics['experiment']}/{metrics['run']} {metrics['status']}", flush=True)
 
 
 def phantoms(args):
@@ -123,10 +131,8 @@ def main(argv=None):
     p.add_argument("--profile", required=True)
     p.add_argument("--device-env")
     p.set_defaults(func=render)
-    p = steps.add_parser("evaluate", help="compare a run with its reference run")
-    p.add_argument("--record", required=True)
-    p.add_argument("--reference", required=True)
-    p.add_argument("--output", required=True)
+    p = steps.add_parser("evaluate", help="compare runs with their reference runs")
+    p.add_argument("--pairs", required=True, help="JSON list of [run record, reference record, metrics output]")
     p.set_defaults(func=evaluate)
     p = steps.add_parser("phantoms", help="list the profile's generated phantoms with digests of their data")
     p.add_argument("--profile", required=True)

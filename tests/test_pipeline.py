@@ -12,7 +12,8 @@ import renderers
 from pipeline.collect import collect
 from pipeline.experiments import Profile, Run
 from pipeline.experiments.volbench import PhantomGallery
-from pipeline.rendering import evaluate, execute
+from pipeline import jobs
+from pipeline.rendering import execute
 from pipeline.runner import metrics_record_path, run_record_path
 from renderers.base import Capabilities, Renderer
 
@@ -49,7 +50,7 @@ def _run(run_id, backend, **kw):
     return Run("volbench-phantoms", run_id, backend, SCENE, VIEWS, **kw)
 
 
-def test_execute_evaluate_collect(profile):
+def test_execute_evaluate_collect(profile, capsys):
     truth = _run("sphere.truth", "reference", options={"step_factor": 0.125})
     coarse = _run("sphere.coarse", "reference", options={"step_factor": 1.0}, reference="sphere.truth",
                   tags={"dataset": "sphere", "preset": "opaque", "kind": "phantom"},
@@ -69,10 +70,12 @@ def test_execute_evaluate_collect(profile):
     assert Path(view["exr"]).exists() and Path(view["png"]).exists()
 
     results = profile.results
-    for run in (coarse, failed):
-        evaluate(run_record_path(results, run.experiment, run.id),
-                 run_record_path(results, truth.experiment, truth.id),
-                 metrics_record_path(results, run.experiment, run.id))
+    # The evaluate job: every run of the experiment against its reference, in one process.
+    pairs = [[str(run_record_path(results, run.experiment, run.id)), str(run_record_path(results, truth.experiment, truth.id)),
+              str(metrics_record_path(results, run.experiment, run.id))] for run in (coarse, failed)]
+    jobs.main(["evaluate", "--pairs", json.dumps(pairs)])
+    assert capsys.readouterr().out.splitlines() == ["evaluated 1/2: volbench-phantoms/sphere.coarse ok",
+                                                    "evaluated 2/2: volbench-phantoms/sphere.failed skipped"]
     metrics = json.loads(metrics_record_path(results, coarse.experiment, coarse.id).read_text())
     assert metrics["status"] == "ok" and 0 < metrics["views"]["side"]["rmse"] < 0.2
     assert json.loads(metrics_record_path(results, failed.experiment, failed.id).read_text())["status"] == "skipped"
