@@ -170,6 +170,9 @@ def experiment_rows(frame, experiment):
 
 def claims_table(frame, experiments):
     """Every claim of ``experiments`` checked on the successful rows of ``frame``: ``claims.csv``'s table."""
+    # One block per dtype: pandas.read_csv of runs.csv gives one per column (hundreds), and every
+    # column a claim adds to such a frame would warn that it is fragmented.
+    frame = frame.copy()
     claim_rows = []
     for experiment in experiments:
         part = experiment_rows(frame, experiment)
