@@ -15,23 +15,27 @@ APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libgomp1 libvolpac
 # The one-node SLURM of the cluster tests (scripts/slurm-single-node): controller, node daemon,
 # client commands (sbatch, srun, squeue, scontrol) and munge for their authentication.
 CLUSTER_PACKAGES := slurmctld slurmd slurm-client munge
+# The headless browser of tests/test_report_browser.py (it skips without one).
+BROWSER_PACKAGES := chromium
 # The local smoke run the cluster test brings up to date and compares with.
 CLUSTER_BASELINE ?= results/smoke
 STAMP := $(VENV)/.volbench-installed
 
-.PHONY: setup system-packages cluster-packages reproduce smoke test cluster-test clean
+.PHONY: setup system-packages cluster-packages browser-packages reproduce smoke test cluster-test clean
 
 setup: system-packages $(STAMP)
 	@# Every job and test process imports the project: its bytecode once here (pipeline.cli).
 	@$(PY) -c 'from pipeline.cli import compile_packages; compile_packages()'
 
-# apt-get install the packages of $(1) that are missing.
+# apt-get install the packages of $(1) that are missing; waiting for another apt or dpkg to finish
+# (CI installs some packages while pip runs; a machine may be upgrading itself) rather than failing.
+APT_WAIT := -o DPkg::Lock::Timeout=600
 define install_missing
 	@missing=$$(for p in $(1); do dpkg-query -W -f='$${Status}' $$p 2>/dev/null | grep -q 'ok installed' || echo $$p; done); \
 	if [ -n "$$missing" ]; then \
 	  echo "volbench: installing Debian packages:" $$missing; \
 	  if [ "$$(id -u)" = 0 ]; then SUDO=; else SUDO=sudo; fi; \
-	  $$SUDO apt-get update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get install -y -qq $$missing; \
+	  $$SUDO apt-get $(APT_WAIT) update -qq && DEBIAN_FRONTEND=noninteractive $$SUDO apt-get $(APT_WAIT) install -y -qq $$missing; \
 	fi
 endef
 
@@ -40,6 +44,9 @@ system-packages:
 
 cluster-packages:
 	$(call install_missing,$(CLUSTER_PACKAGES))
+
+browser-packages:
+	$(call install_missing,$(BROWSER_PACKAGES))
 
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)

@@ -139,6 +139,8 @@ def side_by_side(slurm, tmp_path_factory):
         for name, process in processes.items():
             if name not in walls and process.poll() is not None:
                 walls[name] = time.monotonic() - started
+                # .ci/run checks the local run's report on this line, while the cluster run goes on.
+                print(f"\n{name} smoke run finished after {walls[name]:.0f} s (exit code {process.returncode})", flush=True)
                 if process.returncode != 0:
                     for other in processes.values():
                         other.terminate()  # Snakemake cancels its SLURM jobs on SIGTERM
