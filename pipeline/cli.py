@@ -168,7 +168,14 @@ def cmd_run(args):
                # The greedy scheduler: the default (an integer program solved after every job) only
                # pays where temporary files must be deleted early, and this workflow has none; with
                # hundreds of small jobs its solves take CPU from the timed render beside it.
-               "--scheduler", "greedy"]
+               "--scheduler", "greedy",
+               # No rate limit in effect. Under the default one (100/1s), Snakemake 9 ends every
+               # pass of its scheduler that leaves jobs waiting by starting a timer for another pass
+               # a timespan later, and every finished job adds a pass, so these timers multiply:
+               # with render jobs waiting for the cores all run long, the smoke profile's main
+               # Snakemake made ~100 passes a second by its end (64 000 timer threads) and took half
+               # a core from the renders. A day's timespan leaves one pass a day per finished job.
+               "--max-jobs-per-timespan", "1000000/1d"]
     if args.dry_run:
         command.append("--dry-run")
     extra = list(args.snakemake_args)
