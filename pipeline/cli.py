@@ -169,13 +169,15 @@ def cmd_run(args):
                # pays where temporary files must be deleted early, and this workflow has none; with
                # hundreds of small jobs its solves take CPU from the timed render beside it.
                "--scheduler", "greedy",
-               # No rate limit in effect. Under the default one (100/1s), Snakemake 9 ends every
-               # pass of its scheduler that leaves jobs waiting by starting a timer for another pass
-               # a timespan later, and every finished job adds a pass, so these timers multiply:
-               # with render jobs waiting for the cores all run long, the smoke profile's main
-               # Snakemake made ~100 passes a second by its end (64 000 timer threads) and took half
-               # a core from the renders. A day's timespan leaves one pass a day per finished job.
-               "--max-jobs-per-timespan", "1000000/1d"]
+               # A rate limit that never binds, checked every 10 s. Under the default (100/1s),
+               # Snakemake 9 ends every scheduler pass that leaves jobs waiting by starting a timer
+               # for another pass a timespan later, and every finished job adds a pass, so these
+               # timers multiply: with render jobs waiting for the cores all run long, the smoke
+               # profile's main Snakemake made ~100 passes a second by its end (64 000 timer threads)
+               # and took half a core from the renders. Ten seconds make a tenth of the passes; the
+               # timers are not daemon threads, so Snakemake exits up to one timespan after its last
+               # job (a day's timespan kept it alive for a day).
+               "--max-jobs-per-timespan", "1000000/10s"]
     if args.dry_run:
         command.append("--dry-run")
     extra = list(args.snakemake_args)

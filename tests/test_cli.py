@@ -54,7 +54,7 @@ def test_run_dry_run_goes_through_snakemake(tmp_path):
     planned = {line.split("experiment=")[1].split(",")[0] for line in out.stdout.splitlines() if "experiment=" in line}
     assert planned == {"volbench-convergence"}
     # Snakemake's default job rate limit multiplies its scheduler's passes (see pipeline.cli.cmd_run).
-    assert "--max-jobs-per-timespan 1000000/1d" in out.stdout
+    assert "--max-jobs-per-timespan 1000000/10s" in out.stdout
 
 
 def test_unknown_backend_option_lists_the_valid_ones(capsys):
