@@ -45,8 +45,9 @@ def finished_workflow(tmp_path_factory):
     profile.update(results="results", cache="cache", experiments=["volbench-convergence"])
     (tree / "profile.yaml").write_text(yaml.safe_dump(profile))
     summary = _snakemake(tree, tree / "profile.yaml", "--summary")
-    for line in summary.splitlines()[1:]:
-        path = tree / line.split("\t")[0]
+    # Its table's rows (tab-separated, after the header), not Snakemake's log lines.
+    for output in [line.split("\t")[0] for line in summary.splitlines() if "\t" in line][1:]:
+        path = tree / output
         path.parent.mkdir(parents=True, exist_ok=True)
         if "/metrics/" in str(path):  # an experiment's metrics: a folder (directory output)
             path.mkdir(parents=True, exist_ok=True)
