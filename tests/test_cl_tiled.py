@@ -614,6 +614,11 @@ def test_geometry_capabilities_and_refusals(tiled, cube):
     instances = tuple(MeshInstance(cube, transform=placement(1, (i, 0, 0)), name=f"m{i}") for i in range(20))
     with pytest.raises(UnsupportedFeatureError, match="65 objects.*64-bit"):
         tiled().render(Scene(volumes, meshes=instances, width=8, height=8))
+    # 64 volumes and a mesh are 65 leaves: refused by check() before any mask is built (the
+    # kainz2009-scaling run clouds+mesh.n64 failed with an OverflowError in the leaf masks).
+    volumes = tuple(VolumeInstance(tiny, SMOOTH, name=f"v{i}") for i in range(64))
+    with pytest.raises(UnsupportedFeatureError, match="65 objects.*64 \\+ 1 \\+ 0"):
+        tiled().check(Scene(volumes, meshes=instances[:1], width=8, height=8))
     # Meshes are dvr only in every backend: the scene itself refuses them in mip (core.scene).
     with pytest.raises(InputError, match="mode 'dvr' only"):
         Scene((VolumeInstance(tiny, SMOOTH),), meshes=(MeshInstance(cube),), mode="mip")

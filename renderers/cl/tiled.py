@@ -295,6 +295,18 @@ class ClTiledRenderer(Renderer):
     def environment(self):
         return context.environment(context.selector_for(self.device))
 
+    def check(self, scene):
+        """Also refuse a scene with more objects than the inside mask has bits, before any work
+        (the capabilities count volumes only; meshes and boundaries take bits too)."""
+        super().check(scene)
+        boundaries = sum(instance.boundary is not None for instance in scene.volumes)
+        objects = len(scene.volumes) + len(scene.meshes) + boundaries
+        if objects > scene_arrays.MAX_OBJECTS:
+            raise UnsupportedFeatureError(
+                self.name, f"{objects} objects",
+                f"volume instances, mesh instances and volume boundaries are one bit each of a 64-bit inside mask; "
+                f"this scene has {len(scene.volumes)} + {len(scene.meshes)} + {boundaries}")
+
     def close(self):
         self._cache = None
         self._buffers = {}
@@ -378,11 +390,6 @@ class ClTiledRenderer(Renderer):
         phong = scene.shading.model == "phong" and not mip
         gradient_opacity = not mip and any(instance.gradient_opacity is not None for instance in scene.volumes)
         leaves = scene_arrays.leaves(scene)
-        if leaves.objects > scene_arrays.MAX_OBJECTS:
-            raise UnsupportedFeatureError(
-                self.name, f"{leaves.objects} objects",
-                f"volume instances, mesh instances and volume boundaries are one bit each of a 64-bit inside mask; "
-                f"this scene has {len(scene.volumes)} + {len(scene.meshes)} + {len(leaves.boundary_volumes)}")
 
         volumes, volume_index = scene_arrays.distinct_volumes(scene)
         atlas = self._cache.atlas(volumes, stages) if volumes else None
