@@ -37,7 +37,8 @@ def rows_for(record_path, *, results_dir):
         metrics = json.loads(metrics_path.read_text())
     base = {
         "experiment": record["experiment"], "run": record["run"], "backend": record["backend"],
-        "status": record["status"], "reason": record["reason"], "reference": record["reference"],
+        "status": record["status"], "reason": record["reason"], "cause": record.get("cause", ""),
+        "reference": record["reference"],
         "spec_hash": record["spec_hash"], "record": str(record_path), **record["tags"],
         **_flatten("option_", record.get("options")),
         **_flatten("stat_", record.get("statistics")),
@@ -45,7 +46,8 @@ def rows_for(record_path, *, results_dir):
         "node": node_name(record["environment"]),
     }
     if record["status"] != "ok":
-        return [base]
+        # The views it would have rendered, so that a claim can be judged without this run.
+        return [{**base, "planned_views": ";".join(record.get("planned_views", []))}]
     rows = []
     for view in record["views"]:
         row = {**base, "view": view["view"], "png": view["png"], "exr": view["exr"],

@@ -19,6 +19,15 @@ from pipeline.timing import measure
 from reports.imageio import read_image, write_exr, write_png
 
 
+def skip_cause(exc):
+    """The record's ``cause`` (:data:`pipeline.runner.CAUSES`) of a run skipped because of ``exc``."""
+    if isinstance(exc, datasets.DataUnavailableError):
+        return "no-data"
+    if isinstance(exc, BackendUnavailableError):
+        return "unavailable"
+    return "unsupported"
+
+
 def execute(run, *, profile, device_environment=None):
     """Render every view of ``run``, write its images and record; return the record."""
     record_path = run_record_path(profile.results, run.experiment, run.id)
@@ -28,7 +37,7 @@ def execute(run, *, profile, device_environment=None):
         renderer = renderers.get(run.backend, **run.options)
         renderer.check(scene)
     except (datasets.DataUnavailableError, BackendUnavailableError, UnsupportedFeatureError) as exc:
-        record.update(status="skipped", reason=str(exc))
+        record.update(status="skipped", reason=str(exc), cause=skip_cause(exc))
         write_json(record_path, record)
         return record
     image_dir = record_path.with_suffix("")
@@ -57,7 +66,7 @@ def execute(run, *, profile, device_environment=None):
             # After rendering: some effective options (a step derived from the scene) exist only now.
             record["options"] = {**run.options, **renderer.options}
     except Exception as exc:  # recorded with its traceback: the pipeline must not lose the pair
-        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}",
+        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
                       traceback=traceback.format_exc(limit=8))
     write_json(record_path, record)
     return record

@@ -3,7 +3,9 @@
 A run's record is a JSON file; its images sit in a folder of the same name, one EXR (exact) and one
 PNG (to look at) per view. A run that cannot happen here is recorded as ``skipped`` with the reason
 (backend unavailable, feature unsupported, data absent); one that raised is recorded as ``failed``
-with the error. Neither is ever dropped silently.
+with the error. Neither is ever dropped silently. The record's ``cause`` (one of :data:`CAUSES`)
+says which, so that a report can tell a planned limit (a feature the backend lacks) from a run
+that should have happened and did not.
 """
 
 import hashlib
@@ -48,11 +50,28 @@ def metrics_record_path(results_dir, experiment, run_id):
     return Path(results_dir) / "metrics" / experiment / f"{run_id}.json"
 
 
+CAUSES = {
+    "": "the run succeeded",
+    "unsupported": "the backend lacks a feature the scene uses (a planned limit, stated by its capabilities)",
+    "unavailable": "the backend cannot run on this machine (its probe says why)",
+    "no-data": "the data set is not on this machine",
+    "error": "the run raised an error",
+    "time-limit": "the run exceeded the profile's render_time_limit",
+    "crash": "the render process died without a record",
+}
+"""A record's ``cause`` → what it means. Only ``unsupported`` is a limit the experiment planned for;
+every other non-empty cause means measurements the experiment expected are missing."""
+
+INCOMPLETE_CAUSES = frozenset(CAUSES) - {"", "unsupported"}
+"""Causes of runs that should have produced measurements here and did not."""
+
+
 def _new_record(run, device_environment):
     return {
         "experiment": run.experiment, "run": run.id, "backend": run.backend, "options": run.options,
         "tags": run.tags, "reference": run.reference, "spec_hash": run.spec_hash(),
-        "status": "ok", "reason": "", "views": [], "statistics": None,
+        "status": "ok", "reason": "", "cause": "", "views": [], "statistics": None,
+        "planned_views": [view["view"] for view in run.views],
         "environment": {**host_environment(), **(device_environment or {})},
     }
 
@@ -98,13 +117,13 @@ def execute_limited(run, *, profile, device_environment=None, start_method="spaw
     if child.is_alive():
         child.kill()
         child.join()
-        reason = time_limit_reason(limit)
+        reason, cause = time_limit_reason(limit), "time-limit"
     elif record_path.is_file():
         return json.loads(record_path.read_text())
     else:
-        reason = f"the render process died without a record (exit code {child.exitcode})"
+        reason, cause = f"the render process died without a record (exit code {child.exitcode})", "crash"
     record = _new_record(run, device_environment)
-    record.update(status="failed", reason=reason, elapsed=time.monotonic() - started)
+    record.update(status="failed", reason=reason, cause=cause, elapsed=time.monotonic() - started)
     write_json(record_path, record)
     return record
 
@@ -122,7 +141,8 @@ def _execute_child(run, profile, device_environment, backends):
         execute(run, profile=profile, device_environment=device_environment)
     except Exception as exc:
         record = _new_record(run, device_environment)
-        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", traceback=traceback.format_exc(limit=8))
+        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
+                      traceback=traceback.format_exc(limit=8))
         write_json(run_record_path(profile.results, run.experiment, run.id), record)
 
 
