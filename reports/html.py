@@ -322,7 +322,7 @@ def _experiment_blocks(experiment, frame, ctx):
 
 
 def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
-                 real_data=None, phantoms=None, psnr_min=takeaways.PSNR_GOOD):
+                 real_data=None, phantoms=None, notices=(), psnr_min=takeaways.PSNR_GOOD):
     """Write the report into ``results_dir/report``; return the path of ``index.html``.
 
     Parameters
@@ -346,6 +346,9 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         ``source``.
     phantoms : pandas.DataFrame, optional
         ``volumes.csv``: one row per generated phantom (:func:`pipeline.collect.phantom_manifest`).
+    notices : sequence of str
+        Sentences every page shows first, above its title (e.g. that the report mixes runs of two
+        pipeline runs).
     psnr_min : float
         The PSNR (dB) the take-aways and the table call accurate.
     """
@@ -395,6 +398,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
                                             + [t for s in sections for t in s["takeaways"]]))
         (report_dir / f"{paper}.html").write_text(page_template.render(
             paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
+            notices=list(notices),
             nodes=node_rows, provenance=facts, takeaways=page_takeaways))
         summaries.append({
             "paper": paper, "title": PAPERS.get(paper, paper), "page": f"{paper}.html",
@@ -421,6 +425,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     index = report_dir / "index.html"
     index.write_text(env.get_template("index.html").render(
         papers=summaries, environment=environment, nodes=node_rows, provenance=facts, takeaways=index_takeaways,
+        notices=list(notices),
         matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends, planned=list(planned or []),
         real_data=real_data, phantoms=_phantom_summary(phantoms)))
     return index
