@@ -4,7 +4,9 @@ Cheap facts (CPU, Python, package versions, git commit, the node and the SLURM j
 read in every process, so a run executed on a cluster node records that node; the OpenGL and
 OpenCL devices are probed by :func:`probe_devices`, which the pipeline runs once per run of the
 workflow (creating a GL context and initialising OpenCL costs seconds) and backends that use a
-device add their own context's facts to their records.
+device add their own context's facts to their records. The probes report the devices the
+backends choose, by asking the backends' context modules (:mod:`renderers.gl.context`,
+:mod:`renderers.cl.context`), not a choice of their own.
 """
 
 import functools
@@ -17,8 +19,10 @@ from pathlib import Path
 
 KEY_PACKAGES = (
     "numpy", "numba", "scipy", "scikit-image", "pandas", "matplotlib", "OpenImageIO",
-    "flip-evaluator", "snakemake", "moderngl", "pyopencl", "pocl-binary-distribution", "vtk",
+    "flip-evaluator", "snakemake", "moderngl", "glcontext", "pyopencl", "pocl-binary-distribution", "vtk",
 )
+"""Python packages whose versions every record carries (glcontext chooses the EGL device; the PoCL
+that runs, PyPI's or Debian's, is in the OpenCL facts: ``cl_pocl_version``)."""
 REPO_ROOT = Path(__file__).resolve().parent.parent
 
 
@@ -145,35 +149,26 @@ def host_environment():
 
 
 def probe_opengl():
-    """``{gl_renderer, gl_version, gl_vendor}`` of a headless EGL context, or the failure reason."""
-    try:
-        import moderngl
+    """The OpenGL device the GL backends use (:func:`renderers.gl.context.device_facts`: renderer,
+    version, EGL device index and the devices tried), or ``gl_error`` saying why there is none."""
+    from renderers.gl import context
 
-        ctx = moderngl.create_standalone_context(backend="egl")
-        try:
-            info = ctx.info
-            return {"gl_renderer": info["GL_RENDERER"], "gl_version": info["GL_VERSION"],
-                    "gl_vendor": info["GL_VENDOR"]}
-        finally:
-            ctx.release()
-    except Exception as exc:  # any failure here means "no OpenGL", which is a fact to record
-        return {"gl_renderer": None, "gl_version": None, "gl_vendor": None,
-                "gl_error": f"{type(exc).__name__}: {exc}"}
+    ok, reason = context.probe()
+    if not ok:  # "no OpenGL" is a fact to record, not an error
+        return {"gl_renderer": None, "gl_version": None, "gl_vendor": None, "gl_error": reason}
+    return context.device_facts()
 
 
 def probe_opencl():
-    """``{cl_platform, cl_device}`` of the first OpenCL device, or the failure reason."""
-    try:
-        import pyopencl as cl
+    """The OpenCL device the CL backends use by default (:func:`renderers.cl.context.environment`:
+    device, platform, PoCL and LLVM versions, the devices refused), or ``cl_error`` saying why there is none."""
+    from renderers.cl import context
 
-        platforms = cl.get_platforms()
-        devices = [(p, d) for p in platforms for d in p.get_devices()]
-        if not devices:
-            return {"cl_platform": None, "cl_device": None, "cl_error": "no OpenCL device"}
-        platform_, device = devices[0]
-        return {"cl_platform": f"{platform_.name} {platform_.version}", "cl_device": device.name.strip()}
-    except Exception as exc:  # as above: recorded, not raised
-        return {"cl_platform": None, "cl_device": None, "cl_error": f"{type(exc).__name__}: {exc}"}
+    selector = context.selector_for(None)
+    ok, reason = context.probe(selector)
+    if not ok:  # as above: recorded, not raised
+        return {"cl_platform": None, "cl_device": None, "cl_error": reason}
+    return context.environment(selector)
 
 
 def probe_devices():

@@ -16,6 +16,13 @@ def test_git_commit_outside_a_repository_is_unknown(tmp_path):
 def test_device_probes_report_failures_as_values(monkeypatch):
     import builtins
 
+    from renderers.cl import context as cl_context
+    from renderers.gl import context as gl_context
+
+    # The context modules remember a failure for the process: keep this one out of later tests.
+    monkeypatch.setattr(gl_context, "_SHARED", gl_context._Shared())
+    monkeypatch.setattr(cl_context, "_STATE", {"pid": None, "devices": {}, "errors": {}})
+    monkeypatch.delenv(cl_context.DEVICE_VARIABLE, raising=False)
     real_import = builtins.__import__
 
     def no_gl(name, *args, **kwargs):
@@ -25,8 +32,31 @@ def test_device_probes_report_failures_as_values(monkeypatch):
 
     monkeypatch.setattr(builtins, "__import__", no_gl)
     facts = environment.probe_devices()
-    assert facts["gl_renderer"] is None and "hidden by the test" in facts["gl_error"]
-    assert facts["cl_device"] is None and "hidden by the test" in facts["cl_error"]
+    assert facts["gl_renderer"] is None and facts["gl_error"] == "moderngl cannot be imported: moderngl hidden by the test"
+    assert facts["cl_device"] is None and facts["cl_error"] == "pyopencl cannot be imported: pyopencl hidden by the test"
+
+
+def test_device_probes_report_the_devices_the_backends_choose(monkeypatch):
+    """The probes ask the backends' context modules; they make no choice of their own."""
+    from renderers.cl import context as cl_context
+    from renderers.gl import context as gl_context
+
+    chosen_cl = {"cl_device": "pthread-skylake-avx512", "cl_pocl_version": "3.1+debian", "cl_llvm_version": "15.0.6",
+                 "cl_refused": "1:0 pthread (Portable Computing Language: PoCL 3.0-rc2, LLVM 14.0.6): error: unknown "
+                               "target CPU 'generic'"}
+    chosen_gl = {"gl_renderer": "NVIDIA H100", "gl_device_index": 1, "gl_devices": "0: llvmpipe; 1: NVIDIA H100"}
+    asked = []
+    monkeypatch.setattr(cl_context, "probe", lambda selector: asked.append(selector) or (True, ""))
+    monkeypatch.setattr(cl_context, "environment", lambda selector: {**chosen_cl, "selector": selector})
+    monkeypatch.setattr(gl_context, "probe", lambda: (True, ""))
+    monkeypatch.setattr(gl_context, "device_facts", lambda: chosen_gl)
+    monkeypatch.setenv(cl_context.DEVICE_VARIABLE, "pocl")
+    assert environment.probe_devices() == {**chosen_gl, **chosen_cl, "selector": "pocl"} and asked == ["pocl"]
+    monkeypatch.setattr(cl_context, "probe", lambda selector: (False, "no OpenCL device here builds a kernel: ..."))
+    monkeypatch.setattr(gl_context, "probe", lambda: (False, "no OpenGL 4.3 context through headless EGL: ..."))
+    facts = environment.probe_devices()
+    assert facts["cl_error"] == "no OpenCL device here builds a kernel: ..." and facts["cl_device"] is None
+    assert facts["gl_error"] == "no OpenGL 4.3 context through headless EGL: ..." and facts["gl_renderer"] is None
 
 
 def test_a_run_records_the_slurm_job_it_ran_in():

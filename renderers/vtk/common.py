@@ -13,6 +13,21 @@ llvmpipe on a machine without a GPU, the vendor's EGL driver on one with a GPU),
 (``SupportsOpenGL``, which fails cleanly; rendering into a window without a context crashes the
 process) and says why not when it cannot.
 
+Device
+------
+The window follows the OpenGL backends' device variable (:data:`GL_DEVICE_VARIABLE`) as far as
+VTK can: an EGL device index is given to the window (``SetDeviceIndex``; checked against VTK's
+device count first, since VTK indexes its device list with it unchecked), and a renderer name
+is checked against the renderer VTK's default device gives, the backends being unavailable
+when it does not match (VTK takes indices only, and its record names the device it used).
+Without the variable VTK keeps its own default, device 0 (or ``VTK_DEFAULT_EGL_DEVICE_INDEX``),
+and does not search the devices for a GPU as :mod:`renderers.gl.context` does: that search
+opens a window on each device in turn, and a VTK window's teardown terminates its device's EGL
+display, which a GL backend's context in the same process may be using, on machines with GPUs
+that this project cannot test on. On a machine with an NVIDIA GPU, libglvnd lists NVIDIA's
+devices before Mesa's, so device 0 is the GPU; where Mesa drives the GPU, its software device
+comes first and :data:`GL_DEVICE_VARIABLE` chooses the GPU for both kinds of backend.
+
 Readback
 --------
 VTK's window framebuffers are 8-bit RGBA (``vtkOpenGLRenderWindow::CreateFramebuffers``), and
@@ -38,6 +53,7 @@ the eye is inside a box, where VTK's rays start at the near plane and ours at th
 """
 
 import functools
+import os
 import time
 from types import SimpleNamespace
 
@@ -59,6 +75,10 @@ MIN_VTK = (9, 4)
 INSTALL_HINT = "pip install 'vtk>=9.4,<10'"
 EGL_HINT = ("install Mesa's EGL (apt-get install libegl1 libegl-mesa0 libgl1-mesa-dri) or a GPU driver "
             "with EGL")
+
+GL_DEVICE_VARIABLE = "VOLBENCH_GL_DEVICE"
+"""The OpenGL backends' device variable (``renderers.gl.context.DEVICE_VARIABLE``), which VTK follows
+(see the module notes); named here, not imported, since a backend package imports no other."""
 
 NEAR_FRACTION = 1e-4
 """Near plane as a fraction of the far distance when the eye is inside a box."""
@@ -96,12 +116,30 @@ def vtk_version():
     return vtk_modules().vtkVersion.GetVTKVersion()
 
 
+def device_selector():
+    """:data:`GL_DEVICE_VARIABLE`'s value: an EGL device index, a part of a renderer's name, or ``""``."""
+    return os.environ.get(GL_DEVICE_VARIABLE, "").strip()
+
+
 def make_window():
-    """A new offscreen ``vtkEGLRenderWindow`` without multisampling."""
+    """A new offscreen ``vtkEGLRenderWindow`` without multisampling, on the device index chosen if any."""
     window = vtk_modules().vtkEGLRenderWindow()
     window.SetOffScreenRendering(1)
     window.SetMultiSamples(0)
+    if device_selector().isdigit():
+        window.SetDeviceIndex(int(device_selector()))
     return window
+
+
+def gl_strings(window):
+    """``{vendor, renderer, version}`` of an initialised window's OpenGL context."""
+    facts = {}
+    for line in window.ReportCapabilities().splitlines():
+        for key in ("vendor", "renderer", "version"):
+            prefix = f"OpenGL {key} string:"
+            if line.startswith(prefix):
+                facts[key] = line[len(prefix):].strip()
+    return facts
 
 
 @functools.cache
@@ -118,12 +156,27 @@ def offscreen_support():
         vtk_modules()
     except ImportError as exc:
         return False, f"VTK {version} lacks a module the backends use ({exc}); {INSTALL_HINT}"
+    selector = device_selector()
+    if selector.isdigit():
+        count = vtk_modules().vtkEGLRenderWindow().GetNumberOfDevices()
+        if int(selector) >= count:
+            return False, (f"{GL_DEVICE_VARIABLE}={selector}: VTK lists {count} EGL device(s), indices 0 to "
+                           f"{count - 1}; name one of them")
     window = make_window()
     try:
         if not window.SupportsOpenGL():
             message = " ".join(window.GetOpenGLSupportMessage().split())
             return False, (f"VTK {version} gets no OpenGL 3.2 context offscreen through EGL "
                            f"(vtkEGLRenderWindow: {message!r}); {EGL_HINT}")
+        if selector and not selector.isdigit():
+            window.SetSize(1, 1)
+            window.Initialize()
+            renderer = gl_strings(window).get("renderer", "")
+            if selector.lower() not in renderer.lower():
+                return False, (f"{GL_DEVICE_VARIABLE}={selector!r} names a renderer, but VTK's EGL window takes a "
+                               f"device index and its default device renders with {renderer!r}; set "
+                               f"{GL_DEVICE_VARIABLE} to the index of the device meant (the OpenGL backends' "
+                               f"records name it: gl_device_index)")
     finally:
         window.Finalize()
     return True, ""
@@ -287,13 +340,7 @@ class OffscreenView:
     def gl_facts(self):
         """``{vendor, renderer, version}`` of the window's OpenGL context."""
         if self._gl is None:
-            facts = {}
-            for line in self.window.ReportCapabilities().splitlines():
-                for key in ("vendor", "renderer", "version"):
-                    prefix = f"OpenGL {key} string:"
-                    if line.startswith(prefix):
-                        facts[key] = line[len(prefix):].strip()
-            self._gl = facts
+            self._gl = gl_strings(self.window)
         return self._gl
 
     def set_size(self, width, height):
@@ -365,9 +412,12 @@ class OffscreenView:
 
     def environment(self):
         gl = self.gl_facts()
+        index = self.window.GetDeviceIndex()
         return {"vtk_version": vtk_version(), "vtk_render_window": self.window.GetClassName(),
                 "vtk_gl_renderer": gl.get("renderer"), "vtk_gl_version": gl.get("version"),
-                "vtk_gl_vendor": gl.get("vendor")}
+                "vtk_gl_vendor": gl.get("vendor"),
+                # None: VTK's default device (see the module notes).
+                "vtk_egl_device_index": index if index >= 0 else None}
 
     def close(self):
         self.renderer.RemoveAllViewProps()
