@@ -38,12 +38,40 @@ from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
 from core.mesh import Mesh, MeshInstance
+from core.resources import check_memory, largest_fitting
 from core.transfer import GradientOpacity, TransferFunction
 from core.validation import check_choice, check_finite_vector, check_matrix4, check_positive_int, check_scalar
 
 MODES = ("dvr", "mip", "iso")
 SHADING_MODELS = ("none", "phong")
 CSG_OPERATIONS = ("union", "intersection", "difference")
+
+IMAGE_BYTES_PER_PIXEL = 16
+"""A rendered image's bytes per pixel: float32 RGBA (CONVENTIONS, Cameras and images)."""
+
+
+def check_image_size(width, height, *, name):
+    """``(width, height)`` as positive ints whose image this machine can hold.
+
+    Backends add their own per-pixel buffers to this in their ``check``.
+
+    Raises
+    ------
+    InputError
+        A size that is not a positive integer, or an image larger than the machine's memory
+        (the message names the most pixels that fit).
+    """
+    width = check_positive_int(width, name=f"{name} width")
+    height = check_positive_int(height, name=f"{name} height")
+
+    def fix(limit):
+        pixels = largest_fitting(limit, IMAGE_BYTES_PER_PIXEL)
+        side = largest_fitting(limit, IMAGE_BYTES_PER_PIXEL, power=2)
+        return f"use width × height ≤ {pixels} pixels (e.g. {side}×{side})"
+
+    check_memory(width * height * IMAGE_BYTES_PER_PIXEL, what=f"{name} image {width}×{height}",
+                 detail=f"{IMAGE_BYTES_PER_PIXEL} bytes a pixel, float32 RGBA", fix=fix)
+    return width, height
 
 
 def centering_transform(volume):
@@ -224,8 +252,7 @@ class Scene:
         csg = tuple(self.csg) if not isinstance(self.csg, CsgNode) else (self.csg,)
         self._check_csg(csg)
         object.__setattr__(self, "csg", csg)
-        check_positive_int(self.width, name=f"scene {self.name!r} width")
-        check_positive_int(self.height, name=f"scene {self.name!r} height")
+        check_image_size(self.width, self.height, name=f"scene {self.name!r}")
         check_choice(self.mode, MODES, name=f"scene {self.name!r} mode")
         if not isinstance(self.camera, Camera):
             raise InputError(f"scene {self.name!r}: camera must be a Camera")
@@ -234,7 +261,11 @@ class Scene:
         if self.has_geometry() and self.mode != "dvr":
             raise InputError(f"scene {self.name!r}: meshes, volume boundaries and CSG render in mode 'dvr' only "
                              f"(mip and iso are defined on volumes), got mode {self.mode!r}")
-        center, radius = self.bounding_sphere()
+        with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused just below
+            center, radius = self.bounding_sphere()
+        if not (np.isfinite(center).all() and np.isfinite(radius)):
+            raise InputError(f"scene {self.name!r}: its bounds overflow float64 (centre {center.tolist()}, radius "
+                             f"{radius}); use smaller spacings, scales or translations")
         object.__setattr__(self, "camera", self.camera.framed(center, radius))
 
     def _check_csg(self, trees):

@@ -20,9 +20,23 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError
+from core.resources import check_memory, largest_fitting
 from core.validation import check_positive_int, check_scalar
 
 MAX_GRADIENT = np.sqrt(3.0) / 2.0
+
+
+def _table_size(size, width, *, name):
+    """``size`` as the entry count of a ``width``-channel table this machine can build.
+
+    Building one holds the float64 grid, a float64 column per channel, their float64 stack and
+    the float32 table: ``8 + 20·width`` bytes an entry.
+    """
+    size = check_positive_int(size, name=f"{name} size", minimum=2)
+    per_entry = 8 + 20 * width
+    check_memory(size * per_entry, what=f"{name} size {size}", detail=f"{size} entries × {per_entry} bytes while built",
+                 fix=lambda limit: f"use size ≤ {largest_fitting(limit, per_entry)} (256 entries resolve 8-bit data exactly)")
+    return size
 
 
 def _piecewise_linear(points, size, width, *, name):
@@ -85,7 +99,7 @@ class TransferFunction:
     @classmethod
     def from_points(cls, points, *, size=256, reference_step=None, name="tf"):
         """Build a table from piecewise-linear control points ``[(s, r, g, b, a), ...]``."""
-        size = check_positive_int(size, name=f"transfer function {name!r} size", minimum=2)
+        size = _table_size(size, 4, name=f"transfer function {name!r}")
         table = _piecewise_linear(points, size, 4, name=f"transfer function {name!r}")
         return cls(table, reference_step=reference_step, name=name)
 
@@ -110,6 +124,7 @@ class TransferFunction:
         sharp as the table allows (the thesis's aliasing test, Fig. 5.10).
         """
         threshold = check_scalar(threshold, name=f"{name} threshold", low=0, high=1)
+        size = _table_size(size, 4, name=name)
         grid = np.linspace(0.0, 1.0, size)
         table = np.zeros((size, 4), dtype=np.float32)
         table[:, :3] = color
@@ -119,7 +134,7 @@ class TransferFunction:
     @classmethod
     def constant(cls, *, color=(1.0, 1.0, 1.0), alpha, size=256, name="constant"):
         """The same RGBA for every scalar (homogeneous-medium closed-form tests)."""
-        table = np.empty((size, 4), dtype=np.float32)
+        table = np.empty((_table_size(size, 4, name=name), 4), dtype=np.float32)
         table[:] = (*color, alpha)
         return cls(table, name=name)
 
@@ -163,7 +178,7 @@ class GradientOpacity:
     @classmethod
     def from_points(cls, points, *, size=256, name="gradient"):
         """Build from control points ``[(u, g), ...]`` with ``u`` in [0, 1]."""
-        size = check_positive_int(size, name=f"gradient opacity {name!r} size", minimum=2)
+        size = _table_size(size, 1, name=f"gradient opacity {name!r}")
         return cls(_piecewise_linear(points, size, 1, name=f"gradient opacity {name!r}")[:, 0], name=name)
 
     def lookup(self, u):

@@ -8,6 +8,7 @@ fastest, the order all three formats store.
 
 import bz2
 import gzip
+import math
 import re
 import struct
 from pathlib import Path
@@ -16,6 +17,7 @@ import numpy as np
 
 from core.volume import Volume
 from core.errors import InputError
+from core.resources import check_memory
 from core.validation import SUPPORTED_DTYPES, check_positive_vector
 
 RAW_NAME = re.compile(r"^(?P<stem>.+)_(?P<x>\d+)x(?P<y>\d+)x(?P<z>\d+)_(?P<dtype>[a-z0-9]+)\.raw$")
@@ -25,8 +27,15 @@ RAW_NAME = re.compile(r"^(?P<stem>.+)_(?P<x>\d+)x(?P<y>\d+)x(?P<z>\d+)_(?P<dtype
 def _existing(path):
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"{path}: no such file")
+        raise InputError(f"{path}: {'is a folder, not a volume file' if path.is_dir() else 'no such file'}")
     return path
+
+
+def _check_fits(path, dims, dtype):
+    """Refuse a volume this machine cannot hold before reading it: its values and one converted copy."""
+    count = math.prod(dims)
+    check_memory(2 * count * dtype.itemsize, what=f"{path}: a {'×'.join(map(str, dims))} {dtype.name} volume",
+                 detail="its values and one converted copy", fix="read it on a machine with more memory, or crop it")
 
 
 def _dims(dims, where):
@@ -119,6 +128,7 @@ def load_raw(path, *, dims=None, dtype=None, spacing=(1.0, 1.0, 1.0), value_rang
     actual = path.stat().st_size
     if actual != expected:
         raise _size_error(path, actual, dims, dtype, expected)
+    _check_fits(path, dims, dtype)
     x, y, z = dims
     data = np.fromfile(path, dtype=dtype.newbyteorder("<"), count=x * y * z).reshape(z, y, x)
     name = name or (match["stem"] if match else path.stem)
@@ -308,6 +318,8 @@ def load_nrrd(path, *, value_range=None, name=None):
         offset = 0
     count = int(np.prod(dims))
     expected = count * dtype.itemsize
+    # Before reading: a compressed payload is inflated whole, whatever its header claims.
+    _check_fits(path, dims, dtype)
     with open(source, "rb") as f:
         f.seek(offset)
         for _ in range(line_skip):

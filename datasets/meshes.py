@@ -26,10 +26,31 @@ from skimage.measure import marching_cubes
 
 from core.errors import InputError
 from core.mesh import Mesh
+from core.resources import check_memory, largest_fitting
 from core.validation import check_positive_int, check_scalar
 
 TRIANGLE_TOLERANCE = 0.02
 """Largest relative difference between a decimated mesh's triangle count and the request."""
+
+MESH_BYTES_PER_TRIANGLE = 1024
+"""Peak memory of building a mesh, in bytes per triangle before decimation: the raw arrays,
+trimesh's repair (merged vertices, unique faces, winding) and the closed-surface check hold
+several copies (tracemalloc: 750 to 800 bytes a triangle at 60 000–160 000 triangles)."""
+
+VESSEL_BYTES_PER_CELL = 160
+"""Peak memory of :func:`vessel_tree`'s grid, in bytes per cell: float64 coordinates, the field
+and one segment's distances (tracemalloc: 137 bytes a cell at 64³ and 96³)."""
+
+
+def _check_triangles(count, *, what, fix, shown=None):
+    """Refuse a mesh of ``count`` triangles that this machine cannot build, before building it.
+
+    ``fix`` receives the largest triangle count that fits; ``shown`` replaces the count in the
+    message where it is a formula.
+    """
+    check_memory(count * MESH_BYTES_PER_TRIANGLE, what=f"{what}: {shown or count} triangles",
+                 detail=f"{MESH_BYTES_PER_TRIANGLE} bytes a triangle while it is built and repaired",
+                 fix=lambda limit: fix(limit // MESH_BYTES_PER_TRIANGLE))
 
 
 def closed_mesh(vertices, faces, *, name, meta=None):
@@ -59,11 +80,12 @@ def decimate(vertices, faces, triangles, *, name, meta=None):
     preserve topology: where it pinches two sheets into a non-manifold edge, the targets within
     :data:`TRIANGLE_TOLERANCE` of the request are tried in turn before giving up.
     """
+    if triangles is not None:
+        triangles = check_positive_int(triangles, name=f"mesh {name!r} triangles", minimum=4)
     faces = np.asarray(faces, dtype=np.int64)
     meta = dict(meta or {}, triangles_before_decimation=len(faces))
     if triangles is None or triangles >= len(faces):
         return closed_mesh(vertices, faces, name=name, meta=meta)
-    triangles = check_positive_int(triangles, name=f"mesh {name!r} triangles", minimum=4)
     problem = None
     for shift in (0.0, -0.005, 0.005, -0.01, 0.01, -0.015, 0.015):
         points, simplified = fast_simplification.simplify(np.asarray(vertices, dtype=np.float64), faces.astype(np.int32),
@@ -103,6 +125,10 @@ def phantom_isosurface(*, dataset="sphere", size=64, seed=0, level=0.5, smoothin
 
     level = check_scalar(level, name="phantom_isosurface level", low=0, high=1, low_open=True, high_open=True)
     smoothing = check_scalar(smoothing, name="phantom_isosurface smoothing", low=0)
+    spec = datasets.get(dataset)
+    if spec.kind == "phantom":
+        spec.check_memory(check_positive_int(size, name="phantom_isosurface size", minimum=datasets.MIN_SIZE),
+                          where="phantom_isosurface size")
     volume = datasets.load(dataset, size=size, seed=seed, cache_dir=cache_dir)
     field = gaussian_filter(volume.normalized(np.float32), smoothing) if smoothing else volume.normalized(np.float32)
     spacing = volume.spacing
@@ -121,6 +147,18 @@ def vessel_tree(*, depth=4, seed=0, resolution=64, radius=0.08, triangles=None):
     depth = check_positive_int(depth, name="vessel_tree depth")
     resolution = check_positive_int(resolution, name="vessel_tree resolution", minimum=8)
     radius = check_scalar(radius, name="vessel_tree radius", low=0, high=0.25, low_open=True)
+    check_memory(resolution ** 3 * VESSEL_BYTES_PER_CELL, what=f"vessel_tree resolution {resolution}",
+                 detail=f"{resolution}³ cells × {VESSEL_BYTES_PER_CELL} bytes",
+                 fix=lambda limit: f"use resolution ≤ {largest_fitting(limit, VESSEL_BYTES_PER_CELL, power=3)}")
+    # Every level doubles the segments and each takes a pass over the whole grid; a level whose
+    # tubes are thinner than half a cell adds that work without adding a surface.
+    thinnest = radius * 0.7 ** (depth - 1)
+    if depth > 1 and thinnest < 0.5 / resolution:
+        deepest = max(1, 1 + int(np.floor(np.log(0.5 / (resolution * radius)) / np.log(0.7))))
+        raise InputError(f"vessel_tree depth {depth}: the last level's tubes are {thinnest:.2g} wide, thinner than "
+                         f"half a cell of the {resolution}³ grid ({0.5 / resolution:.2g}), so marching cubes cannot "
+                         f"show them and the 2^{depth - 1} segments of that level only cost time; use depth ≤ {deepest} "
+                         "or a larger resolution or radius")
     rng = np.random.default_rng(seed)
     segments = []
 
@@ -166,6 +204,8 @@ def helical_screw(*, turns=40, pitch=0.1, core_radius=0.3, thread_depth=0.15, si
     core_radius = check_scalar(core_radius, name="helical_screw core_radius", low=0, low_open=True)
     thread_depth = check_scalar(thread_depth, name="helical_screw thread_depth", low=0)
     rows = turns * rows_per_turn
+    _check_triangles(2 * sides * (rows + 1), what=f"helical_screw turns {turns}, rows_per_turn {rows_per_turn}, "
+                     f"sides {sides}", fix=lambda most: f"make 2·sides·(turns·rows_per_turn + 1) ≤ {most}")
     phi = 2 * np.pi * np.arange(sides) / sides
     z = pitch * turns * np.arange(rows + 1) / rows
     phase = (z[:, None] / pitch - phi[None, :] / (2 * np.pi)) % 1.0
@@ -190,6 +230,7 @@ def boxes_in_a_row(*, count=20, size=1.0, gap=0.5):
     A ray along z through them crosses ``2·count`` faces. The row is centred on the origin.
     """
     count = check_positive_int(count, name="boxes_in_a_row count")
+    _check_triangles(12 * count, what=f"boxes_in_a_row count {count}", fix=lambda most: f"use count ≤ {most // 12}")
     size = check_scalar(size, name="boxes_in_a_row size", low=0, low_open=True)
     gap = check_scalar(gap, name="boxes_in_a_row gap", low=0, low_open=True)
     cube = trimesh.creation.box(extents=(size, size, size))
@@ -206,6 +247,7 @@ def rod(*, sides=20, radius=0.05, length=1.0):
     ``sides = 20`` gives the 76-polygon rods of the paper's apple scene. Centred on the origin.
     """
     sides = check_positive_int(sides, name="rod sides", minimum=3)
+    _check_triangles(4 * sides - 4, what=f"rod sides {sides}", fix=lambda most: f"use sides ≤ {(most + 4) // 4}")
     radius = check_scalar(radius, name="rod radius", low=0, low_open=True)
     length = check_scalar(length, name="rod length", low=0, low_open=True)
     phi = 2 * np.pi * np.arange(sides) / sides
@@ -231,6 +273,10 @@ def noisy_sphere(*, radius=1.0, amplitude=0.15, waves=12, seed=0, subdivisions=5
     amplitude = check_scalar(amplitude, name="noisy_sphere amplitude", low=0, high=1, high_open=True)
     waves = check_positive_int(waves, name="noisy_sphere waves")
     subdivisions = check_positive_int(subdivisions, name="noisy_sphere subdivisions", minimum=0)
+    # Past 64 subdivisions nothing fits anywhere, and 4**subdivisions of an absurd value takes long to compute.
+    _check_triangles(20 * 4 ** min(subdivisions, 64), what=f"noisy_sphere subdivisions {subdivisions}",
+                     shown=f"20·4^{subdivisions}",
+                     fix=lambda most: f"use subdivisions ≤ {max(int(np.log(max(most / 20, 1)) / np.log(4)), 0)}")
     rng = np.random.default_rng(seed)
     sphere = trimesh.creation.icosphere(subdivisions=subdivisions, radius=1.0)
     frequencies = rng.normal(scale=2.5, size=(waves, 3))
@@ -271,7 +317,7 @@ def load_mesh(path, *, name=None):
 
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"mesh file {path}: does not exist")
+        raise InputError(f"mesh file {path}: {'is a folder, not a mesh file' if path.is_dir() else 'does not exist'}")
     try:
         surface = trimesh.load(path, force="mesh")
     except (ValueError, KeyError, OSError) as error:

@@ -18,9 +18,17 @@ from datasets import presets as P
 from datasets.phantoms import bonsai, clouds, controls, engine, foot, geology, heads, torso, vessels
 from core.errors import InputError
 from core.papers import PAPERS
+from core.resources import check_memory, largest_fitting
 from core.transfer import VOLPACK_GRADIENT_RAMP, Preset
 
 KINDS = ("phantom", "real")
+
+PHANTOM_BYTES_PER_VOXEL = 48
+"""Peak memory of generating a phantom, in bytes per voxel of its ``size³`` cube.
+
+The generators hold several float32 and float64 fields of the whole grid at once (distance
+fields, noise octaves, the canvas): tracemalloc measures 10 to 46 bytes a voxel at 64³–128³,
+``ct_skull`` the most; the finished uint8 volume is one byte a voxel of that."""
 
 
 @dataclass(frozen=True, eq=False)
@@ -101,6 +109,21 @@ class DatasetSpec:
         if name not in self.presets:
             raise InputError(f"data set {self.name!r} has no preset {name!r}; presets: {', '.join(self.presets)}")
         return self.presets[name]
+
+    def check_memory(self, size, *, where):
+        """Refuse a phantom ``size`` whose generation this machine cannot hold, before generating.
+
+        ``size`` is a validated integer; ``where`` names it in the message (``"volumes[0] size"``).
+
+        Raises
+        ------
+        InputError
+            The estimate (:data:`PHANTOM_BYTES_PER_VOXEL` per voxel of ``size³``) exceeds the
+            machine's memory; the message names the largest size that fits.
+        """
+        check_memory(size ** 3 * PHANTOM_BYTES_PER_VOXEL, what=f"{where} {size}: phantom {self.name!r}",
+                     detail=f"{size}³ voxels × {PHANTOM_BYTES_PER_VOXEL} bytes of working arrays while it is generated",
+                     fix=lambda limit: f"use size ≤ {largest_fitting(limit, PHANTOM_BYTES_PER_VOXEL, power=3)}")
 
     @property
     def parameters(self):

@@ -46,22 +46,26 @@ Closed meshes, their materials, instancing and CSG (Kainz et al. 2009; semantics
       - difference: [sphere, {union: [rods, rod2]}]   # one operation key: a list of names or nodes
 
 An entry's own keys do not carry over to the instances of its mesh.
-Unknown keys are errors, so a typo never silently falls back to a default.
+Unknown keys are errors, so a typo never silently falls back to a default. Files are read
+strictly (:mod:`core.yaml_io`: UTF-8, no key given twice, no number that YAML 1.1 would read as
+text or as octal), and the image, every phantom's size and every table are checked against this
+machine's memory (:mod:`core.resources`) before any volume is loaded or generated.
 """
 
 from pathlib import Path
 
 import numpy as np
-import yaml
 
 import datasets
 from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
 from core.mesh import HomogeneousMedium, MeshInstance, SurfaceMaterial
-from core.scene import CSG_OPERATIONS, CsgNode, Scene, Shading, VolumeInstance, centering_transform
+from core.scene import CSG_OPERATIONS, CsgNode, Scene, Shading, VolumeInstance, centering_transform, check_image_size
 from core.transfer import GradientOpacity, TransferFunction
-from core.validation import check_finite_vector, check_matrix4, check_positive_vector, check_scalar, check_value_range
+from core.validation import (check_finite_vector, check_matrix4, check_positive_int, check_positive_vector, check_scalar,
+                             check_value_range)
+from core.yaml_io import load_yaml_file
 
 SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes", "meshes", "csg"}
 VOLUME_KEYS = {"dataset", "size", "seed", "params", "file", "spacing", "value_range", "preset",
@@ -69,6 +73,9 @@ VOLUME_KEYS = {"dataset", "size", "seed", "params", "file", "spacing", "value_ra
 MESH_KEYS = {"name", "generator", "params", "file", "instance_of", "transform", "surface", "medium"}
 MESH_SOURCE_KEYS = ("generator", "file", "instance_of")
 TRANSFORM_KEYS = {"translate", "rotate", "scale", "matrix"}
+TEXT_KEYS = {"volume": ("dataset", "file", "preset", "name"), "mesh": ("name", "generator", "file", "instance_of"),
+             "table": ("name",)}
+"""Keys whose values are names or paths: a number or a list there is a mistake, not a name."""
 
 
 def _check_keys(mapping, allowed, *, where):
@@ -135,21 +142,31 @@ def build_transform(spec, volume, *, where="transform"):
     return translate @ rotate @ scale @ (np.eye(4) if volume is None else centering_transform(volume))
 
 
-def dataset_arguments(spec, *, size=None):
+def dataset_arguments(spec, *, size=None, where=None):
     """Keyword arguments of :func:`datasets.load` for a ``dataset`` volume entry.
 
     Phantoms get the entry's ``size`` (else ``size``) and ``seed`` (else 0); the pipeline names
-    its cached phantom files with the same arguments, so both must come from here. A real scan
+    its cached phantom files with the same arguments, so both must come from here. A phantom
+    this machine cannot generate is refused here, before anything is generated. A real scan
     has its own size: ``size``, ``seed`` or ``params`` on one is an error, never ignored.
+    ``where`` names the entry in messages (default: ``volume '<dataset>'``).
     """
+    if not isinstance(spec["dataset"], str):
+        raise InputError(f"{where or 'volume'} dataset: expected a data set name (volbench list datasets), "
+                         f"got {spec['dataset']!r}")
+    where = where or f"volume {spec['dataset']!r}"
     params = spec.get("params") or {}
     if not isinstance(params, dict):
-        raise InputError(f"volume {spec['dataset']!r} params: expected a mapping of generator parameters, "
-                         f"got {params!r}")
+        raise InputError(f"{where} params: expected a mapping of generator parameters, got {params!r}")
     kwargs = dict(params)
-    if datasets.get(spec["dataset"]).kind == "phantom":
+    dataset = datasets.get(spec["dataset"])
+    if dataset.kind == "phantom":
         kwargs["size"] = spec.get("size", size)
         kwargs["seed"] = spec.get("seed", 0)
+        if kwargs["size"] is not None:
+            check_positive_int(kwargs["size"], name=f"{where} size", minimum=datasets.MIN_SIZE)
+        effective = dataset.default_size if kwargs["size"] is None else kwargs["size"]
+        dataset.check_memory(effective, where=f"{where} size")
     else:
         given = [key for key in ("size", "seed", "params") if key in spec]
         if given:
@@ -185,7 +202,7 @@ def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
         check_positive_vector(spec["spacing"], length=3, name=f"{where} spacing")
     if "dataset" in spec:
         volume = datasets.load(spec["dataset"], cache_dir=cache_dir, data_dir=data_dir,
-                               **dataset_arguments(spec, size=size))
+                               **dataset_arguments(spec, size=size, where=where))
     else:
         path = Path(spec["file"])
         if base_dir is not None and not path.is_absolute():
@@ -329,6 +346,52 @@ def build_csg(spec, *, where="csg"):
     return CsgNode(operation, [build_csg(child, where=f"{where} {operation}[{i}]") for i, child in enumerate(children)])
 
 
+def _entries(spec, key):
+    """The list under ``key`` of a scene mapping (``[]`` when absent or empty)."""
+    entries = spec.get(key)
+    if entries is None:
+        return []
+    if not isinstance(entries, list):
+        raise InputError(f"scene {key}: expected a list of entries (each line starting with '- '), "
+                         f"got {type(entries).__name__} {entries!r}")
+    return entries
+
+
+def _check_text(mapping, keys, *, where):
+    for key in keys:
+        if isinstance(mapping, dict) and key in mapping and not isinstance(mapping[key], str):
+            raise InputError(f"{where} {key}: expected text (a name or a path), got {mapping[key]!r}")
+
+
+def _check_before_building(spec, *, size):
+    """Everything about a scene mapping that can be checked before a volume is loaded or generated.
+
+    The image size, the entries' keys and every phantom's size against this machine's memory: a
+    bad last entry must not wait for the first one's generation.
+    """
+    _check_keys(spec, SCENE_KEYS, where="scene")
+    volumes, meshes = _entries(spec, "volumes"), _entries(spec, "meshes")
+    if not volumes and not meshes:
+        raise InputError("scene: 'volumes' or 'meshes' must list at least one volume or mesh")
+    name = spec.get("name", "scene")
+    if not isinstance(name, str):
+        raise InputError(f"scene name: expected text, got {name!r}")
+    check_image_size(spec.get("width", 256), spec.get("height", 256), name=f"scene {name!r}")
+    for index, entry in enumerate(volumes):
+        where = f"volumes[{index}]"
+        _check_keys(entry, VOLUME_KEYS, where=where)
+        _check_text(entry, TEXT_KEYS["volume"], where=where)
+        for table in ("transfer_function", "gradient_opacity"):
+            _check_text(entry.get(table), TEXT_KEYS["table"], where=f"{where} {table}")
+        _check_text(entry.get("boundary"), TEXT_KEYS["mesh"], where=f"{where} boundary")
+        if "dataset" in entry and "file" not in entry:
+            dataset_arguments(entry, size=size, where=where)
+    for index, entry in enumerate(meshes):
+        _check_keys(entry, MESH_KEYS, where=f"meshes[{index}]")
+        _check_text(entry, TEXT_KEYS["mesh"], where=f"meshes[{index}]")
+    return volumes, meshes
+
+
 def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None):
     """Build a :class:`Scene` from a scene mapping.
 
@@ -344,10 +407,14 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
         Directory that relative ``file`` paths are resolved against.
     data_dir : path, optional
         Folder of the real scans (see :func:`datasets.load`).
+
+    Raises
+    ------
+    InputError
+        A wrong key or value, named; sizes this machine cannot hold are refused before any
+        volume is loaded or generated.
     """
-    _check_keys(spec, SCENE_KEYS, where="scene")
-    if not spec.get("volumes") and not spec.get("meshes"):
-        raise InputError("scene: 'volumes' or 'meshes' must list at least one volume or mesh")
+    volumes, meshes = _check_before_building(spec, size=size)
     csg_spec = spec.get("csg") or []
     if not isinstance(csg_spec, list):
         raise InputError(f"scene csg: expected a list of operations, got {csg_spec!r}")
@@ -357,9 +424,9 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
         raise InputError("scene csg: each entry must be an operation such as {union: [a, b]}, not a bare name")
     instances = tuple(
         build_volume_instance(v, cache_dir=cache_dir, size=size, base_dir=base_dir, data_dir=data_dir, index=i)
-        for i, v in enumerate(spec.get("volumes") or [])
+        for i, v in enumerate(volumes)
     )
-    meshes = build_mesh_instances(spec.get("meshes") or [], base_dir=base_dir, cache_dir=cache_dir)
+    meshes = build_mesh_instances(meshes, base_dir=base_dir, cache_dir=cache_dir)
     camera_spec = spec.get("camera") or {}
     _check_keys(camera_spec, set(Camera.__dataclass_fields__), where="scene camera")
     shading_spec = spec.get("shading") or {}
@@ -378,13 +445,15 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
 
 
 def load_scene(path, **kwargs):
-    """Read a YAML scene file and build it; relative ``file`` entries resolve beside it."""
+    """Read a YAML scene file and build it; relative ``file`` entries resolve beside it.
+
+    The file is read strictly (:func:`core.yaml_io.load_yaml_file`: UTF-8, no key given twice, no
+    number that YAML 1.1 would silently read as text, octal or base 60) and must hold a mapping.
+    """
     path = Path(path)
-    try:
-        spec = yaml.safe_load(path.read_text())
-    except OSError as exc:
-        raise InputError(f"scene file {path}: cannot be read ({exc.strerror})") from exc
-    except yaml.YAMLError as exc:
-        raise InputError(f"scene file {path}: invalid YAML ({exc})") from exc
+    spec = load_yaml_file(path, what="scene file")
+    if not isinstance(spec, dict):
+        found = "an empty file" if spec is None else f"{type(spec).__name__} {spec!r}"
+        raise InputError(f"scene file {path}: expected a mapping of scene keys (width, volumes, ...), got {found}")
     kwargs.setdefault("base_dir", path.parent)
     return build_scene(spec, **kwargs)

@@ -7,9 +7,13 @@ composited over an opaque background, clamped to [0, 1] and encoded with the sRG
 (IEC 61966-2-1) to 8 bits, which is what a browser or image viewer expects. Reading a PNG undoes the
 encoding, so the result is linear again, with alpha 1 where the image was composited.
 
-OpenImageIO does the file work; every error names the file.
+OpenImageIO does the file work; every error names the file. Several outputs of one result are
+written all or none (:func:`write_images`), and :func:`check_output_path` tells before any work
+whether a file can be written at all.
 """
 
+import os
+import secrets
 from pathlib import Path
 
 import numpy as np
@@ -19,17 +23,25 @@ from core.errors import InputError
 
 __all__ = [
     "check_image",
+    "check_output_path",
     "composite_over",
     "decode_srgb",
     "encode_srgb",
     "read_image",
     "read_metadata",
+    "stored_as_float",
     "write_exr",
     "write_image",
+    "write_images",
     "write_png",
 ]
 
 _METADATA_PREFIX = "volbench:"
+
+COLOUR_CHANNELS = (("R", "G", "B", "A"), ("R", "G", "B"), ("Y", "A"), ("Y",))
+"""Channel sets :func:`read_image` reads as colour: RGBA, RGB, grey with alpha, grey."""
+
+_WRITERS_BY_SUFFIX = (".exr", ".png")
 
 
 def check_image(image, *, name="image"):
@@ -205,6 +217,84 @@ def write_png(path, image, *, background=(0.0, 0.0, 0.0)):
     return _write(path, spec, pixels, ".png")
 
 
+def check_output_path(path, *, name=None):
+    """Refuse an image output path that cannot be written, before any work is done.
+
+    The suffix must be ``.exr`` or ``.png``, the path must not be a folder, and its folder must
+    exist and accept a new file: one is created there and removed again, which also catches what
+    permission bits do not tell (a read-only file system, ``/proc``).
+
+    Parameters
+    ----------
+    path : str or os.PathLike
+    name : str, optional
+        How the path is named in messages (e.g. ``"--exr out.exr"``); default the path.
+
+    Returns
+    -------
+    pathlib.Path
+
+    Raises
+    ------
+    core.errors.InputError
+        Naming the path and what is wrong with it.
+    """
+    path = Path(path)
+    name = name or str(path)
+    if path.suffix.lower() not in _WRITERS_BY_SUFFIX:
+        raise InputError(f"{name}: unknown image suffix {path.suffix.lower()!r}; use .exr or .png")
+    if path.is_dir():
+        raise InputError(f"{name}: is a folder; give a file name inside it")
+    folder = path.parent
+    if not folder.is_dir():
+        problem = "is not a folder" if folder.exists() else "does not exist"
+        raise InputError(f"{name}: folder {folder} {problem}")
+    probe = folder / f".{path.name}.{secrets.token_hex(4)}.probe"
+    try:
+        os.close(os.open(probe, os.O_WRONLY | os.O_CREAT | os.O_EXCL, 0o600))
+    except OSError as exc:
+        raise InputError(f"{name}: cannot create a file in folder {folder} ({exc.strerror}); "
+                         "choose a folder you can write to") from None
+    probe.unlink()
+    return path
+
+
+def write_images(image, paths):
+    """Write one image to several files (format by suffix), all of them or none.
+
+    Each file is written to a temporary file beside it first; only when every one is written are
+    they renamed over their targets, so a failure leaves no output behind (and no PNG without its
+    EXR), and an existing file is replaced whole.
+
+    Parameters
+    ----------
+    image : numpy.ndarray
+        Volbench image, ``(H, W, 4)`` float32.
+    paths : iterable of str or os.PathLike
+        ``.exr`` and ``.png`` files; ``None`` entries are skipped.
+
+    Returns
+    -------
+    list of pathlib.Path
+        The written files.
+    """
+    check_image(image)
+    targets = [Path(path) for path in paths if path is not None]
+    written = {}
+    try:
+        for target in targets:
+            # The temporary keeps the suffix, which chooses OpenImageIO's writer.
+            temporary = target.with_name(f".{target.stem}.{secrets.token_hex(4)}.partial{target.suffix}")
+            written[target] = temporary
+            write_image(temporary, image)
+        for target, temporary in written.items():
+            os.replace(temporary, target)
+    finally:
+        for temporary in written.values():
+            temporary.unlink(missing_ok=True)
+    return targets
+
+
 def write_image(path, image, **kwargs):
     """Write an image, choosing the format by suffix (``.exr`` or ``.png``).
 
@@ -250,7 +340,7 @@ def _open(path):
     """Open ``path`` for reading with OpenImageIO, raising InputError naming it on failure."""
     path = Path(path)
     if not path.is_file():
-        raise InputError(f"{path}: no such image file")
+        raise InputError(f"{path}: {'is not a file' if path.exists() else 'no such image file'}")
     config = oiio.ImageSpec()
     config.attribute("oiio:UnassociatedAlpha", 1)  # PNG alpha as stored; read_image premultiplies
     inp = oiio.ImageInput.open(str(path), config)
@@ -279,19 +369,24 @@ def read_image(path):
     Raises
     ------
     core.errors.InputError
-        If the file is missing, unreadable, or has other than 1 to 4 channels.
+        If the file is missing or unreadable, or its channels are not one of
+        :data:`COLOUR_CHANNELS` (e.g. ``R, G, B, Z`` or ``X, Y, Z, W``; the message lists them).
     """
     inp = _open(path)
     try:
         spec = inp.spec()
+        channels = tuple(spec.channelnames)
+        if tuple(name.upper() for name in channels) not in COLOUR_CHANNELS:
+            # Four float channels are not RGBA because there are four: R,G,B,Z (depth) or X,Y,Z,W
+            # (positions) would be compared as colour and opacity.
+            raise InputError(f"{path}: channels {', '.join(channels) or 'none'} are not colour channels; expected "
+                             f"{'; '.join(', '.join(names) for names in COLOUR_CHANNELS)}")
         pixels = inp.read_image(spec.format)  # native type: integer for PNG, float for EXR
         if pixels is None:
             raise InputError(f"{path}: cannot read image: {inp.geterror()}")
     finally:
         inp.close()
     pixels = pixels.reshape(spec.height, spec.width, spec.nchannels)
-    if spec.nchannels not in (1, 2, 3, 4):
-        raise InputError(f"{path}: expected 1 to 4 channels, got {spec.nchannels}")
     if spec.nchannels in (1, 2):  # grey or grey + alpha
         pixels = np.concatenate([pixels[..., :1]] * 3 + [pixels[..., 1:]], axis=-1)
     if np.issubdtype(pixels.dtype, np.integer):
@@ -304,6 +399,16 @@ def read_image(path):
     if values.shape[2] == 3:
         values = np.concatenate([values, np.ones(values.shape[:2] + (1,))], axis=-1)
     return np.ascontiguousarray(values, dtype=np.float32)
+
+
+def stored_as_float(path):
+    """Whether ``path`` stores floating-point pixels (linear values, as EXR does) rather than
+    display-encoded integers (8- or 16-bit sRGB, as PNG does)."""
+    inp = _open(path)
+    try:
+        return inp.spec().format.basetype in (oiio.FLOAT, oiio.HALF, oiio.DOUBLE)
+    finally:
+        inp.close()
 
 
 def read_metadata(path):

@@ -365,10 +365,28 @@ def compare_files(reference_path, test_path, *, diff_path=None, **kwargs):
     Raises
     ------
     core.errors.InputError
-        If a file cannot be read or the images differ in shape (both paths are named).
+        If a file cannot be read, holds other channels than colour (e.g. ``R, G, B, Z``), or the
+        images differ in shape (both paths are named).
+
+    Warns
+    -----
+    UserWarning
+        When one file stores linear float values (EXR) and the other display-encoded integers
+        (PNG, composited over black): the numbers then measure the encoding as well.
     """
+    import warnings
+
+    from reports.imageio import stored_as_float
+
     reference = read_image(reference_path)
     test = read_image(test_path)
+    floats = {path: stored_as_float(path) for path in (reference_path, test_path)}
+    if len(set(floats.values())) > 1:
+        exact, encoded = sorted(floats, key=floats.get, reverse=True)
+        warnings.warn(f"{exact} holds linear float values (as EXR) but {encoded} holds display-encoded integers (as "
+                      "PNG: composited over black, clamped, sRGB-encoded and quantised, alpha 1): the metrics measure "
+                      "that encoding too, not only the renderers' difference; compare two EXRs (or two PNGs) instead",
+                      UserWarning, stacklevel=2)
     if reference.shape != test.shape:
         raise InputError(
             f"{reference_path} has shape {reference.shape} but {test_path} has shape {test.shape}; "

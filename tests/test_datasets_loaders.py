@@ -230,3 +230,24 @@ def test_loose_dtype_names_are_refused_clearly(tmp_path, name, hint):
     (tmp_path / "plain.raw").write_bytes(DATA8.tobytes())
     with pytest.raises(InputError, match=f"unknown dtype name '{name}'"):
         load_raw(tmp_path / "plain.raw", dims=(5, 3, 4), dtype=name)
+
+
+def test_a_folder_is_not_a_volume_file(tmp_path):
+    (tmp_path / "v_2x2x2_uint8.raw").mkdir()
+    with pytest.raises(InputError, match="v_2x2x2_uint8.raw: is a folder, not a volume file"):
+        load_raw(tmp_path / "v_2x2x2_uint8.raw")
+
+
+def test_a_volume_this_machine_cannot_hold_is_refused_before_it_is_read(tmp_path, monkeypatch):
+    import core.resources
+
+    np.zeros(32 ** 3, np.uint16).tofile(tmp_path / "v_32x32x32_uint16.raw")
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 100 * 2 ** 10)
+    monkeypatch.setattr(np, "fromfile", lambda *a, **k: pytest.fail("the file was read before the check"))
+    with pytest.raises(InputError, match=r"v_32x32x32_uint16.raw: a 32×32×32 uint16 volume needs 128 KiB \(its values "
+                                         r"and one converted copy\), this machine has 100 KiB"):
+        load_raw(tmp_path / "v_32x32x32_uint16.raw")
+    header = "NRRD0004\ntype: uint8\ndimension: 3\nsizes: 4096 4096 4096\nencoding: gzip\n\n"
+    (tmp_path / "bomb.nrrd").write_bytes(header.encode() + gzip.compress(b""))
+    with pytest.raises(InputError, match=r"bomb.nrrd: a 4096×4096×4096 uint8 volume needs 128 GiB"):
+        load_nrrd(tmp_path / "bomb.nrrd")

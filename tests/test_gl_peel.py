@@ -314,3 +314,9 @@ def test_more_shaded_volumes_than_texture_units_are_refused_as_unsupported():
     with pytest.raises(UnsupportedFeatureError, match="texture units"):
         GLPeelRenderer().render(scene_of(instances, size=8, shading="phong"))
     GLPeelRenderer().check(scene_of(instances, size=8))  # unshaded, one unit each: accepted
+
+
+def test_a_step_finer_than_float32_resolves_is_refused():
+    # At 1e-5 voxel the faint samples round to nothing and the image came out blank.
+    with pytest.raises(InputError, match=r"gl-peel option step_factor: 1e-05 is finer than .* use step_factor ≥"):
+        GLPeelRenderer(step_factor=1e-5)

@@ -158,6 +158,25 @@ def test_ct_table_matches_a_brute_force_search():
     assert emptyspace.visibility_table(alpha, 0.0)[121, 119] == 1
 
 
+@pytest.mark.parametrize("size", [64, 1000])
+@pytest.mark.parametrize("min_opacity", [0.0, 0.2])
+def test_ct_table_at_other_table_sizes_matches_its_definition(size, min_opacity):
+    """Tables of N != 256 entries (levels fall between entries, or several entries per level)."""
+    rng = np.random.default_rng(size)
+    alpha = np.where(rng.random(size) < 0.1, rng.choice([0.1, 0.5], size), 0.0)
+    table = emptyspace.visibility_table(alpha, min_opacity)
+    # Entry i, at s = i/(N - 1), has a non-zero weight for (i - 1)/(N - 1) < s < (i + 1)/(N - 1): a
+    # scalar in [lo/255, hi/255] can blend with it when i - 1 < hi/255·(N - 1) and i + 1 > lo/255·(N - 1),
+    # compared in integers so that no rounding enters the expectation.
+    entries = np.flatnonzero(alpha > min_opacity)
+    level = np.arange(emptyspace.LEVELS)[:, None]
+    below_max = 255 * (entries - 1) < level * (size - 1)  # [hi, entry]
+    above_min = 255 * (entries + 1) > level * (size - 1)  # [lo, entry]
+    expected = (below_max[:, None, :] & above_min[None, :, :]).any(axis=2) | (level.T > level)
+    assert 0 < expected.sum() < expected.size
+    np.testing.assert_array_equal(table, expected.astype(np.uint8))
+
+
 def test_blocks_called_empty_hold_no_visible_sample():
     """Conservative: trilinear samples anywhere in the cells of an empty block classify to α = 0."""
     rng = np.random.default_rng(2)
@@ -435,3 +454,44 @@ def test_errors_before_any_work(volume, monkeypatch):
     monkeypatch.setattr(context, "max_3d_texture_size", lambda ctx: 16)
     with pytest.raises(InputError, match="GL_MAX_3D_TEXTURE_SIZE 16"):
         GLRaycastRenderer().render(scene_of(volume))
+
+
+# -- sizes refused before any work ---------------------------------------------------------------
+
+def test_a_sample_count_beyond_the_shaders_int_is_refused():
+    with pytest.raises(InputError, match=r"samples_per_pass: 2147483648 does not fit the shader's 32-bit int; use at "
+                                         r"most 2147483647"):
+        GLRaycastRenderer(samples_per_pass=2 ** 31)
+    assert GLRaycastRenderer(samples_per_pass=2 ** 31 - 1).samples_per_pass == 2 ** 31 - 1
+
+
+def test_a_step_finer_than_float32_resolves_is_refused():
+    with pytest.raises(InputError, match=r"gl-raycast option step_factor: 1e-05 is finer than .* use step_factor ≥"):
+        GLRaycastRenderer(step_factor=1e-5)
+
+
+@needs_gl
+def test_a_block_grid_that_only_pads_or_does_not_fit_is_refused_before_any_work(volume, monkeypatch):
+    import core.resources
+
+    with pytest.raises(InputError, match=r"block_size: 100000 is larger than volume 'blob' \(36×36×36\), so one block "
+                                         r"covers it and the rest is padding; use block_size ≤ 36"):
+        GLRaycastRenderer(block_size=100000).check(scene_of(volume))
+    GLRaycastRenderer(block_size=100000, variant="rc").check(scene_of(volume))  # no block grid
+    GLRaycastRenderer(block_size=36).check(scene_of(volume))
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 2 ** 20)
+    with pytest.raises(InputError, match=r"block_size 35 needs 2.02 MiB \(volume 'blob' \(36×36×36\) padded to whole "
+                                         r"blocks, 343000 float32 voxels, and four float32 copies of it\)"):
+        GLRaycastRenderer(block_size=35).check(scene_of(volume))
+
+
+@needs_gl
+def test_an_image_larger_than_the_contexts_render_targets_is_unsupported(volume):
+    from renderers.gl import context as gl_context
+
+    info = gl_context.shared_context().info
+    most = min(int(info["GL_MAX_TEXTURE_SIZE"]), *map(int, info["GL_MAX_VIEWPORT_DIMS"]))
+    wide = Scene((VolumeInstance(volume, SMOOTH),), width=most + 1, height=1)
+    with pytest.raises(UnsupportedFeatureError, match=rf"a {most + 1}×1 image: .* renders at most {most}×{most} pixels"):
+        GLRaycastRenderer().check(wide)
+    GLRaycastRenderer().check(Scene((VolumeInstance(volume, SMOOTH),), width=most, height=1))

@@ -179,3 +179,22 @@ def test_timings_and_caching(volume):
     bigger = backend.render(scene_of(volume, shading="phong", size=40))  # new targets, same textures
     assert bigger.image.shape == (40, 40, 4) and bigger.info["uploaded"] == []
     backend.close()
+
+
+def test_a_step_finer_than_float32_resolves_is_refused():
+    with pytest.raises(InputError, match=r"gl-slicer option step_factor: 1e-05 is finer than .* use step_factor ≥"):
+        renderers.get("gl-slicer", step_factor=1e-5)
+
+
+@needs_gl
+def test_more_slices_than_this_machine_can_build_are_refused_before_any_work(volume, monkeypatch):
+    import core.resources
+
+    from renderers.gl.slicer import GLSlicerRenderer
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 2 ** 20)
+    with pytest.raises(InputError, match=r"gl-slicer: scene 'scene' at step_factor 0.01 needs 15.2 MiB \(up to 6237 slices "
+                                         r"across the box's 62.4 diagonal × 2560 bytes\), this machine has 1 MiB; use a "
+                                         r"larger step_factor"):
+        GLSlicerRenderer(step_factor=0.01).check(scene_of(volume))
+    GLSlicerRenderer(step_factor=0.5).check(scene_of(volume))

@@ -1,11 +1,14 @@
 """Tests of reports.imageio: EXR/PNG writing and reading, compositing, sRGB encoding."""
 
+from pathlib import Path
+
 import numpy as np
 import OpenImageIO as oiio
 import pytest
 
 from core.errors import InputError
 from reports.imageio import (
+    check_output_path,
     composite_over,
     decode_srgb,
     encode_srgb,
@@ -13,6 +16,7 @@ from reports.imageio import (
     read_metadata,
     write_exr,
     write_image,
+    write_images,
     write_png,
 )
 
@@ -117,3 +121,60 @@ def test_unreadable_files_name_the_path(tmp_path):
     garbage.write_bytes(b"not an image")
     with pytest.raises(InputError, match="garbage.png"):
         read_image(garbage)
+
+
+def _write_channels(path, names, dtype=oiio.FLOAT):
+    spec = oiio.ImageSpec(4, 3, len(names), dtype)
+    spec.channelnames = tuple(names)
+    out = oiio.ImageOutput.create(str(path))
+    assert out.open(str(path), spec) and out.write_image(np.full((3, 4, len(names)), 0.5, np.float32))
+    out.close()
+    return path
+
+
+@pytest.mark.parametrize("names", [("R", "G", "B", "Z"), ("X", "Y", "Z", "W"), ("Z",), ("R", "G")])
+def test_files_whose_channels_are_not_colour_are_refused_naming_them(tmp_path, names):
+    path = _write_channels(tmp_path / "aov.exr", names)
+    with pytest.raises(InputError, match=rf"aov.exr: channels {', '.join(names)} are not colour channels; "
+                                         r"expected R, G, B, A; R, G, B; Y, A; Y$"):
+        read_image(path)
+
+
+@pytest.mark.parametrize("names, alpha", [(("R", "G", "B", "A"), 0.5), (("R", "G", "B"), 1.0), (("Y",), 1.0),
+                                          (("Y", "A"), 0.5)])
+def test_colour_channel_sets_are_read(tmp_path, names, alpha):
+    image = read_image(_write_channels(tmp_path / "c.exr", names))
+    assert image.shape == (3, 4, 4) and image[0, 0, 3] == alpha and image[0, 0, 0] == 0.5
+
+
+def test_output_paths_that_cannot_be_written_are_refused_naming_why(tmp_path):
+    assert check_output_path(tmp_path / "ok.png") == tmp_path / "ok.png"
+    assert list(tmp_path.iterdir()) == []  # the probe file is gone
+    (tmp_path / "folder.png").mkdir()
+    (tmp_path / "file").write_text("")
+    for path, match in [(tmp_path / "folder.png", "is a folder; give a file name inside it"),
+                        (tmp_path / "missing" / "x.png", r"folder .*missing does not exist"),
+                        (tmp_path / "file" / "x.png", r"folder .*file is not a folder"),
+                        (Path("/proc/x.exr"), r"cannot create a file in folder /proc \(No such file or directory\)"),
+                        (tmp_path / "x.jpg", "unknown image suffix '.jpg'")]:
+        with pytest.raises(InputError, match=match):
+            check_output_path(path, name=f"--out {path}")
+
+
+def test_several_outputs_are_written_all_or_none(tmp_path, monkeypatch):
+    import reports.imageio
+
+    image = np.full((2, 3, 4), 0.25, np.float32)
+    png, exr = tmp_path / "a.png", tmp_path / "a.exr"
+    assert write_images(image, [png, exr, None]) == [png, exr]
+    np.testing.assert_array_equal(read_image(exr), image)
+    before = png.read_bytes()
+
+    def broken(path, image, **kwargs):
+        raise OSError(f"{path}: disk full")
+
+    monkeypatch.setattr(reports.imageio, "write_exr", broken)
+    with pytest.raises(OSError, match="disk full"):
+        write_images(np.zeros((2, 3, 4), np.float32), [png, exr])
+    # The PNG written before the failure was not put in place, the old files stand, nothing is left over.
+    assert png.read_bytes() == before and sorted(p.name for p in tmp_path.iterdir()) == ["a.exr", "a.png"]

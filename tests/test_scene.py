@@ -164,3 +164,20 @@ def test_bad_geometry_inputs(make, match):
     with pytest.raises(InputError, match=match):
         make(VolumeInstance(make_volume(), TF, name="v"), MeshInstance(_cube(), name="c"))
 
+
+
+def test_an_image_this_machine_cannot_hold_is_refused_with_the_largest_that_fits(monkeypatch):
+    import core.resources
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 16 * 10 ** 6)  # one million float32 RGBA pixels
+    instance = VolumeInstance(make_volume(), TF)
+    with pytest.raises(InputError, match=r"^scene 'big' image 2000×1000 needs 30.5 MiB \(16 bytes a pixel, float32 RGBA\), "
+                                         r"this machine has 15.3 MiB; use width × height ≤ 1000000 pixels \(e.g. 1000×1000\)$"):
+        Scene(volumes=instance, width=2000, height=1000, name="big")
+    assert Scene(volumes=instance, width=1000, height=1000).width == 1000
+
+
+def test_a_scene_whose_bounds_overflow_is_refused_naming_them():
+    huge = VolumeInstance(make_volume(spacing=(1e300, 1, 1)), TF)
+    with pytest.raises(InputError, match="bounds overflow float64.*smaller spacings"):
+        Scene(volumes=huge)

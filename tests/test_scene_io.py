@@ -3,7 +3,8 @@ import yaml
 import pytest
 
 from core.errors import InputError
-from pipeline.scene_io import build_scene, load_scene, rotation_matrix
+from core.volume import Volume
+from pipeline.scene_io import build_scene, load_scene, phantom_requests, rotation_matrix
 
 
 def _spec(**volume):
@@ -211,3 +212,117 @@ def test_a_volume_boundary_from_a_generator(tmp_path):
 def test_bad_mesh_and_csg_keys_name_the_key(spec, match, tmp_path):
     with pytest.raises(InputError, match=match):
         build_scene(spec, cache_dir=tmp_path, base_dir=tmp_path)
+
+
+# ---------------------------------------------------------------------------------------------
+# Scene files as people write them, and sizes this machine cannot hold (refused before any work)
+
+
+@pytest.fixture
+def small_machine(monkeypatch):
+    """A machine holding a 64³ phantom's generation (48 bytes a voxel) and nothing larger."""
+    import core.resources
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 48 * 64 ** 3)
+
+
+@pytest.fixture
+def nothing_is_loaded(monkeypatch):
+    import datasets
+    from datasets import meshes
+
+    monkeypatch.setattr(datasets, "load", lambda *a, **k: pytest.fail("a volume was loaded before the check"))
+    monkeypatch.setattr(meshes, "generate", lambda *a, **k: pytest.fail("a mesh was built before the check"))
+
+
+@pytest.mark.parametrize("text, match", [
+    ("width: 16\nheight: 16\nwidth: 32\nvolumes: [{dataset: sphere}]\n",
+     r"scene file .*s.yaml, line 3: key 'width' is given twice in one mapping \(lines 1 and 3\)"),
+    ("volumes:\n  - dataset: sphere\n    transform: {scale: 1.0e300}\n",
+     r"line 3: 1.0e300 is read as text, not a number, by YAML 1.1 \(PyYAML\): write 1.0e\+300"),
+    ("width: 016\nvolumes: [{dataset: sphere}]\n", "016 is read as the octal number 14"),
+    ("", r"s.yaml: expected a mapping of scene keys \(width, volumes, ...\), got an empty file"),
+    ("- dataset: sphere\n", "expected a mapping of scene keys.*got list"),
+])
+def test_scene_file_mistakes_are_errors_before_any_work(tmp_path, nothing_is_loaded, text, match):
+    (tmp_path / "s.yaml").write_text(text)
+    with pytest.raises(InputError, match=match):
+        load_scene(tmp_path / "s.yaml")
+
+
+def test_a_scene_file_that_is_not_utf8_or_not_a_file_is_named(tmp_path, nothing_is_loaded):
+    (tmp_path / "s.yaml").write_bytes("name: t\xeate\nvolumes: [{dataset: sphere}]\n".encode("latin-1"))
+    with pytest.raises(InputError, match=r"s.yaml, line 1: not UTF-8 text \(byte 0xea"):
+        load_scene(tmp_path / "s.yaml")
+    with pytest.raises(InputError, match=r"scene file .*: cannot be read \(Is a directory\)"):
+        load_scene(tmp_path)
+
+
+def test_a_phantom_too_large_is_refused_before_any_volume_is_generated(small_machine, nothing_is_loaded):
+    spec = {"volumes": [{"dataset": "sphere", "size": 16}, {"dataset": "sphere", "size": 65}]}
+    with pytest.raises(InputError, match=r"^volumes\[1\] size 65: phantom 'sphere' needs 12.6 MiB \(65³ voxels × 48 "
+                                         r"bytes of working arrays while it is generated\), this machine has 12 MiB; "
+                                         r"use size ≤ 64$"):
+        build_scene(spec)
+    # The pipeline plans its phantom jobs through the same arguments.
+    with pytest.raises(InputError, match="size 65"):
+        phantom_requests(spec["volumes"])
+    # A size given by the profile (or --size) is checked the same way.
+    with pytest.raises(InputError, match=r"volumes\[0\] size 100"):
+        build_scene({"volumes": [{"dataset": "sphere"}]}, size=100)
+
+
+def test_the_full_profiles_largest_phantom_fits_a_16_gib_machine(monkeypatch):
+    import core.resources
+    import datasets
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 16 * 2 ** 30)
+    datasets.get("ct_skull").check_memory(512, where="volume_size")
+    with pytest.raises(InputError, match="use size ≤ 710"):
+        datasets.get("ct_skull").check_memory(711, where="volume_size")
+
+
+@pytest.mark.parametrize("spec, match", [
+    ({"width": 100000, "height": 100000, "volumes": [{"dataset": "sphere", "size": 16}]},
+     r"scene 'scene' image 100000×100000 needs 149 GiB .* use width × height ≤"),
+    ({"volumes": [{"dataset": "sphere", "size": 16,
+                   "transfer_function": {"points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 1]], "size": 10 ** 10}}]},
+     r"transfer function 'tf' size 10000000000 needs 820 GiB"),
+    ({"meshes": [{"generator": "rod", "params": {"sides": 10 ** 8}}]},
+     r"rod sides 100000000: 399999996 triangles needs 381 GiB .* use sides ≤"),
+])
+def test_sizes_this_machine_cannot_hold_are_refused_before_allocating(monkeypatch, spec, match):
+    import core.resources
+    import datasets
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 16 * 2 ** 30)
+    monkeypatch.setattr(datasets, "load", lambda *a, **k: Volume(np.zeros((16, 16, 16), np.uint8), name="sphere"))
+    with pytest.raises(InputError, match=match):
+        build_scene(spec)
+
+
+@pytest.mark.parametrize("spec, match", [
+    ({"volumes": {"dataset": "sphere"}}, r"scene volumes: expected a list of entries \(each line starting with '- '\)"),
+    ({"meshes": {"generator": "rod"}}, "scene meshes: expected a list of entries"),
+    ({"name": 5, "volumes": [{"dataset": "sphere"}]}, "scene name: expected text, got 5"),
+    ({"volumes": [{"dataset": ["sphere"]}]}, r"volumes\[0\] dataset: expected text \(a name or a path\), got \['sphere'\]"),
+    ({"volumes": [{"file": 5}]}, r"volumes\[0\] file: expected text"),
+    ({"volumes": [{"dataset": "sphere", "preset": ["bone"]}]}, r"volumes\[0\] preset: expected text"),
+    ({"volumes": [{"dataset": "sphere", "name": 7}]}, r"volumes\[0\] name: expected text"),
+    ({"volumes": [{"dataset": "sphere", "transfer_function": {"points": [[0, 1, 1, 1, 1]], "name": [1]}}]},
+     r"volumes\[0\] transfer_function name: expected text"),
+    ({"meshes": [{"generator": ["rod"]}]}, r"meshes\[0\] generator: expected text"),
+    ({"meshes": [{"file": 3}]}, r"meshes\[0\] file: expected text"),
+    ({"meshes": [{"generator": "rod", "name": ["r"]}]}, r"meshes\[0\] name: expected text"),
+])
+def test_wrong_types_in_a_scene_are_named_before_any_work(nothing_is_loaded, spec, match):
+    with pytest.raises(InputError, match=match):
+        build_scene(spec)
+
+
+def test_a_folder_given_as_a_volume_or_mesh_file_is_called_a_folder(tmp_path):
+    table = {"points": [[0, 1, 1, 1, 0], [1, 1, 1, 1, 1]]}
+    with pytest.raises(InputError, match="is a folder, not a volume file"):
+        build_scene({"volumes": [{"file": str(tmp_path), "transfer_function": table}]})
+    with pytest.raises(InputError, match="is a folder, not a mesh file"):
+        build_scene({"meshes": [{"file": str(tmp_path)}]})

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from core.errors import InputError
-from core.validation import (check_finite_vector, check_matrix4, check_positive_vector, check_scalar,
-                             check_value_range)
+from core.validation import (LIMITED_PRECISION_MIN_STEP_FACTOR, check_finite_vector, check_matrix4,
+                             check_positive_vector, check_scalar, check_step_factor, check_value_range)
 from core.volume import Volume
 
 
@@ -71,3 +71,14 @@ def test_normalisation_clips_to_the_unit_interval():
     np.testing.assert_allclose(normalized.ravel(), [0, 0, 0, 0.25, 0.5, 1, 1, 1], atol=1e-7)
     assert normalized.dtype == np.float32
     assert normalized.min() == 0 and normalized.max() == 1
+
+
+def test_a_step_finer_than_float32_compositing_resolves_is_refused_naming_the_reference():
+    assert check_step_factor(LIMITED_PRECISION_MIN_STEP_FACTOR, name="b option step_factor") == 2 ** -10
+    assert check_step_factor(0.25, name="b option step_factor") == 0.25
+    with pytest.raises(InputError, match=r"^b option step_factor: 1e-05 is finer than .* use step_factor ≥ 0.000977, "
+                                         r"or the reference backend \(float64\) for finer steps$"):
+        check_step_factor(1e-5, name="b option step_factor")
+    for bad in (0, -1, math.nan, "fine"):
+        with pytest.raises(InputError, match="b option step_factor"):
+            check_step_factor(bad, name="b option step_factor")

@@ -516,3 +516,21 @@ def test_cpu_steps_in_object_space():
         result = backend.render(scene)
     assert result.info["step"] == 1.0 and result.info["step_space"] == "object"
     assert optical_path(result.image[16, 16, 3], 5 / 255) == pytest.approx(23.0, abs=0.1)  # 22.996
+
+
+@pytest.mark.parametrize("backend", ["vtk-cpu", "vtk-gpu"])
+def test_a_step_finer_than_the_mappers_arithmetic_resolves_is_refused(backend):
+    # At 1e-5 voxel both mappers' faint samples round to nothing and their images came out blank.
+    with pytest.raises(InputError, match=rf"{backend} option step_factor: 1e-05 is finer than .* use step_factor ≥"):
+        renderers.backend_class(backend)(step_factor=1e-5)
+
+
+@needs_vtk
+def test_more_threads_than_vtk_runs_are_refused_not_recorded():
+    import re
+
+    with pytest.raises(InputError, match=r"vtk-cpu option threads: 100000 is more than VTK runs \(VTK_MAX_THREADS \d+\)"
+                       ) as refused:
+        renderers.get("vtk-cpu", threads=100000)
+    most = int(re.search(r"VTK_MAX_THREADS (\d+)", str(refused.value))[1])
+    assert renderers.get("vtk-cpu", threads=most).options["threads"] == most

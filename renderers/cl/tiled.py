@@ -117,7 +117,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_choice, check_positive_int, check_scalar
+from core.validation import check_choice, check_positive_int, check_scalar, check_step_factor
 from renderers.base import Capabilities, RenderResult, Renderer
 from renderers.cl import context
 from renderers.cl import scene as scene_arrays
@@ -214,7 +214,8 @@ class ClTiledRenderer(Renderer):
         that times them (E7); the image is transparent.
     device : str, optional
         OpenCL device selector (:mod:`renderers.cl.context`); default: ``$VOLBENCH_CL_DEVICE``,
-        else the first GPU, else the first device.
+        else the first device whose compiler builds kernels, GPUs first. A device that cannot
+        build makes the backend unavailable here, when it is made, with its compiler's message.
     """
 
     name = "cl-tiled"
@@ -248,7 +249,7 @@ class ClTiledRenderer(Renderer):
     def __init__(self, *, step_factor=0.5, depth_cap=63, fragments="local", opaque_threshold=0.99,
                  empty_space="hull", brick_size=8, min_opacity=0.0, triangle_order="scene", media="analytic",
                  coverage="bitmask", stop_after="composite", device=None):
-        self.step_factor = check_scalar(step_factor, name="cl-tiled option step_factor", low=0, low_open=True)
+        self.step_factor = check_step_factor(step_factor, name="cl-tiled option step_factor")
         self.depth_cap = check_positive_int(depth_cap, name="cl-tiled option depth_cap")
         self.fragments = check_choice(fragments, FRAGMENT_STORES, name="cl-tiled option fragments")
         self.opaque_threshold = check_scalar(opaque_threshold, name="cl-tiled option opaque_threshold", low=0,
@@ -270,8 +271,9 @@ class ClTiledRenderer(Renderer):
         self._buffers = {}
         self._pool_chunks = INITIAL_POOL_CHUNKS
         self._last_step = None
+        # The device is chosen now, so that one that cannot build is unavailable before any run.
+        entry = self._device()
         if self.fragments == "local":
-            entry = self._device()
             needed = self.depth_cap * TILE * TILE * 8 + CHUNK * 12
             if needed > entry.device.local_mem_size:
                 most = (entry.device.local_mem_size - CHUNK * 12) // (TILE * TILE * 8)

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from core.errors import InputError
+from core.errors import InputError, UnsupportedFeatureError
 from core.validation import check_choice, check_scalar
 from renderers.base import Renderer
 from renderers.gl import context
@@ -51,6 +51,11 @@ class GLRenderer(Renderer):
     timing : {"auto", "query", "finish"}
         How passes are timed (:mod:`renderers.gl.timing`): ``"auto"`` uses ``"finish"`` on a CPU
         rasterizer, whose timer queries do not cover its deferred work, and ``"query"`` otherwise.
+
+    Notes
+    -----
+    The device is the process's, chosen by :mod:`renderers.gl.context` (the first EGL device that
+    is not a software rasterizer, or ``$VOLBENCH_GL_DEVICE``), not by an option: see there why.
     """
 
     cached_volumes = VOLUME_CACHE_SIZE
@@ -115,6 +120,16 @@ class GLRenderer(Renderer):
         if self._ctx is not None and context.activate(self._ctx):
             self._release()
         self._forget()
+
+    def check(self, scene):
+        """Also refuse an image larger than this context's render targets (a device limit, so the
+        pipeline records the pair as skipped; past it the framebuffer is "not complete")."""
+        super().check(scene)
+        ctx = self._context()
+        most = min(int(ctx.info["GL_MAX_TEXTURE_SIZE"]), *map(int, ctx.info["GL_MAX_VIEWPORT_DIMS"]))
+        if max(scene.width, scene.height) > most:
+            raise UnsupportedFeatureError(self.name, f"a {scene.width}×{scene.height} image",
+                                          f"{ctx.info['GL_RENDERER']} renders at most {most}×{most} pixels")
 
     # -----------------------------------------------------------------------------------------
 

@@ -113,7 +113,7 @@ import time
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_choice, check_positive_int, check_scalar
+from core.validation import check_choice, check_positive_int, check_scalar, check_step_factor
 from renderers.base import Capabilities, RenderResult
 from renderers.gl import context, glsl, peeling_glsl
 from renderers.gl.base import GLRenderer, set_uniforms
@@ -252,6 +252,7 @@ class GLPeelRenderer(GLRenderer):
 
     def __init__(self, *, step_factor=0.5, opaque_threshold=0.99, max_layers=256, peeling="front", timing="auto"):
         super().__init__(step_factor=step_factor, timing=timing)
+        check_step_factor(step_factor, name="gl-peel option step_factor")
         self.opaque_threshold = check_scalar(opaque_threshold, name="gl-peel option opaque_threshold", low=0,
                                              high=1, low_open=True)
         self.max_layers = check_positive_int(max_layers, name="gl-peel option max_layers")

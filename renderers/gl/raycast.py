@@ -94,12 +94,14 @@ depth test in the main passes, from ``GL_SAMPLES_PASSED``), ``fragments_intermed
 passes' counts.
 """
 
+import math
 import time
 
 import numpy as np
 
 from core.errors import InputError
-from core.validation import check_choice, check_positive_int, check_scalar
+from core.resources import check_memory
+from core.validation import check_choice, check_positive_int, check_scalar, check_step_factor
 from renderers.base import Capabilities, RenderResult
 from renderers.gl import context, emptyspace, glsl
 from renderers.gl.base import GLRenderer, set_uniforms
@@ -477,8 +479,12 @@ class GLRaycastRenderer(GLRenderer):
     def __init__(self, *, variant="rc-b", step_factor=0.5, samples_per_pass=8, opaque_threshold=0.95, block_size=8,
                  min_opacity=0.0, iso_refine=6, occluder=0.0, timing="auto"):
         super().__init__(step_factor=step_factor, timing=timing)
+        check_step_factor(step_factor, name="gl-raycast option step_factor")
         self.variant = check_choice(variant, VARIANTS, name="gl-raycast option variant")
         self.samples_per_pass = check_positive_int(samples_per_pass, name="gl-raycast option samples_per_pass")
+        if self.samples_per_pass >= 2 ** 31:
+            raise InputError(f"gl-raycast option samples_per_pass: {samples_per_pass} does not fit the shader's 32-bit "
+                             f"int; use at most {2 ** 31 - 1} (any count above a ray's steps makes one pass)")
         self.opaque_threshold = check_scalar(opaque_threshold, name="gl-raycast option opaque_threshold", low=0,
                                              high=1, low_open=True)
         self.block_size = check_positive_int(block_size, name="gl-raycast option block_size")
@@ -502,6 +508,28 @@ class GLRaycastRenderer(GLRenderer):
                 "min_opacity": self.min_opacity, "iso_refine": self.iso_refine, "occluder": self.occluder,
                 "timing": self.timing,
                 "effective_step": self._last_step, "effective_timing": self._effective_timing}
+
+    def check(self, scene):
+        """Also refuse, before any work, an empty-space block grid that only pads the volume or that
+        this machine cannot build.
+
+        :func:`emptyspace.block_minmax` pads the volume to whole blocks (``ceil(n / B)·B`` float32
+        voxels per axis) after its apron filter's copies of the volume (four float32 arrays).
+        """
+        super().check(scene)
+        if self.variant != "rc-b" or scene.mode == "mip":
+            return
+        volume = scene.volumes[0].volume
+        shape = "×".join(map(str, volume.shape_xyz))
+        longest = max(volume.shape_xyz)
+        if self.block_size > longest:
+            raise InputError(f"gl-raycast option block_size: {self.block_size} is larger than volume {volume.name!r} "
+                             f"({shape}), so one block covers it and the rest is padding; use block_size ≤ {longest}")
+        padded = math.prod(-(-n // self.block_size) * self.block_size for n in volume.shape_xyz)
+        check_memory(4 * padded + 16 * volume.data.size, what=f"gl-raycast option block_size {self.block_size}",
+                     detail=f"volume {volume.name!r} ({shape}) padded to whole blocks, {padded} float32 voxels, "
+                            "and four float32 copies of it",
+                     fix="use a smaller block_size, or variant='rc' (no empty-space skipping)")
 
     # -----------------------------------------------------------------------------------------
 

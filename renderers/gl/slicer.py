@@ -45,12 +45,14 @@ contributing when its opacity is above 0 and the transmittance in front of it is
 and ``info["fragments_walked"]`` (the fragments the walk met, ≈ ``fragments``).
 """
 
+import math
 import time
 
 import numpy as np
 
 from core.errors import InputError
-from core.validation import check_choice
+from core.resources import check_memory
+from core.validation import check_choice, check_step_factor
 from renderers.base import Capabilities, RenderResult
 from renderers.gl import context, glsl
 from renderers.gl.base import GLRenderer, set_uniforms
@@ -161,6 +163,11 @@ void main() {
 """
 
 
+SLICE_BYTES = 2560
+"""Peak memory of :func:`slice_polygons` per slice: its float64 edge intersections, their angular
+order and the fan's triangles (tracemalloc: 2414 bytes a slice)."""
+
+
 def slice_polygons(model, eye, forward, near, step):
     """Triangles of the view-aligned slices of the volume's box, nearest slice first.
 
@@ -260,6 +267,7 @@ class GLSlicerRenderer(GLRenderer):
 
     def __init__(self, *, step_factor=0.5, order="back-to-front", count_contributing=True, timing="auto"):
         super().__init__(step_factor=step_factor, timing=timing)
+        check_step_factor(step_factor, name="gl-slicer option step_factor")
         self.order = check_choice(order, ORDERS, name="gl-slicer option order")
         if not isinstance(count_contributing, bool):
             raise InputError(f"gl-slicer option count_contributing: expected True or False, got {count_contributing!r}")
@@ -269,6 +277,17 @@ class GLSlicerRenderer(GLRenderer):
     def options(self):
         return {"step_factor": self.step_factor, "order": self.order, "count_contributing": self.count_contributing,
                 "timing": self.timing, "effective_step": self._last_step, "effective_timing": self._effective_timing}
+
+    def check(self, scene):
+        """Also refuse, before any work, more slices than this machine can build (:func:`slice_polygons`
+        holds :data:`SLICE_BYTES` a slice; a fine step across a large or strongly anisotropic box makes many)."""
+        super().check(scene)
+        corners = scene.volumes[0].world_corners()
+        diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
+        slices = math.ceil(diagonal / (self.step_factor * scene.min_world_voxel_size())) + 1
+        check_memory(slices * SLICE_BYTES, what=f"gl-slicer: scene {scene.name!r} at step_factor {self.step_factor:g}",
+                     detail=f"up to {slices} slices across the box's {diagonal:.3g} diagonal × {SLICE_BYTES} bytes",
+                     fix="use a larger step_factor")
 
     def _frame_targets(self, width, height):
         def build():

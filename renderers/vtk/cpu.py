@@ -60,7 +60,8 @@ import re
 
 import numpy as np
 
-from core.validation import check_choice, check_positive_int, check_scalar
+from core.errors import InputError
+from core.validation import check_choice, check_positive_int, check_step_factor
 from renderers.base import Capabilities, RenderResult
 from renderers.vtk import common
 
@@ -128,11 +129,19 @@ class VtkCpuRenderer(common.VtkRenderer):
     cells = False  # the fixed-point mapper reads point data only
 
     def __init__(self, *, step_factor=0.25, threads=None, readback="raycast"):
-        self.step_factor = check_scalar(step_factor, name="vtk-cpu option step_factor", low=0, low_open=True)
+        self.step_factor = check_step_factor(step_factor, name="vtk-cpu option step_factor")
         self.threads = None if threads is None else check_positive_int(threads, name="vtk-cpu option threads")
         self.readback = check_choice(readback, READBACKS, name="vtk-cpu option readback")
+        threader = common.vtk_modules().vtkMultiThreader
+        if self.threads is not None:
+            # VTK clamps the count to VTK_MAX_THREADS without a word; the record would claim the request.
+            clamped = threader()
+            clamped.SetNumberOfThreads(self.threads)
+            if clamped.GetNumberOfThreads() != self.threads:
+                raise InputError(f"vtk-cpu option threads: {self.threads} is more than VTK runs "
+                                 f"(VTK_MAX_THREADS {clamped.GetNumberOfThreads()}); use at most that many")
         self._open()
-        self._default_threads = common.vtk_modules().vtkMultiThreader.GetGlobalDefaultNumberOfThreads()
+        self._default_threads = threader.GetGlobalDefaultNumberOfThreads()
 
     @property
     def effective_threads(self):

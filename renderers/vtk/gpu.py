@@ -77,7 +77,7 @@ camera and light updates included, setup excluded). Counters: ``pixels``, ``voxe
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_scalar
+from core.validation import check_step_factor
 from renderers.base import Capabilities, RenderResult
 from renderers.vtk import common
 
@@ -151,7 +151,7 @@ class VtkGpuRenderer(common.VtkRenderer):
     """Sample distance from one voxel to the reference's quarter voxel."""
 
     def __init__(self, *, step_factor=0.25, early_termination=True):
-        self.step_factor = check_scalar(step_factor, name="vtk-gpu option step_factor", low=0, low_open=True)
+        self.step_factor = check_step_factor(step_factor, name="vtk-gpu option step_factor")
         if not isinstance(early_termination, bool):
             raise InputError(f"vtk-gpu option early_termination: expected True or False, got {early_termination!r}")
         self.early_termination = early_termination
