@@ -31,15 +31,16 @@ def measure(renderer, scene, *, warmup=1, repeat=3, progress=False):
     """
     warmup = check_positive_int(warmup, name="warmup", minimum=0)
     repeat = check_positive_int(repeat, name="repeat", minimum=1)
-    bar = tqdm(total=warmup + repeat, desc=f"{renderer.name} frames", disable=not progress, unit="frame")
-    for _ in range(warmup):
-        renderer.render(scene)
-        bar.update()
-    frames = []
-    for _ in range(repeat):
-        frames.append(renderer.render(scene))
-        bar.update()
-    bar.close()
+    # The bar closes (ends its line) however the frames end, so that a message after Ctrl-C or an
+    # error starts a line of its own instead of being followed by the bar drawn again at exit.
+    with tqdm(total=warmup + repeat, desc=f"{renderer.name} frames", disable=not progress, unit="frame") as bar:
+        for _ in range(warmup):
+            renderer.render(scene)
+            bar.update()
+        frames = []
+        for _ in range(repeat):
+            frames.append(renderer.render(scene))
+            bar.update()
     stages = list(dict.fromkeys(stage for frame in frames for stage in frame.timings))
     per_stage = {stage: [frame.timings[stage] for frame in frames if stage in frame.timings] for stage in stages}
     last = frames[-1]

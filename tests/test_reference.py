@@ -580,3 +580,45 @@ def test_gradient_opacity_argument_is_gradient_per_reference_step_over_sqrt3_hal
     # Columns 1..22 stay one voxel away from the x faces, where clamp-to-edge halves the gradient.
     np.testing.assert_allclose(image[:, 1:23, 3], 1 - (1 - alpha * u) ** 24, atol=1e-6)
     np.testing.assert_allclose(image[:, 0, 3], 1 - (1 - alpha * u * 0.5) ** 24, atol=1e-6)  # (f(1) − f(0))/2
+
+
+# -- what a frame costs, checked before any work -----------------------------------------------
+
+def _cube_scene(n, image, **scene):
+    volume = Volume(np.zeros((n, n, n), np.uint8), name="cube")
+    return Scene(volumes=VolumeInstance(volume, RAMP), width=image, height=image, **scene)
+
+
+def test_absurd_work_is_refused_before_any_work_naming_the_step_and_the_cap():
+    scene = _cube_scene(8, 32)
+    with pytest.raises(InputError, match=r"^reference: scene 'scene' takes about 1.42e\+11 samples a frame \(1024 pixels "
+                                         r"× 1.39e\+08 steps of 1e-07 across the volumes' 13.9 diagonal\), more than "
+                                         r"max_samples=1e\+11; use a larger step \(step_factor ≥ 1.42e-07\) or fewer "
+                                         r"pixels, or raise the cap with the option max_samples"):
+        ReferenceRenderer(step_factor=1e-7).check(scene)
+    ReferenceRenderer(step_factor=1e-7, max_samples=1e12).check(scene)
+    with pytest.raises(InputError, match=r"use a larger step \(step ≥ 1.42e-07\)"):
+        ReferenceRenderer(step=1e-7).check(scene)
+    # mip and iso walk the voxel lattice: the step does not change their work.
+    ReferenceRenderer(step_factor=1e-7).check(_cube_scene(8, 32, mode="mip"))
+    with pytest.raises(InputError, match=r"1000000 pixels × up to 27 voxel-lattice cells a ray\), more than max_samples=1e\+07; render fewer pixels"):
+        ReferenceRenderer(max_samples=1e7).check(_cube_scene(8, 1000, mode="mip"))
+
+
+def test_the_full_profiles_largest_frame_passes():
+    # volbench-speed-accuracy's truth at full scale: a 256³ volume at 1/16 voxel, 512².
+    samples, _ = ReferenceRenderer(step_factor=1 / 16).work(_cube_scene(256, 512))
+    assert 1.8e9 < samples < 1.9e9
+    ReferenceRenderer(step_factor=1 / 16).check(_cube_scene(256, 512))
+
+
+def test_a_frame_this_machine_cannot_hold_is_refused(monkeypatch):
+    import core.resources
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 5 * 2 ** 20)
+    with pytest.raises(InputError, match=r"reference: scene 'scene' at 256×256 needs 5.16 MiB \(the volumes' 32 KiB, 80 "
+                                         r"bytes a pixel and 4 a voxel\), this machine has 5 MiB"):
+        ReferenceRenderer().check(_cube_scene(32, 256))
+    ReferenceRenderer().check(_cube_scene(32, 240))
+    with pytest.raises(InputError, match="20 a voxel"):
+        ReferenceRenderer(classification="pre").check(_cube_scene(128, 8))

@@ -9,7 +9,7 @@ from scipy.ndimage import gaussian_filter
 
 from core.errors import InputError
 from reports import metrics
-from reports.imageio import read_image, write_exr
+from reports.imageio import encode_srgb, read_image, write_exr
 
 
 def textured(height=32, width=32, seed=0):
@@ -154,12 +154,34 @@ def test_difference_image():
     brightness = diff[..., :3].sum(axis=-1)
     assert brightness[2, 3] > brightness[4, 4] > brightness[0, 0]
     assert brightness[0, 0] == brightness.min()
-    # Auto gain maps the largest error to the top of the colour map; gain 1 keeps it dim.
+    # Gain 1 (scale 1) shows the same error dimmer than the default scale of 0.25.
     assert metrics.difference_image(reference, test, gain=1.0)[2, 3, :3].sum() < brightness[2, 3]
     same = metrics.difference_image(reference, reference)
     np.testing.assert_array_equal(same, np.broadcast_to(same[0, 0], same.shape))
     with pytest.raises(InputError, match="gain"):
         metrics.difference_image(reference, test, gain=-1)
+
+
+@pytest.mark.parametrize("channel", range(4))
+def test_difference_image_shows_a_one_channel_error_where_the_colour_bar_puts_it(channel):
+    """The colour bar (``reports.plots.difference_colorbar``) maps 0 … scale to magma; a pixel's
+    error is its largest channel error, so an error in one channel alone reads at its full size."""
+    from matplotlib import colormaps
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
+
+    scale = 0.2
+    reference = np.full((2, 4, 4), 0.5, np.float32)
+    reference[..., 3] = 1.0
+    test = reference.copy()
+    test[0, 0, channel] -= 0.13  # 0.65 of the bar (away from the edges of magma's 256 colours)
+    test[0, 1, channel] -= 0.13
+    test[0, 1, (channel + 1) % 4] -= 0.05  # a smaller error elsewhere changes nothing
+    test[0, 2, channel] -= 0.3  # past the scale: the bar's top
+    bar = ScalarMappable(norm=Normalize(0.0, scale), cmap=colormaps["magma"])
+    expected = bar.to_rgba([[0.13, 0.13, scale, 0.0], [0.0] * 4])[..., :3]
+    shown = encode_srgb(metrics.difference_image(reference, test, scale=scale)[..., :3])  # as write_png shows it
+    np.testing.assert_allclose(shown, expected, atol=1e-5)
 
 
 def test_flip_map_is_an_opaque_image():

@@ -5,11 +5,13 @@ the per-frame octree mode (bit-identical images) and the renderer's options, sta
 import numpy as np
 import pytest
 
+import datasets
 from core.camera import Camera
 from core.errors import InputError
 from core.scene import Scene, Shading, VolumeInstance
 from core.transfer import GradientOpacity, TransferFunction
 from core.volume import Volume
+from datasets.registry import DATASETS
 from renderers.shearwarp import classify as C
 from renderers.shearwarp import octree as O
 from renderers.shearwarp.renderer import ShearWarpRenderer
@@ -184,3 +186,20 @@ def test_options_are_validated_and_recorded():
                        ({"classification": "octree", "octree_rle_build": True}, "octree_rle_build")]:
         with pytest.raises(InputError, match=match):
             ShearWarpRenderer(**bad)
+
+
+def test_a_uniform_volume_is_not_classified_away():
+    # A constant cube's root node covers one scalar bin and one gradient bin: its SAT box holds
+    # exactly one non-transparent parameter pair, which must not be taken for none.
+    cube = datasets.load("constant_cube", size=16, cache_dir=False)
+    preset = DATASETS["constant_cube"].preset()
+    tree = O.build_octree(cube.normalized(np.float32), cube.spacing)
+    verdict = O.classify_octree(tree, preset.transfer_function, None, 1.0, 0.05)
+    assert tree.nodes == 1 and verdict.box_sum(tree.smin[0], tree.smax[0], tree.gmin[0], tree.gmax[0]) == 1
+    assert verdict.status[0] == O.NONTRANSPARENT
+    scene = Scene((VolumeInstance(cube, preset.transfer_function),), camera=Camera(azimuth=30.0, elevation=20.0),
+                  width=32, height=32)
+    rle = ShearWarpRenderer().render(scene)
+    fast = ShearWarpRenderer(classification="octree").render(scene)
+    assert rle.image[..., 3].max() > 0.5  # α = 128/255 per voxel: the cube is all but opaque
+    np.testing.assert_array_equal(fast.image, rle.image)

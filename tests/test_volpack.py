@@ -17,7 +17,7 @@ from core.scene import Scene, Shading, VolumeInstance
 from core.transfer import GradientOpacity, TransferFunction
 from core.volume import Volume
 from renderers.volpack import library as vp
-from renderers.volpack.renderer import VolPackRenderer, gradient_table
+from renderers.volpack.renderer import VolPackRenderer, density_alpha_table, gradient_table
 
 AVAILABLE, WHY = VolPackRenderer.probe()
 needs_volpack = pytest.mark.skipif(not AVAILABLE, reason=WHY)
@@ -272,6 +272,29 @@ def test_gradient_table_uses_volpack_scale():
     # index k stands for |∇s| in [k, k+1)/255; u = |∇s|/(√3/2), the interval's centre
     assert table[0] == pytest.approx(0.5 / (255 * np.sqrt(3) / 2), rel=1e-6)
     assert table[220] == pytest.approx(220.5 / (255 * np.sqrt(3) / 2), rel=1e-6)
+
+
+def test_density_opacity_table_reads_the_transfer_function_at_v_over_255():
+    # α = s: entry v holds α(v/255), so the last entry is the transfer function's value at 1.0
+    table = density_alpha_table(LINEAR, 1.0, 1.0)
+    assert table.shape == (vp.VP_SCALAR_MAX + 1,)
+    assert table[0] == 0 and table[128] == pytest.approx(128 / 255, rel=1e-6) and table[255] == 1
+
+
+@needs_volpack
+@pytest.mark.parametrize("density, colour", [(0, (1, 0, 0)), (128, (0, 1, 0)), (255, (0, 0, 1))])
+def test_a_density_gets_the_transfer_function_colour_at_its_value_over_255(density, colour):
+    """The colour weights are indexed like the opacity table: density v takes the colour at s = v/255.
+
+    The colour changes between adjacent table entries (127 | 128 and 254 | 255), so reading the table
+    at v/256 instead would give a half-and-half mix at 128 and all but pure green at 255.
+    """
+    tf = TransferFunction.from_points([(0, 1, 0, 0, 0.5), (127 / 255, 1, 0, 0, 0.5), (128 / 255, 0, 1, 0, 0.5),
+                                       (254 / 255, 0, 1, 0, 0.5), (1, 0, 0, 1, 0.5)])
+    scene = scene_of(Volume(np.full((16, 16, 16), density, np.uint8)), tf, size=33)
+    pixel = renderers.get("volpack", opaque_threshold=1.0, min_opacity=0.0).render(scene).image[16, 16]
+    assert pixel[3] > 0.99  # 16 voxels of α = 0.5
+    np.testing.assert_allclose(pixel[:3] / pixel[3], colour, atol=3 / 255)  # 8-bit image
 
 
 # -- caching, modes, determinism ------------------------------------------------------------------

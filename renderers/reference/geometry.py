@@ -41,8 +41,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, is_ray, volume_sample,
-                                         volume_spans)
+from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, is_ray, stop_requested,
+                                         volume_sample, volume_spans)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -242,13 +242,14 @@ def render(origins, directions,
            verts, faces, face_normals, obj_w2o, obj_nmat, obj_lo, obj_hi, obj_faces, obj_leaf,
            leaf_box, leaf_obj, leaf_surface, leaf_has_surface, leaf_medium, leaf_has_medium, leaf_node, leaf_root,
            node_op, node_leaf, node_parent, node_first, node_children, node_child_start, node_child_count,
-           row_order, image, depth, row_hits, row_samples, row_fragments, row_max_fragments):
+           row_order, stop, image, depth, row_hits, row_samples, row_fragments, row_max_fragments):
     """Cast one ray per pixel through volumes, meshes and CSG (see the module notes).
 
     ``image`` gets premultiplied RGBA and ``depth`` the ray parameter of the first contribution
     (a surface or the nearest sample of the first contributing piece), NaN where none. Per row:
     rays that meet any box or mesh, volume samples, fragments (crossings at ``t >= 0``, volume
-    boxes excluded) and the largest fragment count of one ray (its depth complexity).
+    boxes excluded) and the largest fragment count of one ray (its depth complexity). A non-zero
+    ``stop[0]`` ends the kernel before the next pixel (Ctrl-C, as :func:`raycast.render`).
     """
     height, width = origins.shape[0], origins.shape[1]
     nvol = offsets.shape[0]
@@ -284,6 +285,8 @@ def render(origins, directions,
         fragments = 0
         most = 0
         for col in range(width):
+            if stop_requested(stop):
+                break
             o = origins[row, col]
             d = directions[row, col]
             pixel = image[row, col]

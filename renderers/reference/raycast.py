@@ -59,6 +59,7 @@ import math
 
 import numpy as np
 from numba import njit, prange, types
+from numba.extending import intrinsic
 
 from renderers.base.numba_kernels import table_position
 
@@ -75,6 +76,24 @@ MAX_CELL_CORRECTIONS = 64
 """Upper bound on each correction loop of :func:`_cell_range` (finite spans need one step at most)."""
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+
+
+@intrinsic
+def stop_requested(typingctx, flag):
+    """``flag[0] != 0`` for an int64 array ``flag``, read from memory at every call.
+
+    Another thread sets the flag while a kernel runs (Ctrl-C); the read is an atomic load so
+    that the compiler cannot hoist it out of the kernel's loops as it does an ordinary one.
+    """
+    if not (isinstance(flag, types.Array) and flag.dtype == types.int64):
+        return None
+
+    def codegen(context, builder, signature, args):
+        array = context.make_array(signature.args[0])(context, builder, args[0])
+        value = builder.load_atomic(array.data, ordering="monotonic", align=8)
+        return builder.icmp_signed("!=", value, value.type(0))
+
+    return types.boolean(flag), codegen
 
 
 @njit(**_JIT)
@@ -672,7 +691,7 @@ def _cell_range(t_first, step, t_in, t_out, min_overlap):
 
 @njit(parallel=True, **_JIT)
 def preclassify(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, nmat, phong, shading, light,
-                half, has_half, out):
+                half, has_half, stop, out):
     """Classify and shade every voxel at its centre into ``out`` (4, packed size): premultiplied RGBA.
 
     The classify → shade → interpolate order of Levoy 1988 and of the shear-warp thesis's
@@ -680,13 +699,15 @@ def preclassify(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_
     value, Blinn–Phong with the central-difference gradient at the voxel centre (clamp-to-edge,
     as :func:`_gradient`) and one half vector for the whole volume (the view direction of an
     orthographic camera). Opacities are those of one reference step ``Δ0``; the ray corrects
-    them for its step after interpolation.
+    them for its step after interpolation. A non-zero ``stop[0]`` ends it early (as :func:`render`).
     """
     for vol in range(offsets.shape[0]):
         off = offsets[vol]
         nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
         size = tf_size[vol]
         for z in prange(nz):
+            if stop_requested(stop):
+                continue
             for y in range(ny):
                 for x in range(nx):
                     index = off + (z * ny + y) * nx + x
@@ -787,13 +808,14 @@ _RENDER_SIGNATURE = types.void(
     _f8, _f8,                                   # world step, shortest overlap sampled
     _i8, _f8[::1], _f8[::1], _f8,               # phong flag, (ka, kd, ks, n), light, iso tolerance (fraction of a segment)
     _f4[:, ::1],                                # pre-classified RGBA (4, packed size), or (4, 0): post-classify
+    _i8[::1],                                   # stop flag (1,), set by another thread to end early
     _f4[:, :, ::1], _f8[:, ::1], _i8[::1], _i8[::1],  # out: image, depth, hits and samples per row
 )
 
 
 @njit(_RENDER_SIGNATURE, parallel=True, **_JIT)
 def render(mode, row_order, origins, directions, data, offsets, dims, spacing, world_to_object, nmat, tf, tf_size,
-           gtab, gtab_size, ref_step, isovalue, step, min_overlap, phong, shading, light, tolerance, pre,
+           gtab, gtab_size, ref_step, isovalue, step, min_overlap, phong, shading, light, tolerance, pre, stop,
            image, depth, row_hits, row_samples):
     """Cast one ray per pixel into ``image`` (premultiplied RGBA) and ``depth``.
 
@@ -805,7 +827,9 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
     not included). ``tolerance`` is the iso bracket length as a fraction of a lattice-cell
     segment. Non-finite rays give transparent pixels. ``row_order`` is a permutation of the rows: prange
     hands each thread a contiguous block of it, so interleaving the rows balances pictures
-    whose content sits in one band.
+    whose content sits in one band. A non-zero ``stop[0]``, set by another thread while the
+    kernel runs (Ctrl-C, see :func:`renderers.reference.renderer.run_stoppable`), ends it before
+    the next pixel; the outputs are then incomplete.
     """
     height, width = origins.shape[0], origins.shape[1]
     nvol = offsets.shape[0]
@@ -823,6 +847,8 @@ def render(mode, row_order, origins, directions, data, offsets, dims, spacing, w
         hits = 0
         samples = 0
         for col in range(width):
+            if stop_requested(stop):
+                break
             o = origins[row, col]
             d = directions[row, col]
             pixel = image[row, col]

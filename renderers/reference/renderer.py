@@ -65,12 +65,16 @@ Choices where the conventions leave room
   interpolating, which every pre-classified method shares.
 """
 
+import functools
+import os
 import time
 import weakref
+from concurrent import futures
 
 import numpy as np
 
 from core.errors import InputError
+from core.resources import check_memory, format_bytes
 from core.validation import check_scalar
 from renderers.base import Capabilities, RenderResult, Renderer
 from renderers.base.probes import numba_probe
@@ -96,6 +100,22 @@ rounding-sized extra samples.
 CLASSIFICATIONS = ("post", "pre")
 """Values of the ``classification`` option: classify the interpolated scalar, or the voxels."""
 
+MAX_SAMPLES = 10 ** 11
+"""Default of the ``max_samples`` option: the most samples one frame may take (see :meth:`ReferenceRenderer.work`).
+
+The full profile's largest reference frame takes about 2e9 (a 256³ skull at 1/16 voxel, 512²), so
+this leaves fifty times that and refuses a step that would keep the machine busy for hours or days
+(``step_factor=1e-7`` on a 64³ phantom: ~7e13)."""
+
+BYTES_PER_PIXEL = 80
+"""Memory of a frame per pixel: the image (16 bytes), the depth (8), the ray origins and
+directions (48) and the temporaries that build them (tracemalloc: 72.6 bytes at 512²)."""
+
+BYTES_PER_VOXEL = {"post": 4, "pre": 20}
+"""Memory per voxel besides the volume: its normalised float32 copy, and with
+``classification="pre"`` the classified, shaded RGBA as well (tracemalloc: 4 and 16 bytes); a
+scene of several volumes packs the copies into one more array of 4 bytes a voxel."""
+
 _NORMALISED = weakref.WeakKeyDictionary()
 """Volume → flat float32 normalised scalars; ``Volume`` is frozen, so its data is not expected to change."""
 
@@ -113,6 +133,43 @@ def interleaved_rows(height):
     """Rows ordered by residue modulo :data:`ROW_INTERLEAVE`, so each contiguous block spans the image."""
     return np.concatenate([np.arange(start, height, ROW_INTERLEAVE) for start in range(ROW_INTERLEAVE)])
 
+
+@functools.cache
+def _kernel_thread():
+    """The one thread that runs the kernels (one, so Numba's thread pool for it is made once)."""
+    return futures.ThreadPoolExecutor(max_workers=1, thread_name_prefix="reference-kernels")
+
+
+os.register_at_fork(after_in_child=_kernel_thread.cache_clear)  # a forked child has no such thread
+
+
+def run_stoppable(launch):
+    """Call ``launch(stop)`` in the kernel thread and wait; on Ctrl-C, stop it and re-raise.
+
+    A Numba kernel cannot be interrupted, and the interpreter acts on SIGINT only between
+    bytecodes of the main thread: a frame run there ends only when the kernel does. So the
+    kernel runs in another thread (the kernels release the GIL) while this one waits, where
+    KeyboardInterrupt does arrive; then ``stop[0]`` is set, which the kernel checks before each
+    pixel (or slice), and once it has returned the interrupt goes on. The kernel is the same
+    single call with the same rows per thread, so images and speed are those of a call in this
+    thread.
+    """
+    import numba
+
+    stop = np.zeros(1, dtype=np.int64)
+    threads = numba.get_num_threads()  # Numba's thread count is per calling thread: take the caller's
+
+    def call():
+        numba.set_num_threads(threads)
+        launch(stop)
+
+    done = _kernel_thread().submit(call)
+    try:
+        done.result()
+    except BaseException:
+        stop[0] = 1
+        futures.wait([done])
+        raise
 
 
 class ReferenceRenderer(Renderer):
@@ -132,6 +189,10 @@ class ReferenceRenderer(Renderer):
         distance from the ray origin) of the first contributing sample (``dvr``: the nearest
         sample of the first cell that contributes), the first place the exact maximum is
         reached (``mip``) or the surface (``iso``), NaN where there is none.
+    max_samples : float, optional
+        The most samples a frame may take (default :data:`MAX_SAMPLES`): :meth:`check` refuses a
+        scene whose estimate (:meth:`work`) is larger, before any work. Raise it for a frame that
+        should take that long.
 
     Notes
     -----
@@ -177,8 +238,9 @@ class ReferenceRenderer(Renderer):
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25, 0.125))
     """Speed-versus-accuracy settings, coarse to fine; the default quarter voxel is among them."""
 
-    def __init__(self, *, step_factor=0.25, step=None, classification="post", depth=False):
+    def __init__(self, *, step_factor=0.25, step=None, classification="post", depth=False, max_samples=MAX_SAMPLES):
         self.step_factor = check_scalar(step_factor, name="reference option step_factor", low=0, low_open=True)
+        self.max_samples = check_scalar(max_samples, name="reference option max_samples", low=1)
         if classification not in CLASSIFICATIONS:
             raise InputError(f"reference option classification: expected one of {', '.join(CLASSIFICATIONS)}, "
                              f"got {classification!r}")
@@ -203,7 +265,7 @@ class ReferenceRenderer(Renderer):
     def options(self):
         """Options as given, plus ``effective_step``: the world step of the last render."""
         return {"step_factor": self.step_factor, "step": self.step, "classification": self.classification,
-                "depth": self.depth, "effective_step": self._last_step}
+                "depth": self.depth, "max_samples": self.max_samples, "effective_step": self._last_step}
 
     def environment(self):
         import numba
@@ -212,6 +274,52 @@ class ReferenceRenderer(Renderer):
 
     def close(self):
         self._packed = None
+
+    def check(self, scene):
+        """Also refuse, before any work, a frame this machine cannot hold or that takes more than
+        ``max_samples`` samples (:meth:`work`)."""
+        super().check(scene)
+        pixels = scene.width * scene.height
+        voxels = [instance.volume.data.size for instance in scene.volumes]
+        per_voxel = BYTES_PER_VOXEL[self.classification] + (4 if len(voxels) > 1 else 0)
+        held = sum(instance.volume.data.nbytes for instance in scene.volumes)
+        check_memory(held + pixels * BYTES_PER_PIXEL + sum(voxels) * per_voxel,
+                     what=f"reference: scene {scene.name!r} at {scene.width}×{scene.height}",
+                     detail=f"the volumes' {format_bytes(held)}, {BYTES_PER_PIXEL} bytes a pixel and {per_voxel} a voxel",
+                     fix="render fewer pixels or smaller volumes")
+        samples, how = self.work(scene)
+        if samples > self.max_samples:
+            advice = "render fewer pixels"
+            if scene.mode == "dvr":
+                option, value = ("step_factor", self.step_factor) if self.step is None else ("step", self.step)
+                advice = f"use a larger step ({option} ≥ {value * samples / self.max_samples:.3g}) or fewer pixels"
+            raise InputError(f"reference: scene {scene.name!r} takes about {samples:.3g} samples a frame ({how}), more "
+                             f"than max_samples={self.max_samples:.3g}; {advice}, or raise the cap with the option "
+                             "max_samples (--option max_samples=N) if the frame should take that long")
+
+    def work(self, scene):
+        """An upper estimate of the samples one frame of ``scene`` takes, and how it is made.
+
+        ``dvr``: every pixel's ray walks cells of the world step across the box bounding all
+        volumes (a scene without volumes samples nothing). ``mip`` and ``iso`` walk each volume's
+        voxel lattice instead, independent of the step: at most ``nx + ny + nz + 3`` cells a ray.
+
+        Returns
+        -------
+        (float, str)
+        """
+        pixels = scene.width * scene.height
+        if not scene.volumes:
+            return 0.0, "no volume to sample"
+        if scene.mode != "dvr":
+            cells = sum(sum(instance.volume.shape_xyz) + 3 for instance in scene.volumes)
+            return float(pixels) * cells, f"{pixels} pixels × up to {cells} voxel-lattice cells a ray"
+        corners = np.concatenate([instance.world_corners() for instance in scene.volumes])
+        diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
+        step = self._step(scene.min_world_voxel_size())
+        steps = diagonal / step + 1
+        return float(pixels) * steps, (f"{pixels} pixels × {steps:.3g} steps of {step:.3g} across the volumes' "
+                                       f"{diagonal:.3g} diagonal")
 
     def world_step(self, scene):
         """The world step this renderer uses for ``scene`` (``None``: no volume to sample)."""
@@ -279,9 +387,9 @@ class ReferenceRenderer(Renderer):
             half = light + back
             half_norm = np.linalg.norm(half)
             pre = np.empty((4, data.size), dtype=np.float32)
-            self._raycast.preclassify(data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step,
-                                      normal_matrix, phong, parameters, light,
-                                      half / half_norm if half_norm > 0 else half, bool(half_norm > 0), pre)
+            run_stoppable(lambda stop: self._raycast.preclassify(
+                data, offsets, dims, spacing, tf, tf_size, gtab, gtab_size, ref_step, normal_matrix, phong, parameters,
+                light, half / half_norm if half_norm > 0 else half, bool(half_norm > 0), stop, pre))
         return (self._raycast.MODE_CODES[scene.mode], interleaved_rows(scene.height), origins, directions,
                 data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size, gtab, gtab_size,
                 ref_step, isovalue, step, MIN_OVERLAP * step, phong, parameters, light, ISO_TOLERANCE, pre)
@@ -350,7 +458,7 @@ class ReferenceRenderer(Renderer):
         row_hits = np.zeros(scene.height, dtype=np.int64)
         row_samples = np.zeros(scene.height, dtype=np.int64)
         prepared = time.perf_counter()
-        self._raycast.render(*arguments, image, depth, row_hits, row_samples)
+        run_stoppable(lambda stop: self._raycast.render(*arguments, stop, image, depth, row_hits, row_samples))
         rendered = time.perf_counter()
 
         self._last_step = step
@@ -381,7 +489,7 @@ class ReferenceRenderer(Renderer):
         depth = np.empty((height, width))
         rows = [np.zeros(height, dtype=np.int64) for _ in range(4)]
         prepared = time.perf_counter()
-        self._geometry.render(*arguments, image, depth, *rows)
+        run_stoppable(lambda stop: self._geometry.render(*arguments, stop, image, depth, *rows))
         rendered = time.perf_counter()
 
         self._last_step = step
