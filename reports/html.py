@@ -21,8 +21,9 @@ import jinja2
 import numpy as np
 import pandas as pd
 
+from core.outcomes import CAUSE_WORDS
 from core.papers import PAPERS
-from reports import blocks, nodes, takeaways
+from reports import blocks, nodes, outcomes, takeaways
 from reports.imageio import read_image, write_png
 from reports.metrics import difference_image
 
@@ -178,14 +179,31 @@ def _render_block(block, ctx):
     raise TypeError(f"unknown report block {type(block).__name__}")
 
 
-def _status_summary(frame, ctx):
+def _status_summary(frame, ctx, *, stated_above=()):
+    """``(counts, problems)`` of an experiment's runs: runs per status, and its runs that made no frame
+    grouped by backend, cause and message (:func:`reports.outcomes.problem_groups`).
+
+    A group of a backend in ``stated_above`` (its failure is stated at the top of the page) gives no
+    message again.
+    """
     if frame.empty:
         return {"ok": 0, "skipped": 0, "failed": 0}, []
-    per_run = frame.drop_duplicates(["experiment", "run"])
-    counts = per_run.status.value_counts().to_dict()
-    problems = per_run[per_run.status != "ok"].reindex(columns=["run", "backend", "status", "reason", "record"])
-    problems["record"] = [ctx.file(p) for p in problems.record]
-    return {s: int(counts.get(s, 0)) for s in ("ok", "skipped", "failed")}, problems.to_dict("records")
+    runs = outcomes.per_run(frame)
+    counts = runs.status.value_counts().to_dict()
+    problems = []
+    for group in outcomes.problem_groups(runs):
+        shown = group["runs"][:PROBLEM_RUNS_SHOWN]
+        problems.append({
+            **group, "what": CAUSE_WORDS.get(group["cause"], group["status"]),
+            "reason": "stated at the top of this page" if group["backend"] in stated_above else group["reason"],
+            "shown": [(run, ctx.file(record)) for run, record in zip(shown, group["records"])],
+            "more": len(group["runs"]) - len(shown),
+        })
+    return {s: int(counts.get(s, 0)) for s in ("ok", "skipped", "failed")}, problems
+
+
+PROBLEM_RUNS_SHOWN = 6
+"""Runs of one problem group linked by name; the rest are counted (every record is in the CSV)."""
 
 
 # ------------------------------------------------------------------------- techniques × data sets
@@ -322,7 +340,7 @@ def _experiment_blocks(experiment, frame, ctx):
 
 
 def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
-                 real_data=None, phantoms=None, notices=(), psnr_min=takeaways.PSNR_GOOD):
+                 real_data=None, phantoms=None, notices=(), techniques=None, psnr_min=takeaways.PSNR_GOOD):
     """Write the report into ``results_dir/report``; return the path of ``index.html``.
 
     Parameters
@@ -349,6 +367,9 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     notices : sequence of str
         Sentences every page shows first, above its title (e.g. that the report mixes runs of two
         pipeline runs).
+    techniques : dict, optional
+        ``{paper: backend}``: the backend whose frames are the paper's technique. A paper whose
+        technique made no frame in this run is marked "not reproduced on this machine".
     psnr_min : float
         The PSNR (dB) the take-aways and the table call accurate.
     """
@@ -364,14 +385,19 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     claims_df = claims_df.copy()
     if "holds" in claims_df:
         claims_df["holds"] = claims_df["holds"].map(_holds).astype(object)
+    claims_df["verdict"] = _verdicts(claims_df)
     env = _jinja()
     facts = provenance(environment, runs_df, real_data)
     node_rows = nodes.nodes_table(runs_df)
+    runs = outcomes.per_run(runs_df)
+    backend_runs = outcomes.backend_outcomes(runs)
+    silent = outcomes.silent_backends(backend_runs)
+    techniques = dict(techniques or {})
     pages, overview_rows = {}, []
     for experiment in experiments:
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
         ctx = ReportContext(report_dir, results_dir, experiment.name)
-        counts, problems = _status_summary(frame, ctx)
+        counts, problems = _status_summary(frame, ctx, stated_above=silent)
         claims = claims_df[claims_df.experiment == experiment.name].to_dict("records")
         paper_table = experiment.paper_table()
         rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
@@ -380,10 +406,10 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
             "name": experiment.name, "title": experiment.title, "description": experiment.description,
             "counts": counts, "problems": problems, "claims": claims,
             "paper_table": _table_html(paper_table) if paper_table is not None else None,
-            "takeaways": [s for b in rendered if b["kind"] == "takeaways" for s in b["sentences"]]
-                         + takeaways.problems(problems),
+            "takeaways": [s for b in rendered if b["kind"] == "takeaways" for s in b["sentences"]],
             "blocks": [b for b in rendered if b["kind"] != "takeaways"],
             "csv": f"csv/{experiment.name}.csv",
+            "backends": set(frame.backend) if "backend" in frame else set(),
         }
         if getattr(experiment, "overview", False):
             overview_rows.append(technique_rows(frame))
@@ -393,19 +419,29 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     summaries = []
     for paper, sections in pages.items():
         claims = [c for s in sections for c in s["claims"]]
+        page_backends = set().union(*(s["backends"] for s in sections))
+        technique = techniques.get(paper)
+        reproduced = backend_runs[technique]["ran"] if technique in backend_runs else None
+        # What made no frame on this page, once, at its top: which backend, how many runs, the message.
+        alerts = [outcomes.did_not_run(name, silent[name]) + "." for name in silent if name in page_backends]
+        if reproduced is False:
+            alerts.insert(0, f"Not reproduced on this machine: {technique}, the backend of this paper's technique, "
+                             f"made no frame. Claims that need its runs are blocked; the runs of the other backends "
+                             f"that did succeed are shown below.")
         # Sections of one paper may say the same thing (the device every run of the page used): once.
+        page_runs = runs[runs.experiment.isin([s["name"] for s in sections]) & ~runs.backend.isin(silent)]
         page_takeaways = list(dict.fromkeys(takeaways.claims(pd.DataFrame(claims))
-                                            + [t for s in sections for t in s["takeaways"]]))
+                                            + [t for s in sections for t in s["takeaways"]]
+                                            + takeaways.problems(outcomes.problem_groups(page_runs))))
         (report_dir / f"{paper}.html").write_text(page_template.render(
             paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
-            notices=list(notices),
+            notices=list(notices), alerts=alerts, verdict_classes=VERDICT_CLASSES,
             nodes=node_rows, provenance=facts, takeaways=page_takeaways))
         summaries.append({
             "paper": paper, "title": PAPERS.get(paper, paper), "page": f"{paper}.html",
             "experiments": [(s["name"], s["title"]) for s in sections],
-            "claims_hold": sum(c["holds"] is True for c in claims),
-            "claims_fail": sum(c["holds"] is False for c in claims),
-            "claims_unmeasured": sum(c["holds"] is None for c in claims),
+            "technique": technique, "reproduced": reproduced,
+            "claims": {verdict: sum(c["verdict"] == verdict for c in claims) for verdict in VERDICT_CLASSES},
             "runs": {k: sum(s["counts"][k] for s in sections) for k in ("ok", "skipped", "failed")},
         })
 
@@ -414,18 +450,21 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     matrix = _technique_matrix(overview, index_ctx, psnr_min)
     if not overview.empty:
         overview.drop(columns=["record", "exr"]).to_csv(report_dir / "csv" / "techniques.csv", index=False)
-    backends = list(backends or [])
+    backends = [{**b, "runs": backend_runs.get(b["name"])} for b in backends or []]
+    index_alerts = [outcomes.did_not_run(name, outcome) + "." for name, outcome in silent.items()]
+    index_alerts += [f"{summary['title']}: not reproduced on this machine ({summary['technique']} made no frame)."
+                     for summary in summaries if summary["reproduced"] is False]
     index_takeaways = (
         takeaways.claims(claims_df)
         + (takeaways.fastest_at_accuracy(overview, psnr_min=psnr_min, scene_col="dataset") if not overview.empty else [])
         + (takeaways.accuracy_failures(overview, psnr_min=psnr_min, scene_col="dataset") if not overview.empty else [])
-        + _backend_sentences(backends, planned or [])
-        + takeaways.problems(runs_df.drop_duplicates(["experiment", "run"]) if not runs_df.empty else runs_df)
+        + _backend_sentences(backend_runs, planned or [], silent)
+        + takeaways.problems(outcomes.problem_groups(runs[~runs.backend.isin(silent)]))
     )
     index = report_dir / "index.html"
     index.write_text(env.get_template("index.html").render(
         papers=summaries, environment=environment, nodes=node_rows, provenance=facts, takeaways=index_takeaways,
-        notices=list(notices),
+        notices=list(notices), alerts=index_alerts,
         matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends, planned=list(planned or []),
         real_data=real_data, phantoms=_phantom_summary(phantoms)))
     return index
@@ -441,16 +480,32 @@ def _phantom_summary(phantoms):
             "seconds": takeaways.number(phantoms["generation_seconds"].sum()), "rows": rows}
 
 
-def _backend_sentences(backends, planned):
+def _backend_sentences(backend_runs, planned, silent):
+    """What the index says of the backends: which made frames in this run, which made none."""
     sentences = []
-    down = [b["name"] for b in backends if not b.get("available")]
-    up = [b["name"] for b in backends if b.get("available")]
-    if backends:
-        sentence = f"{len(up)} of {len(backends)} registered backends run here ({', '.join(up) or 'none'})"
-        if down:
-            sentence += f"; cannot run: {', '.join(down)} (reasons below)"
+    made = [name for name, outcome in backend_runs.items() if outcome["ran"]]
+    if backend_runs:
+        sentence = (f"{len(made)} of the {len(backend_runs)} backends this profile uses made frames here "
+                    f"({', '.join(made) or 'none'})")
+        if silent:
+            sentence += f"; {', '.join(silent)} made none (stated at the top)"
         sentences.append(sentence + ".")
     if planned:
         sentences.append(f"{len(planned)} papers have no experiment yet because their backends do not exist: "
                          + ", ".join(p["paper"] for p in planned) + " (listed below with what each needs).")
     return sentences
+
+
+VERDICT_CLASSES = {"holds": "holds", "fails": "fails", "blocked": "blocked", "not measured": "unmeasured"}
+"""A claim's verdict → its CSS class (its colour in every table)."""
+
+
+def _verdicts(claims_df):
+    """The ``verdict`` column of a claims table; one written before verdicts existed is read from ``holds``."""
+    if "verdict" in claims_df:
+        verdicts = claims_df["verdict"].where(claims_df["verdict"].isin(list(VERDICT_CLASSES)))
+    else:
+        verdicts = pd.Series(None, index=claims_df.index, dtype=object)
+    from_holds = claims_df.get("holds", pd.Series(None, index=claims_df.index)).map(
+        {True: "holds", False: "fails"}).fillna("not measured")
+    return verdicts.fillna(from_holds)

@@ -38,22 +38,28 @@ def _listing(items, limit=3):
 
 
 def claims(table, *, limit=3):
-    """One sentence on the claims: how many hold, which fail (measured against expected).
+    """One sentence on the claims: how many hold, which fail (measured against expected), how many are
+    blocked by runs that did not happen and how many could not be measured.
 
-    ``table`` has the columns of ``claims.csv`` (``statement``, ``expected``, ``measured``,
-    ``holds`` with True / False / None for not measured).
+    ``table`` has the columns of ``claims.csv`` (``statement``, ``expected``, ``measured``, ``verdict``;
+    a table without ``verdict`` is read from ``holds``: True / False / None for not measured).
     """
     table = pd.DataFrame(table)
     if table.empty:
         return []
-    holds = table.holds.map(lambda v: v if v is True or v is False else None)
-    good, bad = int((holds == True).sum()), table[holds == False]  # noqa: E712 (object column)
-    unmeasured = int(holds.isna().sum())
+    if "verdict" in table:
+        verdict = table.verdict.fillna("not measured")
+    else:
+        verdict = table.holds.map(lambda v: "holds" if v is True else "fails" if v is False else "not measured")
+    good, bad = int((verdict == "holds").sum()), table[verdict == "fails"]
+    blocked, unmeasured = int((verdict == "blocked").sum()), int((verdict == "not measured").sum())
     measured = good + len(bad)
     sentence = f"{good} of {measured} measured claims hold" if measured else "No claim could be measured"
     if len(bad):
         sentence += "; failing: " + _listing(
             (f"{row.statement} (measured {row.measured}, expected {row.expected})" for row in bad.itertuples()), limit)
+    if blocked:
+        sentence += f"; {blocked} blocked by runs that did not happen here"
     if unmeasured:
         sentence += f"; {unmeasured} not measured"
     return [sentence + "."]
@@ -108,18 +114,20 @@ def order_range(orders):
             f"order 1 halves the error with each halving of the step, order 2 quarters it."]
 
 
-def problems(per_run):
-    """Runs skipped or failed, with their reasons, as sentences (one per status)."""
-    per_run = pd.DataFrame(per_run)
-    if per_run.empty or "status" not in per_run:
-        return []
+def problems(groups):
+    """Runs that made no frame, as sentences: those that should have (failed, unavailable, no data),
+    then the planned limits (a feature the backend lacks), each group of one message once.
+
+    ``groups`` is :func:`reports.outcomes.problem_groups`' list.
+    """
     sentences = []
-    for status in ("failed", "skipped"):
-        rows = per_run[per_run.status == status]
-        if rows.empty:
+    for planned, one, many in ((False, "run made no frame", "runs made no frame"),
+                               (True, "run was skipped as a planned limit", "runs were skipped as planned limits")):
+        chosen = [g for g in groups if g["planned"] == planned]
+        if not chosen:
             continue
-        reasons = rows.groupby(rows.reason.fillna("").astype(str).str.split(". ", regex=False).str[0], sort=False).run.apply(list)
-        items = [f"{', '.join(runs[:3])}{' …' if len(runs) > 3 else ''} ({reason or 'no reason recorded'})"
-                 for reason, runs in reasons.items()]
-        sentences.append(f"{len(rows)} run{'s' if len(rows) != 1 else ''} {status}: {_listing(items)}.")
+        count = sum(g["count"] for g in chosen)
+        items = [f"{g['backend']} × {g['count']} ({', '.join(g['runs'][:2])}{' …' if g['count'] > 2 else ''}): "
+                 f"{g['reason'] or 'no reason recorded'}" for g in chosen]
+        sentences.append(f"{count} {one if count == 1 else many}: {_listing(items)}.")
     return sentences

@@ -6,6 +6,7 @@ its step, so the numbers and the pictures agree. The browser test (test_report_b
 reuses it.
 """
 
+import html
 import json
 import re
 from html.parser import HTMLParser
@@ -19,11 +20,11 @@ import pytest
 import datasets
 from pipeline.collect import collect, phantom_manifest
 from pipeline.experiments import Profile, plan, selected
-from pipeline.experiments.planned import planned
+from pipeline.experiments.planned import TECHNIQUES, planned
 from pipeline.rendering import evaluate
 from pipeline.runner import metrics_record_path, run_record_path, write_json
 from pipeline.scene_io import phantom_requests
-from reports import blocks, takeaways
+from reports import blocks, outcomes, takeaways
 from reports.html import build_report, provenance
 from reports.imageio import read_image, write_exr, write_png
 
@@ -35,7 +36,9 @@ REAL_DATA = {"folder": "/data/real", "error": "", "sources_file": "/data/real/SO
                            "source": "example/repo @ 0123 : cthead"}]}
 BACKENDS = [{"name": "reference", "available": True, "reason": "", "description": "CPU ray caster"},
             {"name": "gl-raycast", "available": False, "reason": "no OpenGL 4.3 context (EGL missing)",
-             "description": "OpenGL ray caster"}]
+             "description": "OpenGL ray caster"},
+            # Its probe passes on the machine that builds the report while every run of it failed (issue 20).
+            {"name": "cl-tiled", "available": True, "reason": "", "description": "OpenCL tiled caster"}]
 
 
 def _truth_image(seed):
@@ -57,10 +60,11 @@ def _image(run):
     return image
 
 
-def _record(run, results, status="ok", reason=""):
+def _record(run, results, status="ok", reason="", cause=""):
     record = {"experiment": run.experiment, "run": run.id, "backend": run.backend, "options": run.options,
               "tags": run.tags, "reference": run.reference, "spec_hash": run.spec_hash(), "status": status,
-              "reason": reason, "views": [], "statistics": None, "environment": dict(ENVIRONMENT),
+              "reason": reason, "cause": cause, "planned_views": [view["view"] for view in run.views],
+              "views": [], "statistics": None, "environment": dict(ENVIRONMENT),
               "backend_environment": {"numba": "0.0", "numba_threads": 2}}
     path = run_record_path(results, run.experiment, run.id)
     if status == "ok":
@@ -86,26 +90,32 @@ def _record(run, results, status="ok", reason=""):
     return path
 
 
-def synthetic_results(root):
+def _volbench_outcome(run):
+    """``(status, reason, cause)`` of a run in the synthetic volbench results: no real engine, one failure."""
+    if run.tags.get("dataset") == "engine_real":
+        return "skipped", "real data set 'engine_real' is unavailable: no such file. Point volbench at it", "no-data"
+    if run.id == "engine-semi.reference.0":
+        return "failed", "RuntimeError: kaboom", "error"
+    return "ok", "", ""
+
+
+VOLBENCH_EXPERIMENTS = ["volbench-phantoms", "volbench-convergence", "volbench-speed-accuracy"]
+VOLBENCH_SETTINGS = {"volbench-phantoms": {"datasets": ["ct_skull", "cthead", "sphere", "engine_real"]},
+                     "volbench-convergence": {"step_factors": [2.0, 1.0, 0.5, 0.25]}}
+
+
+def synthetic_results(root, *, experiments=VOLBENCH_EXPERIMENTS, settings=VOLBENCH_SETTINGS, outcome=_volbench_outcome):
     """A results folder with every experiment's records, metrics and CSVs, as the pipeline writes them.
 
-    Returns ``(runs_df, claims_df, experiments, results_dir)``.
+    ``outcome(run)`` gives each run's ``(status, reason, cause)``; a run whose status is ``ok`` gets its
+    images. Returns ``(runs_df, claims_df, experiments, results_dir)``.
     """
     results = Path(root) / "results"
-    # volbench's own pages; the papers' experiments test their report code with their own data.
+    # volbench's own pages by default; the papers' experiments test their report code with their own data.
     profile = Profile(name="t", volume_size=8, image_size=SIZE, results=str(results), cache=str(Path(root) / "cache"),
-                      experiments=["volbench-phantoms", "volbench-convergence", "volbench-speed-accuracy"],
-                      settings={"volbench-phantoms": {"datasets": ["ct_skull", "cthead", "sphere", "engine_real"]},
-                                "volbench-convergence": {"step_factors": [2.0, 1.0, 0.5, 0.25]}})
+                      experiments=list(experiments), settings=dict(settings))
     runs = plan(profile)
-    paths = []
-    for run in runs.values():
-        status, reason = "ok", ""
-        if run.tags.get("dataset") == "engine_real":
-            status, reason = "skipped", "real data set 'engine_real' is unavailable: no such file. Point volbench at it"
-        elif run.id == "engine-semi.reference.0":
-            status, reason = "failed", "RuntimeError: kaboom"
-        paths.append(_record(run, results, status, reason))
+    paths = [_record(run, results, *outcome(run)) for run in runs.values()]
     for run in runs.values():
         if run.reference is not None:
             evaluate(run_record_path(results, run.experiment, run.id),
@@ -122,12 +132,12 @@ def synthetic_results(root):
     return pd.read_csv(results / "runs.csv", low_memory=False), claims_df, experiments, results
 
 
-def synthetic_report(root):
-    """Build the report of :func:`synthetic_results`; return the path of ``index.html``."""
-    runs_df, claims_df, experiments, results = synthetic_results(root)
+def synthetic_report(root, **options):
+    """Build the report of :func:`synthetic_results` (``options`` go to it); return the path of ``index.html``."""
+    runs_df, claims_df, experiments, results = synthetic_results(root, **options)
     return build_report(runs_df, claims_df, experiments, results_dir=results, environment=ENVIRONMENT,
                         backends=BACKENDS, planned=planned(["reference"], experiments), real_data=REAL_DATA,
-                        phantoms=pd.read_csv(results / "volumes.csv"))
+                        phantoms=pd.read_csv(results / "volumes.csv"), techniques=TECHNIQUES)
 
 
 class _Links(HTMLParser):
@@ -219,7 +229,8 @@ def test_pages_show_provenance_and_takeaways(report):
     page = (report.parent / "volbench.html").read_text()
     assert "At ≥ 40 dB PSNR the fastest setting on skull-bone is" in page
     assert "observed order" in page
-    assert "2 runs skipped" in page and "1 run failed" in page  # engine_real under two presets
+    # engine_real under two presets (no data), and one failure: each message once, with its count.
+    assert "3 runs made no frame: reference × 2" in page and "reference × 1 (engine-semi.reference.0): RuntimeError: kaboom" in page
     # The take-aways sit above the first section.
     assert page.index('class="takeaways"') < page.index('<section id="volbench-phantoms"')
 
@@ -304,9 +315,14 @@ def test_claims_sentence_counts_and_names_failures():
 def test_order_range_and_problems():
     assert takeaways.order_range({"a": 1.31, "b": 2.04})[0].startswith("The error falls with the step at observed "
                                                                       "order 1.3–2 (a 1.3, b 2)")
-    runs = pd.DataFrame({"run": ["x", "y"], "status": ["skipped", "failed"],
-                         "reason": ["data absent. Point it there", "boom"]})
-    assert takeaways.problems(runs) == ["1 run failed: y (boom).", "1 run skipped: x (data absent)."]
+    runs = outcomes.per_run(pd.DataFrame({
+        "experiment": "e", "run": ["x", "y", "z", "w"], "backend": ["b", "b", "c", "c"],
+        "status": ["skipped", "failed", "failed", "skipped"], "cause": ["no-data", "error", "error", "unsupported"],
+        "reason": ["data absent", "boom at 0x7f00aa11bb22", "boom at 0x7f00cc33dd44", "no mip"]}))
+    # One fault with different object addresses is one message; a planned limit is said apart.
+    assert takeaways.problems(outcomes.problem_groups(runs)) == [
+        "3 runs made no frame: b × 1 (x): data absent; b × 1 (y): boom at 0x…; c × 1 (z): boom at 0x….",
+        "1 run was skipped as a planned limit: c × 1 (w): no mip."]
 
 
 def test_provenance_prefers_the_runs_own_facts():
@@ -355,3 +371,50 @@ def test_a_section_whose_timings_span_nodes_opens_by_saying_so():
     assert "different nodes (a, b)" in warning.text and "ratio" in warning.text and body.text == "a ratio"
     failed_elsewhere = pd.DataFrame({"status": ["ok", "failed"], "node": ["a", "b"]})
     assert len(_experiment_blocks(Ratio(), failed_elsewhere, None)) == 1
+
+
+# ------------------------------------------------------------------- a backend that cannot run here
+POCL_FAULT = ("backend 'cl-tiled' is not available here: PoCL 9.9 (LLVM 99) cannot build kernels for pthread-Zen 9: "
+              "error: unknown target CPU 'generic'. To fix: install Debian's pocl-opencl-icd (make setup does)")
+
+
+def _cl_cannot_run(run):
+    if run.backend == "cl-tiled":
+        return "skipped", POCL_FAULT, "unavailable"
+    return "ok", "", ""
+
+
+@pytest.fixture(scope="module")
+def silent_backend_report(tmp_path_factory):
+    return synthetic_report(tmp_path_factory.mktemp("silent"), experiments=["volbench-speed-accuracy", "kainz2009-scaling"],
+                            settings={}, outcome=_cl_cannot_run)
+
+
+def test_a_backend_that_made_no_frame_is_stated_once_at_the_top(silent_backend_report):
+    index = html.unescape(silent_backend_report.read_text())
+    assert index.count("cannot build kernels for pthread-Zen 9") == 1
+    alerts = index[index.index('class="alerts"'):index.index('class="takeaways"')]
+    runs = pd.read_csv(silent_backend_report.parent / "csv" / "runs.csv", low_memory=False)
+    count = runs[runs.backend == "cl-tiled"].drop_duplicates(["experiment", "run"]).shape[0]
+    assert f"cl-tiled made no frame here (0 of {count} runs): it cannot run here: {POCL_FAULT}" in alerts
+    assert "not reproduced on this machine (cl-tiled made no frame)" in alerts
+    papers = index[index.index('id="papers"'):index.index('id="backends"')]
+    assert "made no frame" in papers and "blocked" in papers
+    backends = index[index.index('id="backends"'):]
+    assert f"0 of {count} runs" in backends
+    assert "8 of the 9 backends this profile uses made frames here" in index and "cl-tiled made none" in index
+
+
+def test_a_paper_whose_technique_made_no_frame_is_not_reproduced_and_its_claims_blocked(silent_backend_report):
+    page = html.unescape((silent_backend_report.parent / "kainz2009.html").read_text())
+    assert page.count("cannot build kernels for pthread-Zen 9") == 1
+    assert page.index("Not reproduced on this machine") < page.index('class="takeaways"')
+    assert "cl-tiled ran on" not in page and "cl-tiled on " not in page  # no page says it ran
+    claims = pd.read_csv(silent_backend_report.parent / "csv" / "claims.csv")
+    kainz = claims[claims.experiment == "kainz2009-scaling"].set_index("claim")
+    assert kainz.loc["flat-volumes", "verdict"] == "blocked"
+    assert "cl-tiled, which cannot run here" in kainz.loc["flat-volumes", "detail"]
+    assert '<td class="blocked">blocked</td>' in page
+    # What did run is still shown: depth peeling's runs are charted and tabled with their images.
+    assert 'src="plots/kainz2009-scaling-time.svg"' in page
+    assert re.search(r'href="data/runs/kainz2009-scaling/clouds\.n01\.gl-peel/[^"]+\.exr"', page)

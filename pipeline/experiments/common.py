@@ -18,6 +18,7 @@ import pandas as pd
 import datasets
 import renderers
 from pipeline.experiments.base import format_number
+from pipeline.experiments.verdicts import MissingColumn
 from pipeline.experiments.volbench import HEADLINE_VIEW
 from reports import blocks
 
@@ -121,15 +122,15 @@ def headline_view(dataset):
 
 
 def numeric(frame, column):
-    """``frame[column]`` as floats (NaN where missing); KeyError naming the column if absent."""
+    """``frame[column]`` as floats (NaN where missing); :class:`MissingColumn` (a KeyError) if absent."""
     if column not in frame:
-        raise KeyError(f"column {column!r} (no run reported it)")
+        raise MissingColumn(column)
     return pd.to_numeric(frame[column], errors="coerce")
 
 
 def text_column(frame, column):
     if column not in frame:
-        raise KeyError(f"column {column!r} (no run reported it)")
+        raise MissingColumn(column)
     return frame[column].astype(str)
 
 

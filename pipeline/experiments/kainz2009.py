@@ -49,6 +49,7 @@ from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, forma
 from pipeline.experiments.common import (UNTIMED, accepts, as_ratio, file_exists, fit_line,
                                          is_registered, not_measurable, numeric, ok_rows, read_exr, rows_matching,
                                          speed_points, stage_time, text_column, timed_frames)
+from pipeline.experiments.verdicts import claim_sentences
 from pipeline.experiments.volbench import HEADLINE_VIEW, LINKS, _links, _reference_exr
 from reports import blocks, plots
 
@@ -157,17 +158,6 @@ def _wanted(profile, experiment, key, default, known=None):
 
 
 # ----------------------------------------------------------------------------------- shared checks
-def _claim_takeaways(claims, ok):
-    """Take-aways: each measurable claim's statement with what was measured, whether it holds."""
-    sentences = []
-    for claim in claims:
-        result = claim.evaluate(ok)
-        if result.holds is not None:
-            verdict = "holds" if result.holds else "does not hold"
-            sentences.append(f"{claim.statement}: {result.measured}, {verdict} ({result.detail}).")
-    return blocks.Takeaways(sentences)
-
-
 COLUMN_NAMES = {"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)",
                 "psnr": "PSNR (dB)", "ssim": "SSIM", "count_fragments_max": "max depth complexity",
                 "count_fragments_mean": "mean depth complexity", "count_fragments_dropped": "fragments dropped",
@@ -187,7 +177,8 @@ def _table(title, frame, columns, ctx, **options):
 def _frames_caption(frame):
     frames = numeric(frame, "info_frames") if "info_frames" in frame else pd.Series(dtype=float)
     counted = f"median of {int(frames.median())} timed frames" if frames.notna().any() else "median frame"
-    devices = sorted(set(frame.get("cl_device", pd.Series(dtype=str)).dropna().astype(str)))
+    tiled = frame[frame.backend == TILED] if "backend" in frame else frame.iloc[:0]
+    devices = sorted(set(tiled.get("cl_device", pd.Series(dtype=str)).dropna().astype(str)))
     where = f"; cl-tiled on {', '.join(devices)}" if devices else ""
     return (f"{counted} after warm-up; uploads and hull builds happen in the warm-up frame (cached on the "
             f"device); stage times from OpenCL profiling events, the total by wall clock{where}.")
@@ -213,6 +204,8 @@ def _over_threshold(reference_exr, test_exr, threshold=ERROR_THRESHOLD):
 
 
 def _device_note(tests):
+    # Only cl-tiled's own rows: every record carries the machine's OpenCL device, the peers' too.
+    tests = tests[tests.backend == TILED] if "backend" in tests else tests.iloc[:0]
     devices = sorted(set(tests.get("cl_device", pd.Series(dtype=str)).dropna().astype(str)))
     if not devices:
         return []
@@ -335,7 +328,7 @@ class Scaling(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         out[0].sentences += _device_note(tests) + _scaling_takeaways(tests)
         if not tests.empty:
             rows = speed_points(tests)
@@ -518,7 +511,7 @@ class DepthCap(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         rows = _cap_rows(ok)
         if not rows.empty:
             rows = speed_points(rows)
@@ -787,7 +780,7 @@ class Table1(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         out[0].sentences += _vtk_takeaways(tests)
         if not tests.empty:
             rows = speed_points(tests)
@@ -1040,7 +1033,7 @@ class Depth(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         rows = _depth_rows(ok)
         if not rows.empty:
             rows["method"] = rows.config.map(METHOD_NAMES)
@@ -1210,7 +1203,7 @@ class EmptySpace(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
         if not tests.empty:
             rows = speed_points(tests)
@@ -1375,7 +1368,7 @@ class Step(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         rows = _step_rows(ok)
         if not rows.empty:
             for y, label, y_range, what in (("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"),
@@ -1514,7 +1507,7 @@ class Sorting(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         rows = _sorting_rows(ok)
         if not rows.empty:
             out[0].sentences += _device_note(rows) + _sorting_takeaways(rows)
@@ -1703,7 +1696,7 @@ class Media(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         rows = _media_rows(ok)
         if not rows.empty:
             out[0].sentences += _device_note(rows)
@@ -1859,7 +1852,7 @@ class Coverage(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         timing = _coverage_rows(ok)
         if not timing.empty:
             out[0].sentences += _device_note(timing)

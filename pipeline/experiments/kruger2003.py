@@ -35,6 +35,7 @@ from pipeline.experiments.common import (UNTIMED, accepts, as_percent, as_ratio,
                                          is_registered, missing_options, not_measurable, numeric, ok_rows,
                                          pair_metrics, read_exr, rows_matching, speed_points, stage_time, text_column,
                                          timed_frames, unregistered)
+from pipeline.experiments.verdicts import claim_sentences
 from pipeline.experiments.volbench import LINKS, _links, _phantom, _reference_exr, _scene
 from reports import blocks, plots
 
@@ -266,16 +267,6 @@ def _timing_table(title, frame, columns, ctx, **table_options):
     return blocks.Table(title, table, links=LINKS, **table_options)
 
 
-def _claim_takeaways(claims, ok):
-    """Take-aways: each measurable claim's statement with what was measured."""
-    sentences = []
-    for claim in claims:
-        result = claim.evaluate(ok)
-        if result.holds is not None:
-            sentences.append(f"{claim.statement}: {result.measured} ({result.detail}).")
-    return blocks.Takeaways(sentences)
-
-
 def _frames_caption(frame):
     frames = numeric(frame, "info_frames") if "info_frames" in frame else pd.Series(dtype=float)
     counted = f"median of {int(frames.median())} frames" if frames.notna().any() else "median frame"
@@ -490,7 +481,7 @@ class NoCue(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         if not tests.empty:
             timing = speed_points(tests)
             timing["method"] = [METHODS[c][2] for c in timing.config]
@@ -590,7 +581,7 @@ class Passes(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         curves = _pass_curves(ok)
         if not curves.empty:
             path, rel = ctx.plot_path("fragments-per-pass")
@@ -740,7 +731,7 @@ class Stability(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         tests = ok[ok.get("role") == "test"] if "role" in ok else ok.iloc[:0]
         for sweep, words, label in (("threshold", "the early-termination threshold",
                                      "early-termination threshold T (fraction of full opacity)"),
@@ -848,7 +839,7 @@ class Occluder(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [_claim_takeaways(self.claims, ok)]
+        out = [blocks.Takeaways(claim_sentences(self.claims, results))]
         rows = _occluder_rows(ok)
         if not rows.empty:
             rows["method"] = [METHODS[c][2] for c in rows.config]

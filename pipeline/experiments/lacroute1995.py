@@ -51,6 +51,7 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
+from pipeline.experiments.verdicts import depends_on_missing
 from pipeline.experiments.common import (UNTIMED, accepts, as_percent, as_ratio, dataset_view, file_exists, fit_line,
                                          headline_view, is_registered, missing_options, not_measurable, numeric,
                                          ok_rows, one_row, pair_metrics, read_exr, rows_matching, speed_points,
@@ -158,13 +159,15 @@ def _title_or(make, ok, fallback, errors=(KeyError, ValueError)):
         return fallback
 
 
-def _claim_sentences(ok, checks, template="{what}: {measured} ({detail}).", errors=(KeyError, ValueError)):
-    """Takeaway sentences from claim checks, skipping those the data cannot measure.
+def _claim_sentences(results, checks, template="{what}: {measured} ({detail}).", errors=(KeyError, ValueError)):
+    """Takeaway sentences from claim checks on the successful runs, skipping those the data cannot measure.
 
     Parameters
     ----------
-    ok : DataFrame
-        Successful rows.
+    results : DataFrame
+        Every row of the experiment: a check that would read a run that should have happened here
+        and did not (:func:`pipeline.experiments.verdicts.depends_on_missing`) gets no sentence, rather
+        than one stating what the remaining runs show.
     checks : iterable of (callable, str)
         A check returning a :class:`ClaimResult`, and the words that introduce its result.
     template : str
@@ -172,8 +175,11 @@ def _claim_sentences(ok, checks, template="{what}: {measured} ({detail}).", erro
     errors : tuple of exception types
         What a check raises when its data is missing.
     """
+    ok = ok_rows(results)
     sentences = []
     for fn, what in checks:
+        if depends_on_missing(fn, results):
+            continue
         try:
             result = fn(ok)
         except errors:
@@ -579,7 +585,7 @@ class ImageQuality(Experiment):
     def report(self, results, ctx):
 
         ok = ok_rows(results)
-        out = [blocks.Takeaways(_quality_takeaways(ok))]
+        out = [blocks.Takeaways(_quality_takeaways(results))]
         tests = ok[(ok.get("part") == "classification") & (ok.role == "test")].copy() if "part" in ok else ok.iloc[:0]
         if not tests.empty:
             tests["angle (°)"] = [_angle_of(v) for v in tests.view]
@@ -772,13 +778,14 @@ def _real_versus_phantom(ok):
             f"produce artifacts; their difference images put the error on the silhouettes."]
 
 
-def _quality_takeaways(ok):
-    sentences = _claim_sentences(ok, ((lambda d: _quality_smooth_head_on(d, "post"), TRUTHS["post"]),
+def _quality_takeaways(results):
+    ok = ok_rows(results)
+    sentences = _claim_sentences(results, ((lambda d: _quality_smooth_head_on(d, "post"), TRUTHS["post"]),
                                       (lambda d: _quality_smooth_head_on(d, "pre"), TRUTHS["pre"])),
                                  "Head-on with a smooth classification, against {what}: {measured} at worst "
                                  "({detail}).")
     sentences += _real_versus_phantom(ok)
-    sentences += _claim_sentences(ok, ((lambda d: _quality_drop(d, "binary", True), "binary classification"),
+    sentences += _claim_sentences(results, ((lambda d: _quality_drop(d, "binary", True), "binary classification"),
                                        (lambda d: _quality_drop(d, "smooth", False), "smooth classification")),
                                   "With a {what}, against the pre-classified caster, the PSNR is {measured}: "
                                   "{detail}.")
@@ -1287,7 +1294,7 @@ class SizeScaling(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [blocks.Takeaways(_scaling_takeaways(ok))]
+        out = [blocks.Takeaways(_scaling_takeaways(results))]
         if ok.empty:
             return out
         frame = speed_points(ok)
@@ -1437,8 +1444,8 @@ def _warp_title(ok):
                      "Warp time against the image size", (KeyError, ValueError, IndexError))
 
 
-def _scaling_takeaways(ok):
-    return _claim_sentences(ok, ((_growth, "Frame time per doubling of the volume side"),
+def _scaling_takeaways(results):
+    return _claim_sentences(results, ((_growth, "Frame time per doubling of the volume side"),
                                  (_rle_memory, "The three RLE copies take"), (_warp_growth, "The warp time grows"),
                                  (_warp_share, "The warp's share of the frame at the largest image")),
                             errors=(KeyError, ValueError, IndexError))
@@ -1564,7 +1571,7 @@ class Throughput(Experiment):
         frame = speed_points(ok)
         frame["samples"] = numeric(frame, "count_samples")
         frame["runs"] = numeric(frame, "count_voxel_runs")
-        out = [blocks.Takeaways(_throughput_takeaways(ok))]
+        out = [blocks.Takeaways(_throughput_takeaways(results))]
         cubes = frame[frame.series == "cube"].copy()
         if not cubes.empty:
             cubes["visible (millions)"] = cubes.samples / 1e6
@@ -1734,8 +1741,8 @@ def _runs_title(ok):
                      "Checkerboards: frame time against the number of runs")
 
 
-def _throughput_takeaways(ok):
-    return _claim_sentences(ok, ((_cube_linear, "Cubes, time against visible voxels"), (_crossover, "Against brute force"),
+def _throughput_takeaways(results):
+    return _claim_sentences(results, ((_cube_linear, "Cubes, time against visible voxels"), (_crossover, "Against brute force"),
                                  (_runs_linear, "Checkerboards, time against runs"),
                                  (_worst_runs, "1-voxel runs against brute force"),
                                  (_prediction, "The fitted cost model's error on real scenes")))
@@ -1834,7 +1841,7 @@ class Parallel(Experiment):
         frame = speed_points(ok)
         for column in ("workers", "task_size", "volume_size"):
             frame[column] = numeric(frame, column)
-        out = [blocks.Takeaways(_parallel_takeaways(ok))]
+        out = [blocks.Takeaways(_parallel_takeaways(results))]
         speed = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.task_size == DEFAULT_TASK_SIZE)].copy()
         if speed.workers.nunique() > 1:
             speed["speed-up"] = np.nan
@@ -2007,8 +2014,8 @@ def _task_title(ok):
     return _title_or(lambda d: f"Task size: {_task_u(d).measured}", ok, "Frame time against the task size")
 
 
-def _parallel_takeaways(ok):
-    return _claim_sentences(ok, ((_speedup, "Speed-up"), (_schedule_order, "Schedules"), (_task_u, "Task size")),
+def _parallel_takeaways(results):
+    return _claim_sentences(results, ((_speedup, "Speed-up"), (_schedule_order, "Schedules"), (_task_u, "Task size")),
                             "{what}: {measured}.")
 
 
@@ -2109,7 +2116,7 @@ class Variants(Experiment):
         ok = ok_rows(results)
         if ok.empty:
             return []
-        out = [blocks.Takeaways(_variant_takeaways(ok))]
+        out = [blocks.Takeaways(_variant_takeaways(results))]
         frame = speed_points(ok)
         stages = [c for c in frame.columns if c.startswith("time_") and not c.endswith(("_min", "_max"))
                   and c not in ("time_total", "time_ms")]
@@ -2283,8 +2290,8 @@ def _lut_title(ok):
                      "Per-frame time by stage")
 
 
-def _variant_takeaways(ok):
-    return _claim_sentences(ok, ((_lut_speed, "Procedural / lookup-table shading time"),
+def _variant_takeaways(results):
+    return _claim_sentences(results, ((_lut_speed, "Procedural / lookup-table shading time"),
                                  (_lut_accuracy, "Lookup-table against procedural image"),
                                  (_union, "Union by rank / path compression"),
                                  (_mode_switch, "Time to an image after a classification edit"),
@@ -2413,7 +2420,7 @@ class Projections(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [blocks.Takeaways(_projection_takeaways(ok))]
+        out = [blocks.Takeaways(_projection_takeaways(results))]
         try:
             summary = projection_summary(ok)
         except (KeyError, ValueError):
@@ -2532,8 +2539,8 @@ def _projection_title(ok):
             if parts else "Time relative to parallel projection")
 
 
-def _projection_takeaways(ok):
-    return _claim_sentences(ok, ((lambda d: _projection_ratio(d, "perspective", 0, np.inf),
+def _projection_takeaways(results):
+    return _claim_sentences(results, ((lambda d: _projection_ratio(d, "perspective", 0, np.inf),
                                   "Perspective / parallel mean time"),
                                  (lambda d: _projection_ratio(d, "fast-classification", 0, np.inf),
                                   "Fast classification / parallel mean time"),
@@ -2607,7 +2614,7 @@ class PerspectiveQuality(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [blocks.Takeaways(_fov_takeaways(ok))]
+        out = [blocks.Takeaways(_fov_takeaways(results))]
         try:
             rows = fov_rows(ok)
         except (KeyError, ValueError):
@@ -2686,8 +2693,8 @@ def _fov_title(ok):
     return _title_or(lambda d: f"PSNR {_fov_falls(d).measured}", ok, "PSNR against the field of view")
 
 
-def _fov_takeaways(ok):
-    return _claim_sentences(ok, ((_fov_falls, "As the field of view widens the PSNR is"),
+def _fov_takeaways(results):
+    return _claim_sentences(results, ((_fov_falls, "As the field of view widens the PSNR is"),
                                  (_fov_parallel, "The narrowest field against the parallel projection")),
                             "{what} {measured} ({detail}).")
 

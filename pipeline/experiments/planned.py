@@ -19,6 +19,12 @@ NEEDS = {
 }
 """``{paper: (backends it needs, what they are)}``."""
 
+TECHNIQUES = {"lacroute1995": "shearwarp", "kruger2003": "gl-raycast", "xue2005": "gl-isbvr",
+              "ropinski2005": "gl-raycast", "kainz2009": "cl-tiled"}
+"""``{paper: backend}``: the backend whose frames are the paper's technique (the others in :data:`NEEDS`
+are its baselines). A paper whose technique made no frame on a machine is not reproduced there, however
+many of its baselines ran."""
+
 
 def planned(backend_names, experiments):
     """Rows ``{paper, title, reason, needs}`` for every paper of :data:`NEEDS` not reproduced yet.
