@@ -10,8 +10,14 @@ VENV := .venv
 PY := $(VENV)/bin/python
 PROFILE ?= default
 CORES ?= $(shell nproc)
-# Mesa EGL + llvmpipe for headless OpenGL; VolPack (library, headers and its brainsmall.den example).
-APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libgomp1 libvolpack1 libvolpack1-dev
+# Mesa EGL + llvmpipe for headless OpenGL; VolPack (library, headers and its brainsmall.den example);
+# Debian's PoCL, the OpenCL CPU device. It builds kernels on any x86-64 CPU: it ships kernel
+# libraries for sse2 up to avx512 and picks one by the CPU's feature flags, giving LLVM that
+# library's CPU name, so a CPU newer than its LLVM still gets one. PyPI's PoCL (pyproject.toml)
+# gives LLVM the host CPU's name instead, which a CPU newer than LLVM 14 lacks ('generic',
+# rejected: every kernel build fails). pyopencl lists both; renderers/cl/context.py takes the
+# first device that builds a kernel.
+APT_PACKAGES := libegl1 libegl-mesa0 libgl1-mesa-dri libgles2 libgomp1 libvolpack1 libvolpack1-dev pocl-opencl-icd
 # The one-node SLURM of the cluster tests (scripts/slurm-single-node): controller, node daemon,
 # client commands (sbatch, srun, squeue, scontrol) and munge for their authentication.
 CLUSTER_PACKAGES := slurmctld slurmd slurm-client munge
@@ -25,7 +31,7 @@ STAMP := $(VENV)/.volbench-installed
 
 setup: system-packages $(STAMP)
 	@# Every job and test process imports the project: its bytecode once here (pipeline.cli).
-	@$(PY) -c 'from pipeline.cli import compile_packages; compile_packages()'
+	@$(PY) -c 'from pipeline.launch import compile_packages; compile_packages()'
 
 # apt-get install the packages of $(1) that are missing; waiting for another apt or dpkg to finish
 # (CI installs some packages while pip runs; a machine may be upgrading itself) rather than failing.

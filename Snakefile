@@ -23,9 +23,10 @@
 # Failed runs are retried: a run that raised or hit the profile's render_time_limit is recorded as
 # failed (the report lists it) and its job succeeds, so the pipeline goes on. Each render job takes a
 # retry marker (results/.retry/...) as an input, which the workflow rewrites at start-up: dated now
-# and naming the record when the run's record is failed, empty and dated 1970 otherwise
-# (pipeline.runner.mark_retry). So the next run (and a dry run) reruns exactly the failed runs, and
-# a failed record is never kept as a finished output; it stays until its retry replaces it.
+# and naming the record when the run's record is failed, or names an image that is missing or does
+# not match the digest the record carries (a damaged run), empty and dated 1970 otherwise
+# (pipeline.runner.mark_retry). So the next run (and a dry run) reruns exactly the failed and damaged
+# runs, and a failed record is never kept as a finished output; it stays until its retry replaces it.
 # (Both rely on Snakemake's default rerun triggers; `--rerun-triggers mtime` would turn the code
 # digests off.)
 import dataclasses
@@ -216,6 +217,10 @@ rule tabulate:
         "{PY} -m pipeline.jobs tabulate --profile {PROFILE_JSON:q} --experiment {wildcards.experiment}"
 
 
+# runs.csv and claims.csv also keep the tables that earlier pipeline runs left for the profile's
+# other experiments (after `volbench run --experiment X`), and the report shows them with a notice
+# (pipeline.collect.merge, pipeline.jobs.report_contents); the experiments of this run are a param,
+# so running another set of them rewrites both.
 rule collect:
     input:
         tables=[f"{R}/tables/{name}.csv" for name in EXPERIMENT_RUNS],
@@ -224,6 +229,7 @@ rule collect:
         f"{R}/runs.csv",
         f"{R}/claims.csv",
     params:
+        experiments=sorted(EXPERIMENT_RUNS),
         code=CODE["collect"],
     shell:
         "{PY} -m pipeline.jobs collect --profile {PROFILE_JSON:q}"
@@ -238,6 +244,7 @@ rule report:
     output:
         f"{R}/report/index.html",
     params:
+        experiments=sorted(EXPERIMENT_RUNS),
         code=CODE["report"],
     shell:
         "{PY} -m pipeline.jobs report --profile {PROFILE_JSON:q}"

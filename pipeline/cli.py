@@ -15,28 +15,28 @@ Examples
 
 import argparse
 import json
-import subprocess
 import sys
 from pathlib import Path
 
-import yaml
-
 from core.errors import VolbenchError
 
-ROOT = Path(__file__).resolve().parent.parent
 
 
 def _parse_options(pairs):
-    """``["step_factor=0.5", "ert=true"]`` → ``{"step_factor": 0.5, "ert": True}`` (YAML scalars)."""
+    """``["step_factor=0.5", "ert=true"]`` → ``{"step_factor": 0.5, "ert": True}`` (YAML scalars, read strictly).
+
+    An option given twice is an error, not the last one silently winning.
+    """
+    from core.yaml_io import parse_yaml
+
     options = {}
     for pair in pairs or ():
-        if "=" not in pair:
+        name, _, value = pair.partition("=")
+        if not name or "=" not in pair:
             raise VolbenchError(f"--option {pair!r}: expected NAME=VALUE")
-        name, value = pair.split("=", 1)
-        try:
-            options[name] = yaml.safe_load(value)
-        except yaml.YAMLError as exc:
-            raise VolbenchError(f"--option {pair!r}: cannot parse the value ({exc})") from None
+        if name in options:
+            raise VolbenchError(f"--option {name}: given twice ({name}={options[name]!r} and {pair!r}); keep one")
+        options[name] = parse_yaml(value, what=f"--option {pair!r}")
     return options
 
 
@@ -71,15 +71,15 @@ DATASET_DEFAULTS = {"image": 256, "mode": "dvr", "shading": "phong"}
 
 
 def _check_output_paths(args):
-    """Refuse bad output file names before any work starts (not after minutes of rendering)."""
+    """Refuse output files that cannot be written before any work starts (not after minutes of rendering)."""
+    from reports.imageio import check_output_path
+
     for flag, path, suffix in (("--output", args.output, ".png"), ("--exr", args.exr, ".exr")):
         if path is None:
             continue
         if Path(path).suffix.lower() != suffix:
             raise VolbenchError(f"{flag} {path}: expected a {suffix} file name")
-        parent = Path(path).parent
-        if not parent.is_dir():
-            raise VolbenchError(f"{flag} {path}: folder {parent} does not exist")
+        check_output_path(path, name=f"{flag} {path}")
 
 
 def _scene_from_args(args):
@@ -113,15 +113,16 @@ def _scene_from_args(args):
 def cmd_render(args):
     import renderers
     from pipeline.timing import measure
-    from reports.imageio import write_exr, write_png
+    from reports.imageio import write_images
 
     _check_output_paths(args)
+    options = _parse_options(args.option)
     scene = _scene_from_args(args)
-    with renderers.get(args.backend, **_parse_options(args.option)) as renderer:
+    with renderers.get(args.backend, **options) as renderer:
+        # The backend's limits (its memory, its work) before the progress bar and the warm-up frames.
+        renderer.check(scene)
         result = measure(renderer, scene, warmup=args.warmup, repeat=args.repeat, progress=True)
-    write_png(args.output, result.image)
-    if args.exr:
-        write_exr(args.exr, result.image)
+    write_images(result.image, [args.output, args.exr])
     print(f"wrote {args.output}" + (f" and {args.exr}" if args.exr else ""))
     for stage, seconds in result.timings.items():
         print(f"  time {stage:12s} {seconds:10.4f} s (min {result.timings_min[stage]:.4f}, max {result.timings_max[stage]:.4f})")
@@ -130,73 +131,27 @@ def cmd_render(args):
 
 
 def cmd_compare(args):
+    import warnings
+
+    from reports.imageio import check_output_path
     from reports.metrics import compare_files
 
-    if args.diff is not None and Path(args.diff).suffix.lower() not in (".png", ".exr"):
-        raise VolbenchError(f"--diff {args.diff}: expected a .png or .exr file name")
-    values = compare_files(args.reference, args.test, diff_path=args.diff)
+    if args.diff is not None:
+        if Path(args.diff).suffix.lower() not in (".png", ".exr"):
+            raise VolbenchError(f"--diff {args.diff}: expected a .png or .exr file name")
+        check_output_path(args.diff, name=f"--diff {args.diff}")
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        values = compare_files(args.reference, args.test, diff_path=args.diff)
+    for warning in caught:
+        print(f"volbench: warning: {warning.message}", file=sys.stderr)
     print(json.dumps(values, indent=1, default=str))
 
 
-PACKAGES = ("core", "datasets", "renderers", "reports", "pipeline")
-"""The project's packages: every job of the workflow imports some of them."""
-
-
-def compile_packages():
-    """Write the bytecode of :data:`PACKAGES` where it is missing or stale.
-
-    Every Snakemake job is a fresh interpreter that imports these modules; where Python may not
-    write bytecode itself (``PYTHONDONTWRITEBYTECODE``, a read-only checkout) each job would compile
-    them again, about 0.2 s a job.
-    """
-    import compileall
-
-    for package in PACKAGES:
-        compileall.compile_dir(ROOT / package, quiet=1)
-
-
 def cmd_run(args):
-    profile = Path(args.profile)
-    if not profile.suffix:
-        profile = ROOT / "config" / f"{args.profile}.yaml"
-    if not profile.exists():
-        raise VolbenchError(f"profile {args.profile!r}: no file {profile}; see config/ for the profiles")
-    compile_packages()
-    command = [sys.executable, "-m", "snakemake", "--snakefile", str(ROOT / "Snakefile"),
-               "--directory", str(ROOT), "--configfile", str(profile.resolve()),
-               "--cores", str(args.cores), "--rerun-incomplete",
-               # The greedy scheduler: the default (an integer program solved after every job) only
-               # pays where temporary files must be deleted early, and this workflow has none; with
-               # hundreds of small jobs its solves take CPU from the timed render beside it.
-               "--scheduler", "greedy",
-               # A rate limit that never binds, checked every 10 s. Under the default (100/1s),
-               # Snakemake 9 ends every scheduler pass that leaves jobs waiting by starting a timer
-               # for another pass a timespan later, and every finished job adds a pass, so these
-               # timers multiply: with render jobs waiting for the cores all run long, the smoke
-               # profile's main Snakemake made ~100 passes a second by its end (64 000 timer threads)
-               # and took half a core from the renders. Ten seconds make a tenth of the passes; the
-               # timers are not daemon threads, so Snakemake exits up to one timespan after its last
-               # job (a day's timespan kept it alive for a day).
-               "--max-jobs-per-timespan", "1000000/10s"]
-    if args.dry_run:
-        command.append("--dry-run")
-    extra = list(args.snakemake_args)
-    items = [f"experiments={json.dumps(args.experiment)}"] if args.experiment else []
-    items += [f"{key}={value}" for key, value in (("results", args.results), ("cache", args.cache)) if value]
-    if items:
-        # Snakemake keeps only the last --config, so ours joins the user's when there is one.
-        if "--config" in extra:
-            at = extra.index("--config") + 1
-            extra[at:at] = items
-        else:
-            extra += ["--config", *items]
-    command += extra
-    print("volbench:", " ".join(command), flush=True)
-    completed = subprocess.run(command)
-    if completed.returncode == 0 and not args.dry_run:
-        results = args.results or yaml.safe_load(profile.read_text()).get("results", "results")
-        print(f"volbench: report at {(ROOT / results / 'report' / 'index.html')}")
-    return completed.returncode
+    from pipeline.launch import run
+
+    return run(args)
 
 
 def build_parser():
@@ -253,6 +208,10 @@ def main(argv=None):
     except VolbenchError as exc:
         print(f"volbench: error: {exc}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:
+        # Ctrl-C is the user's choice, not a fault: no traceback; 130 = 128 + SIGINT, as a shell reports it.
+        print("volbench: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":

@@ -59,7 +59,7 @@ def rows_for(record_path, *, results_dir):
         view_metrics = metrics.get("views", {}).get(view["view"])
         if view_metrics:
             row.update({key: view_metrics.get(key) for key in (*METRIC_KEYS, "diff_png")})
-        elif metrics.get("status") == "skipped":
+        elif metrics.get("status") in ("skipped", "failed"):
             row["metrics_reason"] = metrics["reason"]
         rows.append(row)
     return rows
@@ -97,16 +97,45 @@ def tabulate(record_paths, experiment, *, results_dir):
     return rows, claims
 
 
-def merge(experiments, *, results_dir):
+def merge(experiments, *, results_dir, known=None):
     """Concatenate the experiments' tables and claims (from :func:`tabulate`) into ``runs.csv`` and ``claims.csv``.
 
     The tables are read as text and written back unchanged (a column one experiment lacks is left
     empty in its rows), so no value is re-typed on the way.
+
+    Parameters
+    ----------
+    experiments : list of Experiment
+        The experiments of this pipeline run; their tables must exist.
+    results_dir : path
+    known : list of Experiment, optional
+        Every experiment volbench has (``experiments`` among them), in registry order. Given, the
+        tables that earlier pipeline runs left in ``results_dir`` for the other known experiments
+        are merged too (a run of one experiment, ``volbench run --experiment X``, must not drop the
+        rest of the profile's results), every table in registry order; tables named after no
+        known experiment (one since removed or renamed) are left out.
+
+    Returns
+    -------
+    earlier : list of str
+        The experiments merged from earlier runs' tables.
+    dropped : list of str
+        The names of the tables left out.
     """
     results_dir = Path(results_dir)
-    for name, path_of in (("runs.csv", table_path), ("claims.csv", claims_path)):
-        parts = [_read_text(path_of(results_dir, experiment.name)) for experiment in experiments]
-        pd.concat(parts, ignore_index=True).to_csv(results_dir / name, index=False)
+    names = [experiment.name for experiment in experiments]
+    earlier, dropped = [], []
+    if known is not None:
+        known_names = [experiment.name for experiment in known]
+        present = {path.stem for path in (results_dir / "tables").glob("*.csv")}
+        earlier = [name for name in known_names if name in present and name not in names]
+        dropped = sorted(present - set(known_names))
+        names = [name for name in known_names if name in names or name in earlier]
+    for output, path_of in (("runs.csv", table_path), ("claims.csv", claims_path)):
+        parts = [_read_text(path_of(results_dir, name)) for name in names
+                 if name not in earlier or path_of(results_dir, name).is_file()]
+        pd.concat(parts, ignore_index=True).to_csv(results_dir / output, index=False)
+    return earlier, dropped
 
 
 def _read_text(path):
@@ -171,20 +200,28 @@ def experiment_rows(frame, experiment):
 
 
 def claims_table(frame, experiments):
-    """Every claim of ``experiments`` checked on the successful rows of ``frame``: ``claims.csv``'s table."""
+    """Every claim of ``experiments`` judged on ``frame``'s rows: ``claims.csv``'s table.
+
+    Each claim is checked on the successful rows and gets a verdict (:mod:`pipeline.experiments.verdicts`):
+    ``blocked`` where it would read runs that should have happened here and did not.
+    """
+    from pipeline.experiments.verdicts import judge
+
     # One block per dtype: pandas.read_csv of runs.csv gives one per column (hundreds), and every
     # column a claim adds to such a frame would warn that it is fragmented.
     frame = frame.copy()
     claim_rows = []
     for experiment in experiments:
         part = experiment_rows(frame, experiment)
-        ok = part[part.status == "ok"] if not part.empty else part
         for claim in experiment.claims:
-            result = claim.evaluate(ok)
+            verdict = judge(claim, part)
             claim_rows.append({
                 "experiment": experiment.name, "paper": experiment.paper, "claim": claim.id,
-                "statement": claim.statement, "expected": claim.expected, "measured": result.measured,
-                "holds": result.holds, "detail": result.detail,
+                "statement": claim.statement, "expected": claim.expected, "measured": verdict.measured,
+                "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
             })
-    return pd.DataFrame(claim_rows, columns=["experiment", "paper", "claim", "statement", "expected",
-                                             "measured", "holds", "detail"])
+    return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
+
+
+CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "expected", "measured", "holds", "verdict", "detail"]
+"""The columns of ``claims.csv``."""

@@ -85,9 +85,43 @@ def tabulate(args):
 
 def collect(args):
     from pipeline.collect import merge
+    from pipeline.experiments import all_experiments
 
     profile = _profile(args.profile)
-    merge(selected(profile), results_dir=profile.results)
+    earlier, dropped = merge(selected(profile), results_dir=profile.results, known=list(all_experiments().values()))
+    if earlier:
+        print(f"merged the tables of {len(earlier)} experiments from earlier runs: {', '.join(earlier)}")
+    if dropped:
+        print(f"left out the tables of experiments volbench no longer has: {', '.join(dropped)}")
+
+
+def report_contents(runs_df, claims_df, this_run, registry, results_dir):
+    """``(experiments, notices)``: what a report shows, and what its pages say first where that mixes pipeline runs.
+
+    ``runs.csv`` holds this pipeline run's experiments (``this_run``) and those earlier runs left
+    (:func:`pipeline.collect.merge`, after ``volbench run --experiment X``): the report shows
+    them all, in registry order, and says which come from earlier runs, when they were measured
+    (``runs.csv``'s ``date``, UTC), and which tables were left out because their experiment is gone.
+    """
+    present = set(runs_df.get("experiment", ())) | set(claims_df.get("experiment", ()))
+    this_names = {experiment.name for experiment in this_run}
+    shown = [experiment for name, experiment in registry.items() if name in this_names or name in present]
+    earlier = []
+    for name in (experiment.name for experiment in shown if experiment.name not in this_names):
+        dates = sorted(map(str, runs_df.loc[runs_df.experiment == name, "date"].dropna().unique())) \
+            if "date" in runs_df else []
+        when = (dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}") if dates else "date not recorded"
+        earlier.append(f"{name} ({when})")
+    notices = []
+    if earlier:
+        notices.append(f"Not all of this report comes from its last pipeline run: the results of {len(earlier)} "
+                       f"experiments are from earlier runs (measured, UTC): {', '.join(earlier)}.")
+    dropped = sorted(path.stem for path in (Path(results_dir) / "tables").glob("*.csv") if path.stem not in registry)
+    if dropped:
+        notices.append(f"Left out: the results of {', '.join(dropped)}, which volbench no longer has (removed or "
+                       f"renamed); delete their CSV files in {Path(results_dir) / 'tables'} and "
+                       f"{Path(results_dir) / 'claims'} to stop this notice.")
+    return shown, notices
 
 
 def report(args):
@@ -96,7 +130,7 @@ def report(args):
     import renderers
     from pipeline.environment import real_data_provenance
     from pipeline.experiments import all_experiments
-    from pipeline.experiments.planned import planned
+    from pipeline.experiments.planned import TECHNIQUES, planned
     from reports.html import build_report
 
     profile = _profile(args.profile)
@@ -109,10 +143,12 @@ def report(args):
     environment_["profile"] = json.dumps(dataclasses.asdict(profile), sort_keys=True)
     backends = [{"name": b.name, "available": b.available, "reason": b.reason or "", "description": b.description}
                 for b in renderers.available()]
-    index = build_report(runs_df, claims_df, selected(profile), results_dir=results, environment=environment_,
-                         backends=backends, planned=planned(renderers.names(), all_experiments().values()),
+    registry = all_experiments()
+    experiments, notices = report_contents(runs_df, claims_df, selected(profile), registry, results)
+    index = build_report(runs_df, claims_df, experiments, results_dir=results, environment=environment_,
+                         backends=backends, planned=planned(renderers.names(), registry.values()), notices=notices,
                          real_data=real_data_provenance(profile.real_data),
-                         phantoms=pd.read_csv(results / "volumes.csv", dtype={"params": str}))
+                         phantoms=pd.read_csv(results / "volumes.csv", dtype={"params": str}), techniques=TECHNIQUES)
     print(f"volbench report: {index.resolve()}")
 
 

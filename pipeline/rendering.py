@@ -11,16 +11,16 @@ from pathlib import Path
 
 import datasets
 import renderers
-from core.errors import BackendUnavailableError, UnsupportedFeatureError
+from core.errors import BackendUnavailableError, InputError, UnsupportedFeatureError
 from core.transfer import Preset
-from pipeline.runner import _new_record, run_record_path, write_json
+from pipeline.runner import _new_record, image_digest, run_record_path, write_json
 from pipeline.scene_io import build_scene, build_volume_instance
 from pipeline.timing import measure
 from reports.imageio import read_image, write_exr, write_png
 
 
 def skip_cause(exc):
-    """The record's ``cause`` (:data:`pipeline.runner.CAUSES`) of a run skipped because of ``exc``."""
+    """The record's ``cause`` (:data:`core.outcomes.CAUSES`) of a run skipped because of ``exc``."""
     if isinstance(exc, datasets.DataUnavailableError):
         return "no-data"
     if isinstance(exc, BackendUnavailableError):
@@ -60,6 +60,7 @@ def execute(run, *, profile, device_environment=None):
                 write_png(png, result.image)
                 record["views"].append({
                     "view": view["view"], "camera": overrides, "exr": str(exr), "png": str(png),
+                    "digests": {"exr": image_digest(exr), "png": image_digest(png)},
                     "timings": result.timings, "timings_min": result.timings_min,
                     "timings_max": result.timings_max, "counters": result.counters, "info": result.info,
                 })
@@ -73,7 +74,13 @@ def execute(run, *, profile, device_environment=None):
 
 
 def evaluate(record_path, reference_path, output_path):
-    """Compare each view of a run with the same view of its reference run; write the metrics."""
+    """Compare each view of a run with the same view of its reference run; write the metrics.
+
+    A view that cannot be compared (an image missing or unreadable, two sizes) makes the run's
+    metrics ``failed`` with the reason, and the other views are still compared: one damaged run
+    must not stop the comparisons of its experiment (the render job redoes it on the next
+    ``volbench run``: :func:`pipeline.runner.image_damage`).
+    """
     # Imported here: the metrics pull in scikit-image and SciPy's statistics (over a second per
     # process), which the render and volume jobs importing this module never use.
     from reports.metrics import compare, difference_image
@@ -90,14 +97,21 @@ def evaluate(record_path, reference_path, output_path):
         truth_views = {v["view"]: v for v in truth["views"]}
         diff_dir = Path(output_path).with_suffix("")
         diff_dir.mkdir(parents=True, exist_ok=True)
+        failures = []
         for view in record["views"]:
             if view["view"] not in truth_views:
                 continue
-            test_image = read_image(view["exr"])
-            truth_image = read_image(truth_views[view["view"]]["exr"])
-            values = compare(truth_image, test_image)
+            try:
+                test_image = read_image(view["exr"])
+                truth_image = read_image(truth_views[view["view"]]["exr"])
+                values = compare(truth_image, test_image)
+            except InputError as exc:
+                failures.append(f"view {view['view']}: {exc}")
+                continue
             diff_path = diff_dir / f"{view['view']}-diff.png"
             write_png(diff_path, difference_image(truth_image, test_image))
             metrics["views"][view["view"]] = {**values, "diff_png": str(diff_path)}
+        if failures:
+            metrics.update(status="failed", reason="cannot compare with the reference: " + "; ".join(failures))
     write_json(output_path, metrics)
     return metrics

@@ -3,9 +3,9 @@
 A run's record is a JSON file; its images sit in a folder of the same name, one EXR (exact) and one
 PNG (to look at) per view. A run that cannot happen here is recorded as ``skipped`` with the reason
 (backend unavailable, feature unsupported, data absent); one that raised is recorded as ``failed``
-with the error. Neither is ever dropped silently. The record's ``cause`` (one of :data:`CAUSES`)
-says which, so that a report can tell a planned limit (a feature the backend lacks) from a run
-that should have happened and did not.
+with the error. Neither is ever dropped silently. The record's ``cause``
+(one of :data:`core.outcomes.CAUSES`) says which, so that a report can tell a planned limit (a
+feature the backend lacks) from a run that should have happened and did not.
 """
 
 import hashlib
@@ -48,22 +48,6 @@ def run_record_path(results_dir, experiment, run_id):
 def metrics_record_path(results_dir, experiment, run_id):
     """``results/metrics/<experiment>/<run>.json``; difference images go in the folder beside it."""
     return Path(results_dir) / "metrics" / experiment / f"{run_id}.json"
-
-
-CAUSES = {
-    "": "the run succeeded",
-    "unsupported": "the backend lacks a feature the scene uses (a planned limit, stated by its capabilities)",
-    "unavailable": "the backend cannot run on this machine (its probe says why)",
-    "no-data": "the data set is not on this machine",
-    "error": "the run raised an error",
-    "time-limit": "the run exceeded the profile's render_time_limit",
-    "crash": "the render process died without a record",
-}
-"""A record's ``cause`` → what it means. Only ``unsupported`` is a limit the experiment planned for;
-every other non-empty cause means measurements the experiment expected are missing."""
-
-INCOMPLETE_CAUSES = frozenset(CAUSES) - {"", "unsupported"}
-"""Causes of runs that should have produced measurements here and did not."""
 
 
 def _new_record(run, device_environment):
@@ -153,7 +137,7 @@ ROOT = Path(__file__).resolve().parent.parent
 
 JOB_SOURCES = {
     "volume": ("core", "datasets"),
-    "environment": ("core", "pipeline/environment.py"),
+    "environment": ("core", "pipeline/environment.py", "renderers/gl/context.py", "renderers/cl/context.py"),
     "render": ("core", "datasets", "renderers/__init__.py", "renderers/base", "pipeline/runner.py", "pipeline/rendering.py",
                "pipeline/scene_io.py", "pipeline/timing.py", "pipeline/environment.py",
                "pipeline/experiments/base.py", "reports/imageio.py"),
@@ -221,32 +205,76 @@ def retry_marker_path(results_dir, experiment, run_id):
     return Path(results_dir) / ".retry" / experiment / run_id
 
 
+def image_digest(path):
+    """What a record keeps of an image it names: its SHA-256, size and modification time.
+
+    :func:`image_damage` compares the file with it at every workflow start.
+    """
+    path = Path(path)
+    with path.open("rb") as f:
+        sha256 = hashlib.file_digest(f, "sha256").hexdigest()
+    stat = path.stat()
+    return {"sha256": sha256, "bytes": stat.st_size, "mtime_ns": stat.st_mtime_ns}
+
+
+def image_damage(record):
+    """Why the images an ``ok`` record names cannot be trusted (a phrase), or ``""`` when every one is intact.
+
+    Each view's EXR and PNG must exist, with the size and SHA-256 of :func:`image_digest` in the
+    record. A file whose size and modification time are still those recorded is not read again:
+    hashing every image at every workflow start would read the whole results folder (gigabytes at
+    paper scale), while a truncated, rewritten or replaced image changes one or the other.
+    """
+    for view in record.get("views", []):
+        digests = view.get("digests")
+        if not isinstance(digests, dict):
+            return f"view {view.get('view')!r} carries no image digests (written before records had them)"
+        for kind in ("exr", "png"):
+            path, recorded = Path(view[kind]), digests.get(kind) or {}
+            if not path.is_file():
+                return f"view {view['view']!r}: its {kind.upper()} {path} is missing"
+            stat = path.stat()
+            if stat.st_size != recorded.get("bytes"):
+                return f"view {view['view']!r}: its {kind.upper()} {path} has {stat.st_size} bytes, not {recorded.get('bytes')}"
+            if stat.st_mtime_ns != recorded.get("mtime_ns") and image_digest(path)["sha256"] != recorded.get("sha256"):
+                return f"view {view['view']!r}: its {kind.upper()} {path} does not match its SHA-256"
+    return ""
+
+
 def mark_retry(results_dir, experiment, run_id):
     """Make the run's retry marker say whether its render job must run again; return its path.
 
     A failed run's record is a finished output to Snakemake, which would keep it forever. So
     every render job takes this marker as an input, and the workflow calls this for every run
-    when it starts: for a run whose record is ``failed`` (or unreadable) the marker is rewritten
-    now, newer than the record and with text naming that record (Snakemake skips a newer input
-    whose checksum it has recorded before), so Snakemake reruns the job ("updated input files"),
-    a dry run included; for any other run the marker is empty and dated 1970, older than any
-    record, so it never triggers. The record stays until the retry replaces it, and skipped runs (which cannot
+    when it starts: for a run whose record is ``failed`` (or unreadable), or ``ok`` but naming an
+    image that is missing or damaged (:func:`image_damage`), the marker is rewritten now, newer
+    than the record and with text naming that record (Snakemake skips a newer input whose checksum
+    it has recorded before), so Snakemake reruns the job ("updated input files"), a dry run
+    included; for any other run the marker is empty and dated 1970, older than any record, so it
+    never triggers. The record stays until the retry replaces it, and skipped runs (which cannot
     happen here) are not retried.
     """
     marker = retry_marker_path(results_dir, experiment, run_id)
     record_path = run_record_path(results_dir, experiment, run_id)
-    failed = False
+    why = ""
     if record_path.is_file():
         try:
-            failed = json.loads(record_path.read_text()).get("status") not in ("ok", "skipped")
+            record = json.loads(record_path.read_text())
+            status = record.get("status")
         except (OSError, ValueError, AttributeError):
-            failed = True
+            why = "is unreadable"
+        else:
+            if status not in ("ok", "skipped"):
+                why = f"is {status}"
+            elif status == "ok":
+                damage = image_damage(record)
+                why = f"names a damaged image ({damage})" if damage else ""
     marker.parent.mkdir(parents=True, exist_ok=True)
-    if failed:
+    if why:
         # Snakemake ignores a newer input whose checksum it has seen before, so the marker's text
         # names this very record (its modification time and digest): each failure is new to it.
         stamp = f"{record_path.stat().st_mtime_ns} {hashlib.sha256(record_path.read_bytes()).hexdigest()[:16]}"
-        marker.write_text(f"retry {experiment}/{run_id}: its last record ({stamp}) is failed or unreadable\n")
+        marker.write_text(f"retry {experiment}/{run_id}: its last record ({stamp}) {why}\n")
         now = time.time()
         os.utime(marker, (now, max(now, record_path.stat().st_mtime + 1)))
     else:

@@ -1,6 +1,5 @@
 import subprocess
 import sys
-from pathlib import Path
 
 import numpy as np
 import pytest
@@ -63,7 +62,7 @@ def test_unknown_backend_option_lists_the_valid_ones(capsys):
 
     assert main(["render", "sphere", "--size", "8", "--option", "stepfactor=0.5"]) == 2
     err = capsys.readouterr().err
-    assert "unknown option stepfactor; valid options: step_factor, step, classification, depth" in err
+    assert "unknown option stepfactor; valid options: step_factor, step, classification, depth, max_samples" in err
     assert "Traceback" not in err
     with pytest.raises(InputError, match="stepfactor"):
         renderers.get("reference", stepfactor=0.5)
@@ -128,18 +127,3 @@ def test_compare_checks_the_diff_name_before_comparing(tmp_path, capsys, monkeyp
     monkeypatch.setattr(reports.metrics, "compare_files", lambda *a, **k: pytest.fail("must fail before comparing"))
     assert main(["compare", "a.exr", "b.exr", "--diff", str(tmp_path / "d.jpg")]) == 2
     assert "expected a .png or .exr file name" in capsys.readouterr().err
-
-
-def test_run_compiles_the_packages_every_job_imports(tmp_path, monkeypatch):
-    from importlib.util import cache_from_source
-
-    from pipeline import cli
-
-    module = tmp_path / "core" / "module.py"
-    module.parent.mkdir()
-    module.write_text("VALUE = 1\n")
-    monkeypatch.setattr(cli, "ROOT", tmp_path)
-    monkeypatch.setattr(cli, "PACKAGES", ("core",))
-    monkeypatch.setattr(sys, "dont_write_bytecode", True)  # as PYTHONDONTWRITEBYTECODE=1 sets it
-    cli.compile_packages()
-    assert Path(cache_from_source(str(module))).is_file()

@@ -86,7 +86,7 @@ def test_runs_and_claims_csv_are_the_experiments_tables_as_written(synthetic):
     # Text in, text out: every cell of runs.csv is its experiment's table's cell, blank where it has no column.
     merged = pd.read_csv(results / "runs.csv", dtype=str, keep_default_na=False)
     assert merged.equals(pd.concat(tables, ignore_index=True).fillna("")[merged.columns])
-    own = set(tables[0].columns) - set(tables[1].columns)
+    own = set(tables[0].columns) - set().union(*(t.columns for t in tables[1:]))
     assert own and (merged.loc[len(tables[0]):, sorted(own)] == "").all().all()
     claims = pd.concat([pd.read_csv(claims_path(results, e.name), dtype=str, keep_default_na=False) for e in experiments],
                        ignore_index=True)
@@ -122,3 +122,52 @@ def test_phantom_manifest_digests_the_stored_bytes_and_names_a_missing_phantom(t
     (tmp_path / f"{datasets.cache_key('ct_skull', size=8, seed=0)}.npy").unlink()
     with pytest.raises(FileNotFoundError, match="ct_skull.*not in the cache"):
         phantom_manifest(requests, cache_dir=tmp_path)
+
+
+def _tables(results, rows):
+    """``tables/<e>.csv`` and ``claims/<e>.csv`` for ``{experiment: [(run, date), ...]}``, as tabulate writes them."""
+    import pandas as pd
+
+    from pipeline.collect import claims_path, table_path
+
+    for name, runs in rows.items():
+        for path_of, frame in ((table_path, pd.DataFrame([{"experiment": name, "run": run, "date": date} for run, date in runs])),
+                               (claims_path, pd.DataFrame([{"experiment": name, "claim": "c", "holds": True}]))):
+            path_of(results, name).parent.mkdir(parents=True, exist_ok=True)
+            frame.to_csv(path_of(results, name), index=False)
+
+
+def test_a_run_of_some_experiments_keeps_the_others_tables_and_drops_those_of_removed_ones(tmp_path):
+    import pandas as pd
+
+    from pipeline.collect import merge
+
+    known = [SimpleNamespace(name=name) for name in ("c2002-third", "a2000-first", "b2001-second")]  # registry order
+    _tables(tmp_path, {"a2000-first": [("r1", "2026-01-02 10:00")], "b2001-second": [("r2", "2026-01-05 09:00")],
+                       "c2002-third": [("r3", "2026-01-01 08:00")], "gone1999-renamed": [("r4", "2025-12-01 07:00")]})
+    earlier, dropped = merge([known[2]], results_dir=tmp_path, known=known)  # volbench run --experiment b2001-second
+    assert (earlier, dropped) == (["c2002-third", "a2000-first"], ["gone1999-renamed"])
+    runs = pd.read_csv(tmp_path / "runs.csv")
+    assert list(runs.experiment) == ["c2002-third", "a2000-first", "b2001-second"]
+    assert list(pd.read_csv(tmp_path / "claims.csv").experiment) == list(runs.experiment)
+    assert merge([known[2]], results_dir=tmp_path) == ([], [])  # without the registry: this run's tables only
+    assert list(pd.read_csv(tmp_path / "runs.csv").experiment) == ["b2001-second"]
+
+
+def test_the_report_shows_earlier_runs_experiments_with_their_dates_and_the_dropped_tables(tmp_path):
+    import pandas as pd
+
+    from pipeline.jobs import report_contents
+
+    registry = {name: SimpleNamespace(name=name) for name in ("a2000-first", "b2001-second", "c2002-third")}
+    _tables(tmp_path, {"gone1999-renamed": [("r4", "2025-12-01 07:00")], "b2001-second": [("r2", "2026-01-05 09:00")]})
+    runs = pd.DataFrame({"experiment": ["a2000-first", "a2000-first", "b2001-second", "c2002-third"],
+                         "date": ["2026-01-02 10:00", "2026-01-02 10:40", "2026-01-05 09:00", None]})
+    claims = pd.DataFrame({"experiment": ["a2000-first", "b2001-second", "c2002-third"]})
+    shown, notices = report_contents(runs, claims, [registry["b2001-second"]], registry, tmp_path)
+    assert [e.name for e in shown] == ["a2000-first", "b2001-second", "c2002-third"]
+    assert notices[0] == ("Not all of this report comes from its last pipeline run: the results of 2 experiments are "
+                          "from earlier runs (measured, UTC): a2000-first (2026-01-02 10:00 to 2026-01-02 10:40), "
+                          "c2002-third (date not recorded).")
+    assert notices[1].startswith("Left out: the results of gone1999-renamed, which volbench no longer has")
+    assert report_contents(runs, claims, list(registry.values()), registry, tmp_path / "other") == (list(registry.values()), [])

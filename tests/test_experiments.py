@@ -3,10 +3,12 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 import pytest
+import yaml
 
 from pipeline import experiments
 from core.errors import InputError
 from pipeline.experiments import Profile, Run
+from pipeline.experiments.base import PROFILE_REQUIRED
 from pipeline.experiments.volbench import ReferenceConvergence, SpeedAccuracy, _default_step, _monotone, _order, _tradeoff
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -108,3 +110,46 @@ def test_speed_accuracy_runs_only_the_scenes_a_profile_names():
     assert planned(["skull-bone"]) == {"skull-bone"}
     with pytest.raises(InputError, match="volbench-speed-accuracy.scenes"):
         planned(["teapot"])
+
+
+def _default_profile():
+    return yaml.safe_load((ROOT / "config" / "default.yaml").read_text())
+
+
+@pytest.mark.parametrize("key", PROFILE_REQUIRED)
+def test_a_profile_file_must_set_every_key_a_default_would_change_results_by(key):
+    mapping = _default_profile()
+    del mapping[key]
+    with pytest.raises(InputError, match=rf"profile.*: {key} not set; every profile sets .*render_time_limit: null means no limit"):
+        Profile.from_mapping(mapping)
+
+
+def test_keys_with_safe_defaults_may_be_left_out_and_no_limit_is_said_with_null():
+    mapping = {key: value for key, value in _default_profile().items()
+               if key not in ("experiments", "settings", "real_data", "cache")}
+    profile = Profile.from_mapping({**mapping, "render_time_limit": None})
+    assert profile.render_time_limit is None and profile.experiments == "all" and profile.cache == ".cache/volumes"
+    with pytest.raises(InputError, match="expected a mapping of keys"):
+        Profile.from_mapping(None)  # an empty profile file
+
+
+@pytest.mark.parametrize("key, value, message", [
+    ("image_size", "big", r"image_size \(pixels\): expected an integer >= 1, got 'big'"),
+    ("image_size", 0, r"image_size \(pixels\): expected an integer >= 1, got 0"),
+    ("volume_size", 4, r"volume_size \(voxels along a phantom's longest axis\): expected an integer >= 8, got 4"),
+    ("volume_size", 128.0, r"volume_size .*expected an integer >= 8, got 128.0"),
+    ("warmup", -1, r"warmup \(untimed frames\): expected an integer >= 0, got -1"),
+    ("repeat", True, r"repeat \(timed frames\): expected an integer >= 1, got True"),
+    ("experiments", "volbench-convergence", "experiments: expected 'all' or a list of names, got 'volbench-convergence'"),
+    ("experiments", ["volbench-convergence", 3], "experiments: expected 'all' or a list of names"),
+    ("settings", ["volbench-convergence"], "settings: expected a mapping of experiment names, got list"),
+    ("results", "", "results: expected a folder name, got ''"),
+    ("cache", None, "cache: expected a folder name, got None"),
+    ("real_data", 5, "real_data: expected a folder name, got 5; null reads the default folder"),
+    ("render_time_limit", True, "render_time_limit: expected seconds .* or null for no limit, got True"),
+    ("render_time_limit", "300", "render_time_limit: expected seconds .* or null for no limit, got '300'"),
+    ("render_time_limit", 0, r"render_time_limit \(seconds; null for no limit\): 0 is outside"),
+])
+def test_every_profile_value_is_checked_and_the_error_names_key_and_value(key, value, message):
+    with pytest.raises(InputError, match=rf"^profile 'default' {message}"):
+        Profile.from_mapping({**_default_profile(), key: value})

@@ -1,10 +1,12 @@
 """The pipeline's steps in-process on tiny runs, and the Snakemake DAG in a dry run."""
 
+import hashlib
 import json
 import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -14,8 +16,9 @@ from pipeline.experiments import Profile, Run
 from pipeline.experiments.volbench import PhantomGallery
 from pipeline import jobs
 from pipeline.rendering import execute
-from pipeline.runner import metrics_record_path, run_record_path
+from pipeline.runner import image_digest, metrics_record_path, run_record_path
 from renderers.base import Capabilities, Renderer
+from reports.imageio import write_exr
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = {"width": 12, "height": 10, "shading": {"model": "phong"},
@@ -68,6 +71,9 @@ def test_execute_evaluate_collect(profile, capsys):
     view = records["sphere.coarse"]["views"][1]
     assert view["timings"]["total"] > 0 and view["info"]["frames"] == coarse.repeat
     assert Path(view["exr"]).exists() and Path(view["png"]).exists()
+    for kind in ("exr", "png"):  # what the next workflow start checks the images against
+        assert view["digests"][kind] == image_digest(view[kind])
+        assert view["digests"][kind]["sha256"] == hashlib.sha256(Path(view[kind]).read_bytes()).hexdigest()
 
     results = profile.results
     # The evaluate job: every run of the experiment against its reference, in one process.
@@ -90,6 +96,32 @@ def test_execute_evaluate_collect(profile, capsys):
     assert len(frame[frame.run == "sphere.failed"]) == 1  # recorded, not dropped
     assert (Path(results) / "runs.csv").exists() and (Path(results) / "claims.csv").exists()
     assert len(claims) == len(PhantomGallery().claims)
+
+
+def test_an_unreadable_image_is_its_runs_metrics_failure_and_the_other_runs_are_compared(tmp_path, capsys):
+    def record(run_id, views=("front", "side")):
+        image_dir = tmp_path / "runs" / run_id
+        image_dir.mkdir(parents=True)
+        entries = []
+        for name in views:
+            image = np.full((6, 6, 4), 0.5 if run_id == "truth" else 0.4, np.float32)
+            write_exr(image_dir / f"{name}.exr", image)
+            entries.append({"view": name, "exr": str(image_dir / f"{name}.exr")})
+        path = tmp_path / "runs" / f"{run_id}.json"
+        path.write_text(json.dumps({"experiment": "e", "run": run_id, "status": "ok", "reason": "", "views": entries}))
+        return str(path)
+
+    truth, damaged, intact = record("truth"), record("damaged"), record("intact")
+    front = tmp_path / "runs" / "damaged" / "front.exr"
+    front.write_bytes(front.read_bytes()[:40])  # truncated beside its valid record
+    pairs = [[damaged, truth, str(tmp_path / "metrics" / "damaged.json")],
+             [intact, truth, str(tmp_path / "metrics" / "intact.json")]]
+    jobs.main(["evaluate", "--pairs", json.dumps(pairs)])  # does not stop at the damaged run
+    assert capsys.readouterr().out.splitlines() == ["evaluated 1/2: e/damaged failed", "evaluated 2/2: e/intact ok"]
+    metrics = json.loads((tmp_path / "metrics" / "damaged.json").read_text())
+    assert metrics["reason"].startswith(f"cannot compare with the reference: view front: {front}: cannot read image")
+    assert set(metrics["views"]) == {"side"}  # the view it could compare
+    assert json.loads((tmp_path / "metrics" / "intact.json").read_text())["views"]["front"]["rmse"] == pytest.approx(0.1)
 
 
 def test_missing_real_data_is_a_recorded_skip(profile, tmp_path):

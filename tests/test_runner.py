@@ -9,14 +9,16 @@ import time
 from dataclasses import asdict, replace
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 import renderers
 from core.errors import InputError
 from pipeline import rendering, runner
 from pipeline.experiments import Profile, Run
-from pipeline.runner import execute_limited, mark_retry, run_record_path, time_limit_reason
+from pipeline.runner import execute_limited, image_digest, mark_retry, run_record_path, time_limit_reason
 from renderers.base import Capabilities, Renderer
+from reports.imageio import write_exr, write_png
 
 ROOT = Path(__file__).resolve().parent.parent
 SCENE = {"width": 8, "height": 8, "volumes": [{"dataset": "sphere", "size": 8}]}
@@ -109,8 +111,9 @@ def test_no_limit_runs_in_process(profile, monkeypatch):
 
 @pytest.mark.parametrize("value", [0, -5, "soon", float("inf")])
 def test_render_time_limit_must_be_a_positive_number(value):
-    with pytest.raises(InputError, match="render_time_limit"):
-        Profile.from_mapping({"name": "p", "render_time_limit": value})
+    mapping = {"name": "p", "volume_size": 8, "image_size": 8, "warmup": 0, "repeat": 1, "results": "r"}
+    with pytest.raises(InputError, match="^profile 'p' render_time_limit"):
+        Profile.from_mapping({**mapping, "render_time_limit": value})
 
 
 def test_every_shipped_profile_sets_a_render_time_limit():
@@ -132,6 +135,56 @@ def test_retry_marker_is_new_only_for_failed_records(tmp_path):
     assert mark_retry(results, "e", "run1").stat().st_mtime > record.stat().st_mtime
     record.write_text(json.dumps({"status": "ok"}))  # the retry succeeded: the marker goes back to 1970
     assert mark_retry(results, "e", "run1").stat().st_mtime == 0
+
+
+def _record_with_images(results):
+    """An ``ok`` record of run ``e/run1`` naming one view's EXR and PNG with their digests, as execute writes it."""
+    record = run_record_path(results, "e", "run1")
+    record.with_suffix("").mkdir(parents=True)
+    image = np.zeros((4, 4, 4), np.float32)
+    image[1:3, 1:3] = 0.5
+    exr, png = record.with_suffix("") / "front.exr", record.with_suffix("") / "front.png"
+    write_exr(exr, image)
+    write_png(png, image)
+    view = {"view": "front", "exr": str(exr), "png": str(png), "digests": {"exr": image_digest(exr), "png": image_digest(png)}}
+    record.write_text(json.dumps({"status": "ok", "views": [view]}))
+    return record, exr, png
+
+
+def _retry_reason(results, record):
+    """What the retry marker says after the workflow's start-up, or ``None`` when the run is not retried."""
+    marker = mark_retry(results, "e", "run1")
+    return marker.read_text() if marker.stat().st_mtime > record.stat().st_mtime else None
+
+
+def test_a_run_whose_images_are_missing_or_damaged_is_retried(tmp_path):
+    results = tmp_path / "r"
+    record, exr, png = _record_with_images(results)
+    assert _retry_reason(results, record) is None
+    intact = exr.read_bytes()
+    exr.write_bytes(intact[:len(intact) // 2])  # truncated, as by a full disk or a copy cut short
+    assert f"names a damaged image (view 'front': its EXR {exr} has {len(intact) // 2} bytes, not {len(intact)})" \
+        in _retry_reason(results, record)
+    exr.write_bytes(intact)  # the same bytes again, with a new modification time: the digest decides
+    assert _retry_reason(results, record) is None
+    damaged = bytearray(intact)
+    damaged[-1] ^= 0xFF  # same size, one byte changed
+    exr.write_bytes(damaged)
+    os.utime(exr, ns=(exr.stat().st_atime_ns, json.loads(record.read_text())["views"][0]["digests"]["exr"]["mtime_ns"] + 1))
+    assert f"its EXR {exr} does not match its SHA-256" in _retry_reason(results, record)
+    exr.write_bytes(intact)
+    png.unlink()
+    assert f"its PNG {png} is missing" in _retry_reason(results, record)
+    view = {"view": "front", "exr": str(exr), "png": str(png)}
+    record.write_text(json.dumps({"status": "ok", "views": [view]}))  # written before records had digests
+    assert "carries no image digests" in _retry_reason(results, record)
+
+
+def test_images_whose_size_and_time_are_as_recorded_are_not_read_again(tmp_path, monkeypatch):
+    results = tmp_path / "r"
+    record, _, _ = _record_with_images(results)
+    monkeypatch.setattr(runner, "image_digest", lambda path: pytest.fail(f"{path} was hashed again"))
+    assert _retry_reason(results, record) is None
 
 
 def _copy_tree(tmp_path):

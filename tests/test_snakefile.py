@@ -148,3 +148,19 @@ def test_the_slurm_profile_gives_each_render_a_node_its_runtime_and_a_gpu_where_
         assert resources["gpu"] == str(int(uses_device)), run.key
         devices.add(uses_device)
     assert devices == {True, False}  # both kinds of render job were checked
+
+
+def test_a_stale_lock_left_by_a_killed_run_is_removed_and_the_run_goes_on(workflow, monkeypatch, capsys):
+    from pipeline import cli, launch
+
+    tree, profile, results = workflow
+    locks = tree / ".snakemake" / "locks"
+    locks.mkdir(parents=True, exist_ok=True)
+    # As a Snakemake killed with kill -9 leaves it: the next run would stop on it.
+    (locks / "0.output.lock").write_text(f"{(results / 'runs.csv').relative_to(tree)}\n")
+    monkeypatch.setattr(launch, "ROOT", tree)
+    monkeypatch.setattr(launch, "compile_packages", lambda: None)
+    assert cli.main(["run", "--profile", str(profile), "--cores", "1"]) == 0
+    out = capsys.readouterr().out
+    assert f"volbench: removed a stale Snakemake lock from {locks}" in out and "volbench: report at" in out
+    assert not list(locks.glob("*.lock"))

@@ -38,9 +38,6 @@ def check_settings(profile, registry=None):
     one of that experiment's :attr:`~pipeline.experiments.base.Experiment.settings`.
     """
     registry = all_experiments() if registry is None else registry
-    if not isinstance(profile.settings, dict):
-        raise InputError(f"profile {profile.name!r} settings: expected a mapping of experiment names, "
-                         f"got {type(profile.settings).__name__}")
     for name, values in profile.settings.items():
         if name not in registry:
             raise InputError(f"profile {profile.name!r} settings: unknown experiment {name!r}; "
@@ -57,10 +54,6 @@ def selected(profile):
     """The experiments a profile runs, in registry order (its settings checked first)."""
     registry = all_experiments()
     check_settings(profile, registry)
-    if profile.experiments != "all" and (isinstance(profile.experiments, str)
-                                         or not all(isinstance(n, str) for n in profile.experiments)):
-        raise InputError(f"profile {profile.name!r} experiments: expected 'all' or a list of names, "
-                         f"got {profile.experiments!r}")
     if profile.experiments == "all":
         return list(registry.values())
     unknown = [name for name in profile.experiments if name not in registry]

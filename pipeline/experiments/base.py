@@ -12,13 +12,12 @@ import json
 import math
 import re
 from dataclasses import dataclass, field
-from pathlib import Path
-
-import yaml
 
 from core.errors import InputError
 from core.papers import PAPERS
-from core.validation import check_scalar
+from core.validation import check_positive_int, check_scalar
+from core.yaml_io import load_yaml_file
+from datasets import MIN_SIZE
 
 RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]*$")
 
@@ -28,9 +27,24 @@ def canonical_json(value):
     return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
 
 
+PROFILE_REQUIRED = ("name", "volume_size", "image_size", "warmup", "repeat", "results", "render_time_limit")
+"""The keys every profile file sets. A default for any of them would silently change what is measured
+(sizes, frames, the time limit, where ``null`` says "no limit" explicitly) or put two profiles'
+records in one results folder."""
+
+
 @dataclass(frozen=True)
 class Profile:
     """A pipeline profile (``config/<name>.yaml``).
+
+    Every value is checked when the profile is made, so a wrong one is an error naming the key
+    before any work starts. A profile file (:meth:`from_mapping`, :meth:`load`) must set the keys
+    of :data:`PROFILE_REQUIRED`; the others have defaults that change no measurement:
+    ``experiments`` ("all": it chooses which experiments run, not what one measures, and a dry run
+    lists them), ``settings`` (none: each experiment's own defaults), ``real_data`` (``None``:
+    ``$VOLBENCH_REAL_DATA``, else ``../shared/data/real``; the report names the folder read) and
+    ``cache`` (phantoms are cached under a key of their generator's parameters, so profiles share
+    it without mixing). Made in code (tests), every field but ``name`` has a default.
 
     Parameters
     ----------
@@ -40,7 +54,7 @@ class Profile:
     image_size : int
         Image width and height where an experiment gives none.
     warmup, repeat : int
-        Frames for the timing harness.
+        Frames for the timing harness: ``warmup`` >= 0 untimed, then ``repeat`` >= 1 timed.
     experiments : list of str or "all"
     settings : dict
         Per-experiment overrides, keyed by experiment name.
@@ -53,7 +67,7 @@ class Profile:
     render_time_limit : float, optional
         Seconds one render job (every view and frame of one run) may take; past it the job is
         killed and the run recorded as failed, so one bad job cannot stall the pipeline.
-        ``None``: no limit.
+        ``None`` (``null`` in a profile file, where it must be set): no limit.
     """
 
     name: str
@@ -69,28 +83,55 @@ class Profile:
     render_time_limit: float | None = None
 
     def __post_init__(self):
-        if self.render_time_limit is not None:
+        if not isinstance(self.name, str) or not self.name:
+            raise InputError(f"profile name: expected a non-empty string, got {self.name!r}")
+        where = f"profile {self.name!r}"
+        check_positive_int(self.volume_size, name=f"{where} volume_size (voxels along a phantom's longest axis)",
+                           minimum=MIN_SIZE)
+        check_positive_int(self.image_size, name=f"{where} image_size (pixels)")
+        check_positive_int(self.warmup, name=f"{where} warmup (untimed frames)", minimum=0)
+        check_positive_int(self.repeat, name=f"{where} repeat (timed frames)")
+        names = self.experiments
+        if names != "all" and (not isinstance(names, (list, tuple)) or not all(isinstance(n, str) and n for n in names)):
+            raise InputError(f"{where} experiments: expected 'all' or a list of names, got {names!r}")
+        if not isinstance(self.settings, dict):
+            raise InputError(f"{where} settings: expected a mapping of experiment names, "
+                             f"got {type(self.settings).__name__}")
+        for key in ("results", "cache", "real_data"):
+            value = getattr(self, key)
+            if not (isinstance(value, str) and value) and not (key == "real_data" and value is None):
+                raise InputError(f"{where} {key}: expected a folder name, got {value!r}"
+                                 + ("; null reads the default folder" if key == "real_data" else ""))
+        limit = self.render_time_limit
+        if limit is not None:
+            if isinstance(limit, (bool, str)):  # YAML's yes/no or a quoted number: a typo, not seconds
+                raise InputError(f"{where} render_time_limit: expected seconds (a number > 0) or null for no "
+                                 f"limit, got {limit!r}")
             object.__setattr__(self, "render_time_limit", check_scalar(
-                self.render_time_limit, name=f"profile {self.name!r} render_time_limit (seconds)",
-                low=0, low_open=True))
+                limit, name=f"{where} render_time_limit (seconds; null for no limit)", low=0, low_open=True))
 
     @classmethod
     def from_mapping(cls, mapping):
+        """The profile a mapping (a profile file, Snakemake's config) describes; see :data:`PROFILE_REQUIRED`."""
+        if not isinstance(mapping, dict):
+            raise InputError(f"profile: expected a mapping of keys ({', '.join(PROFILE_REQUIRED)}, ...), "
+                             f"got {type(mapping).__name__}")
         known = set(cls.__dataclass_fields__)
         unknown = set(mapping) - known
         if unknown:
             raise InputError(f"profile: unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
-        if "name" not in mapping:
-            raise InputError("profile: 'name' is required")
+        missing = [key for key in PROFILE_REQUIRED if key not in mapping]
+        if missing:
+            where = f"profile {mapping['name']!r}" if "name" in mapping else "profile"
+            raise InputError(f"{where}: {', '.join(missing)} not set; every profile sets "
+                             f"{', '.join(PROFILE_REQUIRED)} (as config/default.yaml does; "
+                             "render_time_limit: null means no limit)")
         return cls(**mapping)
 
     @classmethod
     def load(cls, path):
-        path = Path(path)
-        try:
-            return cls.from_mapping(yaml.safe_load(path.read_text()))
-        except OSError as exc:
-            raise InputError(f"profile {path}: cannot be read ({exc.strerror})") from exc
+        """The profile of a YAML file, read strictly (:func:`core.yaml_io.load_yaml_file`) and checked."""
+        return cls.from_mapping(load_yaml_file(path, what="profile"))
 
     def setting(self, experiment, key, default):
         """``settings[experiment][key]`` if the profile sets it, else ``default``."""
@@ -188,8 +229,10 @@ class Claim:
             return ClaimResult("no data", None, "no successful runs")
         try:
             return self.check(df)
-        except (KeyError, ValueError, ZeroDivisionError) as exc:
-            return ClaimResult("not measurable", None, f"{type(exc).__name__}: {exc}")
+        except KeyError as exc:  # a column no run reported (common.numeric names it)
+            return ClaimResult("not measurable", None, str(exc.args[0]) if exc.args else "a column is missing")
+        except (ValueError, ZeroDivisionError) as exc:
+            return ClaimResult("not measurable", None, str(exc))
 
 
 class Experiment:
