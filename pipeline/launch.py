@@ -11,6 +11,7 @@ import dataclasses
 import datetime
 import json
 import os
+import signal
 import socket
 import subprocess
 import sys
@@ -305,6 +306,16 @@ def _run_snakemake(command, *, runs, results):
     run_file.parent.mkdir(parents=True, exist_ok=True)
     run_file.write_text(json.dumps({"host": socket.gethostname(), "pid": os.getpid(),
                                     "started": f"{started:%Y-%m-%d %H:%M} UTC", "command": command}))
+    process = None
+
+    def forward(signum, frame):
+        # SIGTERM (a batch system's or a test's stop) goes to Snakemake, which then stops its jobs
+        # (cancels its SLURM jobs) and removes its lock; by default it would end this process
+        # alone and leave Snakemake running.
+        if process is not None:
+            process.send_signal(signum)
+
+    previous = signal.signal(signal.SIGTERM, forward)
     try:
         process = subprocess.Popen(command)
         try:
@@ -315,6 +326,7 @@ def _run_snakemake(command, *, runs, results):
             process.wait()
             raise
     finally:
+        signal.signal(signal.SIGTERM, previous)
         run_file.unlink(missing_ok=True)
     report = results / "report"
     if returncode == 0:

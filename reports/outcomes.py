@@ -78,5 +78,7 @@ def silent_backends(outcomes):
 def did_not_run(name, outcome):
     """One sentence: ``"cl-tiled made no frame here (0 of 114 runs): it cannot run here: <message>"``."""
     words = CAUSE_WORDS.get(outcome["cause"], "did not run")
+    # The registry's wording of an unavailable backend would say the same thing twice.
+    reason = outcome["reason"].removeprefix(f"backend {name!r} is not available here: ")
     text = f"{name} made no frame here (0 of {outcome['runs']} runs): it {words}"
-    return text + (f": {outcome['reason']}" if outcome["reason"] else "")
+    return text + (f": {reason}" if reason else "")

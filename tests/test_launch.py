@@ -39,6 +39,9 @@ class FakeSnakemake:
     def wait(self):
         return self.act()
 
+    def send_signal(self, signum):
+        self.signals = [*getattr(self, "signals", []), signum]
+
 
 def _refuse(*args, **kwargs):
     pytest.fail("Snakemake must not start")
@@ -181,6 +184,23 @@ def test_a_report_the_run_did_not_replace_says_so_until_a_run_finishes(project, 
     monkeypatch.setattr(launch.subprocess, "Popen", FakeSnakemake(lambda: 0))  # the next run finishes: the report is current
     assert main(["run", "--profile", str(path)]) == 0
     assert index.read_text() == built
+
+
+def test_sigterm_goes_to_snakemake_which_stops_its_jobs(project, monkeypatch):
+    import os
+    import signal
+
+    root, _ = project
+
+    def terminated():
+        os.kill(os.getpid(), signal.SIGTERM)  # as test_cluster.py's terminate() or a batch system sends it
+        return -signal.SIGTERM
+
+    snakemake = FakeSnakemake(terminated)
+    monkeypatch.setattr(launch.subprocess, "Popen", snakemake)
+    assert launch._run_snakemake(["snakemake"], runs={}, results=root / "results") == 128 + signal.SIGTERM
+    assert snakemake.signals == [signal.SIGTERM]
+    assert signal.getsignal(signal.SIGTERM) is signal.SIG_DFL  # this process's own handling is back
 
 
 def test_ctrl_c_lets_snakemake_stop_and_remove_its_lock(project, monkeypatch):
