@@ -130,7 +130,8 @@ def report(args):
     import renderers
     from pipeline.environment import real_data_provenance
     from pipeline.experiments import all_experiments
-    from pipeline.experiments.planned import TECHNIQUES, planned
+    from pipeline.experiments import papers
+    from pipeline.experiments.planned import planned, techniques
     from reports.html import build_report
 
     profile = _profile(args.profile)
@@ -146,9 +147,10 @@ def report(args):
     registry = all_experiments()
     experiments, notices = report_contents(runs_df, claims_df, selected(profile), registry, results)
     index = build_report(runs_df, claims_df, experiments, results_dir=results, environment=environment_,
-                         backends=backends, planned=planned(renderers.names(), registry.values()), notices=notices,
+                         backends=backends, planned=planned(renderers.names(), papers().values()), notices=notices,
                          real_data=real_data_provenance(profile.real_data),
-                         phantoms=pd.read_csv(results / "volumes.csv", dtype={"params": str}), techniques=TECHNIQUES)
+                         phantoms=pd.read_csv(results / "volumes.csv", dtype={"params": str}),
+                         techniques=techniques(papers().values()))
     print(f"volbench report: {index.resolve()}")
 
 

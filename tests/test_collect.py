@@ -6,7 +6,8 @@ from types import SimpleNamespace
 import pytest
 
 from pipeline import environment
-from pipeline.experiments.planned import NEEDS, planned
+from pipeline.experiments import papers
+from pipeline.experiments.planned import planned
 
 
 @pytest.fixture(scope="module")
@@ -25,15 +26,18 @@ def test_runs_csv_rows_link_their_record(synthetic):
 
 
 def test_planned_papers_disappear_as_backends_and_experiments_land():
-    none = planned([], [])
-    assert {row["paper"] for row in none} == set(NEEDS)
-    lacroute = next(r for r in none if r["paper"] == "lacroute1995")
-    assert lacroute["reason"] == "backend not implemented yet" and "shearwarp, volpack" in lacroute["needs"]
-    with_backends = planned(["shearwarp", "volpack"], [])
-    lacroute = next(r for r in with_backends if r["paper"] == "lacroute1995")
-    assert lacroute["reason"] == "experiments not written yet"
-    done = planned(["shearwarp", "volpack"], [SimpleNamespace(paper="lacroute1995")])
-    assert "lacroute1995" not in {row["paper"] for row in done}
+    import dataclasses
+
+    lacroute = papers()["lacroute1995"]
+    none = planned([], papers().values())
+    assert {row["paper"] for row in none} == {p for p, paper in papers().items() if paper.technique}
+    row = next(r for r in none if r["paper"] == "lacroute1995")
+    assert row["reason"] == "backend not implemented yet" and "shearwarp, volpack" in row["needs"]
+    without_experiments = dataclasses.replace(lacroute, experiments=())
+    row = next(r for r in planned(["shearwarp", "volpack"], [without_experiments]))
+    assert row["reason"] == "experiments not written yet"
+    assert planned(["shearwarp", "volpack"], [lacroute]) == []
+    assert planned([], [papers()["volbench"]]) == []  # the project's own studies need no paper's backend
 
 
 def test_real_data_provenance_reads_the_manifest_and_sources(tmp_path):

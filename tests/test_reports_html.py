@@ -20,7 +20,8 @@ import pytest
 import datasets
 from pipeline.collect import collect, phantom_manifest
 from pipeline.experiments import Profile, plan, selected
-from pipeline.experiments.planned import TECHNIQUES, planned
+from pipeline.experiments import papers
+from pipeline.experiments.planned import planned, techniques
 from pipeline.rendering import evaluate
 from pipeline.runner import metrics_record_path, run_record_path, write_json
 from pipeline.scene_io import phantom_requests
@@ -136,8 +137,8 @@ def synthetic_report(root, **options):
     """Build the report of :func:`synthetic_results` (``options`` go to it); return the path of ``index.html``."""
     runs_df, claims_df, experiments, results = synthetic_results(root, **options)
     return build_report(runs_df, claims_df, experiments, results_dir=results, environment=ENVIRONMENT,
-                        backends=BACKENDS, planned=planned(["reference"], experiments), real_data=REAL_DATA,
-                        phantoms=pd.read_csv(results / "volumes.csv"), techniques=TECHNIQUES)
+                        backends=BACKENDS, planned=planned(["reference"], papers().values()), real_data=REAL_DATA,
+                        phantoms=pd.read_csv(results / "volumes.csv"), techniques=techniques(papers().values()))
 
 
 class _Links(HTMLParser):

@@ -111,7 +111,7 @@ def test_no_limit_runs_in_process(profile, monkeypatch):
 
 @pytest.mark.parametrize("value", [0, -5, "soon", float("inf")])
 def test_render_time_limit_must_be_a_positive_number(value):
-    mapping = {"name": "p", "volume_size": 8, "image_size": 8, "warmup": 0, "repeat": 1, "results": "r"}
+    mapping = {"name": "p", "scale": "smoke", "volume_size": 8, "image_size": 8, "warmup": 0, "repeat": 1, "results": "r"}
     with pytest.raises(InputError, match="^profile 'p' render_time_limit"):
         Profile.from_mapping({**mapping, "render_time_limit": value})
 

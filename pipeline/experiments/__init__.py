@@ -1,18 +1,28 @@
-"""The experiment registry: every experiment of every paper, by name.
+"""The experiment registry: every paper and every experiment, by name.
 
-Names follow ``<first author><year>-<what>`` (``volbench-...`` for our own studies). Each paper's
-module adds its experiments to :data:`MODULES`.
+Each paper is a package ``pipeline/experiments/<paper id>/`` whose ``PAPER``
+(:class:`~pipeline.experiments.kit.model.Paper`) says what it needs and lists its experiments;
+:data:`PAPER_PACKAGES` names them in report order. Experiment names follow
+``<first author><year>-<what>`` (``volbench-...`` for our own studies).
 """
 
 import importlib
 
 from core.errors import InputError
-from pipeline.experiments.base import PAPERS, Claim, ClaimResult, Experiment, Profile, Run
+from pipeline.experiments.kit.model import PAPERS, Claim, ClaimResult, Experiment, Profile, Run
+
+PAPER_PACKAGES = ("volbench", "lacroute1995", "kruger2003", "xue2005", "ropinski2005", "kainz2009")
+"""The papers, in report order (ids of :data:`core.papers.PAPERS`)."""
 
 MODULES = ("pipeline.experiments.volbench", "pipeline.experiments.peers", "pipeline.experiments.lacroute1995", "pipeline.experiments.kruger2003", "pipeline.experiments.kainz2009")
 
-__all__ = ["PAPERS", "Claim", "ClaimResult", "Experiment", "Profile", "Run", "all_experiments", "check_settings", "get", "plan",
-           "selected"]
+__all__ = ["PAPERS", "Claim", "ClaimResult", "Experiment", "Profile", "Run", "all_experiments", "check_settings", "get",
+           "papers", "plan", "selected"]
+
+
+def papers():
+    """``{paper id: Paper}`` in report order."""
+    return {name: importlib.import_module(f"pipeline.experiments.{name}").PAPER for name in PAPER_PACKAGES}
 
 
 def all_experiments():

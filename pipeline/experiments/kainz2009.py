@@ -46,6 +46,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
+from pipeline.experiments.kit.model import Paper
 from pipeline.experiments.common import (UNTIMED, accepts, as_ratio, file_exists, fit_line,
                                          is_registered, not_measurable, numeric, ok_rows, read_exr, rows_matching,
                                          speed_points, stage_time, text_column, timed_frames)
@@ -1937,3 +1938,7 @@ def _same_fragments(df):
 
 
 EXPERIMENTS = (Scaling, DepthCap, Table1, Depth, EmptySpace, Step, Sorting, Media, Coverage)
+
+PAPER = Paper("kainz2009", "cl-tiled", experiments=EXPERIMENTS,
+              needs="the OpenCL tiled multi-volume ray caster with polyhedral boundaries")
+"""What this paper needs and which experiments reproduce it (the registry reads it)."""

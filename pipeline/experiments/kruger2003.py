@@ -30,6 +30,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
+from pipeline.experiments.kit.model import Paper
 from pipeline.experiments.common import (UNTIMED, accepts, as_percent, as_ratio, dataset_view, file_exists,
                                          fit_line, headline_view,
                                          is_registered, missing_options, not_measurable, numeric, ok_rows,
@@ -909,3 +910,8 @@ def _occluder_fit(df, config):
 
 
 EXPERIMENTS = (Table1, NoCue, Passes, Stability, Occluder)
+
+PAPER = Paper("kruger2003", "gl-raycast", baselines=("gl-slicer",), experiments=EXPERIMENTS,
+              needs="the OpenGL multi-pass ray caster (early ray termination, empty-space skipping) and a "
+                    "view-aligned slicing baseline")
+"""What this paper needs and which experiments reproduce it (the registry reads it)."""

@@ -51,6 +51,7 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
+from pipeline.experiments.kit.model import Paper
 from pipeline.experiments.verdicts import depends_on_missing
 from pipeline.experiments.common import (UNTIMED, accepts, as_percent, as_ratio, dataset_view, file_exists, fit_line,
                                          headline_view, is_registered, missing_options, not_measurable, numeric,
@@ -2701,3 +2702,7 @@ def _fov_takeaways(results):
 
 EXPERIMENTS = (VolPackComparison, ImageQuality, OptimisationMatrix, ViewAngles, SizeScaling, Throughput, Parallel, Variants,
                Projections, PerspectiveQuality)
+
+PAPER = Paper("lacroute1995", "shearwarp", baselines=("volpack",), experiments=EXPERIMENTS,
+              needs="the CPU shear-warp factorization (Numba) and VolPack itself as the baseline")
+"""What this paper needs and which experiments reproduce it (the registry reads it)."""

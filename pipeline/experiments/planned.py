@@ -1,53 +1,39 @@
 """Papers whose backends or experiments do not exist yet, and what each needs.
 
 The report lists them (with the reason) so a reader sees what is missing rather than a silent gap.
-:func:`planned` computes the list against the backend and experiment registries, so a paper drops
-out of it on its own once its backends are registered and it has experiments.
+:func:`planned` computes the list from each paper's declaration
+(:class:`~pipeline.experiments.kit.model.Paper`) against the backend registry, so a paper drops out
+of it on its own once its backends are registered and it has experiments.
 """
 
-from core.papers import PAPERS
 
-NEEDS = {
-    "lacroute1995": (("shearwarp", "volpack"),
-                     "the CPU shear-warp factorization (Numba) and VolPack itself as the baseline"),
-    "kruger2003": (("gl-raycast", "gl-slicer"),
-                   "the OpenGL multi-pass ray caster (early ray termination, empty-space skipping) and a "
-                   "view-aligned slicing baseline"),
-    "xue2005": (("gl-isbvr",), "an iSBVR-style OpenGL slicer with isosurface-aided early-z culling"),
-    "ropinski2005": (("gl-raycast",), "lens volumes (regions of interest) in the OpenGL ray caster"),
-    "kainz2009": (("cl-tiled",), "the OpenCL tiled multi-volume ray caster with polyhedral boundaries"),
-}
-"""``{paper: (backends it needs, what they are)}``."""
-
-TECHNIQUES = {"lacroute1995": "shearwarp", "kruger2003": "gl-raycast", "xue2005": "gl-isbvr",
-              "ropinski2005": "gl-raycast", "kainz2009": "cl-tiled"}
-"""``{paper: backend}``: the backend whose frames are the paper's technique (the others in :data:`NEEDS`
-are its baselines). A paper whose technique made no frame on a machine is not reproduced there, however
-many of its baselines ran."""
-
-
-def planned(backend_names, experiments):
-    """Rows ``{paper, title, reason, needs}`` for every paper of :data:`NEEDS` not reproduced yet.
+def planned(backend_names, papers):
+    """Rows ``{paper, title, reason, needs}`` for every paper not reproduced yet.
 
     Parameters
     ----------
     backend_names : iterable of str
         Registered backends (``renderers.names()``).
-    experiments : iterable
-        Registered experiments (each with a ``paper`` attribute).
+    papers : iterable of Paper
+        Every paper (:func:`pipeline.experiments.papers`); the project's own studies (no technique)
+        are not listed.
     """
     registered = set(backend_names)
-    with_experiments = {e.paper for e in experiments}
     rows = []
-    for paper, (backends, what) in NEEDS.items():
-        missing = [b for b in backends if b not in registered]
-        if not missing and paper in with_experiments:
+    for paper in papers:
+        if paper.technique is None:
+            continue
+        missing = [b for b in paper.backends if b not in registered]
+        if not missing and paper.experiments:
             continue
         if missing:
-            reason = "backend not implemented yet"
-            needs = f"{', '.join(missing)}: {what}"
+            reason, needs = "backend not implemented yet", f"{', '.join(missing)}: {paper.needs}"
         else:
-            reason = "experiments not written yet"
-            needs = f"experiments for {', '.join(backends)} ({what})"
-        rows.append({"paper": paper, "title": PAPERS.get(paper, paper), "reason": reason, "needs": needs})
+            reason, needs = "experiments not written yet", f"experiments for {', '.join(paper.backends)} ({paper.needs})"
+        rows.append({"paper": paper.id, "title": paper.title, "reason": reason, "needs": needs})
     return rows
+
+
+def techniques(papers):
+    """``{paper id: backend}``: the backend whose frames are each paper's technique."""
+    return {paper.id: paper.technique for paper in papers if paper.technique}

@@ -10,13 +10,11 @@ from core.errors import InputError
 from datasets.stats import BOX_STATISTICS, in_box
 import renderers
 from pipeline.experiments.base import Claim, ClaimResult, Experiment, Run, format_number
+from pipeline.experiments.kit.model import Paper
+from pipeline.experiments.kit.pages import DIFF_SCALE, LINKS, METRICS, frames_note, links, ms  # noqa: F401
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, UPRIGHT, phantom, scene, voxels
+from pipeline.experiments.kit.results import reference_exr
 from reports import blocks, takeaways
-
-HEADLINE_VIEW = {"view": "headline", "azimuth": 30.0, "elevation": 20.0}
-"""The oblique view note 000 recommends for headline numbers (30° yaw, 20° pitch)."""
-
-UPRIGHT = {"rotate": {"axis": [1, 0, 0], "degrees": -90}}
-"""Scanner z (the body axis of the phantoms and CT stacks) to world y (up), the face to +z."""
 
 REAL_UPRIGHT = {
     "cthead": {"rotate": {"axis": [0, 1, -1], "degrees": 180}},
@@ -58,63 +56,13 @@ ABSOLUTE_FLOOR = {"nontransparent_fraction": 0.005, "nonzero_fraction": 0.005, "
 """... or within this absolute distance where that is wider: a band around a target near 0 (the
 no-cue control's empty blocks) still means something."""
 
-DIFF_SCALE = 0.1
-"""Absolute error at the top of the difference images' colour map in every gallery of these studies."""
-
-
-def _ms(frame, column="time_total"):
-    """Median, fastest and slowest frame of ``column`` in milliseconds, as three columns."""
-    out = pd.DataFrame(index=frame.index)
-    out["time (ms)"] = frame[column] * 1e3
-    for end, name in (("min", "fastest (ms)"), ("max", "slowest (ms)")):
-        out[name] = frame[f"{column}_{end}"] * 1e3 if f"{column}_{end}" in frame else np.nan
-    return out
-
-
-def _links(frame, ctx):
-    """Columns ``record`` and ``EXR``: each row's run record and image, copied into the report."""
-    linked = ctx.run_links(frame.reindex(columns=["record", "exr"]))
-    return linked.rename(columns={"exr": "EXR"})
-
-
-LINKS = {"record": "JSON", "EXR": "EXR"}
-METRICS = {"rmse": "RMSE", "psnr": "PSNR (dB)", "ssim": "SSIM", "flip": "FLIP"}
-"""Metric columns and their names in the report's tables."""
-
-
-def _voxels(step):
-    """A step in voxels as the notes write it: ``1/32`` rather than 0.03125."""
-    inverse = 1 / step
-    return f"1/{inverse:g}" if step < 1 and float(inverse).is_integer() else f"{step:g}"
-
-
-def _reference_exr(results, row):
-    """The EXR of ``row``'s reference run, same view (``None`` if it did not render)."""
-    match = results[(results.run == row.reference) & (results.view == row.view) & (results.status == "ok")]
-    return match.exr.iloc[0] if not match.empty else None
-
-
-def _frames_note(row):
-    """How a run was timed, in words: "single untimed frame" when there was one frame and no warm-up."""
-    frames, warmup = getattr(row, "info_frames", np.nan), getattr(row, "info_warmup", np.nan)
-    if frames == 1 and warmup == 0:
-        return "single untimed frame"
-    if pd.notna(frames):
-        return f"median of {int(frames)} frames after {int(warmup) if pd.notna(warmup) else '?'} warm-up"
-    return ""
+# Kept under their old names while the papers move to their packages (issue 21).
+_ms, _links, _frames_note, _voxels, _phantom, _reference_exr = ms, links, frames_note, voxels, phantom, reference_exr
 
 
 def _scene(volume, profile, *, image_size=None, shading="phong", mode="dvr", name=None):
-    size = image_size or profile.image_size
-    return {"name": name or volume.get("dataset", "scene"), "width": size, "height": size,
-            "mode": mode, "shading": {"model": shading}, "volumes": [volume]}
-
-
-def _phantom(name, size=None, **extra):
-    spec = {"dataset": name, **extra}
-    if size is not None and datasets.get(name).kind == "phantom":
-        spec["size"] = size
-    return spec
+    return scene(name or volume.get("dataset", "scene"), image_size or profile.image_size, volumes=[volume],
+                 mode=mode, shading=shading)
 
 
 def _scene_and_truth(experiment, scene_name, scene_def, profile, truth_factor, tags):
@@ -722,3 +670,6 @@ def _tradeoff(df):
 
 
 EXPERIMENTS = (PhantomGallery, ReferenceConvergence, SpeedAccuracy)
+
+PAPER = Paper("volbench", None, experiments=EXPERIMENTS)
+"""What this paper needs and which experiments reproduce it (the registry reads it)."""

@@ -1,0 +1,178 @@
+"""Claims as small declarative checks: what is measured, the bound, and the sentence, in one place.
+
+Most of the papers' claims are one of a few kinds: a ratio of two measurements at most or at least
+a bound (a speed-up, a growth from one volume to fifty), a measurement above a floor or below a
+ceiling (the worst PSNR of a sweep), a measurement inside a band around a target (a phantom's
+statistic against the real scan's), or a growth exponent (time against size on log-log axes). Each
+kind is one class here, the way asv declares one kind of measurement per small class: a claim says
+which measurements and which bound, and the class computes the value, the verdict and the words
+(``measured`` and ``detail`` of :class:`~pipeline.experiments.kit.model.ClaimResult`), so every
+paper phrases the same verdict the same way. A check is called with the experiment's successful
+rows, as every claim's check is.
+
+>>> speedup = Ratio(Measure("RC", match={"config": "rc"}), Measure("RC-b", match={"config": "rc-b"}), at_least=1.5)
+>>> Claim("rcb-faster", "Empty-space skipping speeds up early termination", speedup.expected, speedup)  # doctest: +SKIP
+"""
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from pipeline.experiments.kit.model import ClaimResult
+from pipeline.experiments.kit.pages import as_ratio, format_number
+from pipeline.experiments.kit.results import numeric, rows_matching
+
+STATISTICS = {"median": np.median, "min": np.min, "max": np.max, "mean": np.mean}
+"""How a :class:`Measure` reduces the values of its rows."""
+
+
+@dataclass(frozen=True)
+class Measure:
+    """One number of the results: a statistic of a column over the rows a selection matches.
+
+    Parameters
+    ----------
+    what : str
+        The measurement in words, for sentences and errors (``"RC-b on the head"``).
+    match : dict
+        Tag columns and the values the rows must have (compared as text).
+    column : str
+        The column measured (``time_total``: a frame's median time in seconds).
+    statistic : {"median", "min", "max", "mean"}
+        How several matching rows (views, scenes) reduce to one number.
+    unit : str
+        Appended to the number in sentences (``"ms"`` scales seconds to milliseconds).
+    """
+
+    what: str
+    match: dict = field(default_factory=dict)
+    column: str = "time_total"
+    statistic: str = "median"
+    unit: str = "ms"
+
+    def value(self, df):
+        """The number, from ``df`` (the successful rows); ``ValueError`` naming :attr:`what` if none matches."""
+        values = numeric(rows_matching(df, self.what, **self.match), self.column).dropna()
+        if values.empty:
+            raise ValueError(f"no successful run of {self.what}")
+        return float(STATISTICS[self.statistic](values.to_numpy()))
+
+    def words(self, value):
+        """``"RC-b 12.3 ms"``: the measurement with its value in its unit."""
+        shown = value * 1e3 if self.unit == "ms" else value
+        return f"{self.what} {format_number(shown)}{' ' + self.unit if self.unit else ''}"
+
+
+class Check:
+    """A claim's check: called with the successful rows, returns a :class:`ClaimResult`."""
+
+    @property
+    def expected(self):
+        """The bound in words, for the claims table's ``expected`` column."""
+        raise NotImplementedError
+
+    def __call__(self, df):
+        raise NotImplementedError
+
+
+def _bounded(value, at_least, at_most):
+    return (at_least is None or value >= at_least) and (at_most is None or value <= at_most)
+
+
+def _bound_words(at_least, at_most, show):
+    parts = ([f"≥ {show(at_least)}"] if at_least is not None else []) + ([f"≤ {show(at_most)}"] if at_most is not None else [])
+    return " and ".join(parts)
+
+
+@dataclass(frozen=True)
+class Ratio(Check):
+    """``numerator / denominator`` at least ``at_least`` and/or at most ``at_most`` (a speed-up, a growth)."""
+
+    numerator: Measure
+    denominator: Measure
+    at_least: float | None = None
+    at_most: float | None = None
+
+    @property
+    def expected(self):
+        return f"{self.numerator.what} / {self.denominator.what} {_bound_words(self.at_least, self.at_most, as_ratio)}"
+
+    def __call__(self, df):
+        top, bottom = self.numerator.value(df), self.denominator.value(df)
+        if bottom == 0:
+            raise ValueError(f"{self.denominator.what} is 0")
+        ratio = top / bottom
+        return ClaimResult(as_ratio(ratio), _bounded(ratio, self.at_least, self.at_most),
+                           f"{self.numerator.words(top)}, {self.denominator.words(bottom)}")
+
+
+@dataclass(frozen=True)
+class Bound(Check):
+    """A measurement at least ``at_least`` and/or at most ``at_most`` (a PSNR floor, a time ceiling)."""
+
+    measure: Measure
+    at_least: float | None = None
+    at_most: float | None = None
+
+    @property
+    def expected(self):
+        unit = self.measure.unit
+        scale = 1e3 if unit == "ms" else 1.0
+        return f"{self.measure.what} {_bound_words(self.at_least, self.at_most, lambda v: f'{format_number(v * scale)} {unit}'.strip())}"
+
+    def __call__(self, df):
+        value = self.measure.value(df)
+        return ClaimResult(self.measure.words(value).removeprefix(f"{self.measure.what} "),
+                           _bounded(value, self.at_least, self.at_most), self.measure.what)
+
+
+@dataclass(frozen=True)
+class Band(Check):
+    """A measurement within ``relative`` of ``target`` (or ``absolute``, where that is wider)."""
+
+    measure: Measure
+    target: float
+    relative: float
+    absolute: float = 0.0
+
+    @property
+    def half_width(self):
+        return max(abs(self.target) * self.relative, self.absolute)
+
+    @property
+    def expected(self):
+        return f"{format_number(self.target)} ± {format_number(self.half_width)}"
+
+    def __call__(self, df):
+        value = self.measure.value(df)
+        return ClaimResult(format_number(value), bool(abs(value - self.target) <= self.half_width), self.measure.what)
+
+
+@dataclass(frozen=True)
+class Growth(Check):
+    """The exponent of ``measure`` against a numeric tag ``x`` (the slope on log-log axes), bounded.
+
+    ``measure.match`` selects the series; each value of ``x`` is one point (its rows reduced by
+    ``measure.statistic``). Three points at least.
+    """
+
+    measure: Measure
+    x: str
+    at_least: float | None = None
+    at_most: float | None = None
+
+    @property
+    def expected(self):
+        return f"exponent of {self.measure.what} against {self.x} {_bound_words(self.at_least, self.at_most, format_number)}"
+
+    def __call__(self, df):
+        rows = rows_matching(df, self.measure.what, **self.measure.match)
+        xs = numeric(rows, self.x)
+        points = [(x, self.measure.value(rows[xs == x])) for x in sorted(xs.dropna().unique())]
+        if len(points) < 3:
+            raise ValueError(f"need three values of {self.x} for {self.measure.what}, got {len(points)}")
+        x, y = np.log(np.array(points, float)).T
+        exponent = float(np.polyfit(x, y, 1)[0])
+        return ClaimResult(format_number(exponent), _bounded(exponent, self.at_least, self.at_most),
+                           f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
+                           f"{format_number(points[-1][0])}")

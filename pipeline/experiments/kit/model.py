@@ -1,0 +1,337 @@
+"""The experiment model: profiles, runs to execute, claims as checks, experiments and papers.
+
+An :class:`Experiment` is named ``<first author><year>-<what>`` (``volbench-...`` for our own).
+Given a :class:`Profile` it lists its :class:`Run` s; the pipeline executes each run as one
+Snakemake job (image + JSON record), compares it with its reference run, and collects everything
+into tidy CSV (one row per run and view). The experiment then checks its claims on that table and
+lays out its part of the report.
+"""
+
+import hashlib
+import json
+import re
+from dataclasses import dataclass, field
+
+from core.errors import InputError
+from core.papers import PAPERS
+from core.validation import check_positive_int, check_scalar
+from core.yaml_io import load_yaml_file
+from datasets import MIN_SIZE
+
+RUN_ID = re.compile(r"^[A-Za-z0-9][A-Za-z0-9._+-]*$")
+
+
+def canonical_json(value):
+    """JSON with sorted keys and no whitespace: the basis of stable hashes."""
+    return json.dumps(value, sort_keys=True, separators=(",", ":"), default=str)
+
+
+SCALES = ("smoke", "default", "full")
+"""The sizes an experiment knows its own settings for (:attr:`Experiment.scales`): a few minutes for CI,
+every experiment at reduced size, paper scale."""
+
+PROFILE_REQUIRED = ("name", "scale", "volume_size", "image_size", "warmup", "repeat", "results", "render_time_limit")
+"""The keys every profile file sets. A default for any of them would silently change what is measured
+(sizes, frames, the time limit, where ``null`` says "no limit" explicitly) or put two profiles'
+records in one results folder."""
+
+
+@dataclass(frozen=True)
+class Profile:
+    """A pipeline profile (``config/<name>.yaml``).
+
+    Every value is checked when the profile is made, so a wrong one is an error naming the key
+    before any work starts. A profile file (:meth:`from_mapping`, :meth:`load`) must set the keys
+    of :data:`PROFILE_REQUIRED`; the others have defaults that change no measurement:
+    ``experiments`` ("all": it chooses which experiments run, not what one measures, and a dry run
+    lists them), ``settings`` (none: each experiment's own defaults), ``real_data`` (``None``:
+    ``$VOLBENCH_REAL_DATA``, else ``../shared/data/real``; the report names the folder read) and
+    ``cache`` (phantoms are cached under a key of their generator's parameters, so profiles share
+    it without mixing). Made in code (tests), every field but ``name`` has a default.
+
+    Parameters
+    ----------
+    name : str
+    scale : {"smoke", "default", "full"}
+        Whose settings each experiment takes (:attr:`Experiment.scales`): its few-minutes CI runs,
+        its reduced-size runs or the paper's sizes. ``settings`` overrides single keys.
+    volume_size : int
+        Phantom size (voxels along the longest axis) where an experiment gives none.
+    image_size : int
+        Image width and height where an experiment gives none.
+    warmup, repeat : int
+        Frames for the timing harness: ``warmup`` >= 0 untimed, then ``repeat`` >= 1 timed.
+    experiments : list of str or "all"
+    settings : dict
+        Per-experiment overrides of the experiments' own settings for ``scale``, keyed by
+        experiment name.
+    real_data : str, optional
+        Folder of the real scans (``None``: the datasets default).
+    results : str
+        Output folder of the pipeline.
+    cache : str
+        Folder of generated phantoms (kept across profiles and ``make clean``).
+    render_time_limit : float, optional
+        Seconds one render job (every view and frame of one run) may take; past it the job is
+        killed and the run recorded as failed, so one bad job cannot stall the pipeline.
+        ``None`` (``null`` in a profile file, where it must be set): no limit.
+    """
+
+    name: str
+    scale: str = "default"
+    volume_size: int = 64
+    image_size: int = 128
+    warmup: int = 1
+    repeat: int = 3
+    experiments: object = "all"
+    settings: dict = field(default_factory=dict)
+    real_data: str | None = None
+    results: str = "results"
+    cache: str = ".cache/volumes"
+    render_time_limit: float | None = None
+
+    def __post_init__(self):
+        if not isinstance(self.name, str) or not self.name:
+            raise InputError(f"profile name: expected a non-empty string, got {self.name!r}")
+        where = f"profile {self.name!r}"
+        if self.scale not in SCALES:
+            raise InputError(f"{where} scale: expected one of {', '.join(SCALES)} (whose settings the experiments "
+                             f"take), got {self.scale!r}")
+        check_positive_int(self.volume_size, name=f"{where} volume_size (voxels along a phantom's longest axis)",
+                           minimum=MIN_SIZE)
+        check_positive_int(self.image_size, name=f"{where} image_size (pixels)")
+        check_positive_int(self.warmup, name=f"{where} warmup (untimed frames)", minimum=0)
+        check_positive_int(self.repeat, name=f"{where} repeat (timed frames)")
+        names = self.experiments
+        if names != "all" and (not isinstance(names, (list, tuple)) or not all(isinstance(n, str) and n for n in names)):
+            raise InputError(f"{where} experiments: expected 'all' or a list of names, got {names!r}")
+        if not isinstance(self.settings, dict):
+            raise InputError(f"{where} settings: expected a mapping of experiment names, "
+                             f"got {type(self.settings).__name__}")
+        for key in ("results", "cache", "real_data"):
+            value = getattr(self, key)
+            if not (isinstance(value, str) and value) and not (key == "real_data" and value is None):
+                raise InputError(f"{where} {key}: expected a folder name, got {value!r}"
+                                 + ("; null reads the default folder" if key == "real_data" else ""))
+        limit = self.render_time_limit
+        if limit is not None:
+            if isinstance(limit, (bool, str)):  # YAML's yes/no or a quoted number: a typo, not seconds
+                raise InputError(f"{where} render_time_limit: expected seconds (a number > 0) or null for no "
+                                 f"limit, got {limit!r}")
+            object.__setattr__(self, "render_time_limit", check_scalar(
+                limit, name=f"{where} render_time_limit (seconds; null for no limit)", low=0, low_open=True))
+
+    @classmethod
+    def from_mapping(cls, mapping):
+        """The profile a mapping (a profile file, Snakemake's config) describes; see :data:`PROFILE_REQUIRED`."""
+        if not isinstance(mapping, dict):
+            raise InputError(f"profile: expected a mapping of keys ({', '.join(PROFILE_REQUIRED)}, ...), "
+                             f"got {type(mapping).__name__}")
+        known = set(cls.__dataclass_fields__)
+        unknown = set(mapping) - known
+        if unknown:
+            raise InputError(f"profile: unknown keys {sorted(unknown)}; allowed: {sorted(known)}")
+        missing = [key for key in PROFILE_REQUIRED if key not in mapping]
+        if missing:
+            where = f"profile {mapping['name']!r}" if "name" in mapping else "profile"
+            raise InputError(f"{where}: {', '.join(missing)} not set; every profile sets "
+                             f"{', '.join(PROFILE_REQUIRED)} (as config/default.yaml does; "
+                             "render_time_limit: null means no limit)")
+        return cls(**mapping)
+
+    @classmethod
+    def load(cls, path):
+        """The profile of a YAML file, read strictly (:func:`core.yaml_io.load_yaml_file`) and checked."""
+        return cls.from_mapping(load_yaml_file(path, what="profile"))
+
+    def setting(self, experiment, key, default):
+        """What ``experiment`` takes for ``key`` in this profile.
+
+        The profile's ``settings[experiment][key]`` where it sets one, else the experiment's own
+        setting for this profile's :attr:`scale` (:attr:`Experiment.scales`), else ``default``.
+        ``experiment`` is an :class:`Experiment` (or, for a profile's own overrides alone, its name).
+        """
+        name = experiment if isinstance(experiment, str) else experiment.name
+        overrides = self.settings.get(name, {})
+        if key in overrides:
+            return overrides[key]
+        own = {} if isinstance(experiment, str) else experiment.scales.get(self.scale, {})
+        return own.get(key, default)
+
+
+@dataclass(frozen=True)
+class Run:
+    """One backend rendering one scene over a list of views: one Snakemake job.
+
+    Parameters
+    ----------
+    experiment : str
+    id : str
+        Unique within the experiment; safe as a file name.
+    backend : str
+        Registry name.
+    scene : dict
+        Scene mapping (see :mod:`pipeline.scene_io`).
+    views : tuple of dict
+        Camera overrides, each with a ``"view"`` name (e.g. ``{"view": "az30", "azimuth": 30}``).
+    options : dict
+        Backend options.
+    reference : str, optional
+        Id of the run in the same experiment whose images are the ground truth for this one.
+    warmup, repeat : int
+    tags : dict
+        Extra CSV columns describing the run (data set, preset, swept parameter, ...).
+    statistics : dict, optional
+        A volume entry (the scene format) whose data-set statistics the record should carry,
+        e.g. the rendered phantom at its paper size.
+    """
+
+    experiment: str
+    id: str
+    backend: str
+    scene: dict
+    views: tuple
+    options: dict = field(default_factory=dict)
+    reference: str | None = None
+    warmup: int = 1
+    repeat: int = 3
+    tags: dict = field(default_factory=dict)
+    statistics: dict | None = None
+
+    def __post_init__(self):
+        if not RUN_ID.match(self.id):
+            raise InputError(f"run id {self.id!r}: use letters, digits and . _ + - only")
+        names = [v.get("view") for v in self.views]
+        if not names or None in names or len(set(names)) != len(names):
+            raise InputError(f"run {self.id!r}: every view needs a unique 'view' name, got {names}")
+
+    @property
+    def key(self):
+        return f"{self.experiment}/{self.id}"
+
+    @property
+    def volume_entries(self):
+        """The volume entries (scene format) the run reads: its scene's, and its statistics entry."""
+        return [*self.scene["volumes"], *([self.statistics] if self.statistics else [])]
+
+    def as_dict(self):
+        return {name: getattr(self, name) for name in self.__dataclass_fields__}
+
+    def spec_hash(self):
+        """Hash of everything that determines the output; Snakemake reruns a job when it changes."""
+        return hashlib.sha256(canonical_json(self.as_dict()).encode()).hexdigest()[:16]
+
+
+@dataclass(frozen=True)
+class ClaimResult:
+    """The outcome of checking one claim on measured data."""
+
+    measured: str
+    holds: bool | None
+    detail: str = ""
+
+
+@dataclass(frozen=True)
+class Claim:
+    """A statement from a paper (or our own expectation) checked against the results.
+
+    ``check(df)`` receives the experiment's tidy results (successful rows only) and returns a
+    :class:`ClaimResult`; ``holds`` is ``None`` when the data needed is missing, which the report
+    shows as "not measured" rather than as a pass.
+    """
+
+    id: str
+    statement: str
+    expected: str
+    check: object
+
+    def evaluate(self, df):
+        if df.empty:
+            return ClaimResult("no data", None, "no successful runs")
+        try:
+            return self.check(df)
+        except KeyError as exc:  # a column no run reported (common.numeric names it)
+            return ClaimResult("not measurable", None, str(exc.args[0]) if exc.args else "a column is missing")
+        except (ValueError, ZeroDivisionError) as exc:
+            return ClaimResult("not measurable", None, str(exc))
+
+
+class Experiment:
+    """Base class of experiments. Subclasses set the class attributes and implement ``runs``.
+
+    Attributes
+    ----------
+    name : str
+        ``<first author><year>-<what>``.
+    paper : str
+        Key of :data:`PAPERS`.
+    title, description : str
+    claims : tuple of Claim
+    settings : frozenset of str
+        The keys a profile may set for this experiment under ``settings: {<name>: {...}}``;
+        any other key is a typo and an error (:func:`pipeline.experiments.check_settings`).
+    scales : dict
+        ``{scale: {key: value}}``: the experiment's own settings for each profile scale
+        (:data:`SCALES`), kept beside the experiment as scikit-image's benchmarks keep their
+        reduced and full parameters; a profile's ``settings`` override single keys.
+    """
+
+    name = ""
+    paper = "volbench"
+    title = ""
+    description = ""
+    claims = ()
+    settings = frozenset()
+    scales = {}
+
+    def runs(self, profile):
+        """The runs for ``profile`` (list of :class:`Run`)."""
+        raise NotImplementedError
+
+    def paper_table(self):
+        """The paper's own numbers as a DataFrame (``None`` when the paper has none)."""
+        return None
+
+    def report(self, results, ctx):
+        """Report blocks for this experiment (see :mod:`reports.html`)."""
+        return []
+
+
+@dataclass(frozen=True)
+class Paper:
+    """A paper volbench reproduces: what its package (``pipeline/experiments/<id>/``) declares.
+
+    Parameters
+    ----------
+    id : str
+        Key of :data:`core.papers.PAPERS` (its title lives there, with every data set's paper ids).
+    technique : str or None
+        The backend whose frames are the paper's technique; a paper whose technique made no frame
+        on a machine is not reproduced there, however many of its baselines ran. ``None``: the
+        project's own studies.
+    baselines : tuple of str
+        The other backends its experiments need (the methods it compares with).
+    needs : str
+        What the backends are, in words (the report's list of papers not reproduced yet).
+    experiments : tuple of type
+        Its :class:`Experiment` classes, in report order.
+    """
+
+    id: str
+    technique: str | None
+    baselines: tuple = ()
+    needs: str = ""
+    experiments: tuple = ()
+
+    def __post_init__(self):
+        if self.id not in PAPERS:
+            raise InputError(f"paper {self.id!r}: not in core.papers.PAPERS ({', '.join(PAPERS)}); add its title there")
+
+    @property
+    def title(self):
+        return PAPERS[self.id]
+
+    @property
+    def backends(self):
+        """Every backend the paper needs: its technique first, then its baselines."""
+        return tuple(b for b in (self.technique, *self.baselines) if b)

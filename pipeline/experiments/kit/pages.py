@@ -1,0 +1,92 @@
+"""Report pages: claim take-aways, linked tables, numbers in words, one difference scale.
+
+Every experiment's ``report`` builds its blocks (:mod:`reports.blocks`) with these, so that every
+page links a number to its run the same way and draws every difference map on :data:`DIFF_SCALE`.
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit.verdicts import claim_sentences
+from reports import blocks
+from reports.takeaways import number
+
+DIFF_SCALE = 0.1
+"""Absolute error at the top of every difference image's colour map, on every page (one stated scale)."""
+
+LINKS = {"record": "JSON", "EXR": "EXR"}
+"""The link columns of a run table (:func:`links`) and the text of their links."""
+
+METRICS = {"rmse": "RMSE", "psnr": "PSNR (dB)", "ssim": "SSIM", "flip": "FLIP"}
+"""Metric columns and their names in the report's tables."""
+
+TIME_COLUMNS = {"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)"}
+"""The columns :func:`~pipeline.experiments.kit.results.speed_points` makes, named for a table."""
+
+
+def format_number(value, digits=3):
+    """A short number for claims and tables: 3 significant digits, ``n/a``, ``∞``."""
+    return number(value, digits)
+
+
+def as_percent(value):
+    return f"{format_number(100 * value)} %"
+
+
+def as_ratio(value):
+    return f"×{format_number(value)}"
+
+
+def ms(frame, column="time_total"):
+    """Median, fastest and slowest frame of ``column`` in milliseconds, as three columns."""
+    out = pd.DataFrame(index=frame.index)
+    out["time (ms)"] = frame[column] * 1e3
+    for end, name in (("min", "fastest (ms)"), ("max", "slowest (ms)")):
+        out[name] = frame[f"{column}_{end}"] * 1e3 if f"{column}_{end}" in frame else np.nan
+    return out
+
+
+def links(frame, ctx):
+    """Columns ``record`` and ``EXR``: each row's run record and image, copied into the report."""
+    linked = ctx.run_links(frame.reindex(columns=["record", "exr"]))
+    return linked.rename(columns={"exr": "EXR"})
+
+
+def linked_table(title, frame, columns, ctx, *, names=None, **options):
+    """A table of ``columns`` (those ``frame`` has, named by ``names``), each row linked to its run."""
+    columns = [c for c in columns if c in frame]
+    table = frame[columns].rename(columns={**TIME_COLUMNS, **METRICS, **(names or {})}).reset_index(drop=True)
+    table = pd.concat([table, links(frame.reset_index(drop=True), ctx)], axis=1)
+    return blocks.Table(title, table, links=LINKS, **options)
+
+
+def frames_note(row):
+    """How a run was timed, in words: "single untimed frame" when there was one frame and no warm-up."""
+    frames, warmup = getattr(row, "info_frames", np.nan), getattr(row, "info_warmup", np.nan)
+    if frames == 1 and warmup == 0:
+        return "single untimed frame"
+    if pd.notna(frames):
+        return f"median of {int(frames)} frames after {int(warmup) if pd.notna(warmup) else '?'} warm-up"
+    return ""
+
+
+def frames_counted(frame, *, unit="frames"):
+    """``"median of N frames"`` from the runs' ``info_frames`` (``"median frame"`` where none says)."""
+    frames = pd.to_numeric(frame["info_frames"], errors="coerce") if "info_frames" in frame else pd.Series(dtype=float)
+    return f"median of {int(frames.median())} {unit}" if frames.notna().any() else "median frame"
+
+
+def not_measurable(items):
+    """A paragraph listing what this experiment could not measure here, with the reasons."""
+    if not items:
+        return []
+    return [blocks.Text("Not measurable here: " + "; ".join(f"{what} — {why}" for what, why in items) + ".")]
+
+
+def claim_takeaways(claims, results, *more):
+    """The take-aways block of a section: each claim that holds or fails in a sentence, then ``more``.
+
+    ``results`` is every row of the experiment: a claim blocked by a run that did not happen gets no
+    sentence (:func:`~pipeline.experiments.kit.verdicts.claim_sentences`).
+    """
+    return blocks.Takeaways(claim_sentences(claims, results) + [s for sentences in more for s in sentences])

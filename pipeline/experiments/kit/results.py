@@ -1,0 +1,119 @@
+"""Reading an experiment's tidy results: columns, rows, times, images, with errors that name what is missing.
+
+A claim's check and a report section read the experiment's rows of ``runs.csv`` (one row per run and
+view); these helpers raise :class:`MissingColumn` (a ``KeyError``) for a column no run reported and
+``ValueError`` naming the run that is missing, which a claim turns into "not measured" and
+:mod:`~pipeline.experiments.kit.verdicts` into "blocked" where a run that should have happened did not.
+"""
+
+import functools
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+
+class MissingColumn(KeyError):
+    """A check needs a column no run of its frame reported (``column`` names it)."""
+
+    def __init__(self, column):
+        super().__init__(f"column {column!r} (no run reported it)")
+        self.column = column
+
+
+def ok_rows(results):
+    """The rows of runs that succeeded."""
+    return results[results.status == "ok"].copy() if "status" in results else results.copy()
+
+
+def numeric(frame, column):
+    """``frame[column]`` as floats (NaN where missing); :class:`MissingColumn` if absent."""
+    if column not in frame:
+        raise MissingColumn(column)
+    return pd.to_numeric(frame[column], errors="coerce")
+
+
+def text_column(frame, column):
+    """``frame[column]`` as text; :class:`MissingColumn` if absent."""
+    if column not in frame:
+        raise MissingColumn(column)
+    return frame[column].astype(str)
+
+
+def rows_matching(frame, what, **match):
+    """The rows of ``frame`` whose tag columns equal ``match`` (compared as text)."""
+    rows = frame
+    for column, value in match.items():
+        rows = rows[text_column(rows, column) == str(value)]
+    return rows
+
+
+def one_row(frame, what, **match):
+    """The single row of ``frame`` matching ``match``; ValueError naming ``what`` when none."""
+    rows = rows_matching(frame, what, **match)
+    if rows.empty:
+        raise ValueError(f"no successful run of {what}")
+    return rows.iloc[0]
+
+
+def stage_time(row, stage="total"):
+    """A row's median time of ``stage`` in seconds; ValueError naming the run where it reported none."""
+    value = float(row.get(f"time_{stage}", np.nan))
+    if not np.isfinite(value):
+        raise ValueError(f"run {row.get('run')} reported no {stage!r} time")
+    return value
+
+
+def speed_points(frame):
+    """``time_ms``, ``time_ms_min``, ``time_ms_max`` columns (milliseconds) for speed charts."""
+    out = frame.copy()
+    out["time_ms"] = numeric(frame, "time_total") * 1e3
+    out["time_ms_min"] = pd.to_numeric(frame.get("time_total_min", np.nan), errors="coerce") * 1e3
+    out["time_ms_max"] = pd.to_numeric(frame.get("time_total_max", np.nan), errors="coerce") * 1e3
+    return out
+
+
+def file_exists(path):
+    return isinstance(path, str) and path != "" and Path(path).is_file()
+
+
+@functools.lru_cache(maxsize=512)
+def _read(path, _mtime):
+    from reports.imageio import read_image
+
+    return read_image(path)
+
+
+def read_exr(path):
+    """An EXR of the results (cached per file and modification time)."""
+    if not file_exists(path):
+        raise ValueError(f"image {path!r} is missing")
+    return _read(path, Path(path).stat().st_mtime_ns)
+
+
+def reference_exr(results, row):
+    """The EXR of ``row``'s reference run, same view (``None`` if it did not render)."""
+    match = results[(results.run == row.reference) & (results.view == row.view) & (results.status == "ok")]
+    return match.exr.iloc[0] if not match.empty else None
+
+
+def pair_metrics(reference_exr, test_exr):
+    """``{"psnr", "ssim", "rmse"}`` between two rendered EXRs (premultiplied RGBA, SSIM over black)."""
+    from reports.metrics import psnr, rmse, ssim
+
+    a, b = read_exr(reference_exr), read_exr(test_exr)
+    if a.shape != b.shape:
+        raise ValueError(f"{test_exr} and {reference_exr} differ in size")
+    return {"psnr": float(psnr(a, b)), "ssim": float(ssim(a, b)), "rmse": float(rmse(a, b))}
+
+
+def fit_line(x, y):
+    """Least-squares ``y = slope·x + intercept``: ``(slope, intercept, R²)``."""
+    x, y = np.asarray(x, float), np.asarray(y, float)
+    if len(x) < 3 or np.ptp(x) == 0:
+        raise ValueError(f"need at least three distinct points to fit a line, got {len(x)}")
+    slope, intercept = np.polyfit(x, y, 1)
+    residual = y - (slope * x + intercept)
+    total = np.sum((y - y.mean()) ** 2)
+    r2 = 1.0 - np.sum(residual ** 2) / total if total > 0 else 1.0
+    return float(slope), float(intercept), float(r2)

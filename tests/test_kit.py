@@ -1,0 +1,77 @@
+"""Tests of the experiments' kit (pipeline.experiments.kit): settings by scale, planning helpers, checks."""
+
+import pandas as pd
+import pytest
+
+from core.errors import InputError
+from pipeline.experiments.kit.checks import Band, Bound, Growth, Measure, Ratio
+from pipeline.experiments.kit.model import Experiment, Paper, Profile
+from pipeline.experiments.kit.planning import listed, scene, truth_run
+
+
+class Sweep(Experiment):
+    name = "test-sweep"
+    settings = frozenset({"counts", "image_size"})
+    scales = {"smoke": {"counts": [1, 2]}, "full": {"counts": [1, 2, 4, 8], "image_size": 512}}
+
+
+def test_an_experiment_takes_its_own_settings_for_the_profiles_scale_and_the_profile_overrides_them():
+    sweep = Sweep()
+    assert Profile(name="a", scale="smoke").setting(sweep, "counts", [1]) == [1, 2]
+    assert Profile(name="b", scale="full").setting(sweep, "image_size", 64) == 512
+    assert Profile(name="c", scale="default").setting(sweep, "counts", [1]) == [1]  # no default scale: the default
+    overridden = Profile(name="d", scale="full", settings={"test-sweep": {"counts": [3]}})
+    assert overridden.setting(sweep, "counts", [1]) == [3] and overridden.setting(sweep, "image_size", 64) == 512
+    assert overridden.setting("test-sweep", "image_size", 64) == 64  # by name: the profile's overrides alone
+    with pytest.raises(InputError, match="scale: expected one of smoke, default, full"):
+        Profile(name="e", scale="huge")
+
+
+def test_listed_names_the_unknown_values():
+    profile = Profile(name="p", scale="smoke", settings={"test-sweep": {"counts": [1, 3]}})
+    with pytest.raises(InputError, match=r"settings.test-sweep.counts: unknown \[3\]"):
+        listed(profile, Sweep(), "counts", [1], known=(1, 2))
+
+
+def test_a_paper_must_be_a_known_id():
+    assert Paper("kainz2009", "cl-tiled", baselines=("gl-peel",)).backends == ("cl-tiled", "gl-peel")
+    with pytest.raises(InputError, match="not in core.papers.PAPERS"):
+        Paper("doe2024", "x")
+
+
+def test_scenes_hold_only_what_they_use_and_truth_runs_are_one_untimed_reference_frame():
+    plain = scene("s", 32, volumes=[{"dataset": "sphere"}])
+    assert set(plain) == {"name", "width", "height", "mode", "shading", "volumes"} and plain["width"] == 32
+    assert scene("s", 32, width=48, meshes=[{"generator": "cube"}], camera={"view_height": 2})["width"] == 48
+    truth = truth_run("e", "s", plain, ({"view": "v"},), 0.125, {"scene": "s", "role": "test"}, config="reference")
+    assert (truth.id, truth.backend, truth.warmup, truth.repeat) == ("s.truth", "reference", 0, 1)
+    assert truth.tags == {"scene": "s", "role": "truth", "config": "reference"}
+    assert truth.options == {"step_factor": 0.125}
+
+
+def _times(**columns):
+    return pd.DataFrame({"status": "ok", **columns})
+
+
+def test_a_ratio_check_computes_its_verdict_and_words():
+    df = _times(config=["rc", "rc", "rc-b"], time_total=[0.010, 0.012, 0.004])
+    check = Ratio(Measure("RC", match={"config": "rc"}), Measure("RC-b", match={"config": "rc-b"}), at_least=2.5)
+    result = check(df)
+    assert (result.measured, result.holds) == ("×2.75", True)  # median 11 ms over 4 ms
+    assert result.detail == "RC 11 ms, RC-b 4 ms" and check.expected == "RC / RC-b ≥ ×2.5"
+    assert Ratio(check.numerator, check.denominator, at_most=2.0)(df).holds is False
+    with pytest.raises(ValueError, match="no successful run of RC-b"):
+        check(df[df.config == "rc"])
+
+
+def test_bound_band_and_growth():
+    df = _times(scene=["a", "b"], psnr=[41.0, 38.5])
+    floor = Bound(Measure("the worst image", column="psnr", statistic="min", unit="dB"), at_least=40)
+    assert (floor(df).measured, floor(df).holds, floor.expected) == ("38.5 dB", False, "the worst image ≥ 40 dB")
+    band = Band(Measure("fraction", column="psnr", statistic="max", unit=""), target=40, relative=0.01, absolute=2)
+    assert band(df).holds is True and band.expected == "40 ± 2"
+    sizes = _times(size=[32, 64, 128, 256], time_total=[1.0, 8.0, 64.0, 512.0])
+    cubic = Growth(Measure("frame time"), "size", at_most=3.2)
+    assert (cubic(sizes).measured, cubic(sizes).holds) == ("3", True)
+    with pytest.raises(ValueError, match="need three values of size"):
+        cubic(sizes.iloc[:2])
