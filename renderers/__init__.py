@@ -82,7 +82,10 @@ def get(name, **options):
 
 
 def option_names(cls):
-    """The keyword options a backend class's constructor takes (``None``: it accepts any)."""
+    """The keyword options a backend class's constructor takes (``None``: it accepts any).
+
+    Read from the signature, which a backend's ``option_table`` declares, in the table's order.
+    """
     parameters = list(inspect.signature(cls).parameters.values())
     if any(p.kind is inspect.Parameter.VAR_KEYWORD for p in parameters):
         return None
@@ -93,16 +96,14 @@ def option_names(cls):
 def check_options(name, cls, options):
     """Raise :class:`InputError` for an option the backend does not take, listing the valid ones.
 
-    Checked against the constructor's signature before the backend is built, so a typo
-    (``stepfactor``) is a clear error instead of the constructor's ``TypeError``.
+    Checked against the constructor's signature (a backend's ``option_table``) before the backend
+    is built, so a typo (``stepfactor``) is a clear error, the same one the constructor gives.
     """
+    from renderers.base.options import check_known  # here, so that importing the registry stays light
+
     valid = option_names(cls)
-    if valid is None:
-        return
-    unknown = sorted(set(options) - set(valid))
-    if unknown:
-        raise InputError(f"backend {name!r}: unknown option{'s' if len(unknown) > 1 else ''} "
-                         f"{', '.join(unknown)}; valid options: {', '.join(valid) or 'none'}")
+    if valid is not None:
+        check_known(name, options, valid)
 
 
 def available():

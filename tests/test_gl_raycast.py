@@ -459,8 +459,8 @@ def test_errors_before_any_work(volume, monkeypatch):
 # -- sizes refused before any work ---------------------------------------------------------------
 
 def test_a_sample_count_beyond_the_shaders_int_is_refused():
-    with pytest.raises(InputError, match=r"samples_per_pass: 2147483648 does not fit the shader's 32-bit int; use at "
-                                         r"most 2147483647"):
+    with pytest.raises(InputError, match=r"^gl-raycast option samples_per_pass: expected an integer from 1 to "
+                                         r"2147483647, got 2147483648$"):
         GLRaycastRenderer(samples_per_pass=2 ** 31)
     assert GLRaycastRenderer(samples_per_pass=2 ** 31 - 1).samples_per_pass == 2 ** 31 - 1
 

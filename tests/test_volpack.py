@@ -77,7 +77,7 @@ def test_registered_after_reference():
     ({"min_opacity": 1.0}, "min_opacity"),
     ({"min_opacity": -0.1}, "min_opacity"),
     ({"octree_base_node_size": 3}, "power of two"),
-    ({"octree_base_node_size": 1024}, "power of two"),
+    ({"octree_base_node_size": 1024}, "octree_base_node_size: expected an integer from 1 to 512, got 1024"),
     ({"octree_base_node_size": 0}, "octree_base_node_size"),
     ({"octree_threshold": -1}, "octree_threshold"),
     ({"octree_threshold": 256}, "octree_threshold"),

@@ -7,6 +7,7 @@ import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
 from core.scene import Scene
+from renderers.base import options as declared
 
 GEOMETRY_FEATURES = ("csg", "translucent_geometry", "homogeneous_media")
 """Features that build on ``meshes``: a backend without meshes lacks them for the same reason."""
@@ -15,6 +16,9 @@ GEOMETRY_FEATURES = ("csg", "translucent_geometry", "homogeneous_media")
 @dataclass(frozen=True)
 class Capabilities:
     """What a backend can render, and why not where it cannot.
+
+    The defaults are the contract's common case (one orthographic, unshaded ``dvr`` volume); a
+    backend states only what differs from them, and a reason for each feature it lacks.
 
     Parameters
     ----------
@@ -121,21 +125,40 @@ class RenderResult:
 class Renderer(abc.ABC):
     """A volume-rendering backend.
 
-    Subclasses set ``name``, ``description`` and ``capabilities``, take their options as keyword
-    arguments (validated in ``__init__``), and implement :meth:`_render`. :meth:`render` checks
-    the scene against the capabilities first, so a missing feature raises
+    Subclasses set ``name``, ``description``, ``capabilities`` (what differs from the defaults)
+    and ``option_table``, and implement :meth:`_render`; a subclass's ``__init__``, where it needs
+    one, calls ``super().__init__(**options)`` and then checks what relates several options.
+    :meth:`render` checks the scene against the capabilities first, so a missing feature raises
     :class:`UnsupportedFeatureError` before any work starts.
     """
 
     name = "abstract"
     description = ""
     capabilities = Capabilities()
+    option_table = ()
+    """The keyword options (:class:`renderers.base.options.Option`), each declared once: they make the
+    constructor's signature and validation, the attributes, :attr:`options` and the docstring's
+    Parameters section, in this order."""
     quality_sweep = ({},)
     """Option sets from fast/coarse to slow/fine for the speed-versus-accuracy study."""
     scheduling_dependent = ()
     """Names of counters and info entries whose values follow how threads or work-items were
     scheduled, not only the scene and options: they may differ from run to run (and between a
     loaded and an idle machine) where the image does not. Comparisons of two runs leave them out."""
+
+    def __init_subclass__(cls, **kwargs):
+        super().__init_subclass__(**kwargs)
+        own = vars(cls)
+        if "option_table" in own and cls.__doc__:
+            cls.__doc__ = declared.document(cls.__doc__, cls.option_table)
+        # A subclass with an __init__ of its own and no table says in that __init__ what it takes.
+        if "option_table" in own or "__init__" not in own:
+            cls.__signature__ = declared.signature(cls.option_table)
+
+    def __init__(self, **options):
+        """Set each option of :attr:`option_table`, given or default, validated (unknown ones refused)."""
+        for attribute, value in declared.take_options(self.name, self.option_table, options).items():
+            setattr(self, attribute, value)
 
     @classmethod
     def probe(cls):
@@ -144,8 +167,8 @@ class Renderer(abc.ABC):
 
     @property
     def options(self):
-        """The effective options, recorded with every result (override to add them)."""
-        return {}
+        """The recorded options' values, recorded with every result (a subclass adds derived entries)."""
+        return {option.name: getattr(self, option.holder) for option in self.option_table if option.recorded}
 
     def environment(self):
         """Backend-specific environment facts (GL renderer, OpenCL device, library version)."""

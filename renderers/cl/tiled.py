@@ -117,8 +117,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_choice, check_positive_int, check_scalar, check_step_factor
-from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.base import Capabilities, Option, RenderResult, Renderer, step_factor_option, world_step
 from renderers.cl import context
 from renderers.cl import scene as scene_arrays
 from renderers.cl.resources import DeviceCache, Stages
@@ -181,41 +180,7 @@ class Binned:
 class ClTiledRenderer(Renderer):
     """Tile-based multi-volume ray caster with polygonal boundaries (Kainz et al. 2009), OpenCL.
 
-    Parameters
-    ----------
-    step_factor : float
-        World step as a fraction of the smallest world-space voxel edge (default 0.5).
-    depth_cap : int
-        Fragments kept per pixel in local memory (paper: 63); the farthest are dropped.
-    fragments : {"local", "global"}
-        ``"local"``: the paper's capped lists in local memory. ``"global"``: unbounded lists in
-        global memory (the ground truth for the cap's error; ``depth_cap`` does not apply).
-    opaque_threshold : float
-        Early ray termination when the accumulated opacity exceeds it (1 never stops a ray).
-        Default 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel.
-        ``mip`` does not composite, so it does not apply there.
-    empty_space : {"hull", "box"}
-        Boundaries: tight hulls around the non-empty bricks (paper) or the volumes' boxes. Volumes
-        that are CSG operands, that hold a perspective eye, or in ``mip`` always use their boxes.
-    brick_size : int
-        Brick edge in voxels for the hulls (paper: 8).
-    min_opacity : float
-        Transfer-function opacities at or below it count as empty for the hulls (paper: 0, exact).
-    triangle_order : {"scene", "front-to-back", "back-to-front"}
-        The order the triangles are submitted to binning: as the scene lists them, or sorted by
-        the view depth of their centroid (E7's best and worst case for the insertion sort).
-    media : {"analytic", "sampled"}
-        Segments of homogeneous media alone: composited analytically (paper) or sampled at the
-        common step (the shortcut's ablation, E9).
-    coverage : {"bitmask", "edge"}
-        Coverage masks by bit-shifted row/column masks (paper) or by per-pixel edge functions (E11).
-    stop_after : {"composite", "sort"}
-        ``"sort"`` ends the pixel kernel after gathering and sorting the fragments: an ablation
-        that times them (E7); the image is transparent.
-    device : str, optional
-        OpenCL device selector (:mod:`renderers.cl.context`); default: ``$VOLBENCH_CL_DEVICE``,
-        else the first device whose compiler builds kernels, GPUs first. A device that cannot
-        build makes the backend unavailable here, when it is made, with its compiler's message.
+    ``options`` also records ``effective_step``, the world step of the last frame.
     """
 
     name = "cl-tiled"
@@ -229,12 +194,10 @@ class ClTiledRenderer(Renderer):
         max_volumes=64,
         gradient_opacity=True,
         transforms=True,
-        anisotropic_spacing=True,
         meshes=True,
         csg=True,
         translucent_geometry=True,
         homogeneous_media=True,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "modes": "the segment walk composites (dvr) or keeps the maximum (mip); iso is not implemented",
@@ -242,30 +205,42 @@ class ClTiledRenderer(Renderer):
             "lenses": "lens volumes are added with the Ropinski 2005 issue",
         },
     )
+    option_table = (
+        step_factor_option(0.5),
+        Option("depth_cap", int, 63, "Fragments kept per pixel in local memory (paper: 63); the farthest are "
+               "dropped.", low=1),
+        Option("fragments", str, "local", "``local``: the paper's capped lists in local memory. ``global``: "
+               "unbounded lists in global memory (the ground truth for the cap's error; ``depth_cap`` does not "
+               "apply).", choices=FRAGMENT_STORES),
+        Option("opaque_threshold", float, 0.99, "Early ray termination when the accumulated opacity exceeds it (1 "
+               "never stops a ray). 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel. "
+               "``mip`` does not composite, so it does not apply there.", low=0, high=1, low_open=True),
+        Option("empty_space", str, "hull", "Boundaries: tight hulls around the non-empty bricks (paper) or the "
+               "volumes' boxes. Volumes that are CSG operands, that hold a perspective eye, or in ``mip`` always "
+               "use their boxes.", choices=EMPTY_SPACE),
+        Option("brick_size", int, 8, "Brick edge in voxels for the hulls (paper: 8).", low=1),
+        Option("min_opacity", float, 0.0, "Transfer-function opacities at or below it count as empty for the hulls "
+               "(paper: 0, exact).", low=0, high=1, high_open=True),
+        Option("triangle_order", str, "scene", "The order the triangles are submitted to binning: as the scene "
+               "lists them, or sorted by the view depth of their centroid (E7's best and worst case for the "
+               "insertion sort).", choices=TRIANGLE_ORDERS),
+        Option("media", str, "analytic", "Segments of homogeneous media alone: composited analytically (paper) or "
+               "sampled at the common step (the shortcut's ablation, E9).", choices=MEDIA),
+        Option("coverage", str, "bitmask", "Coverage masks by bit-shifted row/column masks (paper) or by per-pixel "
+               "edge functions (E11).", choices=COVERAGE, attribute="coverage_method"),
+        Option("stop_after", str, "composite", "``sort`` ends the pixel kernel after gathering and sorting the "
+               "fragments: an ablation that times them (E7); the image is transparent.", choices=STOP_AFTER),
+        Option("device", str, None, "OpenCL device selector such as ``0:0`` or ``pocl`` "
+               "(:mod:`renderers.cl.context`); ``None``: ``$VOLBENCH_CL_DEVICE``, else the first device whose "
+               "compiler builds kernels, GPUs first. A device that cannot build makes the backend unavailable "
+               "here, when it is made, with its compiler's message."),
+    )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Step sizes from coarse to fine."""
     scheduling_dependent = SCHEDULING_COUNTERS
 
-    def __init__(self, *, step_factor=0.5, depth_cap=63, fragments="local", opaque_threshold=0.99,
-                 empty_space="hull", brick_size=8, min_opacity=0.0, triangle_order="scene", media="analytic",
-                 coverage="bitmask", stop_after="composite", device=None):
-        self.step_factor = check_step_factor(step_factor, name="cl-tiled option step_factor")
-        self.depth_cap = check_positive_int(depth_cap, name="cl-tiled option depth_cap")
-        self.fragments = check_choice(fragments, FRAGMENT_STORES, name="cl-tiled option fragments")
-        self.opaque_threshold = check_scalar(opaque_threshold, name="cl-tiled option opaque_threshold", low=0,
-                                             high=1, low_open=True)
-        self.empty_space = check_choice(empty_space, EMPTY_SPACE, name="cl-tiled option empty_space")
-        self.brick_size = check_positive_int(brick_size, name="cl-tiled option brick_size")
-        self.min_opacity = check_scalar(min_opacity, name="cl-tiled option min_opacity", low=0, high=1,
-                                        high_open=True)
-        self.triangle_order = check_choice(triangle_order, TRIANGLE_ORDERS, name="cl-tiled option triangle_order")
-        self.media = check_choice(media, MEDIA, name="cl-tiled option media")
-        self.coverage_method = check_choice(coverage, COVERAGE, name="cl-tiled option coverage")
-        self.stop_after = check_choice(stop_after, STOP_AFTER, name="cl-tiled option stop_after")
-        if device is not None and not isinstance(device, str):
-            raise InputError(f"cl-tiled option device: expected a selector string such as '0:0' or 'pocl', "
-                             f"got {device!r}")
-        self.device = device
+    def __init__(self, **options):
+        super().__init__(**options)
         self._entry = None
         self._cache = None
         self._buffers = {}
@@ -277,9 +252,9 @@ class ClTiledRenderer(Renderer):
             needed = self.depth_cap * TILE * TILE * 8 + CHUNK * 12
             if needed > entry.device.local_mem_size:
                 most = (entry.device.local_mem_size - CHUNK * 12) // (TILE * TILE * 8)
-                raise InputError(f"cl-tiled option depth_cap: {depth_cap} fragments per pixel need {needed} bytes of "
-                                 f"local memory, {entry.device.name.strip()} has {entry.device.local_mem_size}; use "
-                                 f"at most {most}, or fragments='global'")
+                raise InputError(f"cl-tiled option depth_cap: {self.depth_cap} fragments per pixel need {needed} "
+                                 f"bytes of local memory, {entry.device.name.strip()} has "
+                                 f"{entry.device.local_mem_size}; use at most {most}, or fragments='global'")
 
     @classmethod
     def probe(cls):
@@ -287,12 +262,7 @@ class ClTiledRenderer(Renderer):
 
     @property
     def options(self):
-        return {"step_factor": self.step_factor, "depth_cap": self.depth_cap, "fragments": self.fragments,
-                "opaque_threshold": self.opaque_threshold, "empty_space": self.empty_space,
-                "brick_size": self.brick_size, "min_opacity": self.min_opacity, "triangle_order": self.triangle_order,
-                "media": self.media, "coverage": self.coverage_method, "stop_after": self.stop_after,
-                "device": self.device,
-                "effective_step": self._last_step}
+        return {**super().options, "effective_step": self._last_step}
 
     def environment(self):
         return context.environment(context.selector_for(self.device))
@@ -544,7 +514,7 @@ class ClTiledRenderer(Renderer):
         image = self._buffer("image", 16 * pixels)
         stats = self._buffer("stats", 4 * STATS * pixels)
         # Without volumes nothing is sampled: the step and the atlas are placeholders.
-        step = self.step_factor * scene.min_world_voxel_size() if scene.volumes else None
+        step = world_step(scene, self.step_factor)
         shading = scene.shading
         light = scene_arrays.light_direction(scene)
         atlas = binned.atlas

@@ -1,10 +1,10 @@
 """What the OpenGL backends share: the context, options, cached textures, targets, readback.
 
-:class:`GLRenderer` is the base of ``gl-raycast`` and ``gl-slicer`` (and of later GL backends):
-it owns a :class:`renderers.gl.resources.ResourceCache` on the process's shared context, turns
-the common options (``step_factor``, ``timing``) into state, checks a scene against the GL
-limits before any work, binds the per-frame uniforms and textures, and reads the result back
-as a volbench image (row 0 at the top).
+:class:`GLRenderer` is the base of ``gl-raycast``, ``gl-slicer`` and ``gl-peel`` (and of later GL
+backends): it owns a :class:`renderers.gl.resources.ResourceCache` on the process's shared
+context, declares the common ``timing`` option (:data:`TIMING`; each backend's table lists it
+with its ``step_factor``), checks a scene against the GL limits before any work, binds the
+per-frame uniforms and textures, and reads the result back as a volbench image (row 0 at the top).
 """
 
 import time
@@ -12,8 +12,7 @@ import time
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_choice, check_scalar
-from renderers.base import Renderer
+from renderers.base import Option, Renderer
 from renderers.gl import context
 from renderers.gl.resources import VOLUME_CACHE_SIZE, Preparation, ResourceCache
 from renderers.gl.timing import TIMING_METHODS, PassTimer
@@ -21,6 +20,10 @@ from renderers.gl.view import cube_triangles
 
 SCREEN_TRIANGLE = np.array([-1.0, -1.0, 3.0, -1.0, -1.0, 3.0], dtype=np.float32)
 """One triangle covering the viewport (full-screen passes)."""
+
+TIMING = Option("timing", str, "auto", "How passes are timed (:mod:`renderers.gl.timing`): ``auto`` uses ``finish`` "
+                "on a CPU rasterizer, whose timer queries do not cover its deferred work, and ``query`` otherwise.",
+                choices=TIMING_METHODS)
 
 
 def set_uniforms(program, values):
@@ -44,13 +47,9 @@ def set_uniforms(program, values):
 class GLRenderer(Renderer):
     """Base class of the OpenGL backends (one volume per scene).
 
-    Parameters
-    ----------
-    step_factor : float
-        World step as a fraction of the smallest world-space voxel edge (the reference's meaning).
-    timing : {"auto", "query", "finish"}
-        How passes are timed (:mod:`renderers.gl.timing`): ``"auto"`` uses ``"finish"`` on a CPU
-        rasterizer, whose timer queries do not cover its deferred work, and ``"query"`` otherwise.
+    A backend's ``option_table`` has ``step_factor`` (the world step) and :data:`TIMING`;
+    ``options`` also records ``effective_step`` (the world step of the last frame) and
+    ``effective_timing`` (the timing method of the frames so far).
 
     Notes
     -----
@@ -61,9 +60,8 @@ class GLRenderer(Renderer):
     cached_volumes = VOLUME_CACHE_SIZE
     """Volumes whose textures the renderer's cache keeps alive together (a multi-volume frame needs all)."""
 
-    def __init__(self, *, step_factor, timing):
-        self.step_factor = check_scalar(step_factor, name=f"{self.name} option step_factor", low=0, low_open=True)
-        self.timing = check_choice(timing, TIMING_METHODS, name=f"{self.name} option timing")
+    def __init__(self, **options):
+        super().__init__(**options)
         self._ctx = None
         self._cache = None
         self._timer = None
@@ -78,6 +76,11 @@ class GLRenderer(Renderer):
 
     def environment(self):
         return context.environment()
+
+    @property
+    def options(self):
+        """Options as given, plus the step and the timing method of the frames rendered so far."""
+        return {**super().options, "effective_step": self._last_step, "effective_timing": self._effective_timing}
 
     @property
     def _effective_timing(self):

@@ -113,10 +113,9 @@ import time
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_choice, check_positive_int, check_scalar, check_step_factor
-from renderers.base import Capabilities, RenderResult
+from renderers.base import Capabilities, Option, RenderResult, step_factor_option, world_step
 from renderers.gl import context, glsl, peeling_glsl
-from renderers.gl.base import GLRenderer, set_uniforms
+from renderers.gl.base import TIMING, GLRenderer, set_uniforms
 from renderers.gl.resources import Preparation
 from renderers.gl.timing import PassTimer
 from renderers.gl.view import NEAR_FRACTION, SLIVER, cube_triangles
@@ -196,23 +195,7 @@ def geometry(scene):
 
 
 class GLPeelRenderer(GLRenderer):
-    """Depth-peeling multi-pass ray caster for overlapping volumes and translucent meshes (see the module notes).
-
-    Parameters
-    ----------
-    step_factor : float
-        World step as a fraction of the smallest world-space voxel edge (the reference's meaning).
-    opaque_threshold : float
-        Early ray termination: a ray stops once its opacity exceeds this (1: never). Front
-        peeling only.
-    max_layers : int
-        Peel at most this many depth layers; whatever lies behind the last one is not rendered.
-    peeling : {"front", "dual"}
-        Front-to-back depth peeling of boxes and surfaces, or dual depth peeling (two layers per
-        pass) of scenes of meshes only.
-    timing : {"auto", "query", "finish"}
-        How passes are timed (:mod:`renderers.gl.timing`).
-    """
+    """Depth-peeling multi-pass ray caster for overlapping volumes and translucent meshes (see the module notes)."""
 
     name = "gl-peel"
     cached_volumes = MAX_VOLUMES
@@ -221,15 +204,11 @@ class GLPeelRenderer(GLRenderer):
                    "ray-cast with its active volumes; peeling='dual': dual depth peeling of meshes")
     capabilities = Capabilities(
         projections=frozenset({"orthographic", "perspective"}),
-        modes=frozenset({"dvr"}),
         shading=frozenset({"none", "phong"}),
         max_volumes=MAX_VOLUMES,
-        gradient_opacity=False,
         transforms=True,
-        anisotropic_spacing=True,
         meshes=True,
         translucent_geometry=True,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "modes": "depth-peeled intervals composite emission–absorption (dvr) only; mip and iso are served by "
@@ -247,25 +226,24 @@ class GLPeelRenderer(GLRenderer):
     )
     BOUNDARY_REASON = ("a polygonal boundary bounds a volume by a mesh's inside; the peeled layers track the boxes' "
                        "parity only")
+    option_table = (
+        step_factor_option(0.5),
+        Option("opaque_threshold", float, 0.99, "Early ray termination: a ray stops once its opacity exceeds this "
+               "(1: never). Front peeling only.", low=0, high=1, low_open=True),
+        Option("max_layers", int, 256, "Peel at most this many depth layers; whatever lies behind the last one is "
+               "not rendered.", low=1),
+        Option("peeling", str, "front", "Front-to-back depth peeling of boxes and surfaces, or dual depth peeling "
+               "(two layers per pass) of scenes of meshes only.", choices=PEELING_METHODS),
+        TIMING,
+    )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25)) + ({"opaque_threshold": 1.0},)
     """Step sizes from coarse to fine, then early termination off."""
 
-    def __init__(self, *, step_factor=0.5, opaque_threshold=0.99, max_layers=256, peeling="front", timing="auto"):
-        super().__init__(step_factor=step_factor, timing=timing)
-        check_step_factor(step_factor, name="gl-peel option step_factor")
-        self.opaque_threshold = check_scalar(opaque_threshold, name="gl-peel option opaque_threshold", low=0,
-                                             high=1, low_open=True)
-        self.max_layers = check_positive_int(max_layers, name="gl-peel option max_layers")
-        self.peeling = check_choice(peeling, PEELING_METHODS, name="gl-peel option peeling")
+    def __init__(self, **options):
+        super().__init__(**options)
         self._queries = []
         self._geometry_key = None
         self._geometry_vertices = 0
-
-    @property
-    def options(self):
-        return {"step_factor": self.step_factor, "opaque_threshold": self.opaque_threshold,
-                "max_layers": self.max_layers, "peeling": self.peeling, "timing": self.timing,
-                "effective_step": self._last_step, "effective_timing": self._effective_timing}
 
     def _forget(self):
         super()._forget()
@@ -468,8 +446,8 @@ class GLPeelRenderer(GLRenderer):
         shapes = self._geometry(ctx, programs["peel"], scene, prep)
 
         start = time.perf_counter()
-        step = self.step_factor * scene.min_world_voxel_size() if count else 0.0
-        uniforms, arrays = self._uniforms(scene, scalars, offsets, step)
+        step = world_step(scene, self.step_factor)
+        uniforms, arrays = self._uniforms(scene, scalars, offsets, 0.0 if step is None else step)
         for program in programs.values():
             set_uniforms(program, uniforms)
             for name, values in arrays.items():
@@ -485,8 +463,8 @@ class GLPeelRenderer(GLRenderer):
         else:
             image, timings, counters, info = self._front_frame(ctx, scene, programs, shapes)
         timings.update(total=time.perf_counter() - start, **prep.timings)
-        self._last_step = step if count else None
-        info.update(step=step if count else None, step_factor=self.step_factor, peeling=self.peeling,
+        self._last_step = step
+        info.update(step=step, step_factor=self.step_factor, peeling=self.peeling,
                     timing=self._timer.method, uploaded=list(prep.uploaded),
                     scalar_formats=[s.format for s in scalars], shading_applied=phong)
         return RenderResult(image=image, timings=timings, counters=counters, info=info)

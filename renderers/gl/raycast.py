@@ -101,10 +101,9 @@ import numpy as np
 
 from core.errors import InputError
 from core.resources import check_memory
-from core.validation import check_choice, check_positive_int, check_scalar, check_step_factor
-from renderers.base import Capabilities, RenderResult
+from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.gl import context, emptyspace, glsl
-from renderers.gl.base import GLRenderer, set_uniforms
+from renderers.gl.base import TIMING, GLRenderer, set_uniforms
 from renderers.gl.view import SLIVER, make_view, ray_lengths
 
 VARIANTS = ("rc", "rc-a", "rc-b", "single-pass")
@@ -418,34 +417,7 @@ def occluder_cut(mvp, width, fraction):
 
 
 class GLRaycastRenderer(GLRenderer):
-    """Multi-pass GPU ray caster (Krüger & Westermann 2003) and a single-pass one, OpenGL 4.3.
-
-    Parameters
-    ----------
-    variant : {"rc", "rc-a", "rc-b", "single-pass"}
-        ``rc``: plain multi-pass; ``rc-a``: + early ray termination; ``rc-b``: + empty-space
-        skipping (the paper's fastest); ``single-pass``: one loop-with-break draw (extension).
-    step_factor : float
-        World step as a fraction of the smallest world-space voxel edge (default 0.5).
-    samples_per_pass : int
-        ``M``, samples per ray per main pass (paper: 8).
-    opaque_threshold : float
-        ``T`` in (0, 1]: rays whose opacity exceeds it stop (``rc-a``, ``rc-b``, ``single-pass``;
-        1 never stops a ray). Default 0.95.
-    block_size : int
-        Edge of the min–max grid's blocks in voxels (paper: 8; ``rc-b``).
-    min_opacity : float
-        Transfer-function opacities at or below it count as empty for skipping (``rc-b``); the
-        paper's 0 makes skipping exact.
-    iso_refine : int
-        Bisection steps refining an iso hit inside its cell (0: the sample itself, as the paper).
-    occluder : float
-        Fraction in [0, 1] of the box's screen footprint, from the left, hidden behind an opaque
-        plane drawn before the main passes (the paper's early-z demonstration; 0: none). The
-        covered pixels show the plane's grey, so images compare with the reference only at 0.
-    timing : {"auto", "query", "finish"}
-        Pass timing (:mod:`renderers.gl.timing`).
-    """
+    """Multi-pass GPU ray caster (Krüger & Westermann 2003) and a single-pass one, OpenGL 4.3."""
 
     name = "gl-raycast"
     description = ("OpenGL multi-pass GPU ray caster (Krüger & Westermann 2003): setup passes, M samples per main "
@@ -454,12 +426,7 @@ class GLRaycastRenderer(GLRenderer):
         projections=frozenset({"orthographic", "perspective"}),
         modes=frozenset({"dvr", "mip", "iso"}),
         shading=frozenset({"none", "phong"}),
-        max_volumes=1,
-        gradient_opacity=False,
         transforms=True,
-        anisotropic_spacing=True,
-        meshes=False,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "max_volumes": "the ray caster's setup passes rasterise one volume's box (one entry and exit per pixel)",
@@ -469,6 +436,26 @@ class GLRaycastRenderer(GLRenderer):
             "lenses": "lens volumes are added with the Ropinski 2005 issue",
         },
     )
+    option_table = (
+        Option("variant", str, "rc-b", "``rc``: plain multi-pass; ``rc-a``: + early ray termination; ``rc-b``: + "
+               "empty-space skipping (the paper's fastest); ``single-pass``: one loop-with-break draw (extension).",
+               choices=VARIANTS),
+        step_factor_option(0.5),
+        Option("samples_per_pass", int, 8, "``M``, samples per ray per main pass (paper: 8); at most the shader's "
+               "32-bit int (any count above a ray's steps makes one pass).", low=1, high=2 ** 31 - 1),
+        Option("opaque_threshold", float, 0.95, "``T``: rays whose opacity exceeds it stop (``rc-a``, ``rc-b``, "
+               "``single-pass``; 1 never stops a ray).", low=0, high=1, low_open=True),
+        Option("block_size", int, 8, "Edge of the min–max grid's blocks in voxels (paper: 8; ``rc-b``).", low=1),
+        Option("min_opacity", float, 0.0, "Transfer-function opacities at or below it count as empty for skipping "
+               "(``rc-b``); the paper's 0 makes skipping exact.", low=0, high=1, high_open=True),
+        Option("iso_refine", int, 6, "Bisection steps refining an iso hit inside its cell (0: the sample itself, as "
+               "the paper); more than 24 refine below float32 resolution.", low=0, high=24),
+        Option("occluder", float, 0.0, "Fraction of the box's screen footprint, from the left, hidden behind an "
+               "opaque plane drawn before the main passes (the paper's early-z demonstration; 0: none). The "
+               "covered pixels show the plane's grey, so images compare with the reference only at 0.",
+               low=0, high=1),
+        TIMING,
+    )
     quality_sweep = (tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
                      + ({"opaque_threshold": 0.8}, {"opaque_threshold": 1.0}, {"samples_per_pass": 2},
                         {"samples_per_pass": 32}, {"block_size": 16}))
@@ -476,38 +463,13 @@ class GLRaycastRenderer(GLRenderer):
     other option that trades speed for error or overhead: the early-termination threshold (0.8 drops
     up to 20 % of a ray's light, 1 none), the samples per pass M and the block size."""
 
-    def __init__(self, *, variant="rc-b", step_factor=0.5, samples_per_pass=8, opaque_threshold=0.95, block_size=8,
-                 min_opacity=0.0, iso_refine=6, occluder=0.0, timing="auto"):
-        super().__init__(step_factor=step_factor, timing=timing)
-        check_step_factor(step_factor, name="gl-raycast option step_factor")
-        self.variant = check_choice(variant, VARIANTS, name="gl-raycast option variant")
-        self.samples_per_pass = check_positive_int(samples_per_pass, name="gl-raycast option samples_per_pass")
-        if self.samples_per_pass >= 2 ** 31:
-            raise InputError(f"gl-raycast option samples_per_pass: {samples_per_pass} does not fit the shader's 32-bit "
-                             f"int; use at most {2 ** 31 - 1} (any count above a ray's steps makes one pass)")
-        self.opaque_threshold = check_scalar(opaque_threshold, name="gl-raycast option opaque_threshold", low=0,
-                                             high=1, low_open=True)
-        self.block_size = check_positive_int(block_size, name="gl-raycast option block_size")
-        self.min_opacity = check_scalar(min_opacity, name="gl-raycast option min_opacity", low=0, high=1,
-                                        high_open=True)
-        self.iso_refine = check_positive_int(iso_refine, name="gl-raycast option iso_refine", minimum=0)
-        if self.iso_refine > 24:
-            raise InputError(f"gl-raycast option iso_refine: {iso_refine} bisection steps refine below float32 "
-                             "resolution; use at most 24")
-        self.occluder = check_scalar(occluder, name="gl-raycast option occluder", low=0, high=1)
+    def __init__(self, **options):
+        super().__init__(**options)
         if self.occluder > 0 and self.variant not in MULTI_PASS:
             raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
-                             f"use a multi-pass variant ({', '.join(MULTI_PASS)}), not {variant!r}")
+                             f"use a multi-pass variant ({', '.join(MULTI_PASS)}), not {self.variant!r}")
         self._ray_key = None
         self._ray_max = 0.0
-
-    @property
-    def options(self):
-        return {"variant": self.variant, "step_factor": self.step_factor, "samples_per_pass": self.samples_per_pass,
-                "opaque_threshold": self.opaque_threshold, "block_size": self.block_size,
-                "min_opacity": self.min_opacity, "iso_refine": self.iso_refine, "occluder": self.occluder,
-                "timing": self.timing,
-                "effective_step": self._last_step, "effective_timing": self._effective_timing}
 
     def check(self, scene):
         """Also refuse, before any work, an empty-space block grid that only pads the volume or that

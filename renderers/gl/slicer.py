@@ -50,12 +50,10 @@ import time
 
 import numpy as np
 
-from core.errors import InputError
 from core.resources import check_memory
-from core.validation import check_choice, check_step_factor
-from renderers.base import Capabilities, RenderResult
+from renderers.base import Capabilities, Option, RenderResult, step_factor_option, world_step
 from renderers.gl import context, glsl
-from renderers.gl.base import GLRenderer, set_uniforms
+from renderers.gl.base import TIMING, GLRenderer, set_uniforms
 from renderers.gl.view import make_view
 
 ORDERS = ("back-to-front", "front-to-back")
@@ -225,21 +223,7 @@ def slice_polygons(model, eye, forward, near, step):
 
 
 class GLSlicerRenderer(GLRenderer):
-    """View-aligned 3D-texture slicing (SBVR), OpenGL 4.3.
-
-    Parameters
-    ----------
-    step_factor : float
-        Slice spacing in view depth as a fraction of the smallest world-space voxel edge
-        (default 0.5, the ray caster's default step).
-    order : {"back-to-front", "front-to-back"}
-        Drawing order and blend operator ("over" / "under").
-    count_contributing : bool
-        After each frame (outside its timings), count the fragments that contribute
-        (counter ``fragments_contributing``, see the module notes).
-    timing : {"auto", "query", "finish"}
-        Pass timing (:mod:`renderers.gl.timing`).
-    """
+    """View-aligned 3D-texture slicing (SBVR), OpenGL 4.3."""
 
     name = "gl-slicer"
     description = "OpenGL view-aligned 3D-texture slicing (SBVR): plane ∩ box polygons, per-fragment classification"
@@ -247,12 +231,7 @@ class GLSlicerRenderer(GLRenderer):
         projections=frozenset({"orthographic", "perspective"}),
         modes=frozenset({"dvr", "mip"}),
         shading=frozenset({"none", "phong"}),
-        max_volumes=1,
-        gradient_opacity=False,
         transforms=True,
-        anisotropic_spacing=True,
-        meshes=False,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "modes": "slices composite classified samples; iso-surfaces by slicing come with the iSBVR backend",
@@ -262,21 +241,17 @@ class GLSlicerRenderer(GLRenderer):
             "lenses": "lens volumes are added with the Ropinski 2005 issue",
         },
     )
+    option_table = (
+        step_factor_option(0.5, "Slice spacing in view depth as a fraction of the smallest world-space voxel edge "
+                                "(the default is the ray caster's step)."),
+        Option("order", str, "back-to-front", "Drawing order and blend operator (\"over\" / \"under\").",
+               choices=ORDERS),
+        Option("count_contributing", bool, True, "After each frame (outside its timings), count the fragments that "
+               "contribute (counter ``fragments_contributing``, see the module notes)."),
+        TIMING,
+    )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Slice spacings from coarse to fine."""
-
-    def __init__(self, *, step_factor=0.5, order="back-to-front", count_contributing=True, timing="auto"):
-        super().__init__(step_factor=step_factor, timing=timing)
-        check_step_factor(step_factor, name="gl-slicer option step_factor")
-        self.order = check_choice(order, ORDERS, name="gl-slicer option order")
-        if not isinstance(count_contributing, bool):
-            raise InputError(f"gl-slicer option count_contributing: expected True or False, got {count_contributing!r}")
-        self.count_contributing = count_contributing
-
-    @property
-    def options(self):
-        return {"step_factor": self.step_factor, "order": self.order, "count_contributing": self.count_contributing,
-                "timing": self.timing, "effective_step": self._last_step, "effective_timing": self._effective_timing}
 
     def check(self, scene):
         """Also refuse, before any work, more slices than this machine can build (:func:`slice_polygons`
@@ -284,7 +259,7 @@ class GLSlicerRenderer(GLRenderer):
         super().check(scene)
         corners = scene.volumes[0].world_corners()
         diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
-        slices = math.ceil(diagonal / (self.step_factor * scene.min_world_voxel_size())) + 1
+        slices = math.ceil(diagonal / world_step(scene, self.step_factor)) + 1
         check_memory(slices * SLICE_BYTES, what=f"gl-slicer: scene {scene.name!r} at step_factor {self.step_factor:g}",
                      detail=f"up to {slices} slices across the box's {diagonal:.3g} diagonal × {SLICE_BYTES} bytes",
                      fix="use a larger step_factor")

@@ -11,6 +11,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from renderers.base import world_step
+
 NEAR_FRACTION = 1e-3
 """Near plane distance as a fraction of the scene's bounding radius (perspective).
 
@@ -98,7 +100,7 @@ def make_view(scene, step_factor):
     lx, ly, lz = scene.shading.light_direction
     light = lx * right + ly * up + lz * back
     shading = scene.shading
-    step = step_factor * scene.min_world_voxel_size()
+    step = world_step(scene, step_factor)
     uniforms = {
         "u_extent": extent,
         "u_world_to_tex": np.linalg.inv(model),

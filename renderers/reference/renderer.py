@@ -75,8 +75,7 @@ import numpy as np
 
 from core.errors import InputError
 from core.resources import check_memory, format_bytes
-from core.validation import check_scalar
-from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.base import Capabilities, Option, RenderResult, Renderer, step_factor_option, world_step
 from renderers.base.probes import numba_probe
 
 ROW_INTERLEAVE = 16
@@ -175,24 +174,7 @@ def run_stoppable(launch):
 class ReferenceRenderer(Renderer):
     """Double-precision CPU ray caster (numba), the accuracy reference.
 
-    Parameters
-    ----------
-    step_factor : float, optional
-        World step as a fraction of the smallest world-space voxel edge (default 0.25).
-    step : float, optional
-        Absolute world step; overrides ``step_factor``.
-    classification : {"post", "pre"}, optional
-        ``"post"`` (default, CONVENTIONS): classify the interpolated scalar. ``"pre"``: classify
-        and shade the voxels, interpolate their colours (``dvr`` only; see the module notes).
-    depth : bool, optional
-        Also return ``info["depth"]``: an ``(H, W)`` float64 array of the ray parameter (world
-        distance from the ray origin) of the first contributing sample (``dvr``: the nearest
-        sample of the first cell that contributes), the first place the exact maximum is
-        reached (``mip``) or the surface (``iso``), NaN where there is none.
-    max_samples : float, optional
-        The most samples a frame may take (default :data:`MAX_SAMPLES`): :meth:`check` refuses a
-        scene whose estimate (:meth:`work`) is larger, before any work. Raise it for a frame that
-        should take that long.
+    ``options`` also records ``effective_step``, the world step of the last render.
 
     Notes
     -----
@@ -224,31 +206,35 @@ class ReferenceRenderer(Renderer):
         max_volumes=64,
         gradient_opacity=True,
         transforms=True,
-        anisotropic_spacing=True,
         meshes=True,
         csg=True,
         translucent_geometry=True,
         homogeneous_media=True,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "lenses": "added with the Ropinski 2005 issue",
         },
     )
+    option_table = (
+        step_factor_option(0.25, limited_precision=False),
+        Option("step", float, None, "Absolute world step; overrides ``step_factor``.", low=0, low_open=True),
+        Option("classification", str, "post",
+               "``post`` (CONVENTIONS): classify the interpolated scalar. ``pre``: classify and shade the voxels, "
+               "interpolate their colours (``dvr`` only; see the module notes).", choices=CLASSIFICATIONS),
+        Option("depth", bool, False,
+               "Also return ``info[\"depth\"]``: an ``(H, W)`` float64 array of the ray parameter (world distance "
+               "from the ray origin) of the first contributing sample (``dvr``: the nearest sample of the first "
+               "cell that contributes), the first place the exact maximum is reached (``mip``) or the surface "
+               "(``iso``), NaN where there is none."),
+        Option("max_samples", float, MAX_SAMPLES,
+               "The most samples a frame may take: :meth:`check` refuses a scene whose estimate (:meth:`work`) is "
+               "larger, before any work. Raise it for a frame that should take that long.", low=1),
+    )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25, 0.125))
     """Speed-versus-accuracy settings, coarse to fine; the default quarter voxel is among them."""
 
-    def __init__(self, *, step_factor=0.25, step=None, classification="post", depth=False, max_samples=MAX_SAMPLES):
-        self.step_factor = check_scalar(step_factor, name="reference option step_factor", low=0, low_open=True)
-        self.max_samples = check_scalar(max_samples, name="reference option max_samples", low=1)
-        if classification not in CLASSIFICATIONS:
-            raise InputError(f"reference option classification: expected one of {', '.join(CLASSIFICATIONS)}, "
-                             f"got {classification!r}")
-        self.classification = classification
-        self.step = None if step is None else check_scalar(step, name="reference option step", low=0, low_open=True)
-        if not isinstance(depth, bool):
-            raise InputError(f"reference option depth: expected True or False, got {depth!r}")
-        self.depth = depth
+    def __init__(self, **options):
+        super().__init__(**options)
         self._last_step = None
         self._packed = None
         # Importing the kernels compiles them (or loads numba's cache) here, not in the first frame.
@@ -264,8 +250,7 @@ class ReferenceRenderer(Renderer):
     @property
     def options(self):
         """Options as given, plus ``effective_step``: the world step of the last render."""
-        return {"step_factor": self.step_factor, "step": self.step, "classification": self.classification,
-                "depth": self.depth, "max_samples": self.max_samples, "effective_step": self._last_step}
+        return {**super().options, "effective_step": self._last_step}
 
     def environment(self):
         import numba
@@ -316,19 +301,14 @@ class ReferenceRenderer(Renderer):
             return float(pixels) * cells, f"{pixels} pixels × up to {cells} voxel-lattice cells a ray"
         corners = np.concatenate([instance.world_corners() for instance in scene.volumes])
         diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
-        step = self._step(scene.min_world_voxel_size())
+        step = self.world_step(scene)
         steps = diagonal / step + 1
         return float(pixels) * steps, (f"{pixels} pixels × {steps:.3g} steps of {step:.3g} across the volumes' "
                                        f"{diagonal:.3g} diagonal")
 
     def world_step(self, scene):
         """The world step this renderer uses for ``scene`` (``None``: no volume to sample)."""
-        if not scene.volumes and self.step is None:
-            return None
-        return self._step(scene.min_world_voxel_size())
-
-    def _step(self, min_voxel):
-        return self.step if self.step is not None else self.step_factor * min_voxel
+        return self.step if self.step is not None else world_step(scene, self.step_factor)
 
     def _check_scene(self, scene):
         if self.classification == "pre" and scene.mode != "dvr":
@@ -450,8 +430,7 @@ class ReferenceRenderer(Renderer):
         self._check_scene(scene)
         if scene.has_geometry():
             return self._render_geometry(scene, start)
-        min_voxel = scene.min_world_voxel_size()
-        step = self._step(min_voxel)
+        step = self.world_step(scene)
         arguments = self._scene_arguments(scene, step)
         image = np.zeros((scene.height, scene.width, 4), dtype=np.float32)
         depth = np.empty((scene.height, scene.width))
@@ -465,7 +444,7 @@ class ReferenceRenderer(Renderer):
         info = {
             "step": step,
             "classification": self.classification,
-            "step_factor": step / min_voxel,
+            "step_factor": step / scene.min_world_voxel_size(),
             "reference_steps": [instance.reference_step for instance in scene.volumes],
             "blending": "sum of premultiplied samples, opacity clamped to 1 (Kainz et al. 2009)",
             "shading_applied": scene.shading.model != "none" and scene.mode != "mip",

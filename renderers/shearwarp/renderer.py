@@ -55,8 +55,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from core.errors import InputError
-from core.validation import check_choice, check_positive_int, check_scalar
-from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.base import Capabilities, Option, RenderResult, Renderer
 from renderers.base.probes import numba_probe
 
 SCHEDULES = ("contiguous", "round-robin", "contiguous-steal", "round-robin-steal")
@@ -116,48 +115,6 @@ class _Classification:
 class ShearWarpRenderer(Renderer):
     """Shear-warp renderer (Lacroute 1995) with run-length-encoded volume and image, Numba.
 
-    Parameters
-    ----------
-    rle : bool
-        Skip transparent voxels with the run-length-encoded classified volume (three copies).
-        ``False``: brute force over the whole classified volume, every voxel resampled.
-    early_termination : bool
-        Skip opaque intermediate pixels with the run-length-encoded image (skip links, FIND).
-    opaque_threshold : float
-        A pixel whose opacity is at or above it is opaque (thesis: 0.95).
-    min_opacity : float
-        Voxels with ``α <= min_opacity`` are transparent for the encoding (thesis: 0.05).
-    opacity_correction : bool
-        Correct opacities for the per-view sample spacing, ``1 − (1 − α)^(Δ/Δ0)``.
-    shading : {"lut", "procedural"}
-        Phong through a per-frame table over 13-bit quantised normals, or computed per voxel from
-        its gradient (applies when the scene's shading model is ``phong``).
-    workers : int, optional
-        Threads (default: all of Numba's threads).
-    schedule : {"contiguous", "round-robin", "contiguous-steal", "round-robin-steal"}
-        How intermediate-image scanline tasks are dealt to the workers (thesis Ch. 6).
-    task_size : int
-        Intermediate-image scanlines per task.
-    union : {"path-compression", "rank"}
-        Union-find variant of the run-length-encoded image (§4.1.3).
-    classification : {"rle", "octree"}
-        ``"rle"``: classify the volume and build the three RLE copies once per volume and
-        classification (viewing mode). ``"octree"``: the thesis's fast classification (§4.3): a
-        min-max octree once per volume, a summed-area table per classification, and every frame the
-        view axis's voxel runs from the octree with their voxels classified on the fly (same image
-        as ``"rle"``, more samples; for interactive transfer-function edits). Needs ``rle=True``.
-    octree_rle_build : bool
-        Build the three RLE copies from the min-max octree (the thesis's mode switch, §4.4):
-        transparent octree nodes are skipped without classifying their voxels; the encodings are
-        byte-identical to the brute-force build. Off by default so that the ``classify`` and
-        ``rle_build`` stages keep measuring the plain build; applies to ``classification="rle"``
-        with ``rle=True``.
-    octree_threshold : int
-        Octree nodes whose scalar and gradient-magnitude ranges are both within this many of 256
-        bins keep no children (thesis: 4).
-    octree_base_size : int
-        Voxels per side of the smallest octree node (thesis: 4).
-
     Notes
     -----
     Timings: ``classify`` and ``rle_build`` (only in the frame that builds them; cached per volume
@@ -183,15 +140,9 @@ class ShearWarpRenderer(Renderer):
                    "RLE image with early termination, bilinear slices + 2-D warp")
     capabilities = Capabilities(
         projections=frozenset({"orthographic", "perspective"}),
-        modes=frozenset({"dvr"}),
         shading=frozenset({"none", "phong"}),
-        max_volumes=1,
         gradient_opacity=True,
         transforms=True,
-        anisotropic_spacing=True,
-        meshes=False,
-        lenses=False,
-        camera_inside_volume=False,
         reasons={
             "modes": "only dvr compositing is implemented (mip would need a max operator in the slice loop)",
             "max_volumes": ("shear-warp composites one volume's slices in storage order; several overlapping "
@@ -202,6 +153,43 @@ class ShearWarpRenderer(Renderer):
                                      "volume (thesis §4.2.5 would split the volume into pyramidal sub-volumes "
                                      "around the eye; not implemented): move the camera out of the volume"),
         },
+    )
+    option_table = (
+        Option("rle", bool, True, "Skip transparent voxels with the run-length-encoded classified volume (three "
+               "copies). ``False``: brute force over the whole classified volume, every voxel resampled."),
+        Option("early_termination", bool, True,
+               "Skip opaque intermediate pixels with the run-length-encoded image (skip links, FIND)."),
+        Option("opaque_threshold", float, 0.95, "A pixel whose opacity is at or above it is opaque (thesis: 0.95).",
+               low=0, high=1, low_open=True),
+        Option("min_opacity", float, 0.05,
+               "Voxels with ``α <= min_opacity`` are transparent for the encoding (thesis: 0.05).",
+               low=0, high=1, high_open=True),
+        Option("opacity_correction", bool, True,
+               "Correct opacities for the per-view sample spacing, ``1 − (1 − α)^(Δ/Δ0)``."),
+        Option("shading", str, "lut", "Phong through a per-frame table over 13-bit quantised normals, or computed "
+               "per voxel from its gradient (applies when the scene's shading model is ``phong``).",
+               choices=SHADING_OPTIONS),
+        Option("workers", int, None, "Threads; ``None``: all of Numba's threads (NUMBA_NUM_THREADS), which "
+               "``options`` records.", low=1),
+        Option("schedule", str, "round-robin-steal",
+               "How intermediate-image scanline tasks are dealt to the workers (thesis Ch. 6).", choices=SCHEDULES),
+        Option("task_size", int, 8, "Intermediate-image scanlines per task.", low=1),
+        Option("union", str, "path-compression", "Union-find variant of the run-length-encoded image (§4.1.3).",
+               choices=UNIONS),
+        Option("classification", str, "rle",
+               "``rle``: classify the volume and build the three RLE copies once per volume and classification "
+               "(viewing mode). ``octree``: the thesis's fast classification (§4.3): a min-max octree once per "
+               "volume, a summed-area table per classification, and every frame the view axis's voxel runs from "
+               "the octree with their voxels classified on the fly (same image as ``rle``, more samples; for "
+               "interactive transfer-function edits). Needs ``rle=True``.", choices=CLASSIFICATIONS),
+        Option("octree_rle_build", bool, False,
+               "Build the three RLE copies from the min-max octree (the thesis's mode switch, §4.4): transparent "
+               "octree nodes are skipped without classifying their voxels; the encodings are byte-identical to the "
+               "brute-force build. Off by default so that the ``classify`` and ``rle_build`` stages keep measuring "
+               "the plain build; applies to ``classification=\"rle\"`` with ``rle=True``."),
+        Option("octree_threshold", int, 4, "Octree nodes whose scalar and gradient-magnitude ranges are both within "
+               "this many of 256 bins keep no children (thesis: 4).", low=0),
+        Option("octree_base_size", int, 4, "Voxels per side of the smallest octree node (thesis: 4).", low=1),
     )
     quality_sweep = (
         {},
@@ -219,48 +207,24 @@ class ShearWarpRenderer(Renderer):
     each worker's share follows which thread ran when (on a busy machine one worker may do all of
     it); the image and the totals do not change."""
 
-    def __init__(self, *, rle=True, early_termination=True, opaque_threshold=0.95, min_opacity=0.05,
-                 opacity_correction=True, shading="lut", workers=None, schedule="round-robin-steal", task_size=8,
-                 union="path-compression", classification="rle", octree_rle_build=False, octree_threshold=4,
-                 octree_base_size=4):
+    def __init__(self, **options):
         import numba
 
-        for name, value in (("rle", rle), ("early_termination", early_termination),
-                            ("opacity_correction", opacity_correction), ("octree_rle_build", octree_rle_build)):
-            if not isinstance(value, bool):
-                raise InputError(f"shearwarp option {name}: expected True or False, got {value!r}")
-        self.rle = rle
-        self.early_termination = early_termination
-        self.opacity_correction = opacity_correction
-        self.opaque_threshold = check_scalar(opaque_threshold, name="shearwarp option opaque_threshold", low=0,
-                                             high=1, low_open=True)
-        self.min_opacity = check_scalar(min_opacity, name="shearwarp option min_opacity", low=0, high=1,
-                                        high_open=True)
-        self.shading = check_choice(shading, SHADING_OPTIONS, name="shearwarp option shading")
-        self.schedule = check_choice(schedule, SCHEDULES, name="shearwarp option schedule")
-        self.union = check_choice(union, UNIONS, name="shearwarp option union")
-        self.task_size = check_positive_int(task_size, name="shearwarp option task_size")
-        self.classification = check_choice(classification, CLASSIFICATIONS, name="shearwarp option classification")
-        self.octree_rle_build = octree_rle_build
-        self.octree_threshold = check_positive_int(octree_threshold, name="shearwarp option octree_threshold",
-                                                   minimum=0)
-        self.octree_base_size = check_positive_int(octree_base_size, name="shearwarp option octree_base_size")
-        if not rle and (classification == "octree" or octree_rle_build):
+        super().__init__(**options)
+        if not self.rle and (self.classification == "octree" or self.octree_rle_build):
             raise InputError("shearwarp option rle=False (brute force over every voxel) cannot be combined with "
-                             f"classification={classification!r}, octree_rle_build={octree_rle_build!r}: the octree "
-                             "only builds run-length encodings; use rle=True or classification='rle' without "
-                             "octree_rle_build")
-        if classification == "octree" and octree_rle_build:
+                             f"classification={self.classification!r}, octree_rle_build={self.octree_rle_build!r}: "
+                             "the octree only builds run-length encodings; use rle=True or classification='rle' "
+                             "without octree_rle_build")
+        if self.classification == "octree" and self.octree_rle_build:
             raise InputError("shearwarp option octree_rle_build=True does nothing with classification='octree' "
                              "(no RLE copies are built); drop it or use classification='rle'")
         limit = numba.config.NUMBA_NUM_THREADS
-        if workers is None:
+        if self.workers is None:
             self.workers = limit
-        else:
-            self.workers = check_positive_int(workers, name="shearwarp option workers")
-            if self.workers > limit:
-                raise InputError(f"shearwarp option workers: {self.workers} is more than Numba's {limit} threads "
-                                 "(NUMBA_NUM_THREADS); choose at most that many or raise NUMBA_NUM_THREADS")
+        elif self.workers > limit:
+            raise InputError(f"shearwarp option workers: {self.workers} is more than Numba's {limit} threads "
+                             "(NUMBA_NUM_THREADS); choose at most that many or raise NUMBA_NUM_THREADS")
         self._cache = []
         self._octrees = []
         self._buffers = {}
@@ -278,15 +242,6 @@ class ShearWarpRenderer(Renderer):
     @classmethod
     def probe(cls):
         return numba_probe()
-
-    @property
-    def options(self):
-        return {"rle": self.rle, "early_termination": self.early_termination,
-                "opaque_threshold": self.opaque_threshold, "min_opacity": self.min_opacity,
-                "opacity_correction": self.opacity_correction, "shading": self.shading, "workers": self.workers,
-                "schedule": self.schedule, "task_size": self.task_size, "union": self.union,
-                "classification": self.classification, "octree_rle_build": self.octree_rle_build,
-                "octree_threshold": self.octree_threshold, "octree_base_size": self.octree_base_size}
 
     def environment(self):
         import numba

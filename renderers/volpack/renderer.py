@@ -69,8 +69,7 @@ import numpy as np
 
 from core.errors import BackendUnavailableError, InputError
 from core.transfer import MAX_GRADIENT
-from core.validation import check_choice, check_positive_int, check_scalar
-from renderers.base import Capabilities, RenderResult, Renderer
+from renderers.base import Capabilities, Option, RenderResult, Renderer
 from renderers.volpack import library as vp
 
 MODES = ("rle", "octree", "raw")
@@ -86,6 +85,15 @@ NORMAL_OFFSET, DENSITY_OFFSET, GRADIENT_OFFSET = 0, 2, 3
 DENSITY_PARAM, GRADIENT_PARAM = 0, 1
 GRADIENT_SCALE = 255.0 * MAX_GRADIENT
 """VolPack's gradient index of a unit-range signal's largest central difference: 255·√3/2 ≈ 220.8."""
+MAX_OCTREE_NODE_SIZE = 512
+"""The largest ``octree_base_node_size`` (VolPack's limit)."""
+
+
+def check_power_of_two(value, *, name):
+    """``value`` if it is a power of two (octree node edges halve down to it), else an :class:`InputError`."""
+    if value & (value - 1):
+        raise InputError(f"{name}: expected a power of two (1, 2, 4, … {MAX_OCTREE_NODE_SIZE}), got {value!r}")
+    return value
 
 
 def density_alpha_table(transfer_function, voxel_step, reference_step):
@@ -159,25 +167,6 @@ class _Prepared:
 class VolPackRenderer(Renderer):
     """VolPack 1.0b3 (Lacroute's shear-warp library) through ctypes.
 
-    Parameters
-    ----------
-    mode : {"rle", "octree", "raw"}, optional
-        ``rle`` (default): classified run-length-encoded volume; ``octree``: min-max octree
-        with classification on the fly (the thesis's fast classification); ``raw``: classify
-        every voxel every frame (see :data:`MODES`).
-    opaque_threshold : float, optional
-        Early ray termination at this accumulated opacity (``VP_MAX_RAY_OPACITY``, default
-        0.95 as in the thesis and VolPack's examples); 1 disables it.
-    min_opacity : float, optional
-        Voxels with opacity at or below it are transparent (``VP_MIN_VOXEL_OPACITY``, default
-        0.05 as in VolPack's examples).
-    octree_base_node_size : int, optional
-        Edge of the octree's smallest nodes in voxels, a power of two 1..512 (default 4, as in
-        VolPack's ``makeoctree`` example). Mode ``octree`` only.
-    octree_threshold : int, optional
-        Range of each classification field below which an octree node is not subdivided
-        (``vpMinMaxOctreeThreshold``, default 4 as in the example). Mode ``octree`` only.
-
     Notes
     -----
     See the module notes for how the scene maps onto VolPack. Counters: ``voxels``,
@@ -190,16 +179,9 @@ class VolPackRenderer(Renderer):
     name = "volpack"
     description = "VolPack 1.0b3 shear-warp (Lacroute's library, ctypes): RLE or min-max octree, lookup-table shading, 8-bit"
     capabilities = Capabilities(
-        projections=frozenset({"orthographic"}),
-        modes=frozenset({"dvr"}),
         shading=frozenset({"none", "phong"}),
-        max_volumes=1,
         gradient_opacity=True,
-        transforms=False,
         anisotropic_spacing=False,
-        meshes=False,
-        lenses=False,
-        camera_inside_volume=False,
         reasons={
             "projections": "VolPack 1.0b3 cannot render perspective: its FactorPerspectiveView is an "
                            "empty stub and vpRender* return VPERROR_BAD_OPTION for a perspective view",
@@ -214,28 +196,29 @@ class VolPackRenderer(Renderer):
             "lenses": "VolPack renders volumes only",
         },
     )
+    option_table = (
+        Option("mode", str, "rle", "``rle``: classified run-length-encoded volume; ``octree``: min-max octree with "
+               "classification on the fly (the thesis's fast classification); ``raw``: classify every voxel every "
+               "frame (see :data:`MODES`).", choices=MODES),
+        Option("opaque_threshold", float, 0.95, "Early ray termination at this accumulated opacity "
+               "(``VP_MAX_RAY_OPACITY``; 0.95 as in the thesis and VolPack's examples); 1 disables it.",
+               low=0, high=1, low_open=True),
+        Option("min_opacity", float, 0.05, "Voxels with opacity at or below it are transparent "
+               "(``VP_MIN_VOXEL_OPACITY``; 0.05 as in VolPack's examples).", low=0, high=1, high_open=True),
+        Option("octree_base_node_size", int, 4, "Edge of the octree's smallest nodes in voxels, a power of two "
+               "(4 as in VolPack's ``makeoctree`` example). Mode ``octree`` only.",
+               low=1, high=MAX_OCTREE_NODE_SIZE, check=check_power_of_two),
+        Option("octree_threshold", int, 4, "Range of each classification field below which an octree node is not "
+               "subdivided (``vpMinMaxOctreeThreshold``; 4 as in the example); 8-bit fields span 0..255. Mode "
+               "``octree`` only.", low=0, high=vp.VP_SCALAR_MAX),
+    )
     quality_sweep = ({"min_opacity": 0.05, "opaque_threshold": 0.95},
                      {"min_opacity": 0.01, "opaque_threshold": 0.99},
                      {"min_opacity": 0.0, "opaque_threshold": 1.0})
     """Thresholds from the thesis's defaults to none (VolPack's reconstruction is fixed)."""
 
-    def __init__(self, *, mode="rle", opaque_threshold=0.95, min_opacity=0.05,
-                 octree_base_node_size=4, octree_threshold=4):
-        self.mode = check_choice(mode, MODES, name="volpack option mode")
-        self.opaque_threshold = check_scalar(opaque_threshold, name="volpack option opaque_threshold",
-                                             low=0, high=1, low_open=True)
-        self.min_opacity = check_scalar(min_opacity, name="volpack option min_opacity", low=0, high=1,
-                                        high_open=True)
-        size = check_positive_int(octree_base_node_size, name="volpack option octree_base_node_size")
-        if size > 512 or size & (size - 1):
-            raise InputError(f"volpack option octree_base_node_size: expected a power of two from 1 to 512 "
-                             f"(VolPack's limit), got {octree_base_node_size!r}")
-        self.octree_base_node_size = size
-        self.octree_threshold = check_positive_int(octree_threshold, name="volpack option octree_threshold",
-                                                   minimum=0)
-        if self.octree_threshold > vp.VP_SCALAR_MAX:
-            raise InputError(f"volpack option octree_threshold: expected 0..255 (a range of 8-bit field "
-                             f"values), got {octree_threshold!r}")
+    def __init__(self, **options):
+        super().__init__(**options)
         self._prepared = None
         self._timers_compiled = None
         ok, reason = self.probe()
@@ -249,11 +232,6 @@ class VolPackRenderer(Renderer):
         except vp.VolPackUnavailable as exc:
             return False, str(exc)
         return True, ""
-
-    @property
-    def options(self):
-        return {"mode": self.mode, "opaque_threshold": self.opaque_threshold, "min_opacity": self.min_opacity,
-                "octree_base_node_size": self.octree_base_node_size, "octree_threshold": self.octree_threshold}
 
     def environment(self):
         return {"volpack_package": vp.package_version(), "volpack_header_version": vp.HEADER_VERSION,

@@ -456,7 +456,7 @@ class Pipeline:
 class VtkRenderer(Renderer):
     """What both VTK backends do each frame; a subclass builds its :class:`Pipeline` from a scene.
 
-    Subclasses set :attr:`cells`, validate their options, call :meth:`_open`, and implement
+    Subclasses set :attr:`cells` and their ``option_table``, call :meth:`_open`, and implement
     ``_key(scene)`` (what needs new VTK objects when it changes: not the camera's pose) and
     ``_build(scene, key)``, taking the volumes' image data from :meth:`_image`.
     """
@@ -476,6 +476,11 @@ class VtkRenderer(Renderer):
         self._pipeline = None
         self._images = {}
         self._last_step = None
+
+    @property
+    def options(self):
+        """Options as given, plus ``effective_step``: the ``SampleDistance`` of the last render."""
+        return {**super().options, "effective_step": self._last_step}
 
     def environment(self):
         return self._view.environment()

@@ -61,8 +61,7 @@ import re
 import numpy as np
 
 from core.errors import InputError
-from core.validation import check_choice, check_positive_int, check_step_factor
-from renderers.base import Capabilities, RenderResult
+from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.vtk import common
 
 TERMINATION_OPACITY = 1 - 255 / 32767
@@ -83,17 +82,8 @@ BLEND_MODES = {"dvr": "SetBlendModeToComposite", "mip": "SetBlendModeToMaximumIn
 class VtkCpuRenderer(common.VtkRenderer):
     """VTK's fixed-point CPU ray caster (``vtkFixedPointVolumeRayCastMapper``).
 
-    Parameters
-    ----------
-    step_factor : float, optional
-        ``SampleDistance`` as a fraction of the smallest voxel edge in the volume's object space
-        (default 0.25, the reference's default).
-    threads : int, optional
-        Ray-casting threads (``SetNumberOfThreads``); ``None`` (default) keeps VTK's default,
-        one per core. VTK warns that results may differ slightly with more than one thread.
-    readback : {"raycast", "window"}, optional
-        ``raycast`` (default): the mapper's own image; ``window``: the image as VTK draws it,
-        resampled (see the module notes).
+    ``options`` also records ``effective_step`` (the ``SampleDistance`` of the last render) and
+    ``effective_threads`` (the threads the mapper casts rays with).
 
     Notes
     -----
@@ -108,12 +98,8 @@ class VtkCpuRenderer(common.VtkRenderer):
         projections=frozenset({"orthographic", "perspective"}),
         modes=frozenset({"dvr", "mip"}),
         shading=frozenset({"none", "phong"}),
-        max_volumes=1,
         gradient_opacity=True,
         transforms=True,
-        anisotropic_spacing=True,
-        meshes=False,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "modes": "vtkFixedPointVolumeRayCastMapper composites or takes the maximum; it has no "
@@ -124,14 +110,20 @@ class VtkCpuRenderer(common.VtkRenderer):
             "lenses": "VTK's fixed-point mapper has no lens volumes",
         },
     )
+    option_table = (
+        step_factor_option(0.25, "``SampleDistance`` as a fraction of the smallest voxel edge in the volume's "
+                                 "object space; the default is the reference's."),
+        Option("threads", int, None, "Ray-casting threads (``SetNumberOfThreads``); ``None`` keeps VTK's default, "
+               "one per core. VTK warns that results may differ slightly with more than one thread.", low=1),
+        Option("readback", str, "raycast", "``raycast``: the mapper's own image; ``window``: the image as VTK draws "
+               "it, resampled (see the module notes).", choices=READBACKS),
+    )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Sample distance from one voxel to the reference's quarter voxel."""
     cells = False  # the fixed-point mapper reads point data only
 
-    def __init__(self, *, step_factor=0.25, threads=None, readback="raycast"):
-        self.step_factor = check_step_factor(step_factor, name="vtk-cpu option step_factor")
-        self.threads = None if threads is None else check_positive_int(threads, name="vtk-cpu option threads")
-        self.readback = check_choice(readback, READBACKS, name="vtk-cpu option readback")
+    def __init__(self, **options):
+        super().__init__(**options)
         threader = common.vtk_modules().vtkMultiThreader
         if self.threads is not None:
             # VTK clamps the count to VTK_MAX_THREADS without a word; the record would claim the request.
@@ -151,8 +143,7 @@ class VtkCpuRenderer(common.VtkRenderer):
     @property
     def options(self):
         """Options as given, plus the step of the last render and the effective thread count."""
-        return {"step_factor": self.step_factor, "threads": self.threads, "readback": self.readback,
-                "effective_step": self._last_step, "effective_threads": self.effective_threads}
+        return {**super().options, "effective_threads": self.effective_threads}
 
     def environment(self):
         return {**super().environment(), "vtk_mapper": "vtkFixedPointVolumeRayCastMapper",

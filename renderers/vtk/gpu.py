@@ -77,8 +77,7 @@ camera and light updates included, setup excluded). Counters: ``pixels``, ``voxe
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
-from core.validation import check_step_factor
-from renderers.base import Capabilities, RenderResult
+from renderers.base import Capabilities, Option, RenderResult, step_factor_option, world_step
 from renderers.vtk import common
 
 MAX_VOLUMES = 7
@@ -111,14 +110,7 @@ def table_width(transfer_function):
 class VtkGpuRenderer(common.VtkRenderer):
     """VTK's OpenGL GPU ray caster (``vtkOpenGLGPUVolumeRayCastMapper``), offscreen through EGL.
 
-    Parameters
-    ----------
-    step_factor : float, optional
-        ``SampleDistance`` as a fraction of the smallest voxel edge (default 0.25, the
-        reference's default); in object space for one volume, in world space for several.
-    early_termination : bool, optional
-        Keep VTK's early ray termination at opacity ``1 − 1/255`` (default ``True``, VTK as
-        used). ``False`` disables it through a shader replacement, for accuracy runs.
+    ``options`` also records ``effective_step``, the ``SampleDistance`` of the last render.
 
     Notes
     -----
@@ -136,9 +128,6 @@ class VtkGpuRenderer(common.VtkRenderer):
         max_volumes=MAX_VOLUMES,
         gradient_opacity=True,
         transforms=True,
-        anisotropic_spacing=True,
-        meshes=False,
-        lenses=False,
         camera_inside_volume=True,
         reasons={
             "max_volumes": f"VTK's vtkMultiVolume binds up to four textures per volume: {MAX_VOLUMES} volumes "
@@ -147,21 +136,18 @@ class VtkGpuRenderer(common.VtkRenderer):
             "lenses": "VTK's GPU mapper has no lens volumes",
         },
     )
+    option_table = (
+        step_factor_option(0.25, "``SampleDistance`` as a fraction of the smallest voxel edge, in object space "
+                                 "for one volume, in world space for several; the default is the reference's."),
+        Option("early_termination", bool, True, "Keep VTK's early ray termination at opacity ``1 − 1/255`` (VTK as "
+               "used). ``False`` disables it through a shader replacement, for accuracy runs."),
+    )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Sample distance from one voxel to the reference's quarter voxel."""
 
-    def __init__(self, *, step_factor=0.25, early_termination=True):
-        self.step_factor = check_step_factor(step_factor, name="vtk-gpu option step_factor")
-        if not isinstance(early_termination, bool):
-            raise InputError(f"vtk-gpu option early_termination: expected True or False, got {early_termination!r}")
-        self.early_termination = early_termination
+    def __init__(self, **options):
+        super().__init__(**options)
         self._open()
-
-    @property
-    def options(self):
-        """Options as given, plus ``effective_step``: the ``SampleDistance`` of the last render."""
-        return {"step_factor": self.step_factor, "early_termination": self.early_termination,
-                "effective_step": self._last_step}
 
     def environment(self):
         return {**super().environment(), "vtk_mapper": "vtkOpenGLGPUVolumeRayCastMapper"}
@@ -192,7 +178,7 @@ class VtkGpuRenderer(common.VtkRenderer):
         if len(scene.volumes) == 1:
             step = self.step_factor * scene.volumes[0].volume.min_spacing
         else:
-            step = self.step_factor * scene.min_world_voxel_size()
+            step = world_step(scene, self.step_factor)
         return (instances, scene.mode, scene.shading, scene.camera.projection, scene.width, scene.height, step)
 
     def _build(self, scene, key):
