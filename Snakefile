@@ -13,19 +13,20 @@
 # every record and are quick, so they run where Snakemake runs (localrules).
 #
 # Reruns. Every job carries, as the param `code`, a content digest of all the code that shapes its
-# output (pipeline.runner.JOB_SOURCES: e.g. a render job's core/, datasets/, renderers/base, its
-# backend's package, runner, scene_io, timing, reports/imageio, and its entry in pipeline/jobs.py),
-# so with Snakemake's default `params` rerun trigger an edit to any of it reruns exactly the jobs it
-# shapes (and, through their outputs, the jobs downstream), while editing one backend reruns only its
-# jobs. Digests, not the files as inputs: a checkout that changes no byte reruns nothing. A render
-# job's params also carry the run's spec hash, so changing a run's scene or options reruns that run.
+# output (pipeline.digests.job_code_digest: its entry in pipeline/jobs.py, the project modules that
+# imports, directly or through others, their packages' data files such as templates and kernels,
+# and a render job's backend package), so with Snakemake's default `params` rerun trigger an edit to
+# any of it reruns exactly the jobs it shapes (and, through their outputs, the jobs downstream),
+# while editing one backend reruns only its jobs. Digests, not the files as inputs: a checkout that
+# changes no byte reruns nothing. A render job's params also carry the run's spec hash, so changing
+# a run's scene or options reruns that run.
 #
 # Failed runs are retried: a run that raised or hit the profile's render_time_limit is recorded as
 # failed (the report lists it) and its job succeeds, so the pipeline goes on. Each render job takes a
 # retry marker (results/.retry/...) as an input, which the workflow rewrites at start-up: dated now
 # and naming the record when the run's record is failed, or names an image that is missing or does
 # not match the digest the record carries (a damaged run), empty and dated 1970 otherwise
-# (pipeline.runner.mark_retry). So the next run (and a dry run) reruns exactly the failed and damaged
+# (pipeline.digests.mark_retry). So the next run (and a dry run) reruns exactly the failed and damaged
 # runs, and a failed record is never kept as a finished output; it stays until its retry replaces it.
 # (Both rely on Snakemake's default rerun triggers; `--rerun-triggers mtime` would turn the code
 # digests off.)
@@ -38,8 +39,8 @@ from pathlib import Path
 sys.path.insert(0, workflow.basedir)
 
 import datasets
-import renderers
-from pipeline import runner
+from pipeline import digests
+from pipeline.environment import uses_device
 from pipeline.experiments import Profile, plan, selected
 from pipeline.scene_io import phantom_requests
 
@@ -55,21 +56,20 @@ RUNS = plan(PROFILE)
 R = PROFILE.results
 CACHE = PROFILE.cache
 PY = sys.executable
-CODE = {rule: runner.job_code_digest(rule)
+CODE = {rule: digests.job_code_digest(rule)
         for rule in ("volume", "phantoms", "environment", "evaluate", "tabulate", "collect", "report")}
-BACKEND_CODE = {backend: runner.job_code_digest("render", backend=backend)
+BACKEND_CODE = {backend: digests.job_code_digest("render", backend=backend)
                 for backend in sorted({run.backend for run in RUNS.values()})}
 # Only the Snakemake a user starts marks the retries; the ones it spawns to run a job (a cluster job,
 # a job step of a group) need the markers' paths only, and must not re-date them mid-run.
-_retry_marker = runner.mark_retry if workflow.is_main_process else runner.retry_marker_path
+_retry_marker = digests.mark_retry if workflow.is_main_process else digests.retry_marker_path
 RETRY = {key: str(_retry_marker(R, run.experiment, run.id)) for key, run in RUNS.items()}
 PROFILE_JSON = json.dumps(dataclasses.asdict(PROFILE), sort_keys=True)
 ROOT = Path(workflow.basedir)
 
 # Backends that render on a device: their render jobs ask for one `gpu` on a cluster.
-DEVICE_PACKAGES = ("renderers.gl", "renderers.cl", "renderers.vtk.gpu")
 RENDER_RESOURCES = {
-    "gpu": lambda w: int(renderers.backend_module(run_of(w).backend).startswith(DEVICE_PACKAGES)),
+    "gpu": lambda w: int(uses_device(run_of(w).backend)),
 }
 if PROFILE.render_time_limit is not None:
     # Minutes: the run's limit plus ten for start-up and writing the images and the record.

@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.environment import node_name
-from pipeline.runner import metrics_record_path
+from pipeline.records import metrics_record_path
 from reports.metrics import METRIC_KEYS
 
 
@@ -202,10 +202,10 @@ def experiment_rows(frame, experiment):
 def claims_table(frame, experiments):
     """Every claim of ``experiments`` judged on ``frame``'s rows: ``claims.csv``'s table.
 
-    Each claim is checked on the successful rows and gets a verdict (:mod:`pipeline.experiments.verdicts`):
+    Each claim is checked on the successful rows and gets a verdict (:mod:`pipeline.experiments.kit.verdicts`):
     ``blocked`` where it would read runs that should have happened here and did not.
     """
-    from pipeline.experiments.verdicts import judge
+    from pipeline.experiments.kit.verdicts import judge
 
     # One block per dtype: pandas.read_csv of runs.csv gives one per column (hundreds), and every
     # column a claim adds to such a frame would warn that it is fragmented.

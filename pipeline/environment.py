@@ -176,6 +176,18 @@ def probe_devices():
     return {**probe_opengl(), **probe_opencl()}
 
 
+DEVICE_PACKAGES = ("renderers.gl", "renderers.cl", "renderers.vtk.gpu")
+"""The backends (their registry modules) that render through a device driver."""
+
+
+def uses_device(backend):
+    """Whether ``backend`` renders through a device driver: its render job asks a cluster for a ``gpu``,
+    and its images match another run's within a tolerance, not bit for bit (:mod:`pipeline.compare`)."""
+    import renderers  # the registry imports no backend
+
+    return renderers.backend_module(backend).startswith(DEVICE_PACKAGES)
+
+
 def _sources_table(path):
     """``{file: source}`` from the Markdown table of a real-data ``SOURCES.md`` (``{}`` if none)."""
     try:

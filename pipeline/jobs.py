@@ -28,13 +28,13 @@ def volume(args):
 
 def environment(args):
     from pipeline.environment import host_environment, probe_devices
-    from pipeline.runner import write_json
+    from pipeline.records import write_json
 
     write_json(args.output, {**host_environment(), **probe_devices()})
 
 
 def render(args):
-    from pipeline.runner import execute_limited
+    from pipeline.execution import execute_limited
 
     fields = json.loads(args.run)
     run = Run(**{**fields, "views": tuple(fields["views"])})
@@ -71,7 +71,7 @@ def phantoms(args):
 
 def tabulate(args):
     from pipeline.collect import tabulate as tabulate_experiment
-    from pipeline.runner import run_record_path
+    from pipeline.records import run_record_path
 
     profile = _profile(args.profile)
     experiment = next((e for e in selected(profile) if e.name == args.experiment), None)

@@ -251,7 +251,7 @@ def _failed_runs(runs, results):
     A record of another plan of a run (its spec hash differs) is not this run's; a run without a
     record did not happen (the pipeline stopped first).
     """
-    from pipeline.runner import run_record_path
+    from pipeline.records import run_record_path
 
     failed = []
     for run in runs.values():

@@ -1,8 +1,9 @@
 """Renders one run and compares it with its reference run: the work of a render or evaluate job.
 
-Apart from :mod:`pipeline.runner` (records, time limits, rerun triggers) because this is where the
-heavy imports are (the data sets, the backend registry's renderers, OpenImageIO, the metrics): the
-process that only waits on a render under its time limit, and the Snakefile, never load them.
+Apart from :mod:`pipeline.records` (record paths and I/O) and :mod:`pipeline.execution` (the time
+limit) because this is where the heavy imports are (the data sets, the backend registry's renderers,
+OpenImageIO, the metrics): the process that only waits on a render under its time limit, and the
+Snakefile, never load them.
 """
 
 import json
@@ -13,7 +14,7 @@ import datasets
 import renderers
 from core.errors import BackendUnavailableError, InputError, UnsupportedFeatureError
 from core.transfer import Preset
-from pipeline.runner import _new_record, image_digest, run_record_path, write_json
+from pipeline.records import image_digest, new_record, run_record_path, write_json
 from pipeline.scene_io import build_scene, build_volume_instance
 from pipeline.timing import measure
 from reports.imageio import read_image, write_exr, write_png
@@ -31,7 +32,7 @@ def skip_cause(exc):
 def execute(run, *, profile, device_environment=None):
     """Render every view of ``run``, write its images and record; return the record."""
     record_path = run_record_path(profile.results, run.experiment, run.id)
-    record = _new_record(run, device_environment)
+    record = new_record(run, device_environment)
     try:
         scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size, data_dir=profile.real_data)
         renderer = renderers.get(run.backend, **run.options)
@@ -79,7 +80,7 @@ def evaluate(record_path, reference_path, output_path):
     A view that cannot be compared (an image missing or unreadable, two sizes) makes the run's
     metrics ``failed`` with the reason, and the other views are still compared: one damaged run
     must not stop the comparisons of its experiment (the render job redoes it on the next
-    ``volbench run``: :func:`pipeline.runner.image_damage`).
+    ``volbench run``: :func:`pipeline.digests.mark_retry`).
     """
     # Imported here: the metrics pull in scikit-image and SciPy's statistics (over a second per
     # process), which the render and volume jobs importing this module never use.

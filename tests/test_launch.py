@@ -115,7 +115,7 @@ def _write_records(root, runs, outcomes):
     """Records of ``runs`` (in order) with ``outcomes``: ``(status, cause, reason)`` each."""
     import json
 
-    from pipeline.runner import run_record_path
+    from pipeline.records import run_record_path
 
     for run, (status, cause, reason) in zip(runs, outcomes):
         record = run_record_path(root / "results", run.experiment, run.id)

@@ -44,3 +44,66 @@ def test_the_check_sees_an_upward_import(tmp_path):
     bad = tmp_path / "bad.py"
     bad.write_text("def f():\n    from pipeline.scene_io import build_scene\n    import reports.metrics\n")
     assert imported_packages(bad) == {"pipeline", "reports"}
+
+
+def module_name(path):
+    """The dotted name of a module file under :data:`ROOT` (``a/b/__init__.py`` is ``a.b``)."""
+    parts = path.relative_to(ROOT).with_suffix("").parts
+    return ".".join(parts[:-1] if parts[-1] == "__init__" else parts)
+
+
+def import_graph(package):
+    """``{module: modules of package it imports}`` for every module of ``package`` (a folder under
+    :data:`ROOT`), counting imports at any depth of the file: ``from a import b`` names the module
+    ``a.b`` where there is one, else ``a``."""
+    modules = {module_name(path): path for path in sorted((ROOT / package).rglob("*.py"))
+               if "__pycache__" not in path.parts}
+    graph = {}
+    for module, path in modules.items():
+        imported = set()
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Import):
+                imported.update(alias.name for alias in node.names)
+            elif isinstance(node, ast.ImportFrom) and node.level == 0 and node.module:
+                imported.update(f"{node.module}.{alias.name}" if f"{node.module}.{alias.name}" in modules
+                                else node.module for alias in node.names)
+        graph[module] = sorted(imported & set(modules) - {module})
+    return graph
+
+
+def find_cycle(graph):
+    """A cycle of ``graph`` as the list of its modules (the first one repeated at the end), or ``[]``."""
+    state, stack = {}, []
+
+    def visit(module):
+        state[module] = "open"
+        stack.append(module)
+        for other in graph.get(module, ()):
+            if state.get(other) == "open":
+                return stack[stack.index(other):] + [other]
+            if other not in state:
+                cycle = visit(other)
+                if cycle:
+                    return cycle
+        stack.pop()
+        state[module] = "done"
+        return []
+
+    for module in graph:
+        if module not in state:
+            cycle = visit(module)
+            if cycle:
+                return cycle
+    return []
+
+
+def test_the_pipeline_modules_import_each_other_without_a_cycle():
+    graph = import_graph("pipeline")
+    assert "pipeline.jobs" in graph and "pipeline.experiments.kit.model" in graph
+    cycle = find_cycle(graph)
+    assert not cycle, "pipeline/ imports in a circle: " + " → ".join(cycle)
+
+
+def test_the_cycle_check_finds_a_circle():
+    assert find_cycle({"a": ["b"], "b": ["c"], "c": ["a"], "d": ["a"]}) == ["a", "b", "c", "a"]
+    assert find_cycle({"a": ["b", "c"], "b": ["c"], "c": []}) == []

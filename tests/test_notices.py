@@ -4,7 +4,7 @@ import pandas as pd
 import pytest
 
 from core.errors import InputError
-from pipeline.experiments.volbench import PhantomGallery
+from pipeline.experiments.volbench.phantoms import PhantomGallery
 from reports.html import build_report
 from reports.notices import mark_report, unmark_report
 

@@ -13,10 +13,10 @@ import pytest
 import renderers
 from pipeline.collect import collect
 from pipeline.experiments import Profile, Run
-from pipeline.experiments.volbench import PhantomGallery
+from pipeline.experiments.volbench.phantoms import PhantomGallery
 from pipeline import jobs
 from pipeline.rendering import execute
-from pipeline.runner import image_digest, metrics_record_path, run_record_path
+from pipeline.records import image_digest, metrics_record_path, run_record_path
 from renderers.base import Capabilities, Renderer
 from reports.imageio import write_exr
 

@@ -1,11 +1,14 @@
-"""The render-job time limit, retries of failed runs and the code digests that trigger reruns."""
+"""The render-job time limit (pipeline.execution), retries of failed and damaged runs and the code digests
+that trigger reruns (pipeline.digests)."""
 
 import json
 import os
 import shutil
 import subprocess
 import sys
+import threading
 import time
+from contextlib import contextmanager
 from dataclasses import asdict, replace
 from pathlib import Path
 
@@ -14,9 +17,12 @@ import pytest
 
 import renderers
 from core.errors import InputError
-from pipeline import rendering, runner
-from pipeline.experiments import Profile, Run
-from pipeline.runner import execute_limited, image_digest, mark_retry, run_record_path, time_limit_reason
+from pipeline import digests, execution, jobs, records, rendering
+from pipeline.digests import mark_retry
+from pipeline.execution import execute_limited, time_limit_reason
+from pipeline.experiments import Profile, Run, plan
+from pipeline.records import image_digest, run_record_path
+from pipeline.scene_io import phantom_requests
 from renderers.base import Capabilities, Renderer
 from reports.imageio import write_exr, write_png
 
@@ -56,7 +62,7 @@ def _run(run_id, backend, **kw):
     return Run("volbench-phantoms", run_id, backend, SCENE, ({"view": "front"},), warmup=0, repeat=1, **kw)
 
 
-@pytest.mark.parametrize("start_method", runner.START_METHODS)
+@pytest.mark.parametrize("start_method", execution.START_METHODS)
 def test_a_hanging_job_is_killed_at_the_limit_and_recorded_as_failed(profile, start_method):
     limited = replace(profile, render_time_limit=3)
     started = time.monotonic()
@@ -73,7 +79,7 @@ def test_a_hanging_job_is_killed_at_the_limit_and_recorded_as_failed(profile, st
     assert Path(ok["views"][0]["exr"]).is_file()
 
 
-@pytest.mark.parametrize("start_method", runner.START_METHODS)
+@pytest.mark.parametrize("start_method", execution.START_METHODS)
 def test_a_crashed_render_process_is_recorded_as_failed(profile, start_method):
     record = execute_limited(_run("crash", "crashing"), profile=profile, start_method=start_method)
     assert record["status"] == "failed" and "exit code 9" in record["reason"]
@@ -183,68 +189,228 @@ def test_a_run_whose_images_are_missing_or_damaged_is_retried(tmp_path):
 def test_images_whose_size_and_time_are_as_recorded_are_not_read_again(tmp_path, monkeypatch):
     results = tmp_path / "r"
     record, _, _ = _record_with_images(results)
-    monkeypatch.setattr(runner, "image_digest", lambda path: pytest.fail(f"{path} was hashed again"))
+    monkeypatch.setattr(records, "image_digest", lambda path: pytest.fail(f"{path} was hashed again"))
     assert _retry_reason(results, record) is None
 
 
-def _copy_tree(tmp_path):
-    tree = tmp_path / "tree"
+RULES = ("volume", "phantoms", "environment", "render", "evaluate", "tabulate", "collect", "report")
+LOOKUPS = {"phantoms", "tabulate", "collect", "report"}
+"""The rules whose code asks the registries for what they hold: every experiment, and any backend
+(planning reads backend classes, the report probes every backend)."""
+
+
+@pytest.fixture(scope="module")
+def tree(tmp_path_factory):
+    """A copy of the project's packages; a test edits a file of it with :func:`_edited`."""
+    tree = tmp_path_factory.mktemp("digests") / "tree"
     for entry in ("core", "datasets", "renderers", "reports", "pipeline"):
         shutil.copytree(ROOT / entry, tree / entry, ignore=shutil.ignore_patterns("__pycache__"))
     return tree
 
 
+@contextmanager
+def _edited(path, edit=lambda text: text + "\n# an edit\n"):
+    original = path.read_text()
+    path.write_text(edit(original))
+    try:
+        yield
+    finally:
+        path.write_text(original)
+
+
+def _digests(tree, backends=("reference",)):
+    """``{rule: digest}``, a render's under ``render:<backend>`` for each of ``backends``."""
+    found = {rule: digests.job_code_digest(rule, root=tree) for rule in RULES if rule != "render"}
+    found.update({f"render:{b}": digests.job_code_digest("render", backend=b, root=tree) for b in backends})
+    return found
+
+
+def _changed(tree, edited, **edit):
+    before = _digests(tree, renderers.names())
+    with _edited(tree / edited, **edit):
+        after = _digests(tree, renderers.names())
+    return {key for key in before if before[key] != after[key]}
+
+
+def _sources(rule, backend=None, root=ROOT):
+    files, _ = digests.job_sources(rule, backend=backend, root=root)
+    return {path.relative_to(root).as_posix() for path in files}
+
+
 @pytest.mark.parametrize("edited, reruns", [
-    ("core/camera.py", {"volume", "phantoms", "render", "evaluate", "tabulate", "report", "environment"}),
-    ("core/transfer.py", {"volume", "phantoms", "render", "evaluate", "tabulate", "report", "environment"}),
-    ("datasets/loaders.py", {"volume", "phantoms", "render"}),
-    ("renderers/base/interface.py", {"render"}),
-    ("renderers/reference/raycast.py", {"render"}),
+    ("core/errors.py", set(RULES)),
+    ("datasets/loaders.py", {"volume", "render"}),  # the phantoms list reads the cache, not the loaders
     ("pipeline/scene_io.py", {"phantoms", "render"}),
     ("pipeline/timing.py", {"render"}),
-    ("pipeline/runner.py", {"render", "evaluate", "tabulate"}),
-    ("reports/imageio.py", {"render", "evaluate", "report"}),
-    ("reports/metrics.py", {"evaluate", "tabulate", "report"}),
-    ("pipeline/collect.py", {"phantoms", "tabulate", "collect"}),
-    ("pipeline/experiments/volbench.py", {"phantoms", "tabulate", "report"}),
+    ("pipeline/execution.py", {"render"}),
+    ("pipeline/rendering.py", {"render", "evaluate"}),
+    ("pipeline/records.py", {"environment", "render", "evaluate", "tabulate"}),
+    ("pipeline/environment.py", {"environment", "render", "tabulate", "report"}),
+    ("reports/imageio.py", {"render", "evaluate", *LOOKUPS}),
+    ("reports/metrics.py", {"evaluate", *LOOKUPS}),
     ("reports/html.py", {"report"}),
-    ("pipeline/environment.py", {"environment", "render", "tabulate"}),
+    ("reports/templates/base.html", {"report"}),  # read by reports/html.py only, not by its package's imageio
+    ("pipeline/collect.py", {"phantoms", "tabulate", "collect"}),
+    ("pipeline/experiments/volbench/phantoms.py", LOOKUPS),  # the registry's lookups import it, its Run class not
+    ("pipeline/experiments/kit/model.py", {"render", *LOOKUPS}),
+    ("pipeline/experiments/README.md", set()),
 ])
-def test_editing_shared_code_changes_the_digest_of_the_jobs_it_shapes(tmp_path, edited, reruns):
-    tree = _copy_tree(tmp_path)
-    rules = ("volume", "phantoms", "environment", "render", "evaluate", "tabulate", "collect", "report")
-
-    def digests():
-        return {rule: runner.job_code_digest(rule, backend="reference" if rule == "render" else None, root=tree)
-                for rule in rules}
-
-    before = digests()
-    with open(tree / edited, "a") as f:
-        f.write("\n# an edit\n")
-    after = digests()
-    assert {rule for rule in rules if before[rule] != after[rule]} == reruns
+def test_editing_code_changes_the_digest_of_the_jobs_it_shapes(tree, edited, reruns):
+    changed = {key.split(":")[0] for key in _changed(tree, edited)}
+    assert changed == reruns
 
 
-@pytest.mark.parametrize("backend, edited", [("gl-raycast", "renderers/gl/glsl.py"),
-                                             ("cl-tiled", "renderers/cl/kernels/pixel.cl"),
-                                             ("reference", "renderers/reference/raycast.py")])
-def test_a_backend_job_reruns_when_any_file_of_its_package_changes(tmp_path, backend, edited):
-    tree = _copy_tree(tmp_path)
-    before = runner.job_code_digest("render", backend=backend, root=tree)
-    other = runner.job_code_digest("render", backend="shearwarp", root=tree)
-    with open(tree / edited, "a") as f:
-        f.write("\n// an edit\n")
-    assert runner.job_code_digest("render", backend=backend, root=tree) != before
-    assert runner.job_code_digest("render", backend="shearwarp", root=tree) == other
+def test_editing_one_job_entry_function_changes_that_job_digest_alone(tree):
+    def edit(text):
+        assert "def render(args):\n" in text
+        return text.replace("def render(args):\n", "def render(args):\n    \"\"\"Edited.\"\"\"\n")
+
+    assert _changed(tree, "pipeline/jobs.py", edit=edit) == {f"render:{b}" for b in renderers.names()}
 
 
-def test_job_sources_exist_and_cover_what_a_render_job_imports():
-    for rule, entries in runner.JOB_SOURCES.items():
-        assert runner.source_files(entries), rule
-    files = {p.relative_to(ROOT).as_posix() for p in runner.source_files(runner.JOB_SOURCES["render"])}
-    for module in ("core/scene.py", "core/transfer.py", "datasets/cache.py", "datasets/phantoms/heads.py",
-                   "renderers/base/interface.py", "pipeline/runner.py", "pipeline/scene_io.py", "pipeline/timing.py",
-                   "reports/imageio.py"):
-        assert module in files, module
-    with pytest.raises(FileNotFoundError):
-        runner.source_files(["no/such/file.py"])
+@pytest.mark.parametrize("edited, package", [("renderers/shearwarp/octree.py", "renderers.shearwarp"),
+                                             ("renderers/gl/glsl.py", "renderers.gl"),
+                                             ("renderers/cl/tiled.py", "renderers.cl"),
+                                             ("renderers/cl/kernels/pixel.cl", "renderers.cl"),
+                                             ("renderers/reference/raycast.py", "renderers.reference")])
+def test_editing_a_backend_changes_its_renders_and_no_other_backends(tree, edited, package):
+    # Of the other rules, only those that look backends up by name; not the phantoms' generation,
+    # the device probe (it takes renderers.cl.context, not the backend its package gathers) or
+    # the comparisons.
+    ours = {f"render:{b}" for b in renderers.names() if renderers.backend_module(b).startswith(package)}
+    assert _changed(tree, edited) == ours | LOOKUPS
+
+
+FORMER_JOB_SOURCES = {
+    "volume": ("core", "datasets"),
+    "environment": ("core", "pipeline/environment.py", "renderers/gl/context.py", "renderers/cl/context.py"),
+    "render": ("core", "datasets", "renderers/__init__.py", "renderers/base", "pipeline/records.py",
+               "pipeline/execution.py", "pipeline/rendering.py", "pipeline/scene_io.py", "pipeline/timing.py",
+               "pipeline/environment.py", "pipeline/experiments/kit/model.py", "reports/imageio.py"),
+    "evaluate": ("core", "pipeline/records.py", "pipeline/rendering.py", "reports/metrics.py", "reports/imageio.py"),
+    "phantoms": ("core", "datasets", "pipeline/collect.py", "pipeline/scene_io.py", "pipeline/experiments"),
+    "tabulate": ("core", "pipeline/records.py", "pipeline/collect.py", "pipeline/environment.py",
+                 "pipeline/experiments", "reports/metrics.py"),
+    "collect": ("pipeline/collect.py",),
+    "report": ("core", "pipeline/experiments", "reports"),
+}
+"""The hand-kept list the digests were made of before they were derived from the imports, with
+``pipeline/runner.py`` replaced by the modules its parts moved to (records; execution for a render)
+and ``pipeline/experiments/base.py`` by the module of the ``Run`` it held (``kit/model.py``). Its
+folders stood for what the job uses in them: which modules that is,
+:func:`test_every_file_a_job_runs_is_in_its_sources` checks on the jobs themselves."""
+
+
+@pytest.mark.parametrize("rule", RULES)
+def test_derived_sources_include_the_former_list(rule):
+    backends = renderers.names() if rule == "render" else [None]
+    for backend in backends:
+        sources = _sources(rule, backend)
+        files = [entry for entry in FORMER_JOB_SOURCES[rule] if (ROOT / entry).is_file()]
+        assert set(files) <= sources, (backend, sorted(set(files) - sources))
+        # Registries import whole packages: every paper's modules, the render's backend's files.
+        packages = [entry for entry in FORMER_JOB_SOURCES[rule] if entry == "pipeline/experiments"]
+        if backend is not None:
+            packages.append(Path(*renderers.backend_module(backend).split(".")[:2]).as_posix())
+        for package in packages:
+            files = {path.relative_to(ROOT).as_posix() for path in (ROOT / package).rglob("*")
+                     if path.is_file() and "__pycache__" not in path.parts and path.suffix not in digests.LEFT_OUT_SUFFIXES}
+            assert files <= sources, (backend, package, sorted(files - sources))
+        if backend == "reference":
+            for module in ("core/scene.py", "core/transfer.py", "datasets/cache.py", "datasets/phantoms/heads.py",
+                           "renderers/base/interface.py", "renderers/reference/raycast.py"):
+                assert module in sources, module
+
+
+class _Calls:
+    """The project files whose functions run while it is active (this thread and threads it starts),
+    leaving out what runs on import: a module's code, and the class bodies and calls it makes."""
+
+    def __init__(self):
+        self.files, self.importing = set(), 0
+
+    def _call(self, frame, event, arg):
+        if frame.f_code.co_name == "<module>":
+            self.importing += 1
+            return self._in_module
+        if not self.importing:
+            self.files.add(frame.f_code.co_filename)
+        return None
+
+    def _in_module(self, frame, event, arg):
+        if event == "return":
+            self.importing -= 1
+            return None
+        return self._in_module
+
+    def __enter__(self):
+        sys.settrace(self._call)
+        threading.settrace(self._call)
+        return self
+
+    def __exit__(self, *exc):
+        sys.settrace(None)
+        threading.settrace(None)
+
+    def project_files(self):
+        packages = ("core", "datasets", "renderers", "reports", "pipeline")
+        paths = (Path(name) for name in self.files)
+        return {path.relative_to(ROOT).as_posix() for path in paths
+                if path.is_relative_to(ROOT) and path.relative_to(ROOT).parts[0] in packages}
+
+
+@pytest.mark.slow
+def test_every_file_a_job_runs_is_in_its_sources(tmp_path):
+    """Each job of a small experiment, run in this process: no function of a file outside its digest's sources runs."""
+    from test_reports_html import SIZE, synthetic_results
+
+    experiment, settings = "volbench-convergence", {"volbench-convergence": {"step_factors": [1.0], "truth_step_factor": 0.5}}
+    synthetic_results(tmp_path, experiments=[experiment], settings=settings)  # records, metrics, tables, phantoms
+    profile = Profile(name="t", volume_size=8, image_size=SIZE, results=str(tmp_path / "results"),
+                      cache=str(tmp_path / "cache"), experiments=[experiment], settings=settings, render_time_limit=None)
+    runs = plan(profile)
+    run = next(run for run in runs.values() if run.reference is None)
+    pairs = [[str(run_record_path(profile.results, r.experiment, name)) for name in (r.id, r.reference)]
+             + [str(records.metrics_record_path(profile.results, r.experiment, r.id))]
+             for r in runs.values() if r.reference is not None]
+    as_json = json.dumps(asdict(profile))
+    # Rendered apart, so the synthetic records stay as the other jobs expect them.
+    rendered = json.dumps(asdict(replace(profile, results=str(tmp_path / "rendered"))))
+    request = next(iter(phantom_requests(run.volume_entries, size=profile.volume_size).values()))
+    arguments = {
+        "volume": ["--request", json.dumps(request), "--cache", profile.cache],
+        "environment": ["--output", str(tmp_path / "environment.json")],
+        "render": ["--run", json.dumps(run.as_dict()), "--profile", rendered],  # no time limit: in this process
+        "evaluate": ["--pairs", json.dumps(pairs)],
+        "phantoms": ["--profile", as_json, "--output", str(tmp_path / "results" / "volumes.csv")],
+        "tabulate": ["--profile", as_json, "--experiment", experiment],
+        "collect": ["--profile", as_json],
+        "report": ["--profile", as_json],
+    }
+    for rule in RULES:
+        with _Calls() as calls:
+            jobs.main([rule, *arguments[rule]])
+        ran = calls.project_files() - {"pipeline/jobs.py"}  # its entry functions' code is in the digest
+        sources = _sources(rule, run.backend if rule == "render" else None)
+        assert ran and ran <= sources, (rule, sorted(ran - sources))
+
+
+def test_a_computed_import_the_digests_cannot_follow_is_an_error(tree):
+    # Code a render runs (pipeline.timing's measure) imports by a computed name.
+    def edit(text):
+        return text.replace("import statistics\n", "import importlib\nimport statistics\n") + \
+            "\n\ndef _plugin(name):\n    return importlib.import_module(name)\n"
+
+    with _edited(tree / "pipeline" / "timing.py", edit=edit):
+        digests.job_code_digest("render", backend="reference", root=tree)  # not run by the job: no error
+    with _edited(tree / "pipeline" / "timing.py", edit=lambda text: edit(text) + "\n\n_plugin('json')\n"):  # on import
+        with pytest.raises(RuntimeError, match="^pipeline.timing imports modules by a name computed at run time"):
+            digests.job_code_digest("render", backend="reference", root=tree)
+    for module in digests.NAMED_IMPORTS:  # each one does
+        path = ROOT.joinpath(*module.split(".")) / "__init__.py"
+        assert "importlib.import_module(" in path.read_text(), module
+
+
+def test_an_unknown_rule_is_refused_naming_the_jobs():
+    with pytest.raises(InputError, match="^rule 'rendr': pipeline.jobs has no function of that name; it has .*render"):
+        digests.job_code_digest("rendr")

@@ -1,0 +1,386 @@
+"""Two results folders compared: the same runs, images, claims and phantoms, timings aside.
+
+Two pipeline runs of the same code and profile must agree on everything but what the machine and
+its scheduling decide: the cluster test (``tests/test_cluster.py``) compares a SLURM smoke run with
+a local one, and ``scripts/compare-results A B`` any two folders (a smoke run before and after a
+change that must not change results). Each ``*_differences`` function returns the differences it
+finds, one sentence each: none, the folders agree.
+
+Left out everywhere: timings and durations (``time_*``, ``*_seconds``), the environment (host,
+device, SLURM job, node: every column a record's ``environment`` or ``backend_environment`` names)
+and the values the backends declare scheduling-dependent (``Renderer.scheduling_dependent``: the
+order of threads or work-items decides them). Paths are compared relative to their results folder,
+and read there: a folder can be moved or copied (``/work/baseline/smoke`` whose records say
+``results/smoke/...``). Images of CPU backends must be bit-identical, those rendered through a
+device driver (:func:`pipeline.environment.uses_device`) within :data:`DEVICE_TOLERANCE`, and so
+their metrics within :data:`METRIC_TOLERANCE`. Claims must be the same and have the same verdicts,
+but for the claims whose judgement reads timings or scheduling-dependent values
+(:func:`varying_claims`: the timing claims).
+"""
+
+import argparse
+import json
+import sys
+import tempfile
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+import renderers
+from core.errors import BackendUnavailableError, InputError
+from pipeline.collect import claims_table
+from pipeline.environment import SLURM_FACTS, uses_device
+from reports.imageio import read_image
+
+KEY = ["experiment", "run", "view"]
+"""What names a row of ``runs.csv``: a run's view (``view`` empty for a run that made no frame)."""
+
+PATH_COLUMNS = ("record", "png", "exr", "diff_png")
+"""The columns of ``runs.csv`` that name files."""
+
+DEVICE_TOLERANCE = 1e-6
+"""The largest difference of a pixel channel allowed between two images of a device backend (OpenGL
+through Mesa's llvmpipe, OpenCL through PoCL render deterministically on one machine in practice)."""
+
+METRIC_TOLERANCE = {"rtol": 1e-4, "atol": 1e-6}
+"""How far a metric of a device render may differ (:func:`numpy.isclose`): its image's tolerance."""
+
+VARYING_FACTORS = (0.25, 4.0)
+"""The range of the random factors :func:`varying_claims` multiplies each varying value by."""
+
+
+def is_timing(column):
+    """Timings (``time_*``) and durations (``*_seconds``: e.g. a phantom's generation time) differ run to run."""
+    return column.startswith("time_") or column.endswith("_seconds")
+
+
+def scheduling_dependent():
+    """``{backend: names}``: each backend's counters and info entries that its scheduling decides."""
+    dependent = {}
+    for name in renderers.names():
+        try:
+            dependent[name] = tuple(renderers.backend_class(name).scheduling_dependent)
+        except BackendUnavailableError:  # not importable here: none of its runs rendered either
+            dependent[name] = ()
+    return dependent
+
+
+def scheduling_columns():
+    """The ``runs.csv`` columns of :func:`scheduling_dependent` (``count_<name>``, ``info_<name>``)."""
+    return {f"{kind}_{name}" for names in scheduling_dependent().values() for name in names
+            for kind in ("count", "info")}
+
+
+def read_runs(folder, *, experiments=None):
+    """``runs.csv`` of the results folder ``folder``, its paths made absolute under ``folder``.
+
+    Only the rows of ``experiments`` (names; ``None``: all), without the columns none of them fills,
+    sorted by :data:`KEY` (``view`` ``""`` where a run made no frame).
+    """
+    folder = Path(folder)
+    frame = pd.read_csv(results_file(folder, "runs.csv"), low_memory=False)
+    if experiments is not None:
+        frame = frame[frame.experiment.isin(list(experiments))]
+    frame = frame.dropna(axis=1, how="all").copy()
+    frame["view"] = frame["view"].fillna("") if "view" in frame else ""
+    # The records sit at <results>/runs/<experiment>/<run>.json: <results> is where the run wrote them.
+    suffixes = "/runs/" + frame.experiment.astype(str) + "/" + frame.run.astype(str) + ".json"
+    written = [record[:-len(suffix)] if isinstance(record, str) and record.endswith(suffix) else None
+               for record, suffix in zip(frame.record, suffixes)]
+    for column in [c for c in PATH_COLUMNS if c in frame]:
+        frame[column] = [_moved(path, prefix, folder) for path, prefix in zip(frame[column], written)]
+    return frame.sort_values(KEY).reset_index(drop=True)
+
+
+def results_file(folder, name):
+    """The file ``name`` (``runs.csv``, ``claims.csv``, ``volumes.csv``) of the results folder ``folder``.
+
+    Raises
+    ------
+    InputError
+        It is not there.
+    """
+    path = Path(folder) / name
+    if not path.is_file():
+        raise InputError(f"{folder}: no {name}; give the results folder of a finished pipeline run (results/<profile>)")
+    return path
+
+
+def _moved(path, written, folder):
+    """``path`` (under the results folder ``written`` where the run wrote it) under ``folder``."""
+    if not isinstance(path, str) or written is None or not path.startswith(written + "/"):
+        return path
+    return str(folder.resolve() / path[len(written) + 1:])
+
+
+def environment_columns(frame):
+    """The columns of ``frame`` (:func:`read_runs`) that describe where a run ran, not what it rendered:
+    its record's ``environment`` and ``backend_environment`` (e.g. PoCL sizes ``cl_global_mem_bytes`` by
+    the memory free when it starts), the SLURM job's and the node."""
+    columns = set(SLURM_FACTS) | {"node"}
+    for path in frame["record"].dropna().unique():
+        record = json.loads(Path(path).read_text())
+        columns |= set(record["environment"]) | set(record.get("backend_environment") or {})
+    return columns
+
+
+def compared_columns(frame):
+    """The columns of ``frame`` two runs must agree on: not timings, paths or the environment, nor
+    the values that the backends' thread or work-item scheduling decides."""
+    left_out = environment_columns(frame) | set(PATH_COLUMNS) | scheduling_columns()
+    return [column for column in frame.columns if not is_timing(column) and column not in left_out]
+
+
+def run_differences(a, b, *, experiments=None):
+    """How ``runs.csv`` of the results folders ``a`` and ``b`` differ: rows, compared columns and paths."""
+    first, second = read_runs(a, experiments=experiments), read_runs(b, experiments=experiments)
+    differences = _only_in([tuple(row) for row in first[KEY].values], [tuple(row) for row in second[KEY].values],
+                           "runs.csv rows (experiment, run, view)", a, b)
+    columns = {"a": compared_columns(first), "b": compared_columns(second)}
+    # The rows both have, in the same order.
+    both = first[KEY].merge(second[KEY])
+    first, second = (frame.merge(both).reset_index(drop=True) for frame in (first, second))
+    differences += _only_in(columns["a"], columns["b"], "runs.csv columns", a, b)
+    device = first["backend"].map(uses_device)
+    for column in [c for c in columns["a"] if c in columns["b"]]:
+        x, y = first[column], second[column]
+        if pd.api.types.is_float_dtype(x) and pd.api.types.is_float_dtype(y):
+            same = np.isclose(x, y, rtol=0, atol=0, equal_nan=True)
+            same |= device.to_numpy() & np.isclose(x, y, equal_nan=True, **METRIC_TOLERANCE)
+        else:
+            same = ((x == y) | (x.isna() & y.isna())).to_numpy()
+        differences += _rows_differing(first, column, x, y, same)
+    for column in [c for c in PATH_COLUMNS if c in first and c in second]:
+        x, y = (frame[column].map(lambda path, folder=folder: _relative(path, folder))
+                for frame, folder in ((first, a), (second, b)))
+        differences += _rows_differing(first, f"{column} (relative to the folder)", x, y,
+                                       ((x == y) | (x.isna() & y.isna())).to_numpy())
+    return differences
+
+
+def _relative(path, folder):
+    """A path of a row as relative to its results folder (one elsewhere as it is)."""
+    if isinstance(path, str) and Path(path).is_relative_to(Path(folder).resolve()):
+        return Path(path).relative_to(Path(folder).resolve()).as_posix()
+    return path
+
+
+def _rows_differing(frame, column, x, y, same, shown=3):
+    if same.all():
+        return []
+    rows = np.flatnonzero(~same)
+    examples = "; ".join(f"{'/'.join(map(str, frame.loc[i, KEY]))}: {x.iloc[i]!r} vs {y.iloc[i]!r}"
+                         for i in rows[:shown])
+    more = f" (and {len(rows) - shown} more)" if len(rows) > shown else ""
+    return [f"runs.csv {column} differs in {len(rows)} rows: {examples}{more}"]
+
+
+def _only_in(first, second, what, a, b, shown=5):
+    differences = []
+    for ours, theirs, folder in ((first, second, a), (second, first, b)):
+        items = sorted(set(ours) - set(theirs), key=str)
+        if items:
+            more = f" (and {len(items) - shown} more)" if len(items) > shown else ""
+            differences.append(f"{what} only in {folder}: {', '.join(map(str, items[:shown]))}{more}")
+    return differences
+
+
+def image_differences(a, b, *, experiments=None, tolerance=DEVICE_TOLERANCE):
+    """How the images (EXR) of the runs both folders made differ: CPU backends' must be bit-identical,
+    device backends' (:func:`uses_device`) within ``tolerance`` per pixel channel."""
+    first, second = read_runs(a, experiments=experiments), read_runs(b, experiments=experiments)
+    other = second.set_index(KEY)
+    differences = []
+    for row in first[(first.status == "ok") & first.exr.notna()].itertuples(index=False):
+        key = (row.experiment, row.run, row.view)
+        if key not in other.index or not isinstance(other.loc[key, "exr"], str):
+            continue  # a row one folder lacks is a run difference
+        paths = (row.exr, other.loc[key, "exr"])
+        missing = [path for path in paths if not Path(path).is_file()]
+        if missing:
+            differences.append(f"{'/'.join(key)}: image {missing[0]} is missing")
+            continue
+        x, y = (read_image(path) for path in paths)
+        if x.shape != y.shape:
+            differences.append(f"{'/'.join(key)}: images of {x.shape} and {y.shape} pixels")
+        elif not uses_device(row.backend) and not np.array_equal(x, y, equal_nan=True):
+            differences.append(f"{'/'.join(key)}: {row.backend} (a CPU backend) made different images")
+        elif uses_device(row.backend) and float(np.nanmax(np.abs(x - y), initial=0.0)) > tolerance:
+            differences.append(f"{'/'.join(key)}: {row.backend} images differ by up to "
+                               f"{float(np.nanmax(np.abs(x - y))):g}, more than {tolerance:g}")
+    return differences
+
+
+def read_claims(folder, *, experiments=None):
+    """``claims.csv`` of the results folder ``folder`` (the rows of ``experiments``; ``None``: all)."""
+    claims = pd.read_csv(results_file(folder, "claims.csv"), dtype=str, keep_default_na=False)
+    return claims if experiments is None else claims[claims.experiment.isin(list(experiments))]
+
+
+def claim_differences(a, b, *, experiments=None):
+    """How the claims of ``a`` and ``b`` differ: the same claims (experiment, id, statement, expected),
+    and the same verdict for each but those whose judgement reads timings or scheduling-dependent
+    values in either folder (:func:`varying_claims`)."""
+    first, second = read_claims(a, experiments=experiments), read_claims(b, experiments=experiments)
+    key = ["experiment", "claim"]
+    text = ["statement", "expected"]
+    differences = _only_in([tuple(row) for row in first[key].values], [tuple(row) for row in second[key].values],
+                           "claims (experiment, claim)", a, b)
+    names = sorted(set(first.experiment) & set(second.experiment))
+    varying = set()
+    with tempfile.TemporaryDirectory(prefix="volbench-compare-") as workdir:
+        for index, folder in enumerate((a, b)):
+            varying |= varying_claims(read_runs(folder, experiments=names), _experiments(names),
+                                      workdir=Path(workdir) / str(index))
+    merged = first.merge(second, on=key, suffixes=("_a", "_b"))
+    for row in merged.itertuples(index=False):
+        name = f"{row.experiment}/{row.claim}"
+        for column in text:
+            if getattr(row, f"{column}_a") != getattr(row, f"{column}_b"):
+                differences.append(f"claim {name}: {column} {getattr(row, f'{column}_a')!r} in {a}, "
+                                   f"{getattr(row, f'{column}_b')!r} in {b}")
+        if (row.experiment, row.claim) not in varying and row.verdict_a != row.verdict_b:
+            differences.append(f"claim {name}: {row.verdict_a} in {a}, {row.verdict_b} in {b}")
+    return differences
+
+
+def _experiments(names):
+    from pipeline.experiments import all_experiments
+
+    registry = all_experiments()
+    unknown = [name for name in names if name not in registry]
+    if unknown:
+        raise InputError(f"experiments {', '.join(unknown)}: volbench has no such experiment, so which of their "
+                         "claims read timings cannot be told; compare results of experiments it has")
+    return [registry[name] for name in names]
+
+
+def varying_claims(frame, experiments, *, workdir, seeds=(1, 2)):
+    """The ``(experiment, claim)`` pairs whose judgement reads values that differ run to run.
+
+    A claim is judged on ``frame`` (:func:`read_runs`) as it is, then with every timing and
+    scheduling-dependent value (the columns and the records' entries) multiplied by a factor of its
+    own, drawn from :data:`VARYING_FACTORS` (once per seed): where its verdict, measured value or
+    detail changes, it reads them. Random factors per value rather than one scale for all, so that a
+    claim on a ratio of two timings is found too. Record copies are written under ``workdir``.
+    """
+    baseline = claims_table(frame, experiments).set_index(["experiment", "claim"])
+    varying = set()
+    for seed in seeds:
+        rng = np.random.default_rng(seed)
+        perturbed = with_varying_values(
+            frame, Path(workdir) / f"seed{seed}",
+            columns=lambda column, values: values * rng.uniform(*VARYING_FACTORS, len(values))
+            if pd.api.types.is_numeric_dtype(values) else values,
+            entries=lambda index, view, part, name, value: _scaled(value, rng))
+        judged = claims_table(perturbed, experiments).set_index(["experiment", "claim"])
+        for column in ("verdict", "measured", "detail"):
+            changed = baseline[column].astype(str) != judged[column].astype(str)
+            varying |= set(baseline.index[changed.to_numpy()])
+    return varying
+
+
+def _scaled(value, rng):
+    if isinstance(value, list):
+        return [_scaled(item, rng) for item in value]
+    if isinstance(value, (int, float)) and not isinstance(value, bool):
+        return value * rng.uniform(*VARYING_FACTORS)
+    return value
+
+
+def with_varying_values(frame, workdir, *, columns, entries):
+    """``frame`` whose timing and scheduling-dependent values are replaced, with the records it names.
+
+    ``columns(column, values)`` gives a timing or scheduling-dependent column's new values;
+    ``entries(index, view, part, name, value)`` the new value of a scheduling-dependent entry of
+    ``part`` (``"counters"`` or ``"info"``) of view ``view`` in the record of row ``index``: those
+    records are rewritten under ``workdir`` and the rows name the copies.
+    """
+    frame = frame.copy()
+    dependent = scheduling_dependent()
+    for column in [c for c in frame.columns if is_timing(c) or c in scheduling_columns()]:
+        frame[column] = columns(column, frame[column])
+    copies = {}
+    for index, row in frame.iterrows():
+        names = dependent.get(row["backend"], ())
+        if not names or not isinstance(row["record"], str):
+            continue
+        if row["record"] not in copies:
+            record = json.loads(Path(row["record"]).read_text())
+            for view in record.get("views", []):
+                for part in ("counters", "info"):
+                    values = view.get(part) or {}
+                    for name in set(names) & set(values):
+                        values[name] = entries(index, view["view"], part, name, values[name])
+            copy = Path(workdir) / row["experiment"] / Path(row["record"]).name
+            copy.parent.mkdir(parents=True, exist_ok=True)
+            copy.write_text(json.dumps(record))
+            copies[row["record"]] = str(copy)
+        frame.loc[index, "record"] = copies[row["record"]]
+    return frame
+
+
+def claims_with_values_of(frame, source, experiments, *, workdir):
+    """The claims of ``experiments`` judged on ``frame`` with ``source``'s timing and scheduling-dependent
+    values (both :func:`read_runs` of the same runs, row for row): what two runs' claims must agree on.
+    Record copies are written under ``workdir``."""
+    sources = {}
+
+    def entry(index, view, part, name, value):
+        path = source.loc[index, "record"]
+        if path not in sources:
+            sources[path] = {v["view"]: v for v in json.loads(Path(path).read_text()).get("views", [])}
+        return (sources[path].get(view, {}).get(part) or {}).get(name, value)
+
+    replaced = with_varying_values(frame, workdir, entries=entry,
+                                   columns=lambda column, values: source[column] if column in source else values)
+    return claims_table(replaced, experiments)
+
+
+def phantom_differences(a, b, *, keys=None):
+    """How the phantoms both folders list (``volumes.csv``) differ: the same keys (``keys``: only these,
+    which both must hold; ``None``: all) with the same SHA-256 of their data."""
+    first, second = (pd.read_csv(results_file(folder, "volumes.csv"), dtype=str, keep_default_na=False).set_index("key")
+                     for folder in (a, b))
+    if keys is None:
+        differences = _only_in(list(first.index), list(second.index), "phantoms", a, b)
+        keys = sorted(set(first.index) & set(second.index))
+    else:
+        differences = [f"phantom {key} is not in {folder}/volumes.csv" for folder, table in ((a, first), (b, second))
+                       for key in sorted(keys) if key not in table.index]
+        keys = sorted(key for key in keys if key in first.index and key in second.index)
+    differences += [f"phantom {key} ({first.loc[key, 'dataset']}): different data (SHA-256 "
+                    f"{first.loc[key, 'sha256'][:12]}… in {a}, {second.loc[key, 'sha256'][:12]}… in {b})"
+                    for key in keys if first.loc[key, "sha256"] != second.loc[key, "sha256"]]
+    return differences
+
+
+def differences(a, b):
+    """Every difference between the results folders ``a`` and ``b``: runs, images, claims, phantoms."""
+    for folder in (a, b):
+        for name in ("runs.csv", "claims.csv", "volumes.csv"):
+            results_file(folder, name)
+    return [*run_differences(a, b), *image_differences(a, b), *claim_differences(a, b), *phantom_differences(a, b)]
+
+
+def main(argv=None):
+    """``scripts/compare-results A B``: print the differences; exit 1 when there are any, 2 on bad input."""
+    parser = argparse.ArgumentParser(prog="compare-results", description=__doc__.split("\n\n")[0])
+    parser.add_argument("a", help="a results folder (results/<profile>)")
+    parser.add_argument("b", help="the results folder to compare it with")
+    args = parser.parse_args(argv)
+    try:
+        found = differences(args.a, args.b)
+    except InputError as exc:
+        print(f"compare-results: {exc}", file=sys.stderr)
+        return 2
+    for difference in found:
+        print(difference)
+    print(f"{len(found)} differences" if found else
+          f"{args.a} and {args.b}: the same runs, images, claims (timing claims' verdicts aside) and phantoms")
+    return 1 if found else 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
