@@ -1,15 +1,12 @@
 from pathlib import Path
 
-import numpy as np
-import pandas as pd
 import pytest
 import yaml
 
 from pipeline import experiments
 from core.errors import InputError
 from pipeline.experiments import Profile, Run
-from pipeline.experiments.base import PROFILE_REQUIRED
-from pipeline.experiments.volbench import ReferenceConvergence, SpeedAccuracy, _default_step, _monotone, _order, _tradeoff
+from pipeline.experiments.kit.model import PROFILE_REQUIRED
 
 ROOT = Path(__file__).resolve().parent.parent
 SMOKE = Profile(name="t", volume_size=16, image_size=16, settings={"volbench-phantoms": {"datasets": ["sphere"]}})
@@ -51,43 +48,6 @@ def test_bad_runs_and_profiles():
         experiments.plan(Profile(name="x", experiments=["nobody2020-nothing"]))
 
 
-def _convergence_frame(errors_by_scene):
-    rows = []
-    for scene, errors in errors_by_scene.items():
-        for factor, rmse in zip((2.0, 1.0, 0.5, 0.25), errors):
-            rows.append({"scene": scene, "role": "sweep", "step_factor": factor, "rmse": rmse,
-                         "psnr": -20 * np.log10(rmse)})
-    return pd.DataFrame(rows)
-
-
-def test_convergence_claims_detect_flat_and_rising_errors():
-    good = _convergence_frame({"a": [0.16, 0.04, 0.01, 0.0025]})
-    assert _monotone(good).holds and _order(good).holds and _default_step(good).holds
-    assert float(_order(good).measured.split()[0]) == pytest.approx(2.0, abs=1e-6)
-    flat = _convergence_frame({"a": [0.16, 0.04, 0.01, 0.0025], "b": [0.02, 0.02, 0.019, 0.03]})
-    assert not _monotone(flat).holds and "b" in _monotone(flat).detail
-    assert not _order(flat).holds
-    assert not _default_step(flat).holds  # 0.03 RMSE is 30.5 dB
-
-
-def test_tradeoff_claim_needs_doubling_times():
-    rows = [{"scene": "s", "backend": "reference", "role": "sweep", "setting": f"step_factor={f}",
-             "time_total": t, "rmse": e} for f, t, e in ((1.0, 1.0, 0.1), (0.5, 2.0, 0.05), (0.25, 4.1, 0.02))]
-    assert _tradeoff(pd.DataFrame(rows)).holds
-    rows[1]["time_total"], rows[2]["time_total"] = 1.1, 1.2  # overhead-bound: the step barely matters
-    assert not _tradeoff(pd.DataFrame(rows)).holds
-    rows[1]["time_total"], rows[2]["time_total"], rows[2]["rmse"] = 2.0, 4.0, 0.06  # error went up
-    assert not _tradeoff(pd.DataFrame(rows)).holds
-
-
-def test_claims_without_data_are_not_measured():
-    claim = ReferenceConvergence.claims[0]
-    assert claim.evaluate(pd.DataFrame()).holds is None
-    empty_sweep = pd.DataFrame([{"backend": "reference", "role": "truth", "scene": "s", "setting": "truth",
-                                 "time_total": 1.0, "rmse": np.nan}])
-    assert SpeedAccuracy.claims[0].evaluate(empty_sweep).holds is None
-
-
 def test_profile_setting_typos_are_errors():
     from pipeline.experiments import Profile, check_settings, selected
 
@@ -99,17 +59,6 @@ def test_profile_setting_typos_are_errors():
         selected(Profile("p", experiments="volbench-convergence"))
     for name in ("smoke", "default", "full"):  # the shipped profiles use only real keys
         check_settings(Profile.load(ROOT / "config" / f"{name}.yaml"))
-
-
-def test_speed_accuracy_runs_only_the_scenes_a_profile_names():
-    def planned(scenes):
-        profile = Profile(name="t", volume_size=8, image_size=8, experiments=["volbench-speed-accuracy"],
-                          settings={"volbench-speed-accuracy": {"scenes": scenes}})
-        return {run.tags["scene"] for run in experiments.plan(profile).values()}
-
-    assert planned(["skull-bone"]) == {"skull-bone"}
-    with pytest.raises(InputError, match="volbench-speed-accuracy.scenes"):
-        planned(["teapot"])
 
 
 def _default_profile():

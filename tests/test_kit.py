@@ -68,6 +68,8 @@ def test_bound_band_and_growth():
     df = _times(scene=["a", "b"], psnr=[41.0, 38.5])
     floor = Bound(Measure("the worst image", column="psnr", statistic="min", unit="dB"), at_least=40)
     assert (floor(df).measured, floor(df).holds, floor.expected) == ("38.5 dB", False, "the worst image ≥ 40 dB")
+    named = Bound(Measure("the worst image", column="psnr", statistic="min", unit="dB", label="scene"), at_least=38)
+    assert (named(df).measured, named(df).holds) == ("38.5 dB (b)", True)
     band = Band(Measure("fraction", column="psnr", statistic="max", unit=""), target=40, relative=0.01, absolute=2)
     assert band(df).holds is True and band.expected == "40 ± 2"
     sizes = _times(size=[32, 64, 128, 256], time_total=[1.0, 8.0, 64.0, 512.0])

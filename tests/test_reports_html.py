@@ -23,7 +23,7 @@ from pipeline.experiments import Profile, plan, selected
 from pipeline.experiments import papers
 from pipeline.experiments.planned import planned, techniques
 from pipeline.rendering import evaluate
-from pipeline.runner import metrics_record_path, run_record_path, write_json
+from pipeline.records import metrics_record_path, run_record_path, write_json
 from pipeline.scene_io import phantom_requests
 from reports import blocks, outcomes, takeaways
 from reports.html import build_report, provenance

@@ -14,8 +14,6 @@ from pipeline.experiments.kit.model import PAPERS, Claim, ClaimResult, Experimen
 PAPER_PACKAGES = ("volbench", "lacroute1995", "kruger2003", "xue2005", "ropinski2005", "kainz2009")
 """The papers, in report order (ids of :data:`core.papers.PAPERS`)."""
 
-MODULES = ("pipeline.experiments.volbench", "pipeline.experiments.peers", "pipeline.experiments.lacroute1995", "pipeline.experiments.kruger2003", "pipeline.experiments.kainz2009")
-
 __all__ = ["PAPERS", "Claim", "ClaimResult", "Experiment", "Profile", "Run", "all_experiments", "check_settings", "get",
            "papers", "plan", "selected"]
 
@@ -26,12 +24,8 @@ def papers():
 
 
 def all_experiments():
-    """``{name: Experiment instance}`` in registry order."""
-    registry = {}
-    for module_name in MODULES:
-        for cls in importlib.import_module(module_name).EXPERIMENTS:
-            registry[cls.name] = cls()
-    return registry
+    """``{name: Experiment instance}``: every paper's experiments, papers in report order."""
+    return {cls.name: cls() for paper in papers().values() for cls in paper.experiments}
 
 
 def get(name):
@@ -45,7 +39,7 @@ def check_settings(profile, registry=None):
     """Raise :class:`InputError` for a profile setting no experiment reads (a typo).
 
     Every key of ``profile.settings`` must name a registered experiment, and every key under it
-    one of that experiment's :attr:`~pipeline.experiments.base.Experiment.settings`.
+    one of that experiment's :attr:`~pipeline.experiments.kit.model.Experiment.settings`.
     """
     registry = all_experiments() if registry is None else registry
     for name, values in profile.settings.items():

@@ -42,6 +42,9 @@ class Measure:
         How several matching rows (views, scenes) reduce to one number.
     unit : str
         Appended to the number in sentences (``"ms"`` scales seconds to milliseconds).
+    label : str, optional
+        With ``statistic`` ``"min"`` or ``"max"``: the column whose value names the row at the
+        extreme (``"scene"``), said beside the number (``"38.5 dB (engine)"``).
     """
 
     what: str
@@ -49,13 +52,26 @@ class Measure:
     column: str = "time_total"
     statistic: str = "median"
     unit: str = "ms"
+    label: str | None = None
+
+    def _values(self, df):
+        rows = rows_matching(df, self.what, **self.match)
+        values = numeric(rows, self.column).dropna()
+        if values.empty:
+            raise ValueError(f"no successful run of {self.what}")
+        return rows, values
 
     def value(self, df):
         """The number, from ``df`` (the successful rows); ``ValueError`` naming :attr:`what` if none matches."""
-        values = numeric(rows_matching(df, self.what, **self.match), self.column).dropna()
-        if values.empty:
-            raise ValueError(f"no successful run of {self.what}")
-        return float(STATISTICS[self.statistic](values.to_numpy()))
+        return float(STATISTICS[self.statistic](self._values(df)[1].to_numpy()))
+
+    def named(self, df):
+        """``(value, name)``: the number and, with :attr:`label`, the label of the row it comes from."""
+        rows, values = self._values(df)
+        if self.label is None or self.statistic not in ("min", "max"):
+            return float(STATISTICS[self.statistic](values.to_numpy())), None
+        at = values.idxmin() if self.statistic == "min" else values.idxmax()
+        return float(values[at]), str(rows.loc[at, self.label]) if self.label in rows else None
 
     def words(self, value):
         """``"RC-b 12.3 ms"``: the measurement with its value in its unit."""
@@ -121,9 +137,10 @@ class Bound(Check):
         return f"{self.measure.what} {_bound_words(self.at_least, self.at_most, lambda v: f'{format_number(v * scale)} {unit}'.strip())}"
 
     def __call__(self, df):
-        value = self.measure.value(df)
-        return ClaimResult(self.measure.words(value).removeprefix(f"{self.measure.what} "),
-                           _bounded(value, self.at_least, self.at_most), self.measure.what)
+        value, name = self.measure.named(df)
+        measured = self.measure.words(value).removeprefix(f"{self.measure.what} ")
+        return ClaimResult(measured + (f" ({name})" if name else ""), _bounded(value, self.at_least, self.at_most),
+                           self.measure.what)
 
 
 @dataclass(frozen=True)

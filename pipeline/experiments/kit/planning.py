@@ -118,10 +118,13 @@ def headline_view(dataset):
     return dataset_view(dataset, HEADLINE_VIEW["view"], HEADLINE_VIEW["azimuth"], HEADLINE_VIEW["elevation"])
 
 
-def phantom(name, size=None, **extra):
-    """A volume entry of data set ``name``; ``size`` applies to phantoms only (a real scan has its own)."""
-    spec = {"dataset": name, **extra}
-    if size is not None and datasets.get(name).kind == "phantom":
+def phantom(dataset, /, size=None, **extra):
+    """A volume entry of ``dataset``; ``size`` applies to phantoms only (a real scan has its own).
+
+    ``extra`` are the entry's other keys (``preset``, ``name``, ``transform``, ...).
+    """
+    spec = {"dataset": dataset, **extra}
+    if size is not None and datasets.get(dataset).kind == "phantom":
         spec["size"] = size
     return spec
 

@@ -1,0 +1,76 @@
+"""The methods compared (cl-tiled and its stand-in baselines) and how this paper's pages show their runs.
+
+Depth peeling (the Roessler / Brecheisen shader casters: ``gl-peel``, boxes and translucent meshes)
+and dual depth peeling (NVIDIA's demo: ``gl-peel`` with ``peeling="dual"``, meshes only) stand in for
+the paper's baselines, VTK's multi-volume GPU caster for its shader casters where it can (note 002
+§6). The paper's frame rates come from a GTX 280; claims compare ratios measured in one run on one
+machine, so every page says which OpenCL device cl-tiled ran on.
+"""
+
+import pandas as pd
+
+from pipeline.experiments.kit.pages import frames_counted, linked_table, not_measurable
+from pipeline.experiments.kit.planning import is_registered
+
+PAPER_ID = "kainz2009"
+
+TILED, VTK, PEEL = "cl-tiled", "vtk-gpu", "gl-peel"
+
+DUAL = "dual"
+"""Config tag of ``gl-peel`` with ``peeling="dual"``."""
+
+VTK_MAX_VOLUMES = 7
+"""Volumes vtkMultiVolume takes here (the vtk-gpu backend's capability)."""
+
+METHOD_NAMES = {TILED: "cl-tiled", VTK: "VTK GPU", PEEL: "depth peeling", DUAL: "dual depth peeling"}
+
+PEELING = ("depth-peeling multi-volume caster (stand-in for Roessler 2008 / Brecheisen 2008)",
+           f"backend {PEEL!r} is not registered yet, so its frame times and their growth with the number of "
+           "volumes cannot be measured in this run")
+
+COLUMN_NAMES = {"count_fragments_max": "max depth complexity", "count_fragments_mean": "mean depth complexity",
+                "count_fragments_dropped": "fragments dropped", "count_triangles": "boundary triangles",
+                "count_samples": "volume samples", "over_threshold": "pixels off by > 5 % (%)",
+                "binning_share": "binning share (%)", "pixel_share": "pixel kernel share (%)",
+                "ns_per_sample": "ns per sample"}
+"""This paper's columns in words (times and metrics are named by the kit)."""
+
+
+def peeling_missing():
+    """The not-measurable paragraph for depth peeling where ``gl-peel`` is not registered (else none)."""
+    return not_measurable([PEELING] if not is_registered(PEEL) else [])
+
+
+def _tiled_rows(frame):
+    # Only cl-tiled's own rows: every record carries the machine's OpenCL device, the peers' too.
+    return frame[frame.backend == TILED] if "backend" in frame else frame.iloc[:0]
+
+
+def _tiled_devices(frame):
+    return sorted(set(_tiled_rows(frame).get("cl_device", pd.Series(dtype=str)).dropna().astype(str)))
+
+
+def device_note(tests):
+    """A take-away naming cl-tiled's OpenCL device, with a warning when it is a CPU (``[]`` when none ran)."""
+    devices = _tiled_devices(tests)
+    if not devices:
+        return []
+    sentence = f"cl-tiled ran on {', '.join(devices)}"
+    if _tiled_rows(tests).get("cl_device_type", pd.Series(dtype=str)).astype(str).str.contains("CPU").any():
+        sentence += (": a CPU OpenCL device, so local memory is ordinary cache and work-groups run one after "
+                     "another; frame times are not a GPU's, only ratios measured in one run compare with the paper")
+    return [sentence + "."]
+
+
+def frames_caption(frame):
+    """How the frames of ``frame``'s runs were timed, and where cl-tiled ran, for a figure's caption."""
+    devices = _tiled_devices(frame)
+    where = f"; cl-tiled on {', '.join(devices)}" if devices else ""
+    return (f"{frames_counted(frame, unit='timed frames')} after warm-up; uploads and hull builds happen in the "
+            f"warm-up frame (cached on the device); stage times from OpenCL profiling events, the total by wall "
+            f"clock{where}.")
+
+
+def table(title, frame, columns, ctx, **options):
+    """A table of ``columns`` (named by :data:`COLUMN_NAMES` and the kit), each row linked to its run."""
+    return linked_table(title, frame, columns, ctx, names=COLUMN_NAMES, **options)

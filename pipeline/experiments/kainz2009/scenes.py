@@ -1,0 +1,62 @@
+"""Scene pieces several of this paper's experiments render: overlapping smoke clouds, translucent meshes, the screw.
+
+Each returns a volume or mesh entry of the scene format (:mod:`pipeline.scene_io`); an experiment puts
+them in a scene with :func:`pipeline.experiments.kit.planning.scene`.
+"""
+
+import numpy as np
+
+from pipeline.experiments.kit.planning import phantom
+
+CLOUD_SPREAD = 0.25
+"""Cloud centres lie within ± this fraction of a cloud's edge of the first one: heavy overlap (C8)."""
+
+SURFACE = {"colour": [0.9, 0.75, 0.55], "alpha": 0.35, "specular": 0.3}
+"""A translucent Phong surface (Table 2's scenes, the meshes of C6–C8)."""
+
+AXIS_VIEW = {"view": "axis", "azimuth": 0.0, "elevation": 0.0}
+"""Along the z axis: the screw's, the coil's and the row of boxes' axis."""
+
+
+def volume(dataset, size, preset, name, **extra):
+    """A volume entry of phantom ``dataset`` at ``size`` with ``preset``, called ``name`` in the scene."""
+    return phantom(dataset, int(size), preset=preset, name=name, **extra)
+
+
+def clouds(count, size, *, first=0, scale=1.0, seed=2009):
+    """``count`` smoke clouds of ``size``³ (seeds ``first``…), heavily overlapping and randomly turned.
+
+    Cloud ``i`` is the same in every count: the draws do not depend on ``count``. The first sits
+    at the origin, the others within ±:data:`CLOUD_SPREAD` of an edge of it.
+    """
+    rng = np.random.default_rng(seed)
+    entries = []
+    for i in range(count):
+        offset = rng.uniform(-CLOUD_SPREAD, CLOUD_SPREAD, 3) * size * scale
+        axis, degrees = rng.normal(size=3), rng.uniform(0.0, 360.0)
+        entries.append(volume("smoke_cloud", size, "smoke", f"cloud{i:02d}", seed=first + i,
+                              transform={"translate": [0.0] * 3 if i == 0 else [round(float(v), 4) for v in offset],
+                                         "rotate": {"axis": [round(float(v), 4) for v in axis],
+                                                    "degrees": round(float(degrees), 3)},
+                                         "scale": float(scale)}))
+    return entries
+
+
+def mesh(name, generator, params, *, transform=None, surface=SURFACE):
+    """A generated mesh entry with a (by default translucent) surface."""
+    entry = {"name": name, "generator": generator, "params": params, "surface": dict(surface)}
+    if transform:
+        entry["transform"] = transform
+    return entry
+
+
+def blob(size, triangles, name="mesh30k"):
+    """The ``triangles`` mesh of C8: a noisy sphere among the clouds (radius a third of a cloud edge)."""
+    return mesh(name, "noisy_sphere", {"radius": round(size / 3, 4), "subdivisions": 6, "triangles": int(triangles)})
+
+
+def screw(turns):
+    """The thumbscrew stand-in: a threaded rod along the view axis (z), centred on the origin."""
+    pitch = 0.1
+    return mesh("screw", "helical_screw", {"turns": int(turns), "pitch": pitch},
+                transform={"translate": [0.0, 0.0, -0.5 * pitch * int(turns)]})

@@ -1,0 +1,320 @@
+"""E1/E5/E12/E13: Table 1's multi-volume scenes C1–C8 (``kainz2009-table1``).
+
+Stand-ins of the eight scenes rendered by cl-tiled, depth peeling and VTK where they can, every
+image against the reference; the workload split between the triangle (binning) and pixel kernels;
+the memory each scene used.
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
+                                                    frames_caption, peeling_missing, table)
+from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
+from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, format_number
+from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, is_registered, listed, scene, timed_frames,
+                                               truth_run)
+from pipeline.experiments.kit.results import (numeric, ok_rows, reference_exr, rows_matching, speed_points,
+                                              stage_time, text_column)
+from reports import blocks, plots
+
+ACCURACY_SCENES = ("C1", "C2", "C3")
+
+
+def _uncentred(size):
+    """Object→world of a volume placed like a mesh in its object space shifted by ``−size/2``."""
+    half = -0.5 * size
+    return {"matrix": [[1, 0, 0, half], [0, 1, 0, half], [0, 0, 1, half], [0, 0, 0, 1]]}
+
+
+def _table1_scene(name, small, large, scan, image, triangles, vessel_resolution):
+    """The stand-in of Table 1 row ``name`` (note 002 §6) as a scene mapping."""
+    anatomy = volume("ct_skull", large, "bone", "skull")
+    torso = volume("torso", scan, "abdomen", "torso", transform=_uncentred(scan))
+    brain = volume("folded_brain", large, "volpack", "brain",
+                    transform={"scale": 0.8, "rotate": {"axis": [0, 0, 1], "degrees": 15}})
+    meshes, volumes = (), []
+    if name == "C1":
+        volumes = [torso]
+    elif name == "C2":
+        volumes = [anatomy, brain]
+    elif name == "C3":
+        volumes = [anatomy, brain,
+                   volume("aneurysm", large, "vessels", "pet",
+                           transform={"translate": [0.2 * large, 0, 0], "scale": 0.7}),
+                   volume("mri_head", large, "skin", "neck", transform={
+                       "translate": [0, -0.3 * large, 0.1 * large], "rotate": {"axis": [1, 0, 0], "degrees": 30},
+                       "scale": 0.9})]
+    elif name in ("C4", "C5"):
+        volumes = [anatomy] + clouds(8 if name == "C4" else 20, small, scale=large / (2.0 * small))
+    elif name == "C6":
+        volumes = [torso]
+        meshes = (mesh("bone", "phantom_isosurface", {"dataset": "torso", "size": int(scan), "level": 0.65,
+                                                      "triangles": int(triangles)},
+                       transform={"translate": [-0.5 * scan] * 3}),)
+    elif name == "C7":
+        volumes = [torso]
+        corner = {"scale": 0.5 * scan, "translate": [-0.25 * scan] * 3}
+        meshes = (mesh("vessels", "vessel_tree", {"resolution": int(vessel_resolution), "triangles": int(triangles)},
+                       transform=corner),
+                  mesh("liver", "noisy_sphere", {"radius": round(0.18 * scan, 4), "subdivisions": 5,
+                                                 "triangles": int(triangles) // 3},
+                       transform={"translate": [0.1 * scan, 0.0, 0.0]},
+                       surface={**SURFACE, "colour": [0.6, 0.25, 0.2]}),
+                  mesh("tumour", "noisy_sphere", {"radius": round(0.06 * scan, 4), "subdivisions": 4, "seed": 1,
+                                                  "triangles": int(triangles) // 6},
+                       transform={"translate": [0.12 * scan, 0.02 * scan, 0.0]},
+                       surface={**SURFACE, "colour": [0.9, 0.9, 0.3]}))
+    elif name == "C8":
+        volumes = clouds(50, small)
+        meshes = (blob(small, triangles),)
+    return scene(name, image, volumes=volumes, meshes=meshes)
+
+
+# ------------------------------------------------------------------------------------------ checks
+def _psnr_floor(rows, what, floor):
+    psnr = numeric(rows, "psnr")
+    if psnr.notna().sum() == 0:
+        raise ValueError(f"no image of {what} compared with its reference")
+    worst = rows.loc[psnr.idxmin()]
+    label = worst.get("scene", worst.get("run"))
+    return ClaimResult(f"{format_number(psnr.min())} dB ({label})", bool(psnr.min() >= floor),
+                       f"{int(psnr.notna().sum())} images, median {format_number(psnr.median())} dB")
+
+
+def _accuracy_c1_c3(df):
+    rows = rows_matching(df, "cl-tiled", config=TILED, role="test")
+    rows = rows[text_column(rows, "scene").isin(ACCURACY_SCENES)]
+    missing = sorted(set(ACCURACY_SCENES) - set(rows.scene))
+    if missing:
+        raise ValueError(f"no cl-tiled image of {', '.join(missing)} against the reference")
+    return _psnr_floor(rows, "C1–C3", 40.0)
+
+
+def _band(df):
+    rows = rows_matching(df, "cl-tiled", config=TILED, role="test")
+    if len(rows) < 2:
+        raise ValueError("fewer than two scenes rendered by cl-tiled")
+    times = {row.scene: stage_time(row) for _, row in rows.iterrows()}
+    slow, fast = max(times, key=times.get), min(times, key=times.get)
+    ratio = times[slow] / times[fast]
+    return ClaimResult(f"{as_ratio(ratio)} ({slow} over {fast})", bool(ratio <= BAND),
+                       f"{len(times)} scenes, {format_number(times[fast] * 1e3)}–{format_number(times[slow] * 1e3)} ms")
+
+
+def _shares(df):
+    rows = rows_matching(df, "cl-tiled", config=TILED, role="test")
+    binning, pixel = numeric(rows, "time_binning"), numeric(rows, "time_pixel")
+    share = binning / (binning + pixel)
+    if share.notna().sum() == 0:
+        raise ValueError("no binning and pixel stage times")
+    return rows.assign(binning_share=100 * share)
+
+
+def _binning_share(df):
+    rows = _shares(df)
+    worst = rows.loc[rows.binning_share.idxmax()]
+    return ClaimResult(f"{format_number(worst.binning_share)} % ({worst.scene})", bool(rows.binning_share.max() <= 10),
+                       ", ".join(f"{r.scene}: {format_number(r.binning_share)} %" for r in rows.itertuples()))
+
+
+def _pool(df):
+    rows = rows_matching(df, "cl-tiled", config=TILED, role="test")
+    used = numeric(rows, "info_pool_bytes_used")
+    if used.notna().sum() == 0:
+        raise ValueError("no pool use recorded")
+    worst = rows.loc[used.idxmax()]
+    return ClaimResult(f"{format_number(used.max() / 2 ** 20)} MiB ({worst.scene})", bool(used.max() <= POOL_BYTES),
+                       f"{len(rows)} scenes")
+
+
+def _peel_ratio(df, scenes, *, below):
+    ratios = {}
+    for name in scenes:
+        rows = rows_matching(df, name, scene=name, role="test")
+        times = {c: stage_time(r) for c, (_, r) in zip(text_column(rows, "config"), rows.iterrows())}
+        if TILED in times and PEEL in times:
+            ratios[name] = times[PEEL] / times[TILED]
+    if not ratios:
+        raise ValueError(f"no scene of {', '.join(scenes)} rendered by both depth peeling and cl-tiled")
+    holds = all((r < 1) if below else (r > 1) for r in ratios.values())
+    return ClaimResult(", ".join(f"{s}: {as_ratio(r)}" for s, r in ratios.items()), holds,
+                       "time of depth peeling over cl-tiled's, same scene and view")
+
+
+class Table1(Experiment):
+    """Table 1's scenes C1–C8: frame times, images against the reference, stage split, memory."""
+
+    name = "kainz2009-table1"
+    paper = PAPER_ID
+    title = "Table 1: the multi-volume scenes C1–C8, images, workload split and memory (E1, E5, E12, E13)"
+    settings = frozenset({"scenes", "small_size", "large_size", "scan_size", "image_size", "mesh_triangles",
+                          "vessel_resolution", "step_factor", "truth_step_factor", "repeat"})
+    scales = {
+        "smoke": {"scenes": ["C2", "C6", "C8"], "small_size": 16, "large_size": 32, "scan_size": 32,
+                  "image_size": 48, "mesh_triangles": 2000, "vessel_resolution": 32},
+        "default": {"small_size": 32, "large_size": 96, "scan_size": 128, "image_size": 192,
+                    "mesh_triangles": 30000, "vessel_resolution": 96},
+        "full": {"small_size": 64, "large_size": 256, "scan_size": 512, "image_size": 512, "mesh_triangles": 30000,
+                 "vessel_resolution": 160},
+    }
+    description = (
+        "Table 1 times the tiled caster against two depth-peeling shader casters on eight scenes: "
+        "one 512³ scan (C1), two and four overlapping 256³ volumes (C2, C3), a 256³ scan with 8 or "
+        "20 time steps of 64³ (C4, C5), a 512³ scan with a 30k iso-surface (C6) or with a 30k "
+        "vessel tree, a 10k liver and a 5k tumour (C7), and 50 × 64³ volumes with a 30k mesh (C8). "
+        "Here phantoms stand in (note 002 §6, at the profile's sizes) with translucent meshes, "
+        "Blinn–Phong shading and the headline view. cl-tiled renders them with tight brick hulls; "
+        "VTK's GPU caster (single-pass shaders, up to 7 volumes, no meshes) takes the shader "
+        "casters' place where it can; the reference renders every image at a finer step. The "
+        "stage times split each frame into the triangle kernel (binning) and the pixel kernel, and "
+        "each run records the atlas, the tile lists and the chunk pool it used."
+    )
+
+    def runs(self, profile):
+        if not is_registered(TILED):
+            return []
+        name = self.name
+        scenes = listed(profile, self, "scenes", TABLE1, TABLE1)
+        sizes = [int(profile.setting(self, key, default)) for key, default in
+                 (("small_size", 64), ("large_size", 256), ("scan_size", 512))]
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        triangles = int(profile.setting(self, "mesh_triangles", 30000))
+        resolution = int(profile.setting(self, "vessel_resolution", 160))
+        step = profile.setting(self, "step_factor", 0.5)
+        truth_step = profile.setting(self, "truth_step_factor", 0.25)
+        frames = timed_frames(profile, self)
+        views = (dict(HEADLINE_VIEW),)
+        runs = []
+        for scene_name in scenes:
+            spec = _table1_scene(scene_name, *sizes, image, triangles, resolution)
+            tags = {"scene": scene_name, "image_size": image}
+            truth = truth_run(name, scene_name, spec, views, truth_step, tags, config="reference")
+            runs += [truth, Run(name, f"{scene_name}.tiled", TILED, spec, views, options={"step_factor": step},
+                                reference=truth.id, **frames, tags={**tags, "role": "test", "config": TILED})]
+            peers = [PEEL] + ([VTK] if "meshes" not in spec and len(spec["volumes"]) <= VTK_MAX_VOLUMES else [])
+            for peer in peers:  # depth peeling on every scene: what it cannot render is recorded as n.p.
+                if accepts(peer, "step_factor"):
+                    runs.append(Run(name, f"{scene_name}.{peer}", peer, spec, views, options={"step_factor": step},
+                                    reference=truth.id, **frames, tags={**tags, "role": "test", "config": peer}))
+        return runs
+
+    claims = (
+        Claim("accuracy", "cl-tiled renders the reference's image on the volume scenes C1–C3",
+              "PSNR ≥ 40 dB against the reference on C1, C2 and C3", _accuracy_c1_c3),
+        Claim("narrow-band", "The tiled caster's frame time stays in a narrow band across all eight scenes "
+              "(paper: 7–25 fps)", f"slowest / fastest scene ≤ {format_number(BAND)} (cl-tiled, every scene rendered)",
+              _band),
+        Claim("pixel-kernel-dominates", "The pixel kernel takes most of the frame, the triangle kernel 2–10 % (§4.2)",
+              "binning ≤ 10 % of binning + pixel kernel on every scene", _binning_share),
+        Claim("pool-enough", "The paper's 6 MB chunk pool holds every scene's tile lists",
+              "chunk pool used ≤ 6 MiB on every scene", _pool),
+        Claim("peeling-wins-one-volume", "A shader caster beats the tiled caster on a single volume (C1: Roessler "
+              "14–46 fps against 10–21)", "time(depth peeling) / time(cl-tiled) < 1 on C1",
+              lambda df: _peel_ratio(df, ("C1",), below=True)),
+        Claim("tiled-wins-many-volumes", "From four volumes on, the tiled caster beats depth peeling (C3: 16–25 fps "
+              "against 5–9)", "time(depth peeling) / time(cl-tiled) > 1 on every scene with ≥ 4 volumes both render",
+              lambda df: _peel_ratio(df, ("C3", "C4", "C5", "C8"), below=False)),
+        Claim("peeling-collapses-with-meshes", "With meshes, depth peeling collapses (C6, C7: Brecheisen 0–2 fps "
+              "against the tiled caster's 7–15): every surface layer costs a geometry pass",
+              "time(depth peeling) / time(cl-tiled) > 1 on C6 and C7 (whichever both render)",
+              lambda df: _peel_ratio(df, ("C6", "C7"), below=False)),
+    )
+
+    def paper_table(self):
+        def fps(value):
+            return "n.p." if value is None else f"{format_number(value[0])} – {format_number(value[1])}"
+
+        return pd.DataFrame([{"scene": s, "volumes": v, "polygons": p, "Roessler fps": fps(r),
+                              "Brecheisen fps": fps(b), "ours fps": fps(o)}
+                             for s, (v, p, r, b, o) in TABLE1.items()]).assign(device=PAPER_DEVICE)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
+        out = [claim_takeaways(self.claims, results, _peer_takeaways(tests))]
+        if not tests.empty:
+            rows = speed_points(tests)
+            rows["method"] = rows.config.map(METHOD_NAMES)
+            rows["fps"] = 1e3 / rows.time_ms
+            path, rel = ctx.plot_path("speed-accuracy")
+            plots.speed_accuracy(rows, path, time_col="time_ms", error_col="psnr", group_col="method",
+                                 label_col="scene", title="Median frame time against PSNR, every scene",
+                                 log_y=False, log_x=True, time_range_cols=("time_ms_min", "time_ms_max"),
+                                 better="upper left",
+                                 x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
+                                 y_label="PSNR against the reference (dB)")
+            out.append(blocks.Figure("Speed against accuracy", rel, "One point per scene (labelled) and method. "
+                                     + frames_caption(rows)))
+            paper = pd.DataFrame([{"scene": s, "paper fps (mid)": np.mean(o)} for s, (_v, _p, _r, _b, o)
+                                  in TABLE1.items()])
+            merged = rows.merge(paper, on="scene", how="left")
+            out.append(table("Frame times and accuracy", merged.sort_values(["scene", "config"]),
+                             ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "fps", "paper fps (mid)",
+                              "psnr", "ssim", "count_triangles", "count_fragments_max"], ctx,
+                             csv_name="table1.csv",
+                             caption="fps = 1000 / median frame time, beside the middle of the paper's range "
+                                     "on a GTX 280 (compare the spread across scenes, not the values)."))
+            tiled = rows[rows.config == TILED].copy()
+            stages = [c for c in ("time_setup", "time_binning", "time_pixel", "time_readback") if c in tiled]
+            if stages:
+                path, rel = ctx.plot_path("stages")
+                plots.stage_breakdown(tiled, path, stage_cols=stages, group_col="scene",
+                                      title=_stage_title(tiled))
+                out.append(blocks.Figure("Workload split per scene (E5)", rel,
+                                         "Median time of each cl-tiled stage per frame, OpenCL profiling events; "
+                                         "binning is the paper's triangle kernel, pixel its pixel kernel."))
+            out.append(_memory_table(tiled, ctx))
+            gallery = blocks.Gallery("Each scene and method, and its difference from the reference (E13)",
+                                     diff_scale=DIFF_SCALE, caption="Left the method's image, right |method − "
+                                     "reference|, headline view.")
+            for row in rows.sort_values(["scene", "config"]).itertuples():
+                gallery.items.append(blocks.GalleryItem(
+                    f"{row.scene}, {row.method}", ctx.image(row.png),
+                    difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
+                    note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, {format_number(row.time_ms)} ms"))
+            out.append(gallery)
+        return out + peeling_missing()
+
+
+def _stage_title(tiled):
+    try:
+        shares = _shares(tiled)
+    except (KeyError, ValueError):
+        return "Where the frame time goes"
+    return (f"Binning {format_number(shares.binning_share.min())}–{format_number(shares.binning_share.max())} % "
+            f"of binning + pixel kernel (paper: 2–10 %)")
+
+
+def _memory_table(tiled, ctx):
+    """E12: atlas, fixed tile tables and the pool used per scene (bytes as MiB)."""
+    memory = tiled.copy()
+    tiles = np.ceil(numeric(memory, "image_size") / 8) ** 2
+    memory["atlas (MiB)"] = numeric(memory, "info_atlas_bytes") / 2 ** 20
+    memory["pool used (MiB)"] = numeric(memory, "info_pool_bytes_used") / 2 ** 20
+    memory["pool allocated (MiB)"] = numeric(memory, "count_pool_chunks") * 64 * 12 / 2 ** 20
+    memory["chunk-index table (MiB)"] = tiles * 64 * 4 / 2 ** 20
+    columns = ["scene", "atlas (MiB)", "chunk-index table (MiB)", "pool used (MiB)", "pool allocated (MiB)",
+               "count_triangles", "count_records_per_tile_max"]
+    return table("Memory per scene (E12)", memory.sort_values("scene"), columns, ctx, csv_name="table1_memory.csv",
+                 caption="Paper: a 528³ atlas of 562 MB (gradients ×4), a 2.25 MB chunk-index table at 768², a "
+                         "6 MB pool. Chunks hold 64 records of 12 B.")
+
+
+def _peer_takeaways(tests):
+    """One sentence: each scene's VTK and depth-peeling time over cl-tiled's."""
+    if "config" not in tests:
+        return []
+    sentences = []
+    for name in sorted(set(tests.scene)):
+        here = tests[tests.scene == name]
+        tiled = here[here.config == TILED]
+        for peer in (VTK, PEEL):
+            if not tiled.empty and (here.config == peer).any():
+                ratio = stage_time(here[here.config == peer].iloc[0]) / stage_time(tiled.iloc[0])
+                sentences.append(f"{name}: {METHOD_NAMES[peer]} takes {as_ratio(ratio)} cl-tiled's time")
+    if not sentences:
+        return []
+    return ["; ".join(sentences) + " (different devices and APIs: read as the shape, not a speed-up)."]

@@ -1,0 +1,181 @@
+"""``kruger2003-passes`` (E4, E6, E7): fragments per main pass, the iso-surface caster against DVR, the sweep of M.
+
+Occlusion queries count the fragments that survive the early depth test in each main pass; the
+iso-surface caster ends a ray at its hit; M, the samples per pass, trades per-pass overhead against
+samples wasted after a ray ends inside a pass.
+"""
+
+import json
+
+import pandas as pd
+
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
+                                               truth_run)
+from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, stage_time
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, time_of
+from pipeline.experiments.kruger2003.tables import PASSES
+from reports import blocks, plots
+
+M_VALUES = (1, 2, 4, 8, 16, 32, 64)
+"""Samples per main pass of the M sweep (the paper's 8 among them)."""
+
+PAPER_M = 8
+"""The paper's samples per pass, forced by the shader limits of the ATI 9700."""
+
+
+def _fragments_per_pass(record_path, view="headline"):
+    """The fragments each main pass drew in ``view``, from a run's record (its occlusion-query counts)."""
+    if not file_exists(record_path):
+        raise ValueError(f"run record {record_path!r} is missing")
+    with open(record_path) as handle:
+        record = json.load(handle)
+    for entry in record.get("views", []):
+        if entry.get("view") == view:
+            counts = entry.get("info", {}).get("fragments_per_main_pass")
+            if counts:
+                return [float(c) for c in counts]
+    raise ValueError(f"{record_path}: no fragments_per_main_pass for view {view!r}")
+
+
+def _pass_curves(ok):
+    rows = []
+    if "part" not in ok:
+        return pd.DataFrame()
+    for row in ok[(ok.part == "passes") & (ok.get("role") == "test")].itertuples():
+        try:
+            counts = _fragments_per_pass(row.record)
+        except ValueError:
+            continue
+        rows += [{"method": method_name(row.config), "main pass": i + 1, "fragments": c} for i, c in enumerate(counts)]
+    return pd.DataFrame(rows)
+
+
+def _pass_trend(df, config, flat):
+    rows = rows_matching(df, config, config=config, part="passes")
+    if rows.empty:
+        raise ValueError(f"no successful {config} run")
+    counts = _fragments_per_pass(rows.record.iloc[0])
+    first = counts[0]
+    if first <= 0:
+        raise ValueError(f"{config}: the first main pass drew no fragment")
+    last = counts[-1] / first
+    holds = last >= 0.95 if flat else last <= 0.5
+    return ClaimResult(f"last pass {format_number(100 * last)} % of the first", bool(holds),
+                       f"{len(counts)} main passes, first {format_number(first)} fragments")
+
+
+def _iso_faster(df):
+    # Strictly faster ("beats"): the kit's Ratio bounds are inclusive, and equal times do not beat.
+    dvr = time_of(rows_matching(df, "dvr", part="passes"), "rc-a")
+    iso = time_of(rows_matching(df, "iso", part="iso"), "rc-a")
+    return ClaimResult(as_ratio(dvr / iso), bool(dvr / iso > 1.0),
+                       f"DVR {format_number(dvr * 1e3)} ms, iso {format_number(iso * 1e3)} ms")
+
+
+def _m_sweep(df):
+    sweep = rows_matching(df, "the M sweep", part="m-sweep")
+    if len(sweep) < 3:
+        raise ValueError("fewer than three values of M")
+    times = {int(m): stage_time(row) for m, (_, row) in zip(numeric(sweep, "m"), sweep.iterrows())}
+    return dict(sorted(times.items()))
+
+
+def _m_u_shape(df):
+    times = _m_sweep(df)
+    best = min(times, key=times.get)
+    inside = min(times) < best < max(times)
+    return ClaimResult(f"fastest at M = {best}", bool(inside),
+                       ", ".join(f"M {m}: {format_number(t * 1e3)} ms" for m, t in times.items()))
+
+
+def _m_title(sweep):
+    best = sweep.loc[sweep.time_ms.idxmin()]
+    return f"Fastest at M = {int(best.M)} ({format_number(best.time_ms)} ms); the paper used {PAPER_M}"
+
+
+class Passes(Experiment):
+    """Per-pass work, the iso-surface caster and the samples per pass M."""
+
+    name = "kruger2003-passes"
+    paper = "kruger2003"
+    title = "Work per pass, the iso-surface caster and the samples per pass M (E4, E6, E7)"
+    settings = frozenset({"volume_size", "image_size", "step_factor", "m_values", "repeat"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 64, "m_values": [2, 8, 32]},
+              "default": {"volume_size": 128, "image_size": 256},
+              "full": {"volume_size": 256, "image_size": 512}}
+    description = (
+        "Occlusion queries count, for every main pass, the fragments that survive the early depth "
+        "test: flat for RC (the whole footprint every pass), falling for RC-a as rays saturate or "
+        "leave, and lower again for RC-b across empty segments; the intermediate pass is never "
+        "culled. The iso-surface caster shades once per pass and ends a ray at its hit, so it should "
+        "beat DVR with early termination on an opaque surface. M trades the per-pass overhead (small "
+        "M: many passes) against samples wasted after a ray ends inside a pass (large M)."
+    )
+    claims = (
+        Claim("rc-flat", "RC draws the whole footprint in every main pass", "fragments of the last main pass ≥ 95 % "
+              "of the first", lambda df: _pass_trend(df, "rc", flat=True)),
+        Claim("rca-falls", "With early termination the fragments per main pass fall as rays end",
+              "RC-a's last main pass ≤ 50 % of its first", lambda df: _pass_trend(df, "rc-a", flat=False)),
+        Claim("iso-faster", "The iso-surface caster beats DVR with early termination on an opaque surface (Sec. 2.2)",
+              "time ratio DVR RC-a / iso RC-a > 1", _iso_faster),
+        Claim("m-u-shape", "The cost over M is U-shaped: per-pass overhead at small M, wasted samples at large M "
+              "(Sec. 3)", "fastest M strictly inside the swept range", _m_u_shape),
+    )
+
+    def runs(self, profile):
+        if not is_registered(RAYCAST):
+            return []
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        step = profile.setting(self, "step_factor", 0.5)
+        frames = timed_frames(profile, self)
+        view = (headline_view("foot"),)
+        runs = []
+        dvr = scene("foot", image, volumes=[phantom("foot", size, preset="bone")])
+        tags = {"scene": "foot", "dataset": "foot", "part": "passes"}
+        truth = truth_run(self.name, "foot", dvr, view, 0.25, tags)
+        runs.append(truth)
+        runs += method_runs(self.name, "foot", dvr, view, ("rc", "rc-a", "rc-b"), step, truth.id, tags, frames)
+        iso = scene("foot-iso", image, volumes=[phantom("foot", size, preset="iso")], mode="iso")
+        iso_truth = truth_run(self.name, "foot-iso", iso, view, 0.25, {**tags, "part": "iso"})
+        runs.append(iso_truth)
+        runs += method_runs(self.name, "foot-iso", iso, view, ("rc-a",), step, iso_truth.id,
+                            {**tags, "part": "iso", "mode": "iso"}, frames)
+        if accepts(RAYCAST, "samples_per_pass"):
+            for m in profile.setting(self, "m_values", list(M_VALUES)):
+                runs.append(Run(self.name, f"foot.m{int(m)}", RAYCAST, dvr, view,
+                                options={"variant": "rc-b", "samples_per_pass": int(m), "step_factor": step},
+                                reference=truth.id, **frames,
+                                tags={**tags, "part": "m-sweep", "role": "test", "config": "rc-b", "m": int(m)}))
+        return runs
+
+    def paper_table(self):
+        return pd.DataFrame(PASSES)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        out = [claim_takeaways(self.claims, results)]
+        curves = _pass_curves(ok)
+        if not curves.empty:
+            path, rel = ctx.plot_path("fragments-per-pass")
+            plots.lines(curves, path, x="main pass", y="fragments", group="method",
+                        title="Fragments that survive the depth test, per main pass",
+                        x_label="main pass (number)", y_label="fragments drawn (count)")
+            out.append(blocks.Figure("Work per main pass (foot, headline view)", rel,
+                                     "From a samples-passed occlusion query around each main pass."))
+        sweep = ok[ok.get("part") == "m-sweep"].copy() if "part" in ok else ok.iloc[:0]
+        if not sweep.empty:
+            sweep = speed_points(sweep)
+            sweep["M"] = numeric(sweep, "m")
+            sweep["method"] = method_name("rc-b")
+            path, rel = ctx.plot_path("m-sweep")
+            plots.lines(sweep, path, x="M", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
+                        title=_m_title(sweep), x_label="samples per main pass M (count)",
+                        y_label="median frame time (ms)", log_x=True, vlines=(PAPER_M,))
+            out.append(blocks.Figure("Frame time against M", rel, "Bars from the fastest to the slowest frame; "
+                                     f"dotted: the paper's M = {PAPER_M}."))
+            out.append(linked_table("M sweep", sweep, ["M", "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
+                                    csv_name="m_sweep.csv"))
+        return out + gl_not_measurable()

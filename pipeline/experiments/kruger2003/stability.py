@@ -1,0 +1,138 @@
+"""``kruger2003-stability``: where the accelerations break: the early-termination threshold and the block size.
+
+RC-b on the opaque head and the sparse aneurysm, each setting's speed and error against the reference.
+"""
+
+import pandas as pd
+
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.pages import claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable
+from pipeline.experiments.kruger2003.tables import TABLE1
+from reports import blocks, plots
+
+THRESHOLDS = (0.8, 0.9, 0.95, 0.99, 1.0)
+"""Early-termination thresholds T swept (the paper leaves T unspecified; 1 never ends a ray early)."""
+
+BLOCK_SIZES = (4, 8, 16, 32)
+"""Block edges of the empty-space grid swept (the paper's 8 among them)."""
+
+SCENES = ("head", "aneurysm")
+"""The opaque head and the sparse aneurysm (scenes of Table 1)."""
+
+SWEEPS = (("threshold", "the early-termination threshold", "early-termination threshold T (fraction of full opacity)"),
+          ("block", "the block size", "block edge of the min–max grid (voxels)"))
+"""Each sweep's tag, its name in titles and its axis label."""
+
+
+def _sweep_rows(df, sweep, scene_name):
+    rows = rows_matching(df, f"the {sweep} sweep on {scene_name}", sweep=sweep, scene=scene_name)
+    if len(rows) < 2:
+        raise ValueError(f"fewer than two settings of the {sweep} sweep on {scene_name}")
+    return rows.assign(setting=numeric(rows, "value"), psnr=numeric(rows, "psnr")).sort_values("setting")
+
+
+def _threshold(df):
+    rows = _sweep_rows(df, "threshold", "head")
+    low, high = rows.iloc[0], rows.iloc[-1]
+    faster = stage_time(low) < stage_time(high)
+    worse = low.psnr < high.psnr
+    return ClaimResult(f"T {format_number(low.setting)}: {format_number(stage_time(low) * 1e3)} ms, "
+                       f"{format_number(low.psnr)} dB; T {format_number(high.setting)}: "
+                       f"{format_number(stage_time(high) * 1e3)} ms, {format_number(high.psnr)} dB",
+                       bool(faster and worse), "RC-b on the head")
+
+
+def _blocks_lossless(df):
+    spreads = {}
+    for scene_name in pd.unique(text_column(rows_matching(df, "the block sweep", sweep="block"), "scene")):
+        rows = _sweep_rows(df, "block", scene_name)
+        spreads[scene_name] = float(rows.psnr.max() - rows.psnr.min())
+    if not spreads:
+        raise ValueError("no block sweep")
+    worst = max(spreads, key=spreads.get)
+    return ClaimResult(f"{format_number(spreads[worst])} dB ({worst})", bool(spreads[worst] <= 0.1),
+                       ", ".join(f"{s}: {format_number(v)} dB" for s, v in spreads.items()))
+
+
+def _sweep_blocks(rows, sweep, words, label, ctx):
+    """Time and PSNR against one sweep's setting, as figures and a linked table."""
+    rows = speed_points(rows)
+    rows["setting"] = numeric(rows, "value")
+    out = []
+    for y, y_label, y_range, name in (("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"), "time"),
+                                      ("psnr", "PSNR against the reference (dB)", None, "psnr")):
+        path, rel = ctx.plot_path(f"stability-{sweep}-{name}")
+        what = "Median frame time" if name == "time" else "PSNR"
+        plots.lines(rows, path, x="setting", y=y, group="scene", y_range=y_range,
+                    title=f"{what} against {words}", x_label=label, y_label=y_label, log_x=sweep == "block")
+        out.append(blocks.Figure(f"{sweep.capitalize()} sweep: {name}", rel, "RC-b, headline view."))
+    out.append(linked_table(f"{sweep.capitalize()} sweep", rows.rename(columns={"setting": label}),
+                            ["scene", label, "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
+                            csv_name=f"stability_{sweep}.csv"))
+    return out
+
+
+class Stability(Experiment):
+    """Where the accelerations break: the early-termination threshold and the empty-space block size."""
+
+    name = "kruger2003-stability"
+    paper = "kruger2003"
+    title = "Stability: the early-termination threshold and the block size of empty-space skipping"
+    settings = frozenset({"volume_size", "image_size", "step_factor", "thresholds", "block_sizes", "repeat"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 64, "thresholds": [0.9, 1.0], "block_sizes": [8, 16]},
+              "default": {"volume_size": 128, "image_size": 256},
+              "full": {"volume_size": 256, "image_size": 512}}
+    description = (
+        "The paper leaves the threshold T unspecified and fixes 8³ blocks. A lower T ends rays "
+        "sooner and drops up to 1 − T of their light; a threshold of 1 never ends a ray early. The "
+        "block size trades a finer empty-space map (more skipped segments) against a larger grid "
+        "and more tests; skipping is conservative, so it must never change the image. Both are swept "
+        "with RC-b on the opaque head and on the sparse aneurysm, speed and error against the reference."
+    )
+    claims = (
+        Claim("threshold-trades-error", "A lower threshold is faster and less accurate", "on the head: time at the "
+              "lowest T < time at T = 1, and PSNR at the lowest T < PSNR at T = 1", _threshold),
+        Claim("blocks-lossless", "Empty-space skipping never changes the image, whatever the block size",
+              "PSNR spread over block sizes ≤ 0.1 dB (each scene)", _blocks_lossless),
+    )
+
+    def runs(self, profile):
+        if not accepts(RAYCAST, "opaque_threshold", "block_size"):
+            return []
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        step = profile.setting(self, "step_factor", 0.5)
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in SCENES:
+            dataset, preset = TABLE1[scene_name][:2]
+            scene_spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
+            view = (headline_view(dataset),)
+            tags = {"scene": scene_name, "dataset": dataset}
+            truth = truth_run(self.name, scene_name, scene_spec, view, 0.25, tags)
+            runs.append(truth)
+            for t in profile.setting(self, "thresholds", list(THRESHOLDS)):
+                runs.append(Run(self.name, f"{scene_name}.t{t:g}", RAYCAST, scene_spec, view,
+                                options={"variant": "rc-b", "opaque_threshold": float(t), "step_factor": step},
+                                reference=truth.id, **frames,
+                                tags={**tags, "role": "test", "config": "rc-b", "sweep": "threshold",
+                                      "value": float(t)}))
+            for b in profile.setting(self, "block_sizes", list(BLOCK_SIZES)):
+                runs.append(Run(self.name, f"{scene_name}.b{int(b)}", RAYCAST, scene_spec, view,
+                                options={"variant": "rc-b", "block_size": int(b), "step_factor": step},
+                                reference=truth.id, **frames,
+                                tags={**tags, "role": "test", "config": "rc-b", "sweep": "block", "value": int(b)}))
+        return runs
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        out = [claim_takeaways(self.claims, results)]
+        tests = ok[ok.get("role") == "test"] if "role" in ok else ok.iloc[:0]
+        for sweep, words, label in SWEEPS:
+            rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]
+            if not rows.empty:
+                out += _sweep_blocks(rows, sweep, words, label, ctx)
+        return out + gl_not_measurable()

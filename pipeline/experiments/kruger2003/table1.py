@@ -1,0 +1,326 @@
+"""``kruger2003-table1`` (E1, E3, E5): Table 1's four methods on the paper's four kinds of data, and their images.
+
+SBVR, RC, RC-a and RC-b (with the single-pass caster and VTK's GPU caster beside them) on stand-ins and
+real scans of the head, aneurysm, foot and engine: the speed-ups between methods against the paper's,
+every image against the reference, and the share of slicing fragments that contribute.
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number,
+                                            linked_table)
+from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
+                                               timed_frames, truth_run)
+from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, reference_exr,
+                                              rows_matching, speed_points, text_column)
+from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, frames_caption, gl_not_measurable,
+                                                     method_name, method_runs, speedup)
+from pipeline.experiments.kruger2003.tables import (HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR, PAPER_DEVICE, REAL_SCANS,
+                                                    TABLE1)
+from reports import blocks, plots
+
+HEADS, ENGINES = ("head", "mrihead"), ("engine", "engine_real")
+"""The scenes of the opaque head and of the semi-transparent engine (stand-in and real scan)."""
+
+PAPER_METHODS = ("sbvr", "rc", "rc-a", "rc-b")
+"""Table 1's methods; the single-pass caster (ours) is reported beside them, not judged with them."""
+
+
+# ---------------------------------------------------------------------------------------------- claims
+def _headline(df):
+    return df[text_column(df, "view") == "headline"]
+
+
+def _scene_groups(df, scenes):
+    present = [s for s in pd.unique(text_column(df, "scene")) if scenes is None or s in scenes]
+    if not present:
+        raise ValueError(f"no successful run of {', '.join(scenes) if scenes else 'any scene'}")
+    return present
+
+
+def _gain(df, slow, fast, scenes, low, high=None):
+    """``time(slow) / time(fast)`` in the headline view, within [low, high] on each of ``scenes`` (``None``: all)."""
+    headline = _headline(df)
+    values = {s: speedup(headline, slow, fast, scene=s) for s in _scene_groups(headline, scenes)}
+    holds = all(v >= low and (high is None or v <= high) for v in values.values())
+    worst = min(values, key=values.get) if high is None else max(values, key=lambda s: abs(np.log(values[s])))
+    return ClaimResult(f"{as_ratio(values[worst])} ({worst})", bool(holds),
+                       ", ".join(f"{s}: {as_ratio(v)}" for s, v in values.items()))
+
+
+def _rc_versus_sbvr(df):
+    headline = _headline(df)
+    values = {s: speedup(headline, "sbvr", "rc", scene=s) for s in _scene_groups(headline, None)}
+    worst = max(values, key=values.get)
+    return ClaimResult(f"SBVR / RC time {as_ratio(values[worst])} ({worst})", bool(all(v < 1 for v in values.values())),
+                       ", ".join(f"{s}: RC at {as_ratio(v)} of SBVR's speed" for s, v in values.items()))
+
+
+def _accuracy(df):
+    tests = df[(text_column(df, "role") == "test") & text_column(df, "config").isin(PAPER_METHODS)]
+    psnr = numeric(tests, "psnr")
+    if psnr.notna().sum() == 0:
+        raise ValueError("no PSNR against the reference")
+    worst = tests.loc[psnr.idxmin()]
+    per_method = tests.assign(psnr=psnr).groupby("config").psnr.min()
+    return ClaimResult(f"{format_number(psnr.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
+                       bool(psnr.min() >= 40.0), ", ".join(f"{c}: ≥ {format_number(v)} dB" for c, v in per_method.items()))
+
+
+def _paired(df, first, second):
+    """``[(scene, view, row_first, row_second)]`` for every scene and view rendered by both configs."""
+    a = rows_matching(df, first, config=first)
+    b = rows_matching(df, second, config=second)
+    pairs = []
+    for row in a.itertuples():
+        match = b[(b.scene == row.scene) & (b.view == row.view)]
+        if not match.empty and file_exists(row.exr) and file_exists(match.exr.iloc[0]):
+            pairs.append((row.scene, row.view, row, match.iloc[0]))
+    if not pairs:
+        raise ValueError(f"no view rendered by both {first} and {second}")
+    return pairs
+
+
+def _ess_lossless(df):
+    values = {(s, v): pair_metrics(a.exr, b.exr)["psnr"] for s, v, a, b in _paired(df, "rc-a", "rc-b")}
+    worst = min(values, key=values.get)
+    return ClaimResult(f"{format_number(values[worst])} dB ({worst[0]}, {worst[1]})",
+                       bool(values[worst] >= 60.0), f"{len(values)} views compared")
+
+
+def _ert_bound(df):
+    worst, where = 0.0, None
+    for scene_name, view, rc, rca in _paired(df, "rc", "rc-a"):
+        difference = float(np.abs(read_exr(rc.exr) - read_exr(rca.exr)).max())
+        if difference >= worst:
+            worst, where = difference, (scene_name, view)
+    threshold = float(numeric(rows_matching(df, "rc-a", config="rc-a"), "option_opaque_threshold").median())
+    bound = 1.0 - threshold + 1e-3
+    return ClaimResult(f"{format_number(worst)} ({where[0]}, {where[1]})", bool(worst <= bound),
+                       f"bound 1 − T = {format_number(1 - threshold)} with T = {format_number(threshold)}")
+
+
+def _contributing_fragments(df):
+    rows = rows_matching(df, "sbvr", config="sbvr", view="headline")
+    if rows.empty:
+        raise ValueError("no successful slicing run")
+    fraction = numeric(rows, "count_fragments_contributing") / numeric(rows, "count_fragments")
+    values = dict(zip(rows.scene, fraction))
+    worst = max(values, key=values.get)
+    return ClaimResult(f"{format_number(100 * values[worst])} % ({worst})", bool(values[worst] <= 0.10),
+                       ", ".join(f"{s}: {format_number(100 * v)} %" for s, v in values.items()))
+
+
+CLAIMS = (
+    Claim("rc-slower-than-sbvr", "Unaccelerated ray casting is slower than slicing: it processes fragments "
+          "outside the volume and all M samples of every pass (paper: RC/SBVR fps 0.61–0.68)",
+          "time ratio SBVR / RC < 1 on every data set", _rc_versus_sbvr),
+    Claim("ert-gain-opaque", "Early ray termination pays most on the opaque head (paper: RC-a 3.0× RC)",
+          "RC / RC-a ≥ 2 on the head", lambda df: _gain(df, "rc", "rc-a", HEADS, 2.0)),
+    Claim("ert-none-semi-transparent", "On the semi-transparent engine early termination gains nothing "
+          "(paper: 6.3 = 6.3 fps)", "RC / RC-a within 0.8–1.25 on the engine",
+          lambda df: _gain(df, "rc", "rc-a", ENGINES, 0.8, 1.25)),
+    Claim("ess-gain", "Empty-space skipping adds to early termination on every data set (paper: RC-b "
+          "1.6–2.2× RC-a)", "RC-a / RC-b ≥ 1.1 on every data set", lambda df: _gain(df, "rc-a", "rc-b", None, 1.1)),
+    Claim("rcb-over-rc-head", "RC-b over RC on the opaque head at least the paper's 4.9× (23.4 / 4.8 fps)",
+          f"RC / RC-b ≥ {format_number(HEAD_RCB_OVER_RC)} on the head",
+          lambda df: _gain(df, "rc", "rc-b", HEADS, HEAD_RCB_OVER_RC)),
+    Claim("rcb-over-sbvr-head", "RC-b over slicing on the head at least the paper's 3.3× (23.4 / 7.1 fps, "
+          "\"up to a factor of 3\")", f"SBVR / RC-b ≥ {format_number(HEAD_RCB_OVER_SBVR)} on the head",
+          lambda df: _gain(df, "sbvr", "rc-b", HEADS, HEAD_RCB_OVER_SBVR)),
+    Claim("accuracy", "The paper's four methods render the reference's image (\"the same image quality\")",
+          "PSNR ≥ 40 dB against the reference (SBVR, RC, RC-a, RC-b; every data set and view)", _accuracy),
+    Claim("ess-lossless", "Empty-space skipping is conservative: RC-b's image is RC-a's",
+          "PSNR(RC-b, RC-a) ≥ 60 dB (every data set and view)", _ess_lossless),
+    Claim("ert-bound", "Early termination changes a pixel by at most what the opacity threshold leaves",
+          "max |RC-a − RC| ≤ 1 − T (+ 1e-3) on every image", _ert_bound),
+    Claim("fragments-contribute", "Only a small fraction of slicing fragments contributes to the image "
+          "(paper: 0.2–4 %)", "contributing / generated slicing fragments ≤ 10 % on every data set",
+          _contributing_fragments),
+)
+
+
+# ------------------------------------------------------------------------------------------------ page
+def _ratio_table(headline):
+    """Per scene, the paper's speed-ups between methods beside ours (quotients of median frame times)."""
+    rows = []
+    for scene_name in pd.unique(headline.scene):
+        here = headline[headline.scene == scene_name]
+        _d, _p, paper_row, sbvr, rc, rca, rcb = TABLE1[scene_name]
+        row = {"scene": scene_name, "paper row": paper_row}
+        for label, slow, fast, paper in (("RC / SBVR", "sbvr", "rc", rc / sbvr), ("RC-a / RC", "rc", "rc-a", rca / rc),
+                                         ("RC-b / RC-a", "rc-a", "rc-b", rcb / rca), ("RC-b / RC", "rc", "rc-b", rcb / rc),
+                                         ("RC-b / SBVR", "sbvr", "rc-b", rcb / sbvr)):
+            row[f"{label} (paper)"] = round(paper, 2)
+            try:
+                row[f"{label} (ours)"] = round(speedup(here, slow, fast), 2)
+            except ValueError:
+                row[f"{label} (ours)"] = np.nan
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _bar_title(ratios):
+    ours = ratios["RC-b / SBVR (ours)"].dropna()
+    if ours.empty:
+        return "RC-b over slicing"
+    best = ratios.loc[ours.idxmax()]
+    return f"RC-b over slicing: up to {as_ratio(best['RC-b / SBVR (ours)'])} here ({best.scene}), paper up to ×3.3"
+
+
+def _devices(frame):
+    """The GL device each row was timed on (VTK's own context for its rows)."""
+    device = frame.get("gl_renderer", pd.Series(np.nan, index=frame.index))
+    if "vtk_gl_renderer" in frame:
+        device = device.fillna(frame.vtk_gl_renderer)
+    return device.fillna("unknown device").astype(str)
+
+
+def _device_takeaways(tests):
+    """Which GL devices timed this page, and what a CPU rasterizer's numbers mean."""
+    if tests.empty:
+        return []
+    devices = sorted(set(_devices(tests)))
+    software = "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all()
+    sentence = f"GL frame times on this page were measured on {', '.join(devices)}"
+    if software:
+        sentence += (", a CPU rasterizer: fragment shaders run on the CPU's cores and early-z rejects whole tiles "
+                     "in software, so its frame times are not a GPU's and only ratios between methods measured in "
+                     "one run compare with the paper's (the samples-passed counts show what each method drew); no "
+                     "GPU run is in these results")
+    elif len(devices) > 1:
+        sentence += "; ratios are computed per device, never across devices"
+    return [sentence + "."]
+
+
+def _peer_takeaways(ok):
+    """RC-b against VTK's GPU ray caster, the peer users run (no claim: the paper could not compare with it)."""
+    try:
+        result = _gain(ok, "vtk-gpu", "rc-b", None, 1.0)
+    except (KeyError, ValueError):
+        return []
+    return [f"RC-b against VTK's GPU ray caster (time of VTK / time of RC-b): {result.measured} ({result.detail})."]
+
+
+def _ratio_blocks(headline, ctx):
+    """Table 1's speed-ups beside ours, per device, and RC-b over slicing as bars."""
+    ratios = pd.concat([_ratio_table(group).assign(device=device)
+                        for device, group in headline.groupby(_devices(headline))], ignore_index=True)
+    if ratios.empty:
+        return []
+    path, rel = ctx.plot_path("table1-ratios")
+    plots.bar_compare(ratios, path, category_col="scene", value_cols=["RC-b / SBVR (paper)", "RC-b / SBVR (ours)"],
+                      value_label="speed-up of RC-b over slicing (×)", title=_bar_title(ratios))
+    return [blocks.Table("Table 1 beside ours: speed-ups between methods (headline view)", ratios,
+                         csv_name="table1_ratios.csv",
+                         caption="Each ratio is a quotient of median frame times measured in one run (ours) or "
+                                 "of the paper's frame rates (paper). Real scans share the paper row of their "
+                                 "kind."),
+            blocks.Figure("RC-b over slicing, paper and ours", rel,
+                          "Bars are the paper's ratio of frame rates and ours of median frame times.")]
+
+
+def _speed_blocks(headline, tests, ctx):
+    """Frame times and PSNR in the headline view, speed against accuracy, and times over the orbit."""
+    timing = speed_points(headline)
+    timing["method"] = [method_name(c) for c in timing.config]
+    path, rel = ctx.plot_path("table1-speed-accuracy")
+    plots.speed_accuracy(timing, path, time_col="time_ms", error_col="psnr", group_col="scene",
+                         label_col="method", title="Median frame time against PSNR, every method and scene",
+                         log_y=False, time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                         x_label="median frame time (ms); bars: fastest to slowest frame",
+                         y_label="PSNR against the reference (dB)")
+    orbit = speed_points(tests)
+    orbit["method"] = [method_name(c) for c in orbit.config]
+    summary = orbit.groupby(["scene", "method"]).time_ms.agg(["median", "min", "max"]).reset_index().rename(
+        columns={"median": "median over views (ms)", "min": "fastest view (ms)", "max": "slowest view (ms)"})
+    return [linked_table("Frame times and accuracy (headline view)", timing,
+                         ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
+                         csv_name="table1.csv", caption=frames_caption(timing)),
+            blocks.Figure("Speed against accuracy", rel, "One series per scene, each point one method "
+                          "(labelled), headline view; higher and further left is better."),
+            blocks.Table("Over the orbit", summary, csv_name="table1_orbit.csv",
+                         caption="Median frame time per view, then median, fastest and slowest view.")]
+
+
+def _gallery(headline, results, ctx):
+    """Each method's headline image beside its difference from the reference, on the one difference scale."""
+    gallery = blocks.Gallery("Headline view: each method and its difference from the reference",
+                             diff_scale=DIFF_SCALE, caption="Left the method's image, right |method − reference|.")
+    for row in headline.sort_values(["scene", "config"]).itertuples():
+        gallery.items.append(blocks.GalleryItem(
+            f"{row.scene}, {method_name(row.config)}", ctx.image(row.png),
+            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
+            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, {format_number(row.time_total * 1e3)} ms"))
+    return gallery
+
+
+class Table1(Experiment):
+    """SBVR, RC, RC-a and RC-b on the paper's four kinds of data, and the images against the reference."""
+
+    name = "kruger2003-table1"
+    paper = "kruger2003"
+    title = "Table 1: slicing against multi-pass ray casting with early termination and empty-space skipping (E1, E3, E5)"
+    settings = frozenset({"scenes", "volume_size", "image_size", "step_factor", "truth_step_factor", "orbit",
+                          "repeat"})
+    scales = {"smoke": {"scenes": ["head"], "volume_size": 32, "image_size": 64, "orbit": 1},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 4},
+              "full": {"volume_size": 256, "image_size": 512, "orbit": 8}}
+    description = (
+        "The paper times 3D-texture slicing (SBVR) against its multi-pass GPU ray caster without "
+        "acceleration (RC), with early ray termination through the depth test (RC-a) and with "
+        "empty-space skipping on top (RC-b), on an MRI head, an aneurysm, a foot and an engine at "
+        "512². Here the same four renderers (and the modern single-pass caster, not in the paper, and "
+        "VTK's GPU ray caster, the peer users run, with its default early termination) "
+        "render phantom stand-ins of the four kinds and the real scans of the same kinds, at one "
+        "sampling distance, from the headline view (30° yaw, 20° pitch) and around an orbit. Every "
+        "image is compared with the reference ray caster at a fine step. The paper's frame rates "
+        "come from a 2003 GPU; the claims compare ratios between methods measured in one run."
+    )
+    SCENES = tuple(TABLE1)
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not (is_registered(RAYCAST) or is_registered(SLICER)):
+            return []
+        wanted = listed(profile, self, "scenes", self.SCENES, known=TABLE1)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        step = profile.setting(self, "step_factor", 0.5)
+        truth_step = profile.setting(self, "truth_step_factor", 0.25)
+        orbit = int(profile.setting(self, "orbit", 4))
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in wanted:
+            dataset, preset = TABLE1[scene_name][:2]
+            scene_spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
+            views = (headline_view(dataset),) + tuple(
+                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
+                if a != 30.0)
+            tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
+            truth = truth_run(self.name, scene_name, scene_spec, views, truth_step, tags)
+            runs.append(truth)
+            runs += method_runs(self.name, scene_name, scene_spec, views, METHODS, step, truth.id, tags, frames)
+        return runs
+
+    def paper_table(self):
+        rows = []
+        for scene_name, (_d, _p, row, sbvr, rc, rca, rcb) in TABLE1.items():
+            if scene_name in REAL_SCANS:
+                continue
+            rows.append({"data set (paper)": row, "SBVR fps": sbvr, "RC fps": rc, "RC-a fps": rca, "RC-b fps": rcb,
+                         "RC / SBVR": rc / sbvr, "RC-a / RC": rca / rc, "RC-b / RC-a": rcb / rca,
+                         "RC-b / RC": rcb / rc, "RC-b / SBVR": rcb / sbvr})
+        return pd.DataFrame(rows).round(2).assign(device=PAPER_DEVICE)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[ok.role == "test"].copy() if "role" in ok else ok.iloc[:0]
+        out = [claim_takeaways(self.claims, results, _device_takeaways(tests), _peer_takeaways(ok))]
+        if not tests.empty:
+            headline = tests[tests.view == "headline"]
+            out += _ratio_blocks(headline, ctx) + _speed_blocks(headline, tests, ctx)
+            out.append(_gallery(headline, results, ctx))
+        return out + gl_not_measurable()

@@ -1,0 +1,47 @@
+"""Lacroute 1995 (the VolPack thesis): the shear-warp factorization's experiments.
+
+The paper's guide is ``../shared/papers/notes/`` (003.md, §4.2). Ten experiments, each with the
+thesis's own numbers beside ours (``paper_table``) and the thesis's statements as claims checked on
+the measured table, one module each:
+
+* :mod:`.volpack`: our ``shearwarp`` against ``volpack`` (the thesis's own library) on the same input;
+* :mod:`.quality`: E7/E8, error at 0°, 22.5° and 45° for a smooth and a binary classification, and
+  opacity correction on a low-opacity cube;
+* :mod:`.matrix`: E11, the optimisation matrix of Fig. 5.17 (samples and time);
+* :mod:`.angles`: E4, time over a full turn (Fig. 5.3), no jump at the principal-axis switch;
+* :mod:`.scaling`: E2/E3, time against the volume size (n², not n³), RLE memory, the warp (Table 5.4);
+* :mod:`.throughput`: E12–E14, cubes and checkerboards (Figs 5.19–5.21) and the fitted cost model;
+* :mod:`.parallel`: E16/E17, workers, the four task schedules of Ch. 6 and the task size;
+* :mod:`.shading`: E18 lookup-table shading, E15 union-find variants, E22 the mode switch;
+* :mod:`.projection`: E2, Table 5.3 complete (parallel, perspective, fast classification) with memory;
+* :mod:`.perspective`: E21, perspective image quality as the field of view widens.
+
+Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, a shear-warp
+frame checked against its ground truth) and :mod:`.reading` (angles in view names, chart titles).
+
+Every timed comparison renders at least one warm-up frame and three timed frames (more when the
+experiment's scale or the profile asks); ground-truth runs of the reference render one untimed frame.
+Runs whose backend is not registered are not planned, and each report says what could not be
+measured and why; a run that cannot happen here is recorded as skipped by the runner. Data sets whose
+body axis is the scanner's z are viewed with the camera of the gallery's upright rendering
+(:func:`~pipeline.experiments.kit.planning.upright_view`), in their own voxel frame.
+"""
+
+from pipeline.experiments.kit.model import Paper
+from pipeline.experiments.lacroute1995.angles import ViewAngles
+from pipeline.experiments.lacroute1995.matrix import OptimisationMatrix
+from pipeline.experiments.lacroute1995.parallel import Parallel
+from pipeline.experiments.lacroute1995.perspective import PerspectiveQuality
+from pipeline.experiments.lacroute1995.projection import Projections
+from pipeline.experiments.lacroute1995.quality import ImageQuality
+from pipeline.experiments.lacroute1995.scaling import SizeScaling
+from pipeline.experiments.lacroute1995.shading import Variants
+from pipeline.experiments.lacroute1995.throughput import Throughput
+from pipeline.experiments.lacroute1995.volpack import VolPackComparison
+
+EXPERIMENTS = (VolPackComparison, ImageQuality, OptimisationMatrix, ViewAngles, SizeScaling, Throughput, Parallel,
+               Variants, Projections, PerspectiveQuality)
+
+PAPER = Paper("lacroute1995", "shearwarp", baselines=("volpack",), experiments=EXPERIMENTS,
+              needs="the CPU shear-warp factorization (Numba) and VolPack itself as the baseline")
+"""What this paper needs and which experiments reproduce it (the registry reads it)."""

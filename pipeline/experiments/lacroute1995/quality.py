@@ -1,0 +1,357 @@
+"""``lacroute1995-quality`` (E7, E8): shear-warp's error against the reference at 0°, 22.5° and 45°.
+
+A smooth and a binary classification of each data set (the 45° aliasing of Fig. 5.10), each against
+the post-classified ground truth and the pre-classified caster the thesis compared with; and opacity
+correction (§4.1.6) on a uniform low-opacity cube seen head-on, at 45° and along the diagonal.
+"""
+
+import math
+
+import numpy as np
+import pandas as pd
+
+import datasets
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, format_number, linked_table,
+                                            not_measurable)
+from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, missing_options,
+                                               phantom, scene, truth_run, unregistered)
+from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, text_column
+from pipeline.experiments.lacroute1995 import tables
+from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.reading import angle_of
+from reports import blocks, plots
+
+QUALITY_TFS = {
+    # data set: (smooth preset, binary preset or raw threshold)
+    "engine": ("smooth", "binary"),
+    "engine_real": ("smooth", "binary"),
+    "sphere": ("opaque", "binary"),
+    "ct_skull": ("bone", 180),
+}
+"""Per data set, the smooth preset and the binary classification (a preset, or a raw threshold at
+which a one-entry step from α 0 to 1 is built as the scene's transfer function)."""
+
+TRUTHS = {"post": "the ground truth (post-classified)", "pre": "the pre-classified caster (the thesis's comparison)"}
+"""The two references of the quality study, by the ``truth`` tag."""
+
+CUBE_VIEWS = (("az0", 0.0, 0.0, 1.0), ("az45", 45.0, 0.0, math.sqrt(2)), ("diagonal", 45.0, math.degrees(math.atan(1 / math.sqrt(2))), math.sqrt(3)))
+"""Views of the opacity-correction cube: name, azimuth, elevation, sample spacing Δ/Δ0."""
+
+
+def binary_points(threshold, color=(0.95, 0.92, 0.85)):
+    """A step transfer function at raw value ``threshold`` (one table entry wide), as scene points."""
+    r, g, b = color
+    return {"points": [[0.0, r, g, b, 0.0], [(threshold - 1) / 255, r, g, b, 0.0], [threshold / 255, r, g, b, 1.0],
+                       [1.0, r, g, b, 1.0]], "name": f"binary{threshold}"}
+
+
+def cube_value(size):
+    """The constant-cube value whose opacity keeps the longest ray (the diagonal) unsaturated.
+
+    With the identity preset α = value/255 per voxel; the diagonal crosses ``size·√3`` voxel
+    lengths, and an optical depth of 1.5 there leaves the accumulated opacity near 0.78.
+    """
+    return int(max(1, round(255 * (1 - math.exp(-1.5 / (size * math.sqrt(3)))))))
+
+
+def opacity_deficit(reference_exr, test_exr, *, low=0.05, high=0.95):
+    """How much more transparent ``test`` is than ``reference``: ``1 − τ_test/τ_ref`` (median).
+
+    ``τ = −ln(1 − A)`` is the optical depth of a pixel's accumulated opacity; the median ratio
+    is taken over pixels whose reference opacity lies in ``[low, high]`` (neither empty nor
+    saturated). A renderer that leaves opacity uncorrected at a sample spacing ``Δ`` instead of
+    ``Δ0`` shows ``1 − Δ0/Δ``: 29 % at 45° about one axis, 42 % about two.
+    """
+    a = read_exr(reference_exr)[..., 3].astype(np.float64)
+    b = read_exr(test_exr)[..., 3].astype(np.float64)
+    if a.shape != b.shape:
+        raise ValueError(f"{test_exr} and {reference_exr} differ in size")
+    mask = (a >= low) & (a <= high)
+    if mask.sum() < 10:
+        raise ValueError(f"fewer than 10 pixels of {reference_exr} have an opacity in [{low}, {high}]")
+    tau_ref = -np.log1p(-a[mask])
+    tau_test = -np.log1p(-np.clip(b[mask], 0.0, 1.0 - 1e-7))
+    return float(1.0 - np.median(tau_test / tau_ref))
+
+
+class ImageQuality(Experiment):
+    """Shear-warp against the reference at 0°, 22.5°, 45°: smooth and binary classification; opacity correction."""
+
+    name = "lacroute1995-quality"
+    paper = "lacroute1995"
+    title = "Image quality: the 45° worst case, binary classification and opacity correction (E7, E8)"
+    settings = frozenset({"datasets", "volume_size", "image_size", "angles", "truth_step_factor", "shading",
+                          "cube_size"})
+    scales = {"smoke": {"datasets": ["engine"], "angles": [0, 45]},
+              "default": {"datasets": ["engine", "engine_real", "ct_skull"]},
+              "full": {"datasets": ["engine", "engine_real", "ct_skull", "sphere"]}}
+    description = (
+        "Shear-warp resamples bilinearly inside each slice and never between slices, so it is exact "
+        "only when rays meet the slices head-on; at 45° the sample spacing is largest and frequencies "
+        "across the slices alias. The thesis (Figs 5.9, 5.10) shows that with a smooth transfer function "
+        "the images are nearly identical to a trilinear ray caster's at every angle, and that a binary "
+        "classification aliases visibly at 45°. Each data set is rendered at 0°, 22.5° and 45° about its "
+        "body axis with both classifications and compared with the reference at a fine step twice: "
+        "against the ground truth, which classifies the interpolated scalar (CONVENTIONS), and against "
+        "the reference classifying and shading the voxels before interpolating, as the thesis's "
+        "comparison caster (and shear-warp itself) does; the first is what a user gets, the second "
+        "isolates shear-warp's resampling from the classification order. Opacity "
+        "correction (§4.1.6) is checked on a uniform low-opacity cube at 0°, 45° about one axis and along "
+        "the diagonal: without it the image is too transparent by 1 − Δ0/Δ (29 % and 42 %)."
+    )
+    DATASETS = ("engine", "engine_real", "ct_skull")
+    ANGLES = (0.0, 22.5, 45.0)
+
+    def runs(self, profile):
+        if not is_registered(SW):
+            return []
+        wanted = listed(profile, self, "datasets", self.DATASETS, known=QUALITY_TFS)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        angles = [float(a) for a in profile.setting(self, "angles", list(self.ANGLES))]
+        truth_factor = profile.setting(self, "truth_step_factor", 0.125)
+        shading = profile.setting(self, "shading", "phong")
+        runs = []
+        for dataset in wanted:
+            views = tuple(dataset_view(dataset, f"az{a:g}", a) for a in angles)
+            for tf, choice in zip(("smooth", "binary"), QUALITY_TFS[dataset]):
+                if isinstance(choice, str):
+                    volume = phantom(dataset, size, preset=choice)
+                else:
+                    volume = phantom(dataset, size, transfer_function=binary_points(choice))
+                spec = scene(f"{dataset}-{tf}", image, volumes=[volume], shading=shading)
+                tags = {"part": "classification", "dataset": dataset, "tf": tf}
+                runs += truth_and_shearwarp(self.name, f"{dataset}.{tf}", spec, views, truth_factor, tags,
+                                            pre_classified=True)
+        if accepts(SW, "opacity_correction", "min_opacity"):
+            cube = profile.setting(self, "cube_size", size)
+            value = cube_value(cube)
+            volume = phantom("constant_cube", cube, preset="identity", params={"value": value})
+            spec = scene("cube", image, volumes=[volume], shading="none")
+            views = tuple({"view": name, "azimuth": az, "elevation": el} for name, az, el, _ in CUBE_VIEWS)
+            tags = {"part": "opacity", "dataset": "constant_cube", "alpha": value / 255}
+            truth = truth_run(self.name, "cube", spec, views, 0.25, tags, correction="reference")
+            runs.append(truth)
+            for correction in (True, False):
+                runs.append(Run(self.name, f"cube.{'corrected' if correction else 'uncorrected'}", SW, spec, views,
+                                options={"opacity_correction": correction, "min_opacity": round(value / 255 / 2, 6)},
+                                reference=truth.id, **UNTIMED,
+                                tags={**tags, "role": "test", "correction": "on" if correction else "off"}))
+        return runs
+
+    claims = (
+        Claim("smooth-0deg", "With a smooth transfer function shear-warp matches the ground-truth ray caster "
+              "(post-classified, CONVENTIONS) head-on", "PSNR ≥ 35 dB at 0° (worst data set)",
+              lambda df: _smooth_head_on(df, "post")),
+        Claim("smooth-0deg-pre", "With a smooth transfer function shear-warp matches a trilinear ray caster that "
+              "classifies and shades voxels before interpolating, as the thesis's comparison caster does (Fig. 5.9), "
+              "head-on", "PSNR ≥ 35 dB at 0° (worst data set)", lambda df: _smooth_head_on(df, "pre")),
+        Claim("smooth-all-angles", "With a smooth transfer function the error against the thesis's kind of ray caster "
+              "stays small at every angle (Fig. 5.9)", "PSNR falls by ≤ 3 dB from 0° to 45° (worst data set)",
+              lambda df: _drop(df, "smooth", False)),
+        Claim("binary-45deg-aliasing", "A binary classification aliases at 45° (Fig. 5.10a) where a smooth one "
+              "barely does (5.10c), both against the thesis's kind of trilinear ray caster", "binary's PSNR loss "
+              "from 0° to 45° exceeds the smooth one's by ≥ 1 dB (every data set)",
+              lambda df: _drop(df, "binary", True)),
+        Claim("uncorrected-too-transparent", "Without opacity correction a 45° view is about 30 % too transparent "
+              "(§4.1.6; 42 % along the diagonal)", "optical-depth deficit 29 % ± 7 (45°), 42 % ± 7 (diagonal)",
+              lambda df: _uncorrected(df)),
+        Claim("corrected-agrees", "With opacity correction the cube agrees with the ray caster at every angle",
+              "optical-depth deficit within ±5 % (every view)", lambda df: _corrected(df)),
+    )
+
+    def paper_table(self):
+        return tables.quality_findings()
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        out = [claim_takeaways(self.claims, results, _real_versus_phantom(ok))]
+        tests = ok[(ok.get("part") == "classification") & (ok.role == "test")].copy() if "part" in ok else ok.iloc[:0]
+        if not tests.empty:
+            out += _classification_blocks(tests, results, ctx)
+        cube = ok[(ok.get("part") == "opacity") & (ok.role == "test")] if "part" in ok else ok.iloc[:0]
+        if not cube.empty:
+            out += _opacity_blocks(cube, results, ctx)
+        return out + not_measurable(unregistered(SW) + missing_options(SW, "opacity_correction", "min_opacity"))
+
+
+def _classification_blocks(tests, results, ctx):
+    """The error by angle: a table, a chart and a gallery at 0° and 45°."""
+    tests["angle (°)"] = [angle_of(v) for v in tests.view]
+    tests["truth"] = tests.truth.fillna("post") if "truth" in tests else "post"
+    tests["against"] = tests.truth.map(TRUTHS)
+    tests["series"] = tests.dataset + " " + tests.tf + " vs " + tests.truth + "-classified"
+    out = [linked_table("Error against the reference by angle", tests,
+                        ["dataset", "tf", "against", "angle (°)", "psnr", "ssim", "rmse", "max_error"], ctx,
+                        names={"tf": "classification", "max_error": "largest error"}, csv_name="quality.csv",
+                        caption="Each a single untimed frame; the reference renders at a fine step "
+                                "(the truth run's step factor), once post-classified (the ground truth) "
+                                "and once pre-classified (voxels classified and shaded, then "
+                                "interpolated: the thesis's comparison caster, which shares shear-warp's "
+                                "classification order). Angles turn about the body axis.")]
+    path, rel = ctx.plot_path("psnr-angle")
+    plots.lines(tests, path, x="angle (°)", y="psnr", group="series", title=_chart_title(tests[tests.truth == "pre"]),
+                x_label="view angle to the volume axes (degrees)", y_label="PSNR against the reference (dB)",
+                vlines=(45.0,))
+    out.append(blocks.Figure("Accuracy against the view angle", rel,
+                             "One line per data set, classification and reference; 45° (dotted) is the "
+                             "thesis's worst case."))
+    gallery = blocks.Gallery("Binary and smooth classification at 0° and 45°", diff_scale=DIFF_SCALE,
+                             caption="Left the shear-warp image, right its difference from the reference "
+                                     "named in the title.")
+    shown = tests[tests["angle (°)"].isin([0.0, 45.0])]
+    for row in shown.sort_values(["dataset", "tf", "angle (°)", "truth"]).itertuples():
+        gallery.items.append(blocks.GalleryItem(
+            f"{row.dataset}, {row.tf}, {angle_of(row.view):g}°, vs {row.truth}-classified",
+            ctx.image(row.png), difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
+            note=f"PSNR {format_number(row.psnr)} dB, SSIM {format_number(row.ssim)}; single untimed frame"))
+    return out + [gallery]
+
+
+def _opacity_blocks(cube, results, ctx):
+    """The cube's optical-depth deficit with and without opacity correction: a table and a gallery."""
+    rows = []
+    for row in cube.itertuples():
+        spacing = dict((n, s) for n, _a, _e, s in CUBE_VIEWS).get(row.view, np.nan)
+        try:
+            deficit = opacity_deficit(reference_exr(results, row), row.exr)
+        except ValueError:
+            deficit = np.nan
+        rows.append({"view": row.view, "correction": row.correction, "Δ/Δ0": spacing,
+                     "too transparent (measured)": deficit,
+                     "expected": 0.0 if row.correction == "on" else 1 - 1 / spacing,
+                     "PSNR (dB)": getattr(row, "psnr", np.nan)})
+    table = blocks.Table("Opacity correction on a uniform cube", pd.DataFrame(rows).sort_values(["view", "correction"]),
+                         caption="'Too transparent' is 1 − τ/τ_ref, τ = −ln(1 − A) the optical depth of a "
+                                 "pixel (median over pixels with reference opacity 0.05–0.95). Without "
+                                 "correction the expected deficit is 1 − Δ0/Δ.", csv_name="opacity_correction.csv")
+    gallery = blocks.Gallery("The cube with and without opacity correction", diff_scale=DIFF_SCALE,
+                             caption="Alpha composited over black; right the difference from the reference.")
+    for row in cube.sort_values(["view", "correction"]).itertuples():
+        gallery.items.append(blocks.GalleryItem(
+            f"{row.view}, correction {row.correction}", ctx.image(row.png),
+            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
+            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB; single untimed frame"))
+    return [table, gallery]
+
+
+def _rows(df, tf, truth="post"):
+    """Shear-warp rows of classification ``tf`` measured against the ``truth`` reference (see :data:`TRUTHS`)."""
+    rows = df[(text_column(df, "part") == "classification") & (text_column(df, "role") == "test") & (text_column(df, "tf") == tf)
+              & (text_column(df, "truth") == truth)].copy()
+    if rows.empty:
+        raise ValueError(f"no successful shear-warp run with the {tf} classification against {TRUTHS[truth]}")
+    rows["angle"] = [angle_of(v) for v in rows.view]
+    rows["psnr"] = numeric(rows, "psnr")
+    return rows
+
+
+def _smooth_head_on(df, truth):
+    rows = _rows(df, "smooth", truth)
+    head_on = rows[np.isclose(rows.angle, 0.0)]
+    if head_on.empty:
+        raise ValueError("no view at 0°")
+    worst = head_on.loc[head_on.psnr.idxmin()]
+    return ClaimResult(f"{format_number(worst.psnr)} dB ({worst.dataset})", bool(worst.psnr >= 35.0),
+                       ", ".join(f"{r.dataset}: {format_number(r.psnr)} dB" for r in head_on.itertuples()))
+
+
+def _psnr_at(rows, dataset, angle):
+    match = rows[(rows.dataset == dataset) & np.isclose(rows.angle, angle)]
+    if match.empty:
+        raise ValueError(f"{dataset}: no view at {angle:g}°")
+    return float(match.psnr.iloc[0])
+
+
+def _drop(df, tf, aliasing, truth="pre"):
+    rows = _rows(df, tf, truth)
+    drops, details, holds = {}, [], True
+    smooth = _rows(df, "smooth", truth) if aliasing else None
+    for dataset in pd.unique(rows.dataset):
+        head_on, oblique = _psnr_at(rows, dataset, 0.0), _psnr_at(rows, dataset, 45.0)
+        drops[dataset] = head_on - oblique
+        detail = f"{dataset}: {format_number(head_on)} dB at 0°, {format_number(oblique)} dB at 45°"
+        if aliasing:
+            smooth_drop = _psnr_at(smooth, dataset, 0.0) - _psnr_at(smooth, dataset, 45.0)
+            detail += f" (smooth loses {format_number(smooth_drop)} dB)"
+            drops[dataset] -= smooth_drop  # the loss beyond the smooth classification's
+            holds &= drops[dataset] >= 1.0
+        else:
+            holds &= drops[dataset] <= 3.0
+        details.append(detail)
+    key = min(drops, key=drops.get) if aliasing else max(drops, key=drops.get)
+    what = "more than the smooth one loses" if aliasing else "lower at 45°"
+    return ClaimResult(f"{format_number(drops[key])} dB {what} ({key})", bool(holds), "; ".join(details))
+
+
+def _cube_deficits(df, correction):
+    rows = df[(text_column(df, "part") == "opacity") & (text_column(df, "role") == "test") & (text_column(df, "correction") == correction)]
+    truth = df[(text_column(df, "part") == "opacity") & (text_column(df, "role") == "truth")]
+    if rows.empty or truth.empty:
+        raise ValueError(f"no successful cube run with correction {correction} and its reference")
+    deficits = {}
+    for row in rows.itertuples():
+        reference = truth[truth.view == row.view]
+        if reference.empty:
+            continue
+        deficits[row.view] = opacity_deficit(reference.exr.iloc[0], row.exr)
+    if not deficits:
+        raise ValueError("no cube view rendered by both")
+    return deficits
+
+
+def _uncorrected(df):
+    deficits = _cube_deficits(df, "off")
+    expected = {name: 1 - 1 / spacing for name, _a, _e, spacing in CUBE_VIEWS if spacing > 1}
+    measured = {v: d for v, d in deficits.items() if v in expected}
+    if not measured:
+        raise ValueError("no oblique cube view")
+    holds = all(abs(d - expected[v]) <= 0.07 for v, d in measured.items())
+    return ClaimResult(", ".join(f"{as_percent(d)} ({v})" for v, d in measured.items()), bool(holds),
+                       ", ".join(f"{v}: expected {as_percent(expected[v])}" for v in measured)
+                       + (f"; head-on: {as_percent(deficits['az0'])}" if "az0" in deficits else ""))
+
+
+def _corrected(df):
+    deficits = _cube_deficits(df, "on")
+    worst = max(deficits, key=lambda v: abs(deficits[v]))
+    return ClaimResult(f"{as_percent(deficits[worst])} ({worst})", bool(abs(deficits[worst]) <= 0.05),
+                       ", ".join(f"{v}: {as_percent(d)}" for v, d in deficits.items()))
+
+
+def _chart_title(tests):
+    parts = []
+    for tf in ("binary", "smooth"):
+        rows = tests[tests.tf == tf]
+        drops = []
+        for dataset in pd.unique(rows.dataset):
+            sub = rows[rows.dataset == dataset]
+            a, b = sub[np.isclose(sub["angle (°)"], 0.0)], sub[np.isclose(sub["angle (°)"], 45.0)]
+            if not a.empty and not b.empty:
+                drops.append(float(a.psnr.iloc[0] - b.psnr.iloc[0]))
+        if drops:
+            parts.append(f"{tf} loses {format_number(max(drops), 2)} dB")
+    return ("From 0° to 45° " + ", ".join(parts)) if parts else "PSNR against the view angle"
+
+
+def _real_versus_phantom(ok):
+    """The smooth head-on PSNR against the pre-classified caster on real scans and on phantoms, side by side."""
+    try:
+        rows = _rows(ok, "smooth", "pre")
+    except (KeyError, ValueError):
+        return []
+    head_on = rows[np.isclose(rows.angle, 0.0)]
+    kinds = {name: datasets.get(name).kind for name in pd.unique(head_on.dataset)}
+    real = head_on[[kinds[d] == "real" for d in head_on.dataset]]
+    phantoms = head_on[[kinds[d] == "phantom" for d in head_on.dataset]]
+    if real.empty or phantoms.empty:
+        return []
+
+    def listing(frame):
+        return ", ".join(f"{r.dataset} {format_number(r.psnr)} dB" for r in frame.itertuples())
+
+    return [f"Against the pre-classified caster, head-on with a smooth classification, the real scans give "
+            f"{listing(real)} and the phantoms {listing(phantoms)}. The phantoms' edges are not antialiased "
+            f"(no partial-volume blur), the case the thesis (§5.1.2) names as one where bilinear slices "
+            f"produce artifacts; their difference images put the error on the silhouettes."]

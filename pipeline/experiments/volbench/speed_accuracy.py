@@ -1,0 +1,158 @@
+"""``volbench-speed-accuracy``: every registered backend over its quality settings, time against error.
+
+Each backend's ``quality_sweep`` renders the same scenes; the error is measured against the reference
+at 1/16 voxel. The index's techniques × data sets table is built from these runs (``overview``).
+"""
+
+import numpy as np
+import pandas as pd
+
+import renderers
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.pages import DIFF_SCALE, METRICS, as_ratio, format_number, linked_table, ms
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed
+from pipeline.experiments.kit.results import reference_exr, speed_points
+from pipeline.experiments.volbench.scenes import scene_and_truth
+from reports import blocks, takeaways
+
+SPEED_ACCURACY_SCENES = {
+    "skull-bone": ("ct_skull", "bone", "phong"),
+    "engine-semi": ("engine", None, "phong"),
+}
+"""Scene → (data set, preset or None for its default, shading)."""
+
+
+def _tradeoff(df):
+    rows = df[(df.backend == "reference") & (df.role == "sweep")].copy()
+    rows["step_factor"] = rows.setting.str.extract(r"step_factor=([0-9.e-]+)")[0].astype(float)
+    ratios, monotone = [], True
+    for _, group in rows.groupby("scene"):
+        group = group.sort_values("step_factor", ascending=False)
+        times = group.time_total.to_numpy()
+        ratios.extend(times[1:] / times[:-1])
+        monotone &= bool((np.diff(group.rmse.to_numpy()) < 0).all())
+    if not ratios:
+        raise ValueError("no reference sweep")
+    median_ratio = float(np.median(ratios))
+    holds = 1.5 <= median_ratio <= 2.5 and monotone
+    return ClaimResult(f"{as_ratio(median_ratio)} per halving", holds,
+                       f"ratios {', '.join(format_number(r) for r in ratios)}; error decreasing: {monotone}")
+
+
+class SpeedAccuracy(Experiment):
+    """Every registered backend over its quality settings: time against error."""
+
+    name = "volbench-speed-accuracy"
+    title = "Speed against accuracy, every backend"
+    settings = frozenset({"scenes", "volume_size", "image_size"})
+    scales = {"smoke": {"scenes": ["skull-bone"]}}
+    description = (
+        "Each registered backend renders the same scenes over its own quality settings (its "
+        "``quality_sweep``: step size, and later slice count, thresholds, ...). Error is measured "
+        "against the reference at 1/16 voxel, time is the median frame after warm-up. Backends "
+        "that cannot run here are listed with the reason."
+    )
+    TRUTH_FACTOR = 1 / 16
+
+    def runs(self, profile):
+        runs = []
+        for scene_name in listed(profile, self, "scenes", SPEED_ACCURACY_SCENES, SPEED_ACCURACY_SCENES):
+            scene, truth = scene_and_truth(self, profile, scene_name, SPEED_ACCURACY_SCENES[scene_name],
+                                           self.TRUTH_FACTOR, {"setting": "truth"})
+            runs.append(truth)
+            for backend in renderers.names():
+                for index, options in enumerate(renderers.backend_class(backend).quality_sweep):
+                    setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
+                    runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
+                                    (HEADLINE_VIEW,), options=dict(options), reference=truth.id,
+                                    warmup=profile.warmup, repeat=profile.repeat,
+                                    tags={"scene": scene_name, "setting": setting, "role": "sweep"}))
+        return runs
+
+    claims = (
+        Claim("tradeoff", "For the reference, halving the step roughly doubles the time and lowers the error",
+              "time ratio per halving in [1.5, 2.5]; error decreasing", _tradeoff),
+    )
+
+    overview = True
+    """The index's techniques × data sets table is built from this experiment's runs."""
+
+    def report(self, results, ctx):
+        from reports import plots  # matplotlib: only when the report is built
+
+        ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
+        ok["setting"] = ok.setting.fillna("default").astype(str)
+        ok["technique"] = [f"{b} ({s})" if s != "default" else b for b, s in zip(ok.backend, ok.setting)]
+        ok = speed_points(ok)
+        out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
+                                + _stage_takeaways(ok))]
+        for scene, group in ok.groupby("scene"):
+            path, rel = ctx.plot_path(f"speed-accuracy-{scene}")
+            plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="backend",
+                                 label_col="setting", title=_speed_title(scene, group), log_y=False,
+                                 time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                                 x_label="median frame time (ms); bars: fastest to slowest frame",
+                                 y_label="PSNR against the reference (dB)")
+            out.append(blocks.Figure(f"{scene}: median frame time against PSNR", rel,
+                                     "Each point is one quality setting, labelled with it; higher and further "
+                                     "left is better. Error bars span the fastest and slowest timed frame."))
+        stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
+                  and not c.endswith(("_min", "_max"))]
+        ok["backend_setting"] = ok.backend + " " + ok.setting
+        if stages:
+            path, rel = ctx.plot_path("stages")
+            plots.stage_breakdown(ok, path, stage_cols=stages, group_col="backend_setting",
+                                  title=_stage_title(ok, stages))
+            out.append(blocks.Figure("Time per stage (median over scenes)", rel,
+                                     "Each backend's own stages, as it reports them (CONVENTIONS, Results)."))
+        times = ms(ok)
+        table = pd.concat([ok, times], axis=1).sort_values(["scene", "backend", "time (ms)"])
+        out.append(linked_table("All settings", table, ["scene", "backend", "setting", *times, *METRICS], ctx,
+                                csv_name="speed_accuracy.csv",
+                                caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
+                                        "Each row links to its run's JSON record and EXR image."))
+        for scene, group in ok.groupby("scene"):
+            gallery = blocks.Gallery(f"{scene}: every setting against the reference", diff_scale=DIFF_SCALE)
+            for row in group.sort_values("time_total").itertuples():
+                gallery.items.append(blocks.GalleryItem(
+                    caption=row.technique, image=ctx.image(row.png),
+                    difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
+                    note=f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} dB, "
+                         f"largest error {format_number(row.max_error)}"))
+            out.append(gallery)
+        unavailable = [{"backend": info.name, "reason": info.reason} for info in renderers.available() if not info.available]
+        if unavailable:
+            out.append(blocks.Table("Backends that cannot run here", pd.DataFrame(unavailable)))
+        return out
+
+
+def _speed_title(scene, group, psnr_min=takeaways.PSNR_GOOD):
+    """The finding of a speed-accuracy chart: the fastest setting that reaches ``psnr_min``."""
+    accurate = group[group.psnr >= psnr_min]
+    if accurate.empty:
+        return f"{scene}: no setting reaches {psnr_min:g} dB (best {format_number(group.psnr.max())} dB)"
+    best = accurate.loc[accurate.time_ms.idxmin()]
+    return f"{scene}: {psnr_min:g} dB at {format_number(best.time_ms)} ms with {best.technique}"
+
+
+def _stage_shares(ok, stages):
+    medians = ok[stages].median()
+    total = medians.sum()
+    return (medians / total).sort_values(ascending=False) if total > 0 else pd.Series(dtype=float)
+
+
+def _stage_title(ok, stages):
+    shares = _stage_shares(ok, stages)
+    if shares.empty:
+        return "Time per stage"
+    return f"The {shares.index[0].removeprefix('time_')} stage takes {shares.iloc[0]:.0%} of the median frame"
+
+
+def _stage_takeaways(ok):
+    stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
+              and not c.endswith(("_min", "_max"))]
+    shares = _stage_shares(ok, stages) if stages else pd.Series(dtype=float)
+    if shares.empty:
+        return []
+    parts = ", ".join(f"{name.removeprefix('time_')} {share:.0%}" for name, share in shares.items())
+    return [f"Where the time goes (median over every setting and scene): {parts}."]

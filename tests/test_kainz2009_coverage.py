@@ -1,0 +1,59 @@
+"""kainz2009-coverage (E11): both coverage methods timed and checked for watertightness, and the claims."""
+
+import numpy as np
+import pandas as pd
+
+from pipeline import experiments
+from pipeline.experiments import Profile
+from pipeline.experiments.kainz2009.coverage import METHODS
+from reports.imageio import write_exr
+
+NAME = "kainz2009-coverage"
+
+
+def _evaluate(claim_id, rows):
+    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
+    return claim.evaluate(pd.DataFrame(rows))
+
+
+def test_coverage_plan_times_both_methods_and_bins_closed_boundaries_unbounded():
+    profile = Profile(name="t", volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME],
+                      settings={NAME: {"triangle_counts": [500, 2000], "views": 3}})
+    coverage = list(experiments.plan(profile).values())
+    timed = {(r.tags["triangles"], r.options["coverage"]) for r in coverage if r.tags["role"] == "test"}
+    assert timed == {(t, m) for t in (500, 2000) for m in METHODS}
+    tight = [r for r in coverage if r.tags["role"] == "watertight"]
+    assert {r.options["coverage"] for r in tight} == set(METHODS)
+    assert all(r.options["fragments"] == "global" and len(r.views) == 3 for r in tight)
+
+
+def _image(tmp_path, name, image):
+    path = tmp_path / f"{name}.exr"
+    write_exr(str(path), image.astype(np.float32))
+    return str(path)
+
+
+def _rows(tmp_path, binning, *, unpaired=0, fragments=(100, 100), changed=0.0):
+    rows = [{"scene": f"sphere{t}", "triangles": t, "role": "test", "config": m, "time_total": 0.01,
+             "time_binning": seconds} for t, by_method in binning.items() for m, seconds in by_method.items()]
+    image = np.full((8, 8, 4), 0.5, np.float32)
+    for method, count in zip(METHODS, fragments):
+        for view in ("az0el0", "az37el12"):
+            rows.append({"scene": "watertight", "role": "watertight", "config": method, "view": view,
+                         "count_unpaired_pixels": unpaired if method == "edge" else 0, "count_fragments": count,
+                         "exr": _image(tmp_path, f"{method}-{view}", image + (changed if method == "edge" else 0))})
+    return rows
+
+
+def test_coverage_claims(tmp_path):
+    rows = _rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.003}, 4000: {"bitmask": 0.002, "edge": 0.005}})
+    result = _evaluate("bitshift-faster", rows)
+    assert result.holds is True and result.measured == "×2.5 at 4000 triangles"
+    for claim in ("watertight", "same-fragments"):
+        assert _evaluate(claim, rows).holds is True, claim
+    rows = _rows(tmp_path, {1000: {"bitmask": 0.003, "edge": 0.002}}, unpaired=3, fragments=(100, 98))
+    for claim in ("bitshift-faster", "watertight", "same-fragments"):
+        assert _evaluate(claim, rows).holds is False, claim
+    rows = _rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.003}}, changed=0.1)
+    assert _evaluate("same-fragments", rows).holds is False                          # same counts, other image
+    assert _evaluate("bitshift-faster", [r for r in rows if r["config"] == "bitmask"]).holds is None

@@ -1,0 +1,68 @@
+"""kainz2009-depth (E3): Table 2's scenes and the box sweep, the paper's table and the claims on synthetic results."""
+
+import pandas as pd
+import pytest
+
+from pipeline import experiments
+from pipeline.experiments import Profile
+from pipeline.experiments.kainz2009.methods import DUAL, TILED
+from pipeline.experiments.kainz2009.tables import TABLE2
+
+NAME = "kainz2009-depth"
+
+
+def _evaluate(claim_id, rows):
+    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
+    return claim.evaluate(pd.DataFrame(rows))
+
+
+def test_paper_table_gives_dual_peeling_over_ours():
+    table2 = experiments.get(NAME).paper_table().set_index("scene")
+    assert table2.loc["S1", "DDP / ours (mid)"] == pytest.approx(136.5 / 57, abs=0.01)  # DDP ≈ 2.4× at depth 20
+
+
+def test_depth_plan_has_table2_and_the_sweep():
+    profile = Profile(name="t", volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME],
+                      settings={NAME: {"box_counts": [5, 40]}})
+    depth = list(experiments.plan(profile).values())
+    assert {r.tags["scene"] for r in depth} == {"S1", "S2", "S3", "boxes5", "boxes40"}
+    assert {r.id for r in depth if r.backend == "reference"} == {"S1.truth", "S2.truth", "S3.truth"}
+    boxes = next(r for r in depth if r.id == "boxes40.tiled").scene["meshes"][0]
+    assert boxes["params"] == {"count": 40} and "volumes" in depth[0].scene
+
+
+DEPTHS = {"S1": 21, "S2": 40, "S3": 82, "boxes5": 10, "boxes20": 40, "boxes40": 80}
+
+
+def _depth_rows(dual_ms, *, tiled_ms=lambda d: 2 + 0.1 * d, dual_psnr=90.0):
+    """Depth rows: cl-tiled takes ``tiled_ms(depth)`` and dual depth peeling ``dual_ms(depth)`` per frame."""
+    rows = [{"scene": s, "role": "depth", "config": "global", "count_fragments_max": d} for s, d in DEPTHS.items()]
+    for config, ms, psnr in ((TILED, tiled_ms, 45.0), (DUAL, dual_ms, dual_psnr)):
+        rows += [{"scene": s, "role": "test", "config": config, "part": "table2" if s in TABLE2 else "sweep",
+                  "psnr": psnr, "time_total": ms(d) * 1e-3} for s, d in DEPTHS.items()]
+    return rows
+
+
+def test_depth_claims():
+    rows = _depth_rows(lambda d: 0.8 + 0.14 * d)  # dual cheaper until depth 30
+    for row in rows:
+        if row.get("part") == "sweep":
+            row["psnr"] = 20.0  # the sweep's images are not Table 2's: they do not count for accuracy
+    for claim in ("depths-match", "linear-in-depth", "accuracy", "dual-accuracy", "dual-wins-shallow",
+                  "tiled-wins-deep", "crossover"):
+        assert _evaluate(claim, rows).holds is True, claim
+    assert _evaluate("crossover", rows).measured == "depth 30"
+    rows[0]["count_fragments_max"] = 12  # a coil far shallower than the dragon
+    tiled = [r for r in rows if r.get("config") == TILED]
+    tiled[-1]["time_total"] = 0.1  # the deepest point far off the line
+    tiled[0]["psnr"] = 30.0
+    for claim in ("depths-match", "linear-in-depth", "accuracy"):
+        assert _evaluate(claim, rows).holds is False, claim
+    # Dual slower from depth 15 on: it loses S1 and the crossover falls below 20.
+    rows = _depth_rows(lambda d: 0.5 + 0.2 * d, dual_psnr=30.0)
+    for claim in ("dual-accuracy", "dual-wins-shallow", "crossover"):
+        assert _evaluate(claim, rows).holds is False, claim
+    # Dual faster at every depth: no crossover, and the tiled caster never wins.
+    rows = _depth_rows(lambda d: 0.05 * d)
+    assert _evaluate("tiled-wins-deep", rows).holds is False
+    assert _evaluate("crossover", rows).measured.startswith("no crossover: dual depth peeling")

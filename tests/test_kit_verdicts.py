@@ -1,0 +1,100 @@
+"""Tests of claim verdicts (pipeline.experiments.kit.verdicts): a claim that would read a run that did not
+happen is blocked, naming it; one that does not read it keeps its verdict."""
+
+import pandas as pd
+import pytest
+
+from pipeline.experiments.kit.model import Claim, ClaimResult
+from pipeline.experiments.kit.results import numeric, one_row, rows_matching, stage_time
+from pipeline.experiments.kit.verdicts import claim_sentences, depends_on_missing, judge
+
+
+def _runs(*rows):
+    """An experiment's tidy rows: ``(run, backend, scene, status, cause, time, extra)`` per run."""
+    out = []
+    for run, backend, scene, status, cause, time, extra in rows:
+        row = {"experiment": "e", "run": run, "backend": backend, "scene": scene, "status": status, "cause": cause,
+               "reason": "" if status == "ok" else f"{cause} of {run}", "view": "front" if status == "ok" else None,
+               "planned_views": "" if status == "ok" else "front", **extra}
+        if status == "ok":
+            row["time_total"] = time
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def _ratio(df):
+    """The narrow-band kind of claim: the C8 frame over the C1 frame of the tiled caster, ≤ 4."""
+    c1 = stage_time(one_row(df, "C1", scene="C1", backend="tiled"))
+    c8 = stage_time(one_row(df, "C8", scene="C8", backend="tiled"))
+    return ClaimResult(f"×{c8 / c1:.3g}", bool(c8 / c1 <= 4))
+
+
+def _all_fast(df):
+    """A claim over every tiled run that happened: each under 10 ms."""
+    times = numeric(rows_matching(df, "tiled", backend="tiled"), "time_total")
+    return ClaimResult(f"{times.max() * 1e3:.3g} ms", bool(times.max() < 0.01))
+
+
+RATIO = Claim("ratio", "C8 costs at most four times C1", "≤ 4", _ratio)
+ALL_FAST = Claim("fast", "every tiled frame is fast", "< 10 ms", _all_fast)
+PEEL_ONLY = Claim("peel", "depth peeling renders C1 under 10 ms", "< 10 ms",
+                  lambda df: ClaimResult("ok", stage_time(one_row(df, "peel", scene="C1", backend="peel")) < 0.01))
+
+
+def test_every_run_there_gives_the_plain_verdict():
+    rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {}), ("C8.tiled", "tiled", "C8", "ok", "", 0.0145, {}))
+    assert judge(RATIO, rows).verdict == "fails"  # ×7.24
+    assert judge(ALL_FAST, rows).verdict == "fails"
+
+
+def test_a_claim_that_reads_a_failed_run_is_blocked_naming_it():
+    # With C8.tiled failed, the remaining runs alone say "holds": the claim cannot be judged.
+    rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {}), ("C3.tiled", "tiled", "C3", "ok", "", 0.004, {}),
+                 ("C8.tiled", "tiled", "C8", "failed", "error", None, {}),
+                 ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
+    assert ALL_FAST.evaluate(rows[rows.status == "ok"]).holds is True
+    for claim in (RATIO, ALL_FAST):
+        verdict = judge(claim, rows)
+        assert verdict.verdict == "blocked" and verdict.holds is None
+        assert verdict.detail == "blocked: needs run C8.tiled, which failed"
+    # A claim that never selects the failed run keeps its verdict.
+    assert judge(PEEL_ONLY, rows).verdict == "holds"
+
+
+def test_a_planned_limit_does_not_block():
+    rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {}), ("C3.tiled", "tiled", "C3", "ok", "", 0.004, {}),
+                 ("C8.tiled", "tiled", "C8", "skipped", "unsupported", None, {}))
+    assert judge(ALL_FAST, rows).verdict == "holds"
+    assert depends_on_missing(_all_fast, rows) == []
+
+
+@pytest.mark.parametrize("cause, words", [("unavailable", "cannot run here"), ("no-data", "has no data here"),
+                                          ("time-limit", "exceeded the time limit")])
+def test_a_backend_that_made_no_frame_blocks_as_one(cause, words):
+    rows = _runs(*[(f"{scene}.tiled", "tiled", scene, "skipped" if cause != "time-limit" else "failed", cause, None, {})
+                   for scene in ("C1", "C2", "C3", "C4", "C5", "C6", "C7", "C8", "C9", "C10")],
+                 ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
+    verdict = judge(RATIO, rows)
+    assert verdict.verdict == "blocked"
+    assert verdict.detail == f"blocked: needs tiled, which {words} (all 10 of its runs)"
+    assert judge(PEEL_ONLY, rows).verdict == "holds"
+
+
+def test_a_column_only_the_missing_runs_report_blocks_rather_than_goes_unmeasured():
+    def fragments(df):
+        return ClaimResult("n", bool(numeric(rows_matching(df, "tiled", backend="tiled"), "count_fragments").max() < 64))
+
+    claim = Claim("frag", "fragments stay under the cap", "< 64", fragments)
+    rows = _runs(("C1.tiled", "tiled", "C1", "failed", "error", None, {}), ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
+    assert claim.evaluate(rows[rows.status == "ok"]).holds is None  # "not measurable" on what is left
+    assert judge(claim, rows).verdict == "blocked"
+    ok_only = rows[rows.status == "ok"]
+    verdict = judge(claim, ok_only)
+    assert verdict.verdict == "not measured" and verdict.detail == "column 'count_fragments' (no run reported it)"
+
+
+def test_take_away_sentences_leave_blocked_claims_to_the_claims_table():
+    rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {}), ("C8.tiled", "tiled", "C8", "failed", "error", None, {}),
+                 ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
+    assert claim_sentences((RATIO, PEEL_ONLY), rows) == [
+        "depth peeling renders C1 under 10 ms: ok, holds ()."]
