@@ -107,3 +107,30 @@ def test_the_pipeline_modules_import_each_other_without_a_cycle():
 def test_the_cycle_check_finds_a_circle():
     assert find_cycle({"a": ["b"], "b": ["c"], "c": ["a"], "d": ["a"]}) == ["a", "b", "c", "a"]
     assert find_cycle({"a": ["b", "c"], "b": ["c"], "c": []}) == []
+
+
+def papers_imported(graph, paper, papers):
+    """The other papers' packages that modules of ``paper``'s package import (``graph``: :func:`import_graph`)."""
+    own = f"pipeline.experiments.{paper}"
+    return sorted({other for module, imported in graph.items() if module == own or module.startswith(own + ".")
+                   for target in imported for other in papers
+                   if other != paper and (target == f"pipeline.experiments.{other}"
+                                          or target.startswith(f"pipeline.experiments.{other}."))})
+
+
+def test_no_paper_imports_another_and_every_paper_imports_only_the_kit_of_the_experiments():
+    from pipeline.experiments import PAPER_PACKAGES
+
+    graph = import_graph("pipeline")
+    for paper in PAPER_PACKAGES:
+        assert papers_imported(graph, paper, PAPER_PACKAGES) == [], paper
+        own = f"pipeline.experiments.{paper}"
+        reaches = {target for module, imported in graph.items() if module == own or module.startswith(own + ".")
+                   for target in imported if target.startswith("pipeline.")}
+        assert all(t.startswith((own, "pipeline.experiments.kit")) for t in reaches), (paper, sorted(reaches))
+
+
+def test_the_paper_check_sees_one_paper_importing_another():
+    graph = {"pipeline.experiments.a.x": ["pipeline.experiments.kit.model", "pipeline.experiments.b.y"],
+             "pipeline.experiments.b.y": ["pipeline.experiments.kit.model"]}
+    assert papers_imported(graph, "a", ("a", "b")) == ["b"] and papers_imported(graph, "b", ("a", "b")) == []
