@@ -165,6 +165,38 @@ rule environment:
 
 # Render jobs take every core (on a cluster: `--cores` per job, on a node of their own; see the
 # workflow profile): timings are taken with nothing else running beside them.
+#
+# Runs of one experiment with the same `interleave` name are one job, made by a rule of their own
+# (explicit outputs: Snakemake prefers it to `render`'s pattern): their frames alternate view by view,
+# so a claim comparing them takes its ratio under the same conditions (pipeline.timing.measure_together).
+INTERLEAVED = {}
+for _run in RUNS.values():
+    if _run.interleave:
+        INTERLEAVED.setdefault((_run.experiment, _run.interleave), []).append(_run)
+
+for (_experiment, _group), _members in INTERLEAVED.items():
+    rule:
+        name: f"render_together_{_experiment}_{_group}".replace("-", "_").replace(".", "_").replace("+", "_")
+        input:
+            volumes=sorted({f"{CACHE}/{key}.npy" for member in _members for key in volume_requests(member)}),
+            environment=f"{R}/environment.json",
+            retry=[RETRY[member.key] for member in _members],
+        output:
+            [record(member) for member in _members],
+        group: RUN_GROUP.format(experiment=_experiment)
+        params:
+            runs=json.dumps([member.as_dict() for member in _members]),
+            spec_hash=[member.spec_hash() for member in _members],
+            code=sorted({BACKEND_CODE[member.backend] for member in _members}),
+        threads: workflow.cores
+        resources:
+            gpu=int(any(uses_device(member.backend) for member in _members)),
+            **({"runtime": RENDER_RESOURCES["runtime"] * len(_members)} if "runtime" in RENDER_RESOURCES else {}),
+        shell:
+            "NUMBA_NUM_THREADS={threads} {PY} -m pipeline.jobs render --run {params.runs:q}"
+            " --profile {PROFILE_JSON:q} --device-env {input.environment}"
+
+
 rule render:
     input:
         volumes=lambda w: [f"{CACHE}/{key}.npy" for key in volume_requests(run_of(w))],

@@ -20,6 +20,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.environment import node_name
+from pipeline.experiments.kit.intervals import format_frames
 from pipeline.records import metrics_record_path
 from reports.metrics import METRIC_KEYS
 
@@ -39,7 +40,8 @@ def rows_for(record_path, *, results_dir):
         "experiment": record["experiment"], "run": record["run"], "backend": record["backend"],
         "status": record["status"], "reason": record["reason"], "cause": record.get("cause", ""),
         "reference": record["reference"],
-        "spec_hash": record["spec_hash"], "record": str(record_path), **record["tags"],
+        "spec_hash": record["spec_hash"], "record": str(record_path), "interleave": record.get("interleave") or "",
+        **record["tags"],
         **_flatten("option_", record.get("options")),
         **_flatten("stat_", record.get("statistics")),
         **record["environment"], **(record.get("backend_environment") or {}),
@@ -55,7 +57,11 @@ def rows_for(record_path, *, results_dir):
                **{f"time_{k}_min": v for k, v in view["timings_min"].items()},
                **{f"time_{k}_max": v for k, v in view["timings_max"].items()},
                **_flatten("count_", view["counters"]),
-               **_flatten("info_", {k: v for k, v in view["info"].items() if not isinstance(v, (dict, list))})}
+               **_flatten("info_", {k: v for k, v in view["info"].items() if not isinstance(v, (dict, list))}),
+               **{f"frames_{stage}": format_frames(values) for stage, values in (view.get("frames") or {}).items()},
+               **{f"load_{k.removeprefix('load_')}": v for k, v in (view["info"].get("load") or {}).items()
+                  if k in ("foreign_cores", "steal_share", "load_average")},
+               "rerun": _rerun_words(view.get("rerun"))}
         view_metrics = metrics.get("views", {}).get(view["view"])
         if view_metrics:
             row.update({key: view_metrics.get(key) for key in (*METRIC_KEYS, "diff_png")})
@@ -63,6 +69,15 @@ def rows_for(record_path, *, results_dir):
             row["metrics_reason"] = metrics["reason"]
         rows.append(row)
     return rows
+
+
+def _rerun_words(rerun):
+    """What a view's second timing says (``""`` when it was timed once): why, and which attempt was kept."""
+    if not rerun:
+        return ""
+    kept = "kept the second" if rerun.get("kept") == "second" else "kept the first (quieter)"
+    still = f"; the second too: {rerun['second']}" if rerun.get("second") else "; the second was quiet"
+    return f"timed twice: {rerun.get('first')}{still}; {kept}"
 
 
 def table_path(results_dir, experiment_name):
@@ -219,9 +234,15 @@ def claims_table(frame, experiments):
                 "experiment": experiment.name, "paper": experiment.paper, "claim": claim.id,
                 "statement": claim.statement, "expected": claim.expected, "measured": verdict.measured,
                 "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
+                "interval_low": verdict.interval[0] if verdict.interval else None,
+                "interval_high": verdict.interval[1] if verdict.interval else None,
+                "margin": verdict.margin,
             })
     return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
 
 
-CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "expected", "measured", "holds", "verdict", "detail"]
-"""The columns of ``claims.csv``."""
+CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "expected", "measured", "holds", "verdict", "detail",
+                 "interval_low", "interval_high", "margin"]
+"""The columns of ``claims.csv``: ``interval_low``/``interval_high`` bound the 95 % interval of the measured value
+where it rests on timed frames (in the value's unit: a ratio, seconds), ``margin`` is its relative distance
+from the bound, positive on the holding side (the worst row's, for a claim over several)."""

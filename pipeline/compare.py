@@ -6,7 +6,8 @@ a local one, and ``scripts/compare-results A B`` any two folders (a smoke run be
 change that must not change results). Each ``*_differences`` function returns the differences it
 finds, one sentence each: none, the folders agree.
 
-Left out everywhere: timings and durations (``time_*``, ``*_seconds``), the environment (host,
+Left out everywhere: timings and durations (``time_*``, ``frames_*``, ``*_seconds``, the frame counts and
+load the timing harness recorded), the environment (host,
 device, SLURM job, node: every column a record's ``environment`` or ``backend_environment`` names)
 and the values the backends declare scheduling-dependent (``Renderer.scheduling_dependent``: the
 order of threads or work-items decides them). Paths are compared relative to their results folder,
@@ -50,9 +51,16 @@ VARYING_FACTORS = (0.25, 4.0)
 """The range of the random factors :func:`varying_claims` multiplies each varying value by."""
 
 
+TIMING_INFO = ("info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "rerun")
+"""What the timing harness decides from the times themselves: how many frames the budget took, when the
+warm-up settled, whether the machine was disturbed (:mod:`pipeline.timing`)."""
+
+
 def is_timing(column):
-    """Timings (``time_*``) and durations (``*_seconds``: e.g. a phantom's generation time) differ run to run."""
-    return column.startswith("time_") or column.endswith("_seconds")
+    """Timings (``time_*``, each frame's ``frames_*``), durations (``*_seconds``), the machine's load
+    (``load_*``) and what the timing harness decided from them (:data:`TIMING_INFO`) differ run to run."""
+    return (column.startswith(("time_", "frames_", "load_")) or column.endswith("_seconds")
+            or column in TIMING_INFO)
 
 
 def scheduling_dependent():

@@ -38,48 +38,70 @@ def execute_limited(run, *, profile, device_environment=None, start_method="spaw
     the rest of the pipeline goes on. The limit covers the whole run: start-up, every view and
     every warm-up and timed frame.
     """
+    return execute_together_limited([run], profile=profile, device_environment=device_environment,
+                                    start_method=start_method)[0]
+
+
+def execute_together_limited(runs, *, profile, device_environment=None, start_method="spawn"):
+    """The runs of one interleave group (:func:`pipeline.rendering.execute_together`) under the time limit.
+
+    As :func:`execute_limited`, with the limit times the number of runs for the whole group; a group
+    killed at its limit, or whose process died, records every run it had not finished as failed.
+    """
     if start_method not in START_METHODS:
         raise InputError(f"start_method {start_method!r}: use one of {', '.join(START_METHODS)}")
     limit = profile.render_time_limit
     if limit is None:
-        from pipeline.rendering import execute
+        from pipeline.rendering import execute_together
 
-        return execute(run, profile=profile, device_environment=device_environment)
-    record_path = run_record_path(profile.results, run.experiment, run.id)
-    record_path.unlink(missing_ok=True)  # an old record must not pass for this attempt's
+        return execute_together(runs, profile=profile, device_environment=device_environment)
+    paths = [run_record_path(profile.results, run.experiment, run.id) for run in runs]
+    for path in paths:
+        path.unlink(missing_ok=True)  # an old record must not pass for this attempt's
     context = multiprocessing.get_context(start_method)
-    child = context.Process(target=_execute_child, name=f"volbench render {run.key}", daemon=True,
-                            args=(run, profile, device_environment, dict(renderers.BACKENDS)))
+    name = runs[0].key if len(runs) == 1 else f"{runs[0].experiment}/{runs[0].interleave}"
+    child = context.Process(target=_execute_child, name=f"volbench render {name}", daemon=True,
+                            args=(runs, profile, device_environment, dict(renderers.BACKENDS)))
     started = time.monotonic()
     child.start()
-    child.join(limit)
-    if child.is_alive():
+    child.join(limit * len(runs))
+    killed = child.is_alive()
+    if killed:
         child.kill()
         child.join()
-        reason, cause = time_limit_reason(limit), "time-limit"
-    elif record_path.is_file():
-        return json.loads(record_path.read_text())
-    else:
-        reason, cause = f"the render process died without a record (exit code {child.exitcode})", "crash"
-    record = new_record(run, device_environment)
-    record.update(status="failed", reason=reason, cause=cause, elapsed=time.monotonic() - started)
-    write_json(record_path, record)
-    return record
+    records = []
+    for run, path in zip(runs, paths):
+        if path.is_file():
+            records.append(json.loads(path.read_text()))
+            continue
+        if killed:
+            reason, cause = time_limit_reason(limit * len(runs)), "time-limit"
+        else:
+            reason, cause = f"the render process died without a record (exit code {child.exitcode})", "crash"
+        record = new_record(run, device_environment)
+        record.update(status="failed", reason=reason, cause=cause, elapsed=time.monotonic() - started)
+        write_json(path, record)
+        records.append(record)
+    return records
 
 
-def _execute_child(run, profile, device_environment, backends):
-    """Body of :func:`execute_limited`'s child: the parent's registry, then :func:`pipeline.rendering.execute`.
+def _execute_child(runs, profile, device_environment, backends):
+    """Body of :func:`execute_together_limited`'s child: the parent's registry, then the rendering.
 
-    An error ``execute`` lets through (a scene that cannot be built) is recorded as a failed
+    An error ``execute_together`` lets through (a scene that cannot be built) is recorded as a failed
     run here, since the parent only sees an exit code.
     """
-    from pipeline.rendering import execute
+    from pipeline.rendering import execute_together
 
     renderers.BACKENDS.update(backends)
     try:
-        execute(run, profile=profile, device_environment=device_environment)
+        execute_together(runs, profile=profile, device_environment=device_environment)
     except Exception as exc:
-        record = new_record(run, device_environment)
-        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
-                      traceback=traceback.format_exc(limit=8))
-        write_json(run_record_path(profile.results, run.experiment, run.id), record)
+        for run in runs:
+            path = run_record_path(profile.results, run.experiment, run.id)
+            if path.is_file():
+                continue
+            record = new_record(run, device_environment)
+            record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
+                          traceback=traceback.format_exc(limit=8))
+            write_json(path, record)

@@ -34,15 +34,18 @@ def environment(args):
 
 
 def render(args):
-    from pipeline.execution import execute_limited
+    """Render one run, or (``--run`` a JSON list) the runs of one interleave group timed together."""
+    from pipeline.execution import execute_together_limited
 
     fields = json.loads(args.run)
-    run = Run(**{**fields, "views": tuple(fields["views"])})
+    runs = [Run(**{**one, "views": tuple(one["views"])}) for one in (fields if isinstance(fields, list) else [fields])]
     device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
     device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
     # This process has only parsed its arguments: a forked child needs no fresh interpreter.
-    record = execute_limited(run, profile=_profile(args.profile), device_environment=device_env, start_method="fork")
-    print(f"{run.key}: {record['status']} {record['reason']}".rstrip())
+    records = execute_together_limited(runs, profile=_profile(args.profile), device_environment=device_env,
+                                       start_method="fork")
+    for run, record in zip(runs, records):
+        print(f"{run.key}: {record['status']} {record['reason']}".rstrip())
 
 
 def evaluate(args):

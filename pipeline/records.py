@@ -53,7 +53,7 @@ def new_record(run, device_environment):
     """
     return {
         "experiment": run.experiment, "run": run.id, "backend": run.backend, "options": run.options,
-        "tags": run.tags, "reference": run.reference, "spec_hash": run.spec_hash(),
+        "tags": run.tags, "reference": run.reference, "spec_hash": run.spec_hash(), "interleave": run.interleave,
         "status": "ok", "reason": "", "cause": "", "views": [], "statistics": None,
         "planned_views": [view["view"] for view in run.views],
         "environment": {**host_environment(), **(device_environment or {})},

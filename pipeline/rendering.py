@@ -6,7 +6,9 @@ OpenImageIO, the metrics): the process that only waits on a render under its tim
 Snakefile, never load them.
 """
 
+import contextlib
 import json
+import time
 import traceback
 from pathlib import Path
 
@@ -16,7 +18,7 @@ from core.errors import BackendUnavailableError, InputError, UnsupportedFeatureE
 from core.transfer import Preset
 from pipeline.records import image_digest, new_record, run_record_path, write_json
 from pipeline.scene_io import build_scene, build_volume_instance
-from pipeline.timing import measure
+from pipeline.timing import measure_together
 from reports.imageio import read_image, write_exr, write_png
 
 
@@ -29,49 +31,121 @@ def skip_cause(exc):
     return "unsupported"
 
 
+RERUN_PAUSE = 2.0
+"""Seconds a render job waits before timing a disturbed view again (a passing burst of other work)."""
+
+
 def execute(run, *, profile, device_environment=None):
     """Render every view of ``run``, write its images and record; return the record."""
-    record_path = run_record_path(profile.results, run.experiment, run.id)
-    record = new_record(run, device_environment)
-    try:
-        scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size, data_dir=profile.real_data)
-        renderer = renderers.get(run.backend, **run.options)
-        renderer.check(scene)
-    except (datasets.DataUnavailableError, BackendUnavailableError, UnsupportedFeatureError) as exc:
-        record.update(status="skipped", reason=str(exc), cause=skip_cause(exc))
-        write_json(record_path, record)
-        return record
-    image_dir = record_path.with_suffix("")
-    image_dir.mkdir(parents=True, exist_ok=True)
-    try:
-        with renderer:
-            record["backend_environment"] = renderer.environment()
-            if run.statistics:
-                measured = build_volume_instance(run.statistics, cache_dir=profile.cache, size=profile.volume_size,
-                                                 data_dir=profile.real_data)
-                preset = Preset(measured.transfer_function, measured.gradient_opacity, measured.isovalue)
-                record["statistics"] = {**datasets.statistics(measured.volume, preset),
-                                        "size": max(measured.volume.shape_xyz)}
-            for view in run.views:
-                overrides = {k: v for k, v in view.items() if k != "view"}
-                view_scene = scene.with_camera(**overrides) if overrides else scene
-                result = measure(renderer, view_scene, warmup=run.warmup, repeat=run.repeat)
-                exr, png = image_dir / f"{view['view']}.exr", image_dir / f"{view['view']}.png"
-                write_exr(exr, result.image, metadata={"run": run.key, "view": view["view"], "backend": run.backend})
-                write_png(png, result.image)
-                record["views"].append({
-                    "view": view["view"], "camera": overrides, "exr": str(exr), "png": str(png),
-                    "digests": {"exr": image_digest(exr), "png": image_digest(png)},
-                    "timings": result.timings, "timings_min": result.timings_min,
-                    "timings_max": result.timings_max, "counters": result.counters, "info": result.info,
-                })
-            # After rendering: some effective options (a step derived from the scene) exist only now.
-            record["options"] = {**run.options, **renderer.options}
-    except Exception as exc:  # recorded with its traceback: the pipeline must not lose the pair
-        record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
-                      traceback=traceback.format_exc(limit=8))
-    write_json(record_path, record)
-    return record
+    return execute_together([run], profile=profile, device_environment=device_environment)[0]
+
+
+def execute_together(runs, *, profile, device_environment=None):
+    """Render the runs of one interleave group (or one run), timed together view by view; their records.
+
+    Each run gets its own record and images, as if rendered alone; the timed frames of the runs that
+    share a view alternate round by round (:func:`pipeline.timing.measure_together`), so the ratio of
+    two of them is measured under the same conditions. A view whose frames were disturbed
+    (:mod:`pipeline.disturbance`) is timed once more after a pause, and the quieter attempt kept; the
+    record says so (``rerun``).
+    """
+    records, arms = [], []
+    for run in runs:
+        record_path = run_record_path(profile.results, run.experiment, run.id)
+        record = new_record(run, device_environment)
+        records.append(record)
+        try:
+            scene = build_scene(run.scene, cache_dir=profile.cache, size=profile.volume_size, data_dir=profile.real_data)
+            renderer = renderers.get(run.backend, **run.options)
+            renderer.check(scene)
+        except (datasets.DataUnavailableError, BackendUnavailableError, UnsupportedFeatureError) as exc:
+            record.update(status="skipped", reason=str(exc), cause=skip_cause(exc))
+            write_json(record_path, record)
+            continue
+        arms.append((run, record, record_path, scene, renderer))
+    with contextlib.ExitStack() as stack:
+        live = []
+        for run, record, record_path, scene, renderer in arms:
+            try:
+                stack.enter_context(renderer)
+                record["backend_environment"] = renderer.environment()
+                if run.statistics:
+                    measured = build_volume_instance(run.statistics, cache_dir=profile.cache,
+                                                     size=profile.volume_size, data_dir=profile.real_data)
+                    preset = Preset(measured.transfer_function, measured.gradient_opacity, measured.isovalue)
+                    record["statistics"] = {**datasets.statistics(measured.volume, preset),
+                                            "size": max(measured.volume.shape_xyz)}
+                live.append((run, record, record_path, scene, renderer))
+            except Exception as exc:  # recorded with its traceback: the pipeline must not lose the pair
+                _failed(record, exc)
+                write_json(record_path, record)
+        for name in dict.fromkeys(view["view"] for run, *_ in live for view in run.views):
+            members = [arm for arm in live if arm[1]["status"] == "ok" and any(v["view"] == name for v in arm[0].views)]
+            try:
+                _time_view(name, members)
+            except Exception:  # noqa: BLE001 - timed alone, each run of the group fails or succeeds on its own
+                for member in members:
+                    try:
+                        _time_view(name, [member])
+                    except Exception as exc:  # noqa: BLE001 - recorded with its traceback
+                        _failed(member[1], exc)
+        for run, record, record_path, scene, renderer in live:
+            if record["status"] == "ok":
+                # After rendering: some effective options (a step derived from the scene) exist only now.
+                record["options"] = {**run.options, **renderer.options}
+            write_json(record_path, record)
+    return records
+
+
+def _failed(record, exc):
+    record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
+                  traceback=traceback.format_exc(limit=8))
+
+
+def _view_scene(scene, view):
+    overrides = {k: v for k, v in view.items() if k != "view"}
+    return (scene.with_camera(**overrides) if overrides else scene), overrides
+
+
+def _time_view(name, members):
+    """Time view ``name`` of ``members`` together; write each one's images and add its view to its record."""
+    frames = {key: max(getattr(member[0], key) for member in members) for key in ("warmup", "repeat", "min_time")}
+    arms = []
+    for member_run, _, _, scene, renderer in members:
+        view = next(v for v in member_run.views if v["view"] == name)
+        arms.append((renderer, _view_scene(scene, view)[0]))
+    results = measure_together(arms, **frames)
+    rerun = None
+    disturbed = "; ".join(sorted({r.info["disturbed"] for r in results if r.info.get("disturbed")}))
+    if disturbed:
+        time.sleep(RERUN_PAUSE)
+        again = measure_together(arms, **frames)
+        still = "; ".join(sorted({r.info["disturbed"] for r in again if r.info.get("disturbed")}))
+        quieter = _foreign(again) < _foreign(results)
+        rerun = {"first": disturbed, "second": still, "kept": "second" if quieter else "first"}
+        if quieter:
+            results = again
+    for (member_run, record, record_path, _, _), result in zip(members, results):
+        view = next(v for v in member_run.views if v["view"] == name)
+        _, overrides = _view_scene(members[0][3], view)
+        image_dir = record_path.with_suffix("")
+        image_dir.mkdir(parents=True, exist_ok=True)
+        exr, png = image_dir / f"{name}.exr", image_dir / f"{name}.png"
+        write_exr(exr, result.image, metadata={"run": member_run.key, "view": name, "backend": member_run.backend})
+        write_png(png, result.image)
+        record["views"].append({
+            "view": name, "camera": overrides, "exr": str(exr), "png": str(png),
+            "digests": {"exr": image_digest(exr), "png": image_digest(png)},
+            "timings": result.timings, "timings_min": result.timings_min,
+            "timings_max": result.timings_max, "counters": result.counters, "info": result.info,
+            "frames": result.frames, "interleaved": len(members), "rerun": rerun,
+        })
+
+
+def _foreign(results):
+    loads = [r.info.get("load", {}).get("foreign_cores") for r in results]
+    loads = [v for v in loads if v is not None]
+    return max(loads) if loads else 0.0
 
 
 def evaluate(record_path, reference_path, output_path):

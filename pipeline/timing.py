@@ -1,54 +1,216 @@
-"""The timing harness: warm-up frames, repeated frames, median with min and max per stage."""
+"""The timing harness: a cold frame of its own, warm-up until settled, then timed frames by budget.
+
+A timing is a distribution, not a number. For one view of one run (or several runs timed together,
+:func:`measure_together`) the harness
+
+1. renders the **first frame** alone and records its time as the stage ``first_frame``: Numba's and the
+   drivers' compilation, first uploads and the backend's preprocessing happen here, never in a timed
+   frame;
+2. where the backend caches preprocessing (:meth:`renderers.base.Renderer.drop_caches`), drops the
+   caches and renders once more, so that the preprocessing stages (``classify``, ``rle_build``, ...) are
+   timed with their code compiled, as their own stages;
+3. renders **warm-up frames** until the frame time settles (two consecutive frames within
+   :data:`SETTLED` of each other), at least ``warmup`` and at most :data:`MAX_WARMUP`;
+4. renders **timed frames** until there are at least ``repeat`` of them *and* they took at least
+   ``min_time`` seconds, at most ``max_frames``.
+
+Each stage's every timed frame is kept (``frames``), with the median, fastest and slowest; claims take
+their confidence intervals from the frames (:mod:`pipeline.experiments.kit.intervals`). The machine's
+load over the timed frames is measured (:mod:`pipeline.disturbance`) and returned with the result.
+A run of one untimed frame (``warmup=0, repeat=1``, a ground truth or a picture) renders that frame only.
+"""
 
 import statistics
+import time
 
 from tqdm import tqdm
 
-from core.validation import check_positive_int
+from core.validation import check_positive_int, check_scalar
+from pipeline import disturbance
 from renderers.base import RenderResult
 
+SETTLED = 0.1
+"""Relative difference of two consecutive warm-up frames under which the frame time has settled."""
 
-def measure(renderer, scene, *, warmup=1, repeat=3, progress=False):
-    """Render ``scene`` ``warmup + repeat`` times and summarise the timed frames.
+MAX_WARMUP = 20
+"""Warm-up frames after which the timed frames start even if the frame time has not settled."""
+
+MAX_WARMUP_TIME = 5.0
+"""Seconds of warm-up after which the timed frames start even if the frame time has not settled."""
+
+MAX_FRAMES = 400
+"""Timed frames at most, however short they are."""
+
+
+def _total(result, wall):
+    return result.timings.get("total", wall)
+
+
+def _check(warmup, repeat, min_time, max_frames):
+    warmup = check_positive_int(warmup, name="warmup", minimum=0)
+    repeat = check_positive_int(repeat, name="repeat", minimum=1)
+    min_time = check_scalar(min_time, name="min_time (seconds of timed frames)", low=0)
+    max_frames = check_positive_int(max_frames, name="max_frames", minimum=repeat)
+    return warmup, repeat, min_time, max_frames
+
+
+class _Arm:
+    """One renderer and scene being measured: its cold frame, preprocessing, warm-up and timed frames."""
+
+    def __init__(self, renderer, scene):
+        self.renderer, self.scene = renderer, scene
+        self.frames = []
+        self.first_frame = None
+        self.preprocessing = {}
+        self.warmup = 0
+        self.settled = False
+
+    def render(self):
+        start = time.perf_counter()
+        result = self.renderer.render(self.scene)
+        wall = time.perf_counter() - start
+        _add_technique(self.renderer, result)
+        return result, wall
+
+    def prepare(self, warmup, bar):
+        """The cold frame, the preprocessing frame and the warm-up frames."""
+        _, self.first_frame = self.render()
+        bar.update()
+        if self.renderer.drop_caches():
+            result, _ = self.render()
+            self.preprocessing = dict(result.timings)
+            bar.update()
+        previous, started = None, time.perf_counter()
+        while True:
+            result, wall = self.render()
+            self.warmup += 1
+            bar.update()
+            now = _total(result, wall)
+            self.settled = previous is not None and abs(now - previous) <= SETTLED * max(now, previous)
+            previous = now
+            if self.warmup >= max(warmup, 1) and (self.settled or self.warmup >= MAX_WARMUP
+                                                  or time.perf_counter() - started > MAX_WARMUP_TIME):
+                break
+
+    def timed(self):
+        result, _ = self.render()
+        self.frames.append(result)
+        return result
+
+    def result(self, load):
+        frames = self.frames
+        stages = list(dict.fromkeys(stage for frame in frames for stage in frame.timings))
+        per_stage = {stage: [frame.timings[stage] for frame in frames if stage in frame.timings] for stage in stages}
+        timings = {stage: statistics.median(values) for stage, values in per_stage.items()}
+        # Preprocessing happens once: its stages are the preprocessing frame's, not in any timed frame.
+        once = {stage: value for stage, value in self.preprocessing.items() if stage not in timings}
+        last = frames[-1]
+        info = {**last.info, "frames": len(frames), "warmup": self.warmup, "settled": self.settled,
+                "first_frame": self.first_frame, "load": load,
+                "disturbed": disturbance.verdict(load, per_stage.get("total", [])),
+                "starved": disturbance.starvation(load, _workers(self.renderer))}
+        return RenderResult(
+            image=last.image,
+            timings={**timings, **once, **({"first_frame": self.first_frame} if self.first_frame else {})},
+            counters=dict(last.counters),
+            timings_min={stage: min(values) for stage, values in per_stage.items()},
+            timings_max={stage: max(values) for stage, values in per_stage.items()},
+            info=info, frames=per_stage,
+        )
+
+
+def _add_technique(renderer, result):
+    """Add the stage ``technique``: the sum of the renderer's :attr:`~renderers.base.Renderer.technique_stages`."""
+    present = [stage for stage in renderer.technique_stages if stage in result.timings]
+    if present:
+        result.timings["technique"] = sum(result.timings[stage] for stage in present)
+
+
+def _workers(renderer):
+    """How many threads the renderer's technique runs on, where it says (``workers``)."""
+    workers = getattr(renderer, "workers", None)
+    return workers if isinstance(workers, int) else None
+
+
+def _untimed(renderer, scene, bar):
+    result = renderer.render(scene)
+    _add_technique(renderer, result)
+    bar.update()
+    per_stage = {stage: [value] for stage, value in result.timings.items()}
+    return RenderResult(image=result.image, timings=dict(result.timings), counters=dict(result.counters),
+                        timings_min=dict(result.timings), timings_max=dict(result.timings),
+                        info={**result.info, "frames": 1, "warmup": 0, "untimed": True}, frames=per_stage)
+
+
+def measure(renderer, scene, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_FRAMES, progress=False):
+    """Time ``scene`` on ``renderer``: a cold frame, warm-up until settled, then timed frames by budget.
 
     Parameters
     ----------
     renderer : renderers.base.Renderer
     scene : core.scene.Scene
     warmup : int
-        Untimed frames first (JIT compilation, shader compilation, uploads, caches).
+        Warm-up frames at least, after the cold frame (more until the frame time settles).
+        ``warmup=0`` with ``repeat=1`` and no ``min_time``: one untimed frame only.
     repeat : int
-        Timed frames.
+        Timed frames at least.
+    min_time : float
+        Seconds the timed frames take at least (more frames until they do).
+    max_frames : int
+        Timed frames at most.
     progress : bool
         Show a progress bar over the frames (for the command line).
 
     Returns
     -------
     RenderResult
-        The last frame's image and counters; ``timings`` holds each stage's median over the
-        timed frames, ``timings_min``/``timings_max`` the extremes, and ``info["frames"]`` the
-        number of timed frames.
+        The last frame's image and counters; ``timings`` holds each stage's median over the timed
+        frames (with ``first_frame``, the cold frame, and the preprocessing stages, timed once),
+        ``timings_min``/``timings_max`` the extremes, ``frames`` every timed frame's stages and
+        ``info`` the frame counts, the load the machine carried (``load``) and why the frames were
+        disturbed (``disturbed``, empty when they were not).
     """
-    warmup = check_positive_int(warmup, name="warmup", minimum=0)
-    repeat = check_positive_int(repeat, name="repeat", minimum=1)
+    return measure_together([(renderer, scene)], warmup=warmup, repeat=repeat, min_time=min_time,
+                            max_frames=max_frames, progress=progress)[0]
+
+
+def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_FRAMES, progress=False):
+    """Time several ``(renderer, scene)`` arms together, interleaved frame by frame; a result per arm.
+
+    Each arm gets its cold frame, preprocessing and warm-up first, one arm after another; then the
+    timed frames alternate in rounds, A B, B A, A B, ... (the order reversed every round, so neither
+    arm always follows the other), until every arm has ``repeat`` frames and ``min_time`` seconds of
+    them. Frame ``i`` of every arm is from round ``i``: a claim's ratio resamples them by round
+    (:mod:`pipeline.experiments.kit.intervals`), so a disturbance that slowed one round slowed both.
+    The load over the whole interleaved span is every arm's ``load``.
+    """
+    warmup, repeat, min_time, max_frames = _check(warmup, repeat, min_time, max_frames)
+    if not arms:
+        raise ValueError("measure_together: no arms to time")
+    names = ", ".join(dict.fromkeys(renderer.name for renderer, _ in arms))
+    untimed = warmup == 0 and repeat == 1 and min_time == 0
     # The bar closes (ends its line) however the frames end, so that a message after Ctrl-C or an
     # error starts a line of its own instead of being followed by the bar drawn again at exit.
-    with tqdm(total=warmup + repeat, desc=f"{renderer.name} frames", disable=not progress, unit="frame") as bar:
-        for _ in range(warmup):
-            renderer.render(scene)
-            bar.update()
-        frames = []
-        for _ in range(repeat):
-            frames.append(renderer.render(scene))
-            bar.update()
-    stages = list(dict.fromkeys(stage for frame in frames for stage in frame.timings))
-    per_stage = {stage: [frame.timings[stage] for frame in frames if stage in frame.timings] for stage in stages}
-    last = frames[-1]
-    return RenderResult(
-        image=last.image,
-        timings={stage: statistics.median(values) for stage, values in per_stage.items()},
-        counters=dict(last.counters),
-        timings_min={stage: min(values) for stage, values in per_stage.items()},
-        timings_max={stage: max(values) for stage, values in per_stage.items()},
-        info={**last.info, "frames": repeat, "warmup": warmup},
-    )
+    with tqdm(desc=f"{names} frames", disable=not progress, unit="frame") as bar:
+        if untimed:
+            return [_untimed(renderer, scene, bar) for renderer, scene in arms]
+        states = [_Arm(renderer, scene) for renderer, scene in arms]
+        # The load is read from the warm-up on: the timed frames alone may be too short for the
+        # kernel's 10 ms counters (pipeline.disturbance.MIN_SPAN).
+        start = disturbance.snapshot()
+        for state in states:
+            state.prepare(warmup, bar)
+        started = time.perf_counter()
+        spent = [0.0] * len(states)
+        rounds = 0
+        while rounds < max_frames and (rounds < repeat or min(spent) < min_time):
+            order = states if rounds % 2 == 0 else states[::-1]
+            for state in order:
+                began = time.perf_counter()
+                state.timed()
+                spent[states.index(state)] += time.perf_counter() - began
+                bar.update()
+            rounds += 1
+        load = {**disturbance.between(start, disturbance.snapshot()),
+                "load_average": disturbance.load_average(), "elapsed": time.perf_counter() - started}
+    return [state.result(load) for state in states]

@@ -110,7 +110,7 @@ def test_an_error_in_the_child_is_recorded_with_its_message(profile):
 
 def test_no_limit_runs_in_process(profile, monkeypatch):
     calls = []
-    monkeypatch.setattr(rendering, "execute", lambda run, **kw: calls.append(run) or {"status": "ok"})
+    monkeypatch.setattr(rendering, "execute_together", lambda runs, **kw: calls.extend(runs) or [{"status": "ok"}])
     assert execute_limited(_run("x", "reference"), profile=replace(profile, render_time_limit=None)) == {"status": "ok"}
     assert len(calls) == 1
 

@@ -2,7 +2,7 @@ import numpy as np
 import pytest
 
 from core.errors import InputError
-from pipeline.timing import measure
+from pipeline.timing import measure, measure_together
 from renderers.base import Capabilities, Renderer, RenderResult
 
 
@@ -11,37 +11,104 @@ class Scripted(Renderer):
 
     name = "scripted"
     capabilities = Capabilities()
+    technique_stages = ("stage",)
 
-    def __init__(self, totals):
+    def __init__(self, totals, *, log=None, label="a", caches=False):
         self.totals = list(totals)
         self.calls = 0
+        self.log = log if log is not None else []
+        self.label = label
+        self.caches = caches
+        self.cached = False
 
     def check(self, scene):
         pass
 
+    def drop_caches(self):
+        self.cached = False
+        return self.caches
+
     def _render(self, scene):
-        total = self.totals[self.calls]
+        total = self.totals[min(self.calls, len(self.totals) - 1)]
         self.calls += 1
-        return RenderResult(np.full((2, 2, 4), self.calls, np.float32),
-                            timings={"total": total, "stage": total / 2}, counters={"samples": self.calls})
+        self.log.append(self.label)
+        timings = {"total": total, "stage": total / 2}
+        if self.caches and not self.cached:
+            timings["classify"] = 7.0
+            self.cached = True
+        return RenderResult(np.full((2, 2, 4), self.calls, np.float32), timings=timings,
+                            counters={"samples": self.calls})
 
 
-def test_median_min_max_over_timed_frames_only():
-    renderer = Scripted([100.0, 3.0, 1.0, 2.0, 10.0])
-    result = measure(renderer, scene=None, warmup=1, repeat=4)
-    assert renderer.calls == 5
-    assert result.timings["total"] == pytest.approx(2.5)  # median of 3, 1, 2, 10: warm-up excluded
-    assert result.timings_min["total"] == 1.0 and result.timings_max["total"] == 10.0
-    assert result.timings["stage"] == pytest.approx(1.25)
-    assert result.counters == {"samples": 5} and result.image[0, 0, 0] == 5
-    assert result.info["frames"] == 4 and result.info["warmup"] == 1
+def test_the_cold_frame_is_its_own_stage_and_never_timed():
+    # cold 100, warm-up 3 and 3 (settled), then the timed frames 1, 2, 10.
+    renderer = Scripted([100.0, 3.0, 3.0, 1.0, 2.0, 10.0])
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.timings["first_frame"] > 0 and result.info["first_frame"] == result.timings["first_frame"]
+    assert result.frames["total"] == [1.0, 2.0, 10.0]
+    assert result.timings["total"] == 2.0 and result.timings_min["total"] == 1.0 and result.timings_max["total"] == 10.0
+    assert result.info["frames"] == 3 and result.info["warmup"] == 2 and result.info["settled"]
 
 
-def test_bad_repeat_counts():
-    with pytest.raises(InputError, match="repeat"):
-        measure(Scripted([1.0]), scene=None, warmup=0, repeat=0)
-    with pytest.raises(InputError, match="warmup"):
-        measure(Scripted([1.0]), scene=None, warmup=-1, repeat=1)
+def test_warm_up_lasts_until_the_frame_time_settles():
+    renderer = Scripted([50.0, 9.0, 6.0, 4.0, 3.0, 2.9, 1.0])
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.info["warmup"] == 5  # 9, 6, 4, 3, 2.9: the first two within 10 % end it
+    assert result.frames["total"] == [1.0, 1.0, 1.0]
+
+
+def test_the_budget_adds_frames_until_min_time(monkeypatch):
+    renderer = Scripted([0.001])
+    result = measure(renderer, scene=None, warmup=1, repeat=3, min_time=0.05)
+    assert result.info["frames"] > 3  # the wall time of the frames, not their reported times, fills it
+    capped = measure(Scripted([0.001]), scene=None, warmup=1, repeat=3, min_time=60, max_frames=10)
+    assert capped.info["frames"] == 10
+
+
+def test_preprocessing_is_timed_after_the_cold_frame_as_its_own_stage():
+    renderer = Scripted([1.0], caches=True)
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.timings["classify"] == 7.0 and "classify" not in result.frames
+
+
+def test_technique_is_the_sum_of_the_backends_technique_stages():
+    result = measure(Scripted([4.0]), scene=None, warmup=1, repeat=3)
+    assert result.timings["technique"] == 2.0 and result.frames["technique"] == [2.0, 2.0, 2.0]
+
+
+def test_one_untimed_frame():
+    renderer = Scripted([5.0])
+    result = measure(renderer, scene=None, warmup=0, repeat=1)
+    assert renderer.calls == 1 and result.info["untimed"] and result.timings["total"] == 5.0
+
+
+def test_arms_alternate_round_by_round_with_the_order_reversed():
+    log = []
+    a, b = Scripted([1.0], log=log, label="a"), Scripted([2.0], log=log, label="b")
+    results = measure_together([(a, None), (b, None)], warmup=1, repeat=4)
+    timed = log[-8:]
+    assert timed == ["a", "b", "b", "a", "a", "b", "b", "a"]
+    assert [len(r.frames["total"]) for r in results] == [4, 4]
+    assert results[0].timings["total"] == 1.0 and results[1].timings["total"] == 2.0
+
+
+def test_disturbed_frames_are_flagged():
+    renderer = Scripted([1.0, 1.0, 1.0] + [1.0, 1.0, 1.0, 50.0, 1.0, 60.0, 1.0, 1.0, 1.0, 1.0])
+    result = measure(renderer, scene=None, warmup=1, repeat=10)
+    assert "2 of 10 frames took over 3" in result.info["disturbed"]
+    assert measure(Scripted([1.0]), scene=None, warmup=1, repeat=10).info["disturbed"] == ""
+
+
+@pytest.mark.parametrize("kwargs, name", [({"repeat": 0}, "repeat"), ({"warmup": -1}, "warmup"),
+                                          ({"min_time": -1}, "min_time"), ({"max_frames": 2, "repeat": 3}, "max_frames")])
+def test_bad_frame_counts(kwargs, name):
+    with pytest.raises(InputError, match=name):
+        measure(Scripted([1.0]), scene=None, **kwargs)
+
+
+def test_no_arms():
+    with pytest.raises(ValueError, match="no arms"):
+        measure_together([])
 
 
 def test_render_result_requires_total_and_rgba_float32():
@@ -49,3 +116,4 @@ def test_render_result_requires_total_and_rgba_float32():
         RenderResult(np.zeros((2, 2, 4), np.float32), timings={"render": 1.0})
     with pytest.raises(ValueError, match="float32"):
         RenderResult(np.zeros((2, 2, 3), np.float32), timings={"total": 1.0})
+

@@ -106,6 +106,9 @@ class RenderResult:
         Per-stage minimum and maximum over repeated frames (filled by the timing harness).
     info : dict
         Backend facts for the record (e.g. the step actually used).
+    frames : dict
+        Stage name → the seconds of every timed frame, in the order taken (filled by the timing
+        harness; claims take their confidence intervals from them).
     """
 
     image: np.ndarray
@@ -114,6 +117,7 @@ class RenderResult:
     timings_min: dict = field(default_factory=dict)
     timings_max: dict = field(default_factory=dict)
     info: dict = field(default_factory=dict)
+    frames: dict = field(default_factory=dict)
 
     def __post_init__(self):
         if self.image.ndim != 3 or self.image.shape[2] != 4 or self.image.dtype != np.float32:
@@ -191,6 +195,21 @@ class Renderer(abc.ABC):
     @abc.abstractmethod
     def _render(self, scene):
         """Backend-specific rendering of a validated scene."""
+
+    technique_stages = ()
+    """The stages that are the technique itself (its kernels or its library call), whose sum the timing
+    harness records as the stage ``technique`` beside ``total`` (the whole frame, Python and conversions
+    included): a speed claim compares like with like, technique against technique or frame against frame.
+    Empty: the backend's frame is not split, and ``technique`` is not recorded."""
+
+    def drop_caches(self):
+        """Forget cached preprocessing, so that the next frame builds it again; whether there was any.
+
+        The timing harness calls it after the cold frame (compilation, first uploads) and times the
+        next frame's preprocessing stages on their own (:mod:`pipeline.timing`). A backend that caches
+        nothing across frames keeps this default.
+        """
+        return False
 
     def close(self):
         """Release contexts and device memory."""

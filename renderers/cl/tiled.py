@@ -183,6 +183,9 @@ class ClTiledRenderer(Renderer):
     ``options`` also records ``effective_step``, the world step of the last frame.
     """
 
+    technique_stages = ("binning", "count", "pixel")
+    """The stages that are the technique itself: the three kernels (binning, fragment counting, the pixel kernel), timed on the device; not uploads, brick and hull builds or the readback."""
+
     name = "cl-tiled"
     description = ("OpenCL tile-based multi-volume ray caster (Kainz et al. 2009): polygonal boundaries and meshes "
                    "binned into 8x8 tiles, per-pixel depth-sorted fragments, segment walk over overlapping volumes, "

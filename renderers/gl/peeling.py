@@ -197,6 +197,9 @@ def geometry(scene):
 class GLPeelRenderer(GLRenderer):
     """Depth-peeling multi-pass ray caster for overlapping volumes and translucent meshes (see the module notes)."""
 
+    technique_stages = ("init", "peel", "raycast", "surface", "blend", "final")
+    """The stages that are the technique itself: the GPU passes, timed on the device; not the readback."""
+
     name = "gl-peel"
     cached_volumes = MAX_VOLUMES
     description = ("depth-peeling multi-volume ray caster with translucent meshes (OpenGL; the shader baseline "

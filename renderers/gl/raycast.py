@@ -419,6 +419,9 @@ def occluder_cut(mvp, width, fraction):
 class GLRaycastRenderer(GLRenderer):
     """Multi-pass GPU ray caster (Krüger & Westermann 2003) and a single-pass one, OpenGL 4.3."""
 
+    technique_stages = ("intermediate", "main", "resolve", "occluder")
+    """The stages that are the technique itself: the GPU passes, timed on the device; not the readback."""
+
     name = "gl-raycast"
     description = ("OpenGL multi-pass GPU ray caster (Krüger & Westermann 2003): setup passes, M samples per main "
                    "pass, early ray termination and empty-space skipping by early-z; or single-pass")

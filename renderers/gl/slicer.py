@@ -225,6 +225,9 @@ def slice_polygons(model, eye, forward, near, step):
 class GLSlicerRenderer(GLRenderer):
     """View-aligned 3D-texture slicing (SBVR), OpenGL 4.3."""
 
+    technique_stages = ("slices", "draw", "resolve")
+    """The stages that are the technique itself: slicing the proxy geometry, drawing the slices (timed on the device) and the resolve; not the fragment-count pass or the readback."""
+
     name = "gl-slicer"
     description = "OpenGL view-aligned 3D-texture slicing (SBVR): plane ∩ box polygons, per-fragment classification"
     capabilities = Capabilities(

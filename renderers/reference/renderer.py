@@ -197,6 +197,9 @@ class ReferenceRenderer(Renderer):
     exactly and the error falls as ``Δ²`` where the classified field is smooth.
     """
 
+    technique_stages = ("render",)
+    """The stages that are the technique itself: the ray-marching kernel; not the per-frame preparation of rays and tables."""
+
     name = "reference"
     description = "Double-precision CPU ray caster (numba): trilinear, post-classified, step ≤ 1/4 voxel, no early termination"
     capabilities = Capabilities(

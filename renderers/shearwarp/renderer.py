@@ -132,8 +132,12 @@ class ShearWarpRenderer(Renderer):
     octree's candidate runs in this frame, 0 when nothing was built); in ``"octree"`` mode
     ``rle_bytes`` is the one per-frame encoding.
     ``info["worker_tasks"]`` and ``info["worker_samples"]`` give each worker's share (a load-balance
-    measure; busy time is not measured inside the kernel).
+    measure), ``info["worker_busy"]`` the workers' mean busy share over the compositing (CPU time of
+    the process over wall time × workers; per-worker busy time is not measured inside the kernel).
     """
+
+    technique_stages = ("octree_classify", "opacity_table", "shade_table", "clear", "composite", "warp")
+    """The stages that are the technique itself: the per-view opacity and shading tables, clearing the intermediate image, compositing and the warp: the kernels; not the view factorisation, buffers or Python around them."""
 
     name = "shearwarp"
     description = ("Shear-warp factorization (Lacroute 1995), CPU Numba: pre-classified RLE volume ×3, "
@@ -202,7 +206,7 @@ class ShearWarpRenderer(Renderer):
     encoding); brute force (same image as the previous one); a stricter opaque threshold; and
     nothing skipped but exactly-zero voxels. (``classification="octree"`` is not a quality level:
     it renders the same image as the default, only its speed differs.)"""
-    scheduling_dependent = ("worker_tasks", "worker_samples")
+    scheduling_dependent = ("worker_tasks", "worker_samples", "worker_busy")
     """With a ``-steal`` schedule a worker that finishes its queue takes tasks from the others', so
     each worker's share follows which thread ran when (on a busy machine one worker may do all of
     it); the image and the totals do not change."""
@@ -249,9 +253,13 @@ class ShearWarpRenderer(Renderer):
         return {"numba": numba.__version__, "numba_threads": numba.get_num_threads(),
                 "numba_threading_layer": numba.config.THREADING_LAYER}
 
-    def close(self):
+    def drop_caches(self):
         self._cache = []
         self._octrees = []
+        return True
+
+    def close(self):
+        self.drop_caches()
         self._buffers = {}
 
     # -----------------------------------------------------------------------------------------
@@ -460,6 +468,7 @@ class ShearWarpRenderer(Renderer):
             t0 = time.perf_counter()
             composite.clear(image, link, counters)
             t1 = time.perf_counter()
+            cpu1 = time.process_time()
             if perspective:
                 self._perspective_module.composite(
                     self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
@@ -475,6 +484,7 @@ class ShearWarpRenderer(Renderer):
                     light, half, has_half, params, self.early_termination, self.opaque_threshold,
                     self.union == "rank", enc.encoded, image, link, rank, runend, counters)
             t2 = time.perf_counter()
+            cpu2 = time.process_time()
             output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
             t3 = time.perf_counter()
         finally:
@@ -511,6 +521,9 @@ class ShearWarpRenderer(Renderer):
             "classification": "pre-classified at voxel centres (shear-warp), 8-bit opacity, 13-bit normals",
             "worker_tasks": worker_stats[:, 0].tolist(),
             "worker_samples": worker_stats[:, 1].tolist(),
+            # CPU time of every thread over the compositing wall time and workers: 1 when each worker
+            # was busy all along, less when they waited for work or for a core another program held.
+            "worker_busy": (cpu2 - cpu1) / (self.workers * (t2 - t1)) if t2 > t1 else None,
         }
         if perspective:
             info["max_ray_angle"] = fact.max_ray_angle

@@ -176,6 +176,9 @@ class VolPackRenderer(Renderer):
     ``octree``).
     """
 
+    technique_stages = ("shade", "render")
+    """The stages that are the technique itself: the library's calls per frame (vpShadeTable, then vpRenderClassifiedVolume or vpRenderRawVolume); not the quantisation to 8 bits or the conversion of its 8-bit image to float."""
+
     name = "volpack"
     description = "VolPack 1.0b3 shear-warp (Lacroute's library, ctypes): RLE or min-max octree, lookup-table shading, 8-bit"
     capabilities = Capabilities(
@@ -240,6 +243,10 @@ class VolPackRenderer(Renderer):
                                    "not compiled in (vpGetTimer reads 0; stages are wall-clock)"
                                    if self._timers_compiled is False else "not checked yet"),
                 "volpack_threads": 1}
+
+    def drop_caches(self):
+        self.close()
+        return True
 
     def close(self):
         if self._prepared is not None:

@@ -461,6 +461,9 @@ class VtkRenderer(Renderer):
     ``_build(scene, key)``, taking the volumes' image data from :meth:`_image`.
     """
 
+    technique_stages = ("render",)
+    """The stages that are the technique itself: vtkRenderWindow.Render(); not the pipeline setup or the image readback."""
+
     cells = True
     """Whether the mapper gets the scalars as cell data (see :func:`image_data`)."""
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import ClaimResult
 from pipeline.experiments.kit.pages import as_ratio, format_number
 from pipeline.experiments.kit.results import numeric, rows_matching
@@ -73,6 +74,12 @@ class Measure:
         at = values.idxmin() if self.statistic == "min" else values.idxmax()
         return float(values[at]), str(rows.loc[at, self.label]) if self.label in rows else None
 
+    def draws(self, df, resampler):
+        """Bootstrap draws of :meth:`value` from the rows' timed frames (``None`` without frames)."""
+        rows, _ = self._values(df)
+        rows = rows[numeric(rows, self.column).notna()]
+        return intervals.statistic_draws(rows, self.column, self.statistic, resampler)
+
     def words(self, value):
         """``"RC-b 12.3 ms"``: the measurement with its value in its unit."""
         shown = value * 1e3 if self.unit == "ms" else value
@@ -91,8 +98,10 @@ class Check:
         raise NotImplementedError
 
 
-def _bounded(value, at_least, at_most):
-    return (at_least is None or value >= at_least) and (at_most is None or value <= at_most)
+def _with_interval(measured, decision, show):
+    """``"×1.12 (95 % CI ×1.08–×1.17)"``: the measured text with its interval where it has one."""
+    words = intervals.interval_words(decision, show)
+    return f"{measured} ({words})" if words else measured
 
 
 def _bound_words(at_least, at_most, show):
@@ -117,9 +126,12 @@ class Ratio(Check):
         top, bottom = self.numerator.value(df), self.denominator.value(df)
         if bottom == 0:
             raise ValueError(f"{self.denominator.what} is 0")
-        ratio = top / bottom
-        return ClaimResult(as_ratio(ratio), _bounded(ratio, self.at_least, self.at_most),
-                           f"{self.numerator.words(top)}, {self.denominator.words(bottom)}")
+        resampler = intervals.Resampler()
+        a, b = self.numerator.draws(df, resampler), self.denominator.draws(df, resampler)
+        interval = intervals.interval_of(a / b) if a is not None and b is not None else None
+        decision = intervals.decide(top / bottom, interval, at_least=self.at_least, at_most=self.at_most)
+        return ClaimResult.decided(_with_interval(as_ratio(decision.value), decision, as_ratio), decision,
+                                   f"{self.numerator.words(top)}, {self.denominator.words(bottom)}")
 
 
 @dataclass(frozen=True)
@@ -139,8 +151,12 @@ class Bound(Check):
     def __call__(self, df):
         value, name = self.measure.named(df)
         measured = self.measure.words(value).removeprefix(f"{self.measure.what} ")
-        return ClaimResult(measured + (f" ({name})" if name else ""), _bounded(value, self.at_least, self.at_most),
-                           self.measure.what)
+        interval = intervals.interval_of(self.measure.draws(df, intervals.Resampler()))
+        decision = intervals.decide(value, interval, at_least=self.at_least, at_most=self.at_most)
+        scale = 1e3 if self.measure.unit == "ms" else 1.0
+        show = lambda v: f"{format_number(v * scale)} {self.measure.unit}".strip()  # noqa: E731
+        return ClaimResult.decided(_with_interval(measured + (f" ({name})" if name else ""), decision, show),
+                                   decision, self.measure.what)
 
 
 @dataclass(frozen=True)
@@ -190,6 +206,14 @@ class Growth(Check):
             raise ValueError(f"need three values of {self.x} for {self.measure.what}, got {len(points)}")
         x, y = np.log(np.array(points, float)).T
         exponent = float(np.polyfit(x, y, 1)[0])
-        return ClaimResult(format_number(exponent), _bounded(exponent, self.at_least, self.at_most),
-                           f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
-                           f"{format_number(points[-1][0])}")
+        resampler = intervals.Resampler()
+        draws = [self.measure.draws(rows[xs == value], resampler) for value, _ in points]
+        interval = None
+        if all(d is not None for d in draws):
+            # One slope per draw: polyfit fits every column of a (points, draws) array at once.
+            slopes = np.polyfit(x, np.log(np.column_stack(draws).T), 1)[0]
+            interval = intervals.interval_of(slopes)
+        decision = intervals.decide(exponent, interval, at_least=self.at_least, at_most=self.at_most)
+        return ClaimResult.decided(_with_interval(format_number(exponent), decision, format_number), decision,
+                                   f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
+                                   f"{format_number(points[-1][0])}")

@@ -61,6 +61,9 @@ class Profile:
         Image width and height where an experiment gives none.
     warmup, repeat : int
         Frames for the timing harness: ``warmup`` >= 0 untimed, then ``repeat`` >= 1 timed.
+    min_time : float
+        Seconds of timed frames per view of a timed run, at least: short frames are repeated until
+        they fill it (:mod:`pipeline.timing`). 0: ``repeat`` frames only.
     experiments : list of str or "all"
     settings : dict
         Per-experiment overrides of the experiments' own settings for ``scale``, keyed by
@@ -89,6 +92,7 @@ class Profile:
     results: str = "results"
     cache: str = ".cache/volumes"
     render_time_limit: float | None = None
+    min_time: float = 0.0
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -102,6 +106,9 @@ class Profile:
         check_positive_int(self.image_size, name=f"{where} image_size (pixels)")
         check_positive_int(self.warmup, name=f"{where} warmup (untimed frames)", minimum=0)
         check_positive_int(self.repeat, name=f"{where} repeat (timed frames)")
+        if isinstance(self.min_time, (bool, str)):
+            raise InputError(f"{where} min_time: expected seconds (a number >= 0), got {self.min_time!r}")
+        check_scalar(self.min_time, name=f"{where} min_time (seconds of timed frames per view)", low=0)
         names = self.experiments
         if names != "all" and (not isinstance(names, (list, tuple)) or not all(isinstance(n, str) and n for n in names)):
             raise InputError(f"{where} experiments: expected 'all' or a list of names, got {names!r}")
@@ -184,6 +191,12 @@ class Run:
     statistics : dict, optional
         A volume entry (the scene format) whose data-set statistics the record should carry,
         e.g. the rendered phantom at its paper size.
+    min_time : float
+        Seconds of timed frames at least, per view (:mod:`pipeline.timing`); more frames until then.
+    interleave : str, optional
+        Runs of one experiment with the same ``interleave`` name are timed together in one job, their
+        frames alternating view by view (:func:`pipeline.timing.measure_together`): a claim comparing
+        them takes its ratio round by round, with an interval. Every run of a group must be timed.
     """
 
     experiment: str
@@ -197,10 +210,15 @@ class Run:
     repeat: int = 3
     tags: dict = field(default_factory=dict)
     statistics: dict | None = None
+    min_time: float = 0.0
+    interleave: str | None = None
 
     def __post_init__(self):
         if not RUN_ID.match(self.id):
             raise InputError(f"run id {self.id!r}: use letters, digits and . _ + - only")
+        if self.interleave is not None and not RUN_ID.match(str(self.interleave)):
+            raise InputError(f"run {self.id!r} interleave {self.interleave!r}: use letters, digits and . _ + - only")
+        check_scalar(self.min_time, name=f"run {self.id!r} min_time (seconds of timed frames)", low=0)
         names = [v.get("view") for v in self.views]
         if not names or None in names or len(set(names)) != len(names):
             raise InputError(f"run {self.id!r}: every view needs a unique 'view' name, got {names}")
@@ -224,11 +242,26 @@ class Run:
 
 @dataclass(frozen=True)
 class ClaimResult:
-    """The outcome of checking one claim on measured data."""
+    """The outcome of checking one claim on measured data.
+
+    ``holds`` is ``None`` when the claim could not be judged: "not measured", or, with
+    ``inconclusive``, a timing claim whose confidence ``interval`` straddles its bound
+    (:mod:`~pipeline.experiments.kit.intervals`). ``interval`` is the 95 % interval of the measured
+    value (``(low, high)``, in the value's own unit) where it rests on timed frames, and ``margin`` the
+    value's relative distance from its bound, positive on the holding side.
+    """
 
     measured: str
     holds: bool | None
     detail: str = ""
+    interval: tuple | None = None
+    margin: float | None = None
+    inconclusive: bool = False
+
+    @classmethod
+    def decided(cls, measured, decision, detail=""):
+        """The result of a :class:`~pipeline.experiments.kit.intervals.Decision` (holds, fails or inconclusive)."""
+        return cls(measured, decision.holds, detail, decision.interval, decision.margin, decision.inconclusive)
 
 
 @dataclass(frozen=True)

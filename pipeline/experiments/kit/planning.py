@@ -29,14 +29,15 @@ CONTROLS = frozenset({"sphere", "constant_cube", "checkerboard", "fbm_control"})
 
 
 def timed_frames(profile, experiment=None):
-    """Frames of a timed comparison: at least one warm-up frame and three timed frames.
+    """Frames of a timed comparison: at least one warm-up frame, three timed frames and the profile's ``min_time``.
 
     An experiment's ``repeat`` setting raises the timed frames above the profile's: these frames
     take milliseconds, and on a shared machine the median of three is at the mercy of one
     interruption.
     """
     repeat = int(profile.repeat if experiment is None else profile.setting(experiment, "repeat", profile.repeat))
-    return {"warmup": max(1, int(profile.warmup)), "repeat": max(3, repeat)}
+    min_time = float(profile.min_time if experiment is None else profile.setting(experiment, "min_time", profile.min_time))
+    return {"warmup": max(1, int(profile.warmup)), "repeat": max(3, repeat), "min_time": min_time}
 
 
 def usable_cores():

@@ -1,4 +1,7 @@
-"""A claim's verdict: holds, fails, blocked or not measured, from the runs that did and did not happen.
+"""A claim's verdict: holds, fails, inconclusive, blocked or not measured, from the runs that did and did not happen.
+
+A timing claim whose confidence interval straddles its bound is **inconclusive**
+(:mod:`~pipeline.experiments.kit.intervals`): the frames taken cannot tell whether it holds.
 
 A claim is checked on the successful runs of its experiment. Where runs that should have produced
 measurements did not (they failed, their backend cannot run here, their data is absent:
@@ -26,7 +29,7 @@ from core.outcomes import CAUSE_WORDS, INCOMPLETE_CAUSES, cause_of
 from pipeline.experiments.kit.results import MissingColumn
 from reports.metrics import METRIC_KEYS
 
-VERDICTS = ("holds", "fails", "blocked", "not measured")
+VERDICTS = ("holds", "fails", "inconclusive", "blocked", "not measured")
 """Every verdict a claim can get, in the order the report counts them."""
 
 MEASUREMENT_PREFIXES = ("time_", "count_", "info_", "stat_")
@@ -218,6 +221,8 @@ class Verdict:
     holds: bool | None
     detail: str
     missing: tuple = ()
+    interval: tuple | None = None
+    margin: float | None = None
 
 
 def judge(claim, rows):
@@ -229,9 +234,13 @@ def judge(claim, rows):
     missing = depends_on_missing(claim.check, rows) if not rows.empty else []
     if missing:
         return Verdict("blocked", "", None, blocked_detail(missing), tuple(missing))
+    if result.inconclusive:
+        return Verdict("inconclusive", result.measured, None, result.detail, interval=result.interval,
+                       margin=result.margin)
     if result.holds is None:
         return Verdict("not measured", result.measured, None, result.detail)
-    return Verdict("holds" if result.holds else "fails", result.measured, bool(result.holds), result.detail)
+    return Verdict("holds" if result.holds else "fails", result.measured, bool(result.holds), result.detail,
+                   interval=result.interval, margin=result.margin)
 
 
 def claim_sentences(claims, rows):
@@ -243,7 +252,7 @@ def claim_sentences(claims, rows):
     sentences = []
     for claim in claims:
         verdict = judge(claim, rows)
-        if verdict.verdict in ("holds", "fails"):
-            word = "holds" if verdict.holds else "does not hold"
+        if verdict.verdict in ("holds", "fails", "inconclusive"):
+            word = {"holds": "holds", "fails": "does not hold", "inconclusive": "inconclusive"}[verdict.verdict]
             sentences.append(f"{claim.statement}: {verdict.measured}, {word} ({verdict.detail}).")
     return sentences

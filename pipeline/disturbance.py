@@ -1,0 +1,131 @@
+"""Was the machine quiet while a run was timed? CPU time others used, CPU steal and load, from ``/proc``.
+
+The kernel counts every CPU's busy time (``/proc/stat``) and this process's own (``/proc/self/stat``,
+all its threads: Numba's workers, llvmpipe's, PoCL's) in the same clock ticks. What the machine spent
+beyond this process while frames were timed is *foreign* work, in cores: another program, a browser,
+a build, a second benchmark. A run whose frames shared the machine with more than
+:data:`FOREIGN_LIMIT` of a core on average, or lost more than :data:`STEAL_LIMIT` of its time to the
+hypervisor (steal), is **disturbed**; the render job times it again once and keeps the quieter
+attempt (:func:`pipeline.rendering.execute`), and the report lists every run still disturbed with
+the reason. Where ``/proc`` does not exist (not Linux) nothing is measured and nothing is flagged.
+"""
+
+import os
+import time
+from dataclasses import dataclass
+
+FOREIGN_LIMIT = 0.25
+"""Cores of other work, averaged over the timed frames, above which a run is disturbed. Snakemake
+and the job's own wrapper stay far below it (they wait); one busy program on another core is 1."""
+
+STEAL_LIMIT = 0.05
+"""Share of the timed span a virtual machine's CPUs were taken by the hypervisor."""
+
+OUTLIER_FACTOR = 3.0
+"""A frame slower than this many times the run's median frame was interrupted (a frame of one
+configuration costs the same work each time)."""
+
+OUTLIER_SHARE = 0.1
+"""Share of outlier frames above which a run is disturbed even where ``/proc`` saw no other work."""
+
+MIN_SPAN = 0.5
+"""Seconds under which the counters (10 ms ticks) cannot tell: over 1 ms, one tick of other work reads
+as ten cores. Shorter spans get no load and are never flagged by it."""
+
+_TICK = os.sysconf("SC_CLK_TCK") if hasattr(os, "sysconf") else 100
+
+
+@dataclass(frozen=True)
+class Snapshot:
+    """CPU counters at one instant (ticks), or ``None`` fields where ``/proc`` is unreadable."""
+
+    wall: float
+    busy: int | None
+    steal: int | None
+    own: int | None
+
+
+def snapshot():
+    """This instant's machine-wide busy and steal ticks and this process's CPU ticks."""
+    wall = time.monotonic()
+    try:
+        with open("/proc/stat") as f:
+            fields = [int(v) for v in f.readline().split()[1:]]
+        # user nice system idle iowait irq softirq steal [guest guest_nice: already in user, nice]
+        busy = sum(fields[:8]) - fields[3] - fields[4]
+        steal = fields[7] if len(fields) > 7 else 0
+        with open("/proc/self/stat") as f:
+            # The command name may hold spaces: the fields after it start after the last ')'.
+            after = f.read().rsplit(")", 1)[1].split()
+        own = int(after[11]) + int(after[12])  # utime, stime
+    except (OSError, ValueError, IndexError):
+        return Snapshot(wall, None, None, None)
+    return Snapshot(wall, busy, steal, own)
+
+
+def load_average():
+    """The 1-minute load average, or ``None``."""
+    try:
+        return os.getloadavg()[0]
+    except (OSError, AttributeError):
+        return None
+
+
+def between(start, end):
+    """``{"foreign_cores", "own_cores", "steal_share", "seconds"}`` from two :func:`snapshot` s.
+
+    Counts are in ticks (10 ms), so over spans much shorter than a second they are coarse: under
+    :data:`MIN_SPAN` the loads are ``None``. The timing harness reads them from the first warm-up
+    frame to the last timed frame of a view.
+    """
+    seconds = end.wall - start.wall
+    out = {"seconds": seconds, "foreign_cores": None, "own_cores": None, "steal_share": None}
+    if None in (start.busy, end.busy) or seconds < MIN_SPAN:
+        return out
+    busy = (end.busy - start.busy) / _TICK
+    own = (end.own - start.own) / _TICK
+    cpus = os.cpu_count() or 1
+    out.update(foreign_cores=max(0.0, busy - own) / seconds, own_cores=own / seconds,
+               steal_share=(end.steal - start.steal) / _TICK / seconds / cpus)
+    return out
+
+
+def outlier_frames(totals):
+    """How many frame times exceed :data:`OUTLIER_FACTOR` × their median."""
+    if not totals:
+        return 0
+    ordered = sorted(totals)
+    median = ordered[len(ordered) // 2]
+    return sum(t > OUTLIER_FACTOR * median for t in totals)
+
+
+def verdict(load, totals):
+    """Why a view's timed frames were disturbed (a sentence), or ``""`` when they were not.
+
+    ``load`` is :func:`between` over the timed frames; ``totals`` the frames' total times.
+    """
+    reasons = []
+    foreign, steal = load.get("foreign_cores"), load.get("steal_share")
+    if foreign is not None and foreign > FOREIGN_LIMIT:
+        reasons.append(f"other work used {foreign:.2f} cores while it was timed")
+    if steal is not None and steal > STEAL_LIMIT:
+        reasons.append(f"the hypervisor took {100 * steal:.0f} % of the CPU time (steal)")
+    outliers = outlier_frames(totals)
+    if totals and outliers / len(totals) > OUTLIER_SHARE:
+        reasons.append(f"{outliers} of {len(totals)} frames took over {OUTLIER_FACTOR:g}× the median")
+    return "; ".join(reasons)
+
+
+def starvation(load, workers):
+    """Why a parallel run had fewer free cores than workers (a sentence), or ``""``.
+
+    ``workers`` is how many threads the technique runs on; the free cores are the machine's less
+    the foreign work measured over the timed frames.
+    """
+    foreign = load.get("foreign_cores")
+    if foreign is None or not workers or workers < 2:
+        return ""
+    free = (os.cpu_count() or 1) - foreign
+    if free < workers - FOREIGN_LIMIT:
+        return f"{workers} workers had {free:.1f} free cores (other work used {foreign:.2f})"
+    return ""

@@ -1,0 +1,216 @@
+"""Confidence intervals of timing claims, and the third verdict: a claim whose interval straddles its bound.
+
+A run's time in the tables is the median of its timed frames; the frames themselves are kept
+(``frames_<stage>``: the seconds of every timed frame, space-separated, in the order they were taken).
+A claim that rests on times gets an interval by the percentile bootstrap, as pyperf and hyperfine
+summarise a benchmark by its distribution rather than one number: each draw resamples every run's
+frames with replacement, recomputes each run's median, the claim's statistic over the runs it reads
+and then its value (a ratio, a share, a slope). Runs timed together in one job, interleaved round by
+round (:attr:`~pipeline.experiments.kit.model.Run.interleave`), are resampled *by round*: the frames
+of one round of A and B are drawn together, so a disturbance that slowed both cancels in their ratio.
+
+The verdict follows hyperfine's and asv's rule for "significantly different": a claim holds only when
+its whole interval is on the holding side of the bound, fails when the whole interval is on the other
+side, and is *inconclusive* otherwise. The draws are seeded, so the same frames give the same interval.
+"""
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+DRAWS = 2000
+"""Bootstrap resamples per interval: the 2.5 % and 97.5 % percentiles move by well under 1 % between seeds."""
+
+LEVEL = 0.95
+"""Coverage of the intervals claims report."""
+
+SEED = 20260125
+
+
+def frames_column(column):
+    """The column holding the frames of a time column (``time_total`` → ``frames_total``), or ``None``.
+
+    Only per-frame times have frames: ``time_<stage>_min``/``_max`` (extremes) and derived columns do not.
+    """
+    if not column.startswith("time_") or column.endswith(("_min", "_max")):
+        return None
+    return "frames_" + column.removeprefix("time_")
+
+
+def parse_frames(text):
+    """The seconds of a ``frames_<stage>`` cell (``None`` for an empty cell)."""
+    if not isinstance(text, str) or not text.strip():
+        return None
+    return np.array(text.split(), dtype=float)
+
+
+def format_frames(values):
+    """``frames_<stage>``'s text: every frame's seconds to 6 significant digits."""
+    return " ".join(f"{v:.6g}" for v in values)
+
+
+class Resampler:
+    """Seeded bootstrap indices shared by runs timed together.
+
+    ``indices(key, n)`` gives the ``(DRAWS, n)`` resample of ``n`` frames; rows with the same key (the
+    same interleave group and view) and the same number of frames get the same indices, so their
+    frames are drawn round by round.
+    """
+
+    def __init__(self, draws=DRAWS, seed=SEED):
+        self.draws = draws
+        self._rng = np.random.default_rng(seed)
+        self._cache = {}
+
+    def indices(self, key, n):
+        key = (key, n)
+        if key not in self._cache:
+            self._cache[key] = self._rng.integers(0, n, size=(self.draws, n))
+        return self._cache[key]
+
+
+def _row_key(row, position):
+    group = row.get("interleave") if hasattr(row, "get") else None
+    if isinstance(group, str) and group:
+        return ("group", row.get("experiment"), group, row.get("view"))
+    return ("run", row.get("run"), row.get("view"), position)
+
+
+REDUCE = {"median": np.median, "min": np.min, "max": np.max, "mean": np.mean}
+
+
+def row_draws(rows, column, resampler):
+    """``(DRAWS, len(rows))``: each row's median ``column`` frame in every draw, or ``None``.
+
+    ``None`` where any row has no frames for the column (a count, a metric, results written before
+    frames were kept): such a claim is judged on its point value alone.
+    """
+    frames = frames_column(column)
+    if frames is None or frames not in rows or rows.empty:
+        return None
+    out = np.empty((resampler.draws, len(rows)))
+    for i, (index, row) in enumerate(rows.iterrows()):
+        values = parse_frames(row[frames])
+        if values is None or len(values) == 0:
+            return None
+        out[:, i] = np.median(values[resampler.indices(_row_key(row, index), len(values))], axis=1)
+    return out
+
+
+def statistic_draws(rows, column, statistic, resampler):
+    """``(DRAWS,)`` draws of ``statistic`` over the rows' median frames, or ``None`` (see :func:`row_draws`)."""
+    per_row = row_draws(rows, column, resampler)
+    if per_row is None:
+        return None
+    return REDUCE[statistic](per_row, axis=1)
+
+
+def interval_of(draws, level=LEVEL):
+    """The percentile interval ``(low, high)`` of bootstrap ``draws`` (``None`` passes through)."""
+    if draws is None:
+        return None
+    draws = np.asarray(draws, float)
+    draws = draws[np.isfinite(draws)]
+    if draws.size == 0:
+        return None
+    tail = 100 * (1 - level) / 2
+    low, high = np.percentile(draws, [tail, 100 - tail])
+    return float(low), float(high)
+
+
+@dataclass(frozen=True)
+class Decision:
+    """A value judged against a bound with its interval.
+
+    ``holds`` is True or False when the interval (or, without one, the value) is wholly on one side,
+    ``None`` when the interval straddles the bound (:attr:`inconclusive`). ``margin`` is the value's
+    relative distance from the bound, positive on the holding side (+0.1: 10 % clear of it).
+    """
+
+    value: float
+    interval: tuple | None
+    holds: bool | None
+    margin: float
+
+    @property
+    def inconclusive(self):
+        return self.holds is None
+
+
+def _margin(value, at_least, at_most):
+    margins = []
+    if at_least is not None:
+        margins.append((value - at_least) / abs(at_least) if at_least else value)
+    if at_most is not None:
+        margins.append((at_most - value) / abs(at_most) if at_most else -value)
+    return float(min(margins)) if margins else float("nan")
+
+
+def decide(value, interval, *, at_least=None, at_most=None):
+    """A :class:`Decision`: holds, fails or inconclusive from ``value``, its ``interval`` and the bounds."""
+    def inside(v):
+        return (at_least is None or v >= at_least) and (at_most is None or v <= at_most)
+
+    margin = _margin(value, at_least, at_most)
+    if interval is None:
+        return Decision(value, None, inside(value), margin)
+    low, high = interval
+    if inside(low) and inside(high):
+        holds = True
+    elif (at_least is not None and high < at_least) or (at_most is not None and low > at_most):
+        holds = False
+    else:
+        holds = None
+    return Decision(value, (low, high), holds, margin)
+
+
+def combine(decisions):
+    """Every one of several decisions ("every scene"): fails if one fails, inconclusive if one is, else holds.
+
+    The combined margin is the smallest, the interval the one of the decision with that margin.
+    """
+    decisions = list(decisions)
+    if not decisions:
+        raise ValueError("no decisions to combine")
+    worst = min(decisions, key=lambda d: d.margin if np.isfinite(d.margin) else np.inf)
+    if any(d.holds is False for d in decisions):
+        holds = False
+        worst = min((d for d in decisions if d.holds is False), key=lambda d: d.margin)
+    elif any(d.holds is None for d in decisions):
+        holds = None
+        worst = min((d for d in decisions if d.holds is None), key=lambda d: d.margin)
+    else:
+        holds = True
+    return Decision(worst.value, worst.interval, holds, worst.margin)
+
+
+def ratio_decision(top, bottom, *, column="time_total", statistic="median", at_least=None, at_most=None,
+                   resampler=None, bottom_column=None):
+    """The ratio of ``statistic`` of ``column`` over rows ``top`` and rows ``bottom``, judged with its interval.
+
+    ``bottom_column`` (default ``column``) compares two stages (a share, one scope against another).
+    Rows of one interleave group are resampled round by round (paired).
+    """
+    resampler = resampler or Resampler()
+    bottom_column = bottom_column or column
+    value = _point(top, column, statistic) / _point(bottom, bottom_column, statistic)
+    a = statistic_draws(top, column, statistic, resampler)
+    b = statistic_draws(bottom, bottom_column, statistic, resampler)
+    interval = interval_of(a / b) if a is not None and b is not None else None
+    return decide(value, interval, at_least=at_least, at_most=at_most)
+
+
+def _point(rows, column, statistic):
+    values = pd.to_numeric(rows[column], errors="coerce").dropna().to_numpy()
+    if values.size == 0:
+        raise ValueError(f"no {column} in the rows")
+    return float(REDUCE[statistic](values))
+
+
+def interval_words(decision, show):
+    """``"95 % CI ×1.02–×1.09"``: a decision's interval in words (empty without one)."""
+    if decision.interval is None:
+        return ""
+    low, high = decision.interval
+    return f"95 % CI {show(low)}–{show(high)}"
