@@ -60,7 +60,7 @@ def rows_for(record_path, *, results_dir):
                **_flatten("info_", {k: v for k, v in view["info"].items() if not isinstance(v, (dict, list))}),
                **{f"frames_{stage}": format_frames(values) for stage, values in (view.get("frames") or {}).items()},
                **{f"load_{k.removeprefix('load_')}": v for k, v in (view["info"].get("load") or {}).items()
-                  if k in ("foreign_cores", "steal_share", "load_average")},
+                  if k in ("foreign_cores", "job_foreign_cores", "steal_share", "waited_share", "load_average")},
                "rerun": _rerun_words(view.get("rerun"))}
         view_metrics = metrics.get("views", {}).get(view["view"])
         if view_metrics:

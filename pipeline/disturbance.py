@@ -1,4 +1,7 @@
-"""Was the machine quiet while a run was timed? CPU time others used, CPU steal and load, from ``/proc``.
+"""Was the machine quiet while a run was timed? Waits for a CPU, CPU time others used, steal, from ``/proc``.
+
+The first signal is exact: how long this process's threads waited, runnable, for a CPU
+(:func:`thread_waits`, the scheduler's run-queue delay), frame by frame.
 
 The kernel counts every CPU's busy time (``/proc/stat``) and this process's own (``/proc/self/stat``,
 all its threads: Numba's workers, llvmpipe's, PoCL's) in the same clock ticks. What the machine spent
@@ -63,6 +66,37 @@ def snapshot():
     return Snapshot(wall, busy, steal, own)
 
 
+def thread_waits():
+    """Seconds this process's threads have waited, runnable, for a CPU (``None`` where unreadable).
+
+    The scheduler's own account (``/proc/self/task/*/schedstat``, the run-queue delay, in ns): a thread
+    that waits here was ready to run while another program held every core it could use. It is exact
+    even over a frame of a millisecond, and a thread that sleeps (a worker without work, a wait on a
+    device) does not count. Threads that ended since the last reading drop out of the sum, so a
+    difference can be slightly low, never high.
+    """
+    total = 0
+    try:
+        tasks = os.listdir("/proc/self/task")
+    except OSError:
+        return None
+    for task in tasks:
+        try:
+            with open(f"/proc/self/task/{task}/schedstat") as f:
+                total += int(f.read().split()[1])
+        except (OSError, ValueError, IndexError):
+            continue
+    return total / 1e9
+
+
+WAIT_LIMIT = 0.05
+"""Share of the timed span this process's threads together spent waiting for a CPU above which the
+frames were disturbed (a single-threaded frame lost 5 % of its time to other programs)."""
+
+FRAME_WAIT_LIMIT = 0.1
+"""Share of one frame's time spent waiting for a CPU above which that frame was interrupted."""
+
+
 def load_average():
     """The 1-minute load average, or ``None``."""
     try:
@@ -99,13 +133,21 @@ def outlier_frames(totals):
     return sum(t > OUTLIER_FACTOR * median for t in totals)
 
 
-def verdict(load, totals):
+def verdict(load, totals, waits=(), walls=()):
     """Why a view's timed frames were disturbed (a sentence), or ``""`` when they were not.
 
-    ``load`` is :func:`between` over the timed frames; ``totals`` the frames' total times.
+    ``load`` is :func:`between` over the timed frames, with ``waited_share`` (the threads' wait for a
+    CPU over the timed span, :func:`thread_waits`); ``totals`` the frames' total times, ``waits``
+    each frame's wait for a CPU and ``walls`` each frame's wall time.
     """
     reasons = []
-    foreign, steal = load.get("foreign_cores"), load.get("steal_share")
+    foreign, steal, waited = load.get("foreign_cores"), load.get("steal_share"), load.get("waited_share")
+    if waited is not None and waited > WAIT_LIMIT:
+        reasons.append(f"its threads waited {100 * waited:.0f} % of the time for a CPU")
+    slow = sum(wait > FRAME_WAIT_LIMIT * wall for wait, wall in zip(waits, walls))
+    if slow:
+        reasons.append(f"{slow} of {len(walls)} frames waited over {100 * FRAME_WAIT_LIMIT:.0f} % of their time "
+                       "for a CPU")
     if foreign is not None and foreign > FOREIGN_LIMIT:
         reasons.append(f"other work used {foreign:.2f} cores while it was timed")
     if steal is not None and steal > STEAL_LIMIT:

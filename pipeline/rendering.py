@@ -16,6 +16,7 @@ import datasets
 import renderers
 from core.errors import BackendUnavailableError, InputError, UnsupportedFeatureError
 from core.transfer import Preset
+from pipeline import disturbance
 from pipeline.records import image_digest, new_record, run_record_path, write_json
 from pipeline.scene_io import build_scene, build_volume_instance
 from pipeline.timing import measure_together
@@ -50,6 +51,7 @@ def execute_together(runs, *, profile, device_environment=None):
     record says so (``rerun``).
     """
     records, arms = [], []
+    job_start = disturbance.snapshot()
     for run in runs:
         record_path = run_record_path(profile.results, run.experiment, run.id)
         record = new_record(run, device_environment)
@@ -89,12 +91,34 @@ def execute_together(runs, *, profile, device_environment=None):
                         _time_view(name, [member])
                     except Exception as exc:  # noqa: BLE001 - recorded with its traceback
                         _failed(member[1], exc)
+        _judge_short_views(live, disturbance.between(job_start, disturbance.snapshot()))
         for run, record, record_path, scene, renderer in live:
             if record["status"] == "ok":
                 # After rendering: some effective options (a step derived from the scene) exist only now.
                 record["options"] = {**run.options, **renderer.options}
             write_json(record_path, record)
     return records
+
+
+def _judge_short_views(live, job_load):
+    """Judge the machine's load over the whole job for views too short to measure it themselves.
+
+    ``/proc/stat`` counts in 10 ms ticks, so a view whose frames took under
+    :data:`pipeline.disturbance.MIN_SPAN` has no load of its own; the job's (its start-up, preprocessing
+    and every view) stands in for it, and a busy machine marks such views disturbed.
+    """
+    foreign = job_load.get("foreign_cores")
+    if foreign is None:
+        return
+    for _, record, *_ in live:
+        for view in record["views"]:
+            load = view["info"].get("load") or {}
+            if load.get("foreign_cores") is None:
+                load["job_foreign_cores"] = foreign
+                view["info"]["load"] = load
+                if foreign > disturbance.FOREIGN_LIMIT:
+                    reason = f"other work used {foreign:.2f} cores during its job"
+                    view["info"]["disturbed"] = "; ".join(filter(None, [view["info"].get("disturbed"), reason]))
 
 
 def _failed(record, exc):

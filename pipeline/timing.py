@@ -59,7 +59,7 @@ class _Arm:
 
     def __init__(self, renderer, scene):
         self.renderer, self.scene = renderer, scene
-        self.frames = []
+        self.frames, self.walls, self.waits = [], [], []
         self.first_frame = None
         self.preprocessing = {}
         self.warmup = 0
@@ -93,8 +93,12 @@ class _Arm:
                 break
 
     def timed(self):
-        result, _ = self.render()
+        before = disturbance.thread_waits()
+        result, wall = self.render()
+        after = disturbance.thread_waits()
         self.frames.append(result)
+        self.walls.append(wall)
+        self.waits.append(after - before if None not in (before, after) else 0.0)
         return result
 
     def result(self, load):
@@ -107,7 +111,7 @@ class _Arm:
         last = frames[-1]
         info = {**last.info, "frames": len(frames), "warmup": self.warmup, "settled": self.settled,
                 "first_frame": self.first_frame, "load": load,
-                "disturbed": disturbance.verdict(load, per_stage.get("total", [])),
+                "disturbed": disturbance.verdict(load, per_stage.get("total", []), self.waits, self.walls),
                 "starved": disturbance.starvation(load, _workers(self.renderer))}
         return RenderResult(
             image=last.image,
@@ -200,7 +204,7 @@ def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_F
         start = disturbance.snapshot()
         for state in states:
             state.prepare(warmup, bar)
-        started = time.perf_counter()
+        started, waited = time.perf_counter(), disturbance.thread_waits()
         spent = [0.0] * len(states)
         rounds = 0
         while rounds < max_frames and (rounds < repeat or min(spent) < min_time):
@@ -211,6 +215,9 @@ def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_F
                 spent[states.index(state)] += time.perf_counter() - began
                 bar.update()
             rounds += 1
+        elapsed, now_waited = time.perf_counter() - started, disturbance.thread_waits()
         load = {**disturbance.between(start, disturbance.snapshot()),
-                "load_average": disturbance.load_average(), "elapsed": time.perf_counter() - started}
+                "load_average": disturbance.load_average(), "elapsed": elapsed,
+                "waited_share": (now_waited - waited) / elapsed if None not in (waited, now_waited) and elapsed > 0
+                else None}
     return [state.result(load) for state in states]

@@ -225,8 +225,63 @@ class Verdict:
     margin: float | None = None
 
 
+DISTURBED_SPEED_UP = 10.0
+"""How much faster a disturbed view's frames are assumed they could have been: a starved parallel run
+was measured 26 times slower than on a quiet machine, a single-threaded one a few per cent."""
+
+
+def disturbed_views(ok):
+    """The successful rows whose timed frames were disturbed (``info_disturbed`` says why)."""
+    if "info_disturbed" not in ok:
+        return ok.iloc[:0]
+    reasons = ok["info_disturbed"].fillna("").astype(str)
+    return ok[reasons.str.strip() != ""]
+
+
+def _undisturbed(ok, disturbed):
+    """``ok`` with the disturbed rows' times and frames :data:`DISTURBED_SPEED_UP` times shorter."""
+    frame = ok.copy()
+    index = disturbed.index
+    for column in frame.columns:
+        if column.startswith("time_"):
+            frame.loc[index, column] = pd.to_numeric(frame.loc[index, column], errors="coerce") / DISTURBED_SPEED_UP
+        elif column.startswith("frames_"):
+            frame.loc[index, column] = [
+                " ".join(f"{float(v) / DISTURBED_SPEED_UP:.6g}" for v in str(text).split()) if isinstance(text, str)
+                else text for text in frame.loc[index, column]]
+    return frame
+
+
+def rests_on_disturbed(claim, ok):
+    """The disturbed views ``claim``'s verdict rests on: ``[(run, view, reason)]``, empty if none.
+
+    A verdict rests on them when it changes with their times :data:`DISTURBED_SPEED_UP` times shorter
+    (every disturbed view by the same factor, so a ratio of two runs disturbed alike, timed together,
+    does not change).
+    """
+    disturbed = disturbed_views(ok)
+    if disturbed.empty:
+        return []
+    before = claim.evaluate(ok)
+    after = claim.evaluate(_undisturbed(ok, disturbed))
+    if (before.holds, before.inconclusive) == (after.holds, after.inconclusive):
+        return []
+    return [(row.run, row.get("view", ""), row.info_disturbed) for _, row in disturbed.iterrows()]
+
+
+def disturbed_detail(views):
+    """``"inconclusive: it rests on 3 views timed while the machine was disturbed (...)"``."""
+    named = ", ".join(f"{run}/{view}" for run, view, _ in views[:3]) + (f" and {len(views) - 3} more" if len(views) > 3 else "")
+    return (f"inconclusive: its verdict rests on {len(views)} view{'s' if len(views) != 1 else ''} timed while the "
+            f"machine was disturbed ({named}: {views[0][2]})")
+
+
 def judge(claim, rows):
-    """The :class:`Verdict` of ``claim`` on an experiment's ``rows`` (every run, successful or not)."""
+    """The :class:`Verdict` of ``claim`` on an experiment's ``rows`` (every run, successful or not).
+
+    A claim that would hold or fail differently had its disturbed views been quiet
+    (:func:`rests_on_disturbed`) is inconclusive: a busy machine must not decide it.
+    """
     ok = rows[rows.status == "ok"] if not rows.empty else rows
     result = claim.evaluate(ok)
     # The raw check: Claim.evaluate turns a missing column into "not measurable", which would hide
@@ -234,6 +289,11 @@ def judge(claim, rows):
     missing = depends_on_missing(claim.check, rows) if not rows.empty else []
     if missing:
         return Verdict("blocked", "", None, blocked_detail(missing), tuple(missing))
+    if result.holds is not None and not ok.empty:
+        views = rests_on_disturbed(claim, ok)
+        if views:
+            return Verdict("inconclusive", result.measured, None, f"{disturbed_detail(views)}; {result.detail}".rstrip("; "),
+                           interval=result.interval, margin=result.margin)
     if result.inconclusive:
         return Verdict("inconclusive", result.measured, None, result.detail, interval=result.interval,
                        margin=result.margin)
