@@ -252,17 +252,17 @@ def _undisturbed(ok, disturbed):
     return frame
 
 
-def rests_on_disturbed(claim, ok):
+def rests_on_disturbed(claim, ok, before=None):
     """The disturbed views ``claim``'s verdict rests on: ``[(run, view, reason)]``, empty if none.
 
     A verdict rests on them when it changes with their times :data:`DISTURBED_SPEED_UP` times shorter
     (every disturbed view by the same factor, so a ratio of two runs disturbed alike, timed together,
-    does not change).
+    does not change). ``before`` is the claim's result on ``ok`` where the caller has it.
     """
     disturbed = disturbed_views(ok)
     if disturbed.empty:
         return []
-    before = claim.evaluate(ok)
+    before = before if before is not None else claim.evaluate(ok)
     after = claim.evaluate(_undisturbed(ok, disturbed))
     if (before.holds, before.inconclusive) == (after.holds, after.inconclusive):
         return []
@@ -290,7 +290,7 @@ def judge(claim, rows):
     if missing:
         return Verdict("blocked", "", None, blocked_detail(missing), tuple(missing))
     if result.holds is not None and not ok.empty:
-        views = rests_on_disturbed(claim, ok)
+        views = rests_on_disturbed(claim, ok, before=result)
         if views:
             return Verdict("inconclusive", result.measured, None, f"{disturbed_detail(views)}; {result.detail}".rstrip("; "),
                            interval=result.interval, margin=result.margin)
