@@ -8,11 +8,16 @@ The index answers "which technique should I use, and where does it fail": take-a
 the numbers (:mod:`reports.takeaways`), a techniques × data sets table (median frame time with
 its fastest and slowest frame, PSNR / SSIM / FLIP against the reference, links to every run's
 record and EXR), the claims per paper, the backends that cannot run here and the papers whose
-backends do not exist yet, and the provenance of the numbers (date, machine, real data).
+backends do not exist yet, how frames are timed with the views whose timings were disturbed, and
+the provenance of the numbers (date, machine, real data). A paper's page shows each claim with its
+verdict, its 95 % interval and its margin, and says in one line when some of its timed views were
+disturbed.
 """
 
 import html
+import json
 import math
+import re
 import shutil
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -398,7 +403,8 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
         ctx = ReportContext(report_dir, results_dir, experiment.name)
         counts, problems = _status_summary(frame, ctx, stated_above=silent)
-        claims = claims_df[claims_df.experiment == experiment.name].to_dict("records")
+        claims = [{**claim, "cells": claim_cells(claim)}
+                  for claim in claims_df[claims_df.experiment == experiment.name].to_dict("records")]
         paper_table = experiment.paper_table()
         rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
                     if counts["ok"] else [])
@@ -430,12 +436,14 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
                              f"that did succeed are shown below.")
         # Sections of one paper may say the same thing (the device every run of the page used): once.
         page_runs = runs[runs.experiment.isin([s["name"] for s in sections]) & ~runs.backend.isin(silent)]
+        disturbed = outcomes.disturbance_notice(outcomes.timing_disturbances(
+            runs_df[runs_df.experiment.isin([s["name"] for s in sections])]))
         page_takeaways = list(dict.fromkeys(takeaways.claims(pd.DataFrame(claims))
                                             + [t for s in sections for t in s["takeaways"]]
                                             + takeaways.problems(outcomes.problem_groups(page_runs))))
         (report_dir / f"{paper}.html").write_text(page_template.render(
             paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
-            notices=list(notices), alerts=alerts, verdict_classes=VERDICT_CLASSES,
+            notices=list(notices), alerts=alerts, disturbed=disturbed, verdict_classes=VERDICT_CLASSES,
             nodes=node_rows, provenance=facts, takeaways=page_takeaways))
         summaries.append({
             "paper": paper, "title": PAPERS.get(paper, paper), "page": f"{paper}.html",
@@ -464,10 +472,40 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     index = report_dir / "index.html"
     index.write_text(env.get_template("index.html").render(
         papers=summaries, environment=environment, nodes=node_rows, provenance=facts, takeaways=index_takeaways,
-        notices=list(notices), alerts=index_alerts,
-        matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends, planned=list(planned or []),
-        real_data=real_data, phantoms=_phantom_summary(phantoms)))
+        notices=list(notices), alerts=index_alerts, timing=_timing(runs_df, environment, index_ctx),
+        verdict_classes=VERDICT_CLASSES, matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends,
+        planned=list(planned or []), real_data=real_data, phantoms=_phantom_summary(phantoms)))
     return index
+
+
+def _timing(runs_df, environment, ctx):
+    """What the index's timing section shows: the profile's frame budget and the disturbed and starved timings.
+
+    ``budget`` says how many timed frames a view gets at least, with the profile's ``repeat`` and
+    ``min_time`` where ``environment`` records the profile; ``disturbances`` is :func:`reports.outcomes.timing_disturbances`
+    with each group's first runs linked to their records (``None`` for results written before
+    disturbances were recorded).
+    """
+    try:
+        profile = json.loads((environment or {}).get("profile") or "{}")
+    except (TypeError, ValueError):
+        profile = {}
+    if not isinstance(profile, dict):
+        profile = {}
+    repeat, min_time = profile.get("repeat"), profile.get("min_time")
+    budget = f"at least {takeaways.number(repeat)} of them" if _finite(repeat) else "at least the profile's repeat"
+    if not _finite(min_time):
+        budget += " and they took at least its min_time"
+    elif float(min_time) > 0:
+        budget += f" and they took at least {takeaways.number(min_time)} s"
+    budget += " (the profile's repeat and min_time; a timed comparison may ask for more)"
+    disturbances = outcomes.timing_disturbances(runs_df)
+    if disturbances:
+        for group in disturbances["disturbed"] + disturbances["starved"]:
+            shown = group["runs"][:PROBLEM_RUNS_SHOWN]
+            group["shown"] = [(run, ctx.file(record)) for run, record in zip(shown, group["records"])]
+            group["more"] = len(group["runs"]) - len(shown)
+    return {"budget": budget, "disturbances": disturbances}
 
 
 def _phantom_summary(phantoms):
@@ -496,8 +534,56 @@ def _backend_sentences(backend_runs, planned, silent):
     return sentences
 
 
-VERDICT_CLASSES = {"holds": "holds", "fails": "fails", "blocked": "blocked", "not measured": "unmeasured"}
-"""A claim's verdict → its CSS class (its colour in every table)."""
+VERDICT_CLASSES = {"holds": "holds", "fails": "fails", "inconclusive": "inconclusive", "blocked": "blocked",
+                   "not measured": "unmeasured"}
+"""A claim's verdict → its CSS class (its colour in every table), in the order the report counts them."""
+
+
+_INTERVAL_WORDS = re.compile(r"\s*\(95 % CI ([^()]+)\)")
+"""The interval a check writes into its ``measured`` text (``"×1.12 (95 % CI ×1.08–×1.17)"``)."""
+
+
+def _finite(value):
+    try:
+        return math.isfinite(float(value))
+    except (TypeError, ValueError):
+        return False
+
+
+def margin_words(margin):
+    """``"+12 %"``: a claim's margin (relative, positive on the holding side) in words; ``"—"`` without one."""
+    if not _finite(margin):
+        return "—"
+    percent = 100 * float(margin)
+    size = f"{abs(percent):.0f}" if abs(percent) >= 100 else takeaways.number(abs(percent), 2)
+    return f"{'−' if percent < 0 and size != '0' else '+'}{size} %"
+
+
+def claim_cells(claim):
+    """A claim of ``claims.csv`` as its row of a page's claims table: ``measured``, ``interval``, ``margin``.
+
+    The check writes the interval into ``measured`` in the value's own unit; the table shows it in a
+    column of its own. Where it did not, the interval comes from ``interval_low``/``interval_high``
+    (a ratio where the measured value is one, else in the value's unit: milliseconds where the value
+    says ``ms``). ``"—"`` where the claim has no interval (it rests on counts, images, a single frame,
+    or results written before intervals existed).
+    """
+    measured = str(claim.get("measured") or "")
+    found = _INTERVAL_WORDS.search(measured)
+    if found:
+        interval = found.group(1).strip()
+        measured = (measured[:found.start()] + measured[found.end():]).strip()
+    elif _finite(claim.get("interval_low")) and _finite(claim.get("interval_high")):
+        low, high = float(claim["interval_low"]), float(claim["interval_high"])
+        if measured.startswith("×"):
+            interval = f"×{takeaways.number(low)}–×{takeaways.number(high)}"
+        elif re.match(r"^\S+ ms\b", measured):
+            interval = f"{takeaways.number(low * 1e3)}–{takeaways.number(high * 1e3)} ms"
+        else:
+            interval = f"{takeaways.number(low)}–{takeaways.number(high)}"
+    else:
+        interval = "—"
+    return {"measured": measured, "interval": interval, "margin": margin_words(claim.get("margin"))}
 
 
 def _verdicts(claims_df):

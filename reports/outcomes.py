@@ -5,6 +5,10 @@ A backend that cannot run on a machine fails or skips every one of its runs with
 the number of runs it stands for, and says plainly at the top which backends produced no frame here
 and which papers are therefore not reproduced on this machine. Run outcomes come from the records
 (``status``, ``cause``: :mod:`core.outcomes`), not from probing the machine that builds the report.
+
+Timings that other work disturbed are said the same way: the views still disturbed after they were
+timed again and the parallel runs that had fewer free cores than workers, one group per experiment
+and cause (:func:`timing_disturbances`).
 """
 
 import re
@@ -82,3 +86,107 @@ def did_not_run(name, outcome):
     reason = outcome["reason"].removeprefix(f"backend {name!r} is not available here: ")
     text = f"{name} made no frame here (0 of {outcome['runs']} runs): it {words}"
     return text + (f": {reason}" if reason else "")
+
+
+# ------------------------------------------------------------------------------ disturbed timings
+_NUMBER = re.compile(r"(?<![\w.])-?\d+(?:\.\d+)?")
+
+
+def _text(value):
+    """A cell of ``runs.csv`` as text: ``""`` for an empty one (NaN once read back)."""
+    if value is None or (isinstance(value, float) and value != value):
+        return ""
+    return str(value).strip()
+
+
+def _span(numbers):
+    """``"0.75–2.34"`` from the same number of several sentences, as written; one value when they agree."""
+    low, high = min(numbers, key=float), max(numbers, key=float)
+    return low if float(low) == float(high) else f"{low}–{high}"
+
+
+def _cause_groups(rows, reasons, timed_twice):
+    """``rows`` whose ``reasons`` are not empty, grouped by experiment and cause.
+
+    A reason may join several causes with ``"; "`` (:func:`pipeline.disturbance.verdict`); a view counts
+    under each. Causes differing only in their numbers are one cause, said with the range of each number
+    (``"other work used 0.75–2.34 cores while it was timed"``).
+    """
+    groups = {}
+    for index, reason in reasons.items():
+        row = rows.loc[index]
+        for cause in filter(None, (part.strip() for part in reason.split(";"))):
+            key = (row["experiment"], tuple(_NUMBER.split(cause)))
+            group = groups.setdefault(key, {"numbers": [], "runs": {}, "views": 0, "timed_twice": 0, "rows": []})
+            group["numbers"].append(_NUMBER.findall(cause))
+            group["views"] += 1
+            group["timed_twice"] += bool(timed_twice[index])
+            group["runs"].setdefault(row["run"], row.get("record"))
+            group["rows"].append(index)
+    out = []
+    for (experiment, words), group in groups.items():
+        spans = [_span(column) for column in zip(*group["numbers"])]
+        cause = "".join(word + (spans[i] if i < len(spans) else "") for i, word in enumerate(words))
+        out.append({"experiment": experiment, "cause": cause, "views": group["views"],
+                    "timed_twice": group["timed_twice"], "runs": list(group["runs"]),
+                    "records": list(group["runs"].values()), "rows": group["rows"]})
+    out.sort(key=lambda g: (g["experiment"], -g["views"], g["cause"]))
+    return out
+
+
+def timing_disturbances(runs_df):
+    """The timed views of ``runs_df`` (``runs.csv``) that were disturbed, and the parallel runs that were starved.
+
+    The render job times a disturbed view again once and keeps the quieter attempt (``rerun`` says
+    so); a view whose kept frames are still disturbed has its reason in ``info_disturbed``, and a
+    parallel run that had fewer free cores than workers in ``info_starved``.
+
+    Returns
+    -------
+    dict or None
+        ``None`` for results written before disturbances were recorded (no ``info_disturbed``
+        column). Otherwise ``"views"`` (how many views were timed: successful, not one untimed
+        frame), ``"disturbed"`` and ``"starved"`` (groups: ``experiment``, ``cause`` with the range
+        of its numbers, ``views``, ``timed_twice`` (views of the group that were timed again),
+        ``runs``, ``records``, ``rows`` (the views' index labels); a starved group also has
+        ``busy``, the workers' busy share in words, or ``""``) and ``"quiet_again"``
+        (``{experiment: views}`` disturbed at first and quiet when timed again).
+    """
+    if runs_df is None or "info_disturbed" not in runs_df:
+        return None
+    rows = runs_df[runs_df["status"] == "ok"] if "status" in runs_df else runs_df
+
+    def texts(column):
+        return rows[column].map(_text) if column in rows else pd.Series("", index=rows.index, dtype=object)
+
+    disturbed, starved, rerun = texts("info_disturbed"), texts("info_starved"), texts("rerun")
+    starved_groups = _cause_groups(rows, starved[starved != ""], rerun)
+    busy = pd.to_numeric(rows["info_worker_busy"], errors="coerce") if "info_worker_busy" in rows else None
+    for group in starved_groups:
+        shares = busy[group["rows"]].dropna() if busy is not None else ()
+        group["busy"] = (f"workers busy {_span([f'{100 * v:.0f}' for v in shares])} % of the compositing"
+                         if len(shares) else "")
+    quiet = rows[(rerun != "") & (disturbed == "")]
+    untimed = texts("info_untimed").str.lower() == "true"
+    return {"views": int((~untimed).sum()), "disturbed": _cause_groups(rows, disturbed[disturbed != ""], rerun),
+            "starved": starved_groups, "quiet_again": quiet.groupby("experiment", sort=True).size().to_dict()}
+
+
+def disturbance_notice(disturbances):
+    """One sentence for a page whose timed views include disturbed ones or starved runs, or ``""``.
+
+    ``disturbances`` is :func:`timing_disturbances` of the page's rows.
+    """
+    if not disturbances:
+        return ""
+    views = len({i for g in disturbances["disturbed"] for i in g["rows"]})
+    starved = len({(g["experiment"], run) for g in disturbances["starved"] for run in g["runs"]})
+    parts = []
+    if views:
+        parts.append(f"{views} of the {disturbances['views']} timed views on this page "
+                     f"{'was' if views == 1 else 'were'} disturbed while timed")
+    if starved:
+        parts.append(f"{starved} parallel {'run' if starved == 1 else 'runs'} had fewer free cores than workers")
+    if not parts:
+        return ""
+    return " and ".join(parts) + ": their times and the intervals of the claims that read them are less certain."

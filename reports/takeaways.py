@@ -38,8 +38,9 @@ def _listing(items, limit=3):
 
 
 def claims(table, *, limit=3):
-    """One sentence on the claims: how many hold, which fail (measured against expected), how many are
-    blocked by runs that did not happen and how many could not be measured.
+    """One sentence on the claims: how many hold, which fail (measured against expected), which are
+    inconclusive (a timing claim whose interval straddles its bound), how many are blocked by runs
+    that did not happen and how many could not be measured.
 
     ``table`` has the columns of ``claims.csv`` (``statement``, ``expected``, ``measured``, ``verdict``;
     a table without ``verdict`` is read from ``holds``: True / False / None for not measured).
@@ -51,13 +52,15 @@ def claims(table, *, limit=3):
         verdict = table.verdict.fillna("not measured")
     else:
         verdict = table.holds.map(lambda v: "holds" if v is True else "fails" if v is False else "not measured")
-    good, bad = int((verdict == "holds").sum()), table[verdict == "fails"]
+    good, bad, undecided = int((verdict == "holds").sum()), table[verdict == "fails"], table[verdict == "inconclusive"]
     blocked, unmeasured = int((verdict == "blocked").sum()), int((verdict == "not measured").sum())
-    measured = good + len(bad)
+    measured = good + len(bad) + len(undecided)
     sentence = f"{good} of {measured} measured claims hold" if measured else "No claim could be measured"
-    if len(bad):
-        sentence += "; failing: " + _listing(
-            (f"{row.statement} (measured {row.measured}, expected {row.expected})" for row in bad.itertuples()), limit)
+    for rows, words in ((bad, "failing"), (undecided, "inconclusive (the interval straddles the bound)")):
+        if len(rows):
+            sentence += f"; {words}: " + _listing(
+                (f"{row.statement} (measured {row.measured}, expected {row.expected})" for row in rows.itertuples()),
+                limit)
     if blocked:
         sentence += f"; {blocked} blocked by runs that did not happen here"
     if unmeasured:

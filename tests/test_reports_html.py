@@ -416,7 +416,7 @@ def test_a_paper_whose_technique_made_no_frame_is_not_reproduced_and_its_claims_
     kainz = claims[claims.experiment == "kainz2009-scaling"].set_index("claim")
     assert kainz.loc["flat-volumes", "verdict"] == "blocked"
     assert "cl-tiled, which cannot run here" in kainz.loc["flat-volumes", "detail"]
-    assert '<td class="blocked">blocked</td>' in page
+    assert '<td class="verdict blocked">blocked</td>' in page
     # What did run is still shown: depth peeling's runs are charted and tabled with their images.
     assert 'src="plots/kainz2009-scaling-time.svg"' in page
     assert re.search(r'href="data/runs/kainz2009-scaling/clouds\.n01\.gl-peel/[^"]+\.exr"', page)
