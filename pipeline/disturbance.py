@@ -167,7 +167,7 @@ def starvation(load, workers):
     foreign = load.get("foreign_cores")
     if foreign is None or not workers or workers < 2:
         return ""
-    free = (os.cpu_count() or 1) - foreign
+    free = max(0.0, (os.cpu_count() or 1) - foreign)
     if free < workers - FOREIGN_LIMIT:
         return f"{workers} workers had {free:.1f} free cores (other work used {foreign:.2f})"
     return ""

@@ -314,5 +314,6 @@ def claim_sentences(claims, rows):
         verdict = judge(claim, rows)
         if verdict.verdict in ("holds", "fails", "inconclusive"):
             word = {"holds": "holds", "fails": "does not hold", "inconclusive": "inconclusive"}[verdict.verdict]
-            sentences.append(f"{claim.statement}: {verdict.measured}, {word} ({verdict.detail}).")
+            detail = verdict.detail.removeprefix("inconclusive: ")
+            sentences.append(f"{claim.statement}: {verdict.measured}, {word} ({detail}).")
     return sentences
