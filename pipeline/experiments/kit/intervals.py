@@ -150,8 +150,9 @@ def _margin(value, at_least, at_most):
 def decide(value, interval, *, at_least=None, at_most=None):
     """A :class:`Decision`: holds, fails or inconclusive from ``value``, its ``interval`` and the bounds."""
     def inside(v):
-        return (at_least is None or v >= at_least) and (at_most is None or v <= at_most)
+        return bool((at_least is None or v >= at_least) and (at_most is None or v <= at_most))
 
+    value = float(value)  # a NumPy scalar's comparisons give numpy.bool_, which `is False` misses
     margin = _margin(value, at_least, at_most)
     if interval is None:
         return Decision(value, None, inside(value), margin)
