@@ -6,13 +6,15 @@ Also the helpers the other ``test_kruger2003_*`` files share.
 import dataclasses
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 import pytest
 
 import renderers
 from pipeline import experiments
 from pipeline.experiments import Profile
-from pipeline.experiments.kruger2003.methods import METHODS, frames_caption, method_runs
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kruger2003.methods import METHODS, every, frames_caption, method_runs, time_ratio
 from pipeline.experiments.kruger2003.passes import M_VALUES
 from pipeline.experiments.kruger2003.tables import TABLE1
 
@@ -29,6 +31,16 @@ def with_gl_backends(monkeypatch):
 def small_profile(scale="default", **settings):
     return Profile(name="t", scale=scale, volume_size=16, image_size=24, warmup=0, repeat=1, experiments=list(NAMES),
                    settings=settings)
+
+
+def timed(seconds, *, group="", stage="total", **row):
+    """A successful row whose ``stage`` was timed over the frames ``seconds``, in interleave ``group``."""
+    return {**row, f"time_{stage}": float(np.median(seconds)), f"frames_{stage}": intervals.format_frames(seconds),
+            "interleave": group, "experiment": "x"}
+
+
+NOISY = [1.0, 1.0, 3.0, 1.0, 3.0]
+"""Frames whose resampled median is 1 or 3: against steady frames, a ratio whose interval spans ×1–×3."""
 
 
 def evaluate(experiment, claim_id, rows):
@@ -77,6 +89,36 @@ def test_plan_times_methods_and_renders_truth_once(monkeypatch):
     assert sorted(r.options["samples_per_pass"] for r in sweep) == list(M_VALUES)
 
 
+def test_the_runs_a_timing_claim_compares_are_timed_together(monkeypatch):
+    with_gl_backends(monkeypatch)
+    runs = [r for r in experiments.plan(small_profile()).values() if r.experiment.startswith("kruger2003")]
+    groups = {}
+    for run in runs:
+        if run.interleave:
+            groups.setdefault((run.experiment, run.interleave), []).append(run)
+    for (_, group), members in groups.items():
+        assert all(m.backend != "reference" and m.repeat >= 3 for m in members), group
+        assert len({tuple(v["view"] for v in m.views) for m in members}) == 1, f"{group}: views must pair"
+    ids = {key: sorted(m.id for m in members) for key, members in groups.items()}
+    for scene in TABLE1:  # Table 1's four methods per data set; ours and the peer alone
+        assert ids["kruger2003-table1", scene] == sorted(f"{scene}.{c}" for c in ("sbvr", "rc", "rc-a", "rc-b"))
+    assert ids["kruger2003-nocue", "no_cue"] == ["no_cue.rc", "no_cue.rc-a", "no_cue.rc-b"]
+    assert ids["kruger2003-passes", "iso"] == ["foot-iso.rc-a", "foot.rc-a"]
+    assert ids["kruger2003-passes", "m-sweep"] == sorted(f"foot.m{m}" for m in M_VALUES)
+    assert ids["kruger2003-stability", "head.threshold"] == ["head.t0.8", "head.t0.9", "head.t0.95", "head.t0.99",
+                                                             "head.t1"]
+    assert {len(ids["kruger2003-occluder", c]) for c in ("rc", "rc-a")} == {5}
+    assert len(groups) == len(TABLE1) + 1 + 2 + 4 + 2
+
+
+def test_the_no_cue_control_is_seen_straight_at_a_face(monkeypatch):
+    # From an oblique view rays through the cube's corners leave early and early termination culls them.
+    with_gl_backends(monkeypatch)
+    runs = [r for r in experiments.plan(small_profile()).values()
+            if r.experiment in ("kruger2003-nocue", "kruger2003-occluder")]
+    assert {(v["azimuth"], v["elevation"]) for r in runs for v in r.views} == {(0.0, 0.0)}
+
+
 def test_profiles_name_only_known_settings_and_smoke_stays_small(monkeypatch):
     with_gl_backends(monkeypatch)
     for profile in ("smoke", "default", "full"):
@@ -108,6 +150,35 @@ def test_a_method_whose_backend_is_not_registered_is_left_out(monkeypatch):
                        {"scene": "head"}, {"warmup": 1, "repeat": 3})
     assert [r.tags["config"] for r in runs] == ["rc", "rc-a", "rc-b", "single-pass"]
     assert {r.reference for r in runs} == {"head.truth"} and {r.options["step_factor"] for r in runs} == {0.5}
+
+
+def test_time_ratios_decide_on_interleaved_frames():
+    steady = [1.0] * 5
+    rows = pd.DataFrame([timed(NOISY, group="g", config="slow", view="v"), timed(steady, group="g", config="fast",
+                                                                                 view="v")])
+    decision = time_ratio(rows, "slow", "fast", resampler=intervals.Resampler(), at_least=2.0)
+    assert decision.value == pytest.approx(1.0) and decision.interval == pytest.approx((1.0, 3.0))
+    assert decision.inconclusive
+    # Frames of one round are drawn together: a disturbance that slowed both cancels in their ratio.
+    rows = pd.DataFrame([timed([2 * t for t in NOISY], group="g", config="slow", view="v"),
+                         timed(NOISY, group="g", config="fast", view="v")])
+    decision = time_ratio(rows, "slow", "fast", resampler=intervals.Resampler(), at_least=1.9)
+    assert decision.interval == pytest.approx((2.0, 2.0)) and decision.holds is True
+    alone = rows.assign(interleave="")
+    assert time_ratio(alone, "slow", "fast", resampler=intervals.Resampler(), at_least=1.9).inconclusive
+    with pytest.raises(ValueError, match="no successful other run"):
+        time_ratio(rows, "other", "fast", resampler=intervals.Resampler())
+
+
+def test_every_labelled_decision_must_hold_and_the_worst_is_named():
+    holds, fails = intervals.decide(3.0, (2.5, 3.5), at_least=2.0), intervals.decide(1.5, (1.4, 1.6), at_least=2.0)
+    straddles = intervals.decide(2.1, (1.9, 2.3), at_least=2.0)
+    result = every({"head": holds, "engine": fails, "foot": straddles}, {"head": "samples ×3"}, what="time ")
+    assert result.holds is False and result.measured == "time ×1.5 (95 % CI ×1.4–×1.6) (engine)"
+    assert result.detail.startswith("head: ×3 (95 % CI ×2.5–×3.5), samples ×3, engine: ×1.5")
+    result = every({"head": holds, "foot": straddles})
+    assert result.inconclusive and result.measured.endswith("(foot)") and result.interval == (1.9, 2.3)
+    assert every({"head": holds}).holds is True
 
 
 def test_the_caption_says_how_the_gl_frames_were_timed():

@@ -1,16 +1,29 @@
 """``kruger2003-nocue``: the cost of the intermediate pass and the empty-block check on synthetic results."""
 
-from test_kruger2003_methods import evaluate
+from test_kruger2003_methods import NOISY, evaluate, timed
 
 NAME = "kruger2003-nocue"
 
 
+def _rows(seconds, fragments=(1000, 1000, 1000), frames=lambda t: [t] * 5, group="no_cue"):
+    return [timed(frames(t), group=group, config=c, view="front", run=f"no_cue.{c}", count_fragments_main=f)
+            for c, t, f in zip(("rc", "rc-a", "rc-b"), seconds, fragments)]
+
+
 def test_nocue_claims():
-    rows = [{"config": c, "time_total": t, "count_fragments_main": f}
-            for c, t, f in (("rc", 1.0, 1000), ("rc-a", 1.3, 900), ("rc-b", 1.35, 890))]
-    assert evaluate(NAME, "overhead", rows).holds is True
+    rows = _rows((1.0, 1.3, 1.35))
+    overhead = evaluate(NAME, "overhead", rows)
+    assert overhead.holds is True and overhead.measured == "time / RC's ×1.35 (95 % CI ×1.35–×1.35) (RC-b)"
+    assert "main-pass fragments ×1 of RC's" in overhead.detail  # nothing culled: the cost is the passes'
     assert evaluate(NAME, "no-empty-blocks", rows).holds is True
-    rows[1]["time_total"] = 0.8
-    rows[2]["count_fragments_main"] = 400
+    rows = _rows((1.0, 0.8, 1.35), fragments=(1000, 900, 400))
     assert evaluate(NAME, "overhead", rows).holds is False
     assert evaluate(NAME, "no-empty-blocks", rows).holds is False
+
+
+def test_the_overhead_is_inconclusive_where_the_frames_straddle_its_bound():
+    # RC-a at ×1.05 or ×3.15 of RC, frame by frame: its interval spans 10–60 %.
+    rows = _rows((1.0, 1.05, 1.3), frames=lambda t: [t] * 5 if t != 1.05 else [t * f for f in NOISY])
+    result = evaluate(NAME, "overhead", rows)
+    assert result.inconclusive and result.interval[0] < 1.1 < result.interval[1]
+    assert result.measured.endswith("(RC-a)")

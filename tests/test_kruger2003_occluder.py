@@ -4,7 +4,7 @@ import pytest
 
 from pipeline import experiments
 from pipeline.experiments.kruger2003.occluder import OCCLUDED
-from test_kruger2003_methods import evaluate, small_profile, with_gl_backends
+from test_kruger2003_methods import NOISY, evaluate, small_profile, timed, with_gl_backends
 
 NAME = "kruger2003-occluder"
 
@@ -36,3 +36,27 @@ def test_occluder_claims():
     assert evaluate(NAME, "occluded-rays-culled", rows).holds is False
     assert evaluate(NAME, "time-proportional", _occluder_rows([10.0, 9.5, 9.0])).holds is False  # no fall
     assert evaluate(NAME, "time-proportional", _occluder_rows([10.0, 1.0, 0.9])).holds is False  # not linear
+
+
+def _timed_rows(main_frames, group="rc", fractions=(0.0, 0.5, 1.0), rays=1000, passes=10):
+    """The RC coverage sweep with every main-pass frame (milliseconds in ``main_frames``), in interleave ``group``."""
+    return [timed([ms * 1e-3 for ms in frames], group=group, stage="main", role="test", config="rc", fraction=fraction,
+                  view="front", run=f"no_cue.rc.f{fraction:g}", count_rays=rays,
+                  count_rays_occluded=round(fraction * rays), count_passes_main=passes,
+                  count_fragments_main=passes * (rays - round(fraction * rays)), time_total=1.0)
+            for fraction, frames in zip(fractions, main_frames)]
+
+
+def test_the_fit_and_the_time_left_get_intervals_from_the_frames():
+    steady = evaluate(NAME, "time-proportional", _timed_rows([[10.0] * 5, [5.2] * 5, [0.4] * 5]))
+    assert steady.holds is True
+    assert steady.measured == ("R² 1 (95 % CI 1–1); 4 % (95 % CI 4 %–4 %) of the main-pass time left "
+                               "at 100 % occluded")
+    assert "main-pass fragments 1e+04 → 0" in steady.detail
+    # Rounds disturbed alike: paired by round the line stays straight; timed apart it may not.
+    disturbed = [[ms * f for f in NOISY] for ms in (10.0, 5.2, 0.4)]
+    assert evaluate(NAME, "time-proportional", _timed_rows(disturbed)).holds is True
+    apart = evaluate(NAME, "time-proportional", _timed_rows(disturbed, group=""))
+    assert apart.inconclusive and apart.interval[0] < 0.9
+    bent = evaluate(NAME, "time-proportional", _timed_rows([[10.0] * 5, [1.0] * 5, [0.9] * 5]))
+    assert bent.holds is False and not bent.inconclusive

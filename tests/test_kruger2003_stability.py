@@ -1,6 +1,6 @@
 """``kruger2003-stability``: the threshold and block-size sweeps' claims on synthetic results."""
 
-from test_kruger2003_methods import evaluate
+from test_kruger2003_methods import NOISY, evaluate, timed
 
 NAME = "kruger2003-stability"
 
@@ -16,3 +16,23 @@ def test_stability_claims():
     assert evaluate(NAME, "blocks-lossless", rows).holds is False
     rows[0]["psnr"] = 51.0
     assert evaluate(NAME, "threshold-trades-error", rows).holds is False
+
+
+def _thresholds(low_frames, low_psnr=35.0):
+    return [timed(frames, group="head.threshold", scene="head", sweep="threshold", value=t, psnr=p, role="test",
+                  view="headline", run=f"head.t{t:g}", count_samples=n)
+            for t, frames, p, n in ((0.8, low_frames, low_psnr, 5e5), (1.0, [1.5] * 5, 50.0, 8e5))]
+
+
+def test_the_threshold_speed_up_rests_on_its_interval():
+    result = evaluate(NAME, "threshold-trades-error", _thresholds([1.0] * 5))
+    assert result.holds is True and result.measured.startswith("T 0.8 faster by ×1.5 (95 % CI ×1.5–×1.5); 35 dB")
+    assert "samples 5e+05 and 8e+05" in result.detail
+    # T = 0.8 at 0.5 or 1.5 s a frame against 1.5 s: faster, or not at all.
+    straddling = evaluate(NAME, "threshold-trades-error", _thresholds([0.5 * f for f in NOISY]))
+    assert straddling.inconclusive and straddling.interval[0] <= 1.0 < straddling.interval[1]
+    slower = evaluate(NAME, "threshold-trades-error", _thresholds([2.0] * 5))
+    assert slower.holds is False and not slower.inconclusive
+    # No interval rescues the accuracy half.
+    lossless = evaluate(NAME, "threshold-trades-error", _thresholds([1.0] * 5, low_psnr=50.0))
+    assert lossless.holds is False and "not less accurate" in lossless.detail

@@ -8,7 +8,7 @@ from core.errors import InputError
 from pipeline import experiments
 from pipeline.experiments.kruger2003 import table1 as T
 from reports.imageio import write_exr
-from test_kruger2003_methods import evaluate, small_profile, with_gl_backends
+from test_kruger2003_methods import NOISY, evaluate, small_profile, timed, with_gl_backends
 
 NAME = "kruger2003-table1"
 
@@ -38,7 +38,7 @@ def test_table1_claims_hold_on_the_papers_own_numbers():
                   "rcb-over-rc-head", "rcb-over-sbvr-head", "accuracy"):
         assert evaluate(NAME, claim, rows).holds is True, claim
     assert evaluate(NAME, "rcb-over-sbvr-head", rows).measured == "×3.3 (head)"
-    assert "head: RC at ×0.676 of SBVR's speed" in evaluate(NAME, "rc-slower-than-sbvr", rows).detail
+    assert evaluate(NAME, "rc-slower-than-sbvr", rows).detail.startswith("head: ×0.676, engine: ×0.606; whole-frame")
 
 
 def test_table1_claims_fail_where_the_numbers_do():
@@ -49,6 +49,39 @@ def test_table1_claims_fail_where_the_numbers_do():
                   "rcb-over-rc-head", "rcb-over-sbvr-head", "accuracy"):
         assert evaluate(NAME, claim, rows).holds is False, claim
     assert evaluate(NAME, "ert-gain-opaque", _table1_rows(slow, scenes=("engine",))).holds is None
+
+
+def _timed_rows(times, views=("headline", "orbit000", "orbit090"), frames=lambda seconds, view: [seconds] * 5,
+                group="head", samples=None):
+    """Rows of the head, each config over ``views`` with the frames ``frames(seconds, view)``."""
+    return [timed(frames(seconds, view), group=group, scene="head", view=view, role="test", config=config,
+                  run=f"head.{config}", **({"count_samples": samples[config]} if samples else {}))
+            for config, seconds in times.items() for view in views]
+
+
+def test_table1_speed_claims_read_every_view_with_samples_beside():
+    # The paper's frame rates average a rotation: RC-b is as slow as RC at the headline view only.
+    rows = _timed_rows({"rc": 1.0, "rc-b": 0.1},
+                       frames=lambda seconds, view: [1.0 if view == "headline" else seconds] * 5,
+                       samples={"rc": 6e6, "rc-b": 1e6})
+    result = evaluate(NAME, "rcb-over-rc-head", rows)
+    assert result.holds is True and result.measured == "×10 (95 % CI ×10–×10) (head)"
+    assert result.interval == pytest.approx((10.0, 10.0)) and "samples ×6" in result.detail
+
+
+def test_table1_speed_claims_rest_on_intervals_of_interleaved_frames():
+    paper = {"rc": 5.0, "rc-b": 1.0}  # ×5 ≥ ×4.88 on medians
+    steady = evaluate(NAME, "rcb-over-rc-head", _timed_rows(paper))
+    assert steady.holds is True and steady.margin > 0
+    # One disturbed round slowed both: paired by round, the ratio stays ×5.
+    disturbed = _timed_rows(paper, frames=lambda seconds, view: [seconds * t for t in NOISY])
+    assert evaluate(NAME, "rcb-over-rc-head", disturbed).holds is True
+    # Timed apart, the same frames cannot decide.
+    alone = evaluate(NAME, "rcb-over-rc-head", _timed_rows(paper, group="",
+                                                           frames=lambda seconds, view: [seconds * t for t in NOISY]))
+    assert alone.inconclusive and alone.holds is None and alone.interval[0] < 4.88 < alone.interval[1]
+    slow = evaluate(NAME, "rcb-over-rc-head", _timed_rows({"rc": 4.0, "rc-b": 1.0}))
+    assert slow.holds is False and slow.margin < 0
 
 
 def _write(path, image):
@@ -72,12 +105,15 @@ def test_image_pair_claims(tmp_path):
 
 
 def test_fragment_fraction_claim_needs_the_slicer_counters():
-    rows = [{"scene": "head", "view": "headline", "role": "test", "config": "sbvr",
-             "count_fragments": 1000, "count_fragments_contributing": 30}]
-    assert evaluate(NAME, "fragments-contribute", rows).holds is True
-    rows[0]["count_fragments_contributing"] = 300
+    rows = [{"scene": "head", "view": view, "role": "test", "config": "sbvr",
+             "count_fragments": 1000, "count_fragments_contributing": contributing}
+            for view, contributing in (("headline", 300), ("orbit000", 30), ("orbit090", 40))]
+    assert evaluate(NAME, "fragments-contribute", rows).holds is True  # the median over the views: 4 %
+    assert evaluate(NAME, "fragments-contribute", rows).measured == "4 % (head)"
+    rows[1]["count_fragments_contributing"] = 300
     assert evaluate(NAME, "fragments-contribute", rows).holds is False
-    del rows[0]["count_fragments_contributing"]
+    for row in rows:
+        del row["count_fragments_contributing"]
     assert evaluate(NAME, "fragments-contribute", rows).holds is None
 
 
