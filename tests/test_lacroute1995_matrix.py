@@ -1,32 +1,50 @@
 """lacroute1995-matrix: samples and time with each coherence optimisation (Fig. 5.17)."""
 
 from pipeline.experiments.lacroute1995.matrix import MATRIX_CONFIGS
-from test_lacroute1995_package import check_report, evaluate, planned
+from test_lacroute1995_package import check_report, evaluate, planned, timed
+
+NAME = "lacroute1995-matrix"
+TIMED = ("early-termination-alone", "rle-alone", "rle-and-early-termination")
 
 
 def test_plan_has_every_configuration_and_brute_force_without_either_structure():
-    matrix = planned("lacroute1995-matrix")
+    matrix = planned(NAME)
     assert {r.tags["config"] for r in matrix} == set(MATRIX_CONFIGS)
     brute = [r for r in matrix if r.tags["config"] == "brute-force"]
     assert all(r.options == {"rle": False, "early_termination": False} for r in brute)
+    assert {r.interleave for r in matrix} == {r.tags["dataset"] for r in matrix}  # a data set's four timed together
 
 
-def _matrix_rows(ratios, speedups, dataset="d"):
+def _matrix_rows(ratios, speedups, dataset="d", fixed=0.0, spread=0.0):
+    """Four configurations: samples relative to brute force, compositing speed-ups, ``fixed`` seconds besides."""
     configs = list(MATRIX_CONFIGS)
-    return [{"dataset": dataset, "config": c, "count_samples": 1e6 * r, "time_total": 1.0 / s}
-            for c, r, s in zip(configs, ratios, speedups)]
+    return [{"dataset": dataset, "config": c, "count_samples": 1e6 * r, **timed(1e-3 / s, spread, "composite"),
+             "time_total": 1e-3 / s + fixed} for c, r, s in zip(configs, ratios, speedups)]
 
 
 def test_matrix_claims():
-    name = "lacroute1995-matrix"
     thesis = _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1.03, 4.1, 9.9])
-    for claim in ("sample-ratios", "early-termination-alone", "rle-alone", "rle-and-early-termination"):
-        assert evaluate(name, claim, thesis).holds is True, claim
+    for claim in ("sample-ratios", *TIMED):
+        assert evaluate(NAME, claim, thesis).holds is True, claim
     weak = _matrix_rows([1, 0.3, 0.5, 0.3], [1, 3.0, 1.2, 2.0])
-    for claim in ("sample-ratios", "early-termination-alone", "rle-alone", "rle-and-early-termination"):
-        assert evaluate(name, claim, weak).holds is False, claim
-    assert evaluate(name, "rle-alone", thesis[:3]).holds is None  # a configuration missing
+    for claim in ("sample-ratios", *TIMED):
+        assert evaluate(NAME, claim, weak).holds is False, claim
+    assert evaluate(NAME, "rle-alone", thesis[:3]).holds is None  # a configuration missing
+
+
+def test_speed_ups_are_of_the_compositing_loop_with_intervals():
+    # 5 ms of fixed cost per frame hides a ×9.9 loop speed-up in the whole frame (×1.7): the loop decides.
+    rows = _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1.03, 4.1, 9.9], fixed=5e-3)
+    result = evaluate(NAME, "rle-and-early-termination", rows)
+    assert result.holds is True and result.measured.startswith("×9.9 (d; 95 % CI ×9.9–×9.9)")
+    assert "samples ×35.7 fewer" in result.detail and "whole frame 6 ms → 5.1 ms" in result.detail
+    # ×5.5 measured with frames ±40 %: the interval straddles 5.
+    noisy = evaluate(NAME, "rle-and-early-termination", _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1, 4, 5.5], spread=0.4))
+    assert noisy.holds is None and noisy.inconclusive and "95 % CI" in noisy.measured
+    # Every data set must hold: a second one at ×3 fails the claim.
+    both = rows + _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1, 2.5, 3], dataset="e")
+    assert evaluate(NAME, "rle-and-early-termination", both).holds is False
 
 
 def test_report_writes_its_charts(tmp_path):
-    check_report(tmp_path, "lacroute1995-matrix", _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1.03, 4.1, 9.9]))
+    check_report(tmp_path, NAME, _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1.03, 4.1, 9.9]))

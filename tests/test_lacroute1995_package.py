@@ -58,6 +58,16 @@ def evaluate(experiment, claim_id, frame):
     return claim.evaluate(pd.DataFrame(frame))
 
 
+def frames(median, spread=0.0, n=15):
+    """A ``frames_<stage>`` cell: ``n`` frames evenly spread ± ``spread`` (relative) about ``median``."""
+    return " ".join(f"{v:.9g}" for v in median * (1 + spread * np.linspace(-1, 1, n)))
+
+
+def timed(median, spread=0.0, stage="technique"):
+    """A timed run's ``time_<stage>`` (the median) and ``frames_<stage>`` columns."""
+    return {f"time_{stage}": median, f"frames_{stage}": frames(median, spread)}
+
+
 def write(path, image):
     write_exr(path, image.astype(np.float32))
     return str(path)
@@ -76,7 +86,8 @@ def check_report(tmp_path, name, rows):
     (report / "csv").mkdir(parents=True)
     frame = pd.DataFrame(rows)
     frame["experiment"], frame["status"] = name, "ok"
-    frame["run"] = [f"r{i}" for i in range(len(frame))]
+    if "run" not in frame:
+        frame["run"] = [f"r{i}" for i in range(len(frame))]
     for column in ("time_total_min", "time_total_max"):
         frame[column] = frame.time_total * (0.9 if column.endswith("min") else 1.1)
     for column, value in (("view", "headline"), ("png", ""), ("exr", ""), ("record", "")):
@@ -112,11 +123,17 @@ def test_plan_times_comparisons_and_renders_truth_once(all_backends):
     for run in ours:
         if run.backend == "reference":  # ground truth: one untimed frame
             assert (run.warmup, run.repeat) == (0, 1), run.key
-        elif run.warmup == 0:  # picture-only or cold (preprocessing) runs
-            assert run.experiment in ("lacroute1995-quality", "lacroute1995-shading", "lacroute1995-perspective"), run.key
+        elif run.warmup == 0:  # picture-only runs (the harness times preprocessing apart in timed runs)
+            assert run.experiment in ("lacroute1995-quality", "lacroute1995-perspective"), run.key
         else:  # timed comparisons: at least one warm-up and three timed frames, whatever the profile
             assert run.warmup >= 1 and run.repeat >= 3, run.key
         assert run.reference is None or f"{run.experiment}/{run.reference}" in runs
+        assert run.interleave is None or run.warmup >= 1, run.key  # only timed runs are timed together
+    groups = {}
+    for run in ours:
+        if run.interleave:
+            groups.setdefault((run.experiment, run.interleave), set()).add(tuple(v["view"] for v in run.views))
+    assert groups and all(len(views) == 1 for views in groups.values()), groups  # pairs need the same views
 
 
 def test_runs_need_registered_backends(monkeypatch):

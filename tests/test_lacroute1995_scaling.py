@@ -1,40 +1,57 @@
 """lacroute1995-scaling: time and memory against the volume and image size (Tables 5.3, 5.4)."""
 
-from test_lacroute1995_package import check_report, evaluate, planned
+from test_lacroute1995_package import check_report, evaluate, planned, timed
+
+NAME = "lacroute1995-scaling"
 
 
 def test_plan_grows_every_data_set_and_warps_the_first_once_per_size_and_image():
-    runs = planned("lacroute1995-scaling", **{"lacroute1995-scaling": {
+    runs = planned(NAME, **{NAME: {
         "datasets": ["folded_brain", "ct_skull"], "volume_sizes": [16, 32, 16], "image_sizes": [16, 32, 64],
         "image_size": 32}})
     assert [r.id for r in runs] == ["folded_brain.v16.i32", "folded_brain.v32.i32", "ct_skull.v16.i32",
                                     "ct_skull.v32.i32", "folded_brain.v16.i16", "folded_brain.v16.i64",
                                     "folded_brain.v32.i64"]
     assert [r.tags["growth"] for r in runs] == [1, 1, 1, 1, 0, 0, 0]
+    assert [r.interleave for r in runs] == [r.tags["dataset"] for r in runs]  # a data set's sizes timed together
 
 
-def _scaling_rows(growth, warp_ratio=4.0):
+def _scaling_rows(growth, warp_ratio=4.0, fixed=0.0, spread=0.0):
+    """Compositing ×``growth`` per doubling, the warp ×``warp_ratio`` per doubling of the image, ``fixed`` s more."""
     rows = []
     for n, t in zip((64, 128, 256), (0.01, 0.01 * growth, 0.01 * growth ** 2)):
-        rows.append({"dataset": "b", "volume_size": n, "image_size": 256, "growth": 1, "time_total": t,
-                     "time_warp": 0.004, "count_rle_bytes": 0.4 * n ** 3, "count_raw_bytes": n ** 3})
+        rows.append({"dataset": "b", "volume_size": n, "image_size": 256, "growth": 1, **timed(t, spread, "composite"),
+                     **timed(t + 0.004, spread), "time_total": t + 0.004 + fixed, **timed(0.004, spread, "warp"),
+                     "count_samples": 1e4 * growth ** (n // 128), "count_rle_bytes": 0.4 * n ** 3, "count_raw_bytes": n ** 3})
     for i, w in ((64, 0.004 / warp_ratio ** 2), (128, 0.004 / warp_ratio)):
-        rows.append({"dataset": "b", "volume_size": 64, "image_size": i, "growth": 0, "time_total": 0.01,
-                     "time_warp": w, "count_rle_bytes": 0.4 * 64 ** 3, "count_raw_bytes": 64 ** 3})
+        rows.append({"dataset": "b", "volume_size": 64, "image_size": i, "growth": 0, **timed(0.01, spread, "composite"),
+                     **timed(0.01 + w, spread), "time_total": 0.01 + w, **timed(w, spread, "warp"),
+                     "count_rle_bytes": 0.4 * 64 ** 3, "count_raw_bytes": 64 ** 3})
     return rows
 
 
 def test_scaling_claims():
-    name = "lacroute1995-scaling"
     good = _scaling_rows(4.0)
     for claim in ("n-squared-growth", "rle-memory", "warp-per-pixel", "warp-share"):
-        assert evaluate(name, claim, good).holds is True, claim
+        assert evaluate(NAME, claim, good).holds is True, claim
     cubic = _scaling_rows(8.0, warp_ratio=1.5)
     for row in cubic:
         row["count_rle_bytes"] = 5 * row["count_raw_bytes"]
     for claim in ("n-squared-growth", "rle-memory", "warp-per-pixel"):
-        assert evaluate(name, claim, cubic).holds is False, claim
+        assert evaluate(NAME, claim, cubic).holds is False, claim
+    rising = _scaling_rows(0.5)  # the technique shrinks as the volume grows: the warp's share rises
+    assert evaluate(NAME, "warp-share", rising).holds is False
+
+
+def test_growth_is_of_the_compositing_loop_with_an_interval():
+    # A fixed 30 ms per frame flattens the whole frame's growth to ×2.62; the compositing loop grows ×4.
+    rows = _scaling_rows(4.0, fixed=0.03)
+    result = evaluate(NAME, "n-squared-growth", rows)
+    assert result.holds is True and result.measured.startswith("×4 (b; 95 % CI ×4–×4)")
+    assert "samples ×4" in result.detail and "whole frame ×2.62" in result.detail
+    noisy = evaluate(NAME, "n-squared-growth", _scaling_rows(5.0, spread=0.4))
+    assert noisy.holds is None and noisy.inconclusive and noisy.interval[0] < 5.66 < noisy.interval[1]
 
 
 def test_report_writes_its_charts(tmp_path):
-    check_report(tmp_path, "lacroute1995-scaling", _scaling_rows(4.0))
+    check_report(tmp_path, NAME, _scaling_rows(4.0))

@@ -17,10 +17,15 @@ the measured table, one module each:
 * :mod:`.perspective`: E21, perspective image quality as the field of view widens.
 
 Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, a shear-warp
-frame checked against its ground truth) and :mod:`.reading` (angles in view names, chart titles).
+frame checked against its ground truth), :mod:`.reading` (angles in view names, chart titles) and
+:mod:`.judging` (timing claims: one stage on both sides, 95 % intervals, starved parallel runs).
 
 Every timed comparison renders at least one warm-up frame and three timed frames (more when the
-experiment's scale or the profile asks); ground-truth runs of the reference render one untimed frame.
+experiment's scale or the profile asks), the runs a claim compares timed together frame by frame (their
+``interleave`` group); ground-truth runs of the reference render one untimed frame. Each timing claim
+names the stage it reads: the technique (the kernels and tables, or VolPack's library calls, what the
+thesis timed) by default, the compositing loop where an optimisation acts only there (Fig. 5.17, the
+n² growth).
 Runs whose backend is not registered are not planned, and each report says what could not be
 measured and why; a run that cannot happen here is recorded as skipped by the runner. Data sets whose
 body axis is the scanner's z are viewed with the camera of the gallery's upright rendering

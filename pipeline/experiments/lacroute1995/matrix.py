@@ -7,11 +7,13 @@ and the CT head stand-in; the sample counts do not depend on the machine.
 import numpy as np
 import pandas as pd
 
+from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, format_number, linked_table, not_measurable
 from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
                                                timed_frames, unregistered)
-from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, stage_time, text_column
+from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.lacroute1995 import judging
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.tables import FIG_5_17, THESIS
 from reports import blocks, plots
@@ -61,19 +63,21 @@ class OptimisationMatrix(Experiment):
             spec = scene(dataset, image, volumes=[volume])
             for config, (options, _label, _test) in MATRIX_CONFIGS.items():
                 runs.append(Run(self.name, f"{dataset}.{config}", SW, spec, (headline_view(dataset),), options=dict(options),
-                                **timed_frames(profile, self), tags={"dataset": dataset, "config": config}))
+                                **timed_frames(profile, self), interleave=dataset,
+                                tags={"dataset": dataset, "config": config}))
         return runs
 
     claims = (
         Claim("sample-ratios", "Sample counts relative to brute force fall as in Fig. 5.17 "
               "(brain 1 : 0.78 : 0.16 : 0.028)",
               "early termination 0.5–1, RLE 0.05–0.35, both 0.005–0.1 (every data set)", lambda df: _samples(df)),
-        Claim("early-termination-alone", "Early termination alone barely helps (thesis ×0.97–1.1)",
-              "speed-up over brute force ≤ 2 (every data set)", lambda df: _speedup(df, "early-termination", None, 2.0)),
-        Claim("rle-alone", "The RLE volume alone gives 3–4× (thesis ×2.9–4.1)", "speed-up 2–6 (every data set)",
-              lambda df: _speedup(df, "rle", 2.0, 6.0)),
-        Claim("rle-and-early-termination", "RLE and early termination together give about an order of magnitude "
-              "(thesis ×7.1–9.9)", "speed-up ≥ 5 (every data set)",
+        Claim("early-termination-alone", "Early termination alone barely speeds up the compositing loop (thesis "
+              "×0.97–1.1)", "composite-stage speed-up over brute force ≤ 2 (every data set)",
+              lambda df: _speedup(df, "early-termination", None, 2.0)),
+        Claim("rle-alone", "The RLE volume alone speeds up the compositing loop 3–4× (thesis ×2.9–4.1)",
+              "composite-stage speed-up over brute force 2–6 (every data set)", lambda df: _speedup(df, "rle", 2.0, 6.0)),
+        Claim("rle-and-early-termination", "RLE and early termination together speed up the compositing loop about "
+              "an order of magnitude (thesis ×7.1–9.9)", "composite-stage speed-up over brute force ≥ 5 (every data set)",
               lambda df: _speedup(df, "rle+early-termination", 5.0, None)),
     )
 
@@ -98,7 +102,8 @@ class OptimisationMatrix(Experiment):
                                 list(table.columns), ctx, csv_name="matrix.csv",
                                 caption="Samples: the backend's `samples` counter (voxels resampled and composited). "
                                         "Thesis columns: Fig. 5.17's brain (brainsmall for brainsmall). Time: median "
-                                        "frame after warm-up with the fastest and slowest timed frame."))
+                                        "frame after warm-up with the fastest and slowest timed frame; composite: the "
+                                        "compositing loop alone, where the optimisations act (the claims' scope)."))
         points = speed_points(ok.loc[table.index]).assign(samples=table["samples"].to_numpy(float),
                                                             optimisation=table["optimisation"].to_numpy())
         path, rel = ctx.plot_path("time-samples")
@@ -140,6 +145,8 @@ def _table(ok):
         samples = float(getattr(row, "count_samples", np.nan))
         brute_samples = float(brute.count_samples.iloc[0]) if not brute.empty and "count_samples" in brute else np.nan
         brute_time = float(brute.time_total.iloc[0]) if not brute.empty else np.nan
+        composite = float(getattr(row, "time_composite", np.nan))
+        brute_composite = float(brute.time_composite.iloc[0]) if not brute.empty and "time_composite" in brute else np.nan
         thesis = FIG_5_17["brainsmall" if row.dataset == "brainsmall" else "brain"]
         t_samples, t_time = thesis.get(row.config, (np.nan, np.nan))
         rows.append({"index": row.Index, "dataset": row.dataset,
@@ -149,44 +156,59 @@ def _table(ok):
                      "time (ms)": row.time_total * 1e3,
                      "fastest (ms)": getattr(row, "time_total_min", np.nan) * 1e3,
                      "slowest (ms)": getattr(row, "time_total_max", np.nan) * 1e3,
-                     "speed-up": brute_time / row.time_total, "thesis speed-up": thesis["brute-force"][1] / t_time})
+                     "speed-up": brute_time / row.time_total, "composite (ms)": composite * 1e3,
+                     "composite speed-up": brute_composite / composite,
+                     "thesis speed-up": thesis["brute-force"][1] / t_time})
     table = pd.DataFrame(rows).set_index("index")
     table["_order"] = [list(MATRIX_CONFIGS).index(c) if c in MATRIX_CONFIGS else 9 for c in ok.loc[table.index, "config"]]
     return table.sort_values(["dataset", "_order"]).drop(columns="_order")
 
 
 def _groups(df):
+    """``{data set: {config: rows}}`` for every data set that rendered all four configurations."""
     groups = {}
     for dataset in pd.unique(text_column(df, "dataset")):
         part = rows_matching(df, "", dataset=dataset)
         configs = {c: part[text_column(part, "config") == c] for c in MATRIX_CONFIGS}
         if any(rows.empty for rows in configs.values()):
             continue
-        groups[dataset] = {c: rows.iloc[0] for c, rows in configs.items()}
+        groups[dataset] = configs
     if not groups:
         raise ValueError("no data set with all four configurations rendered")
     return groups
+
+
+def _samples_of(rows):
+    return float(rows["count_samples"].iloc[0])
 
 
 def _samples(df):
     bands = {"early-termination": (0.5, 1.0), "rle": (0.05, 0.35), "rle+early-termination": (0.005, 0.1)}
     measured, holds = [], True
     for dataset, rows in _groups(df).items():
-        brute = float(rows["brute-force"]["count_samples"])
+        brute = _samples_of(rows["brute-force"])
         if not brute > 0:
             raise ValueError(f"{dataset}: brute force reported no samples")
-        ratios = {c: float(rows[c]["count_samples"]) / brute for c in bands}
+        ratios = {c: _samples_of(rows[c]) / brute for c in bands}
         holds &= all(lo <= ratios[c] <= hi for c, (lo, hi) in bands.items())
         measured.append(f"{dataset} 1 : " + " : ".join(format_number(ratios[c], 2) for c in bands))
     return ClaimResult("; ".join(measured), bool(holds), "thesis brain 1 : 0.78 : 0.16 : 0.028, brainsmall 1 : 0.73 : 0.22 : 0.023")
 
 
 def _speedup(df, config, low, high):
-    speedups = {d: stage_time(rows["brute-force"]) / stage_time(rows[config]) for d, rows in _groups(df).items()}
-    holds = all((low is None or s >= low) and (high is None or s <= high) for s in speedups.values())
-    return ClaimResult(", ".join(f"{as_ratio(s)} ({d})" for d, s in speedups.items()), bool(holds),
-                       f"thesis: brainsmall {as_ratio(1.1 / FIG_5_17['brainsmall'][config][1])}, "
-                       f"brain {as_ratio(8.2 / FIG_5_17['brain'][config][1])}")
+    """Brute force's compositing time over ``config``'s, the runs of a data set timed together; samples beside."""
+    resampler = intervals.Resampler()
+    groups = _groups(df)
+    decisions = {d: judging.ratio(rows["brute-force"], rows[config], judging.COMPOSITE, resampler, at_least=low,
+                                  at_most=high) for d, rows in groups.items()}
+    counts = "; ".join(f"{d}: samples ×{format_number(_samples_of(rows['brute-force']) / _samples_of(rows[config]))} "
+                       f"fewer, composite {judging.milliseconds(rows['brute-force'], judging.COMPOSITE)} → "
+                       f"{judging.milliseconds(rows[config], judging.COMPOSITE)}, whole frame "
+                       f"{judging.milliseconds(rows['brute-force'], judging.TOTAL)} → "
+                       f"{judging.milliseconds(rows[config], judging.TOTAL)}" for d, rows in groups.items())
+    return judging.judged(decisions, f"{counts}; thesis: brainsmall {as_ratio(1.1 / FIG_5_17['brainsmall'][config][1])}, "
+                                     f"brain {as_ratio(8.2 / FIG_5_17['brain'][config][1])} (its fixed costs were small; "
+                                     "ours, about 0.5 ms of tables, warp and Python, would hide the loop's speed-up)")
 
 
 def _title(table):
@@ -194,7 +216,7 @@ def _title(table):
     if both.empty:
         return "Frame time against the number of samples"
     return (f"RLE + early termination: {format_number(1 / both['samples / brute force'].median(), 2)}× fewer samples, "
-            f"{format_number(both['speed-up'].median(), 2)}× faster than brute force (median)")
+            f"a {format_number(both['composite speed-up'].median(), 2)}× faster compositing loop than brute force (median)")
 
 
 def _takeaways(table):
@@ -202,6 +224,7 @@ def _takeaways(table):
     sentences = []
     for dataset, part in table.groupby("dataset", sort=False) if not table.empty else []:
         ratios = " : ".join(format_number(v, 2) for v in part["samples / brute force"])
-        speedups = ", ".join(f"{o} ×{format_number(s, 2)}" for o, s in zip(part.optimisation, part["speed-up"]))
-        sentences.append(f"{dataset}: samples relative to brute force {ratios}; speed-ups {speedups}.")
+        speedups = ", ".join(f"{o} ×{format_number(c, 2)} (frame ×{format_number(s, 2)})"
+                             for o, c, s in zip(part.optimisation, part["composite speed-up"], part["speed-up"]))
+        sentences.append(f"{dataset}: samples relative to brute force {ratios}; compositing-loop speed-ups {speedups}.")
     return sentences

@@ -12,13 +12,14 @@ import numpy as np
 import pandas as pd
 
 import datasets
+from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, format_number, linked_table,
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, format_number, linked_table,
                                             not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
                                                timed_frames, unregistered, usable_cores)
-from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, speed_points, stage_time, text_column
-from pipeline.experiments.lacroute1995 import tables
+from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.lacroute1995 import judging, tables
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -28,6 +29,9 @@ SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous
 
 DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE = "round-robin-steal", 8
 """The shearwarp backend's defaults (the agreed interface)."""
+
+TIME = judging.TECHNIQUE
+"""The claims' scope: the technique (the parallel kernels and tables), not the serial Python around them."""
 
 
 def worker_imbalance(record_path, view):
@@ -97,21 +101,24 @@ class Parallel(Experiment):
             for t in task_sizes:
                 configs.setdefault((most, DEFAULT_SCHEDULE, t), "task_size")
             for (w, s, t), study in configs.items():
+                # A size's runs timed together, frame by frame: workers, schedules and task sizes compared in pairs.
                 runs.append(Run(self.name, f"{dataset}{n}.w{w}.{s}.t{t}", SW, spec, (headline_view(dataset),),
                                 options={"workers": w, "schedule": s, "task_size": t}, **timed_frames(profile, self),
+                                interleave=f"{dataset}{n}",
                                 tags={"dataset": dataset, "volume_size": n, "workers": w, "schedule": s,
                                       "task_size": t, "study": study}))
         return runs
 
     claims = (
         Claim("speed-up", "Rendering speeds up nearly linearly with processors (thesis: ×2.0–2.1 on 2, 75 % "
-              "efficiency on 16)", "efficiency T1 / (p·Tp) ≥ 70 % at the most workers (every size)",
+              "efficiency on 16)", "efficiency T1 / (p·Tp) of the technique time ≥ 70 % at the most workers (every size)",
               lambda df: _speedup(df)),
         Claim("schedule-order", "Round robin with stealing balances best and contiguous blocks without stealing worst "
-              "(Table 6.4: 149 < 160 < 187 < 342 ms)", "contiguous slowest; round-robin-steal within 5 % of the fastest",
-              lambda df: _schedule_order(df)),
+              "(Table 6.4: 149 < 160 < 187 < 342 ms)", "technique time: contiguous / every other schedule ≥ 1, "
+              "round-robin-steal / every other ≤ 1.05", lambda df: _schedule_order(df)),
         Claim("task-size-u", "The task size has an interior optimum: small tasks lose locality, large ones balance",
-              "fastest task size neither the smallest nor the largest swept", lambda df: _task_u(df)),
+              "technique time at the smallest and largest task size / the fastest interior one ≥ 1",
+              lambda df: _task_u(df)),
         Claim("load-imbalance", "Round robin with stealing keeps the load imbalance low (7 % in Table 6.4)",
               "imbalance (largest − mean)/mean of the samples per worker ≤ 20 %", lambda df: _imbalance(df)),
         Claim("imbalance-order", "Contiguous blocks without stealing are the worst balanced (169 % against 7 % for "
@@ -190,61 +197,92 @@ def _row_imbalance(row):
     return worker_imbalance(row.get("record"), row.get("view"))
 
 
+def _at_most_workers(df, **match):
+    """``{size: rows}`` of the runs at the most workers matching ``match`` (tag: value)."""
+    rows = df[numeric(df, "workers") == numeric(df, "workers").max()]
+    for column, value in match.items():
+        rows = rows[text_column(rows, column) == str(value)]
+    return {int(n): part for n, part in rows.groupby(numeric(rows, "volume_size"))}
+
+
+def _machine(rows):
+    """The parallel runs' busy share and the cores, for a detail."""
+    return "; ".join(filter(None, [judging.busy(rows), f"this machine: {usable_cores()} cores"]))
+
+
 def _speedup(df):
-    rows = df[(text_column(df, "schedule") == DEFAULT_SCHEDULE) & (numeric(df, "task_size") == DEFAULT_TASK_SIZE)].copy()
-    rows["w"], rows["n"] = numeric(rows, "workers"), numeric(rows, "volume_size")
-    results = {}
-    for n, part in rows.groupby("n"):
-        one, most = part[part.w == 1], part[part.w == part.w.max()]
-        if one.empty or part.w.max() <= 1:
+    rows = df[(text_column(df, "schedule") == DEFAULT_SCHEDULE) & (numeric(df, "task_size") == DEFAULT_TASK_SIZE)]
+    resampler = intervals.Resampler()
+    decisions, parallel = {}, []
+    for n, part in rows.groupby(numeric(rows, "volume_size")):
+        w = numeric(part, "workers")
+        one, most = part[w == 1], part[w == w.max()]
+        if one.empty or w.max() <= 1:
             continue
-        p = float(most.w.iloc[0])
-        speedup = stage_time(one.iloc[0]) / stage_time(most.iloc[0])
-        results[int(n)] = (speedup, speedup / p, int(p))
-    if not results:
+        p = int(w.max())
+        t1, one_draws = judging.statistic(one, TIME, resampler)
+        tp, most_draws = judging.statistic(most, TIME, resampler)
+        draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
+        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = judging.decided(t1 / tp / p, draws,
+                                                                                          at_least=0.7)
+        parallel.append(most)
+    if not decisions:
         raise ValueError("no size rendered with one worker and with more")
-    return ClaimResult(", ".join(f"{as_ratio(s)} on {p} workers ({as_percent(e)}, {n}³)" for n, (s, e, p) in results.items()),
-                       bool(all(e >= 0.7 for _s, e, _p in results.values())),
-                       f"this machine: {usable_cores()} cores; timings on a shared machine are noisy")
+    result = judging.judged(decisions, f"{judging.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", as_percent)
+    return judging.unless_starved(result, pd.concat(parallel), holding_survives=True)
 
 
 def _schedule_order(df):
-    rows = df[numeric(df, "task_size") == DEFAULT_TASK_SIZE]
-    rows = rows[numeric(rows, "workers") == numeric(rows, "workers").max()]
-    outcomes = {}
-    for n, part in rows.groupby(numeric(rows, "volume_size")):
-        times = {s: stage_time(part[text_column(part, "schedule") == s].iloc[0]) for s in SCHEDULES
-                 if (text_column(part, "schedule") == s).any()}
-        if len(times) < 4:
+    resampler = intervals.Resampler()
+    decisions, measured, read = {}, [], []
+    for n, part in _at_most_workers(df, task_size=DEFAULT_TASK_SIZE).items():
+        runs = {s: part[text_column(part, "schedule") == s] for s in SCHEDULES}
+        if any(r.empty for r in runs.values()):
             continue
-        fastest = min(times.values())
-        holds = max(times, key=times.get) == "contiguous" and times["round-robin-steal"] <= 1.05 * fastest
-        outcomes[int(n)] = (holds, times)
-    if not outcomes:
+        for s in SCHEDULES:
+            if s != "contiguous":
+                decisions[f"{n}³ contiguous / {s}"] = judging.ratio(runs["contiguous"], runs[s], TIME, resampler,
+                                                                     at_least=1.0)
+            if s != DEFAULT_SCHEDULE:
+                decisions[f"{n}³ {DEFAULT_SCHEDULE} / {s}"] = judging.ratio(runs[DEFAULT_SCHEDULE], runs[s], TIME,
+                                                                           resampler, at_most=1.05)
+        times = {s: float(numeric(r, TIME).median()) for s, r in runs.items()}
+        measured.append(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in
+                                              sorted(times.items(), key=lambda kv: kv[1])))
+        read.append(part)
+    if not decisions:
         raise ValueError("not all four schedules rendered at the most workers")
-    workers = int(numeric(rows, "workers").max())
-    measured = "; ".join(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in sorted(times.items(), key=lambda kv: kv[1]))
-                         for n, (_h, times) in outcomes.items())
-    detail = f"{workers} workers" + ("; with 2 workers a contiguous split has only two blocks, so the thesis's "
-                                     "32-processor imbalance cannot show fully" if workers <= 2 else "")
-    return ClaimResult(measured, bool(all(h for h, _t in outcomes.values())), detail)
+    workers = int(numeric(df, "workers").max())
+    combined = intervals.combine(decisions.values())
+    detail = (f"{judging.labelled(decisions)}; {workers} workers; {_machine(pd.concat(read))}"
+              + ("; with 2 workers a contiguous split has only two blocks, so the thesis's 32-processor imbalance "
+                 "cannot show fully" if workers <= 2 else ""))
+    result = ClaimResult.decided("; ".join(measured), combined, detail)
+    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
 
 
 def _task_u(df):
-    rows = df[text_column(df, "schedule") == DEFAULT_SCHEDULE]
-    rows = rows[numeric(rows, "workers") == numeric(rows, "workers").max()].copy()
-    rows["t"] = numeric(rows, "task_size")
-    outcomes = {}
-    for n, part in rows.groupby(numeric(rows, "volume_size")):
-        if part.t.nunique() < 3:
+    resampler = intervals.Resampler()
+    decisions, read = {}, []
+    for n, part in _at_most_workers(df, schedule=DEFAULT_SCHEDULE).items():
+        sizes = sorted(numeric(part, "task_size").dropna().unique())
+        if len(sizes) < 3:
             continue
-        part = part.sort_values("t")
-        best = part.loc[numeric(part, "time_total").idxmin()]
-        outcomes[int(n)] = (int(best.t), part.t.min() < best.t < part.t.max())
-    if not outcomes:
+        point, draws = zip(*(judging.statistic(part[numeric(part, "task_size") == t], TIME, resampler) for t in sizes))
+        point = np.array(point)
+        best = int(sizes[1 + int(np.argmin(point[1:-1]))])
+        value = min(point[0], point[-1]) / point[1:-1].min()
+        draw = None
+        if all(d is not None for d in draws):
+            draws = np.column_stack(draws)
+            draw = np.minimum(draws[:, 0], draws[:, -1]) / draws[:, 1:-1].min(axis=1)
+        decisions[f"{n}³, fastest interior {best} scanlines"] = judging.decided(value, draw, at_least=1.0)
+        read.append(part)
+    if not decisions:
         raise ValueError("fewer than three task sizes swept")
-    return ClaimResult(", ".join(f"fastest at {t} scanlines ({n}³)" for n, (t, _i) in outcomes.items()),
-                       bool(all(i for _t, i in outcomes.values())), "thesis optimum: 8–20 scanlines on the Challenge")
+    result = judging.judged(decisions, "ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
+                                       f"the Challenge; {_machine(pd.concat(read))}")
+    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
 
 
 def _imbalance_text(row):
@@ -254,31 +292,43 @@ def _imbalance_text(row):
         return "not reported"
 
 
-def _schedule_imbalance(df, schedule):
+def _schedule_rows(df, schedule):
     rows = df[(text_column(df, "schedule") == schedule) & (numeric(df, "task_size") == DEFAULT_TASK_SIZE)]
     rows = rows[numeric(rows, "workers") == numeric(df, "workers").max()]
     if rows.empty or float(numeric(rows, "workers").max()) < 2:
         raise ValueError(f"no {schedule} run with two or more workers")
+    return rows
+
+
+def _schedule_imbalance(rows):
     return {int(float(row["volume_size"])): _row_imbalance(row) for _i, row in rows.iterrows()}
 
 
+# With stealing, a worker's share of the samples follows which thread ran when: a starved run's shares
+# say how the machine was loaded, not how the schedule balances (hence inconclusive, either way).
 def _imbalance(df):
-    values = _schedule_imbalance(df, "round-robin-steal")
-    return ClaimResult(", ".join(f"{as_percent(v)} ({n}³)" for n, v in values.items()), bool(max(values.values()) <= 0.2),
-                       "samples composited per worker; thesis 7 % in busy time (DASH, 32 processors)")
+    rows = _schedule_rows(df, "round-robin-steal")
+    values = _schedule_imbalance(rows)
+    result = ClaimResult(", ".join(f"{as_percent(v)} ({n}³)" for n, v in values.items()),
+                         bool(max(values.values()) <= 0.2),
+                         "samples composited per worker; thesis 7 % in busy time (DASH, 32 processors)")
+    return judging.unless_starved(result, rows, holding_survives=False)
 
 
 def _imbalance_order(df):
-    good, bad = _schedule_imbalance(df, "round-robin-steal"), _schedule_imbalance(df, "contiguous")
+    good_rows, bad_rows = _schedule_rows(df, "round-robin-steal"), _schedule_rows(df, "contiguous")
+    good, bad = _schedule_imbalance(good_rows), _schedule_imbalance(bad_rows)
     sizes = sorted(set(good) & set(bad))
     if not sizes:
         raise ValueError("no size rendered with both schedules")
-    return ClaimResult(", ".join(f"contiguous {as_percent(bad[n])} vs round-robin-steal {as_percent(good[n])} ({n}³)" for n in sizes),
-                       bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")
+    result = ClaimResult(", ".join(f"contiguous {as_percent(bad[n])} vs round-robin-steal {as_percent(good[n])} ({n}³)"
+                                   for n in sizes),
+                         bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")
+    return judging.unless_starved(result, pd.concat([good_rows, bad_rows]), holding_survives=False)
 
 
 def _speedup_title(ok):
-    return title_or(lambda d: f"Speed-up: {_speedup(d).measured}", ok, "Speed-up against the number of workers")
+    return title_or(lambda d: f"Efficiency: {_speedup(d).measured}", ok, "Speed-up against the number of workers")
 
 
 def _task_title(ok):

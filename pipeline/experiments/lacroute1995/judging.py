@@ -1,0 +1,155 @@
+"""Judging this paper's timing claims: like scopes, ratios and statistics with their intervals, starved runs.
+
+Every timing claim of the package names the stage it compares (:data:`SCOPES`) and compares the same
+stage on both sides. Its value gets a 95 % bootstrap interval from the runs' timed frames
+(:mod:`pipeline.experiments.kit.intervals`), resampled round by round where the runs were timed
+together (their ``interleave`` group); a claim over several scenes holds where every scene does,
+fails where one fails and is inconclusive otherwise (:func:`~pipeline.experiments.kit.intervals.combine`).
+Rows without frames (counts, results written before frames were kept) are judged on their values alone.
+
+A parallel run whose workers had fewer free cores than threads (``info_starved``, from the machine's
+load over its frames) measured the machine rather than the technique: :func:`unless_starved` turns the
+verdicts such a run could have decided inconclusive, and says why.
+"""
+
+import numpy as np
+
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import ClaimResult
+from pipeline.experiments.kit.pages import as_percent, as_ratio, format_number
+from pipeline.experiments.kit.results import fit_line, numeric
+
+TECHNIQUE, COMPOSITE, TOTAL = "time_technique", "time_composite", "time_total"
+
+SCOPES = {TECHNIQUE: "technique (the backend's kernels or library calls: tables, compositing, warp)",
+          COMPOSITE: "compositing loop (the composite stage)", TOTAL: "whole frame (Python and conversions included)"}
+"""What each compared stage holds, for the claims' details."""
+
+
+def measured(rows, column):
+    """The rows with a value in ``column`` (:class:`~pipeline.experiments.kit.results.MissingColumn` if absent)."""
+    return rows[numeric(rows, column).notna()]
+
+
+def values(rows, column, resampler):
+    """``(values, draws)``: each row's median ``column`` and its ``(DRAWS, rows)`` bootstrap draws (``None``
+    without frames)."""
+    rows = measured(rows, column)
+    if rows.empty:
+        raise ValueError(f"no run reported {column}")
+    return numeric(rows, column).to_numpy(float), intervals.row_draws(rows, column, resampler)
+
+
+def statistic(rows, column, resampler, reduce="median"):
+    """``(value, draws)`` of ``reduce`` (a key of :data:`~pipeline.experiments.kit.intervals.REDUCE`) over the rows."""
+    point, draws = values(rows, column, resampler)
+    function = intervals.REDUCE[reduce]
+    return float(function(point)), (None if draws is None else function(draws, axis=1))
+
+
+def decided(value, draws, *, at_least=None, at_most=None, centred=False):
+    """A :class:`~pipeline.experiments.kit.intervals.Decision` of ``value`` with the interval of its ``draws``.
+
+    ``centred``: the draws are shifted by their bias (their mean less ``value``) first. A statistic of
+    extremes (the largest change over a turn, a spread from slowest to fastest) gathers every draw's
+    noise on one side, so its percentile interval sits above the value, even wholly above it.
+    """
+    if centred and draws is not None:
+        finite = np.asarray(draws, float)[np.isfinite(draws)]
+        draws = draws - (finite.mean() - value) if finite.size and np.isfinite(value) else draws
+    return intervals.decide(float(value), intervals.interval_of(draws), at_least=at_least, at_most=at_most)
+
+
+def ratio(top, bottom, column, resampler, *, at_least=None, at_most=None, reduce="median", bottom_column=None):
+    """The ratio of ``reduce`` of ``column`` over rows ``top`` and ``bottom``, decided with its interval."""
+    a, a_draws = statistic(top, column, resampler, reduce)
+    b, b_draws = statistic(bottom, bottom_column or column, resampler, reduce)
+    if b == 0:
+        raise ValueError(f"{bottom_column or column} is 0")
+    draws = a_draws / b_draws if a_draws is not None and b_draws is not None else None
+    return decided(a / b, draws, at_least=at_least, at_most=at_most)
+
+
+def r2_draws(x, draws):
+    """R² of a least-squares line through ``x`` and each bootstrap draw (the rows of ``draws``), or ``None``."""
+    if draws is None:
+        return None
+    y = draws.T
+    slope, intercept = np.polyfit(x, y, 1)
+    residual = y - (np.outer(x, slope) + intercept)
+    total = np.sum((y - y.mean(axis=0)) ** 2, axis=0)
+    return 1.0 - np.sum(residual ** 2, axis=0) / np.where(total > 0, total, np.nan)
+
+
+def line(rows, x, column, resampler, *, at_least):
+    """``(slope, intercept, Decision on R²)`` of a least-squares line of ``column`` against the rows' column ``x``."""
+    ys, draws = values(rows, column, resampler)
+    rows = measured(rows, column)
+    slope, intercept, r2 = fit_line(rows[x], ys)
+    return slope, intercept, decided(r2, r2_draws(rows[x].to_numpy(float), draws), at_least=at_least)
+
+
+def r2_words(value):
+    """``"R² 0.97"``."""
+    return f"R² {format_number(value)}"
+
+
+def labelled(decisions, show=as_ratio):
+    """``"×1.12 (brain; 95 % CI ×1.08–×1.17), ×0.9 (head)"``: each decision's value, label and interval."""
+    parts = []
+    for label, decision in decisions.items():
+        words = intervals.interval_words(decision, show)
+        parts.append(f"{show(decision.value)} ({label}{'; ' + words if words else ''})")
+    return ", ".join(parts)
+
+
+def judged(decisions, detail, show=as_ratio):
+    """The :class:`ClaimResult` of every labelled decision together (``{label: Decision}``, see :func:`combine`)."""
+    if not decisions:
+        raise ValueError("nothing to judge")
+    return ClaimResult.decided(labelled(decisions, show), intervals.combine(decisions.values()), detail)
+
+
+def milliseconds(rows, column=TECHNIQUE):
+    """``"1.23 ms"``: the median of ``column`` over the rows."""
+    return f"{format_number(float(numeric(rows, column).median()) * 1e3)} ms"
+
+
+def starved(rows):
+    """Why the parallel runs among ``rows`` were starved (their ``info_starved`` sentences), or ``""``."""
+    if "info_starved" not in rows:
+        return ""
+    texts = [str(t) for t in rows["info_starved"] if isinstance(t, str) and t.strip()]
+    return "; ".join(dict.fromkeys(texts))
+
+
+def busy(rows):
+    """``"workers busy 97 %"``: the parallel runs' mean busy share over compositing (``info_worker_busy``), or ``""``."""
+    if "info_worker_busy" not in rows:
+        return ""
+    shares = numeric(rows, "info_worker_busy").dropna()
+    return f"workers busy {as_percent(float(shares.min()))} at least" if not shares.empty else ""
+
+
+def unless_starved(result, rows, *, holding_survives):
+    """``result``, or inconclusive where a starved run among ``rows`` may have decided it.
+
+    ``holding_survives``: the claim says a parallel run is fast enough, and starving it can only slow
+    it, so a claim that holds anyway still holds; otherwise (comparisons among parallel runs, shares
+    of work that follow which thread ran when) a starved run decides nothing either way.
+    """
+    why = starved(rows)
+    if not why:
+        return result
+    detail = f"{result.detail}; starved: {why}"
+    if result.holds is None or (result.holds and holding_survives):
+        return ClaimResult(result.measured, result.holds, detail, result.interval, result.margin, result.inconclusive)
+    return ClaimResult(result.measured, None, detail + " (a verdict from a starved run is the machine's, not the "
+                       "technique's)", result.interval, result.margin, inconclusive=True)
+
+
+def percent_interval(decision):
+    """``"31 % (95 % CI 29 %–33 %)"``: a share decided with its interval."""
+    words = intervals.interval_words(decision, as_percent)
+    return as_percent(decision.value) + (f" ({words})" if words else "")
+

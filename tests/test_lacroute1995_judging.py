@@ -1,0 +1,88 @@
+"""lacroute1995 judging: like-scope ratios and statistics with intervals, starved parallel runs."""
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from pipeline.experiments.kit.intervals import Resampler
+from pipeline.experiments.kit.model import ClaimResult
+from pipeline.experiments.kit.results import MissingColumn
+from pipeline.experiments.lacroute1995 import judging
+from test_lacroute1995_package import frames, timed
+
+STARVED = "2 workers had 1.0 free cores (other work used 1.00)"
+
+
+def _rows(*medians, spread=0.0, run="r", **extra):
+    return pd.DataFrame([{"experiment": "e", "run": f"{run}{i}", "view": "v", "interleave": "", **timed(m, spread),
+                          **extra} for i, m in enumerate(medians)])
+
+
+def test_ratio_takes_its_interval_from_the_frames():
+    decision = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, spread=0.1, run="s"), judging.TECHNIQUE, Resampler(),
+                             at_least=1.5)
+    assert decision.value == pytest.approx(2.0) and decision.holds is True
+    assert decision.interval[0] < 2.0 < decision.interval[1]
+    close = judging.ratio(_rows(1.05, spread=0.3), _rows(1.0, spread=0.3, run="s"), judging.TECHNIQUE, Resampler(),
+                          at_most=1.0)
+    assert close.holds is None and close.inconclusive
+    with pytest.raises(MissingColumn):
+        judging.ratio(_rows(1.0), _rows(1.0), judging.COMPOSITE, Resampler())
+
+
+def test_runs_timed_together_are_paired_round_by_round():
+    # Both runs slowed by the same disturbances, frame for frame: their ratio is exact only when paired.
+    slow = np.linspace(1, 3, 15)
+    a = {"time_technique": 2.0, "frames_technique": " ".join(f"{2 * s:g}" for s in slow)}
+    b = {"time_technique": 1.0, "frames_technique": " ".join(f"{s:g}" for s in slow)}
+
+    def rows(values, group):
+        return pd.DataFrame([{"experiment": "e", "run": "a" if values is a else "b", "view": "v", "interleave": group,
+                              **values}])
+
+    paired = judging.ratio(rows(a, "g"), rows(b, "g"), judging.TECHNIQUE, Resampler())
+    alone = judging.ratio(rows(a, ""), rows(b, ""), judging.TECHNIQUE, Resampler())
+    assert paired.interval == pytest.approx((2.0, 2.0), rel=1e-4)
+    assert alone.interval[1] - alone.interval[0] > 1.0
+
+
+def test_centred_draws_sit_about_the_value():
+    draws = np.linspace(0.3, 0.5, 101)  # extremes of noisy medians: every draw above the value 0.1
+    assert judging.decided(0.1, draws, at_most=0.12).holds is False
+    centred = judging.decided(0.1, draws, at_most=0.12, centred=True)
+    assert centred.interval[0] < 0.1 < centred.interval[1] and centred.inconclusive
+
+
+def test_r2_draws_fit_every_draw():
+    x = np.array([1.0, 2.0, 3.0, 4.0])
+    draws = np.vstack([2 * x + 1, [1.0, 3.0, 2.0, 4.0]])
+    assert judging.r2_draws(x, draws) == pytest.approx([1.0, 0.64])
+    assert judging.r2_draws(x, None) is None
+
+
+def test_labelled_and_judged_name_each_scene_with_its_interval():
+    one = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, run="s"), judging.TECHNIQUE, Resampler(), at_least=1.5)
+    other = judging.decided(1.2, None, at_least=1.5)
+    result = judging.judged({"head": one, "brain": other}, "detail")
+    assert result.measured.startswith("×2 (head; 95 % CI ×") and result.measured.endswith(", ×1.2 (brain)")
+    assert result.holds is False and result.interval is None
+    with pytest.raises(ValueError):
+        judging.judged({}, "")
+
+
+def test_a_starved_run_turns_what_it_could_decide_inconclusive():
+    rows = _rows(1.0, info_starved=STARVED, info_worker_busy=0.5)
+    failed = ClaimResult("×1.5", False, "slow", (1.4, 1.6), -0.5)
+    result = judging.unless_starved(failed, rows, holding_survives=True)
+    assert result.holds is None and result.inconclusive and STARVED in result.detail
+    assert result.interval == (1.4, 1.6)
+    held = ClaimResult("×0.5", True, "fast")
+    assert judging.unless_starved(held, rows, holding_survives=True).holds is True
+    assert judging.unless_starved(held, rows, holding_survives=False).inconclusive
+    assert judging.unless_starved(failed, _rows(1.0), holding_survives=True) is failed
+    assert judging.busy(rows) == "workers busy 50 % at least" and judging.busy(_rows(1.0)) == ""
+
+
+def test_frames_helper_spreads_about_the_median():
+    values = np.array(frames(2.0, 0.5).split(), float)
+    assert np.median(values) == pytest.approx(2.0) and values.min() == pytest.approx(1.0)
