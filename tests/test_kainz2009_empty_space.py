@@ -1,29 +1,43 @@
 """kainz2009-ess (E8): boxes against brick hulls, the build runs and the claims on synthetic results."""
 
+import numpy as np
 import pandas as pd
 
 from pipeline import experiments
 from pipeline.experiments import Profile
-from pipeline.experiments.kainz2009.empty_space import BRICKS
+from pipeline.experiments.kainz2009.empty_space import BRICKS, EmptySpace
 
 NAME = "kainz2009-ess"
 
 
 def _evaluate(claim_id, rows):
-    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
+    claim = next(c for c in EmptySpace.claims if c.id == claim_id)
     return claim.evaluate(pd.DataFrame(rows))
+
+
+def _frames(seconds, *, spread=0.02, seed=0, stage="technique", n=9):
+    """A stage's median and its ``n`` timed frames within ± ``spread`` of ``seconds``, as a run's columns."""
+    values = seconds * (1 + spread * np.random.default_rng(seed).uniform(-1, 1, n))
+    return {f"time_{stage}": float(np.median(values)), f"frames_{stage}": " ".join(f"{v:.6g}" for v in values)}
 
 
 def test_ess_plan_times_each_hull_build_in_a_single_untimed_frame():
     profile = Profile(name="t", volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME])
-    builds = [r for r in experiments.plan(profile).values() if r.tags["role"] == "build"]
+    runs = list(experiments.plan(profile).values())
+    builds = [r for r in runs if r.tags["role"] == "build"]
     assert {r.options["brick_size"] for r in builds} == set(BRICKS)
-    assert all((r.warmup, r.repeat) == (0, 1) and r.reference is None for r in builds)
+    assert all((r.warmup, r.repeat) == (0, 1) and r.reference is None and r.interleave is None for r in builds)
+    # Each scene's box and hulls are timed together, the scenes apart.
+    timed = [r for r in runs if r.tags["role"] == "test"]
+    assert {(r.tags["scene"], r.interleave) for r in timed} == {("torso", "torso"), ("skull", "skull")}
+    assert len(timed) == 2 * (len(BRICKS) + 1)
 
 
-def _ess_rows(box, hulls, psnr_box=45.0, psnr_hull=44.5, build_ms=2.0):
-    rows = [{"scene": "torso", "role": "test", "config": "box", "brick": 0, "time_total": box, "psnr": psnr_box}]
-    rows += [{"scene": "torso", "role": "test", "config": "hull", "brick": b, "time_total": t, "psnr": psnr_hull}
+def _ess_rows(box, hulls, psnr_box=45.0, psnr_hull=44.5, build_ms=2.0, spread=0.02):
+    rows = [{"scene": "torso", "role": "test", "config": "box", "brick": 0, "psnr": psnr_box, "count_samples": 9000,
+             "count_triangles": 12, **_frames(box, spread=spread)}]
+    rows += [{"scene": "torso", "role": "test", "config": "hull", "brick": b, "psnr": psnr_hull,
+              "count_samples": 1000 * b, "count_triangles": 4000 // b, **_frames(t, spread=spread, seed=b)}
              for b, t in hulls.items()]
     rows += [{"scene": "torso", "role": "build", "config": "hull", "brick": b, "time_bricks": build_ms * 4e-4,
               "time_hull": build_ms * 6e-4} for b in hulls]
@@ -34,6 +48,14 @@ def test_ess_claims():
     rows = _ess_rows(0.010, {4: 0.0095, 8: 0.0088, 16: 0.0092})
     for claim in ("hull-faster", "best-brick-8", "hull-accurate", "build-cheap"):
         assert _evaluate(claim, rows).holds is True, claim
+    gain = _evaluate("hull-faster", rows)
+    assert gain.measured.startswith("torso: ×1.1") and "95 % CI" in gain.measured
+    assert "samples box: 9e+03, 4: 4e+03, 8: 8e+03, 16: 1.6e+04" in gain.detail
+    assert "fastest: torso: 8³" in _evaluate("best-brick-8", rows).detail
     rows = _ess_rows(0.010, {4: 0.012, 8: 0.011, 16: 0.0105}, psnr_hull=40.0, build_ms=20.0)
     for claim in ("hull-faster", "best-brick-8", "hull-accurate", "build-cheap"):
         assert _evaluate(claim, rows).holds is False, claim
+    # Within the frames' scatter neither the gain nor the best brick is known.
+    rows = _ess_rows(0.010, {4: 0.0101, 8: 0.0099, 16: 0.0120}, spread=0.3, build_ms=9.9)
+    for claim in ("hull-faster", "best-brick-8", "build-cheap"):
+        assert _evaluate(claim, rows).inconclusive, claim

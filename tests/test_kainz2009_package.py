@@ -9,7 +9,7 @@ import renderers
 from pipeline import experiments
 from pipeline.experiments import Profile
 from pipeline.experiments.kainz2009 import EXPERIMENTS, PAPER
-from pipeline.experiments.kainz2009.methods import PEEL, TILED, device_note, frames_caption, peeling_missing
+from pipeline.experiments.kainz2009.methods import PEEL, TILED, device_note, devices, frames_caption, peeling_missing
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit.model import SCALES
 
@@ -86,6 +86,16 @@ def test_device_note_and_caption_name_only_cl_tiled_device():
     caption = frames_caption(rows)
     assert caption.startswith("median of 3 timed frames after warm-up") and caption.endswith("cl-tiled on pthread-Zen.")
     assert device_note(rows[rows.backend != TILED]) == [] and "cl-tiled on" not in frames_caption(rows.iloc[1:])
+
+
+def test_devices_name_both_apis_and_a_software_rasteriser():
+    rows = pd.DataFrame([{"backend": TILED, "cl_device": "pthread-Zen", "gl_renderer": "llvmpipe (LLVM 15)",
+                          "gl_software_rasterizer": True},
+                         {"backend": PEEL, "cl_device": "pthread-Zen", "gl_renderer": "llvmpipe (LLVM 15)",
+                          "gl_software_rasterizer": True}])
+    assert devices(rows) == "OpenCL on pthread-Zen; OpenGL on llvmpipe (LLVM 15) (a software rasteriser)"
+    assert devices(rows.assign(gl_renderer="NVIDIA H100", gl_software_rasterizer=False)).endswith("on NVIDIA H100")
+    assert devices(rows[["backend"]]) == "devices not recorded"
 
 
 def test_volume_entry_is_a_phantom_named_in_the_scene():

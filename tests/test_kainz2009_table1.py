@@ -1,5 +1,6 @@
 """kainz2009-table1 (E1/E5/E12/E13): Table 1's scenes, the paper's table and the claims on synthetic results."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -7,6 +8,7 @@ from core.errors import InputError
 from pipeline import experiments
 from pipeline.experiments import Profile
 from pipeline.experiments.kainz2009.methods import PEEL, TILED, VTK
+from pipeline.experiments.kainz2009.table1 import GROUP, Table1
 from pipeline.experiments.kainz2009.tables import TABLE1
 from pipeline.scene_io import build_scene
 
@@ -20,8 +22,14 @@ def _runs(**settings):
 
 
 def _evaluate(claim_id, rows):
-    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
+    claim = next(c for c in Table1.claims if c.id == claim_id)
     return claim.evaluate(pd.DataFrame(rows))
+
+
+def _frames(seconds, *, spread=0.02, seed=0, stage="technique", n=9):
+    """A stage's median and its ``n`` timed frames within ± ``spread`` of ``seconds``, as a run's columns."""
+    values = seconds * (1 + spread * np.random.default_rng(seed).uniform(-1, 1, n))
+    return {f"time_{stage}": float(np.median(values)), f"frames_{stage}": " ".join(f"{v:.6g}" for v in values)}
 
 
 def test_paper_table_has_every_scene():
@@ -51,10 +59,21 @@ def test_table1_volume_scenes_build(tmp_path):
         assert len(scene.volumes) == {"C2": 2, "C3": 4}[name] and not scene.has_geometry()
 
 
-def _table1_rows(times, psnr=45.0, binning=0.05, pool=2 ** 20):
-    return [{"scene": s, "config": TILED, "role": "test", "time_total": t, "psnr": psnr,
-             "time_binning": binning * t, "time_pixel": (1 - binning) * t, "info_pool_bytes_used": pool}
-            for s, t in times.items()]
+def test_table1_times_every_scene_and_its_depth_peeling_together():
+    runs = Table1().runs(Profile(name="t", settings={NAME: {"scenes": ["C1", "C6"], "small_size": 8,
+                                                             "large_size": 16, "scan_size": 16}}))
+    assert {r.id for r in runs if r.interleave == GROUP} == {"C1.tiled", "C1.gl-peel", "C6.tiled", "C6.gl-peel"}
+    assert {r.backend for r in runs if r.interleave is None} == {"reference", VTK}
+
+
+def _table1_rows(times, psnr=45.0, binning=0.05, pool=2 ** 20, spread=0.02):
+    rows = []
+    for i, (s, t) in enumerate(times.items()):
+        frames = {**_frames(t, spread=spread, seed=i), **_frames(binning * t, spread=spread, seed=i, stage="binning"),
+                  **_frames((1 - binning) * t, spread=spread, seed=i, stage="pixel")}
+        rows.append({"scene": s, "config": TILED, "role": "test", "psnr": psnr, "info_pool_bytes_used": pool,
+                     "count_samples": 1000 * (i + 1), **frames})
+    return rows
 
 
 def test_table1_claims():
@@ -62,18 +81,37 @@ def test_table1_claims():
     rows = _table1_rows(good)
     for claim in ("accuracy", "narrow-band", "pixel-kernel-dominates", "pool-enough"):
         assert _evaluate(claim, rows).holds is True, claim
+    band = _evaluate("narrow-band", rows)
+    assert band.measured.startswith("×1.7") and "(95 % CI ×" in band.measured
+    assert band.measured.endswith(", C8 over C2")
+    assert band.detail.endswith("volume samples C1: 1e+03, C2: 2e+03, C3: 3e+03, C8: 4e+03")
+    assert _evaluate("pixel-kernel-dominates", rows).measured.startswith("C1: 5 % (95 % CI ")
     rows = _table1_rows({**good, "C8": 1.0}, psnr=35.0, binning=0.2, pool=7 * 2 ** 20)
     for claim in ("accuracy", "narrow-band", "pixel-kernel-dominates", "pool-enough"):
         assert _evaluate(claim, rows).holds is False, claim
     assert _evaluate("accuracy", _table1_rows({"C1": 0.1, "C2": 0.1})).holds is None  # C3 missing
+    # Frames scattered about the bounds: neither share nor band can be told from them.
+    rows = _table1_rows({"C1": 0.1, "C8": 0.1 * 3.6}, binning=0.1, spread=0.4)
+    for claim in ("narrow-band", "pixel-kernel-dominates"):
+        assert _evaluate(claim, rows).inconclusive, claim
+
+
+def _peeling_rows(times, spread=0.02):
+    return [{"scene": s, "config": c, "role": "test", **_frames(t, spread=spread, seed=i, stage="total")}
+            for i, (s, c, t) in enumerate(times)]
 
 
 def test_depth_peeling_claims():
-    table = [{"scene": s, "config": c, "role": "test", "time_total": t}
-             for s, c, t in (("C1", TILED, 0.08), ("C1", PEEL, 0.05), ("C3", TILED, 0.05), ("C3", PEEL, 0.15))]
+    table = _peeling_rows((("C1", TILED, 0.08), ("C1", PEEL, 0.05), ("C3", TILED, 0.05), ("C3", PEEL, 0.15)))
     assert _evaluate("peeling-wins-one-volume", table).holds is True
-    assert _evaluate("tiled-wins-many-volumes", table).holds is True
-    table[1]["time_total"], table[3]["time_total"] = 0.1, 0.04
+    result = _evaluate("tiled-wins-many-volumes", table)
+    assert result.holds is True and result.measured.startswith("C3: ×3") and "95 % CI" in result.measured
+    table = _peeling_rows((("C1", TILED, 0.08), ("C1", PEEL, 0.1), ("C3", TILED, 0.05), ("C3", PEEL, 0.04)))
     assert _evaluate("peeling-wins-one-volume", table).holds is False
     assert _evaluate("tiled-wins-many-volumes", table).holds is False
     assert _evaluate("tiled-wins-many-volumes", table[:2]).holds is None
+    # One mesh scene clearly, the other within its frames' scatter: the pair is inconclusive, not a pass.
+    table = _peeling_rows((("C6", TILED, 0.05), ("C6", PEEL, 0.1), ("C7", TILED, 0.05), ("C7", PEEL, 0.051)),
+                          spread=0.3)
+    result = _evaluate("peeling-collapses-with-meshes", table)
+    assert result.inconclusive and result.measured.startswith("C6: ×")

@@ -15,6 +15,7 @@ clouds, 256³ and 512³ scans, 30k meshes at 512² with Table 2 at 1050 × 800 (
 * :mod:`.sorting`: E7, triangles submitted front to back and back to front;
 * :mod:`.media`: E9, homogeneous media segments composited analytically or sampled;
 * :mod:`.coverage`: E11, bit-shift coverage masks and watertightness;
+* :mod:`.ratios`: the timing claims' ratios of runs timed together, with intervals, and their scopes;
 * :mod:`.tables`: the paper's own numbers (Tables 1 and 2, the figures its text states);
 * :mod:`.scenes`: scene pieces several experiments render (clouds, meshes, the screw);
 * :mod:`.methods`: cl-tiled and its stand-in baselines, and how the pages show their runs.

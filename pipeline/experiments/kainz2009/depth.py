@@ -4,21 +4,29 @@ Table 2's scenes (depth complexity 20 / 40 / 81) rendered by cl-tiled and dual d
 sweep of boxes in a row that traces the cost against depth complexity and finds where the two cross.
 """
 
+import dataclasses
+
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kainz2009.methods import DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, frames_caption, table
+from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
+                                                    table)
+from pipeline.experiments.kainz2009.ratios import (FRAMES, KERNELS, TECHNIQUE, TOTAL, combined, counts, judge, ratio,
+                                                   with_interval)
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
+from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, not_measurable
+from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import (fit_line, numeric, ok_rows, rows_matching, speed_points, stage_time,
-                                              text_column)
+from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points, text_column
 from reports import blocks, plots
 
 BOX_COUNTS = (5, 10, 15, 20, 30, 40)
+
+SWEEP = "sweep"
+"""The interleave group of the box sweep's runs, both methods at every depth."""
 
 DUAL_PSNR = 35.0
 """Dual depth peeling against the reference: rasterised crossings differ from exact ones at silhouette
@@ -79,54 +87,97 @@ def _depths(df):
                        "paper: " + ", ".join(f"{s}: {TABLE2[s][1]}" for s in TABLE2))
 
 
-def _sweep_line(df, config):
-    """``(slope, intercept, R², rows)`` of frame time (ms) against depth over the box sweep of ``config``."""
+def _sweep(df, config, column):
+    """The box sweep's runs of ``config`` with a ``column`` time and their depth complexity, by depth."""
     rows = _depth_rows(df)
-    if not rows.empty:
-        rows = rows[(rows.get("part") == "sweep") & (rows.config == config) & rows.depth.notna()]
-    slope, intercept, r2 = fit_line(rows.depth, rows.time_ms)
-    return slope, intercept, r2, rows
+    if rows.empty:
+        raise ValueError("no timed run with the depth of its unbounded run")
+    rows = rows[(rows.get("part") == "sweep") & (rows.config == config) & rows.depth.notna()
+                & numeric(rows, column).notna()]
+    return rows.sort_values("depth")
+
+
+def _r2(x, y):
+    """R² of the least-squares line through ``(x, y[i])`` for every row ``y[i]`` (the squared correlation)."""
+    xc, yc = x - x.mean(), y - y.mean(axis=-1, keepdims=True)
+    return (yc @ xc) ** 2 / ((yc ** 2).sum(axis=-1) * (xc ** 2).sum())
 
 
 def _depth_fit(df):
-    slope, intercept, r2, rows = _sweep_line(df, TILED)
-    return ClaimResult(f"R² {format_number(r2)}", bool(r2 >= 0.9),
-                       f"{format_number(slope)} ms per layer over {len(rows)} depths "
-                       f"({int(rows.depth.min())}–{int(rows.depth.max())})")
+    rows = _sweep(df, TILED, TECHNIQUE)
+    depth = rows.depth.to_numpy(float)
+    slope, _intercept, r2 = fit_line(depth, numeric(rows, TECHNIQUE) * 1e3)
+    points = intervals.row_draws(rows, TECHNIQUE, intervals.Resampler())
+    decision = judge(r2, None if points is None else _r2(depth, points), at_least=0.9)
+    return ClaimResult.decided(with_interval(f"R² {format_number(r2)}", decision, format_number), decision,
+                               f"{format_number(slope)} ms per layer over {len(rows)} depths "
+                               f"({int(depth.min())}–{int(depth.max())}), {KERNELS}; fragments per frame "
+                               + counts(rows, "count_fragments"))
 
 
 def _dual_ratio(df, scenes, *, dual_faster):
-    ratios = {}
+    """cl-tiled's whole frame over dual depth peeling's on every scene both render."""
+    resampler = intervals.Resampler()
+    decisions, compared = {}, []
     for name in scenes:
-        rows = rows_matching(df, name, scene=name, role="test")
-        times = {c: stage_time(r) for c, (_, r) in zip(text_column(rows, "config"), rows.iterrows())}
-        if TILED in times and DUAL in times:
-            ratios[name] = times[TILED] / times[DUAL]
-    if not ratios:
+        tiled, dual = (rows_matching(df, name, scene=name, role="test", config=config) for config in (TILED, DUAL))
+        tiled, dual = (part[numeric(part, TOTAL).notna()] for part in (tiled, dual))
+        if not tiled.empty and not dual.empty:
+            decisions[name] = ratio(tiled, dual, TOTAL, resampler,
+                                    **({"at_least": 1.0} if dual_faster else {"at_most": 1.0}))
+            compared += [tiled, dual]
+    if not decisions:
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both dual depth peeling and cl-tiled")
-    holds = all((r > 1) if dual_faster else (r < 1) for r in ratios.values())
-    return ClaimResult(", ".join(f"{s}: {as_ratio(r)}" for s, r in ratios.items()), holds,
-                       "time of cl-tiled over dual depth peeling's, same scene and view (paper S1: 2.4×)")
+    return combined(decisions, f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}, "
+                               f"paper S1: 2.4×; {devices(pd.concat(compared))}")
+
+
+def _crossing(depths, gaps):
+    """The depth where ``gaps`` (dual − cl-tiled) turn from ≤ 0 to > 0, interpolated between measured depths.
+
+    ``+inf`` where dual depth peeling stays faster, ``-inf`` where cl-tiled is faster from the first depth on.
+    """
+    for (d0, g0), (d1, g1) in zip(zip(depths, gaps), zip(depths[1:], gaps[1:])):
+        if g0 <= 0 < g1:
+            return d0 + (d1 - d0) * -g0 / (g1 - g0)
+    return np.inf if gaps[-1] <= 0 else -np.inf
 
 
 def _crossover(df):
-    """The depth where dual depth peeling stops being faster, interpolated between measured sweep points."""
-    times = {}
-    for config in (TILED, DUAL):
-        rows = _sweep_line(df, config)[3]
-        times[config] = dict(zip(rows.depth, rows.time_ms))
-    depths = sorted(set(times[TILED]) & set(times[DUAL]))
+    """The depth where dual depth peeling stops being faster, with the interval of its draws (whole frames)."""
+    rows = {config: _sweep(df, config, TOTAL) for config in (TILED, DUAL)}
+    depths = sorted(set(rows[TILED].depth) & set(rows[DUAL].depth))
     if len(depths) < 2:
         raise ValueError("fewer than two box-sweep depths rendered by both dual depth peeling and cl-tiled")
-    gap = [times[DUAL][d] - times[TILED][d] for d in depths]
-    detail = "dual − cl-tiled (ms): " + ", ".join(f"{int(d)}: {format_number(g)}" for d, g in zip(depths, gap))
-    for (d0, g0), (d1, g1) in zip(zip(depths, gap), zip(depths[1:], gap[1:])):
-        if g0 <= 0 < g1:
-            depth = d0 + (d1 - d0) * -g0 / (g1 - g0)
-            return ClaimResult(f"depth {format_number(depth)}", bool(20 <= depth <= 40), detail)
-    faster = "dual depth peeling" if gap[-1] <= 0 else "cl-tiled"
-    return ClaimResult(f"no crossover: {faster} faster at every depth ({int(depths[0])}–{int(depths[-1])})", False,
-                       detail)
+    rows = {config: part[part.depth.isin(depths)] for config, part in rows.items()}
+    times = {config: numeric(part, TOTAL).to_numpy() for config, part in rows.items()}
+    gap = times[DUAL] - times[TILED]
+    depth = _crossing(depths, gap)
+    resampler = intervals.Resampler()
+    tiled, dual = (intervals.row_draws(rows[config], TOTAL, resampler) for config in (TILED, DUAL))
+    interval = None
+    if tiled is not None and dual is not None:
+        crossings = [_crossing(depths, g) for g in dual - tiled]
+        tail = 100 * (1 - intervals.LEVEL) / 2  # quantiles that are draws: ±inf (no crossing) stay themselves
+        interval = tuple(float(v) for v in np.percentile(crossings, [tail, 100 - tail], method="inverted_cdf"))
+    decision = intervals.decide(depth, interval, at_least=20, at_most=40)
+    if not np.isfinite(decision.margin):
+        decision = dataclasses.replace(decision, margin=None)  # no crossing: no distance from [20, 40]
+
+    def show(value):
+        return f"< {int(depths[0])}" if value == -np.inf else f"> {int(depths[-1])}" if value == np.inf \
+            else format_number(value)
+
+    if np.isfinite(depth):
+        measured = f"depth {format_number(depth)}"
+    else:
+        faster = "dual depth peeling" if depth > 0 else "cl-tiled"
+        measured = f"no crossover: {faster} faster at every depth ({int(depths[0])}–{int(depths[-1])})"
+    if interval is not None and interval[0] == interval[1] == depth:
+        decision = dataclasses.replace(decision, interval=None)  # every draw agrees: no range to show
+    detail = "dual − cl-tiled (ms): " + ", ".join(f"{int(d)}: {format_number(g * 1e3)}" for d, g in zip(depths, gap))
+    return ClaimResult.decided(with_interval(measured, decision, show), decision,
+                               f"{detail}; {FRAMES}; {devices(pd.concat(rows.values()))}")
 
 
 class Depth(Experiment):
@@ -176,11 +227,13 @@ class Depth(Experiment):
             runs.append(Run(name, f"{scene_name}.unbounded", TILED, spec, views, options={"fragments": "global"},
                             **UNTIMED, reference=truth.id if truth else None,
                             tags={**tags, "role": "depth", "config": "global"}))
+            # Each Table 2 scene's two methods are timed together, and the whole sweep (line and crossover).
+            group = scene_name if scene_name in TABLE2 else SWEEP
             runs.append(Run(name, f"{scene_name}.tiled", TILED, spec, views, reference=truth.id if truth else None,
-                            **frames, tags={**tags, "role": "test", "config": TILED}))
+                            **frames, interleave=group, tags={**tags, "role": "test", "config": TILED}))
             if accepts(PEEL, "peeling"):
                 runs.append(Run(name, f"{scene_name}.dual", PEEL, spec, views, options={"peeling": "dual"},
-                                reference=truth.id if truth else None, **frames,
+                                reference=truth.id if truth else None, **frames, interleave=group,
                                 tags={**tags, "role": "test", "config": DUAL}))
         return runs
 
@@ -189,20 +242,22 @@ class Depth(Experiment):
               "max depth complexity within 10 % of the paper's on S1, S2 and S3 (unbounded lists)", _depths),
         Claim("linear-in-depth", "The tiled caster's cost grows about linearly with depth complexity: one binning "
               "pass, a coherent per-pixel insertion sort (§3.2)",
-              "frame time over the box sweep fits a line in depth complexity, R² ≥ 0.9", _depth_fit),
+              f"frame time over the box sweep fits a line in depth complexity, R² ≥ 0.9 ({KERNELS})", _depth_fit),
         Claim("accuracy", "Translucent geometry renders the reference's image (S3 capped at 63 of 81 layers)",
               TILED_ACCURATE.expected, TILED_ACCURATE),
         Claim("dual-accuracy", "Dual depth peeling renders the reference's image (every layer, no cap)",
               DUAL_ACCURATE.expected, DUAL_ACCURATE),
         Claim("dual-wins-shallow", "At depth complexity 20 dual depth peeling beats the tiled caster (S1: "
-              "123–150 fps against 52–62, 2.4×)", "time(cl-tiled) / time(dual depth peeling) > 1 on S1",
+              "123–150 fps against 52–62, 2.4×)",
+              f"time(cl-tiled) / time(dual depth peeling) ≥ ×1 on S1 ({FRAMES})",
               lambda df: _dual_ratio(df, ("S1",), dual_faster=True)),
         Claim("tiled-wins-deep", "At depth complexity 40 and 81 the tiled caster beats dual depth peeling (S2: 18–28 "
-              "fps against 14–16; S3: 31–52 against 25–46)", "time(cl-tiled) / time(dual depth peeling) < 1 on S2 "
-              "and S3", lambda df: _dual_ratio(df, ("S2", "S3"), dual_faster=False)),
+              "fps against 14–16; S3: 31–52 against 25–46)",
+              f"time(cl-tiled) / time(dual depth peeling) ≤ ×1 on S2 and S3 ({FRAMES})",
+              lambda df: _dual_ratio(df, ("S2", "S3"), dual_faster=False)),
         Claim("crossover", "The two cross between depth complexity 20 and 40", "the depth where dual depth "
               "peeling's frame time passes cl-tiled's (box sweep, interpolated between measured depths) lies in "
-              "[20, 40]", _crossover),
+              f"[20, 40] ({FRAMES})", _crossover),
     )
 
     def paper_table(self):

@@ -1,7 +1,8 @@
 """E9: the homogeneous-segment shortcut (``kainz2009-media``; Fig. 1 (4)).
 
 35 rods of translucent media in an apple, their segments composited analytically or sampled at the
-common step (cl-tiled's ``media`` switch), both against the reference.
+common step (cl-tiled's ``media`` switch), both against the reference; the gain timed where the rods
+leave the apple, the segments there holding media alone.
 """
 
 import numpy as np
@@ -9,7 +10,9 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
+from pipeline.experiments.kainz2009.ratios import counts, ratio, timed, with_interval
 from pipeline.experiments.kainz2009.scenes import volume
+from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, scene, timed_frames, truth_run
@@ -17,6 +20,9 @@ from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, sp
 from reports import blocks
 
 ROD_COUNT = 35
+RODS = "rods"
+PIXEL = "time_pixel"
+"""The pixel kernel, where segments are composited: the shortcut's stage."""
 APPLE_OPTICAL_DEPTH = 1.5
 """Optical depth of the apple across its diameter (per voxel opacity follows the size)."""
 
@@ -60,37 +66,66 @@ def _media_rows(ok):
     return rows
 
 
-def _media_pair(df, column):
-    """``(analytic, sampled)`` values of ``column``."""
+def rods_view(size):
+    """The rods where they leave the apple: rays above its box (``y`` over half the size) meet media alone.
+
+    The segments the shortcut composites analytically are there; in the whole picture they are a few
+    in a thousand of the apple's samples, too few for any change in them to show in its time.
+    """
+    return {"view": RODS, "azimuth": 30.0, "elevation": 0.0, "target": [0.0, round(0.66 * size, 4), 0.0],
+            "view_height": round(0.3 * size, 4)}
+
+
+def _media_pairs(df, column):
+    """``{view: (analytic, sampled)}`` values of ``column``."""
     rows = _media_rows(df)
-    values = dict(zip(rows.get("config", []), numeric(rows, column) if not rows.empty else []))
-    if not {"analytic", "sampled"} <= set(values):
-        raise ValueError("no analytic and sampled run")
-    return values["analytic"], values["sampled"]
+    pairs = {}
+    for view, part in (rows.groupby(text_column(rows, "view")) if not rows.empty else ()):
+        values = dict(zip(part.config, numeric(part, column)))
+        if {"analytic", "sampled"} <= set(values):
+            pairs[view] = values["analytic"], values["sampled"]
+    if not pairs:
+        raise ValueError("no analytic and sampled run of one view")
+    return pairs
+
+
+def _gain(df, view, resampler):
+    """Sampled over analytic pixel kernel in ``view`` (a Decision) and the rows compared."""
+    rows = timed(df, f"the {view} view", PIXEL, role="test", view=view)
+    analytic, sampled = (rows[text_column(rows, "config") == config] for config in ("analytic", "sampled"))
+    if analytic.empty or sampled.empty:
+        raise ValueError(f"no analytic and sampled run of the {view} view")
+    return ratio(sampled, analytic, PIXEL, resampler, at_least=1.0), rows
 
 
 def _media_gain(df):
-    analytic, sampled = _media_pair(df, "time_pixel")
-    total = _media_pair(df, "time_total")
-    ratio = sampled / analytic
-    return ClaimResult(f"{as_ratio(ratio)} ({format_number(100 * (ratio - 1))} % gain)", bool(ratio > 1.0),
-                       f"pixel kernel {format_number(analytic * 1e3)} ms analytic, {format_number(sampled * 1e3)} ms "
-                       f"sampled; frame {format_number(total[0] * 1e3)} / {format_number(total[1] * 1e3)} ms")
+    resampler = intervals.Resampler()
+    decision, rows = _gain(df, RODS, resampler)
+    times = dict(zip(rows.config, numeric(rows, PIXEL) * 1e3))
+    detail = (f"pixel kernel where only media are (view {RODS!r}) {format_number(times['analytic'])} ms analytic, "
+              f"{format_number(times['sampled'])} ms sampled; "
+              f"media steps {counts(rows, 'count_medium_steps', label='config')}")
+    headline = HEADLINE_VIEW["view"]
+    if (text_column(df, "view") == headline).any():
+        whole, _ = _gain(df, headline, resampler)
+        detail += f"; the whole apple (view {headline!r}): {with_interval(as_ratio(whole.value), whole)}"
+    return ClaimResult.decided(f"{with_interval(as_ratio(decision.value), decision)}: "
+                               f"{format_number(100 * (decision.value - 1))} % gain", decision, detail)
 
 
 def _media_accuracy(df):
-    analytic, sampled = _media_pair(df, "psnr")
-    if np.isnan(analytic) or np.isnan(sampled):
+    pairs = _media_pairs(df, "psnr")
+    if any(np.isnan(v) for pair in pairs.values() for v in pair):
         raise ValueError("no PSNR against the reference")
-    holds = min(analytic, sampled) >= 40.0 and abs(analytic - sampled) <= 0.5
-    return ClaimResult(f"{format_number(analytic)} dB analytic, {format_number(sampled)} dB sampled", bool(holds),
-                       "PSNR against the reference")
+    holds = all(min(a, s) >= 40.0 and (a == s or abs(a - s) <= 0.5) for a, s in pairs.values())
+    return ClaimResult("; ".join(f"{view}: {format_number(a)} dB analytic, {format_number(s)} dB sampled"
+                                 for view, (a, s) in pairs.items()), bool(holds), "PSNR against the reference")
 
 
 def _media_steps(df):
-    analytic, sampled = _media_pair(df, "count_medium_steps")
-    return ClaimResult(f"{int(analytic)} analytic, {int(sampled)} sampled", bool(analytic < sampled),
-                       "media composited without a volume, one frame")
+    pairs = _media_pairs(df, "count_medium_steps")
+    return ClaimResult("; ".join(f"{view}: {int(a)} analytic, {int(s)} sampled" for view, (a, s) in pairs.items()),
+                       all(a < s for a, s in pairs.values()), "media composited without a volume, one frame")
 
 
 class Media(Experiment):
@@ -113,7 +148,10 @@ class Media(Experiment):
         "phantom stands in for the apple and 35 closed 20-gon prisms filled with coloured media, "
         "randomly turned, pierce it and stick out of it; where a rod is outside the apple (its tight "
         "hull) the segment holds media alone. cl-tiled composites those segments analytically and, "
-        "as the ablation, cell by cell at the common step; both are checked against the reference."
+        "as the ablation, cell by cell at the common step, timed together; both are checked against "
+        "the reference. In the whole picture such segments are a few in a thousand of the apple's "
+        "samples, so the gain is timed on the pixel kernel in a second view, of the rods above the "
+        "apple's box, where every segment holds media alone."
     )
 
     def runs(self, profile):
@@ -125,22 +163,24 @@ class Media(Experiment):
         rods = int(profile.setting(self, "rods", ROD_COUNT))
         step = profile.setting(self, "step_factor", 0.5)
         frames = timed_frames(profile, self)
-        views = (dict(HEADLINE_VIEW),)
+        views = (dict(HEADLINE_VIEW), rods_view(size))
         spec = _apple_scene(size, image, rods)
         tags = {"scene": "apple", "size": size, "rods": rods}
         truth = truth_run(name, "apple", spec, views, profile.setting(self, "truth_step_factor", 0.25), tags,
                           config="reference")
         return [truth] + [Run(name, f"apple.{media}", TILED, spec, views, options={"step_factor": step, "media": media},
-                              reference=truth.id, **frames, tags={**tags, "role": "test", "config": media})
+                              reference=truth.id, **frames, interleave="apple",
+                              tags={**tags, "role": "test", "config": media})
                           for media in ("analytic", "sampled")]
 
     claims = (
         Claim("shortcut-gain", "Compositing homogeneous segments analytically instead of sampling them makes frames "
-              "faster (paper: up to 10 %)", "pixel-kernel time(sampled) / time(analytic) > 1", _media_gain),
+              "faster (paper: up to 10 %)", f"pixel-kernel time(sampled) / time(analytic) ≥ ×1 where segments hold "
+              f"media alone (view {RODS!r})", _media_gain),
         Claim("shortcut-exact", "The shortcut costs no accuracy", "PSNR against the reference ≥ 40 dB for both, "
-              "within 0.5 dB of each other", _media_accuracy),
+              "within 0.5 dB of each other, every view", _media_accuracy),
         Claim("fewer-steps", "The shortcut replaces the sampling loop by one step per segment",
-              "media steps (analytic) < media steps (sampled)", _media_steps),
+              "media steps (analytic) < media steps (sampled), every view", _media_steps),
     )
 
     def paper_table(self):
@@ -151,18 +191,18 @@ class Media(Experiment):
         rows = _media_rows(ok)
         out = [claim_takeaways(self.claims, results, device_note(rows))]
         if not rows.empty:
-            out.append(table("Analytic and sampled media", rows.sort_values("config"),
-                             ["config", "time_ms", "time_ms_min", "time_ms_max", "pixel kernel (ms)", "psnr", "ssim",
-                              "count_medium_steps", "count_samples", "count_triangles", "count_fragments_max"], ctx,
-                             csv_name="media.csv",
+            out.append(table("Analytic and sampled media", rows.sort_values(["view", "config"]),
+                             ["view", "config", "time_ms", "time_ms_min", "time_ms_max", "pixel kernel (ms)", "psnr",
+                              "ssim", "count_medium_steps", "count_samples", "count_triangles", "count_fragments_max"],
+                             ctx, csv_name="media.csv",
                              caption="count_medium_steps: media composited without a volume (one per segment "
                                      "analytically, one per cell part sampled); PSNR against the reference. "
                                      + frames_caption(rows)))
             gallery = blocks.Gallery("Both variants and their difference from the reference", diff_scale=DIFF_SCALE,
-                                     caption="Left the image, right |image − reference|, headline view.")
-            for row in rows.sort_values("config").itertuples():
+                                     caption="Left the image, right |image − reference|, each view.")
+            for row in rows.sort_values(["view", "config"]).itertuples():
                 gallery.items.append(blocks.GalleryItem(
-                    f"media {row.config}", ctx.image(row.png),
+                    f"media {row.config}, view {row.view}", ctx.image(row.png),
                     difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
                     note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, "
                          f"pixel kernel {format_number(row.pixel_ms)} ms"))

@@ -62,6 +62,20 @@ def device_note(tests):
     return [sentence + "."]
 
 
+def devices(rows):
+    """``"OpenCL on …; OpenGL on llvmpipe … (a software rasteriser)"``: where compared runs ran, for a claim
+    comparing backends (a rasteriser in software pays every geometry pass on the CPU)."""
+    words = []
+    for column, api in (("cl_device", "OpenCL"), ("gl_renderer", "OpenGL")):
+        names = sorted(set(rows[column].dropna().astype(str))) if column in rows else []
+        if names:
+            words.append(f"{api} on {', '.join(names)}")
+    if not words:
+        return "devices not recorded"
+    software = rows.get("gl_software_rasterizer", pd.Series(dtype=str)).astype(str).str.lower().isin(["true", "1"])
+    return "; ".join(words) + (" (a software rasteriser)" if software.any() else "")
+
+
 def frames_caption(frame):
     """How the frames of ``frame``'s runs were timed, and where cl-tiled ran, for a figure's caption."""
     devices = _tiled_devices(frame)

@@ -1,0 +1,86 @@
+"""This paper's timing claims: ratios of runs timed together, each judged with its bootstrap interval.
+
+Every timing claim of these experiments compares runs of one interleave group
+(:attr:`~pipeline.experiments.kit.model.Run.interleave`): their timed frames alternate, so a ratio of
+two of them is resampled round by round (:mod:`pipeline.experiments.kit.intervals`) and a claim whose
+interval straddles its bound is inconclusive. Two scopes are compared, each like with like:
+
+* :data:`TECHNIQUE` between runs of cl-tiled: its kernels (binning, fragment count, pixel kernel),
+  the paper's frame, whose host sends only the camera; not our per-frame Python and uploads;
+* :data:`TOTAL` between cl-tiled and the peelers: OpenCL profiling events and OpenGL pass timers
+  measure different scopes (a peeler's host loop, which waits on a query after every layer, is
+  outside its passes), so only whole frames compare.
+"""
+
+import pandas as pd
+
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import ClaimResult
+from pipeline.experiments.kit.pages import as_ratio, format_number
+from pipeline.experiments.kit.results import numeric, rows_matching
+
+TECHNIQUE = "time_technique"
+TOTAL = "time_total"
+
+KERNELS = "cl-tiled's kernels, time_technique"
+"""How :data:`TECHNIQUE` is named in a claim's ``expected`` text."""
+
+FRAMES = "whole frames, time_total"
+"""How :data:`TOTAL` is named in a claim's ``expected`` text."""
+
+
+def timed(df, what, column, **match):
+    """The rows of ``df`` matching ``match`` that have a ``column`` time; ValueError naming ``what`` if none."""
+    rows = rows_matching(df, what, **match)
+    rows = rows[numeric(rows, column).notna()]
+    if rows.empty:
+        raise ValueError(f"no {column} of {what}")
+    return rows
+
+
+def point(rows, column, statistic="median"):
+    """``statistic`` of the rows' ``column`` (their median frames)."""
+    return float(intervals.REDUCE[statistic](numeric(rows, column).dropna().to_numpy()))
+
+
+def draws(rows, column, resampler, statistic="median"):
+    """Bootstrap draws of :func:`point` (``None`` where a row kept no frames)."""
+    return intervals.statistic_draws(rows, column, statistic, resampler)
+
+
+def ratio(top, bottom, column, resampler, *, statistic="median", at_least=None, at_most=None):
+    """``top / bottom`` of ``column`` judged against the bounds with its interval (a :class:`Decision`)."""
+    return intervals.ratio_decision(top, bottom, column=column, statistic=statistic, resampler=resampler,
+                                    at_least=at_least, at_most=at_most)
+
+
+def judge(value, value_draws, *, at_least=None, at_most=None):
+    """A :class:`~pipeline.experiments.kit.intervals.Decision` of ``value`` with the interval of its draws."""
+    return intervals.decide(value, intervals.interval_of(value_draws), at_least=at_least, at_most=at_most)
+
+
+def with_interval(text, decision, show=as_ratio):
+    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval, where it has one."""
+    words = intervals.interval_words(decision, show)
+    return f"{text} ({words})" if words else text
+
+
+def combined(decisions, detail, show=as_ratio):
+    """Every scene's decision at once (fails if one fails, inconclusive if one is), measured scene by scene.
+
+    ``decisions`` is ``{scene: Decision}``; the result's interval and margin are the deciding scene's.
+    """
+    if not decisions:
+        raise ValueError("no scene to judge")
+    measured = ", ".join(f"{name}: {with_interval(show(d.value), d, show)}" for name, d in decisions.items())
+    return ClaimResult.decided(measured, intervals.combine(decisions.values()), detail)
+
+
+def counts(rows, column, label="scene"):
+    """``"C1: 1.05e+06, C8: 7.05e+06"``: a counter of each row (samples, fragments: they do not depend on the
+    machine) for a claim's detail, beside its times; ``"n/a"`` where no run reported it."""
+    if column not in rows:
+        return "n/a"
+    values = pd.to_numeric(rows[column], errors="coerce")
+    names = [int(n) if isinstance(n, float) and n.is_integer() else n for n in rows[label]]  # 1000.0 read back
+    return ", ".join(f"{name}: {format_number(value)}" for name, value in zip(names, values))
