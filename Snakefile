@@ -175,8 +175,9 @@ for _run in RUNS.values():
         INTERLEAVED.setdefault((_run.experiment, _run.interleave), []).append(_run)
 
 for (_experiment, _group), _members in INTERLEAVED.items():
+    _name = f"render_together_{_experiment}_{_group}".replace("-", "_").replace(".", "_").replace("+", "_")
     rule:
-        name: f"render_together_{_experiment}_{_group}".replace("-", "_").replace(".", "_").replace("+", "_")
+        name: _name
         input:
             volumes=sorted({f"{CACHE}/{key}.npy" for member in _members for key in volume_requests(member)}),
             environment=f"{R}/environment.json",
@@ -195,6 +196,11 @@ for (_experiment, _group), _members in INTERLEAVED.items():
         shell:
             "NUMBA_NUM_THREADS={threads} {PY} -m pipeline.jobs render --run {params.runs:q}"
             " --profile {PROFILE_JSON:q} --device-env {input.environment}"
+    # What a workflow profile sets for `render` (on a cluster: a node of its own, its memory) holds for
+    # these render jobs too: `set-resources` names rules, and these rules' names are made here.
+    _set = workflow.resource_settings.overwrite_resources
+    for _resources in (_set.get("render"), _set.get(_name)):
+        workflow.get_rule(_name).resources.update(_resources or {})
 
 
 rule render:

@@ -51,9 +51,10 @@ VARYING_FACTORS = (0.25, 4.0)
 """The range of the random factors :func:`varying_claims` multiplies each varying value by."""
 
 
-TIMING_INFO = ("info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "rerun")
+TIMING_INFO = ("info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "info_starved",
+               "rerun")
 """What the timing harness decides from the times themselves: how many frames the budget took, when the
-warm-up settled, whether the machine was disturbed (:mod:`pipeline.timing`)."""
+warm-up settled, whether the machine was disturbed or a parallel run starved (:mod:`pipeline.timing`)."""
 
 
 def is_timing(column):

@@ -21,6 +21,10 @@ FOREIGN_LIMIT = 0.25
 """Cores of other work, averaged over the timed frames, above which a run is disturbed. Snakemake
 and the job's own wrapper stay far below it (they wait); one busy program on another core is 1."""
 
+FOREIGN_NOISE = 0.1
+"""Cores of other work under which the machine counts as quiet: Snakemake, the job's wrapper and the
+kernel's own threads. Above it, this process's waits for a CPU are others' doing (:func:`verdict`)."""
+
 STEAL_LIMIT = 0.05
 """Share of the timed span a virtual machine's CPUs were taken by the hypervisor."""
 
@@ -142,10 +146,13 @@ def verdict(load, totals, waits=(), walls=()):
     """
     reasons = []
     foreign, steal, waited = load.get("foreign_cores"), load.get("steal_share"), load.get("waited_share")
-    if waited is not None and waited > WAIT_LIMIT:
+    # A process's threads also wait for each other (llvmpipe's rasterizer threads and the thread that
+    # feeds them outnumber the cores): waits are another program's doing only where one was working.
+    others = foreign is not None and foreign > FOREIGN_NOISE
+    if others and waited is not None and waited > WAIT_LIMIT:
         reasons.append(f"its threads waited {100 * waited:.0f} % of the time for a CPU")
     slow = sum(wait > FRAME_WAIT_LIMIT * wall for wait, wall in zip(waits, walls))
-    if slow:
+    if others and walls and slow / len(walls) > OUTLIER_SHARE:
         reasons.append(f"{slow} of {len(walls)} frames waited over {100 * FRAME_WAIT_LIMIT:.0f} % of their time "
                        "for a CPU")
     if foreign is not None and foreign > FOREIGN_LIMIT:

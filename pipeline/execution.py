@@ -75,7 +75,8 @@ def execute_together_limited(runs, *, profile, device_environment=None, start_me
             records.append(json.loads(path.read_text()))
             continue
         if killed:
-            reason, cause = time_limit_reason(limit * len(runs)), "time-limit"
+            group = f" per run ({limit * len(runs):g} s for its interleave group of {len(runs)})" if len(runs) > 1 else ""
+            reason, cause = time_limit_reason(limit) + group, "time-limit"
         else:
             reason, cause = f"the render process died without a record (exit code {child.exitcode})", "crash"
         record = new_record(run, device_environment)

@@ -116,8 +116,14 @@ def _judge_short_views(live, job_load):
             if load.get("foreign_cores") is None:
                 load["job_foreign_cores"] = foreign
                 view["info"]["load"] = load
+                waited = load.get("waited_share")
+                reason = ""
                 if foreign > disturbance.FOREIGN_LIMIT:
                     reason = f"other work used {foreign:.2f} cores during its job"
+                elif foreign > disturbance.FOREIGN_NOISE and waited is not None and waited > disturbance.WAIT_LIMIT:
+                    reason = (f"its threads waited {100 * waited:.0f} % of the time for a CPU while other work used "
+                              f"{foreign:.2f} cores during its job")
+                if reason:
                     view["info"]["disturbed"] = "; ".join(filter(None, [view["info"].get("disturbed"), reason]))
 
 
@@ -140,14 +146,18 @@ def _time_view(name, members):
         arms.append((renderer, _view_scene(scene, view)[0]))
     results = measure_together(arms, **frames)
     rerun = None
-    disturbed = "; ".join(sorted({r.info["disturbed"] for r in results if r.info.get("disturbed")}))
+    disturbed = _reasons(results)
     if disturbed:
         time.sleep(RERUN_PAUSE)
         again = measure_together(arms, **frames)
-        still = "; ".join(sorted({r.info["disturbed"] for r in again if r.info.get("disturbed")}))
-        quieter = _foreign(again) < _foreign(results)
+        still = _reasons(again)
+        quieter = not still or _foreign(again) < _foreign(results)
         rerun = {"first": disturbed, "second": still, "kept": "second" if quieter else "first"}
         if quieter:
+            for kept, cold in zip(again, results):
+                # The cold frame (compilation, first uploads) happened in the first attempt only.
+                if "first_frame" in cold.timings:
+                    kept.timings["first_frame"] = kept.info["first_frame"] = cold.timings["first_frame"]
             results = again
     for (member_run, record, record_path, _, _), result in zip(members, results):
         view = next(v for v in member_run.views if v["view"] == name)
@@ -164,6 +174,12 @@ def _time_view(name, members):
             "timings_max": result.timings_max, "counters": result.counters, "info": result.info,
             "frames": result.frames, "interleaved": len(members), "rerun": rerun,
         })
+
+
+def _reasons(results):
+    """Why the arms' frames were disturbed, each reason once (the load's are every arm's), or ``""``."""
+    return "; ".join(dict.fromkeys(reason for result in results
+                                   for reason in (result.info.get("disturbed") or "").split("; ") if reason))
 
 
 def _foreign(results):

@@ -175,3 +175,71 @@ def test_the_report_shows_earlier_runs_experiments_with_their_dates_and_the_drop
                           "c2002-third (date not recorded).")
     assert notices[1].startswith("Left out: the results of gone1999-renamed, which volbench no longer has")
     assert report_contents(runs, claims, list(registry.values()), registry, tmp_path / "other") == (list(registry.values()), [])
+
+
+def test_a_views_frames_load_and_second_timing_are_columns_of_its_row(tmp_path):
+    from pipeline.collect import rows_for
+    from pipeline.experiments import Run
+    from pipeline.records import new_record, run_record_path, write_json
+
+    run = Run("e", "a", "reference", {"volumes": [{"dataset": "sphere"}]}, ({"view": "front"},), interleave="g")
+    record = new_record(run, {})
+    load = {"seconds": 1.2, "foreign_cores": 0.7, "own_cores": 1.0, "steal_share": 0.0, "waited_share": 0.2,
+            "load_average": 1.5, "elapsed": 1.0}
+    record["views"] = [{"view": "front", "png": "front.png", "exr": "front.exr", "timings": {"total": 0.0011},
+                        "timings_min": {"total": 0.001}, "timings_max": {"total": 0.0012}, "counters": {},
+                        "info": {"frames": 3, "load": load, "disturbed": "other work used 0.70 cores while it was timed"},
+                        "frames": {"total": [0.001, 0.0012, 0.0011]},
+                        "rerun": {"first": "other work used 1.20 cores while it was timed",
+                                  "second": "other work used 0.70 cores while it was timed", "kept": "second"}}]
+    path = run_record_path(tmp_path, "e", "a")
+    write_json(path, record)
+    (row,) = rows_for(path, results_dir=tmp_path)
+    assert row["interleave"] == "g" and row["frames_total"] == "0.001 0.0012 0.0011"
+    assert {k: v for k, v in row.items() if k.startswith("load_")} == {
+        "load_foreign_cores": 0.7, "load_steal_share": 0.0, "load_waited_share": 0.2, "load_average": 1.5}
+    assert row["info_disturbed"] == "other work used 0.70 cores while it was timed" and row["info_frames"] == 3
+    assert row["rerun"] == ("timed twice: other work used 1.20 cores while it was timed; the second too: "
+                            "other work used 0.70 cores while it was timed; kept the second")
+    record["views"][0]["rerun"] = {"first": "3 of 10 frames took over 3× the median", "second": "", "kept": "second"}
+    record["views"][0]["frames"] = {}
+    record["interleave"] = None
+    write_json(path, record)
+    (row,) = rows_for(path, results_dir=tmp_path)
+    assert row["rerun"] == "timed twice: 3 of 10 frames took over 3× the median; the second was quiet; kept the second"
+    assert row["interleave"] == "" and not any(k.startswith("frames_") for k in row)
+
+
+def test_claims_table_gives_each_timing_claim_its_interval_and_margin():
+    import numpy as np
+    import pandas as pd
+
+    from pipeline.collect import CLAIM_COLUMNS, claims_table
+    from pipeline.experiments import Claim, Experiment
+    from pipeline.experiments.kit.checks import Bound, Measure, Ratio
+    from pipeline.experiments.kit.intervals import format_frames
+
+    slow, fast = Measure("slow", match={"config": "slow"}), Measure("fast", match={"config": "fast"})
+
+    class Speed(Experiment):
+        name = "test-speed"
+        claims = (Claim("faster", "fast is faster", "≥ ×1.5", Ratio(slow, fast, at_least=1.5)),
+                  Claim("twice", "fast is twice as fast", "≥ ×2", Ratio(slow, fast, at_least=2.0)),
+                  Claim("sharp", "fast is sharp", "≥ 40 dB", Bound(Measure("fast", match={"config": "fast"},
+                                                                           column="psnr", unit="dB"), at_least=40)))
+
+    noise = 1 + 0.02 * np.random.default_rng(3).standard_normal(30)
+    frame = pd.DataFrame([{"experiment": "test-speed", "run": config, "view": "front", "status": "ok",
+                           "config": config, "time_total": float(np.median(seconds * noise)),
+                           "frames_total": format_frames(seconds * noise), "psnr": 42.0}
+                          for config, seconds in (("slow", 0.004), ("fast", 0.002))])
+    table = claims_table(frame, [Speed()])
+    assert list(table.columns) == CLAIM_COLUMNS
+    table = table.set_index("claim")
+    assert table.loc["faster", "verdict"] == "holds" and 1.5 < table.loc["faster", "interval_low"] < 2.0
+    assert table.loc["faster", "interval_high"] > 2.0 and table.loc["faster", "margin"] == pytest.approx(1 / 3)
+    assert table.loc["twice", "verdict"] == "inconclusive" and table.loc["twice", "holds"] is None
+    assert table.loc["twice", "interval_low"] < 2.0 < table.loc["twice", "interval_high"]
+    # A metric has no frames: a point verdict, with its margin and no interval.
+    assert table.loc["sharp", "verdict"] == "holds" and table.loc["sharp", "margin"] == pytest.approx(0.05)
+    assert np.isnan(table.loc["sharp", "interval_low"]) and np.isnan(table.loc["sharp", "interval_high"])

@@ -80,6 +80,33 @@ def test_timings_durations_and_the_environment_are_left_out(folders):
     assert compare.run_differences(a, b) == []
 
 
+@pytest.mark.parametrize("column", [
+    "time_total", "time_composite_min", "stat_generation_seconds",  # times and durations
+    "frames_total", "frames_technique",  # every timed frame
+    "load_foreign_cores", "load_steal_share", "load_waited_share", "load_job_foreign_cores", "load_average",
+    "info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "info_starved", "rerun",
+])
+def test_what_the_timing_harness_measured_or_decided_from_the_times_is_timing(column):
+    assert compare.is_timing(column)
+
+
+@pytest.mark.parametrize("column", ["count_samples", "psnr", "info_step", "info_untimed", "interleave", "view",
+                                    "option_step_factor", "stat_mean"])
+def test_what_the_scene_and_options_decide_is_not_timing(column):
+    assert not compare.is_timing(column)
+
+
+def test_the_timing_harness_columns_are_left_out(folders):
+    a, b = folders
+    timing = {"frames_total": "0.0012 0.0013 0.0011", "load_foreign_cores": "0.7", "load_waited_share": "0.2",
+              "info_frames": "3", "info_disturbed": "other work used 0.70 cores while it was timed",
+              "info_starved": "2 workers had 1.3 free cores (other work used 0.70)", "rerun": "timed twice: ..."}
+    _edit_csv(b / "runs.csv", lambda frame: frame.assign(**timing))  # in one folder only, as a rerun under load
+    assert compare.run_differences(a, b) == []
+    _edit_csv(b / "runs.csv", lambda frame: frame.assign(count_new="1"))
+    assert compare.run_differences(a, b) == [f"runs.csv columns only in {b}: count_new"]
+
+
 def test_a_changed_value_or_a_missing_row_is_a_run_difference(folders):
     a, b = folders
     _, row = _row(a, "reference")

@@ -1,10 +1,12 @@
 """Tests of the experiments' kit (pipeline.experiments.kit): settings by scale, planning helpers, checks."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
 from core.errors import InputError
 from pipeline.experiments.kit.checks import Band, Bound, Growth, Measure, Ratio
+from pipeline.experiments.kit.intervals import format_frames
 from pipeline.experiments.kit.model import Experiment, Paper, Profile
 from pipeline.experiments.kit.planning import listed, scene, truth_run
 
@@ -77,3 +79,53 @@ def test_bound_band_and_growth():
     assert (cubic(sizes).measured, cubic(sizes).holds) == ("3", True)
     with pytest.raises(ValueError, match="need three values of size"):
         cubic(sizes.iloc[:2])
+
+
+NOISE = 1 + 0.02 * np.random.default_rng(5).standard_normal(30)
+"""Thirty frames' relative noise (2 %)."""
+
+
+def _framed(seconds, **tags):
+    """A row timed over thirty frames around ``seconds``: its median and its frames, as collect writes them."""
+    frames = seconds * NOISE
+    return {"status": "ok", "view": "front", **tags, "time_total": float(np.median(frames)),
+            "frames_total": format_frames(frames)}
+
+
+def test_a_ratio_on_timed_frames_has_an_interval_and_a_margin_and_may_be_inconclusive():
+    df = pd.DataFrame([_framed(0.011, run="a", config="rc"), _framed(0.004, run="b", config="rc-b")])
+    check = Ratio(Measure("RC", match={"config": "rc"}), Measure("RC-b", match={"config": "rc-b"}), at_least=2.5)
+    result = check(df)
+    low, high = result.interval
+    assert 2.5 < low < 2.75 < high and result.holds is True and not result.inconclusive
+    assert result.margin == pytest.approx(0.1, abs=0.01)
+    assert result.measured == f"×2.75 (95 % CI ×{low:.3g}–×{high:.3g})"
+    straddling = Ratio(check.numerator, check.denominator, at_least=2.75)(df)
+    assert straddling.inconclusive and straddling.holds is None and straddling.interval == result.interval
+    assert Ratio(check.numerator, check.denominator, at_least=3.0)(df).holds is False
+    plain = check(df.drop(columns="frames_total"))  # results written before frames were kept
+    assert (plain.measured, plain.holds, plain.interval, plain.inconclusive) == ("×2.75", True, None, False)
+
+
+def test_a_bound_on_a_time_has_an_interval_in_seconds():
+    df = pd.DataFrame([_framed(0.010, scene="a"), _framed(0.012, scene="b")])
+    ceiling = Bound(Measure("the slowest frame", statistic="max"), at_most=0.0125)
+    result = ceiling(df)
+    low, high = result.interval
+    assert low < 0.012 < high < 0.0125 and result.holds is True
+    assert result.margin == pytest.approx(0.04, abs=0.005)
+    straddling = Bound(ceiling.measure, at_most=0.012)(df)
+    assert straddling.inconclusive and straddling.holds is None
+    psnr = Bound(Measure("the worst image", column="psnr", statistic="min", unit="dB"), at_least=40)
+    assert psnr(df.assign(psnr=[41.0, 42.0])).interval is None  # a metric has no frames
+
+
+def test_a_growth_exponent_on_timed_frames_has_an_interval():
+    sizes = pd.DataFrame([_framed(1e-3 * (size / 32) ** 3, size=size) for size in (32, 64, 128, 256)])
+    cubic = Growth(Measure("frame time"), "size", at_most=3.2)
+    result = cubic(sizes)
+    low, high = result.interval
+    assert low < 3.0 < high < 3.2 and result.holds is True and result.margin == pytest.approx(0.2 / 3.2, abs=0.01)
+    straddling = Growth(Measure("frame time"), "size", at_most=3.0)(sizes)
+    assert straddling.inconclusive and straddling.holds is None
+    assert Growth(Measure("frame time"), "size", at_least=3.5)(sizes).holds is False

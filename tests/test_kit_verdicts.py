@@ -1,9 +1,12 @@
 """Tests of claim verdicts (pipeline.experiments.kit.verdicts): a claim that would read a run that did not
 happen is blocked, naming it; one that does not read it keeps its verdict."""
 
+import numpy as np
 import pandas as pd
 import pytest
 
+from pipeline.experiments.kit.checks import Measure, Ratio
+from pipeline.experiments.kit.intervals import format_frames
 from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.results import numeric, one_row, rows_matching, stage_time
 from pipeline.experiments.kit.verdicts import claim_sentences, depends_on_missing, judge
@@ -98,3 +101,47 @@ def test_take_away_sentences_leave_blocked_claims_to_the_claims_table():
                  ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
     assert claim_sentences((RATIO, PEEL_ONLY), rows) == [
         "depth peeling renders C1 under 10 ms: ok, holds ()."]
+
+
+NOISE = 1 + 0.02 * np.random.default_rng(11).standard_normal(30)
+"""Thirty frames' relative noise (2 %)."""
+
+
+def _timed(run, seconds, **extra):
+    """An ``ok`` row of ``run`` with thirty timed frames around ``seconds`` (as collect writes them)."""
+    frames = seconds * NOISE
+    return (run, "tiled", run.split(".")[0], "ok", "", float(np.median(frames)),
+            {"frames_total": format_frames(frames), **extra})
+
+
+SPEED_UP = Claim("speed-up", "C1 is at least twice as fast as C8", "≥ ×2",
+                 Ratio(Measure("C8", match={"scene": "C8"}), Measure("C1", match={"scene": "C1"}), at_least=2.0))
+
+
+def test_a_timing_claim_whose_interval_straddles_its_bound_is_inconclusive():
+    rows = _runs(_timed("C1.tiled", 0.002), _timed("C8.tiled", 0.004))
+    verdict = judge(SPEED_UP, rows)
+    assert verdict.verdict == "inconclusive" and verdict.holds is None
+    low, high = verdict.interval
+    assert low < 2.0 < high and verdict.margin == pytest.approx(0.0)
+    assert verdict.measured.startswith("×2 (95 % CI")
+    assert claim_sentences((SPEED_UP,), rows) == [
+        f"C1 is at least twice as fast as C8: {verdict.measured}, inconclusive ({verdict.detail})."]
+    clear = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002), _timed("C8.tiled", 0.005)))
+    assert clear.verdict == "holds" and clear.interval[0] > 2.0 and clear.margin == pytest.approx(0.25)
+    short = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002), _timed("C8.tiled", 0.003)))
+    assert short.verdict == "fails" and short.interval[1] < 2.0 and short.margin == pytest.approx(-0.25)
+
+
+def test_a_verdict_that_rests_on_a_disturbed_view_is_inconclusive():
+    disturbed = {"info_disturbed": "other work used 1.00 cores while it was timed"}
+    # C8 disturbed: ten times faster it would not be twice as slow as C1.
+    rows = _runs(_timed("C1.tiled", 0.002, info_disturbed=""), _timed("C8.tiled", 0.005, **disturbed))
+    verdict = judge(SPEED_UP, rows)
+    assert verdict.verdict == "inconclusive" and verdict.holds is None
+    assert verdict.detail.startswith("inconclusive: its verdict rests on 1 view timed while the machine was disturbed "
+                                     "(C8.tiled/front: other work used 1.00 cores while it was timed)")
+    assert judge(SPEED_UP, rows.drop(columns="frames_total")).verdict == "inconclusive"  # on its times alone
+    # Both disturbed alike (timed together): their ratio does not move, the verdict stands.
+    alike = _runs(_timed("C1.tiled", 0.002, **disturbed), _timed("C8.tiled", 0.005, **disturbed))
+    assert judge(SPEED_UP, alike).verdict == "holds"

@@ -16,14 +16,14 @@ import numpy as np
 import pytest
 
 import renderers
-from core.errors import InputError
-from pipeline import digests, execution, jobs, records, rendering
+from core.errors import InputError, UnsupportedFeatureError
+from pipeline import digests, disturbance, execution, jobs, records, rendering
 from pipeline.digests import mark_retry
-from pipeline.execution import execute_limited, time_limit_reason
+from pipeline.execution import execute_limited, execute_together_limited, time_limit_reason
 from pipeline.experiments import Profile, Run, plan
 from pipeline.records import image_digest, run_record_path
 from pipeline.scene_io import phantom_requests
-from renderers.base import Capabilities, Renderer
+from renderers.base import Capabilities, Renderer, RenderResult
 from reports.imageio import write_exr, write_png
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -49,11 +49,48 @@ class Crashing(Renderer):
         os._exit(9)  # dies like a segfault in native code: no record, no exception
 
 
+class Raising(Renderer):
+    """Fails in its kernel, as a backend bug would."""
+
+    name = "raising"
+    capabilities = Capabilities()
+
+    def _render(self, scene):
+        raise RuntimeError("kernel exploded")
+
+
+class Unsupporting(Renderer):
+    """Lacks a feature every scene uses: its runs are skipped before they start."""
+
+    name = "unsupporting"
+    capabilities = Capabilities()
+
+    def check(self, scene):
+        raise UnsupportedFeatureError(self.name, "volumes", "it renders none")
+
+    def _render(self, scene):
+        raise AssertionError("a skipped run rendered")
+
+
+class Counting(Renderer):
+    """A blank frame whose time is the number of frames rendered so far, in ms; the cold frame takes 50 ms."""
+
+    name = "counting"
+    capabilities = Capabilities()
+    calls = 0
+
+    def _render(self, scene):
+        Counting.calls += 1
+        if Counting.calls == 1:
+            time.sleep(0.05)
+        return RenderResult(np.zeros((scene.height, scene.width, 4), np.float32), timings={"total": Counting.calls / 1e3})
+
+
 @pytest.fixture
 def profile(tmp_path, monkeypatch):
     # The child process is spawned fresh: it gets these registry entries from its parent.
-    monkeypatch.setitem(renderers.BACKENDS, "hanging", f"{__name__}:Hanging")
-    monkeypatch.setitem(renderers.BACKENDS, "crashing", f"{__name__}:Crashing")
+    for backend in (Hanging, Crashing, Raising, Unsupporting, Counting):
+        monkeypatch.setitem(renderers.BACKENDS, backend.name, f"{__name__}:{backend.__name__}")
     return Profile(name="t", volume_size=8, results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
                    render_time_limit=120)
 
@@ -113,6 +150,119 @@ def test_no_limit_runs_in_process(profile, monkeypatch):
     monkeypatch.setattr(rendering, "execute_together", lambda runs, **kw: calls.extend(runs) or [{"status": "ok"}])
     assert execute_limited(_run("x", "reference"), profile=replace(profile, render_time_limit=None)) == {"status": "ok"}
     assert len(calls) == 1
+
+
+def _grouped(run_id, backend, views=("front", "side"), **kw):
+    """A timed run of interleave group ``g`` over ``views`` (the side view turned 90°)."""
+    cameras = {"front": {}, "side": {"azimuth": 90}}
+    return Run("volbench-phantoms", run_id, backend, SCENE, tuple({"view": v, **cameras[v]} for v in views),
+               warmup=1, repeat=3, interleave="g", **kw)
+
+
+@pytest.fixture
+def quiet(monkeypatch):
+    """The machine reads as quiet: no view is timed twice, whatever else runs beside the test."""
+    monkeypatch.setattr(disturbance, "verdict", lambda *args, **kwargs: "")
+
+
+def test_the_runs_of_an_interleave_group_are_timed_together_view_by_view(profile, quiet):
+    runs = [_grouped("coarse", "reference", options={"step_factor": 1.0}),
+            _grouped("fine", "reference", options={"step_factor": 0.5}, views=("front",))]
+    coarse, fine = rendering.execute_together(runs, profile=profile)
+    assert coarse["status"] == fine["status"] == "ok"
+    assert [v["view"] for v in coarse["views"]] == ["front", "side"] and [v["view"] for v in fine["views"]] == ["front"]
+    front, side, fine_front = coarse["views"][0], coarse["views"][1], fine["views"][0]
+    # The shared view: frame i of each run is from round i, so both have as many frames.
+    assert front["interleaved"] == fine_front["interleaved"] == 2 and side["interleaved"] == 1
+    assert len(front["frames"]["total"]) == len(fine_front["frames"]["total"]) >= 3
+    assert front["rerun"] is None and front["timings"]["first_frame"] > 0
+    for record in (coarse, fine):  # each run its own record and images, as if rendered alone
+        on_disk = json.loads(run_record_path(profile.results, record["experiment"], record["run"]).read_text())
+        assert on_disk["views"] == record["views"] and on_disk["interleave"] == "g"
+        assert all(Path(view["exr"]).is_file() and record["run"] in view["exr"] for view in record["views"])
+    assert coarse["options"]["step_factor"] == 1.0 and fine["options"]["step_factor"] == 0.5
+
+
+def test_a_member_whose_backend_raises_fails_alone(profile, quiet):
+    good, bad, skipped = rendering.execute_together(
+        [_grouped("good", "reference", options={"step_factor": 1.0}), _grouped("bad", "raising"),
+         _grouped("skipped", "unsupporting")], profile=profile)
+    assert (bad["status"], bad["cause"], bad["reason"]) == ("failed", "error", "RuntimeError: kernel exploded")
+    assert "kernel exploded" in bad["traceback"] and bad["views"] == []
+    assert skipped["status"] == "skipped" and skipped["cause"] == "unsupported"
+    assert good["status"] == "ok", good["reason"]
+    # Timed alone once the group's attempt failed.
+    assert [(v["view"], v["interleaved"]) for v in good["views"]] == [("front", 1), ("side", 1)]
+    assert json.loads(run_record_path(profile.results, "volbench-phantoms", "bad").read_text())["status"] == "failed"
+
+
+BUSY = "other work used 1.00 cores while it was timed"
+
+
+@pytest.mark.parametrize("reasons, loads, kept", [
+    ((BUSY, ""), (1.0, 0.2), "second"),  # quiet the second time: kept
+    ((BUSY, "other work used 2.00 cores while it was timed"), (1.0, 2.0), "first"),  # busier the second time
+    ((BUSY, "other work used 0.50 cores while it was timed"), (1.0, 0.5), "second"),  # less busy: the quieter
+    # Interrupted frames the first time, none the second; spans too short for the load in both.
+    (("3 of 10 frames took over 3× the median", ""), (None, None), "second"),
+])
+def test_a_disturbed_view_is_timed_again_and_the_quieter_attempt_kept(profile, monkeypatch, reasons, loads, kept):
+    monkeypatch.setattr(rendering, "RERUN_PAUSE", 0.0)
+    monkeypatch.setattr(Counting, "calls", 0)
+    said, measured, judged_after = iter(reasons), iter(loads), []
+
+    def verdict(*args, **kwargs):
+        judged_after.append(Counting.calls)  # the frames an attempt had rendered when its verdict came
+        return next(said)
+
+    monkeypatch.setattr(disturbance, "verdict", verdict)
+    # The timing harness reads the load once per attempt; the render job once more over the whole job.
+    monkeypatch.setattr(disturbance, "between", lambda start, end: {
+        "seconds": 1.0, "foreign_cores": next(measured, None), "own_cores": None, "steal_share": None})
+    record = rendering.execute(_grouped("busy", "counting", views=("front",)), profile=profile)
+    assert record["status"] == "ok", record["reason"]
+    view = record["views"][0]
+    assert view["rerun"] == {"first": reasons[0], "second": reasons[1], "kept": kept}
+    assert view["info"]["disturbed"] == reasons[kept == "second"]
+    assert view["info"]["load"]["foreign_cores"] == loads[kept == "second"]
+    assert (min(view["frames"]["total"]) > judged_after[0] / 1e3) == (kept == "second")
+    # The cold frame is the first attempt's, whichever attempt's frames are kept.
+    assert view["timings"]["first_frame"] >= 0.05 and view["info"]["first_frame"] == view["timings"]["first_frame"]
+
+
+def test_a_disturbed_group_is_timed_again_together_and_says_each_reason_once(profile, monkeypatch):
+    monkeypatch.setattr(rendering, "RERUN_PAUSE", 0.0)
+    said = iter([BUSY, f"{BUSY}; 3 of 10 frames took over 3× the median", "", ""])  # two arms, two attempts
+    monkeypatch.setattr(disturbance, "verdict", lambda *args, **kwargs: next(said))
+    records = rendering.execute_together([_grouped("a", "counting", views=("front",)),
+                                          _grouped("b", "counting", views=("front",))], profile=profile)
+    for record in records:
+        view = record["views"][0]
+        assert view["interleaved"] == 2 and view["info"]["disturbed"] == ""
+        assert view["rerun"] == {"first": f"{BUSY}; 3 of 10 frames took over 3× the median", "second": "", "kept": "second"}
+    assert len(records[0]["views"][0]["frames"]["total"]) == len(records[1]["views"][0]["frames"]["total"])
+
+
+def test_a_group_killed_at_its_limit_records_every_unfinished_member_failed(profile):
+    limited = replace(profile, render_time_limit=1)
+    runs = [_grouped("done", "reference", options={"step_factor": 1.0}, views=("front",)),
+            _grouped("stuck", "hanging", views=("front",)), _grouped("skipped", "unsupporting", views=("front",))]
+    started = time.monotonic()
+    # Spawned: a test before may have started Numba's OpenMP threads, which a forked child cannot use.
+    done, stuck, skipped = execute_together_limited(runs, profile=limited)
+    assert 3 <= time.monotonic() - started < 15  # the group's limit: the profile's times its three runs
+    reason = "exceeded the profile's render_time_limit of 1 s per run (3 s for its interleave group of 3)"
+    for record in (done, stuck):  # written when the group ends: the reference's too, timed or not
+        assert (record["status"], record["cause"], record["reason"]) == ("failed", "time-limit", reason)
+        assert json.loads(run_record_path(limited.results, "volbench-phantoms", record["run"]).read_text()) == record
+    assert skipped["status"] == "skipped"  # recorded before the group was timed
+
+
+def test_a_group_whose_process_dies_records_its_members_as_crashed(profile):
+    records = execute_together_limited([_grouped("a", "crashing", views=("front",)),
+                                        _grouped("b", "unsupporting", views=("front",))], profile=profile)
+    assert [(r["status"], r["cause"]) for r in records] == [("failed", "crash"), ("skipped", "unsupported")]
+    assert "exit code 9" in records[0]["reason"]
 
 
 @pytest.mark.parametrize("value", [0, -5, "soon", float("inf")])

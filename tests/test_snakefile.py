@@ -1,6 +1,7 @@
 """The Snakefile reruns what an edit or a failure makes stale, and nothing else (dry runs on a copy)."""
 
 import json
+import math
 import re
 import shutil
 import subprocess
@@ -116,8 +117,6 @@ def test_a_failed_run_is_retried_on_the_next_run(workflow):
 
 def test_the_slurm_profile_gives_each_render_a_node_its_runtime_and_a_gpu_where_it_needs_one(tmp_path):
     """A dry run through the SLURM workflow profile: per-job resources as the executor will see them."""
-    import math
-
     import renderers
     from pipeline.experiments import Profile, plan
 
@@ -165,3 +164,40 @@ def test_a_stale_lock_left_by_a_killed_run_is_removed_and_the_run_goes_on(workfl
     out = capsys.readouterr().out
     assert f"volbench: removed a stale Snakemake lock from {locks}" in out and "volbench: report at" in out
     assert not list(locks.glob("*.lock"))
+
+
+def test_the_runs_of_an_interleave_group_are_one_render_job(tmp_path):
+    """A dry run of a profile whose sweep runs share a group per scene: one job renders each group's runs."""
+    from pipeline.experiments import Profile, plan
+
+    tree = tmp_path / "tree"
+    for entry in ("core", "datasets", "renderers", "reports", "pipeline", "config"):
+        shutil.copytree(ROOT / entry, tree / entry, ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copy(ROOT / "Snakefile", tree / "Snakefile")
+    module = tree / "pipeline" / "experiments" / "volbench" / "convergence.py"
+    sweep_tags = 'tags={"scene": scene_name, "step_factor": factor, "role": "sweep"}'
+    assert sweep_tags in module.read_text()
+    module.write_text(module.read_text().replace(sweep_tags, f"{sweep_tags}, interleave=scene_name"))
+    profile = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
+    profile.update(results="results", cache="cache", experiments=["volbench-convergence"])
+    (tree / "profile.yaml").write_text(yaml.safe_dump(profile))
+    runs = plan(Profile.from_mapping(profile)).values()  # this checkout's plan: the same runs, ungrouped
+    scenes = sorted({run.tags["scene"] for run in runs})
+    assert len(scenes) > 1
+
+    planned = _planned(tree, tree / "profile.yaml")
+    together = {f"render_together_volbench_convergence_{scene.replace('-', '_')}": scene for scene in scenes}
+    assert {rule: count for rule, count in planned.items() if rule.startswith("render_together_")} == \
+        dict.fromkeys(together, 1)
+    assert planned["render"] == sum(run.tags["role"] == "truth" for run in runs)  # the ungrouped runs, one job each
+    # On a cluster each is a render job as any other: a node of its own, the time of all its runs.
+    text = _snakemake(tree, tree / "profile.yaml", "--dry-run", "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"))
+    jobs = dict(re.findall(r"rule (render_together_\w+):\n(.*?)(?=^\s*\[|^\S|\Z)", text, re.M | re.S))
+    assert set(jobs) == set(together)
+    for rule, scene in together.items():
+        members = [run.id for run in runs if run.tags["scene"] == scene and run.tags["role"] == "sweep"]
+        assert re.search(r"output: (.*)", jobs[rule])[1].split(", ") == \
+            [f"results/runs/volbench-convergence/{run}.json" for run in members]
+        resources = dict(item.split("=", 1) for item in re.search(r"resources: (.*)", jobs[rule])[1].split(", "))
+        assert resources["slurm_extra"] == "--exclusive" and resources["mem_mb"] == "4000" and resources["gpu"] == "0"
+        assert int(resources["runtime"]) == (math.ceil(profile["render_time_limit"] / 60) + 10) * len(members)
