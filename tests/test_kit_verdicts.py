@@ -146,6 +146,11 @@ def test_a_verdict_that_rests_on_a_disturbed_view_is_inconclusive():
     # brute force and early termination did: ×1.71 quiet, ×3.0 loaded), so their ratio cannot decide.
     both = _runs(_timed("C1.tiled", 0.002, **disturbed), _timed("C8.tiled", 0.005, **disturbed))
     assert judge(SPEED_UP, both).verdict == "inconclusive"
-    # A claim far from its bound whatever the disturbance did (×1000 against ×2) keeps its verdict.
+    # Far from its bound too: a random slow-down rarely restores what a disturbance broke, so a verdict
+    # that reads disturbed times is not trusted however far it is from its bound.
     far = _runs(_timed("C1.tiled", 0.002, **disturbed), _timed("C8.tiled", 2.0, **disturbed))
-    assert judge(SPEED_UP, far).verdict == "holds"
+    assert judge(SPEED_UP, far).verdict == "inconclusive"
+    # A claim that reads no disturbed view keeps its verdict.
+    other = _runs(_timed("C1.tiled", 0.002, info_disturbed=""), _timed("C8.tiled", 0.005, info_disturbed=""),
+                  _timed("C9.tiled", 0.001, **disturbed))
+    assert judge(SPEED_UP, other).verdict == "holds"
