@@ -108,14 +108,14 @@ def _span(numbers):
 def _cause_groups(rows, reasons, timed_twice):
     """``rows`` whose ``reasons`` are not empty, grouped by experiment and cause.
 
-    A reason may join several causes with ``"; "`` (:func:`pipeline.disturbance.verdict`); a view counts
-    under each. Causes differing only in their numbers are one cause, said with the range of each number
-    (``"other work used 0.75–2.34 cores while it was timed"``).
+    A reason may join several causes with ``"; "`` (:func:`pipeline.disturbance.verdict`); they stay
+    together, so that each view is listed once. Reasons differing only in their numbers are one, said
+    with the range of each number (``"other work used 0.75–2.34 cores while it was timed"``).
     """
     groups = {}
     for index, reason in reasons.items():
         row = rows.loc[index]
-        for cause in filter(None, (part.strip() for part in reason.split(";"))):
+        for cause in filter(None, ["; ".join(part.strip() for part in reason.split(";") if part.strip())]):
             key = (row["experiment"], tuple(_NUMBER.split(cause)))
             group = groups.setdefault(key, {"numbers": [], "runs": {}, "views": 0, "timed_twice": 0, "rows": []})
             group["numbers"].append(_NUMBER.findall(cause))

@@ -80,13 +80,17 @@ def test_disturbed_views_are_grouped_by_experiment_and_cause_with_the_range_of_t
     found = outcomes.timing_disturbances(_rows(info_disturbed=DISTURBED, rerun=RERUN))
     groups = [{k: g[k] for k in ("experiment", "cause", "views", "timed_twice", "runs", "records")}
               for g in found["disturbed"]]
+    # A view's causes stay together, so that each view is listed once.
     assert groups == [
-        {"experiment": "e1", "cause": "other work used 0.75–2.34 cores while it was timed", "views": 2,
-         "timed_twice": 1, "runs": ["a", "b"], "records": ["runs/a.json", "runs/b.json"]},
-        {"experiment": "e1", "cause": "3 of 20 frames took over 3× the median", "views": 1, "timed_twice": 0,
-         "runs": ["b"], "records": ["runs/b.json"]},
+        {"experiment": "e1", "cause": "other work used 0.75 cores while it was timed", "views": 1,
+         "timed_twice": 1, "runs": ["a"], "records": ["runs/a.json"]},
+        {"experiment": "e1", "cause": "other work used 2.34 cores while it was timed; 3 of 20 frames took over 3× "
+         "the median", "views": 1, "timed_twice": 0, "runs": ["b"], "records": ["runs/b.json"]},
         {"experiment": "e2", "cause": "other work used 1.00 cores while it was timed", "views": 1, "timed_twice": 1,
          "runs": ["c"], "records": ["runs/c.json"]}]
+    merged = outcomes.timing_disturbances(_rows(info_disturbed=[DISTURBED[0], np.nan, DISTURBED[3], np.nan, np.nan],
+                                                experiment=["e1"] * 5))
+    assert [g["cause"] for g in merged["disturbed"]] == ["other work used 0.75–1.00 cores while it was timed"]
     assert found["starved"] == [] and found["views"] == 5
     assert found["quiet_again"] == {"e2": 1}  # run d: disturbed, timed again, quiet
     assert outcomes.disturbance_notice(found).startswith("3 of the 5 timed views on this page were disturbed")
@@ -156,11 +160,11 @@ def test_pages_list_disturbed_and_starved_runs_and_say_so_on_the_paper_page(tmp_
     index, page = _report(tmp_path, runs)
     listing = index[index.index('id="disturbances"'):index.index('id="environment"')]
     items = re.findall(r"<li>(.*?)</li>", listing, flags=re.S)
-    assert len(items) == 3  # two causes (e1 and e2 are one experiment here), one starved run
-    assert "other work used 0.75–2.34 cores while it was timed — 3 views (2 still disturbed when timed again)" \
-        in items[0]
+    assert len(items) == 3  # two sets of causes (e1 and e2 are one experiment here), one starved run
+    assert "other work used 0.75–1.00 cores while it was timed — 2 views, still disturbed when timed again" in items[0]
+    assert "other work used 2.34 cores while it was timed; 3 of 20 frames took over 3× the median — 1 view" in items[1]
     links = re.findall(r'<a href="([^"]+)">(\w)</a>', items[0])
-    assert links == [("data/runs/a.json", "a"), ("data/runs/b.json", "b"), ("data/runs/c.json", "c")]
+    assert links == [("data/runs/a.json", "a"), ("data/runs/c.json", "c")]
     assert "starved, 2 workers had 1.4 free cores (other work used 0.60) — 1 parallel run" in items[2]
     assert 'href="data/runs/d.json">d</a>' in items[2]
     assert ("until there are at least 5 of them and they took at least 0.5 s (the profile's repeat and min_time"
