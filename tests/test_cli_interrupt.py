@@ -1,6 +1,7 @@
 """Ctrl-C: ``volbench`` stops promptly and quietly, and the reference renderer's kernels, which
 cannot be interrupted, are told to stop (:func:`renderers.reference.renderer.run_stoppable`)."""
 
+import dataclasses
 import os
 import select
 import signal
@@ -87,6 +88,9 @@ def _slow_scenes():
 @pytest.mark.parametrize("scene", list(_slow_scenes()), ids=["volume", "mesh"])
 def test_ctrl_c_stops_the_kernel_mid_frame(scene):
     backend = reference.ReferenceRenderer(step_factor=0.002)
+    # Compiled first: from a cold Numba cache the first frame compiles for seconds, and the signal would
+    # arrive during compilation, not in the kernel this test interrupts.
+    backend.render(dataclasses.replace(scene, width=2, height=2))
     threads = numba.get_num_threads()
     numba.set_num_threads(1)  # a frame of many seconds on any machine (the kernel thread takes this count)
     sigint = threading.Timer(0.3, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT))
