@@ -85,27 +85,38 @@ def _slow_scenes():
     yield Scene((instance,), meshes=[mesh], camera=camera, width=160, height=160)
 
 
-@pytest.mark.parametrize("scene", list(_slow_scenes()), ids=["volume", "mesh"])
-def test_ctrl_c_stops_the_kernel_mid_frame(scene):
+def interrupted_frame(index):
+    """Seconds from the start of slow scene ``index``'s frame until Ctrl-C stopped it (in this process)."""
+    scene = list(_slow_scenes())[index]
     backend = reference.ReferenceRenderer(step_factor=0.002)
     # Compiled first: from a cold Numba cache the first frame compiles for seconds, and the signal would
     # arrive during compilation, not in the kernel this test interrupts.
     backend.render(dataclasses.replace(scene, width=2, height=2))
-    threads = numba.get_num_threads()
     numba.set_num_threads(1)  # a frame of many seconds on any machine (the kernel thread takes this count)
     sigint = threading.Timer(0.3, signal.pthread_kill, (threading.main_thread().ident, signal.SIGINT))
     started = time.monotonic()
     sigint.start()
     try:
-        with pytest.raises(KeyboardInterrupt):
-            backend.render(scene)
+        backend.render(scene)
+    except KeyboardInterrupt:
         stopped = time.monotonic() - started
-    finally:
-        sigint.cancel()
-        numba.set_num_threads(threads)
-    assert stopped < 1.5
+    else:
+        raise AssertionError("the frame ended without KeyboardInterrupt")
     # The kernel has returned: the kernel thread is free at once.
     reference._kernel_thread().submit(lambda: None).result(timeout=0.5)
+    return stopped
+
+
+@pytest.mark.parametrize("index", [0, 1], ids=["volume", "mesh"])
+def test_ctrl_c_stops_the_kernel_mid_frame(index):
+    # In a fresh interpreter: in a long-lived pytest-xdist worker the signal was now and then not turned
+    # into KeyboardInterrupt (a fresh clone's CI; not reproduced alone), and Ctrl-C is a whole process's.
+    script = (f"import sys; sys.path.insert(0, {str(Path(__file__).parent)!r}); "
+              f"import test_cli_interrupt as t; print(t.interrupted_frame({index}))")
+    done = subprocess.run([sys.executable, "-c", script], capture_output=True, text=True, timeout=120,
+                          cwd=Path(__file__).parent.parent)
+    assert done.returncode == 0, done.stderr
+    assert float(done.stdout.split()[-1]) < 1.5
 
 
 def test_pre_classification_stops_when_told():
