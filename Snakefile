@@ -174,8 +174,11 @@ for _run in RUNS.values():
     if _run.interleave:
         INTERLEAVED.setdefault((_run.experiment, _run.interleave), []).append(_run)
 
-for (_experiment, _group), _members in INTERLEAVED.items():
-    _name = f"render_together_{_experiment}_{_group}".replace("-", "_").replace(".", "_").replace("+", "_")
+# Short rule names: a cluster job's name joins the names of every rule of its group. With names made
+# of the experiment and group, kruger2003-stability's (four groups) was cut short with "...", and
+# its SLURM job was never submitted: the workflow waited for it. The runs are in the rule's outputs.
+for _index, ((_experiment, _group), _members) in enumerate(INTERLEAVED.items()):
+    _name = f"render_together_{_index}"
     rule:
         name: _name
         input:

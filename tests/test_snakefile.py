@@ -186,18 +186,19 @@ def test_the_runs_of_an_interleave_group_are_one_render_job(tmp_path):
     assert len(scenes) > 1
 
     planned = _planned(tree, tree / "profile.yaml")
-    together = {f"render_together_volbench_convergence_{scene.replace('-', '_')}": scene for scene in scenes}
-    assert {rule: count for rule, count in planned.items() if rule.startswith("render_together_")} == \
-        dict.fromkeys(together, 1)
+    together = {rule: count for rule, count in planned.items() if rule.startswith("render_together_")}
+    assert len(together) == len(scenes) and set(together.values()) == {1}  # one job per group
     assert planned["render"] == sum(run.tags["role"] == "truth" for run in runs)  # the ungrouped runs, one job each
     # On a cluster each is a render job as any other: a node of its own, the time of all its runs.
     text = _snakemake(tree, tree / "profile.yaml", "--dry-run", "--workflow-profile", str(ROOT / "config" / "profiles" / "slurm"))
     jobs = dict(re.findall(r"rule (render_together_\w+):\n(.*?)(?=^\s*\[|^\S|\Z)", text, re.M | re.S))
     assert set(jobs) == set(together)
-    for rule, scene in together.items():
-        members = [run.id for run in runs if run.tags["scene"] == scene and run.tags["role"] == "sweep"]
-        assert re.search(r"output: (.*)", jobs[rule])[1].split(", ") == \
-            [f"results/runs/volbench-convergence/{run}.json" for run in members]
+    outputs = {rule: re.search(r"output: (.*)", job)[1].split(", ") for rule, job in jobs.items()}
+    groups = {scene: [f"results/runs/volbench-convergence/{run.id}.json" for run in runs
+                      if run.tags["scene"] == scene and run.tags["role"] == "sweep"] for scene in scenes}
+    assert sorted(outputs.values()) == sorted(groups.values())  # each group's runs are one job's outputs
+    for rule in together:
+        members = outputs[rule]
         resources = dict(item.split("=", 1) for item in re.search(r"resources: (.*)", jobs[rule])[1].split(", "))
         assert resources["slurm_extra"] == "--exclusive" and resources["mem_mb"] == "4000" and resources["gpu"] == "0"
         assert int(resources["runtime"]) == (math.ceil(profile["render_time_limit"] / 60) + 10) * len(members)
