@@ -342,8 +342,12 @@ def claims_with_values_of(frame, source, experiments, *, workdir):
             sources[path] = {v["view"]: v for v in json.loads(Path(path).read_text()).get("views", [])}
         return (sources[path].get(view, {}).get(part) or {}).get(name, value)
 
+    # read_runs drops the columns no run filled, so one side may lack a column (no run starved or was
+    # disturbed there) that the other fills: the result takes exactly source's, filled or not.
+    varying = [c for c in source.columns if is_timing(c) or c in scheduling_columns()]
+    frame = frame.assign(**{column: np.nan for column in varying if column not in frame})
     replaced = with_varying_values(frame, workdir, entries=entry,
-                                   columns=lambda column, values: source[column] if column in source else values)
+                                   columns=lambda column, values: source[column] if column in source else np.nan)
     return claims_table(replaced, experiments)
 
 

@@ -186,6 +186,21 @@ def test_claims_judged_with_the_values_of_another_run(folders, tmp_path):
     pd.testing.assert_frame_equal(compare.claims_with_values_of(second, first, experiments, workdir=tmp_path), expected)
 
 
+def test_claims_judged_with_the_values_of_a_run_that_fills_other_columns(folders, tmp_path):
+    """A harness column only one run filled (a disturbed view there, none here) comes from the source,
+    and a column the source left empty is empty in the result (a CI run failed on this)."""
+    a, b = folders
+    _edit_csv(b / "runs.csv", lambda frame: frame.assign(
+        info_disturbed=np.where(frame.experiment == TIMING_CLAIM[0], "the machine was busy", "")))
+    experiments = [get(name) for name in EXPERIMENTS]
+    quiet, disturbed = compare.read_runs(a), compare.read_runs(b)
+    assert "info_disturbed" not in quiet
+    assert not claims_table(disturbed, experiments).equals(claims_table(quiet, experiments))
+    for frame, source in ((quiet, disturbed), (disturbed, quiet)):
+        pd.testing.assert_frame_equal(compare.claims_with_values_of(frame, source, experiments, workdir=tmp_path),
+                                      claims_table(source, experiments))
+
+
 def test_scheduling_dependent_record_entries_are_replaced_in_copies(folders, tmp_path):
     a, b = folders
     _, row = _row(b, "shearwarp")
