@@ -340,6 +340,8 @@ def _reals():
               ["lacroute1995", "xue2005"],
               {"bone": P.opaque(110, 160, P.BONE_COLOR, name="bone"),
                "skin": _skin_and_bone(110, 160, band=(25, 40, 60, 75)),
+               "isbvr": P.points([(40, P.SKIN_COLOR, 0.0), (160, P.BONE_COLOR, 1.0)], name="isbvr",
+                                 description="iso_t 40 (skin), iso_p 160 (bone) (note 001)"),
                "volpack": P.volpack()}, "bone", "CT head"),
         _real("mrihead", "T1 MRI head with skull, 188×256×190, 0.88 mm.",
               ["kruger2003", "lacroute1995"],

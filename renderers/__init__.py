@@ -23,6 +23,7 @@ BACKENDS = {
     "vtk-cpu": "renderers.vtk.cpu:VtkCpuRenderer",
     "gl-raycast": "renderers.gl.raycast:GLRaycastRenderer",
     "gl-slicer": "renderers.gl.slicer:GLSlicerRenderer",
+    "gl-isbvr": "renderers.gl.isbvr:GLIsbvrRenderer",
     "cl-tiled": "renderers.cl.tiled:ClTiledRenderer",
     "gl-peel": "renderers.gl.peeling:GLPeelRenderer",
 }

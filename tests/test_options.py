@@ -52,6 +52,10 @@ EXPECTED_OPTIONS = {
     "gl-slicer": ({"step_factor": 0.5, "order": "back-to-front", "count_contributing": True, "timing": "auto",
                    "effective_step": None, "effective_timing": None},
                   [{"step_factor": 1.0}, {}, {"step_factor": 0.25}]),
+    "gl-isbvr": ({"step_factor": 1.0, "order": "back-to-front", "zinit": "ess+ert", "surfaces": "reduced",
+                  "phi_t_node": 8, "phi_p_node": 2, "depth_offset": 1.0, "shader": "volume", "extra_taps": 0,
+                  "count_fragments": True, "timing": "auto", "effective_step": None, "effective_timing": None},
+                 [{}, {"step_factor": 0.5}, {"step_factor": 0.25}]),
     "cl-tiled": ({"step_factor": 0.5, "depth_cap": 63, "fragments": "local", "opaque_threshold": 0.99,
                   "empty_space": "hull", "brick_size": 8, "min_opacity": 0.0, "triangle_order": "scene",
                   "media": "analytic", "coverage": "bitmask", "stop_after": "composite", "device": None,
@@ -278,7 +282,7 @@ def test_world_step_is_the_factor_times_the_smallest_world_voxel_edge():
     assert world_step(only_a_mesh, 0.25) is None
 
 
-@pytest.mark.parametrize("name, copies", [("reference", 1), ("gl-raycast", 1), ("gl-slicer", 1), ("gl-peel", 2),
+@pytest.mark.parametrize("name, copies", [("reference", 1), ("gl-raycast", 1), ("gl-slicer", 1), ("gl-isbvr", 1), ("gl-peel", 2),
                                           ("cl-tiled", 2), ("vtk-gpu", 2)])
 def test_backends_that_step_in_world_space_use_the_shared_step(name, copies):
     scene = scaled_scene(copies)

@@ -99,6 +99,10 @@ float slice_ratio(float w, vec3 ray_dir, vec3 d, vec2 span) {
 SLICE_FRAGMENT = """
 in vec3 v_tex;
 out vec4 o_color;
+#ifdef EXTRA_TAPS
+uniform vec3 u_tap_offset;
+uniform float u_tap_weight;
+#endif
 
 void main() {
 #if defined(MODE_DVR)
@@ -114,6 +118,14 @@ void main() {
     if (alpha > 0.0) {
         rgb = shade(rgb, v_tex, ray_dir);
     }
+#endif
+#ifdef EXTRA_TAPS
+    // A heavier shader (iSBVR's complexity knob): taps the compiler must keep, weighted 0 at run time.
+    float taps = 0.0;
+    for (int i = 1; i <= EXTRA_TAPS; i++) {
+        taps += texture(u_volume, v_tex + float(i) * u_tap_offset).r;
+    }
+    rgb += u_tap_weight * taps;
 #endif
     o_color = vec4(alpha * rgb, alpha);             // premultiplied
 #else
