@@ -125,7 +125,10 @@ def cmd_render(args):
     write_images(result.image, [args.output, args.exr])
     print(f"wrote {args.output}" + (f" and {args.exr}" if args.exr else ""))
     for stage, seconds in result.timings.items():
-        print(f"  time {stage:12s} {seconds:10.4f} s (min {result.timings_min[stage]:.4f}, max {result.timings_max[stage]:.4f})")
+        # The cold frame and preprocessing are timed once; the frames' stages have extremes.
+        spread = (f"(min {result.timings_min[stage]:.4f}, max {result.timings_max[stage]:.4f})"
+                  if stage in result.timings_min else "(once)")
+        print(f"  time {stage:12s} {seconds:10.4f} s {spread}")
     for name, value in result.counters.items():
         print(f"  count {name:11s} {value}")
 

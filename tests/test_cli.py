@@ -15,13 +15,16 @@ def test_list_shows_backends_datasets_experiments(capsys):
     assert "ct_skull" in out and "volbench-convergence" in out
 
 
-def test_render_writes_png_and_exr_and_prints_timings(tmp_path, capsys, monkeypatch):
+@pytest.mark.parametrize("warmup", [0, 1])
+def test_render_writes_png_and_exr_and_prints_timings(tmp_path, capsys, monkeypatch, warmup):
     monkeypatch.setenv("VOLBENCH_CACHE", str(tmp_path / "cache"))
     png, exr = tmp_path / "s.png", tmp_path / "s.exr"
-    assert main(["render", "sphere", "--size", "16", "--image", "24", "--repeat", "1", "--warmup", "0",
+    assert main(["render", "sphere", "--size", "16", "--image", "24", "--repeat", "1", "--warmup", str(warmup),
                  "--option", "step_factor=0.5", "--output", str(png), "--exr", str(exr)]) == 0
     out = capsys.readouterr().out
     assert "time total" in out and "count samples" in out
+    # With a warm-up the cold first frame is timed once, beside the frames' extremes.
+    assert ("time first_frame" in out and "(once)" in out) == bool(warmup)
     image = read_image(exr)
     assert image.shape == (24, 24, 4) and image[..., 3].max() > 0.5
 
