@@ -80,6 +80,11 @@ void main() {
 }
 """
 
+TIE_OFFSET = (0.0, 4.0)
+"""Polygon offset ``(factor, units)`` that breaks depth ties between Φ_t's faces and the slices (``_init_passes``):
+a few units of depth resolution (a slope factor would move faces seen at a grazing angle by up to a voxel, culling
+less)."""
+
 SIMPLE_FRAGMENT = glsl.VERSION + """
 out vec4 o_color;
 void main() {
@@ -91,10 +96,11 @@ void main() {
 
 @dataclass(frozen=True)
 class Surfaces:
-    """One classification's depth-init geometry: ``(T, 3, 3)`` texture-space triangles and counts."""
+    """One classification's depth-init geometry: ``(T, 3, 3)`` texture-space triangles (``None``: not drawn,
+    the mode does not use it or the transfer function has no such surface) and counts."""
 
-    phi_t: np.ndarray
-    phi_p: np.ndarray
+    phi_t: np.ndarray | None
+    phi_p: np.ndarray | None
     cubes_t: int
     cubes_p: int
     iso_t: float | None
@@ -137,7 +143,7 @@ def _node_size(value, *, name):
     try:
         return isosurfaces.check_node_size(value, name=name)
     except ValueError as exc:
-        raise InputError(f"gl-isbvr: {exc}") from None
+        raise InputError(str(exc)) from None  # ``name`` is already "gl-isbvr option <name>"
 
 
 def _slicer_option(name):
@@ -217,9 +223,13 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         super()._release()
 
     # ------------------------------------------------------------------------------------------ surfaces
-    def _needs(self):
-        """``(phi_t, phi_p)``: which surfaces this frame's ``zinit`` draws."""
-        return (self.zinit in ("front", "ess", "ess+ert"), self.zinit in ("ert", "ess+ert"))
+    def _needs(self, analysis):
+        """``(phi_t, phi_p)``: which surfaces this frame's ``zinit`` draws for a transfer function's
+        :class:`~renderers.gl.isosurfaces.OpacityAnalysis`. A function without fully transparent values has no
+        Φ_t and one that is never opaque no Φ_p: their passes are left out (the paper's "no surfaces, no
+        overhead"), rather than drawing the box's own faces, which cull nothing."""
+        return (self.zinit in ("front", "ess", "ess+ert") and analysis.has_empty,
+                self.zinit in ("ert", "ess+ert") and analysis.has_opaque)
 
     def surfaces(self, instance, prep):
         """The :class:`Surfaces` of ``instance`` (volume and transfer function), built when either changes."""
@@ -230,10 +240,9 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         self._release_surfaces()
         normalised = instance.volume.normalized(np.float32)
         alpha = instance.transfer_function.table[:, 3]
-        want_t, want_p = self._needs()
-        empty = np.zeros((0, 3, 3), np.float32)
-        phi_t, cubes_t, iso_t = empty, 0, None
-        phi_p, cubes_p, iso_p = empty, 0, None
+        want_t, want_p = self._needs(isosurfaces.analyse(alpha))
+        phi_t, cubes_t, iso_t = None, 0, None
+        phi_p, cubes_p, iso_p = None, 0, None
         if want_t:
             with prep.cpu("phi_t"):
                 phi_t, cubes_t, iso_t = build_phi_t(normalised, alpha, node_size=self.phi_t_node,
@@ -245,7 +254,7 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         found = Surfaces(phi_t, phi_p, cubes_t, cubes_p, iso_t, iso_p)
         buffers = {}
         for name, triangles in (("phi_t", phi_t), ("phi_p", phi_p)):
-            if len(triangles):
+            if triangles is not None and len(triangles):
                 with prep.upload(name):
                     buffers[name] = self._ctx.buffer(np.ascontiguousarray(triangles, np.float32).tobytes())
         self._surfaces = (key, found, buffers)
@@ -314,21 +323,23 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         fbo.use()
         ctx.front_face = "cw" if np.linalg.det(view.uniforms["u_tex_to_world"]) < 0 else "ccw"
         push = self.depth_offset * view.step
-        init_passes = self._init_passes(surfaces, surface_vaos, box_vao, init_program, push)
+        init_passes = self._init_passes(surfaces, surface_vaos, box_vao, push)
         if init_passes:
             fbo.color_mask = (False, False, False, False)
             fbo.depth_mask = True
             ctx.enable_only(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-            for cull, func, offset, draw in init_passes:
+            for cull, func, offset, tie, draw in init_passes:
                 ctx.cull_face, ctx.depth_func = cull, func
+                ctx.polygon_offset = (tie * TIE_OFFSET[0], tie * TIE_OFFSET[1])
                 init_program["u_push"].value = offset
                 timer.run("init", draw, count=True)
+            ctx.polygon_offset = (0.0, 0.0)
             fbo.color_mask = (True, True, True, True)
         # The volume pass: depth tested (not written) against the init passes' depth.
         fbo.depth_mask = False
         flags = moderngl.BLEND | (moderngl.DEPTH_TEST if self.zinit != "none" else 0)
         ctx.enable_only(flags)
-        ctx.depth_func = ">" if self.zinit == "front" else "<"
+        ctx.depth_func = ">" if self.zinit == "front" and surfaces.phi_t is not None else "<"
         if self.order == "back-to-front":
             ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
         else:
@@ -346,7 +357,8 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         counters = {"slices": int(depths.size), "triangles": int(len(triangles)), "fragments": drawn,
                     "samples": drawn, "init_fragments": int(sum(fragments.get("init", [0]))),
                     "cubes_t": surfaces.cubes_t, "cubes_p": surfaces.cubes_p,
-                    "surface_triangles_t": int(len(surfaces.phi_t)), "surface_triangles_p": int(len(surfaces.phi_p))}
+                    "surface_triangles_t": len(surfaces.phi_t if surfaces.phi_t is not None else ()),
+                    "surface_triangles_p": len(surfaces.phi_p if surfaces.phi_p is not None else ())}
         info = {"step": view.step, "step_factor": self.step_factor, "order": self.order, "zinit": self.zinit,
                 "timing": timer.method, "uploaded": list(prep.uploaded), "scalar_format": scalars.format,
                 "shading_applied": phong and self.shader == "volume", "iso_t": surfaces.iso_t, "iso_p": surfaces.iso_p}
@@ -362,18 +374,28 @@ class GLIsbvrRenderer(GLSlicerRenderer):
             surface_vao.release()
         return RenderResult(image=image, timings=timings, counters=counters, info=info)
 
-    def _init_passes(self, surfaces, vaos, box_vao, program, push):
-        """``[(cull_face, depth_func, push, draw)]``: the depth-init sequence of ``zinit`` (note 001 §2.4)."""
+    def _init_passes(self, surfaces, vaos, box_vao, push):
+        """``[(cull_face, depth_func, push, tie, draw)]``: the depth-init sequence of ``zinit`` (note 001 §2.4),
+        without the passes of a surface the transfer function does not have (:meth:`_needs`).
+
+        ``tie`` is the sign of the polygon offset (:data:`TIE_OFFSET`) that moves Φ_t's faces to the side they
+        do not cull: where visible material touches the box's faces, a slice can meet a face at the same depth
+        up to rounding (perspective depth has few bits there), and the test would cull its visible sample.
+        Moving a face that way only culls less, and it is not clipped as a moved vertex could be.
+        """
         def draw(name):
             vao = vaos.get(name)
             return (lambda: vao.render()) if vao is not None else (lambda: None)
 
-        box = ("back", "<", 0.0, box_vao.render)
-        exit_faces = ("front", ">", 0.0, draw("phi_t"))          # back faces of Φ_t, the farthest wins
-        opaque_front = ("back", "<", push, draw("phi_p"))        # front faces of Φ_p, the nearest wins
-        return {"none": [], "cull-all": [], "ert": [opaque_front],
-                "front": [("back", "<", 0.0, draw("phi_t"))],
-                "ess": [box, exit_faces], "ess+ert": [box, exit_faces, opaque_front]}[self.zinit]
+        box = ("back", "<", 0.0, 0, box_vao.render)
+        exit_faces = ("front", ">", 0.0, 1, draw("phi_t"))       # back faces of Φ_t, the farthest wins
+        opaque_front = ("back", "<", push, 0, draw("phi_p"))     # front faces of Φ_p, the nearest wins
+        leaping = surfaces.phi_t is not None
+        terminating = [opaque_front] if surfaces.phi_p is not None else []
+        return {"none": [], "cull-all": [], "ert": terminating,
+                "front": [("back", "<", 0.0, -1, draw("phi_t"))] if leaping else [],
+                "ess": [box, exit_faces] if leaping else [],
+                "ess+ert": ([box, exit_faces] if leaping else []) + terminating}[self.zinit]
 
     def _count(self, ctx, targets, simple, buffer, slice_triangles, surface_vaos, program, push):
         """F (every slice fragment) and F_t, F_p (the surfaces' fragments), by occlusion queries without depth tests."""

@@ -1,0 +1,386 @@
+"""``xue2005-costmodel`` (E4, E5): Eq. 9's speed-up against the measured one, and the shader-complexity sweep.
+
+For each of Table 1's four stand-ins, Basic slicing, ESS+ERT and Basic's slices drawn with the trivial shader
+are timed in one interleave group: the trivial shader gives T_s (draw time over the slices' fragments F),
+Basic gives T_c the same way, and ESS+ERT's occlusion queries give F'_c (fragments shaded), F_t and F_p (the
+surfaces' fragments). Eq. 9 (:mod:`.costmodel`) then predicts ESS+ERT's speed-up over Basic, which is set
+beside the measured one over the passes the model covers (the depth-init passes and the volume pass), with
+whole frames beside that. On one stand-in the volume shader gets 0, 4 and 16 extra texture taps, Basic and
+ESS+ERT at each in the same group, for the abstract's claim that iSBVR gains more as the shader grows.
+"""
+
+import numpy as np
+import pandas as pd
+
+from core.errors import InputError
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table, not_measurable
+from pipeline.experiments.kit.planning import (dataset_view, headline_view, listed, missing_options, phantom, scene,
+                                               timed_frames, unregistered)
+from pipeline.experiments.kit.results import numeric, ok_rows, text_column
+from pipeline.experiments.xue2005 import costmodel
+from pipeline.experiments.xue2005.earlyz import all_of, can_plan, isbvr_run, judged, per_fragment, select, with_interval
+from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, mode_name
+from pipeline.experiments.xue2005.tables import IMPLIED_CULLING, IMPLIED_GAMMAS, TABLE1, paper_speedup
+from reports import blocks, plots
+
+STAND_INS = ("aneurysm", "head", "golden_lady", "bonsai")
+"""Table 1's four stand-ins (keys of :data:`~pipeline.experiments.xue2005.tables.TABLE1`)."""
+
+SWEEP_SCENE = "head"
+"""The stand-in of the shader-complexity sweep: the most opaque, so the most culled fragments to gain from."""
+
+EXTRA_TAPS = (0, 4, 16)
+"""Extra volume-texture fetches per fragment of the sweep (0: the volume shader as it is)."""
+
+BAND = 0.2
+"""The issue's target: predicted δ within 20 % of the measured δ, |predicted / measured − 1| ≤ 0.2."""
+
+STRICTLY_ABOVE_ONE = float(np.nextafter(1.0, 2.0))
+"""The bound of a strict rise: the intervals' bounds are inclusive, and an equal speed-up rises nowhere."""
+
+PASSES = "the depth-init passes and the volume pass (time_init + time_draw), summed over the views"
+"""The scope of the measured speed-up: the passes Eq. 9 covers."""
+
+COUNTS = {"fragments": "count_fragments_generated", "shaded": "count_fragments",
+          "surface_t": "count_surface_fragments_t", "surface_p": "count_surface_fragments_p"}
+"""Eq. 9's fragment counts (F, F'_c, F_t, F_p) and the columns of ESS+ERT's rows that hold them."""
+
+
+# ------------------------------------------------------------------------------------------ measurement
+def _summed(rows, column, resampler):
+    """``(value, draws)``: each view's median ``column`` (bootstrap draws from its frames) summed over the views."""
+    draws = intervals.row_draws(rows, column, resampler)
+    return float(numeric(rows, column).sum()), None if draws is None else draws.sum(axis=1)
+
+
+def with_passes(rows):
+    """``rows`` with ``time_passes`` and ``frames_passes``: each frame's depth-init plus volume pass."""
+    rows = rows.copy()
+    if "frames_init" in rows and "frames_draw" in rows:
+        frames = zip(map(intervals.parse_frames, rows.frames_init), map(intervals.parse_frames, rows.frames_draw))
+        summed = [a + b if a is not None and b is not None and len(a) == len(b) else None for a, b in frames]
+        if all(s is not None for s in summed):
+            rows["frames_passes"] = [intervals.format_frames(s) for s in summed]
+            rows["time_passes"] = [float(np.median(s)) for s in summed]
+            return rows
+    rows["time_passes"] = numeric(rows, "time_init") + numeric(rows, "time_draw")
+    return rows
+
+
+def _per_view(rows, views):
+    return rows[text_column(rows, "view").isin(views)].sort_values("view")
+
+
+def _ratio(top, bottom):
+    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair."""
+    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
+
+
+def scene_model(df, scene_name, taps, resampler):
+    """Eq. 9 and the measured speed-up of ESS+ERT over Basic on one scene at ``taps`` extra taps, over its views.
+
+    Returns a dict of the summed counts, α', φ and γ, T_s and T_c per fragment and the ``(value, draws)`` pairs
+    ``predicted``, ``measured`` (:data:`PASSES`) and ``whole`` (whole frames). T_s and T_c are each view's draw
+    time over its F, so Eq. 9 is evaluated per view and its times summed.
+    """
+    basic = select(df, "basic", taps, scene=scene_name)
+    isbvr = select(df, "ess+ert", taps, scene=scene_name)
+    simple = select(df, "simple", scene=scene_name)
+    for name, rows in (("Basic", basic), ("ESS+ERT", isbvr), ("trivial-shader", simple)):
+        if rows.empty:
+            raise ValueError(f"{scene_name}, {taps} extra taps: no successful {name} run")
+    views = sorted(set(basic.view) & set(isbvr.view) & set(simple.view))
+    if not views:
+        raise ValueError(f"{scene_name}: Basic, ESS+ERT and the trivial shader share no view")
+    basic, isbvr, simple = (with_passes(_per_view(rows, views)) for rows in (basic, isbvr, simple))
+    counts = {name: numeric(isbvr, column).to_numpy(float) for name, column in COUNTS.items()}
+    fragments = counts["fragments"]
+    if not (fragments > 0).all():
+        raise ValueError(f"{scene_name}: ESS+ERT counted no slice fragments (count_fragments_generated)")
+
+    def eq9(simple_draw, basic_draw):
+        # Each view's T_s and T_c (draw time over its F), Eqs. 7 and 8 per view, summed.
+        t_simple, t_complex = simple_draw / fragments, basic_draw / fragments
+        time = (costmodel.isbvr_init_time(surface_t=counts["surface_t"], surface_p=counts["surface_p"],
+                                          t_simple=t_simple)
+                + costmodel.isbvr_volume_time(fragments=fragments, shaded=counts["shaded"], t_simple=t_simple,
+                                              t_complex=t_complex))
+        return np.sum(basic_draw, axis=-1) / np.sum(time, axis=-1)
+
+    point = eq9(numeric(simple, "time_draw").to_numpy(float), numeric(basic, "time_draw").to_numpy(float))
+    simple_draws = intervals.row_draws(simple, "time_draw", resampler)
+    basic_draws = intervals.row_draws(basic, "time_draw", resampler)
+    predicted = (float(point), None if simple_draws is None or basic_draws is None else eq9(simple_draws, basic_draws))
+    t_simple, t_complex = per_fragment(simple, resampler), per_fragment(basic, resampler)
+    total = {name: float(values.sum()) for name, values in counts.items()}
+    return {"scene": scene_name, "taps": taps, "views": len(views), **total,
+            "alpha": costmodel.culling_rate(total["fragments"], total["shaded"]),
+            "phi": costmodel.surface_share(total["fragments"], total["surface_t"], total["surface_p"]),
+            "gamma": costmodel.shader_ratio(t_simple[0], t_complex[0]), "t_simple": t_simple[0],
+            "t_complex": t_complex[0], "predicted": predicted,
+            "measured": _ratio(_summed(basic, "time_passes", resampler), _summed(isbvr, "time_passes", resampler)),
+            "whole": _ratio(_summed(basic, "time_total", resampler), _summed(isbvr, "time_total", resampler)),
+            "psnr": float(numeric(isbvr, "psnr").min()) if "psnr" in isbvr else np.nan}
+
+
+def _scenes(df, taps=0):
+    """The stand-ins with an ESS+ERT run at ``taps`` extra taps, in Table 1's order."""
+    present = set(text_column(select(df, "ess+ert", taps), "scene"))
+    scenes = [s for s in STAND_INS if s in present]
+    if not scenes:
+        raise ValueError("no successful ESS+ERT run of a stand-in")
+    return scenes
+
+
+def _sweep(df):
+    """``(scene, taps)``: the scene swept over extra taps and its taps, ascending (at least two)."""
+    rows = select(df, "ess+ert")
+    taps = numeric(rows, "extra_taps")
+    swept = pd.unique(text_column(rows[taps > 0], "scene"))
+    if len(swept) == 0:
+        raise ValueError("no successful ESS+ERT run with extra taps")
+    values = sorted(int(t) for t in taps[text_column(rows, "scene") == swept[0]].dropna().unique())
+    if len(values) < 2:
+        raise ValueError(f"{swept[0]}: fewer than two shader complexities (extra taps {values})")
+    return str(swept[0]), values
+
+
+# ----------------------------------------------------------------------------------------------- claims
+def _model_words(m):
+    return (f"{m['scene']}: predicted ×{format_number(m['predicted'][0])}, measured "
+            f"×{format_number(m['measured'][0])} (whole frames ×{format_number(m['whole'][0])}); α' "
+            f"{format_number(m['alpha'])}, φ "
+            f"{format_number(m['phi'])}, γ {format_number(m['gamma'])}")
+
+
+def _eq9_within(df):
+    resampler = intervals.Resampler()
+    models = [scene_model(df, s, 0, resampler) for s in _scenes(df)]
+    decisions = {m["scene"]: judged(m["predicted"], m["measured"], at_least=1 - BAND, at_most=1 + BAND)
+                 for m in models}
+    return all_of(decisions, what=lambda d: with_interval(f"predicted / measured {as_ratio(d.value)}", d, as_ratio),
+                  detail="; ".join(_model_words(m) for m in models) + f"; measured over {PASSES}, interleaved")
+
+
+def _speedup_rises(df):
+    resampler = intervals.Resampler()
+    scene_name, taps = _sweep(df)
+    models = {k: scene_model(df, scene_name, k, resampler) for k in taps}
+    decisions = {f"{a} → {b} taps": judged(models[b]["measured"], models[a]["measured"], at_least=STRICTLY_ABOVE_ONE)
+                 for a, b in zip(taps, taps[1:])}
+    detail = ", ".join(f"{k} taps: ×{format_number(m['measured'][0])} (γ {format_number(m['gamma'])}, Eq. 9 "
+                       f"×{format_number(m['predicted'][0])})" for k, m in models.items())
+    return all_of(decisions, what=lambda d: with_interval(f"speed-up {as_ratio(d.value)}", d, as_ratio),
+                  detail=f"{scene_name}, ESS+ERT over Basic: {detail}; over {PASSES}, interleaved")
+
+
+CLAIMS = (
+    Claim("eq9-within-20", "Eq. 9 predicts iSBVR's speed-up from counted fragments and measured T_s, T_c within 20 % "
+          "(issue 23's target; the paper validates its model on no data)",
+          f"predicted δ / measured δ within ×{format_number(1 - BAND)}–×{format_number(1 + BAND)} on each of the "
+          f"four stand-ins (ESS+ERT over Basic, measured over {PASSES})", _eq9_within),
+    Claim("speedup-rises-with-complexity", "iSBVR's speed-up rises as the volume shader grows more complex (abstract)",
+          f"ESS+ERT over Basic at more extra taps / at fewer > 1 for each step of the sweep (over {PASSES})",
+          _speedup_rises),
+)
+
+
+# ------------------------------------------------------------------------------------------------- page
+def _interval_columns(pair):
+    low, high = intervals.interval_of(pair[1]) or (np.nan, np.nan)
+    return pair[0], low, high
+
+
+def _model_rows(ok):
+    """One row per stand-in (extra taps 0) and per swept complexity: counts, α', φ, γ, predicted and measured δ."""
+    resampler = intervals.Resampler()
+    wanted = [(s, 0) for s in _scenes(ok)]
+    swept = None
+    try:
+        swept, taps = _sweep(ok)
+        wanted += [(swept, k) for k in taps if k]
+    except ValueError:
+        pass
+    out = []
+    for scene_name, taps in wanted:
+        m = scene_model(ok, scene_name, taps, resampler)
+        predicted, predicted_low, predicted_high = _interval_columns(m["predicted"])
+        measured, low, high = _interval_columns(m["measured"])
+        row = {"scene": scene_name, "swept": scene_name == swept, "paper row": TABLE1[scene_name][2],
+               "extra taps": taps, "views": m["views"],
+               "F": m["fragments"], "F'_c": m["shaded"], "F_t": m["surface_t"], "F_p": m["surface_p"],
+               "α'": m["alpha"], "φ": m["phi"], "γ": m["gamma"], "T_s (ns)": 1e9 * m["t_simple"],
+               "T_c (ns)": 1e9 * m["t_complex"], "predicted δ": predicted, "predicted low": predicted_low,
+               "predicted high": predicted_high, "measured δ": measured, "measured low": low, "measured high": high,
+               "predicted / measured": predicted / measured, "measured δ, whole frames": m["whole"][0],
+               "paper δ": paper_speedup(scene_name, "ess+ert"), "PSNR vs Basic (dB)": m["psnr"]}
+        row.update({f"paper's implied α' (γ = {g:g})": value
+                    for g, value in zip(IMPLIED_GAMMAS, IMPLIED_CULLING[scene_name])})
+        out.append(row)
+    return pd.DataFrame(out)
+
+
+def _culling_takeaways(table):
+    """Our culling rates (counts: the same on any device) against those Table 1 implies."""
+    rows = table[table["extra taps"] == 0]
+    implied = rows[f"paper's implied α' (γ = {IMPLIED_GAMMAS[0]:g})"]
+    words = [f"{scene_name} {format_number(alpha)} (paper ≥ {format_number(least)})"
+             for scene_name, alpha, least in zip(rows.scene, rows["α'"], implied)]
+    return ["ESS+ERT culls α' = (F − F'_c) / F of the slices' fragments here (occlusion queries, the same on any "
+            "device), against the least culling that explains the paper's speed-ups (Table 1, γ → 0): "
+            + ", ".join(words) + "."]
+
+
+def _chart_title(table):
+    ratios = table.loc[table["extra taps"] == 0, "predicted / measured"]
+    return (f"Eq. 9 / measured {as_ratio(ratios.min())}–{as_ratio(ratios.max())} on {len(ratios)} stand-ins "
+            f"(target {as_ratio(1 - BAND)}–{as_ratio(1 + BAND)})")
+
+
+def _chart(table, ctx):
+    points = table.assign(series=[f"{s}, extra taps" if swept else s for s, swept in zip(table.scene, table.swept)])
+    top = float(np.nanmax(points[["predicted δ", "measured high", "measured δ"]].to_numpy(float)))
+    line = (0.0, max(top, 1.0) * 1.1)
+    guides = [("y = x: the prediction exact", line, line)] + [
+        (f"predicted / measured = {format_number(bound)}", line, tuple(v / bound for v in line))
+        for bound in (1 + BAND, 1 - BAND)]
+    path, rel = ctx.plot_path("predicted-measured")
+    plots.lines(points, path, x="predicted δ", y="measured δ", group="series",
+                y_range=("measured low", "measured high"), guides=guides, title=_chart_title(table),
+                x_label="speed-up predicted by Eq. 9 (×, ESS+ERT over Basic)",
+                y_label="measured speed-up (×, init + volume passes)")
+    return blocks.Figure("Predicted against measured", rel,
+                         "One point per stand-in (the swept stand-in's complexities joined); bars: the 95 % bootstrap "
+                         f"interval of the measured speed-up ({PASSES}); grey: y = x and the 20 % band.")
+
+
+def _sweep_chart(sweep, ctx):
+    long = pd.concat([sweep.assign(series="measured (init + volume passes)", value=sweep["measured δ"],
+                                   low=sweep["measured low"], high=sweep["measured high"]),
+                      sweep.assign(series="predicted by Eq. 9", value=sweep["predicted δ"],
+                                   low=sweep["predicted low"], high=sweep["predicted high"]),
+                      sweep.assign(series="measured, whole frames", value=sweep["measured δ, whole frames"],
+                                   low=np.nan, high=np.nan)], ignore_index=True)
+    path, rel = ctx.plot_path("sweep")
+    plots.lines(long, path, x="extra taps", y="value", group="series", y_range=("low", "high"),
+                title=f"ESS+ERT over Basic from {as_ratio(sweep['measured δ'].iloc[0])} to "
+                      f"{as_ratio(sweep['measured δ'].iloc[-1])} as the shader grows ({sweep.scene.iloc[0]})",
+                x_label="extra texture taps in the volume shader (count)",
+                y_label="speed-up of ESS+ERT over Basic (×)")
+    return blocks.Figure("Speed-up against the shader's complexity", rel,
+                         "Bars: 95 % bootstrap intervals (Basic and ESS+ERT at every complexity timed interleaved).")
+
+
+RUN_COLUMNS = {"scene": "scene", "mode": "mode", "extra_taps": "extra taps", "view": "view",
+               "init_ms": "init passes (ms)", "draw_ms": "volume pass (ms)", "time_ms": "whole frame (ms)",
+               "count_fragments_generated": "F", "count_fragments": "F'_c", "count_surface_fragments_t": "F_t",
+               "count_surface_fragments_p": "F_p", "psnr": "PSNR vs Basic (dB)"}
+"""The columns of the page's run table and their names."""
+
+
+def _runs_table(ok, ctx):
+    runs = ok.assign(mode=[mode_name(c) if c in MODES else "trivial shader" for c in ok.config],
+                     init_ms=numeric(ok, "time_init") * 1e3, draw_ms=numeric(ok, "time_draw") * 1e3,
+                     time_ms=numeric(ok, "time_total") * 1e3)
+    return linked_table("Runs", runs, list(RUN_COLUMNS), ctx, names=RUN_COLUMNS)
+
+
+TABLE_COLUMNS = ("scene", "paper row", "extra taps", "views", "F", "F'_c", "F_t", "F_p", "α'", "φ", "γ", "T_s (ns)",
+                 "T_c (ns)", "predicted δ", "measured δ", "measured low", "measured high", "predicted / measured",
+                 "measured δ, whole frames", "paper δ",
+                 *(f"paper's implied α' (γ = {g:g})" for g in IMPLIED_GAMMAS), "PSNR vs Basic (dB)")
+"""The columns of the page's table of Eq. 9 per stand-in."""
+
+
+class CostModelCheck(Experiment):
+    """Eq. 9 predicted against measured on the four stand-ins, and the speed-up against the shader's complexity."""
+
+    name = "xue2005-costmodel"
+    paper = "xue2005"
+    title = "The cost model: Eq. 9 predicted against measured, and the shader-complexity sweep (E4, E5)"
+    settings = frozenset({"scenes", "sweep_scene", "extra_taps", "volume_size", "image_size", "views", "repeat"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "views": 1},
+              "default": {"volume_size": 128, "image_size": 256, "views": 3, "repeat": 5},
+              "full": {"volume_size": 256, "image_size": 512, "views": 4, "repeat": 5}}
+    description = (
+        "The paper models iSBVR's speed-up over Basic slicing from fragment counts and per-fragment times "
+        "(Eq. 9: δ = F·T_c / (F_t·T_s + F_p·T_s + (F − F'_c)·T_s + F'_c·T_c)) but validates it on no data; "
+        "issue 23 asks for the prediction within 20 % of the measured speed-up. For each of Table 1's four "
+        "stand-ins (preset isbvr, slices one voxel apart, the headline view and more around an orbit), Basic, "
+        "ESS+ERT and Basic's slices with the trivial shader are timed interleaved in one job. The occlusion "
+        "queries give F (the slices' fragments), F'_c (those ESS+ERT shades), F_t and F_p (the fragments of "
+        "the Φ_t and Φ_p surfaces); T_s is the trivial shader's draw time over F, T_c Basic's. The measured "
+        "speed-up is over the passes Eq. 9 covers (depth-init and volume passes), with whole frames beside it. "
+        "On one stand-in the volume shader gets extra texture taps, Basic and ESS+ERT at each complexity in the "
+        "same job, for the abstract's claim that the speed-up rises with the shader's cost."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not can_plan():
+            return []
+        scenes = listed(profile, self, "scenes", STAND_INS, known=STAND_INS)
+        sweep_scene = profile.setting(self, "sweep_scene", SWEEP_SCENE)
+        if sweep_scene not in scenes:
+            raise InputError(f"profile {profile.name!r} settings.{self.name}.sweep_scene: {sweep_scene!r} is not among "
+                             f"the scenes run ({', '.join(scenes)})")
+        taps = sorted({int(k) for k in profile.setting(self, "extra_taps", list(EXTRA_TAPS))})
+        if 0 not in taps or len(taps) < 2:
+            raise InputError(f"profile {profile.name!r} settings.{self.name}.extra_taps: need 0 (the volume shader as "
+                             f"it is, which Eq. 9 is checked at) and at least one more count, got {taps}")
+        size = int(profile.setting(self, "volume_size", profile.volume_size))
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        count = int(profile.setting(self, "views", 3))
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in scenes:
+            dataset, preset = TABLE1[scene_name][:2]
+            spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
+            views = [headline_view(dataset)] + [
+                dataset_view(dataset, f"orbit{i}", 30.0 + 360.0 * i / count, 20.0) for i in range(1, count)]
+            tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
+            runs.append(isbvr_run(self.name, f"{scene_name}.simple", spec, views, {"zinit": "none", "shader": "simple"},
+                                  frames, {**tags, "config": "simple", "extra_taps": 0}, group=scene_name))
+            for k in (taps if scene_name == sweep_scene else [0]):
+                prefix = scene_name if k == 0 else f"{scene_name}.t{k}"
+                for config in ("basic", "ess+ert"):
+                    runs.append(isbvr_run(self.name, f"{prefix}.{config}", spec, views,
+                                          {**MODES[config][0], "extra_taps": k}, frames,
+                                          {**tags, "config": config, "extra_taps": k}, group=scene_name,
+                                          reference=f"{prefix}.basic" if config != "basic" else None))
+        return runs
+
+    def paper_table(self):
+        rows = [{"data set (paper)": TABLE1[s][2], "stand-in": s, "ESS+ERT / Basic": paper_speedup(s, "ess+ert"),
+                 **{f"implied α' (γ = {g:g}, φ = 0)": value for g, value in zip(IMPLIED_GAMMAS, IMPLIED_CULLING[s])}}
+                for s in STAND_INS]
+        return pd.DataFrame(rows).round(3)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        try:
+            table = _model_rows(ok)
+        except (KeyError, ValueError):
+            table = pd.DataFrame()
+        out = [claim_takeaways(self.claims, results, [] if table.empty else _culling_takeaways(table))]
+        if not table.empty:
+            stand_ins = table[table["extra taps"] == 0]
+            out.append(blocks.Table("Eq. 9 per stand-in, beside the paper", stand_ins[list(TABLE_COLUMNS)],
+                                    csv_name="costmodel.csv",
+                                    caption="Counts from occlusion queries summed over the views; T_s and T_c are the "
+                                            "trivial shader's and Basic's draw time over F (so T_c averages Basic's "
+                                            "fragments, empty ones included); measured δ is Basic over ESS+ERT, "
+                                            f"{PASSES}, with its 95 % interval (low, high). The paper gives no counts: "
+                                            "its implied α' is the least culling that explains Table 1 (φ = 0)."))
+            out.append(_chart(table, ctx))
+            sweep = table[table.swept].sort_values("extra taps")
+            if len(sweep) > 1:
+                out.append(blocks.Table("Shader-complexity sweep", sweep[list(TABLE_COLUMNS)],
+                                        csv_name="costmodel_sweep.csv",
+                                        caption="The same quantities per complexity on one stand-in."))
+                out.append(_sweep_chart(sweep, ctx))
+        if not ok.empty:
+            out.append(_runs_table(ok, ctx))
+        return out + not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS, "count_fragments"))

@@ -1,0 +1,252 @@
+"""``xue2005-fuzziness`` (E11): the golden-lady stand-in's haze grows, and iSBVR's gains shrink.
+
+The paper's fuzzy golden lady gains least (Table 1: ESS 1.95×, ERT 1.18×, ESS+ERT 2.23×) because of its "large
+fuzzy area". Here the stand-in's ``haze`` (:func:`datasets.phantoms.clouds.golden_lady`) scales the low-density
+haze around the figure, from none to nearly the whole box, under the ``isbvr`` preset (iso_t 30, iso_p 190).
+Basic, ESS, ERT and ESS+ERT of one haze are one interleave group.
+"""
+
+import numpy as np
+import pandas as pd
+
+from core.errors import InputError
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
+                                            linked_table)
+from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
+from pipeline.experiments.xue2005.methods import (culled_fraction, every, isbvr_not_measurable, median_count, mode_name,
+                                                  mode_runs)
+from pipeline.experiments.xue2005.sweeps import config_rows, interval_or_nan, ratio_of, speedup
+from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
+from reports import blocks, plots
+
+SCENE = "golden_lady"
+"""The fuzzy stand-in's scene of :data:`~pipeline.experiments.xue2005.tables.TABLE1`."""
+
+HAZES = (0.0, 0.5, 1.0, 1.5)
+"""The haze swept (0: the figure alone; 1: the registry's golden lady, the paper's row; 1.5: nearly the whole box)."""
+
+PAPER_HAZE = 1.0
+"""The haze of the data set as registered: the stand-in for the paper's golden lady."""
+
+CONFIGS = ("basic", "ess", "ert", "ess+ert")
+"""Table 1's modes, each haze's interleave group."""
+
+GAINS = ("ess", "ert", "ess+ert")
+"""The modes whose speed-up over Basic the page follows."""
+
+STRICTLY_ABOVE_ONE = float(np.nextafter(1.0, 2.0))
+"""The bound of "falls": the earlier speed-up over the later one strictly above 1 (interval bounds are inclusive)."""
+
+SCOPE = "whole frames (time_total), median over the views"
+"""What every speed claim of this module compares."""
+
+
+def short_name(config):
+    """``"ESS"``: a mode's name without its explanation, for legends and labels."""
+    return mode_name(config).split(" (")[0]
+
+
+def _groups(df):
+    """``[(haze, rows)]`` of the sweep, by increasing haze; ValueError with fewer than two hazes."""
+    hazes = numeric(df, "haze")
+    values = sorted(hazes.dropna().unique())
+    if len(values) < 2:
+        raise ValueError("fewer than two haze values ran")
+    return [(float(h), df[hazes == h]) for h in values]
+
+
+def _alpha(rows, config="ess+ert"):
+    return culled_fraction(config_rows(rows, config, f"haze {rows.haze.iloc[0]:g}"))
+
+
+def _speedup_falls(df):
+    """ESS+ERT / Basic speed-up at each haze over the next: strictly above 1 at every step."""
+    groups = _groups(df)
+    resampler = intervals.Resampler()
+    speeds = [(haze, speedup(rows, "basic", "ess+ert", resampler=resampler)) for haze, rows in groups]
+    decisions = {f"haze {a:g} / {b:g}": ratio_of(sa, sb, at_least=STRICTLY_ABOVE_ONE)
+                 for (a, sa), (b, sb) in zip(speeds, speeds[1:])}
+    trend = ", ".join(f"{h:g}: {as_ratio(s[0])}" for h, s in speeds)
+    return every(decisions, what="speed-up over the next haze's ",
+                 extra=f"ESS+ERT / Basic by haze {trend} ({SCOPE}; each haze's modes interleaved)")
+
+
+def _culled_falls(df):
+    groups = _groups(df)
+    alphas = [(haze, _alpha(rows)) for haze, rows in groups]
+    falls = all(b < a for (_, a), (_, b) in zip(alphas, alphas[1:]))
+    trend = " → ".join(as_percent(a) for _, a in alphas)
+    return ClaimResult(f"α' {trend} (haze {alphas[0][0]:g} → {alphas[-1][0]:g})", falls,
+                       "ESS+ERT's culled fraction (F − F'_c)/F from occlusion queries; cubes Φ_t "
+                       + " → ".join(format_number(median_count(config_rows(rows, "ess+ert"), "count_cubes_t"))
+                                    for _, rows in groups))
+
+
+def _gains_fall(df):
+    """ESS / Basic and ERT / Basic each lower at the largest haze than at the smallest."""
+    groups = _groups(df)
+    resampler = intervals.Resampler()
+    (low, first), (high, last) = groups[0], groups[-1]
+    decisions, notes = {}, []
+    for config in ("ess", "ert"):
+        ends = [speedup(rows, "basic", config, resampler=resampler) for rows in (first, last)]
+        decisions[short_name(config)] = ratio_of(*ends, at_least=STRICTLY_ABOVE_ONE)
+        notes.append(f"{config.upper()} {as_ratio(ends[0][0])} → {as_ratio(ends[1][0])}, α' "
+                     f"{as_percent(_alpha(first, config))} → {as_percent(_alpha(last, config))}")
+    return every(decisions, what=f"speed-up at haze {low:g} over haze {high:g} ",
+                 extra="; ".join(notes) + f" ({SCOPE})")
+
+
+CLAIMS = (
+    Claim("speedup-falls", "The fuzzier the data, the less iSBVR gains (the golden lady gains least, Table 1)",
+          f"ESS+ERT / Basic speed-up strictly falls from each haze to the next: its ratio to the next haze's > 1 "
+          f"({SCOPE})", _speedup_falls),
+    Claim("culled-falls", "The haze leaves less to cull", "ESS+ERT's culled fraction α' = (F − F'_c)/F strictly "
+          "falls from each haze to the next (occlusion-query counts)", _culled_falls),
+    Claim("gains-fall-separately", "Both accelerations lose to the haze (note 001 E11: \"ESS and ERT gains fall as "
+          "the fuzzy volume grows\")", f"ESS / Basic and ERT / Basic each lower at the largest haze than at the "
+          f"smallest: ratio > 1 ({SCOPE})", _gains_fall),
+)
+
+
+# --------------------------------------------------------------------------------------------- page
+def summary(ok):
+    """One row per haze and mode: speed-up over Basic with its interval, α', cubes, fragments, PSNR vs Basic."""
+    resampler = intervals.Resampler()
+    rows = []
+    for haze, group in _groups(ok):
+        for config in GAINS:
+            try:
+                value, draws = speedup(group, "basic", config, resampler=resampler)
+                tested = config_rows(group, config)
+            except (KeyError, ValueError):
+                continue
+            low, high = interval_or_nan(draws)
+            first = tested.iloc[0]
+            generated = median_count(tested, "count_fragments_generated")
+            rows.append({"haze": haze, "config": config, "mode": mode_name(config), "speedup": value, "low": low,
+                         "high": high, "alpha": culled_fraction(tested), "F": generated,
+                         "F_c": median_count(tested, "count_fragments"),
+                         "phi": (median_count(tested, "count_surface_fragments_t")
+                                 + median_count(tested, "count_surface_fragments_p")) / generated,
+                         "cubes_t": median_count(tested, "count_cubes_t"),
+                         "cubes_p": median_count(tested, "count_cubes_p"),
+                         "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan,
+                         "paper": as_ratio(paper_speedup(SCENE, config)) if haze == PAPER_HAZE else "",
+                         "record": first.get("record"), "exr": first.get("exr")})
+    return pd.DataFrame(rows)
+
+
+COLUMNS = {"haze": "haze", "mode": "mode", "speedup": "speed-up over Basic (×)", "low": "95 % CI low",
+           "high": "95 % CI high", "paper": "paper (Table 1, golden lady)", "alpha": "α' culled",
+           "phi": "φ = (F_t + F_p) / F", "F": "F (slice fragments)", "F_c": "F'_c (shaded)", "cubes_t": "Φ_t cubes",
+           "cubes_p": "Φ_p cubes", "psnr": "PSNR vs Basic (dB)"}
+"""The summary's columns as the page names them."""
+
+
+def _figure(table, ctx):
+    path, rel = ctx.plot_path("speedup-haze")
+    both = table[table.config == "ess+ert"].sort_values("haze")
+    span = " → ".join(as_ratio(v) for v in both.speedup.iloc[[0, -1]]) if not both.empty else ""
+    ends = [table.haze.min(), table.haze.max()]
+    guides = [(f"paper {short_name(c)} {as_ratio(paper_speedup(SCENE, c))} (golden lady)", ends,
+               [paper_speedup(SCENE, c)] * 2) for c in GAINS]
+    plots.lines(table.assign(mode=[short_name(c) for c in table.config]), path, x="haze", y="speedup", group="mode",
+                y_range=("low", "high"), title=f"ESS+ERT speed-up vs haze: {span}",
+                x_label="haze (extent of the fuzzy region, "
+                "0 = none, 1 = the registered golden lady)", y_label="speed-up, Basic / mode time (×)",
+                vlines=(PAPER_HAZE,), guides=guides)
+    return blocks.Figure("Speed-ups against the haze", rel,
+                         "Each point: Basic over the mode's whole-frame time, the four modes of a haze timed "
+                         "interleaved; bars: 95 % bootstrap interval from the frames. Grey: the paper's golden-lady "
+                         f"ratios ({PAPER_DEVICE}); dotted: the registered haze.")
+
+
+def _gallery(ok, results, ctx):
+    """Basic and ESS+ERT per haze (headline view), ESS+ERT's difference from Basic on the one scale."""
+    gallery = blocks.Gallery("Headline view per haze: Basic, and ESS+ERT with its difference from Basic",
+                             diff_scale=DIFF_SCALE, caption="Right of ESS+ERT: |ESS+ERT − Basic|.")
+    rows = ok[(ok.view == "headline") & ok.config.isin(("basic", "ess+ert"))].copy()
+    rows["haze"] = numeric(rows, "haze")
+    for row in rows.sort_values(["haze", "config"]).itertuples():
+        difference = None if row.config == "basic" else ctx.difference(reference_exr(results, row), row.exr,
+                                                                       DIFF_SCALE)
+        psnr = getattr(row, "psnr", np.nan)
+        gallery.items.append(blocks.GalleryItem(
+            f"haze {row.haze:g}, {mode_name(row.config)}", ctx.image(row.png), difference=difference,
+            note=f"{format_number(row.time_total * 1e3)} ms" + (f", PSNR vs Basic {format_number(psnr)} dB"
+                                                                if pd.notna(psnr) else "")))
+    return gallery
+
+
+TABLE_CAPTION = (
+    "Speed-up: Basic over the mode's whole-frame time, its 95 % bootstrap interval from the interleaved "
+    "frames. α' and φ from the mode's occlusion queries; cubes of Φ_t at 8³ and Φ_p at 2³ voxels. Paper: "
+    "its golden lady, beside the registered haze."
+)
+"""The caption of the page's table."""
+
+
+class Fuzziness(Experiment):
+    """E11: the golden lady's haze against iSBVR's gains."""
+
+    name = "xue2005-fuzziness"
+    paper = "xue2005"
+    title = "The golden lady's haze against iSBVR's gains (E11)"
+    settings = frozenset({"hazes", "volume_size", "image_size", "repeat"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "hazes": [0, 1.5]},
+              "default": {"volume_size": 128, "image_size": 256},
+              "full": {"volume_size": 256, "image_size": 512}}
+    description = (
+        "The paper's golden lady, with its \"large fuzzy area\", gains least of its four data sets (Table 1: ESS "
+        "1.95×, ERT 1.18×, ESS+ERT 2.23×): a haze just above iso_t fills the Φ_t envelope, so few rays are empty "
+        "and the exit from Φ_t lies far back. Here the stand-in's haze grows from none (the figure alone) through "
+        "the registered golden lady (haze 1) to nearly the whole box, under the paper's ramp (iso_t 30, iso_p "
+        "190). The four modes of one haze are timed interleaved, frame against frame; the culled fraction α' = "
+        "(F − F'_c)/F comes from occlusion queries and is the same on every machine."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        hazes = [float(h) for h in profile.setting(self, "hazes", list(HAZES))]
+        if len(hazes) < 2 or hazes != sorted(set(hazes)) or not all(0 <= h <= 3 for h in hazes):
+            raise InputError(f"profile {profile.name!r} settings.{self.name}.hazes: need at least two increasing "
+                             f"values in [0, 3] (golden_lady's haze), got {hazes}")
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        frames = timed_frames(profile, self)
+        dataset, preset = TABLE1[SCENE][:2]
+        views = (headline_view(dataset),)
+        runs = []
+        for haze in hazes:
+            prefix = f"{SCENE}.h{haze:g}"
+            spec = scene(SCENE, image, volumes=[phantom(dataset, size, preset=preset, params={"haze": haze})])
+            tags = {"scene": SCENE, "dataset": dataset, "preset": preset, "haze": haze}
+            runs += mode_runs(self.name, prefix, spec, views, ("basic",), frames, tags, group=prefix)
+            runs += mode_runs(self.name, prefix, spec, views, CONFIGS[1:], frames, tags, group=prefix,
+                              reference=f"{prefix}.basic")
+        return runs
+
+    def paper_table(self):
+        _d, _p, row, *fps = TABLE1[SCENE]
+        return pd.DataFrame([{"data set (paper)": row, "mode": mode_name(c), "fps": f, "speed-up over Basic":
+                              round(paper_speedup(SCENE, c), 2), "device": PAPER_DEVICE}
+                             for c, f in zip(CONFIGS, fps)])
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        out = [claim_takeaways(self.claims, results)]
+        try:
+            table = summary(rows_matching(ok, "the haze sweep", scene=SCENE))
+        except (KeyError, ValueError):
+            table = pd.DataFrame()
+        if not table.empty:
+            out.append(_figure(table, ctx))
+            out.append(linked_table("Speed-ups and culled fractions per haze", table, list(COLUMNS), ctx,
+                                    names=COLUMNS, csv_name="fuzziness.csv",
+                                    caption=TABLE_CAPTION))
+            out.append(_gallery(ok[numeric(ok, "haze").notna()], results, ctx))
+        return out + isbvr_not_measurable()

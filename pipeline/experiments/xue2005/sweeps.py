@@ -1,0 +1,416 @@
+"""``xue2005-tf`` (E10): the speed-up of ESS+ERT over Basic as the transfer function's iso-values move, and the
+transfer functions with nothing to cull, where the paper claims no overhead.
+
+Every transfer function is the paper's Fig. 9e ramp (opacity 0 below iso_t, linear to 1 at iso_p, 1 above),
+given explicitly in the scene (``transfer_function`` of the volume entry) with the colours of the data set's
+``isbvr`` preset. iso_t moves at the paper's iso_p and iso_p at the paper's iso_t, on the head stand-in and
+the aneurysm. The controls: the same ramp lifted to a small opacity everywhere and stopped short of 1
+(neither property: no zero-opacity region, no opaque one), the ramp stopped short of 1 (no opaque region:
+pseudo ERT has nothing to cull), and the dense block of note 001 §5 (smooth fBm filling the box, a uniform
+faint opacity). Each transfer function's modes are one interleave group.
+
+Also the helpers :mod:`.fuzziness` shares: speed-ups with bootstrap draws, ratios of speed-ups from different
+groups, culled fractions.
+"""
+
+import numpy as np
+import pandas as pd
+
+import datasets
+from core.errors import InputError
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
+from pipeline.experiments.xue2005.methods import culled_fraction, every, isbvr_not_measurable, median_count, mode_runs
+from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1, paper_speedup
+from reports import blocks, plots
+
+SCENES = ("head", "aneurysm")
+"""The stand-ins swept (keys of :data:`~pipeline.experiments.xue2005.tables.TABLE1`)."""
+
+PAPER_ISO = {"head": (50, 170), "aneurysm": (50, 150)}
+"""The ``isbvr`` presets' (iso_t, iso_p) in grey levels (note 001 §5): where each one-sided sweep crosses."""
+
+ISO_T = (10, 30, 50, 80, 120)
+"""iso_t (grey levels) swept at the paper's iso_p: from the background noise to inside the skin."""
+
+ISO_P = (100, 130, 150, 170, 200, 240)
+"""iso_p (grey levels) swept at the paper's iso_t: from soft tissue to where almost no voxel is opaque."""
+
+FLOOR = 0.002
+"""Opacity of the "neither" control below iso_t: above 0 everywhere, faint enough to see through."""
+
+TOP = 0.9
+"""The opacity the "neither" and "never opaque" controls stop at, short of 1."""
+
+DENSE = ("dense", "fbm_control", "no_cue")
+"""The dense-block control (note 001 §5): scene, data set (smooth fBm filling the box, values 50–200) and
+preset (uniform opacity 0.003: never 0, never 1)."""
+
+CONTROLS = {
+    # kind: (configs, what it lacks)
+    "neither": (("basic", "ess+ert"), "no zero-opacity region and no opaque region"),
+    "never-opaque": (("basic", "ess", "ess+ert"), "no opaque region"),
+}
+"""The controls run on each swept scene beside the ramps, with the modes each group times."""
+
+NO_OVERHEAD = (0.95, 1.05)
+"""ESS+ERT / Basic time where nothing can be culled (the paper: "no overhead", §3): a 5 % band either side,
+the issue's; the depth passes over the box (two footprints of a trivial shader) against the hundreds of shaded
+slices are well inside it if the paper is right."""
+
+STRONG = 1.5
+"""The best iso pair's ESS+ERT speed-up over the worst's that "depends strongly on the iso choice" asks for:
+half again, as much as the paper's Table 1 spread over data sets with their own TFs (×1.71, golden lady to
+bonsai) nearly; fixed before any measurement."""
+
+SCOPE = "whole frames (time_total), median over the views"
+"""What every speed claim of this module compares."""
+
+
+# ---------------------------------------------------------------------------------- transfer functions
+def ramp_points(dataset, iso_t, iso_p, *, floor=0.0, top=1.0):
+    """A ``transfer_function`` entry (scene format): opacity ``floor`` up to ``iso_t``, linear to ``top`` at ``iso_p``.
+
+    Parameters
+    ----------
+    dataset : str
+        The data set whose ``isbvr`` preset lends the colours (sampled at the four control points).
+    iso_t, iso_p : float
+        Grey levels (0–255), ``iso_t < iso_p``.
+    floor, top : float
+        Opacity below ``iso_t`` and from ``iso_p`` on: 0 and 1 are the paper's Fig. 9e ramp.
+    """
+    if not 0 <= iso_t < iso_p <= 255:
+        raise InputError(f"xue2005-tf: iso values need 0 <= iso_t < iso_p <= 255 grey levels, got {iso_t} and {iso_p}")
+    table = datasets.preset(dataset, "isbvr").transfer_function.table
+    grid = np.linspace(0.0, 1.0, len(table))
+
+    def colour(value):
+        return [round(float(np.interp(value, grid, table[:, k])), 6) for k in range(3)]
+
+    values = (0.0, iso_t / 255, iso_p / 255, 1.0)
+    alphas = (floor, floor, top, top)
+    name = _tf_label(iso_t, iso_p) + (f"-floor{floor:g}" if floor else "") + (f"-top{top:g}" if top < 1 else "")
+    return {"points": [[v, *colour(v), float(a)] for v, a in zip(values, alphas)], "name": name}
+
+
+def _tf_label(iso_t, iso_p):
+    return f"t{iso_t:g}-p{iso_p:g}"
+
+
+def sweep_pairs(scene_name, iso_t, iso_p):
+    """The (iso_t, iso_p) pairs of ``scene_name``: each iso_t at the paper's iso_p, each iso_p at the paper's
+    iso_t, the paper's pair always; pairs with iso_t >= iso_p are left out."""
+    paper_t, paper_p = PAPER_ISO[scene_name]
+    pairs = [(paper_t, paper_p)] + [(t, paper_p) for t in iso_t] + [(paper_t, p) for p in iso_p]
+    return list(dict.fromkeys((float(t), float(p)) for t, p in pairs if t < p))
+
+
+# ------------------------------------------------------------------------------------- speed-ups
+def config_rows(frame, config, what=""):
+    """The rows of ``config`` in ``frame``; ValueError naming them if none."""
+    rows = rows_matching(frame, config, config=config)
+    if rows.empty:
+        raise ValueError(f"no successful {config} run" + (f" of {what}" if what else ""))
+    return rows
+
+
+def speedup(group, slow="basic", fast="ess+ert", *, resampler, column="time_total"):
+    """``(value, draws)``: time(``slow``) / time(``fast``) over one interleave group's rows, each the median over
+    the views, with its bootstrap draws (``None`` where no frames were kept)."""
+    top, bottom = config_rows(group, slow), config_rows(group, fast)
+    value = float(numeric(top, column).median() / numeric(bottom, column).median())
+    a = intervals.statistic_draws(top, column, "median", resampler)
+    b = intervals.statistic_draws(bottom, column, "median", resampler)
+    return value, (a / b if a is not None and b is not None else None)
+
+
+def ratio_of(first, second, **bounds):
+    """The ratio of two :func:`speedup` results from different groups, judged against ``bounds`` with its interval.
+
+    Different groups are resampled independently, so the draws of the ratio carry both groups' spread.
+    """
+    (a, da), (b, db) = first, second
+    interval = intervals.interval_of(da / db) if da is not None and db is not None else None
+    return intervals.decide(a / b, interval, **bounds)
+
+
+def interval_or_nan(draws):
+    """``(low, high)`` of bootstrap ``draws``, NaNs where there are none."""
+    interval = intervals.interval_of(draws)
+    return interval if interval is not None else (np.nan, np.nan)
+
+
+
+
+
+
+def groups_of(frame, **match):
+    """``{interleave group: rows}`` of the rows matching ``match`` (tags), in the order they first appear."""
+    rows = rows_matching(frame, "the sweep", **match)
+    names = text_column(rows, "interleave")
+    return {name: rows[names == name] for name in pd.unique(names)}
+
+
+# ------------------------------------------------------------------------------------------- claims
+def _ramps(df, scene_name):
+    groups = groups_of(df, scene=scene_name, kind="ramp")
+    if len(groups) < 2:
+        raise ValueError(f"fewer than two iso pairs of {scene_name}")
+    return groups
+
+
+def _iso_dependence(df):
+    """Per scene: the best ramp's ESS+ERT speed-up over the worst's, at least :data:`STRONG` (with its interval)."""
+    resampler = intervals.Resampler()
+    scenes = [s for s in SCENES if s in set(text_column(df, "scene"))]
+    if not scenes:
+        raise ValueError("no successful run of a swept scene")
+    decisions, notes = {}, []
+    for scene_name in scenes:
+        groups = _ramps(df, scene_name)
+        speeds = {name: speedup(rows, resampler=resampler) for name, rows in groups.items()}
+        best = max(speeds, key=lambda name: speeds[name][0])
+        worst = min(speeds, key=lambda name: speeds[name][0])
+        decisions[scene_name] = ratio_of(speeds[best], speeds[worst], at_least=STRONG)
+        ends = [f"{end} {groups[name].tf.iloc[0]} {as_ratio(speeds[name][0])} "
+                f"(α' {as_percent(culled_fraction(config_rows(groups[name], 'ess+ert')))})"
+                for end, name in (("best", best), ("worst", worst))]
+        notes.append(f"{scene_name}: {', '.join(ends)} of {len(speeds)} pairs")
+    return every(decisions, what="best / worst pair's speed-up ", extra="; ".join(notes) + f" ({SCOPE})")
+
+
+def _nothing_to_cull(df):
+    """The groups of the "neither" controls and the dense block: ``{label: rows}``."""
+    found = {}
+    for kind in ("neither", "dense"):
+        for rows in groups_of(df, kind=kind).values():
+            found[f"{rows.scene.iloc[0]} {kind}" if kind != "dense" else str(rows.scene.iloc[0])] = rows
+    if not found:
+        raise ValueError("no successful run of a control with nothing to cull")
+    return found
+
+
+def _no_overhead(df):
+    resampler = intervals.Resampler()
+    low, high = NO_OVERHEAD
+    decisions = {label: intervals.ratio_decision(config_rows(rows, "ess+ert", label), config_rows(rows, "basic", label),
+                                                 at_least=low, at_most=high, resampler=resampler)
+                 for label, rows in _nothing_to_cull(df).items()}
+    return every(decisions, what="ESS+ERT / Basic time ", extra=SCOPE)
+
+
+def _nothing_culled(df):
+    counts = {}
+    for label, rows in _nothing_to_cull(df).items():
+        tested = config_rows(rows, "ess+ert", label)
+        generated, shaded = median_count(tested, "count_fragments_generated"), median_count(tested, "count_fragments")
+        counts[label] = (generated, shaded, median_count(tested, "count_init_fragments"))
+    worst = max(counts, key=lambda label: counts[label][0] - counts[label][1])
+    generated, shaded, _ = counts[worst]
+    detail = "; ".join(f"{label}: F {format_number(f)}, F'_c {format_number(c)}, init passes {format_number(i)} "
+                       f"fragments" for label, (f, c, i) in counts.items())
+    return ClaimResult(f"F − F'_c = {generated - shaded:g} ({worst}, α' {as_percent(1 - shaded / generated)})",
+                       all(f == c for f, c, _ in counts.values()), detail)
+
+
+def _ert_free(df):
+    """The "never opaque" controls: ESS+ERT / ESS time in :data:`NO_OVERHEAD`, and no Φ_p to draw or cull with."""
+    resampler = intervals.Resampler()
+    low, high = NO_OVERHEAD
+    groups = {str(rows.scene.iloc[0]): rows for rows in groups_of(df, kind="never-opaque").values()}
+    if not groups:
+        raise ValueError("no successful run of the never-opaque control")
+    decisions, broken = {}, []
+    for scene_name, rows in groups.items():
+        both, ess = config_rows(rows, "ess+ert", scene_name), config_rows(rows, "ess", scene_name)
+        decisions[scene_name] = intervals.ratio_decision(both, ess, at_least=low, at_most=high, resampler=resampler)
+        cubes, fragments = median_count(both, "count_cubes_p"), median_count(both, "count_surface_fragments_p")
+        extra_culled = median_count(ess, "count_fragments") - median_count(both, "count_fragments")
+        if cubes or fragments or extra_culled:
+            broken.append(f"{scene_name}: {cubes:g} Φ_p cubes, F_p {fragments:g}, {extra_culled:g} more fragments "
+                          f"culled than ESS")
+    result = every(decisions, what="ESS+ERT / ESS time ", extra=SCOPE + "; " + (
+        "; ".join(broken) if broken else "no Φ_p cube, no Φ_p fragment, the same F'_c as ESS on every scene"))
+    if broken:  # a Φ_p where the TF has no opaque value fails whatever the frames say
+        return ClaimResult(result.measured, False, result.detail, result.interval, result.margin)
+    return result
+
+
+CLAIMS = (
+    Claim("iso-dependence", "The speed-up depends strongly on the transfer function's iso-values (§3: \"data set and "
+          "transfer function dependent\")",
+          f"best iso pair's ESS+ERT speed-up over the worst pair's ≥ ×{STRONG:g} on each scene ({SCOPE}; the ramps "
+          "of the iso_t and iso_p sweeps)", _iso_dependence),
+    Claim("no-overhead", "Where the TF has neither a zero-opacity nor an opaque region iSBVR costs nothing (§3: \"no "
+          "overhead\")", f"ESS+ERT / Basic time within [{NO_OVERHEAD[0]:g}, {NO_OVERHEAD[1]:g}] on each control "
+          f"(head and aneurysm with the lifted ramp, the dense block; {SCOPE})", _no_overhead),
+    Claim("nothing-culled", "With nothing to cull, the depth passes cull nothing",
+          "F'_c = F (fragments shaded = slice fragments generated, occlusion queries) on every ESS+ERT run of those "
+          "controls", _nothing_culled),
+    Claim("ert-free-without-opaque", "Where the TF never reaches opacity 1, pseudo ERT has nothing to draw and costs "
+          "nothing (§3)", f"ESS+ERT / ESS time within [{NO_OVERHEAD[0]:g}, {NO_OVERHEAD[1]:g}] ({SCOPE}), no Φ_p "
+          "cube and the same F'_c, on each scene's never-opaque ramp", _ert_free),
+)
+
+
+# --------------------------------------------------------------------------------------------- page
+def summary(ok):
+    """One row per transfer function: its tags, the ESS+ERT speed-up with its interval, α', cubes and fragments.
+
+    The row carries the ESS+ERT run's record, image and PSNR against Basic.
+    """
+    resampler = intervals.Resampler()
+    rows = []
+    for name, group in groups_of(ok).items():
+        try:
+            value, draws = speedup(group, resampler=resampler)
+            tested = config_rows(group, "ess+ert")
+        except (KeyError, ValueError):
+            continue
+        low, high = interval_or_nan(draws)
+        first = tested.iloc[0]
+        generated = median_count(tested, "count_fragments_generated")
+        surfaces = median_count(tested, "count_surface_fragments_t") + median_count(tested, "count_surface_fragments_p")
+        rows.append({**{k: first.get(k) for k in ("scene", "kind", "tf", "iso_t", "iso_p", "record", "exr")},
+                     "group": name, "speedup": value, "low": low, "high": high,
+                     "alpha": culled_fraction(tested), "phi": surfaces / generated,
+                     "cubes_t": median_count(tested, "count_cubes_t"), "cubes_p": median_count(tested, "count_cubes_p"),
+                     "triangles_t": median_count(tested, "count_surface_triangles_t"),
+                     "triangles_p": median_count(tested, "count_surface_triangles_p"),
+                     "F": generated, "F_c": median_count(tested, "count_fragments"),
+                     "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan})
+    return pd.DataFrame(rows)
+
+
+COLUMNS = {"scene": "scene", "kind": "transfer function", "tf": "label", "iso_t": "iso_t (grey level)",
+           "iso_p": "iso_p (grey level)", "speedup": "Basic / ESS+ERT time (×)", "low": "95 % CI low",
+           "high": "95 % CI high", "alpha": "α' culled", "phi": "φ = (F_t + F_p) / F", "cubes_t": "Φ_t cubes",
+           "cubes_p": "Φ_p cubes", "triangles_t": "Φ_t triangles", "triangles_p": "Φ_p triangles",
+           "F": "F (slice fragments)", "F_c": "F'_c (shaded)", "psnr": "PSNR vs Basic (dB)", "paper": "paper (Table 1)"}
+"""The summary's columns as the page names them."""
+
+
+def _sweep_title(points, axis):
+    spans = [f"{scene_name} {as_ratio(part.speedup.min())}–{format_number(part.speedup.max())}"
+             for scene_name, part in points.groupby("scene", sort=False)]
+    return f"Speed-up vs {axis}: " + ", ".join(spans)
+
+
+def _sweep_figures(table, ctx):
+    out = []
+    ramps = table[table.kind == "ramp"]
+    for axis, fixed, index in (("iso_t", "iso_p", 1), ("iso_p", "iso_t", 0)):
+        at_paper = ramps[[row[fixed] == PAPER_ISO[row.scene][index] for _, row in ramps.iterrows()]].copy()
+        if at_paper.empty:
+            continue
+        at_paper[axis] = at_paper[axis].astype(float)
+        path, rel = ctx.plot_path(f"speedup-{axis.replace('_', '')}")
+        marks = sorted({PAPER_ISO[s][1 - index] for s in at_paper.scene})
+        plots.lines(at_paper, path, x=axis, y="speedup", group="scene", y_range=("low", "high"),
+                    title=_sweep_title(at_paper, axis),
+                    x_label=f"{axis} (grey level, 0–255; {fixed} at the paper's)",
+                    y_label="speed-up, Basic / ESS+ERT time (×)", vlines=marks)
+        out.append(blocks.Figure(f"Speed-up against {axis}", rel,
+                                 f"Each point: Basic over ESS+ERT whole-frame time, the two timed interleaved; bars: "
+                                 f"95 % bootstrap interval from the frames. {fixed} at the paper's "
+                                 f"({', '.join(f'{s} {PAPER_ISO[s][index]}' for s in PAPER_ISO)}); dotted: the "
+                                 f"paper's {axis}."))
+    return out
+
+
+TABLE_CAPTION = (
+    "Speed-up: Basic over ESS+ERT whole-frame time (median over the views), its 95 % bootstrap interval "
+    "from the interleaved frames. α' = (F − F'_c)/F and φ from ESS+ERT's occlusion queries; cubes of Φ_t "
+    "at 8³ and Φ_p at 2³ voxels. Links: the ESS+ERT run. Paper: its Table 1 ratio (its TF unstated, its "
+    "256³ data), beside our paper-pair row."
+)
+"""The caption of the page's table."""
+
+
+class TransferSweep(Experiment):
+    """E10: iso-values swept on the head and the aneurysm, and the transfer functions with nothing to cull."""
+
+    name = "xue2005-tf"
+    paper = "xue2005"
+    title = "Transfer functions and iso-values: where iSBVR gains and where it costs nothing (E10)"
+    settings = frozenset({"scenes", "iso_t", "iso_p", "volume_size", "image_size", "orbit", "repeat"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "iso_t": [10, 50], "iso_p": [100], "orbit": 0},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
+              "full": {"volume_size": 256, "image_size": 512, "orbit": 3}}
+    description = (
+        "The paper's gains are \"data set and transfer function dependent\" (§3): space leaping needs a "
+        "zero-opacity region, pseudo early termination an opaque one, and a TF with neither should cost nothing, "
+        "since there is nothing to draw. Here the paper's ramp (opacity 0 below iso_t, linear to 1 at iso_p) "
+        "moves on the head stand-in and the aneurysm: iso_t at the paper's iso_p, iso_p at the paper's iso_t. "
+        "The controls: the same ramp lifted to opacity 0.002 everywhere and stopped at 0.9 (neither property), "
+        "the ramp stopped at 0.9 (no opaque region), and the dense block of note 001 §5 (fBm filling the box, "
+        "uniform opacity 0.003). Basic and ESS+ERT (and ESS for the never-opaque ramp) of one TF are timed "
+        "interleaved, frame against frame; the occlusion queries count the slice fragments (F) and those "
+        "shaded (F'_c), so the culled fraction α' = (F − F'_c)/F is the same on every machine."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        wanted = listed(profile, self, "scenes", SCENES, known=SCENES)
+        iso_t = [float(v) for v in profile.setting(self, "iso_t", list(ISO_T))]
+        iso_p = [float(v) for v in profile.setting(self, "iso_p", list(ISO_P))]
+        if not all(0 <= v <= 255 for v in iso_t + iso_p):
+            raise InputError(f"profile {profile.name!r} settings.{self.name}: iso_t and iso_p are grey levels in "
+                             f"[0, 255], got {iso_t} and {iso_p}")
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        orbit = int(profile.setting(self, "orbit", 0))
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in wanted:
+            dataset = TABLE1[scene_name][0]
+            views = (headline_view(dataset),) + tuple(
+                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
+                if a != 30.0)
+            paper_t, paper_p = (float(v) for v in PAPER_ISO[scene_name])
+            tfs = [(_tf_label(t, p), "ramp", t, p, ramp_points(dataset, t, p), ("basic", "ess+ert"))
+                   for t, p in sweep_pairs(scene_name, iso_t, iso_p)]
+            tfs.append(("neither", "neither", paper_t, paper_p,
+                        ramp_points(dataset, paper_t, paper_p, floor=FLOOR, top=TOP), CONTROLS["neither"][0]))
+            tfs.append(("never-opaque", "never-opaque", paper_t, paper_p,
+                        ramp_points(dataset, paper_t, paper_p, top=TOP), CONTROLS["never-opaque"][0]))
+            for label, kind, t, p, tf, configs in tfs:
+                spec = scene(scene_name, image, volumes=[phantom(dataset, size, transfer_function=tf)])
+                tags = {"scene": scene_name, "dataset": dataset, "tf": label, "kind": kind, "iso_t": t, "iso_p": p}
+                runs += self._group(f"{scene_name}.{label}", spec, views, configs, frames, tags)
+        dense, dataset, preset = DENSE
+        spec = scene(dense, image, volumes=[phantom(dataset, size, preset=preset)])
+        runs += self._group(f"{dense}.{preset}", spec, (headline_view(dataset),), ("basic", "ess+ert"), frames,
+                            {"scene": dense, "dataset": dataset, "tf": preset, "kind": "dense"})
+        return runs
+
+    def _group(self, prefix, spec, views, configs, frames, tags):
+        """Basic and ``configs`` on one scene, one interleave group, each image compared with Basic's."""
+        basic = mode_runs(self.name, prefix, spec, views, ("basic",), frames, tags, group=prefix)
+        return basic + mode_runs(self.name, prefix, spec, views, [c for c in configs if c != "basic"], frames, tags,
+                                 group=prefix, reference=f"{prefix}.basic")
+
+    def paper_table(self):
+        rows = [{"what": f"ESS+ERT / Basic, {TABLE1[s][2]} with its TF", "paper": as_ratio(paper_speedup(s, "ess+ert")),
+                 "source": f"Table 1 ({PAPER_DEVICE})"} for s in SCENES]
+        rows += [{"what": s["claim"], "paper": s["paper's own table"], "source": s["source"]} for s in STATEMENTS
+                 if "overhead" in s["claim"]]
+        return pd.DataFrame(rows)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        out = [claim_takeaways(self.claims, results)]
+        table = summary(ok) if {"interleave", "config", "kind"} <= set(ok.columns) else pd.DataFrame()
+        if not table.empty:
+            out += _sweep_figures(table, ctx)
+            table["paper"] = [as_ratio(paper_speedup(r.scene, "ess+ert"))
+                              if r.kind == "ramp" and (r.iso_t, r.iso_p) == PAPER_ISO.get(r.scene) else ""
+                              for r in table.itertuples()]
+            out.append(linked_table("Every transfer function: speed-up, culled fraction and cube sets", table,
+                                    list(COLUMNS), ctx, names=COLUMNS, csv_name="tf_sweep.csv",
+                                    caption=TABLE_CAPTION))
+        return out + isbvr_not_measurable()

@@ -1,0 +1,249 @@
+"""``xue2005-variants`` (E12, E13): front-to-back against back-to-front, front-based against exit-based leaping.
+
+E12: the paper says iSBVR "works equally well" with either slice order (§3.5); here Basic and ESS+ERT are
+timed in both orders, and the speed-up in one order is compared with the other's (a ratio of ratios, with
+its interval) and the images with each other. E13: front-based leaping (§3.2: Φ_t's front faces, then
+GREATER) culls the space in front of Φ_t that exit-based leaping (§3.3–3.4, Table 1's ESS) shades, but it
+cannot be combined with ERT; the fragments each culls (occlusion queries) and the times say which pays.
+Every run of a scene is timed in one interleave group, so every ratio is paired frame by frame.
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number, linked_table,
+                                            not_measurable)
+from pipeline.experiments.kit.planning import (accepts, dataset_view, headline_view, listed, phantom, scene,
+                                               timed_frames)
+from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, every, isbvr_not_measurable,
+                                                  mode_name, mode_runs)
+from pipeline.experiments.xue2005.table1 import (LOSSLESS_PSNR, TIMES, culling_note, device_takeaways, image_pairs,
+                                                 mode_rows, pair_psnr, scenes_of, time_ratio, view_count)
+from pipeline.experiments.xue2005.tables import LEAPING_STATEMENTS, STATEMENTS, TABLE1
+from reports import blocks, plots
+
+BACK, FRONT = "back-to-front", "front-to-back"
+"""The slice orders (``gl-isbvr``'s ``order``): back to front with "over" (the paper's), front to back with "under"."""
+
+ORDER_CONFIGS = ("basic", "ess+ert")
+"""The modes timed in both orders: the speed-up of ESS+ERT over Basic in each."""
+
+LEAPING_CONFIGS = ("ess", "front")
+"""Exit-based and front-based leaping, timed back to front beside Basic and ESS+ERT."""
+
+ORDER_TOLERANCE = 1.10
+""""The same speed-up" in both orders: their ratio within ×1/1.1–×1.1."""
+
+STRICTLY_ABOVE_ONE = float(np.nextafter(1.0, 2.0))
+"""The bound of a strictly larger ratio: intervals' bounds are inclusive, and equal times beat nothing."""
+
+
+# ------------------------------------------------------------------------------------------------- claims
+def _order_decision(df, scene_name, resampler):
+    """``(Basic/ESS+ERT front to back) / (Basic/ESS+ERT back to front)`` on one scene, with its paired interval."""
+    rows = [mode_rows(df, config, scene=scene_name, order=order)
+            for order in (FRONT, BACK) for config in ORDER_CONFIGS]
+    points = [float(numeric(r, "time_total").median()) for r in rows]
+    value = (points[0] / points[1]) / (points[2] / points[3])
+    draws = [intervals.statistic_draws(r, "time_total", "median", resampler) for r in rows]
+    interval = None if any(d is None for d in draws) else intervals.interval_of(
+        (draws[0] / draws[1]) / (draws[2] / draws[3]))
+    return (intervals.decide(value, interval, at_least=1.0 / ORDER_TOLERANCE, at_most=ORDER_TOLERANCE),
+            f"front to back {as_ratio(points[0] / points[1])}, back to front {as_ratio(points[2] / points[3])}")
+
+
+def _order_speedup(df):
+    resampler = intervals.Resampler()
+    decisions, notes = {}, {}
+    for scene_name in scenes_of(df, "ess+ert"):
+        decisions[scene_name], notes[scene_name] = _order_decision(df, scene_name, resampler)
+    return every(decisions, notes=notes, what="front-to-back / back-to-front speed-up ",
+                 extra=f"speed-up: time(Basic) / time(ESS+ERT) in one order, {TIMES}; the four runs of a scene "
+                       "timed interleaved")
+
+
+def _order_image(df):
+    values = pair_psnr(image_pairs(df, "ess+ert", "ess+ert", first_match={"order": FRONT},
+                                   second_match={"order": BACK}))
+    basic = pair_psnr(image_pairs(df, "basic", "basic", first_match={"order": FRONT}, second_match={"order": BACK}))
+    worst = min(values, key=lambda k: values[k][0])
+    return ClaimResult(f"{format_number(values[worst][0])} dB ({worst[0]}, {worst[1]})",
+                       all(p >= LOSSLESS_PSNR for p, _share in values.values()),
+                       f"{view_count(len(values))} compared; Basic's two orders: ≥ "
+                       f"{format_number(min(p for p, _share in basic.values()))} dB")
+
+
+def _front_culls(df):
+    found = {s: (culled_fraction(mode_rows(df, "front", scene=s)), culled_fraction(mode_rows(df, "ess", scene=s)))
+             for s in scenes_of(df, "front")}
+    worst = min(found, key=lambda s: found[s][0] - found[s][1])
+    return ClaimResult(f"α' front-based {format_number(found[worst][0])}, exit-based {format_number(found[worst][1])} "
+                       f"({worst})", all(front > ess for front, ess in found.values()),
+                       ", ".join(f"{s}: {format_number(front)} against {format_number(ess)}"
+                                 for s, (front, ess) in found.items())
+                       + "; α' = 1 − F'_c/F, occlusion queries, median over the views")
+
+
+def _leaping_gain(df, slow, fast, what):
+    resampler = intervals.Resampler()
+    decisions = {s: time_ratio(df, slow, fast, resampler=resampler, at_least=STRICTLY_ABOVE_ONE, scene=s, order=BACK)
+                 for s in scenes_of(df, fast)}
+    notes = {s: f"{slow} {culling_note(df, slow, scene=s)}, {fast} {culling_note(df, fast, scene=s)}"
+             for s in decisions}
+    return every(decisions, notes=notes, what=what, extra=f"{TIMES}; slices back to front")
+
+
+CLAIMS = (
+    Claim("order-speedup", "iSBVR works equally well front-to-back and back-to-front (§3.5): the same speed-up "
+          "over Basic in either order", f"speed-up of ESS+ERT over Basic front-to-back / back-to-front within "
+          f"×{format_number(1 / ORDER_TOLERANCE)}–×{format_number(ORDER_TOLERANCE)} on every scene ({TIMES})",
+          _order_speedup),
+    Claim("order-image", "Either slice order renders the same image (§3.5)",
+          f"PSNR(ESS+ERT front-to-back, ESS+ERT back-to-front) ≥ {format_number(LOSSLESS_PSNR)} dB, every scene "
+          "and view", _order_image),
+    Claim("front-culls-more", "Front-based leaping culls the front space that exit-based leaping shades (note 001 "
+          "E13, the combined mode's known gap), and that space outweighs the back space it shades in turn",
+          "α'(front-based) > α'(exit-based ESS): fewer fragments shaded, on every scene (occlusion queries, median "
+          "over the views; both cull the rays that miss Φ_t, so the difference is front space less back space)",
+          _front_culls),
+    Claim("front-faster", "Front-based leaping is faster than exit-based leaping alone",
+          f"time(ESS) / time(front-based) > 1 on every scene ({TIMES})",
+          lambda df: _leaping_gain(df, "ess", "front", "ESS / front-based ")),
+    Claim("exit-combines", "Exit-based leaping is built because it combines with ERT (§3.3): ESS+ERT beats "
+          "front-based leaping, which cannot", f"time(front-based) / time(ESS+ERT) > 1 on every scene ({TIMES})",
+          lambda df: _leaping_gain(df, "front", "ess+ert", "front-based / ESS+ERT ")),
+)
+
+
+# ------------------------------------------------------------------------------------------------- page
+def _mode_label(row):
+    return f"{mode_name(row.config)}, {row.order}"
+
+
+def _summary(tests):
+    """Per scene, mode and order: F'_c, α', the median whole-frame time and the speed-up over Basic in that order."""
+    rows = []
+    for (scene_name, order, config), part in tests.groupby(["scene", "order", "config"], sort=False):
+        try:
+            speedup = time_ratio(tests, "basic", config, resampler=intervals.Resampler(), scene=scene_name,
+                                 order=order).value
+            alpha = culled_fraction(part)
+        except (KeyError, ValueError):
+            speedup = alpha = np.nan
+        rows.append({"scene": scene_name, "order": order, "mode": mode_name(config),
+                     "F'c (median)": numeric(part, "count_fragments").median(), "α'": round(alpha, 3),
+                     "median frame (ms)": round(numeric(part, "time_total").median() * 1e3, 2),
+                     "speed-up over Basic (same order)": round(speedup, 2)})
+    return pd.DataFrame(rows)
+
+
+def _blocks(tests, ctx):
+    summary = _summary(tests)
+    back = summary[summary.order == BACK]
+    culled = back.pivot_table(index="scene", columns="mode", values="α'", sort=False).reset_index()
+    path, rel = ctx.plot_path("variants-culled")
+    modes = [c for c in culled.columns if c != "scene"]
+    plots.bar_compare(culled, path, category_col="scene", value_cols=modes,
+                      value_label="culled share of slice fragments α' = 1 − F'_c/F",
+                      title="Fragments culled by each depth-init mode (back to front, median over the views)")
+    headline = speed_points(tests[tests.view == "headline"])
+    headline["mode"] = [_mode_label(r) for r in headline.itertuples()]
+    return [blocks.Table("Modes and orders: fragments shaded, culled share and speed-up over Basic", summary,
+                         csv_name="variants.csv",
+                         caption="Median over the views; times are whole frames; the speed-up divides Basic's time "
+                                 "in the same order by the mode's. Every run of a scene timed interleaved; the "
+                                 "claims give each ratio's interval."),
+            blocks.Figure("Culled share per mode", rel, "Front-based leaping culls in front of Φ_t, exit-based "
+                          "behind it; both cull the rays that miss Φ_t, so their difference is the front space less "
+                          "the back space (each alone would need the depth band, not built)."),
+            linked_table("Headline view: every run", headline,
+                         ["scene", "mode", "time_ms", "time_ms_min", "time_ms_max", "count_fragments",
+                          "count_fragments_generated"], ctx, csv_name="variants_headline.csv",
+                         names={"count_fragments": "F'c", "count_fragments_generated": "F"})]
+
+
+def _gallery(tests, ctx):
+    """Headline images: ESS+ERT front to back against back to front, the leaping modes against Basic."""
+    gallery = blocks.Gallery("Headline view: the orders against each other, the leaping modes against Basic",
+                             diff_scale=DIFF_SCALE,
+                             caption="Left the run's image, right its difference from the image named.")
+    headline = tests[tests.view == "headline"]
+    for scene_name, rows in headline.groupby("scene", sort=False):
+        def exr(config, order):
+            match = rows[(rows.config == config) & (rows.order == order)]
+            return match.exr.iloc[0] if not match.empty else None
+
+        for row in rows.itertuples():
+            if row.config == "basic" and row.order == BACK:
+                continue
+            against, what = ((exr(row.config, BACK), f"{mode_name(row.config)}, {BACK}") if row.order == FRONT
+                             else (exr("basic", BACK), f"Basic, {BACK}"))
+            gallery.items.append(blocks.GalleryItem(
+                f"{scene_name}, {_mode_label(row)}", ctx.image(row.png),
+                difference=ctx.difference(against, row.exr, DIFF_SCALE), note=f"against {what}"))
+    return gallery
+
+
+class Variants(Experiment):
+    """Front-to-back against back-to-front (E12) and front-based against exit-based leaping (E13)."""
+
+    name = "xue2005-variants"
+    paper = "xue2005"
+    title = "Slice order and the leaping variant: front-to-back against back-to-front, front-based against " \
+            "exit-based leaping (E12, E13)"
+    settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "repeat", "min_time"})
+    scales = {"smoke": {"scenes": ["head"], "volume_size": 32, "image_size": 48, "orbit": 0},
+              "default": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 128, "image_size": 256, "orbit": 2},
+              "full": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 256, "image_size": 512, "orbit": 4}}
+    description = (
+        "Two variants the paper describes without measuring. Slice order (§3.5: iSBVR \"works equally well\" "
+        "either way): Basic and ESS+ERT are rendered back to front with \"over\" (the paper's order) and front to "
+        "back with \"under\"; the speed-up of ESS+ERT over Basic in one order is divided by the other's, and the "
+        "images are compared. Leaping (§3.2–3.4): front-based leaping draws Φ_t's front faces and tests the volume "
+        "pass with GREATER, culling the space in front of the data; exit-based leaping (Table 1's ESS) draws the "
+        "box's front faces and Φ_t's back faces, culling behind the data; both remove the rays that miss Φ_t. "
+        "Only exit-based leaping combines with ERT. Occlusion queries count the fragments each mode shaded; "
+        "every run of a scene is timed interleaved, so every ratio comes with a paired interval."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not accepts(ISBVR, *OPTIONS):
+            return []
+        wanted = listed(profile, self, "scenes", ("head", "aneurysm"), known=TABLE1)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = profile.setting(self, "image_size", profile.image_size)
+        orbit = int(profile.setting(self, "orbit", 2))
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in wanted:
+            dataset, preset = TABLE1[scene_name][:2]
+            scene_spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
+            views = (headline_view(dataset),) + tuple(
+                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1))
+            tags = {"scene": scene_name, "dataset": dataset, "preset": preset, "role": "test"}
+            runs += mode_runs(self.name, scene_name, scene_spec, views, ORDER_CONFIGS + LEAPING_CONFIGS, frames,
+                              {**tags, "order": BACK}, options={"order": BACK}, group=scene_name)
+            runs += mode_runs(self.name, f"{scene_name}.f2b", scene_spec, views, ORDER_CONFIGS, frames,
+                              {**tags, "order": FRONT}, options={"order": FRONT}, group=scene_name)
+        return runs
+
+    def paper_table(self):
+        rows = [s for s in STATEMENTS if "front-to-back" in s["claim"]] + LEAPING_STATEMENTS
+        return pd.DataFrame(rows)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        out = [claim_takeaways(self.claims, results, device_takeaways(tests))]
+        if not tests.empty:
+            out += _blocks(tests, ctx)
+            out.append(_gallery(tests, ctx))
+        band = [("the depth-band combination (cull in front of Φ_t's entry and behind its exit at once)",
+                 "not built: it needs two depth tests per fragment, the dual z-buffer the paper only wishes for "
+                 "(§3.4); GL_DEPTH_BOUNDS_TEST_EXT tests the stored depth, not the fragment's, and an entry-depth "
+                 "texture read in the shader is a branch, not an early depth test")]
+        return out + isbvr_not_measurable() + not_measurable(band)
