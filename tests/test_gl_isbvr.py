@@ -11,7 +11,8 @@ from core.errors import InputError
 from core.transfer import TransferFunction
 from core.volume import Volume
 from renderers.gl import context
-from renderers.gl.isbvr import ZINIT_MODES, GLIsbvrRenderer
+from renderers.gl.isbvr import ZINIT_MODES, GLIsbvrRenderer, slice_ranges
+from renderers.gl.slicer import slice_polygons
 from renderers.gl.isosurfaces import boundary_faces, node_classes, phi_p_cubes, phi_t_cubes
 from renderers.gl.view import make_view, ray_lengths
 from test_gl_slicer import scene_of
@@ -19,7 +20,10 @@ from test_gl_slicer import scene_of
 GL_OK, GL_REASON = context.probe()
 pytestmark = pytest.mark.skipif(not GL_OK, reason=f"no OpenGL 4.3 context through EGL here: {GL_REASON}")
 
-RENDERING_MODES = tuple(mode for mode in ZINIT_MODES if mode != "cull-all")
+RENDERING_MODES = tuple(mode for mode in ZINIT_MODES if mode not in ("cull-all", "slice-ert"))
+"""The modes that must render Basic's image (``slice-ert`` stops at an opacity threshold, tested on its own)."""
+SURFACE_MODES = tuple(mode for mode in ZINIT_MODES if mode != "slice-ert")
+"""The modes whose depth comes from the init passes (``slice-ert`` writes depth slice by slice, front to back)."""
 ORDERS = ("front-to-back", "back-to-front")
 ROUNDING = 1e-6
 """Images that should be equal: float32 compositing of the same fragments in the same order."""
@@ -115,7 +119,7 @@ def test_perspective_views_stay_lossless(volume, volume_name):
 
 def test_counters(scene, volume):
     truth = basic(scene)
-    results = {zinit: isbvr(zinit=zinit).render(scene) for zinit in ZINIT_MODES}
+    results = {zinit: isbvr(zinit=zinit).render(scene) for zinit in SURFACE_MODES}
     fragments = {zinit: result.counters["fragments"] for zinit, result in results.items()}
     generated = truth.counters["fragments"]
     for zinit, result in results.items():
@@ -161,6 +165,37 @@ def test_a_surface_the_transfer_function_lacks_is_not_drawn(volume, points, draw
         assert (result.counters["init_fragments"] > 0) == (zinit in drawn), zinit
         if zinit not in drawn:
             assert result.counters["fragments"] == truth.counters["fragments"], zinit
+
+
+def test_slice_ranges_split_the_slices_in_drawing_order(scene):
+    view = make_view(scene, 1.0)
+    eye, forward = np.asarray(scene.camera.eye), -np.asarray(scene.camera.basis()[2])
+    triangles, depths = slice_polygons(view.model, eye, forward, view.near, view.step)
+    for order in (triangles, triangles[::-1]):
+        ranges = slice_ranges(order, view.model, eye, forward, depths)
+        assert sum(count for _, count in ranges) == len(order) and len(ranges) == len(depths)
+        assert [first for first, _ in ranges] == list(np.cumsum([0] + [count for _, count in ranges[:-1]]))
+        for first, count in ranges:
+            world = order[first:first + count].reshape(-1, 3) @ view.model[:3, :3].T + view.model[:3, 3]
+            assert np.ptp((world - eye) @ forward) < 1e-4 * view.step  # one slice's plane
+
+
+def test_slice_ert_culls_behind_opaque_pixels_within_its_threshold(scene):
+    """The per-slice two-pass termination: every slice drawn twice (F_s = F), an error of at most 1 − T."""
+    truth = basic(scene, "front-to-back")
+    with pytest.raises(InputError, match="set order='front-to-back'"):
+        GLIsbvrRenderer(zinit="slice-ert")
+    for threshold in (1.0, 0.9):
+        result = isbvr(zinit="slice-ert", order="front-to-back", opaque_threshold=threshold).render(scene)
+        error = np.abs(result.image - truth.image).max()
+        counters = result.counters
+        assert error <= (ROUNDING if threshold == 1.0 else 1.0 - threshold + ROUNDING), threshold
+        assert counters["fragments_generated"] == truth.counters["fragments"]
+        assert 0 < counters["fragments"] < counters["fragments_generated"], threshold  # F'_c < F
+        assert counters["init_fragments"] > 0 and result.timings["init"] > 0
+    assert isbvr(zinit="slice-ert", order="front-to-back", opaque_threshold=0.9).render(scene).counters[
+        "fragments"] < isbvr(zinit="slice-ert", order="front-to-back", opaque_threshold=1.0).render(scene).counters[
+        "fragments"]
 
 
 def box_front_depth(scene, step_factor=1.0):
@@ -286,7 +321,7 @@ def expected_depth(scene, backend):
 
 
 @pytest.mark.parametrize("azimuth", [0.0, 90.0])
-@pytest.mark.parametrize("zinit", ZINIT_MODES)
+@pytest.mark.parametrize("zinit", SURFACE_MODES)
 def test_init_depth_matches_the_cube_grids(volume, zinit, azimuth):
     scene = scene_of(volume, HALO, size=48, azimuth=azimuth, elevation=0.0)
     backend = isbvr(zinit=zinit)

@@ -54,7 +54,7 @@ EXPECTED_OPTIONS = {
                   [{"step_factor": 1.0}, {}, {"step_factor": 0.25}]),
     "gl-isbvr": ({"step_factor": 1.0, "order": "back-to-front", "zinit": "ess+ert", "surfaces": "reduced",
                   "phi_t_node": 8, "phi_p_node": 2, "depth_offset": 1.0, "shader": "volume", "extra_taps": 0,
-                  "count_fragments": True, "timing": "auto", "effective_step": None, "effective_timing": None},
+                  "opaque_threshold": 0.99, "count_fragments": True, "timing": "auto", "effective_step": None, "effective_timing": None},
                  [{}, {"step_factor": 0.5}, {"step_factor": 0.25}]),
     "cl-tiled": ({"step_factor": 0.5, "depth_cap": 63, "fragments": "local", "opaque_threshold": 0.99,
                   "empty_space": "hull", "brick_size": 8, "min_opacity": 0.0, "triangle_order": "scene",

@@ -19,6 +19,12 @@ Depth-init modes (option ``zinit``, note 001 §2.4; the volume pass's test in br
 * ``ess+ert``: ``ess``, then Φ_p's front faces with ``LESS`` [``LESS``] (Table 1's "ESS+ERT").
 * ``cull-all``: depth cleared to 0 [``LESS``]: every fragment is culled, which times the early depth
   test alone (T_z of the cost model, E2); not a rendering mode.
+* ``slice-ert``: the generic two-pass early termination the paper's cost model starts from (§2, Eqs. 3–6;
+  Krüger & Westermann's, with slices): every slice is drawn twice, front to back. First a simple pass
+  over the slice (a copy of the accumulated image read back, the slice's fragments kept where its
+  opacity is at least ``opaque_threshold``, depth written, colour off), then the volume pass over the
+  slice, tested ``LESS`` against that depth: from the slice where a pixel turned opaque on, its
+  fragments are culled. F_s = F; needs ``order`` ``front-to-back``; no surfaces.
 
 Surfaces (option ``surfaces``): ``reduced``, the paper's cube sets (Φ_t's at ``phi_t_node``³ voxels, 8
 in the paper, Φ_p's at ``phi_p_node``³, 2), lossless; ``coarse``, marching cubes on the same levels'
@@ -56,7 +62,7 @@ from renderers.gl.slicer import (SLICE_FRAGMENT, SLICE_SAMPLE, UNITS, VISIBLE_TR
                                  slice_polygons)
 from renderers.gl.view import cube_triangles, make_view
 
-ZINIT_MODES = ("none", "ert", "front", "ess", "ess+ert", "cull-all")
+ZINIT_MODES = ("none", "ert", "front", "ess", "ess+ert", "cull-all", "slice-ert")
 SURFACES = ("reduced", "coarse", "full")
 SHADERS = ("volume", "simple")
 
@@ -85,6 +91,19 @@ TIE_OFFSET = (0.0, 4.0)
 a few units of depth resolution (a slope factor would move faces seen at a grazing angle by up to a voxel, culling
 less)."""
 
+OPAQUE_FRAGMENT = glsl.VERSION + """
+uniform sampler2D u_accumulated;  // the image composited so far (front to back), premultiplied
+uniform float u_threshold;
+out vec4 o_color;
+void main() {
+    if (texelFetch(u_accumulated, ivec2(gl_FragCoord.xy), 0).a < u_threshold) {
+        discard;                  // not opaque yet: no depth, the volume pass shades this pixel
+    }
+    o_color = vec4(0.0);
+}
+"""
+"""The first pass of ``slice-ert``: a slice's fragments where the pixel is already opaque write depth."""
+
 SIMPLE_FRAGMENT = glsl.VERSION + """
 out vec4 o_color;
 void main() {
@@ -105,6 +124,21 @@ class Surfaces:
     cubes_p: int
     iso_t: float | None
     iso_p: float | None
+
+
+OPAQUE_UNIT = max(UNITS.values()) + 1
+"""The texture unit of ``slice-ert``'s copy of the accumulated image."""
+
+
+def slice_ranges(triangles, model, eye, forward, depths):
+    """``[(first triangle, count)]`` of each slice, in drawing order: ``triangles`` (texture coordinates) hold the
+    slices one after the other, each slice's triangles at its view depth (one of ``depths``)."""
+    if not len(triangles):
+        return []
+    world = triangles[:, 0].astype(np.float64) @ model[:3, :3].T + model[:3, 3]
+    index = np.rint(np.interp((world - eye) @ forward, depths, np.arange(depths.size))).astype(np.int64)
+    starts = np.flatnonzero(np.diff(index, prepend=index[0] - 1))
+    return list(zip(starts.tolist(), np.diff(np.append(starts, len(triangles))).tolist()))
 
 
 def build_phi_t(normalised, table_alpha, *, node_size, surfaces):
@@ -192,6 +226,9 @@ class GLIsbvrRenderer(GLSlicerRenderer):
                "or a trivial one (T_s of the cost model).", choices=SHADERS),
         Option("extra_taps", int, 0, "Further volume-texture fetches per fragment in the volume shader (weighted 0): "
                "the shader-complexity knob that sweeps γ.", low=0, high=64),
+        Option("opaque_threshold", float, 0.99, "``slice-ert``: a pixel whose accumulated opacity reaches it is "
+               "culled from the next slice on (its error is at most 1 − the threshold).", low=0.0, high=1.0,
+               low_open=True),
         Option("count_fragments", bool, True, "After each frame (outside its timings), count every slice fragment "
                "(F) and the fragments of the Φ_t and Φ_p surfaces (F_t, F_p)."),
         TIMING,
@@ -200,6 +237,9 @@ class GLIsbvrRenderer(GLSlicerRenderer):
 
     def __init__(self, **options):
         super().__init__(**options)
+        if self.zinit == "slice-ert" and self.order != "front-to-back":
+            raise InputError("gl-isbvr: zinit 'slice-ert' reads the opacity composited in front of each slice; "
+                             "set order='front-to-back'")
         self._surfaces = None  # (key, Surfaces, buffers)
 
     def drop_caches(self):
@@ -265,8 +305,12 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         def build():
             res = self._float_texture((width, height))
             depth = self._ctx.depth_texture((width, height))
-            return {"res": res, "depth": depth, "res_fbo": self._ctx.framebuffer([res], depth),
-                    "count_fbo": self._ctx.framebuffer([self._float_texture((width, height))], depth)}
+            target = {"res": res, "depth": depth, "res_fbo": self._ctx.framebuffer([res], depth),
+                      "count_fbo": self._ctx.framebuffer([self._float_texture((width, height))], depth),
+                      "accumulated": self._float_texture((width, height))}
+            # Copied by a framebuffer blit: a copy into the texture itself went through 8 bits here (llvmpipe).
+            target["accumulated_fbo"] = self._ctx.framebuffer([target["accumulated"]])
+            return target
 
         return self._target(("isbvr", width, height), build)
 
@@ -344,7 +388,11 @@ class GLIsbvrRenderer(GLSlicerRenderer):
             ctx.blend_func = (moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA, moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA)
         else:
             ctx.blend_func = (moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE, moderngl.ONE_MINUS_DST_ALPHA, moderngl.ONE)
-        timer.run("draw", lambda: vao.render(vertices=3 * len(triangles)), count=True)
+        if self.zinit == "slice-ert":
+            self._slice_by_slice(ctx, targets, vao, slice_ranges(triangles, view.model, eye, forward, depths),
+                                 uniforms)
+        else:
+            timer.run("draw", lambda: vao.render(vertices=3 * len(triangles)), count=True)
         fbo.depth_mask = True
         seconds, fragments = timer.results()
         image, readback = self._readback(targets["res"], scene.height, scene.width)
@@ -374,6 +422,33 @@ class GLIsbvrRenderer(GLSlicerRenderer):
             surface_vao.release()
         return RenderResult(image=image, timings=timings, counters=counters, info=info)
 
+    def _slice_by_slice(self, ctx, targets, vao, ranges, uniforms):
+        """``slice-ert``'s two passes per slice, front to back (module notes): the first, with the copy of the
+        image it reads, is timed as ``init``, the volume pass as ``draw``."""
+        fbo, accumulated, timer = targets["res_fbo"], targets["accumulated"], self._timer
+        opaque = context.program(ctx, glsl.CUBE_VERTEX, OPAQUE_FRAGMENT)
+        set_uniforms(opaque, {"u_mvp": uniforms["u_mvp"], "u_accumulated": OPAQUE_UNIT,
+                              "u_threshold": self.opaque_threshold})
+        opaque_vao = ctx.vertex_array(opaque, [(self._buffers["slices"], "3f", "in_tex")])
+        accumulated.use(location=OPAQUE_UNIT)
+
+        # A framebuffer's masks take effect when it is bound (use()), and the copy binds others.
+        def first_pass(first, count):
+            ctx.copy_framebuffer(targets["accumulated_fbo"], fbo)
+            fbo.color_mask, fbo.depth_mask = (False, False, False, False), True
+            fbo.use()
+            opaque_vao.render(vertices=3 * count, first=3 * first)
+
+        def volume_pass(first, count):
+            fbo.color_mask, fbo.depth_mask = (True, True, True, True), False
+            fbo.use()
+            vao.render(vertices=3 * count, first=3 * first)
+
+        for first, count in ranges:
+            timer.run("init", lambda: first_pass(first, count), count=True)
+            timer.run("draw", lambda: volume_pass(first, count), count=True)
+        opaque_vao.release()
+
     def _init_passes(self, surfaces, vaos, box_vao, push):
         """``[(cull_face, depth_func, push, tie, draw)]``: the depth-init sequence of ``zinit`` (note 001 §2.4),
         without the passes of a surface the transfer function does not have (:meth:`_needs`).
@@ -392,7 +467,7 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         opaque_front = ("back", "<", push, 0, draw("phi_p"))     # front faces of Φ_p, the nearest wins
         leaping = surfaces.phi_t is not None
         terminating = [opaque_front] if surfaces.phi_p is not None else []
-        return {"none": [], "cull-all": [], "ert": terminating,
+        return {"none": [], "cull-all": [], "slice-ert": [], "ert": terminating,
                 "front": [("back", "<", 0.0, -1, draw("phi_t"))] if leaping else [],
                 "ess": [box, exit_faces] if leaping else [],
                 "ess+ert": ([box, exit_faces] if leaping else []) + terminating}[self.zinit]
