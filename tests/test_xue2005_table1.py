@@ -62,6 +62,9 @@ def test_plan_at_each_scale():
             assert run.options == {"step_factor": 1.0}  # the slices' own step (issue 23)
         elif run.backend == "gl-slicer":
             assert run.interleave is None and len(run.views) == 1 and run.reference == f"{scene}.truth"
+        elif run.backend == "gl-raycast":  # the peer, timed with the modes
+            assert run.options == {"variant": "rc-b", "step_factor": 1.0} and run.interleave == scene
+            assert len(run.views) == 4 and run.tags["role"] == "peer"
         else:
             assert run.backend == "gl-isbvr" and run.interleave == scene and run.reference == f"{scene}.truth"
             assert run.options["step_factor"] == 1.0 and run.warmup >= 1 and run.repeat >= 3

@@ -13,6 +13,7 @@ queries, the same on every machine) beside them.
 * :mod:`.octree`: ``xue2005-octree`` (E6, Fig. 7): Φ_p's node size;
 * :mod:`.extraction`: ``xue2005-extraction`` (E9): the cube sets' extraction time per transfer function;
 * :mod:`.earlyz`: ``xue2005-earlyz`` (E2): the early-z micro-benchmark (T_s, T_z, T_c);
+* :mod:`.twopass`: ``xue2005-twopass`` (E3): Eq. 5 against the per-slice two-pass termination it models;
 * :mod:`.costmodel_check`: ``xue2005-costmodel`` (E4, E5): Eq. 9 predicted against measured, and the
   shader-complexity sweep;
 * :mod:`.sweeps`: ``xue2005-tf`` (E10): transfer functions and iso-values, with none to cull;
@@ -29,9 +30,11 @@ from pipeline.experiments.xue2005.octree import Octree
 from pipeline.experiments.xue2005.surfaces import Surfaces
 from pipeline.experiments.xue2005.sweeps import TransferSweep
 from pipeline.experiments.xue2005.table1 import Table1
+from pipeline.experiments.xue2005.twopass import TwoPass
 from pipeline.experiments.xue2005.variants import Variants
 
-EXPERIMENTS = (Table1, Variants, Surfaces, Octree, Extraction, EarlyZ, CostModelCheck, TransferSweep, Fuzziness)
+EXPERIMENTS = (Table1, Variants, Surfaces, Octree, Extraction, EarlyZ, TwoPass, CostModelCheck, TransferSweep,
+               Fuzziness)
 
 PAPER = Paper("xue2005", "gl-isbvr", baselines=("gl-slicer",), experiments=EXPERIMENTS,
               needs="an iSBVR-style OpenGL slicer with isosurface-aided early-z culling")

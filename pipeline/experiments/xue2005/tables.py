@@ -95,3 +95,15 @@ LEAPING_STATEMENTS = [
               "would cull both sides", "source": "§3.4, §6", "paper's own table": "not measured in the paper"},
 ]
 """What the paper says of front-based against exit-based leaping (note 001 §2.4, §3.4 item 2)."""
+
+TWOPASS_STATEMENTS = [
+    {"statement": "per-slice two-pass rendering: each slice drawn twice, a simple shader setting depth where the "
+                  "opacity buffer is opaque, then the complex shader with early z; F_s = F and T_z ≈ T_s",
+     "source": "§2, Eqs. 3–4", "paper's number": "model only"},
+    {"statement": "δ = 1 / (αγ + 1 − α + γ)", "source": "§2, Eq. 5", "paper's number": "model only"},
+    {"statement": "two-pass rendering pays off when (1 − γ)(α + 1) > 1: γ = 0.2 needs α > 25 %",
+     "source": "§2, Eq. 6", "paper's number": "example"},
+    {"statement": "at most 1/(2γ) as α → 1 (γ = 0.2: ×2.5); iSBVR's few surface fragments (φ ≪ 1) lift the bound "
+                  "to 1/γ", "source": "Eqs. 5 and 9 (note 001 §2.2, §2.6, derived)", "paper's number": "not stated"},
+]
+"""What the paper says of the generic per-slice two-pass renderer (note 001 §2.2): a model, no measurement."""

@@ -1,0 +1,492 @@
+"""``xue2005-twopass`` (E3): Eq. 5 against the per-slice two-pass early termination it models.
+
+The paper's cost model starts from a generic two-pass slicer (§2): every slice is drawn twice, front to
+back, a simple pass writing depth where the accumulated opacity is already opaque, then the volume pass,
+culled there by the early depth test (``gl-isbvr``'s ``zinit`` ``slice-ert``). Its speed-up over Basic
+slicing is Eq. 5, δ = 1 / (αγ + 1 − α + γ), with the culled fraction α and the shader ratio γ = T_s / T_c;
+it pays off above α = γ / (1 − γ) (Eq. 6) and never beats 1 / (2γ).
+
+Here α is set by the transfer function: the smooth-noise phantom of :mod:`.earlyz`, seen straight at a face
+so that every ray crosses every slice, gets a constant opacity chosen so that the accumulated opacity
+reaches ``opaque_threshold`` after a known share of the slices (:func:`opacity_for`); α itself is measured
+from the occlusion queries, 1 − F'_c / F. γ is swept with the volume shader's extra texture taps and
+measured at every point: T_s is the trivial shader's draw time over F, T_c Basic's. The trivial shader,
+Basic and slice-ert of one (opacity, taps) point are one interleave group, frame against frame. At opacity
+1, ESS+ERT joins the group: where both cull nearly everything, slice-ert's first passes draw every slice
+fragment (F_s = F) while iSBVR's draw one surface (φ = (F_t + F_p) / F ≪ 1), the reason its bound is 1 / γ.
+"""
+
+import numpy as np
+import pandas as pd
+
+import datasets
+from core.errors import InputError
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number,
+                                            linked_table, not_measurable)
+from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, timed_frames, unregistered
+from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, text_column
+from pipeline.experiments.xue2005 import costmodel
+from pipeline.experiments.xue2005.costmodel_check import BAND, STRICTLY_ABOVE_ONE, with_passes
+from pipeline.experiments.xue2005.earlyz import (DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, isbvr_run, judged, ns,
+                                                per_fragment)
+from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, every, median_count
+from pipeline.experiments.xue2005.sweeps import config_rows, groups_of, interval_or_nan
+from pipeline.experiments.xue2005.tables import TWOPASS_STATEMENTS
+from reports import blocks, plots
+
+CULLING = (0.0, 0.3, 0.6, 0.9)
+"""The culled fractions the constant opacities aim at (:func:`opacity_for`); α is measured, not assumed."""
+
+THRESHOLD = 0.99
+"""``opaque_threshold``: a pixel whose accumulated opacity reaches it is culled from the next slice on."""
+
+OPAQUE = 1.0
+"""The opacity of the contrast point: the first slice is opaque, so slice-ert culls all but one slice, and the
+transfer function has an opaque value, so ESS+ERT has a Φ_p to cull with."""
+
+MARGIN = 0.05
+"""How far (absolute culling rate) a point's α must lie from the break-even γ / (1 − γ) for the break-even claim
+to judge it: near γ ≈ 0.1 that is about 5 % of Eq. 5's δ. Fixed before any measurement; points inside the band
+are shown, not judged."""
+
+PREFIX = {"order": "front-to-back"}
+"""Every run slices front to back, which ``slice-ert`` needs (the others match it)."""
+
+CONFIGS = {
+    # config: (gl-isbvr options, what it is)
+    "simple": ({"zinit": "none", "shader": "simple"}, "trivial shader (T_s)"),
+    "basic": (MODES["basic"][0], "Basic (T_c)"),
+    "slice-ert": ({"zinit": "slice-ert", "opaque_threshold": THRESHOLD}, "per-slice two-pass ERT"),
+    "ess+ert": (MODES["ess+ert"][0], "ESS+ERT (iSBVR)"),
+}
+"""The configurations of a point; ``ess+ert`` only at :data:`OPAQUE`."""
+
+SCOPE = "the first passes and the volume passes (time_init + time_draw)"
+"""The scope of a measured speed-up: the passes Eq. 4 prices (Basic has no first pass)."""
+
+
+# ------------------------------------------------------------------------------------------------ design
+def opacity_for(culling, slices, *, threshold=THRESHOLD):
+    """The constant per-slice opacity at which front-to-back compositing reaches ``threshold`` so that about
+    ``culling`` of ``slices`` slices lie behind it.
+
+    The accumulated opacity after k slices is 1 − (1 − a)^k; it is made to reach ``threshold`` half a slice
+    after (1 − ``culling``)·``slices``, so rounding cannot move the crossing by a slice: the culled fraction is
+    ``culling`` − 1/``slices`` where that is positive, and 0 for ``culling`` 0.
+
+    Parameters
+    ----------
+    culling : float
+        The culled fraction aimed at, in [0, 1).
+    slices : int
+        Slices along every ray (> 0).
+    threshold : float, optional
+        The accumulated opacity from which slice-ert culls, in (0, 1).
+
+    Returns
+    -------
+    float
+    """
+    if not 0.0 <= culling < 1.0:
+        raise InputError(f"culling: expected a culled fraction in [0, 1), got {culling!r}")
+    if slices <= 0:
+        raise InputError(f"slices: expected a number of slices > 0, got {slices!r}")
+    if not 0.0 < threshold < 1.0:
+        raise InputError(f"threshold: expected an accumulated opacity in (0, 1), got {threshold!r}")
+    return float(1.0 - (1.0 - threshold) ** (1.0 / ((1.0 - culling) * slices + 0.5)))
+
+
+def constant_tf(opacity):
+    """A ``transfer_function`` entry (scene format): ``opacity`` for every value, the phantom's preset colours."""
+    table = datasets.preset(DATASET, "no_cue").transfer_function.table
+    low, high = (np.round(table[i, :3].astype(float), 6).tolist() for i in (0, -1))
+    return {"points": [[0.0, *low, opacity], [1.0, *high, opacity]],
+            "name": f"constant-{opacity:.4g}"}
+
+
+def can_plan():
+    """Whether ``gl-isbvr`` is here with every option this experiment sets."""
+    return accepts(ISBVR, *OPTIONS, "count_fragments", "opaque_threshold")
+
+
+# ------------------------------------------------------------------------------------------ measurement
+def _pair_sum(rows, column, resampler):
+    """``(value, draws)`` of ``column`` summed over the rows (the views), draws from the frames."""
+    draws = intervals.row_draws(rows, column, resampler)
+    return float(numeric(rows, column).sum()), None if draws is None else draws.sum(axis=1)
+
+
+def _ratio(top, bottom):
+    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
+
+
+def _views(*frames):
+    views = set.intersection(*(set(text_column(rows, "view")) for rows in frames))
+    if not views:
+        raise ValueError("the runs of a point share no view")
+    return [with_passes(rows[text_column(rows, "view").isin(views)].sort_values("view")) for rows in frames]
+
+
+def point_model(group, resampler):
+    """Eq. 5 and the measured speed-up of slice-ert over Basic at one (opacity, taps) point: one interleave group.
+
+    Returns a dict: the point's tags, F, F'_c, the first passes' depth writes and α from slice-ert's counts;
+    ``gamma``, ``predicted`` (Eq. 4 per view, its times summed: Eq. 5 with each view's α and γ), ``measured``
+    (Basic over slice-ert, :data:`SCOPE`), ``whole`` (whole frames), ``ceiling_share`` (measured δ over
+    1 / (2γ)) as ``(value, draws)`` pairs; T_s, T_c and slice-ert's first-pass time per fragment; the
+    break-even α and which side of it (``"loss"``, ``"gain"`` or ``None`` inside :data:`MARGIN`) Eq. 6 puts
+    the point; ESS+ERT's α', φ and speed-up where the group has it.
+    """
+    simple, basic, two = _views(*(config_rows(group, c) for c in ("simple", "basic", "slice-ert")))
+    fragments = numeric(two, "count_fragments_generated").to_numpy(float)
+    shaded = numeric(two, "count_fragments").to_numpy(float)
+    if not (fragments > 0).all():
+        raise ValueError(f"run {two.run.iloc[0]} counted no slice fragments (count_fragments_generated)")
+
+    def eq4(simple_draw, basic_draw):
+        time = costmodel.per_slice_time(fragments=fragments, shaded=shaded, t_simple=simple_draw / fragments,
+                                        t_complex=basic_draw / fragments)
+        return np.sum(basic_draw, axis=-1) / np.sum(time, axis=-1)
+
+    simple_draws = intervals.row_draws(simple, "time_draw", resampler)
+    basic_draws = intervals.row_draws(basic, "time_draw", resampler)
+    predicted = (float(eq4(numeric(simple, "time_draw").to_numpy(float), numeric(basic, "time_draw").to_numpy(float))),
+                 None if simple_draws is None or basic_draws is None else eq4(simple_draws, basic_draws))
+    t_simple, t_complex = per_fragment(simple, resampler), per_fragment(basic, resampler)
+    gamma = _ratio(t_simple, t_complex)
+    measured = _ratio(_pair_sum(basic, "time_passes", resampler), _pair_sum(two, "time_passes", resampler))
+    alpha = costmodel.culling_rate(fragments.sum(), shaded.sum())
+    break_even = float(costmodel.break_even_culling(gamma[0]))
+    side = "loss" if alpha < break_even - MARGIN else "gain" if alpha > break_even + MARGIN else None
+    first = two.iloc[0]
+    out = {"group": str(first.interleave), "kind": str(first.kind), "opacity": float(first.opacity),
+           "taps": int(float(first.extra_taps)), "views": len(two), "F": float(fragments.sum()),
+           "F_c": float(shaded.sum()), "depth_writes": float(numeric(two, "count_init_fragments").sum()),
+           "alpha": alpha, "gamma": gamma, "t_simple": t_simple[0], "t_complex": t_complex[0],
+           "t_first": float(numeric(two, "time_init").sum() / fragments.sum()), "predicted": predicted,
+           "measured": measured, "whole": _ratio(_pair_sum(basic, "time_total", resampler),
+                                                 _pair_sum(two, "time_total", resampler)),
+           "ceiling_share": (measured[0] * 2 * gamma[0],
+                             None if measured[1] is None or gamma[1] is None else measured[1] * 2 * gamma[1]),
+           "break_even": break_even, "side": side, "pays_off": bool(costmodel.pays_off(alpha, gamma[0])),
+           "psnr": float(numeric(two, "psnr").min()) if "psnr" in two else np.nan,
+           "timing": first.get("info_timing"), "record": first.get("record"), "exr": first.get("exr")}
+    if "ess+ert" in set(text_column(group, "config")):
+        basic, isbvr = _views(basic, config_rows(group, "ess+ert"))
+        generated = median_count(isbvr, "count_fragments_generated")
+        out["isbvr"] = {"alpha": costmodel.culling_rate(generated, median_count(isbvr, "count_fragments")),
+                        "phi": costmodel.surface_share(generated, median_count(isbvr, "count_surface_fragments_t"),
+                                                       median_count(isbvr, "count_surface_fragments_p")),
+                        "measured": _ratio(_pair_sum(basic, "time_passes", resampler),
+                                           _pair_sum(isbvr, "time_passes", resampler))}
+    return out
+
+
+def point_models(df):
+    """:func:`point_model` of every group with a slice-ert run, by extra taps and then α (one resampler)."""
+    groups = groups_of(df, config="slice-ert")
+    if not groups:
+        raise ValueError("no successful slice-ert run")
+    resampler = intervals.Resampler()
+    models = [point_model(df[text_column(df, "interleave") == name], resampler) for name in groups]
+    return sorted(models, key=lambda m: (m["taps"], m["alpha"]))
+
+
+def _label(m):
+    return f"α {format_number(m['alpha'])}, {m['taps']} taps"
+
+
+def _counts(m):
+    """α with the counts it comes from (occlusion queries: the same on any device)."""
+    return f"α {format_number(m['alpha'])} = 1 − {format_number(m['F_c'])}/{format_number(m['F'])}"
+
+
+# ----------------------------------------------------------------------------------------------- claims
+def _break_even(df):
+    models = point_models(df)
+    sides = {side: [m for m in models if m["side"] == side] for side in ("loss", "gain")}
+    for side, found in sides.items():
+        if not found:
+            raise ValueError(f"no point where Eq. 6 predicts a {side} by more than {MARGIN:g} in α (α against "
+                             "break-even: " + ", ".join(f"{format_number(m['alpha'])} against "
+                                                        f"{format_number(m['break_even'])}" for m in models) + ")")
+    decisions = {_label(m): intervals.decide(m["measured"][0], intervals.interval_of(m["measured"][1]),
+                                             **({"at_most": 1.0} if side == "loss" else
+                                                {"at_least": STRICTLY_ABOVE_ONE}))
+                 for side, found in sides.items() for m in found}
+    notes = {_label(m): f"{_counts(m)}; Eq. 6 predicts a {m['side']}: break-even α {format_number(m['break_even'])} "
+                        f"at γ {format_number(m['gamma'][0])}" for side in sides.values() for m in side}
+    skipped = [_label(m) for m in models if m["side"] is None]
+    return every(decisions, notes=notes, what="Basic / slice-ert ",
+                 extra=(f"within ±{MARGIN:g} of the break-even, not judged: {', '.join(skipped)}; " if skipped else "")
+                 + f"over {SCOPE}, interleaved")
+
+
+def _below_ceiling(df):
+    models = point_models(df)
+    decisions = {_label(m): intervals.decide(m["ceiling_share"][0], intervals.interval_of(m["ceiling_share"][1]),
+                                             at_most=1.0) for m in models}
+    notes = {_label(m): f"δ ×{format_number(m['measured'][0])}, 1/(2γ) ×{format_number(0.5 / m['gamma'][0])}"
+             for m in models}
+    return every(decisions, notes=notes, what="measured δ / 1/(2γ) ", extra=f"δ over {SCOPE}, interleaved")
+
+
+def _eq5_within(df):
+    models = point_models(df)
+    decisions = {_label(m): judged(m["predicted"], m["measured"], at_least=1 - BAND, at_most=1 + BAND)
+                 for m in models}
+    notes = {_label(m): f"Eq. 5 ×{format_number(m['predicted'][0])}, measured ×{format_number(m['measured'][0])}; "
+                        f"{_counts(m)}, γ {format_number(m['gamma'][0])}" for m in models}
+    return every(decisions, notes=notes, what="predicted / measured ",
+                 extra=f"measured over {SCOPE}; Eq. 5 from slice-ert's counts and T_s, T_c timed with it")
+
+
+CLAIMS = (
+    Claim("break-even", "Per-slice two-pass rendering pays off only above the culling rate γ / (1 − γ) (Eq. 6; "
+          "γ = 0.2 needs α > 25 %)",
+          f"Basic / slice-ert time ≤ 1 where α < γ / (1 − γ) − {MARGIN:g}, > 1 where α > γ / (1 − γ) + {MARGIN:g}, "
+          f"each point with γ measured with it (over {SCOPE}; points within ±{MARGIN:g} not judged; needs both)",
+          _break_even),
+    Claim("below-ceiling", "Per-slice two-pass rendering gains at most 1 / (2γ) (Eq. 5 as α → 1)",
+          f"measured Basic / slice-ert time × 2γ ≤ 1 at every point (over {SCOPE})", _below_ceiling),
+    Claim("eq5-within-20", "Eq. 5 predicts the per-slice two-pass speed-up from the culled fraction and the shader "
+          "ratio within 20 % (issue 23's target for the cost model)",
+          f"Eq. 5 δ / measured δ within ×{format_number(1 - BAND)}–×{format_number(1 + BAND)} at every point "
+          f"(measured over {SCOPE})", _eq5_within),
+)
+
+
+# ------------------------------------------------------------------------------------------------- page
+def _table(models):
+    rows = []
+    for m in models:
+        predicted_low, predicted_high = interval_or_nan(m["predicted"][1])
+        low, high = interval_or_nan(m["measured"][1])
+        gamma_low, gamma_high = interval_or_nan(m["gamma"][1])
+        rows.append({"point": m["group"], "extra taps": m["taps"], "opacity": m["opacity"], "F": m["F"],
+                     "F'_c": m["F_c"], "α": m["alpha"], "depth writes": m["depth_writes"],
+                     "T_s (ns)": 1e9 * m["t_simple"], "T_c (ns)": 1e9 * m["t_complex"],
+                     "first pass (ns / F)": 1e9 * m["t_first"], "γ": m["gamma"][0], "γ low": gamma_low,
+                     "γ high": gamma_high, "break-even α": m["break_even"],
+                     "Eq. 6": "gain" if m["pays_off"] else "loss", "judged as": m["side"] or "within margin",
+                     "Eq. 5 δ": m["predicted"][0], "Eq. 5 low": predicted_low, "Eq. 5 high": predicted_high,
+                     "measured δ": m["measured"][0], "measured low": low, "measured high": high,
+                     "Eq. 5 / measured": m["predicted"][0] / m["measured"][0], "1/(2γ)": 0.5 / m["gamma"][0],
+                     "measured / 1/(2γ)": m["ceiling_share"][0], "whole frames δ": m["whole"][0],
+                     "PSNR vs Basic (dB)": m["psnr"], "record": m["record"], "exr": m["exr"]})
+    return pd.DataFrame(rows)
+
+
+def _takeaways(models):
+    by_taps = {}
+    for m in models:
+        by_taps.setdefault(m["taps"], []).append(m)
+    out = [f"The opacities set α = 1 − F'_c / F (occlusion queries, the same on any device) from "
+           f"{format_number(min(m['alpha'] for m in models))} to {format_number(max(m['alpha'] for m in models))}; "
+           "γ = T_s / T_c and the break-even α it gives: "
+           + ", ".join(f"{k} taps γ {format_number(np.median([m['gamma'][0] for m in ms]))} (break-even α "
+                       f"{format_number(np.median([m['break_even'] for m in ms]))}, ceiling "
+                       f"×{format_number(np.median([0.5 / m['gamma'][0] for m in ms]))})" for k, ms in by_taps.items())
+           + "."]
+    crossings = []
+    for k, ms in by_taps.items():
+        losing = [m["alpha"] for m in ms if m["measured"][0] <= 1.0]
+        winning = [m["alpha"] for m in ms if m["measured"][0] > 1.0]
+        where = (f"loses up to α {format_number(max(losing))} and wins from α {format_number(min(winning))}"
+                 if losing and winning else f"wins at every α measured (from {format_number(min(winning))})"
+                 if winning else f"loses at every α measured (up to {format_number(max(losing))})")
+        crossings.append(f"{k} taps: {where}, Eq. 6's break-even α "
+                         f"{format_number(np.median([m['break_even'] for m in ms]))}")
+    out.append("Measured over the passes, slice-ert against Basic: " + "; ".join(crossings) + ".")
+    first = np.median([m["t_first"] for m in models])
+    simple = np.median([m["t_simple"] for m in models])
+    waits = any(m["timing"] == "finish" for m in models)
+    out.append(f"slice-ert's first passes cost {ns(first)} per slice fragment against T_s {ns(simple)} "
+               "(medians over the points): Eq. 3 prices them F·T_s; the rest is per-slice work the model leaves out, "
+               "the copy of the accumulated image each first pass reads"
+               + (" and the wait that ends each of the two timed passes per slice (timing 'finish': this device's "
+                  "pass times are wall clock to the pass's end)" if waits else "") + ".")
+    contrast = [m for m in models if "isbvr" in m]
+    for m in contrast:
+        isbvr, gamma = m["isbvr"], m["gamma"][0]
+        out.append(f"At opacity {format_number(m['opacity'])} ({m['taps']} taps) slice-ert culls α "
+                   f"{format_number(m['alpha'])} but its first passes draw every slice fragment (F_s = F, φ = 1): "
+                   f"×{format_number(m['measured'][0])} against its ceiling 1/(2γ) = ×{format_number(0.5 / gamma)}; "
+                   f"ESS+ERT culls α' {format_number(isbvr['alpha'])} with φ = (F_t + F_p) / F = "
+                   f"{format_number(isbvr['phi'])}: ×{format_number(isbvr['measured'][0])} against its ceiling "
+                   f"1/γ = ×{format_number(1 / gamma)} (γ {format_number(gamma)}).")
+    swept = [m["alpha"] for m in models if m["kind"] == "sweep"]
+    if swept:
+        out.append("Below opacity 1 these transfer functions have neither a transparent nor an opaque value, so "
+                   "ESS+ERT has no surface to draw and culls nothing (xue2005-tf's controls measure that), where "
+                   f"slice-ert, terminating on accumulated opacity, culls up to α {format_number(max(swept))}.")
+    return out
+
+
+def _chart(table, ctx):
+    gammas = table.groupby("extra taps")["γ"].median()
+    series = [f"{k} taps (γ {format_number(gammas[k])})" for k in table["extra taps"]]
+    long = pd.concat([table.assign(series=[f"measured, {s}" for s in series], value=table["measured δ"],
+                                   low=table["measured low"], high=table["measured high"]),
+                      table.assign(series=[f"Eq. 5, {s}" for s in series], value=table["Eq. 5 δ"],
+                                   low=table["Eq. 5 low"], high=table["Eq. 5 high"])], ignore_index=True)
+    ratios = table["Eq. 5 / measured"]
+    path, rel = ctx.plot_path("speedup")
+    plots.lines(long, path, x="α", y="value", group="series", y_range=("low", "high"),
+                vlines=sorted({float(costmodel.break_even_culling(g)) for g in gammas}),
+                guides=[("δ = 1: break-even", (0.0, 1.0), (1.0, 1.0))],
+                title=f"Eq. 5 / measured {as_ratio(ratios.min())}–{format_number(ratios.max())} "
+                      f"(target ×{format_number(1 - BAND)}–×{format_number(1 + BAND)})",
+                x_label="culled fraction α = 1 − F'_c / F (share of slice fragments)",
+                y_label="speed-up of slice-ert over Basic (×, first + volume passes)")
+    return blocks.Figure("Measured and predicted speed-up against the culled fraction", rel,
+                         "One series per shader complexity (γ = T_s / T_c measured at every point; the median in the "
+                         "legend). Bars: 95 % bootstrap intervals from the interleaved frames (Eq. 5's from those of "
+                         "T_s and T_c). Dotted: the break-even α = γ / (1 − γ) of each complexity's median γ "
+                         "(Eq. 6); grey: δ = 1.")
+
+
+def _contrast_table(models):
+    rows = []
+    for m in (m for m in models if "isbvr" in m):
+        gamma, isbvr = m["gamma"][0], m["isbvr"]
+        rows += [{"extra taps": m["taps"], "method": "per-slice two-pass (slice-ert)", "α": m["alpha"], "φ": 1.0,
+                  "measured δ": m["measured"][0], "ceiling": 0.5 / gamma, "ceiling's form": "1/(2γ)"},
+                 {"extra taps": m["taps"], "method": "ESS+ERT (iSBVR)", "α": isbvr["alpha"], "φ": isbvr["phi"],
+                  "measured δ": isbvr["measured"][0], "ceiling": 1 / gamma, "ceiling's form": "1/γ"}]
+    return pd.DataFrame(rows)
+
+
+def _gallery(ok, results, ctx):
+    """Basic once and slice-ert at each opacity (fewest extra taps), with its difference from Basic."""
+    taps = numeric(ok, "extra_taps")
+    rows = ok[(taps == taps.min()) & ok.config.isin(("basic", "slice-ert"))].copy()
+    rows["opacity"] = numeric(rows, "opacity")
+    basic = rows[rows.config == "basic"].sort_values("opacity").head(1)
+    gallery = blocks.Gallery("slice-ert at each opacity and its difference from Basic", diff_scale=DIFF_SCALE,
+                             caption=f"Right of each slice-ert image: |slice-ert − Basic|; its error is at most "
+                                     f"1 − opaque_threshold = {format_number(1 - THRESHOLD)} where a pixel is cut.")
+    for row in pd.concat([basic, rows[rows.config == "slice-ert"].sort_values("opacity")]).itertuples():
+        difference = None if row.config == "basic" else ctx.difference(reference_exr(results, row), row.exr,
+                                                                       DIFF_SCALE)
+        psnr = getattr(row, "psnr", np.nan)
+        gallery.items.append(blocks.GalleryItem(
+            f"opacity {format_number(row.opacity)}, {CONFIGS[row.config][1]}", ctx.image(row.png),
+            difference=difference, note=f"{format_number(row.time_total * 1e3)} ms"
+            + (f", PSNR vs Basic {format_number(psnr)} dB" if pd.notna(psnr) else "")))
+    return gallery
+
+
+TABLE_COLUMNS = ("point", "extra taps", "opacity", "F", "F'_c", "α", "depth writes", "T_s (ns)", "T_c (ns)",
+                 "first pass (ns / F)", "γ", "γ low", "γ high", "break-even α", "Eq. 6", "judged as", "Eq. 5 δ",
+                 "Eq. 5 low", "Eq. 5 high", "measured δ", "measured low", "measured high", "Eq. 5 / measured",
+                 "1/(2γ)", "measured / 1/(2γ)", "whole frames δ", "PSNR vs Basic (dB)")
+"""The columns of the page's table of points."""
+
+RUN_COLUMNS = {"interleave": "point", "config": "configuration", "extra_taps": "extra taps", "opacity": "opacity",
+               "init_ms": "first passes (ms)", "draw_ms": "volume passes (ms)", "time_ms": "whole frame (ms)",
+               "count_fragments_generated": "F", "count_fragments": "F'_c", "count_init_fragments": "depth writes",
+               "count_surface_fragments_t": "F_t", "count_surface_fragments_p": "F_p"}
+"""The columns of the page's run table and their names."""
+
+
+class TwoPass(Experiment):
+    """Eq. 5 against the per-slice two-pass early termination it models, over controlled α and swept γ."""
+
+    name = "xue2005-twopass"
+    paper = "xue2005"
+    title = "Eq. 5 against per-slice two-pass early termination: break-even and ceiling (E3)"
+    settings = frozenset({"volume_size", "image_size", "culling", "extra_taps", "opaque", "repeat"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "culling": [0.0, 0.9], "extra_taps": [0]},
+              "default": {"volume_size": 128, "image_size": 256},
+              "full": {"volume_size": 256, "image_size": 512, "culling": [0.0, 0.1, 0.25, 0.5, 0.75, 0.9],
+                       "repeat": 5}}
+    description = (
+        "The paper's cost model starts from a generic two-pass slicer (§2): each slice drawn twice, a simple "
+        "shader writing depth where the opacity buffer is already opaque, then the complex shader culled there "
+        "by early z. Its speed-up over one pass is Eq. 5, δ = 1 / (αγ + 1 − α + γ), with the culled fraction "
+        "α and the shader ratio γ = T_s / T_c; it pays off only above α = γ / (1 − γ) (Eq. 6: γ = 0.2 needs "
+        "25 %) and never beats 1 / (2γ), which is why iSBVR replaces the per-slice pass with a few surface "
+        "fragments. gl-isbvr's slice-ert is that renderer (opaque_threshold 0.99, front to back). Here the "
+        "smooth-noise phantom, seen straight at a face and filling the picture, gets constant opacities chosen "
+        "so that the threshold is reached after a known share of the slices; α is measured from occlusion "
+        "queries (1 − F'_c / F), γ at every point from the trivial shader's and Basic's draw time over F, with "
+        "0, 4 and 16 extra texture taps in the volume shader. The trivial shader, Basic and slice-ert of one "
+        "(opacity, taps) point are timed interleaved in one job; the speed-up is over the first and volume "
+        "passes, whole frames beside it. At opacity 1, ESS+ERT joins each group for iSBVR's φ."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not can_plan():
+            return []
+        size = int(profile.setting(self, "volume_size", profile.volume_size))
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        where = f"profile {profile.name!r} settings.{self.name}"
+        culling = [float(c) for c in profile.setting(self, "culling", list(CULLING))]
+        if not culling or not all(0.0 <= c < 1.0 for c in culling) or len(set(culling)) < len(culling):
+            raise InputError(f"{where}.culling: expected distinct culled fractions in [0, 1), got {culling}")
+        taps = [int(k) for k in profile.setting(self, "extra_taps", list(EXTRA_TAPS))]
+        if not taps or min(taps) < 0 or len(set(taps)) < len(taps):
+            raise InputError(f"{where}.extra_taps: expected distinct counts >= 0, got {taps}")
+        opaque = profile.setting(self, "opaque", True)
+        if not isinstance(opaque, bool):
+            raise InputError(f"{where}.opaque: expected true or false (the opacity-1 point with ESS+ERT), got "
+                             f"{opaque!r}")
+        frames = timed_frames(profile, self)
+        # Straight at a face, slices one voxel apart: every ray crosses ``size`` slices.
+        points = [(f"a{100 * c:g}", "sweep", round(opacity_for(c, size), 6)) for c in culling]
+        points += [("opaque", "opaque", OPAQUE)] if opaque else []
+        runs = []
+        for k in taps:
+            for label, kind, opacity in points:
+                spec = scene(DATASET, image, volumes=[phantom(DATASET, size, transfer_function=constant_tf(opacity))],
+                             camera={"projection": "orthographic", "view_height": FILL * size})
+                group = f"{label}.t{k}"
+                tags = {"scene": DATASET, "dataset": DATASET, "kind": kind, "opacity": opacity,
+                        "extra_taps": k}
+                configs = ("simple", "basic", "slice-ert") + (("ess+ert",) if kind == "opaque" else ())
+                for config in configs:
+                    options = {**PREFIX, **CONFIGS[config][0], **({"extra_taps": k} if config != "simple" else {})}
+                    runs.append(isbvr_run(self.name, f"{group}.{config}", spec, (FRONT_VIEW,), options, frames,
+                                          {**tags, "config": config}, group=group,
+                                          reference=None if config in ("simple", "basic") else f"{group}.basic"))
+        return runs
+
+    def paper_table(self):
+        return pd.DataFrame(TWOPASS_STATEMENTS)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        try:
+            models = point_models(ok)
+        except (KeyError, ValueError):
+            models = []
+        out = [claim_takeaways(self.claims, results, _takeaways(models) if models else [])]
+        if models:
+            table = _table(models)
+            out.append(_chart(table, ctx))
+            out.append(linked_table("Every point: counts, γ, Eq. 5 and the measured speed-up", table,
+                                    list(TABLE_COLUMNS), ctx, csv_name="twopass.csv",
+                                    caption=f"Counts from slice-ert's occlusion queries (depth writes: its first "
+                                            f"passes' fragments that wrote depth); T_s and T_c: the trivial shader's "
+                                            f"and Basic's draw time over F; first pass: slice-ert's first passes "
+                                            f"(with the image copies) over F. δ: Basic over slice-ert, {SCOPE}, with "
+                                            f"95 % intervals (low, high); judged as: the side of Eq. 6's break-even "
+                                            f"the break-even claim judges, ±{MARGIN:g} in α left out. Links: the "
+                                            f"slice-ert run."))
+            contrast = _contrast_table(models)
+            if not contrast.empty:
+                out.append(blocks.Table("At opacity 1: per-slice two-pass against iSBVR", contrast,
+                                        caption="φ: the first or init passes' fragments over F (slice-ert's first "
+                                                "passes draw every slice fragment); δ over Basic, each method's "
+                                                "passes; ceilings from the point's γ."))
+            out.append(_gallery(ok, results, ctx))
+        if not ok.empty:
+            runs = ok.assign(init_ms=numeric(ok, "time_init") * 1e3, draw_ms=numeric(ok, "time_draw") * 1e3,
+                             time_ms=numeric(ok, "time_total") * 1e3)
+            out.append(linked_table("Runs", runs, list(RUN_COLUMNS), ctx, names=RUN_COLUMNS))
+        return out + not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS, "count_fragments",
+                                                                          "opaque_threshold"))
