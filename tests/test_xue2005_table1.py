@@ -13,7 +13,7 @@ from pipeline import experiments
 from pipeline.experiments import Profile
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.xue2005 import table1 as T
-from pipeline.experiments.xue2005.tables import TABLE1
+from pipeline.experiments.xue2005.tables import REAL_SCANS, TABLE1
 from reports.imageio import write_exr
 
 NAME = "xue2005-table1"
@@ -62,6 +62,9 @@ def test_plan_at_each_scale():
             assert run.options == {"step_factor": 1.0}  # the slices' own step (issue 23)
         elif run.backend == "gl-slicer":
             assert run.interleave is None and len(run.views) == 1 and run.reference == f"{scene}.truth"
+        elif run.tags["config"] == "basic-across":  # Basic of every stand-in of one size, in one job
+            assert run.interleave == "basic128" and run.options["zinit"] == "none" and len(run.views) == 1
+            assert scene not in REAL_SCANS
         elif run.backend == "gl-raycast":  # the peer, timed with the modes
             assert run.options == {"variant": "rc-b", "step_factor": 1.0} and run.interleave == scene
             assert len(run.views) == 4 and run.tags["role"] == "peer"
@@ -69,7 +72,8 @@ def test_plan_at_each_scale():
             assert run.backend == "gl-isbvr" and run.interleave == scene and run.reference == f"{scene}.truth"
             assert run.options["step_factor"] == 1.0 and run.warmup >= 1 and run.repeat >= 3
             assert len(run.views) == 4 and run.views[0]["view"] == "headline"
-    modes = {(r.tags["scene"], r.tags["config"], r.options["zinit"]) for r in default if r.backend == "gl-isbvr"}
+    modes = {(r.tags["scene"], r.tags["config"], r.options["zinit"]) for r in default
+             if r.backend == "gl-isbvr" and r.tags["role"] == "test"}
     assert modes == {(s, c, z) for s in TABLE1
                      for c, z in (("basic", "none"), ("ess", "ess"), ("ert", "ert"), ("ess+ert", "ess+ert"))}
     grids = {r.tags["scene"]: r.tags["grid"] for r in default}
@@ -145,10 +149,17 @@ def test_the_claims_name_a_missing_count_or_mode():
 
 
 # ---------------------------------------------------------------------------------------------- Basic
-def basic_rows(times, fragments, views=("headline", "orbit000")):
-    return [timed([seconds * t for t in (1.0, 1.01, 0.99, 1.0, 1.0)], group=scene, scene=scene, view=view,
-                  config="basic", run=f"{scene}.basic", grid="128³", count_fragments=fragments[scene])
-            for scene, seconds in times.items() for view in views]
+def basic_rows(times, fragments, views=("headline", "orbit000"), across=None):
+    """Basic's rows per scene (its own group), and Basic timed across the scenes in one group (headline view),
+    in ``across`` seconds where given (default ``times``)."""
+    across = across or times
+    factors = (1.0, 1.01, 0.99, 1.0, 1.0)
+    return ([timed([seconds * t for t in factors], group=scene, scene=scene, view=view, config="basic",
+                   run=f"{scene}.basic", grid="128³", count_fragments=fragments[scene])
+             for scene, seconds in times.items() for view in views] +
+            [timed([seconds * t for t in factors], group="basic128", scene=scene, view="headline",
+                   config="basic-across", run=f"{scene}.basic-across", grid="128³", count_fragments=fragments[scene])
+             for scene, seconds in across.items()])
 
 
 def test_basic_is_the_same_on_every_data_set():
@@ -160,12 +171,18 @@ def test_basic_is_the_same_on_every_data_set():
     assert evaluate(NAME, "basic-fragments", rows).holds is False
     assert evaluate(NAME, "basic-time", rows).holds is False
     assert "head 100 ms aneurysm 150 ms" in evaluate(NAME, "basic-time", rows).detail
+    # The times compared are those of the runs timed together, not the scenes' own jobs.
+    rows = basic_rows({"head": 0.100, "aneurysm": 0.150}, {"head": 5000, "aneurysm": 5000},
+                      across={"head": 0.100, "aneurysm": 0.101})
+    assert evaluate(NAME, "basic-time", rows).holds is True
 
 
 def test_basic_compares_scenes_of_one_volume_size_only():
     rows = basic_rows({"head": 0.100, "cthead": 0.300}, {"head": 5000, "cthead": 9000})
     for row in rows:
         row["grid"] = "128³" if row["scene"] == "head" else "cthead as scanned"
+        if row["scene"] == "cthead" and row["config"] == "basic-across":
+            row["interleave"] = "cthead"  # a real scan is not timed across the stand-ins
     assert evaluate(NAME, "basic-fragments", rows).holds is None
     assert "fewer than two scenes" in evaluate(NAME, "basic-time", rows).detail
     rows += basic_rows({"aneurysm": 0.100}, {"aneurysm": 5000})
