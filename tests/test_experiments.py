@@ -102,3 +102,19 @@ def test_keys_with_safe_defaults_may_be_left_out_and_no_limit_is_said_with_null(
 def test_every_profile_value_is_checked_and_the_error_names_key_and_value(key, value, message):
     with pytest.raises(InputError, match=rf"^profile 'default' {message}"):
         Profile.from_mapping({**_default_profile(), key: value})
+
+
+def test_an_interleave_group_may_not_mix_opengl_stacks(monkeypatch):
+    """vtk-gpu and a moderngl backend in one job rendered every image of both empty: refused before any work."""
+    def runs(profile):
+        return [Run("volbench-phantoms", name, backend, {"volumes": []}, ({"view": "v"},), interleave="g")
+                for name, backend in (("a", "gl-slicer"), ("b", backend_b))]
+
+    monkeypatch.setattr(experiments.get("volbench-phantoms").__class__, "runs", lambda self, profile: runs(profile))
+    profile = Profile(name="t", experiments=["volbench-phantoms"])
+    backend_b = "vtk-gpu"
+    with pytest.raises(InputError, match="interleave group 'g' mixes backends of different OpenGL stacks "
+                                         r"\(gl-slicer: moderngl, vtk-gpu: vtk\)"):
+        experiments.plan(profile)
+    backend_b = "gl-raycast"
+    assert set(experiments.plan(profile)) == {"volbench-phantoms/a", "volbench-phantoms/b"}

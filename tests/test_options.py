@@ -39,7 +39,7 @@ EXPECTED_OPTIONS = {
     "volpack": ({"mode": "rle", "opaque_threshold": 0.95, "min_opacity": 0.05, "octree_base_node_size": 4,
                  "octree_threshold": 4},
                 [{}, {"opaque_threshold": 0.99, "min_opacity": 0.01}, {"opaque_threshold": 1.0, "min_opacity": 0.0}]),
-    "vtk-gpu": ({"step_factor": 0.25, "early_termination": True, "effective_step": None},
+    "vtk-gpu": ({"step_factor": 0.25, "early_termination": True, "depth_pass": False, "effective_step": None},
                 [{"step_factor": 1.0}, {"step_factor": 0.5}, {}]),
     "vtk-cpu": ({"step_factor": 0.25, "threads": None, "readback": "raycast", "effective_step": None,
                  "effective_threads": VTK_THREADS},

@@ -153,7 +153,8 @@ def test_unknown_option_lists_the_valid_ones():
 
 @needs_vtk
 def test_options_and_environment_are_recorded(gpu, cpu):
-    assert gpu.options == {"step_factor": 0.25, "early_termination": False, "effective_step": gpu._last_step}
+    assert gpu.options == {"step_factor": 0.25, "early_termination": False, "depth_pass": False,
+                           "effective_step": gpu._last_step}
     assert cpu.options["threads"] == 1 and cpu.options["effective_threads"] == 1
     for backend, mapper in ((gpu, "vtkOpenGLGPUVolumeRayCastMapper"), (cpu, "vtkFixedPointVolumeRayCastMapper")):
         env = backend.environment()
@@ -534,3 +535,30 @@ def test_more_threads_than_vtk_runs_are_refused_not_recorded():
         renderers.get("vtk-cpu", threads=100000)
     most = int(re.search(r"VTK_MAX_THREADS (\d+)", str(refused.value))[1])
     assert renderers.get("vtk-cpu", threads=most).options["threads"] == most
+
+
+@needs_vtk
+def test_gpu_depth_pass_starts_rays_at_the_contour_and_loses_a_little(reference):
+    """VTK's depth pass (iSBVR's nearest peer): rays start at a contour at the transfer function's Φ_t. It must
+    render the volume where it is placed (the pass ignores a user matrix; the placement goes into the data),
+    and it changes the image (lossy where the contour lies behind visible samples, and the samples move)."""
+    centre = np.eye(4)
+    centre[:3, 3] = -16
+    volume = datasets.load("ct_skull", size=32, cache_dir=False)
+    tf = datasets.get("ct_skull").preset("isbvr").transfer_function
+    for transform in (np.eye(4), np.diag([1.5, 1.0, 0.7, 1.0]) @ centre):
+        scene = Scene([VolumeInstance(volume, tf, transform=transform)], Camera(azimuth=30, elevation=20),
+                      width=48, height=48)
+        with renderers.get("vtk-gpu") as plain, renderers.get("vtk-gpu", depth_pass=True) as passed:
+            without, with_pass = plain.render(scene).image, passed.render(scene).image
+        # The same coverage (a misplaced contour cut half of it away); rays starting at the contour take their
+        # samples at other points along the ray, so pixels differ.
+        assert with_pass[..., 3].sum() == pytest.approx(without[..., 3].sum(), rel=0.02)
+        assert np.abs(with_pass - without).max() > 1 / 255
+    rotated = Scene([VolumeInstance(volume, tf, transform=np.array(
+        [[0, 0, 1, 0], [0, 1, 0, 0], [-1, 0, 0, 0], [0, 0, 0, 1.0]]) @ centre)], Camera(), width=16, height=16)
+    with renderers.get("vtk-gpu", depth_pass=True) as passed:
+        with pytest.raises(UnsupportedFeatureError, match="without the volume's user matrix"):
+            passed.render(rotated)
+        with pytest.raises(UnsupportedFeatureError, match="contours one volume"):
+            passed.render(scene_of("ct_skull", "bone", mode="mip"))

@@ -65,6 +65,9 @@ def test_plan_at_each_scale():
         elif run.tags["config"] == "basic-across":  # Basic of every stand-in of one size, in one job
             assert run.interleave == "basic128" and run.options["zinit"] == "none" and len(run.views) == 1
             assert scene not in REAL_SCANS
+        elif run.backend == "vtk-gpu":  # VTK with and without its depth pass, timed with the modes
+            assert run.options == {"depth_pass": run.tags["config"] == "vtk-depth", "step_factor": 1.0}
+            assert run.interleave == f"{scene}.vtk" and len(run.views) == 4 and run.tags["role"] == "peer"
         elif run.backend == "gl-raycast":  # the peer, timed with the modes
             assert run.options == {"variant": "rc-b", "step_factor": 1.0} and run.interleave == scene
             assert len(run.views) == 4 and run.tags["role"] == "peer"

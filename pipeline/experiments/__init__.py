@@ -8,7 +8,9 @@ Each paper is a package ``pipeline/experiments/<paper id>/`` whose ``PAPER``
 
 import importlib
 
-from core.errors import InputError
+import renderers
+
+from core.errors import BackendUnavailableError, InputError
 from pipeline.experiments.kit.model import PAPERS, Claim, ClaimResult, Experiment, Profile, Run
 
 PAPER_PACKAGES = ("volbench", "lacroute1995", "kruger2003", "xue2005", "ropinski2005", "kainz2009")
@@ -74,7 +76,24 @@ def plan(profile):
             if run.key in runs:
                 raise InputError(f"experiment {experiment.name}: duplicate run id {run.id!r}")
             runs[run.key] = run
+    groups = {}
     for run in runs.values():
         if run.reference is not None and f"{run.experiment}/{run.reference}" not in runs:
             raise InputError(f"run {run.key}: reference run {run.reference!r} is not planned")
+        if run.interleave is not None:
+            groups.setdefault((run.experiment, run.interleave), []).append(run)
+    for (experiment, group), members in groups.items():
+        stacks = {member.backend: graphics_stack(member.backend) for member in members}
+        if len(set(stacks.values()) - {None}) > 1:
+            raise InputError(f"experiment {experiment}: interleave group {group!r} mixes backends of different OpenGL "
+                             f"stacks ({', '.join(f'{b}: {s}' for b, s in stacks.items() if s)}); in one process "
+                             "their contexts rendered every image empty: time them in separate groups")
     return runs
+
+
+def graphics_stack(backend):
+    """The OpenGL stack ``backend`` renders through (:attr:`renderers.base.Renderer.graphics_stack`), or None."""
+    try:
+        return renderers.backend_class(backend).graphics_stack
+    except BackendUnavailableError:  # not importable here: its runs are skipped, they render nothing
+        return None

@@ -145,6 +145,11 @@ class Renderer(abc.ABC):
     Parameters section, in this order."""
     quality_sweep = ({},)
     """Option sets from fast/coarse to slow/fine for the speed-versus-accuracy study."""
+    graphics_stack = None
+    """The OpenGL stack the backend renders through in its process (``"moderngl"``, ``"vtk"``), or ``None``.
+    Two stacks in one process do not mix: a job timing vtk-gpu beside a moderngl backend rendered every
+    image of both empty (llvmpipe, measured), so the pipeline refuses an interleave group that mixes them."""
+
     scheduling_dependent = ()
     """Names of counters and info entries whose values follow how threads or work-items were
     scheduled, not only the scene and options: they may differ from run to run (and between a

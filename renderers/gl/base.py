@@ -57,6 +57,8 @@ class GLRenderer(Renderer):
     is not a software rasterizer, or ``$VOLBENCH_GL_DEVICE``), not by an option: see there why.
     """
 
+    graphics_stack = "moderngl"
+
     cached_volumes = VOLUME_CACHE_SIZE
     """Volumes whose textures the renderer's cache keeps alive together (a multi-volume frame needs all)."""
 

@@ -94,6 +94,7 @@ def vtk_modules():
     from vtkmodules.vtkCommonCore import vtkMultiThreader, vtkVersion
     from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPiecewiseFunction
     from vtkmodules.vtkCommonMath import vtkMatrix4x4
+    from vtkmodules.vtkFiltersCore import vtkCellDataToPointData
     from vtkmodules.vtkRenderingCore import (vtkColorTransferFunction, vtkLight, vtkRenderer, vtkVolume,
                                              vtkVolumeProperty)
     from vtkmodules.vtkRenderingOpenGL2 import (vtkEGLRenderWindow, vtkFramebufferPass, vtkRenderStepsPass,
@@ -108,7 +109,8 @@ def vtk_modules():
         vtkVolume=vtkVolume, vtkVolumeProperty=vtkVolumeProperty, vtkEGLRenderWindow=vtkEGLRenderWindow,
         vtkFramebufferPass=vtkFramebufferPass, vtkRenderStepsPass=vtkRenderStepsPass,
         vtkTextureObject=vtkTextureObject, vtkFixedPointVolumeRayCastMapper=vtkFixedPointVolumeRayCastMapper,
-        vtkMultiVolume=vtkMultiVolume, vtkOpenGLGPUVolumeRayCastMapper=vtkOpenGLGPUVolumeRayCastMapper)
+        vtkMultiVolume=vtkMultiVolume, vtkOpenGLGPUVolumeRayCastMapper=vtkOpenGLGPUVolumeRayCastMapper,
+        vtkCellDataToPointData=vtkCellDataToPointData)
 
 
 def vtk_version():
@@ -463,6 +465,8 @@ class VtkRenderer(Renderer):
 
     technique_stages = ("render",)
     """The stages that are the technique itself: vtkRenderWindow.Render(); not the pipeline setup or the image readback."""
+
+    graphics_stack = "vtk"
 
     cells = True
     """Whether the mapper gets the scalars as cell data (see :func:`image_data`)."""

@@ -37,6 +37,18 @@ Measured against the reference (``tests/test_vtk.py`` has the numbers) with VTK 
   constant in its shader). ``early_termination=True`` (default) keeps that, as VTK is used;
   ``False`` replaces the constant by 2 (a fragment-shader replacement, never reached) for runs
   that compare accuracy with the reference, which never terminates early.
+* **Depth pass** (``depth_pass``, iSBVR's nearest peer, note 001): VTK first renders a contour of
+  the data at the transfer function's Φ_t (the lowest value whose opacity leaves 0) and starts each
+  ray at that surface's depth (``UseDepthPass``, ``DepthPassContourValues``). VTK contours point
+  scalars and the volume is uploaded as cell data, with which the contour is empty and every ray is
+  dropped; so the image also carries point scalars (``vtkCellDataToPointData``: each grid corner the
+  mean of its eight cells, the trilinear field there) for the contour while the rays still sample the
+  cell data. The pass draws its contour without the volume's user matrix (measured: with one, the
+  contour is misplaced and rays start in the wrong place), so the placement goes into the data's
+  origin and spacing instead, which allows a scale along the axes and a translation only. The
+  contour is of the corner field with linear edges, not a conservative bound, so visible samples in
+  front of it are lost: the pass is lossy and is judged by its error as well as its speed. One
+  volume, ``dvr`` only.
 * **Modes.** ``dvr`` is VTK's composite blend; ``mip`` its maximum-intensity blend, the maximum
   over the samples (ours is the exact maximum of the trilinear field), classified without
   opacity correction or shading; ``iso`` its isosurface blend, which detects the crossing
@@ -141,6 +153,8 @@ class VtkGpuRenderer(common.VtkRenderer):
                                  "for one volume, in world space for several; the default is the reference's."),
         Option("early_termination", bool, True, "Keep VTK's early ray termination at opacity ``1 − 1/255`` (VTK as "
                "used). ``False`` disables it through a shader replacement, for accuracy runs."),
+        Option("depth_pass", bool, False, "Start rays at a contour of the data at the transfer function's Φ_t "
+               "(VTK's depth pass, see the module notes; lossy)."),
     )
     quality_sweep = tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
     """Sample distance from one voxel to the reference's quarter voxel."""
@@ -156,6 +170,15 @@ class VtkGpuRenderer(common.VtkRenderer):
         """Also refuse what the capabilities cannot express: several volumes outside ``dvr``, or
         lit by another light than the headlight."""
         super().check(scene)
+        if self.depth_pass and (len(scene.volumes) > 1 or scene.mode != "dvr"):
+            raise UnsupportedFeatureError(self.name, f"the depth pass with {len(scene.volumes)} volumes in mode "
+                                          f"{scene.mode!r}", "VTK's depth pass contours one volume, for dvr")
+        if self.depth_pass:
+            linear = scene.volumes[0].transform[:3, :3]
+            if not (np.allclose(linear, np.diag(np.diag(linear)), rtol=0.0, atol=1e-12) and (np.diag(linear) > 0).all()):
+                raise UnsupportedFeatureError(self.name, "the depth pass with a rotated or mirrored volume",
+                                              "VTK's depth pass draws its contour without the volume's user matrix, so "
+                                              "only a scale along the axes and a translation can be placed in the data")
         if len(scene.volumes) > 1:
             if scene.mode != "dvr":
                 raise UnsupportedFeatureError(
@@ -196,10 +219,16 @@ class VtkGpuRenderer(common.VtkRenderer):
         volumes = []
         for port, instance in enumerate(scene.volumes):
             image, _, (lo, hi) = self._image(instance.volume, images)
+            placed = instance.transform
+            if self.depth_pass:
+                image, placed = self._with_point_scalars(image, instance.transform, modules), np.eye(4)
+                mapper.SetScalarModeToUseCellData()
+                mapper.SetUseDepthPass(1)
+                mapper.GetDepthPassContourValues().SetValue(0, self._contour_value(instance, lo, hi))
             mapper.SetInputDataObject(port, image)
             volume = modules.vtkVolume()
             volume.SetProperty(self._property(instance, scene, lo, hi, any_gradient))
-            volume.SetUserMatrix(common.vtk_matrix(instance.transform))
+            volume.SetUserMatrix(common.vtk_matrix(placed))
             volumes.append(volume)
         if len(volumes) == 1:
             prop3d = volumes[0]
@@ -211,6 +240,28 @@ class VtkGpuRenderer(common.VtkRenderer):
         if not self.early_termination:
             prop3d.GetShaderProperty().AddFragmentShaderReplacement(TERMINATION, False, NO_TERMINATION, False)
         return common.Pipeline(key, prop3d, mapper, step, images, volumes)
+
+    @staticmethod
+    def _with_point_scalars(image, transform, modules):
+        """``image`` (cell scalars) with point scalars beside them for the depth pass's contour, placed in world
+        space by ``transform`` (an axis-aligned scale and a translation: the pass ignores a user matrix)."""
+        to_points = modules.vtkCellDataToPointData()
+        to_points.SetInputData(image)
+        to_points.PassCellDataOn()
+        to_points.Update()
+        placed = to_points.GetOutput()
+        scale = np.diag(transform)[:3]
+        placed.SetSpacing(*(scale * np.asarray(image.GetSpacing())))
+        placed.SetOrigin(*(transform[:3, 3] + scale * np.asarray(image.GetOrigin())))
+        return placed
+
+    @staticmethod
+    def _contour_value(instance, lo, hi):
+        """Φ_t in the image's values: the lowest table entry whose opacity is above 0, on the scalar range ``[lo, hi]``."""
+        alpha = instance.transfer_function.table[:, 3]
+        visible = np.flatnonzero(alpha > 0)
+        first = visible[0] / (alpha.size - 1) if visible.size else 1.0
+        return float(lo + first * (hi - lo))
 
     def _property(self, instance, scene, lo, hi, any_gradient):
         transfer_function = instance.transfer_function

@@ -10,7 +10,7 @@ from pipeline.experiments.kit.pages import as_ratio, not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, unregistered
 from pipeline.experiments.kit.results import numeric
 
-ISBVR, SLICER, RAYCAST = "gl-isbvr", "gl-slicer", "gl-raycast"
+ISBVR, SLICER, RAYCAST, VTK = "gl-isbvr", "gl-slicer", "gl-raycast", "vtk-gpu"
 
 MODES = {
     # config: (gl-isbvr options, the paper's name)
