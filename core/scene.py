@@ -5,6 +5,17 @@ the image size, the mode and the shading. Later features (closed meshes with CSG
 are optional fields that default to empty, so a scene that does not use them does not carry them,
 and :meth:`Scene.features` lists what a scene needs so that backends can refuse early.
 
+Lens volumes (Ropinski et al. 2005)
+-----------------------------------
+``lenses`` holds at most one :class:`~core.lens.Lens`: a convex region rendered with its own
+appearance (clip, dvr, iso or mip; semantics in :mod:`core.lens`) while the scene's own appearance
+applies outside it. A lens scene has one volume (the lens re-classifies that volume; its ``dvr``
+preset is the volume's data set's), mode ``dvr`` (the outside appearance of the paper: context
+DVR around the region of interest) and no meshes, boundaries or CSG. One lens is the paper's
+case; several would need a rule where they overlap and more than three regions per ray, so a
+second lens is refused rather than rendered by a rule no backend shares. The lens does not
+count in :meth:`Scene.bounds`: the camera frames the volume, and a lens may reach past it.
+
 Meshes and CSG (Kainz et al. 2009)
 ----------------------------------
 Every instance, volume or mesh, is a *leaf* with an inside: a volume's inside is its box,
@@ -37,6 +48,7 @@ import numpy as np
 from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
+from core.lens import Lens
 from core.mesh import Mesh, MeshInstance
 from core.resources import check_memory, largest_fitting
 from core.transfer import GradientOpacity, TransferFunction
@@ -224,6 +236,9 @@ class Scene:
     csg : sequence of CsgNode, optional
         CSG trees; each leaf names exactly one instance of the scene, and an instance is a leaf
         of at most one tree. Instances in no tree stand alone.
+    lenses : sequence of Lens, optional
+        At most one lens volume (see the module notes): it needs exactly one volume instance,
+        mode ``dvr`` and no meshes, boundaries or CSG.
     """
 
     volumes: tuple = ()
@@ -235,6 +250,7 @@ class Scene:
     name: str = "scene"
     meshes: tuple = ()
     csg: tuple = ()
+    lenses: tuple = ()
 
     def __post_init__(self):
         volumes = tuple(self.volumes) if not isinstance(self.volumes, VolumeInstance) else (self.volumes,)
@@ -261,6 +277,7 @@ class Scene:
         if self.has_geometry() and self.mode != "dvr":
             raise InputError(f"scene {self.name!r}: meshes, volume boundaries and CSG render in mode 'dvr' only "
                              f"(mip and iso are defined on volumes), got mode {self.mode!r}")
+        self._check_lenses()
         with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused just below
             center, radius = self.bounding_sphere()
         if not (np.isfinite(center).all() and np.isfinite(radius)):
@@ -283,6 +300,29 @@ class Scene:
                     raise InputError(f"scene {self.name!r} csg: instance {leaf!r} is a leaf more than once; "
                                      "instance its mesh or volume again under another name instead")
                 used.add(leaf)
+
+    def _check_lenses(self):
+        lenses = tuple(self.lenses) if not isinstance(self.lenses, Lens) else (self.lenses,)
+        for lens in lenses:
+            if not isinstance(lens, Lens):
+                raise InputError(f"scene {self.name!r}: lenses must be Lens objects, got {type(lens).__name__}")
+        object.__setattr__(self, "lenses", lenses)
+        if not lenses:
+            return
+        where = f"scene {self.name!r} lenses"
+        if len(lenses) > 1:
+            raise InputError(f"{where}: {len(lenses)} lenses given, at most one is supported (the paper's case: one "
+                             "convex lens, at most three regions per ray; overlapping lenses have no shared rule); "
+                             "merge them into one convex lens or render one scene per lens")
+        if len(self.volumes) != 1:
+            raise InputError(f"{where}: a lens re-classifies the scene's one volume, and the scene has "
+                             f"{len(self.volumes)}; render a lens scene with exactly one volume")
+        if self.mode != "dvr":
+            raise InputError(f"{where}: a lens scene's own appearance (outside the lens) is dvr, got mode "
+                             f"{self.mode!r}; set mode: dvr and give the lens appearance {{mode: {self.mode}}} for "
+                             f"{self.mode} inside it")
+        if self.has_geometry():
+            raise InputError(f"{where}: lenses and meshes, volume boundaries or CSG cannot be combined; remove one")
 
     def has_geometry(self):
         """Whether the scene has mesh instances, volume boundaries or CSG (anything beyond boxes)."""
@@ -343,6 +383,8 @@ class Scene:
             needs["translucent_geometry"] = True
         if any(m.medium is not None for m in self.meshes):
             needs["homogeneous_media"] = True
+        if self.lenses:
+            needs["lenses"] = True
         return needs
 
     def camera_inside_volume(self):

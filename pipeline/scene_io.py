@@ -46,6 +46,29 @@ Closed meshes, their materials, instancing and CSG (Kainz et al. 2009; semantics
       - difference: [sphere, {union: [rods, rod2]}]   # one operation key: a list of names or nodes
 
 An entry's own keys do not carry over to the instances of its mesh.
+
+A lens volume (Ropinski et al. 2005; semantics in :mod:`core.lens`): at most one per scene, over
+the scene's one volume in mode ``dvr``; one entry of each shape here::
+
+    lenses:
+      - shape: sphere                # sphere | box | mesh
+        center: [0, 10, 0]           # world units
+        radius: 30                   # sphere
+        appearance: {mode: clip}
+      - shape: box
+        center: [0, 0, 0]
+        size: [20, 10, 10]           # edge lengths in the box's own frame
+        transform: {rotate: {axis: [0, 0, 1], degrees: 30}}   # about the centre (no translate needed)
+        appearance: {mode: dvr, preset: bone, opacity_scale: 0.3}   # a preset of the volume's data set,
+                                     # or transfer_function (+ gradient_opacity) points
+      - shape: mesh
+        center: [0, 0, 0]
+        mesh: {generator: ..., params: {}}    # or {file: ...}: a closed convex mesh
+        appearance: {mode: iso, isovalue: 0.5}  # iso: isovalue (or a preset's); mip: {mode: mip}
+
+``preset`` and ``transfer_function`` of ``iso``/``mip`` give the classification (colour) and
+default to the volume's own.
+
 Unknown keys are errors, so a typo never silently falls back to a default. Files are read
 strictly (:mod:`core.yaml_io`: UTF-8, no key given twice, no number that YAML 1.1 would read as
 text or as octal), and the image, every phantom's size and every table are checked against this
@@ -60,6 +83,7 @@ import datasets
 from core.volume import Volume
 from core.camera import Camera
 from core.errors import InputError
+from core.lens import Lens, LensAppearance
 from core.mesh import HomogeneousMedium, MeshInstance, SurfaceMaterial
 from core.scene import CSG_OPERATIONS, CsgNode, Scene, Shading, VolumeInstance, centering_transform, check_image_size
 from core.transfer import GradientOpacity, TransferFunction
@@ -67,14 +91,16 @@ from core.validation import (check_finite_vector, check_matrix4, check_positive_
                              check_value_range)
 from core.yaml_io import load_yaml_file
 
-SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes", "meshes", "csg"}
+SCENE_KEYS = {"name", "width", "height", "mode", "shading", "camera", "volumes", "meshes", "csg", "lenses"}
 VOLUME_KEYS = {"dataset", "size", "seed", "params", "file", "spacing", "value_range", "preset",
                "transfer_function", "gradient_opacity", "isovalue", "transform", "name", "boundary"}
 MESH_KEYS = {"name", "generator", "params", "file", "instance_of", "transform", "surface", "medium"}
 MESH_SOURCE_KEYS = ("generator", "file", "instance_of")
 TRANSFORM_KEYS = {"translate", "rotate", "scale", "matrix"}
+LENS_KEYS = {"name", "shape", "center", "radius", "size", "transform", "mesh", "appearance"}
+LENS_APPEARANCE_KEYS = {"mode", "preset", "transfer_function", "gradient_opacity", "opacity_scale", "isovalue"}
 TEXT_KEYS = {"volume": ("dataset", "file", "preset", "name"), "mesh": ("name", "generator", "file", "instance_of"),
-             "table": ("name",)}
+             "table": ("name",), "lens": ("name", "shape"), "appearance": ("mode", "preset")}
 """Keys whose values are names or paths: a number or a list there is a mistake, not a name."""
 
 
@@ -222,6 +248,24 @@ def load_volume(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
     return volume
 
 
+def build_transfer_function(spec, *, where):
+    """A :class:`TransferFunction` from ``{points:, size:, reference_step:, name:}``."""
+    _check_keys(spec, {"points", "size", "reference_step", "name"}, where=where)
+    spec = dict(spec)
+    points = _points(spec.pop("points", None), 4, where=f"{where} points")
+    return TransferFunction.from_points(points, **spec)
+
+
+def build_gradient_opacity(spec, *, where):
+    """A :class:`GradientOpacity` from ``{points:, size:, name:}``; ``None`` for none."""
+    if spec is None:
+        return None
+    _check_keys(spec, {"points", "size", "name"}, where=where)
+    spec = dict(spec)
+    points = _points(spec.pop("points", None), 1, where=f"{where} points")
+    return GradientOpacity.from_points(points, **spec)
+
+
 def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None, index=0):
     """A :class:`VolumeInstance` from one entry of ``volumes``."""
     where = f"volumes[{index}]"
@@ -233,25 +277,14 @@ def build_volume_instance(spec, *, cache_dir=None, size=None, base_dir=None, dat
     elif "preset" in spec:
         raise InputError(f"{where}: 'preset' needs a 'dataset'; give a 'transfer_function' for files")
     if "transfer_function" in spec:
-        tf_spec = spec["transfer_function"]
-        _check_keys(tf_spec, {"points", "size", "reference_step", "name"}, where=f"{where} transfer_function")
-        tf_spec = dict(tf_spec)
-        points = _points(tf_spec.pop("points", None), 4, where=f"{where} transfer_function points")
-        transfer_function = TransferFunction.from_points(points, **tf_spec)
+        transfer_function = build_transfer_function(spec["transfer_function"], where=f"{where} transfer_function")
     elif preset is not None:
         transfer_function = preset.transfer_function
     else:
         raise InputError(f"{where}: a file volume needs a 'transfer_function'")
     gradient_opacity = preset.gradient_opacity if preset is not None else None
     if "gradient_opacity" in spec:
-        g_spec = spec["gradient_opacity"]
-        if g_spec is None:
-            gradient_opacity = None
-        else:
-            _check_keys(g_spec, {"points", "size", "name"}, where=f"{where} gradient_opacity")
-            g_spec = dict(g_spec)
-            points = _points(g_spec.pop("points", None), 1, where=f"{where} gradient_opacity points")
-            gradient_opacity = GradientOpacity.from_points(points, **g_spec)
+        gradient_opacity = build_gradient_opacity(spec["gradient_opacity"], where=f"{where} gradient_opacity")
     isovalue = spec.get("isovalue", preset.effective_isovalue if preset is not None else None)
     boundary = None
     if spec.get("boundary") is not None:
@@ -346,6 +379,64 @@ def build_csg(spec, *, where="csg"):
     return CsgNode(operation, [build_csg(child, where=f"{where} {operation}[{i}]") for i, child in enumerate(children)])
 
 
+def build_lens_appearance(spec, *, volume_spec, where):
+    """A :class:`~core.lens.LensAppearance` from an ``appearance`` mapping.
+
+    ``preset`` names a preset of the data set of ``volume_spec`` (the lens's volume): its transfer
+    function, with ``dvr`` its gradient opacity, with ``iso`` its isovalue unless one is given.
+    """
+    _check_keys(spec, LENS_APPEARANCE_KEYS, where=where)
+    if "mode" not in spec:
+        raise InputError(f"{where}: needs a mode (clip, dvr, iso or mip)")
+    mode = spec["mode"]
+    if mode == "clip" and set(spec) != {"mode"}:
+        raise InputError(f"{where}: a clip lens shows nothing inside, so {sorted(set(spec) - {'mode'})} does not "
+                         "apply; remove it")
+    if "preset" in spec and "transfer_function" in spec:
+        raise InputError(f"{where}: give one of 'preset' or 'transfer_function'")
+    transfer_function = gradient_opacity = isovalue = None
+    if "preset" in spec:
+        if volume_spec is None or "dataset" not in volume_spec:
+            raise InputError(f"{where} preset: a preset belongs to the data set of the scene's one volume, and the "
+                             "scene has no such 'dataset' volume; give transfer_function points instead")
+        preset = datasets.preset(volume_spec["dataset"], spec["preset"])
+        transfer_function = preset.transfer_function
+        if mode == "dvr":
+            gradient_opacity = preset.gradient_opacity
+        if mode == "iso":
+            isovalue = preset.effective_isovalue
+    if "transfer_function" in spec:
+        transfer_function = build_transfer_function(spec["transfer_function"], where=f"{where} transfer_function")
+    if "gradient_opacity" in spec:
+        gradient_opacity = build_gradient_opacity(spec["gradient_opacity"], where=f"{where} gradient_opacity")
+    return LensAppearance(mode, transfer_function=transfer_function, gradient_opacity=gradient_opacity,
+                          opacity_scale=spec.get("opacity_scale", 1.0), isovalue=spec.get("isovalue", isovalue))
+
+
+def build_lens(spec, *, volume_spec=None, base_dir=None, cache_dir=None, index=0):
+    """A :class:`~core.lens.Lens` from one entry of ``lenses`` (see the module docstring).
+
+    ``volume_spec`` is the entry of the scene's one volume (presets are its data set's).
+    """
+    where = f"lenses[{index}]"
+    _check_keys(spec, LENS_KEYS, where=where)
+    _check_text(spec, TEXT_KEYS["lens"], where=where)
+    _check_text(spec.get("appearance"), TEXT_KEYS["appearance"], where=f"{where} appearance")
+    _check_text(spec.get("mesh"), TEXT_KEYS["mesh"], where=f"{where} mesh")
+    for key in ("shape", "center", "appearance"):
+        if key not in spec:
+            raise InputError(f"{where}: needs '{key}' (shape: sphere | box | mesh, center: [x, y, z], "
+                             "appearance: {mode: ...})")
+    mesh = None
+    if spec.get("mesh") is not None:
+        mesh = load_mesh_source(spec["mesh"], base_dir=base_dir, cache_dir=cache_dir, where=f"{where} mesh")
+    return Lens(spec["shape"], center=spec["center"], radius=spec.get("radius"), size=spec.get("size"), mesh=mesh,
+                transform=build_transform(spec.get("transform"), None, where=f"{where} transform"),
+                appearance=build_lens_appearance(spec["appearance"], volume_spec=volume_spec,
+                                                 where=f"{where} appearance"),
+                name=spec.get("name", "lens"))
+
+
 def _entries(spec, key):
     """The list under ``key`` of a scene mapping (``[]`` when absent or empty)."""
     entries = spec.get(key)
@@ -422,6 +513,9 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
     csg = tuple(build_csg(tree, where=f"csg[{i}]") for i, tree in enumerate(csg_spec))
     if any(isinstance(tree, str) for tree in csg):
         raise InputError("scene csg: each entry must be an operation such as {union: [a, b]}, not a bare name")
+    # Lenses are built before any volume is loaded: a wrong one is refused without that wait.
+    lenses = tuple(build_lens(entry, volume_spec=volumes[0] if len(volumes) == 1 else None, base_dir=base_dir,
+                              cache_dir=cache_dir, index=i) for i, entry in enumerate(_entries(spec, "lenses")))
     instances = tuple(
         build_volume_instance(v, cache_dir=cache_dir, size=size, base_dir=base_dir, data_dir=data_dir, index=i)
         for i, v in enumerate(volumes)
@@ -441,6 +535,7 @@ def build_scene(spec, *, cache_dir=None, size=None, base_dir=None, data_dir=None
         name=spec.get("name", "scene"),
         meshes=meshes,
         csg=csg,
+        lenses=lenses,
     )
 
 

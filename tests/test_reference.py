@@ -143,7 +143,7 @@ def test_capabilities_cover_every_projection_and_mode(projection, mode):
                   width=16, height=16)
     assert ReferenceRenderer.capabilities.missing(scene) == []
     assert render(scene).image.shape == (16, 16, 4)
-    assert ReferenceRenderer.capabilities.meshes and ReferenceRenderer.capabilities.reasons["lenses"]
+    assert ReferenceRenderer.capabilities.meshes and ReferenceRenderer.capabilities.lenses
 
 
 def test_iso_without_isovalue_names_the_instance():

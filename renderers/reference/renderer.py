@@ -52,6 +52,14 @@ Choices where the conventions leave room
   the cells cut at visible surfaces and medium ends; translucent surfaces are composited at
   their depth and homogeneous media analytically (``dvr`` only). A scene without them takes
   the volume-only kernel unchanged.
+* **Lenses** (Ropinski et al. 2005; semantics in :mod:`core.lens`). A lens scene (one volume,
+  ``dvr``) goes through :func:`.raycast.render_lens`: per ray the lens's interval on the whole
+  line, from the sphere's quadratic or from clipping the ray against the half-spaces of the
+  box's slabs or the convex mesh's faces in the lens's own frame, intersected with the box span;
+  the samples are the cells above, each classified by the lens appearance when it lies in that
+  interval (so a lens with the outside appearance gives the no-lens image bit for bit); a
+  ``clip`` lens skips its samples, and a ``mip`` or ``iso`` lens contributes the exact maximum or
+  the bisected crossing of its segment, as the scene-wide modes do, composited in depth order.
 * **Non-finite rays.** A ray whose origin or direction is not finite (or whose direction is
   zero) gives a transparent pixel with depth NaN; every loop in the kernels is bounded.
 * **Shading.** :class:`core.scene.Shading` exactly; the light direction is turned from view
@@ -75,6 +83,7 @@ import numpy as np
 
 from core.errors import InputError
 from core.resources import check_memory, format_bytes
+from core.scene import VolumeInstance
 from renderers.base import Capabilities, Option, RenderResult, Renderer, step_factor_option, world_step
 from renderers.base.probes import numba_probe
 
@@ -213,10 +222,8 @@ class ReferenceRenderer(Renderer):
         csg=True,
         translucent_geometry=True,
         homogeneous_media=True,
+        lenses=True,
         camera_inside_volume=True,
-        reasons={
-            "lenses": "added with the Ropinski 2005 issue",
-        },
     )
     option_table = (
         step_factor_option(0.25, limited_precision=False),
@@ -290,7 +297,8 @@ class ReferenceRenderer(Renderer):
 
         ``dvr``: every pixel's ray walks cells of the world step across the box bounding all
         volumes (a scene without volumes samples nothing). ``mip`` and ``iso`` walk each volume's
-        voxel lattice instead, independent of the step: at most ``nx + ny + nz + 3`` cells a ray.
+        voxel lattice instead, independent of the step: at most ``nx + ny + nz + 3`` cells a ray; a
+        ``mip`` or ``iso`` lens adds that walk to the ``dvr`` steps.
 
         Returns
         -------
@@ -306,6 +314,11 @@ class ReferenceRenderer(Renderer):
         diagonal = float(np.linalg.norm(corners.max(axis=0) - corners.min(axis=0)))
         step = self.world_step(scene)
         steps = diagonal / step + 1
+        if scene.lenses and scene.lenses[0].appearance.mode in ("mip", "iso"):
+            cells = sum(scene.volumes[0].volume.shape_xyz) + 3
+            return float(pixels) * (steps + cells), (f"{pixels} pixels × ({steps:.3g} steps of {step:.3g} across the "
+                                                     f"volume's {diagonal:.3g} diagonal + up to {cells} voxel-lattice "
+                                                     "cells in the lens)")
         return float(pixels) * steps, (f"{pixels} pixels × {steps:.3g} steps of {step:.3g} across the volumes' "
                                        f"{diagonal:.3g} diagonal")
 
@@ -317,6 +330,10 @@ class ReferenceRenderer(Renderer):
         if self.classification == "pre" and scene.mode != "dvr":
             raise InputError(f"reference option classification='pre' applies to dvr only, the scene's mode is "
                              f"{scene.mode!r}; use classification='post' (mip and iso classify one value per ray)")
+        if self.classification == "pre" and scene.lenses:
+            raise InputError(f"reference option classification='pre' cannot render scene {scene.name!r}'s lens: a "
+                             "lens classifies each sample by where it lies, after interpolation; use "
+                             "classification='post'")
         if scene.mode == "iso":
             for instance in scene.volumes:
                 if instance.isovalue is None:
@@ -330,16 +347,23 @@ class ReferenceRenderer(Renderer):
             a is b for a, b in zip(self._packed[0], volumes)
         ):
             return self._packed[1], self._packed[2]
-        arrays = [normalised_scalars(volume) for volume in volumes]
-        offsets = np.cumsum([0] + [a.size for a in arrays], dtype=np.int64)[:-1]
+        # A Volume placed twice (a lens's second classification of it) is stored once.
+        distinct = list({id(volume): volume for volume in volumes}.values())
+        arrays = [normalised_scalars(volume) for volume in distinct]
+        starts = dict(zip((id(volume) for volume in distinct),
+                          np.cumsum([0] + [a.size for a in arrays], dtype=np.int64)[:-1]))
+        offsets = np.array([starts[id(volume)] for volume in volumes], dtype=np.int64)
         data = arrays[0] if len(arrays) == 1 else np.concatenate(arrays or [np.zeros(1, np.float32)])
         # Strong references keep the identity check valid while the entry lives.
         self._packed = (tuple(volumes), data, offsets)
         return data, offsets
 
-    def _scene_arguments(self, scene, step):
-        """The kernel's inputs for ``scene``, in :func:`raycast.render`'s order (outputs excluded)."""
-        instances = scene.volumes
+    def _scene_arguments(self, scene, step, instances=None):
+        """The kernel's inputs for ``scene``, in :func:`raycast.render`'s order (outputs excluded).
+
+        ``instances`` replaces the scene's volumes (a lens scene's two classification slots).
+        """
+        instances = scene.volumes if instances is None else instances
         n = len(instances)
         data, offsets = self._pack_volumes([instance.volume for instance in instances])
         dims = np.array([instance.volume.shape_xyz for instance in instances], dtype=np.int64).reshape(n, 3)
@@ -433,6 +457,8 @@ class ReferenceRenderer(Renderer):
         self._check_scene(scene)
         if scene.has_geometry():
             return self._render_geometry(scene, start)
+        if scene.lenses:
+            return self._render_lens(scene, start)
         step = self.world_step(scene)
         arguments = self._scene_arguments(scene, step)
         image = np.zeros((scene.height, scene.width, 4), dtype=np.float32)
@@ -451,6 +477,62 @@ class ReferenceRenderer(Renderer):
             "reference_steps": [instance.reference_step for instance in scene.volumes],
             "blending": "sum of premultiplied samples, opacity clamped to 1 (Kainz et al. 2009)",
             "shading_applied": scene.shading.model != "none" and scene.mode != "mip",
+        }
+        if self.depth:
+            info["depth"] = depth
+        counters = {
+            "rays": scene.width * scene.height,
+            "rays_hit": int(row_hits.sum()),
+            "samples": int(row_samples.sum()),
+            "early_terminations": 0,
+        }
+        timings = {"prepare": prepared - start, "render": rendered - prepared, "total": rendered - start}
+        return RenderResult(image=image, timings=timings, counters=counters, info=info)
+
+    def _lens_arguments(self, scene, step):
+        """:func:`raycast.render_lens`'s inputs, outputs excluded: the volume in two slots, then the lens."""
+        instance = scene.volumes[0]
+        lens = scene.lenses[0]
+        appearance = lens.appearance
+        tf = appearance.classification(instance.transfer_function)
+        # Slot 1: the same voxels and placement with the lens's classification (clip: an unused copy of slot 0).
+        view = VolumeInstance(instance.volume, instance.transfer_function if tf is None else tf,
+                              transform=instance.transform, gradient_opacity=appearance.gradient_opacity,
+                              isovalue=appearance.isovalue, name=f"{instance.name} in {lens.name}")
+        (_, row_order, origins, directions, data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size,
+         gtab, gtab_size, ref_step, _, step, min_overlap, phong, parameters, light, tolerance,
+         pre) = self._scene_arguments(scene, step, instances=(instance, view))
+        kind = self._raycast.LENS_SPHERE if lens.shape == "sphere" else self._raycast.LENS_PLANES
+        sphere = np.array([*lens.center, lens.radius or 0.0])
+        normals, plane_offsets = lens.half_spaces()
+        lens_w2o = np.ascontiguousarray(np.linalg.inv(lens.object_to_world())[:3, :])
+        return (row_order, origins, directions, data, offsets, dims, spacing, world_to_object, normal_matrix, tf,
+                tf_size, gtab, gtab_size, ref_step, step, min_overlap, phong, parameters, light, tolerance, pre,
+                kind, self._raycast.LENS_MODE_CODES[appearance.mode], sphere, lens_w2o,
+                np.ascontiguousarray(normals, dtype=np.float64), np.ascontiguousarray(plane_offsets, dtype=np.float64),
+                np.nan if appearance.isovalue is None else appearance.isovalue)
+
+    def _render_lens(self, scene, start):
+        step = self.world_step(scene)
+        arguments = self._lens_arguments(scene, step)
+        image = np.zeros((scene.height, scene.width, 4), dtype=np.float32)
+        depth = np.empty((scene.height, scene.width))
+        row_hits = np.zeros(scene.height, dtype=np.int64)
+        row_samples = np.zeros(scene.height, dtype=np.int64)
+        prepared = time.perf_counter()
+        run_stoppable(lambda stop: self._raycast.render_lens(*arguments, stop, image, depth, row_hits, row_samples))
+        rendered = time.perf_counter()
+
+        self._last_step = step
+        lens = scene.lenses[0]
+        info = {
+            "step": step,
+            "classification": self.classification,
+            "step_factor": step / scene.min_world_voxel_size(),
+            "reference_steps": [instance.reference_step for instance in scene.volumes],
+            "blending": "front to back; samples classified by the lens appearance inside the lens interval",
+            "shading_applied": scene.shading.model != "none",
+            "lens": f"{lens.shape} {lens.appearance.mode}",
         }
         if self.depth:
             info["depth"] = depth
