@@ -287,11 +287,38 @@ def _runs_table(ok, ctx):
     return linked_table("Runs", runs, list(RUN_COLUMNS), ctx, names=RUN_COLUMNS)
 
 
-TABLE_COLUMNS = ("scene", "paper row", "extra taps", "views", "F", "F'_c", "F_t", "F_p", "α'", "φ", "γ", "T_s (ns)",
-                 "T_c (ns)", "predicted δ", "measured δ", "measured low", "measured high", "predicted / measured",
-                 "measured δ, whole frames", "paper δ",
-                 *(f"paper's implied α' (γ = {g:g})" for g in IMPLIED_GAMMAS), "PSNR vs Basic (dB)")
+TABLE_COLUMNS = ("scene", "extra taps", "F", "F'_c", "F_t", "F_p", "α'", "φ", "γ", "T_s (ns)", "T_c (ns)",
+                 "predicted δ", "measured δ", "measured low", "measured high", "predicted / measured",
+                 "measured δ, whole frames", "paper δ", f"paper's implied α' (γ = {IMPLIED_GAMMAS[0]:g})",
+                 "PSNR vs Basic (dB)")
 """The columns of the page's table of Eq. 9 per stand-in."""
+
+SHOWN = {"scene": "scene", "extra taps": "extra taps", "α'": "α'", "φ": "φ", "γ": "γ", "T_s (ns)": "T_s (ns)",
+         "T_c (ns)": "T_c (ns)", "predicted δ": "Eq. 9 δ", "measured δ": "measured δ (95 % CI)",
+         "predicted / measured": "Eq. 9 / measured",
+         "measured δ, whole frames": "whole frames δ", "paper δ": "paper δ",
+         f"paper's implied α' (γ = {IMPLIED_GAMMAS[0]:g})": "paper's α' (γ = 0)", "F": "F (M)", "F'_c": "F'_c (M)",
+         "F_t": "F_t (k)", "F_p": "F_p (k)"}
+"""The page's columns (the CSV keeps every column): counts in millions or thousands and the interval beside its
+value, which with twenty full-width columns made the table unreadably narrow."""
+
+
+def _shown(table):
+    """``table`` as the page shows it (:data:`SHOWN`), numbers to 3 significant digits."""
+    shown = table.copy()
+    for column, unit in (("F", 1e6), ("F'_c", 1e6), ("F_t", 1e3), ("F_p", 1e3)):
+        shown[column] = shown[column] / unit
+    shown["measured δ"] = [f"{_three(v)} ({_three(lo)}–{_three(hi)})" for v, lo, hi in
+                           zip(shown["measured δ"], shown["measured low"], shown["measured high"])]
+    shown = shown[list(SHOWN)].rename(columns=SHOWN)
+    numbers = shown.select_dtypes("number").columns.drop("extra taps", errors="ignore")
+    shown[numbers] = shown[numbers].apply(lambda values: values.map(lambda v: float(_three(v))))
+    return shown
+
+
+def _three(value):
+    """``value`` to three significant digits, as text."""
+    return f"{value:.3g}"
 
 
 class CostModelCheck(Experiment):
@@ -367,7 +394,7 @@ class CostModelCheck(Experiment):
         out = [claim_takeaways(self.claims, results, [] if table.empty else _culling_takeaways(table))]
         if not table.empty:
             stand_ins = table[table["extra taps"] == 0]
-            out.append(blocks.Table("Eq. 9 per stand-in, beside the paper", stand_ins[list(TABLE_COLUMNS)],
+            out.append(blocks.Table("Eq. 9 per stand-in, beside the paper", _shown(stand_ins).drop(columns="extra taps"),
                                     csv_name="costmodel.csv",
                                     caption="Counts from occlusion queries summed over the views; T_s and T_c are the "
                                             "trivial shader's and Basic's draw time over F (so T_c averages Basic's "
@@ -377,7 +404,7 @@ class CostModelCheck(Experiment):
             out.append(_chart(table, ctx))
             sweep = table[table.swept].sort_values("extra taps")
             if len(sweep) > 1:
-                out.append(blocks.Table("Shader-complexity sweep", sweep[list(TABLE_COLUMNS)],
+                out.append(blocks.Table("Shader-complexity sweep", _shown(sweep),
                                         csv_name="costmodel_sweep.csv",
                                         caption="The same quantities per complexity on one stand-in."))
                 out.append(_sweep_chart(sweep, ctx))
