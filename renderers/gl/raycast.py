@@ -78,6 +78,15 @@ Implementation gaps of the paper, decided here (note 000 §2.3)
    fragment that passes the depth test (samples past the ray's end add nothing), so the
    ``samples`` counter is ``M ×`` the fragments of the main passes.
 
+Lenses (Ropinski et al. 2005)
+-----------------------------
+A lens scene (one ``clip`` or ``dvr`` lens, :mod:`core.lens`) renders in the ``single-pass``
+variant only, by option ``lens_method`` (:mod:`renderers.gl.lens`): ``fused`` computes the lens
+interval per ray and loops over the segments in front of, inside and behind the lens;
+``per-sample`` tests every sample's position. The samples stay on the no-lens lattice either way,
+so a lens with the outside appearance changes nothing. The multi-pass variants and ``mip``/``iso``
+lens appearances are refused (:class:`~core.errors.UnsupportedFeatureError`) before any work.
+
 Timing and counters
 -------------------
 Stages (seconds, :mod:`renderers.gl.timing`): ``setup`` (the two setup passes and the clears),
@@ -103,6 +112,7 @@ from core.errors import InputError
 from core.resources import check_memory
 from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.gl import context, emptyspace, glsl
+from renderers.gl import lens as lenses
 from renderers.gl.base import TIMING, GLRenderer, set_uniforms
 from renderers.gl.view import SLIVER, make_view, ray_lengths
 
@@ -111,7 +121,7 @@ MULTI_PASS = ("rc", "rc-a", "rc-b")
 
 # Texture units, fixed for every program of the backend.
 UNITS = {"u_volume": 0, "u_tf": 1, "u_gradient": 2, "u_entry": 3, "u_dir": 4, "u_start": 5, "u_res": 6,
-         "u_blocks": 7, "u_ct": 8}
+         "u_blocks": 7, "u_ct": 8, "u_lens_tf": 9}
 
 ENTRY_FRAGMENT = """
 in vec3 v_tex;
@@ -430,13 +440,15 @@ class GLRaycastRenderer(GLRenderer):
         modes=frozenset({"dvr", "mip", "iso"}),
         shading=frozenset({"none", "phong"}),
         transforms=True,
+        lenses=True,
         camera_inside_volume=True,
         reasons={
             "max_volumes": "the ray caster's setup passes rasterise one volume's box (one entry and exit per pixel)",
             "gradient_opacity": "gradient-magnitude opacity modulation is not in the shaders (the paper classifies "
                                 "by scalar only)",
             "meshes": "no polygon pass (added with the Kainz 2009 issue)",
-            "lenses": "lens volumes are added with the Ropinski 2005 issue",
+            "lenses": "one clip or dvr lens, single-pass variant only (the multi-pass variants' `segments` method "
+                      "is to come; mip and iso lens appearances are not in the shaders)",
         },
     )
     option_table = (
@@ -457,6 +469,10 @@ class GLRaycastRenderer(GLRenderer):
                "opaque plane drawn before the main passes (the paper's early-z demonstration; 0: none). The "
                "covered pixels show the plane's grey, so images compare with the reference only at 0.",
                low=0, high=1),
+        Option("lens_method", str, "fused", "How a lens scene's samples are classified (``single-pass``): "
+               "``fused``: the lens interval per ray, analytically, and one loop over the segments in front of, "
+               "inside and behind the lens (Ropinski 2005); ``per-sample``: an inside test at every sample (the "
+               "baseline the paper argues against). No effect without a lens.", choices=lenses.LENS_METHODS),
         TIMING,
     )
     quality_sweep = (tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
@@ -473,6 +489,8 @@ class GLRaycastRenderer(GLRenderer):
                              f"use a multi-pass variant ({', '.join(MULTI_PASS)}), not {self.variant!r}")
         self._ray_key = None
         self._ray_max = 0.0
+        self._lens_key = None
+        self._lens_tf = None
 
     def check(self, scene):
         """Also refuse, before any work, an empty-space block grid that only pads the volume or that
@@ -482,6 +500,8 @@ class GLRaycastRenderer(GLRenderer):
         voxels per axis) after its apron filter's copies of the volume (four float32 arrays).
         """
         super().check(scene)
+        if scene.lenses:
+            lenses.check_lens(self.name, self.variant, scene.lenses[0], self.variant == "single-pass")
         if self.variant != "rc-b" or scene.mode == "mip":
             return
         volume = scene.volumes[0].volume
@@ -498,10 +518,14 @@ class GLRaycastRenderer(GLRenderer):
 
     # -----------------------------------------------------------------------------------------
 
-    def _programs(self, ctx, mode, phong):
-        """The programs of this variant for ``mode`` and shading (compiled once per process)."""
-        main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if self.variant in MULTI_PASS else SINGLE_PASS_FRAGMENT,
-                                    phong=phong, mode=mode)
+    def _programs(self, ctx, mode, phong, lens=None):
+        """The programs of this variant for ``mode``, shading and ``lens`` (compiled once per process)."""
+        if lens is not None:
+            main = glsl.fragment_source(SAMPLING, lenses.LENS_GLSL, lenses.SINGLE_PASS_FRAGMENT, phong=phong, mode=mode,
+                                        defines=lenses.defines(lens, self.lens_method))
+        else:
+            main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if self.variant in MULTI_PASS else
+                                        SINGLE_PASS_FRAGMENT, phong=phong, mode=mode)
         programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
         if self.variant in MULTI_PASS:
             programs["entry"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(ENTRY_FRAGMENT))
@@ -532,6 +556,15 @@ class GLRaycastRenderer(GLRenderer):
             return targets
 
         return self._target((width, height), build)
+
+    def _lens_table(self, lens, instance):
+        """The lens's table (:meth:`LensAppearance.classification`), kept while the appearance and the
+        volume's table stay, so that the texture cache (keyed by the table object) does not rebuild it."""
+        key = (lens.appearance, instance.transfer_function)
+        if self._lens_key is None or any(a is not b for a, b in zip(key, self._lens_key)):
+            self._lens_key = key
+            self._lens_tf = lens.appearance.classification(instance.transfer_function)
+        return self._lens_tf
 
     def _longest_ray(self, scene):
         """World length of the longest pixel ray inside the box (cached for the last view)."""
@@ -566,7 +599,10 @@ class GLRaycastRenderer(GLRenderer):
             textures["u_blocks"], block_count = cache.blocks(instance.volume, self.block_size, prep)
             if mode == "dvr":
                 textures["u_ct"] = cache.visibility_table(instance.transfer_function, self.min_opacity, prep)
-        programs = self._programs(ctx, mode, phong)
+        lens = scene.lenses[0] if scene.lenses else None
+        if lens is not None and lens.appearance.mode == "dvr":
+            textures["u_lens_tf"] = cache.transfer_function(self._lens_table(lens, instance), prep)
+        programs = self._programs(ctx, mode, phong, lens)
 
         start = time.perf_counter()
         view = make_view(scene, self.step_factor)
@@ -591,6 +627,13 @@ class GLRaycastRenderer(GLRenderer):
             "u_top_level": float(emptyspace.LEVELS - 1),
             "u_cut": occluder_cut(view.mvp, width, self.occluder),
         }
+        if lens is not None:
+            uniforms.update(lenses.uniforms(lens))
+            if "u_lens_tf" in textures:
+                uniforms["u_lens_tf_size"] = textures["u_lens_tf"].width
+            planes = programs["main"].get("u_lens_planes", None)
+            if planes is not None:
+                planes.write(lenses.planes(lens))
         for program in programs.values():
             set_uniforms(program, uniforms)
         for name, texture in textures.items():
@@ -654,6 +697,9 @@ class GLRaycastRenderer(GLRenderer):
             "empty_space_skipping": skip,
             "shading_applied": phong,
         }
+        if lens is not None:
+            info["lens"] = f"{lens.shape} {lens.appearance.mode}"
+            info["lens_method"] = self.lens_method
         return RenderResult(image=image, timings=timings, counters=counters, info=info)
 
     def _multi_pass(self, ctx, timer, programs, targets, mode, passes_main, passes_intermediate):
