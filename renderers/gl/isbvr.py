@@ -58,6 +58,7 @@ from core.errors import InputError
 from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.gl import context, glsl, isosurfaces
 from renderers.gl.base import TIMING, set_uniforms
+from renderers.gl.emptyspace import LEVELS, block_minmax
 from renderers.gl.slicer import (SLICE_FRAGMENT, SLICE_SAMPLE, UNITS, VISIBLE_TRANSMITTANCE, GLSlicerRenderer,
                                  slice_polygons)
 from renderers.gl.view import cube_triangles, make_view
@@ -141,33 +142,26 @@ def slice_ranges(triangles, model, eye, forward, depths):
     return list(zip(starts.tolist(), np.diff(np.append(starts, len(triangles))).tolist()))
 
 
-def build_phi_t(normalised, table_alpha, *, node_size, surfaces):
-    """Φ_t's triangles and cube count (``surfaces``: ``reduced``, ``coarse`` or ``full``)."""
-    classes = isosurfaces.node_classes(normalised, table_alpha, node_size)
-    cubes = isosurfaces.phi_t_cubes(classes)
-    iso = isosurfaces.analyse(table_alpha).iso_t
-    if surfaces == "reduced" or iso is None:
-        triangles = isosurfaces.boundary_faces(cubes, node_size, normalised.shape, region=classes.visible)
-    elif surfaces == "coarse":
-        from renderers.gl.emptyspace import LEVELS, block_minmax
-        maxima = block_minmax(normalised, node_size)[..., 1] / (LEVELS - 1)
-        triangles = isosurfaces.marching_cubes_surface(maxima, iso, cell=node_size, shape=normalised.shape)
-    else:
-        triangles = isosurfaces.marching_cubes_surface(normalised, iso)
-    return triangles, int(cubes.sum()), iso
+SURFACE_RULES = {
+    # surface: (its cube set, the region the set bounds, its iso-value, the coarse grid's column: min 0, max 1)
+    "phi_t": (isosurfaces.phi_t_cubes, "visible", "iso_t", 1),
+    "phi_p": (isosurfaces.phi_p_cubes, "opaque", "iso_p", 0),
+}
+"""Φ_t is built from the block maxima (it must hold every visible sample), Φ_p from the minima (only opaque ones)."""
 
 
-def build_phi_p(normalised, table_alpha, *, node_size, surfaces):
-    """Φ_p's triangles and cube count (``surfaces``: ``reduced``, ``coarse`` or ``full``)."""
+def build_surface(surface, normalised, table_alpha, *, node_size, surfaces):
+    """``(triangles, cubes, iso)`` of ``surface`` (``"phi_t"`` or ``"phi_p"``): the cube set's faces
+    (``surfaces`` ``reduced``), or marching cubes on the coarse grid (``coarse``) or the full field (``full``)."""
+    cube_set, region, iso_name, column = SURFACE_RULES[surface]
     classes = isosurfaces.node_classes(normalised, table_alpha, node_size)
-    cubes = isosurfaces.phi_p_cubes(classes)
-    iso = isosurfaces.analyse(table_alpha).iso_p
+    cubes = cube_set(classes)
+    iso = getattr(isosurfaces.analyse(table_alpha), iso_name)
     if surfaces == "reduced" or iso is None:
-        triangles = isosurfaces.boundary_faces(cubes, node_size, normalised.shape, region=classes.opaque)
+        triangles = isosurfaces.boundary_faces(cubes, node_size, normalised.shape, region=getattr(classes, region))
     elif surfaces == "coarse":
-        from renderers.gl.emptyspace import LEVELS, block_minmax
-        minima = block_minmax(normalised, node_size)[..., 0] / (LEVELS - 1)
-        triangles = isosurfaces.marching_cubes_surface(minima, iso, cell=node_size, shape=normalised.shape)
+        grid = block_minmax(normalised, node_size)[..., column] / (LEVELS - 1)
+        triangles = isosurfaces.marching_cubes_surface(grid, iso, cell=node_size, shape=normalised.shape)
     else:
         triangles = isosurfaces.marching_cubes_surface(normalised, iso)
     return triangles, int(cubes.sum()), iso
@@ -285,12 +279,12 @@ class GLIsbvrRenderer(GLSlicerRenderer):
         phi_p, cubes_p, iso_p = None, 0, None
         if want_t:
             with prep.cpu("phi_t"):
-                phi_t, cubes_t, iso_t = build_phi_t(normalised, alpha, node_size=self.phi_t_node,
-                                                    surfaces=self.surface_kind)
+                phi_t, cubes_t, iso_t = build_surface("phi_t", normalised, alpha, node_size=self.phi_t_node,
+                                                      surfaces=self.surface_kind)
         if want_p:
             with prep.cpu("phi_p"):
-                phi_p, cubes_p, iso_p = build_phi_p(normalised, alpha, node_size=self.phi_p_node,
-                                                    surfaces=self.surface_kind)
+                phi_p, cubes_p, iso_p = build_surface("phi_p", normalised, alpha, node_size=self.phi_p_node,
+                                                      surfaces=self.surface_kind)
         found = Surfaces(phi_t, phi_p, cubes_t, cubes_p, iso_t, iso_p)
         buffers = {}
         for name, triangles in (("phi_t", phi_t), ("phi_p", phi_p)):
