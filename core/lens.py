@@ -252,3 +252,36 @@ class Lens:
         if self.shape == "mesh":
             return _convex_half_spaces(self.mesh, where=f"lens {self.name!r} (mesh)")
         return np.zeros((0, 3)), np.zeros(0)
+
+    def world_half_spaces(self):
+        """The lens's faces in world space: unit outward normals and offsets ``(n, c)``, inside ``n·x <= c``
+        (none for a sphere)."""
+        matrix = self.object_to_world()
+        normals, offsets = self.half_spaces()
+        world = normals @ np.linalg.inv(matrix[:3, :3])  # n·A⁻¹(x − t) <= c
+        offsets = offsets + world @ matrix[:3, 3]
+        norms = np.linalg.norm(world, axis=1)
+        return world / norms[:, None], offsets / norms
+
+    def contains(self, points):
+        """Whether each world point (``(..., 3)``) lies in the closed lens."""
+        points = np.asarray(points, dtype=np.float64)
+        if self.shape == "sphere":
+            return np.sum((points - np.asarray(self.center)) ** 2, axis=-1) <= self.radius ** 2
+        normals, offsets = self.world_half_spaces()
+        return np.all(points @ normals.T <= offsets, axis=-1)
+
+    def voxel_mask(self, volume, transform):
+        """The lens voxelised on ``volume``'s grid placed in the world by ``transform``: ``(nz, ny, nx)``
+        bool, true where the voxel's centre lies in the lens (what a backend that classifies voxels, not
+        ray samples, uses: a mask texture, a label map, per-voxel classification). One z-slice at a
+        time, so the memory is a slice's points."""
+        nx, ny, nz = volume.shape_xyz
+        sx, sy, sz = volume.spacing
+        y, x = np.meshgrid((np.arange(ny) + 0.5) * sy, (np.arange(nx) + 0.5) * sx, indexing="ij")
+        transform = np.asarray(transform, dtype=np.float64)
+        mask = np.zeros((nz, ny, nx), bool)
+        for k in range(nz):
+            points = np.stack([x, y, np.full_like(x, (k + 0.5) * sz)], axis=-1)
+            mask[k] = self.contains(points @ transform[:3, :3].T + transform[:3, 3])
+        return mask

@@ -90,7 +90,7 @@ def test_registered_with_its_options_and_sweep():
     ({"opaque_threshold": 0.0}, "opaque_threshold"), ({"opaque_threshold": 1.5}, "opaque_threshold"),
     ({"block_size": 0}, "block_size"), ({"min_opacity": 1.0}, "min_opacity"), ({"min_opacity": -0.1}, "min_opacity"),
     ({"iso_refine": -1}, "iso_refine"), ({"iso_refine": 40}, "iso_refine"), ({"timing": "wallclock"}, "timing"),
-    ({"occluder": 1.5}, "occluder"), ({"occluder": 0.5, "variant": "single-pass"}, "occluder"),
+    ({"occluder": 1.5}, "occluder"), ({"region_order": "sideways"}, "region_order"),
 ])
 def test_bad_options_name_the_option(options, match):
     with pytest.raises(InputError, match=f"gl-raycast option {match}"):
@@ -354,6 +354,13 @@ def test_the_occluder_hides_its_part_of_the_footprint_and_culls_its_rays(volume,
     assert covered[0.0] == 0 and 0.3 * rays < covered[0.5] < 0.7 * rays and covered[1.0] == rays
     with pytest.raises(InputError, match="occluder"):
         GLRaycastRenderer(variant=variant, occluder=0.5).render(scene_of(volume, size=16, mode="mip"))
+
+
+@needs_gl
+def test_the_single_pass_variant_takes_an_occluder_only_with_a_lens(volume):
+    # Without a lens it has no pass after which early-z could cull (with one: test_gl_raycast_lens).
+    with pytest.raises(InputError, match="occluder.*multi-pass variant.*or a lens scene"):
+        GLRaycastRenderer(variant="single-pass", occluder=0.5).render(scene_of(volume, size=16))
 
 
 @needs_gl

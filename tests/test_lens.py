@@ -253,3 +253,24 @@ def test_lens_entries_are_refused_before_any_volume_is_generated(tmp_path, monke
         build_scene(_spec({"shape": "cone", "center": [0, 0, 0], "appearance": {"mode": "clip"}}), cache_dir=tmp_path)
     with pytest.raises(InputError, match="scene lenses: expected a list"):
         build_scene({**_spec(), "lenses": {"shape": "sphere"}}, cache_dir=tmp_path)
+
+
+def test_contains_and_the_voxel_mask_agree_with_the_lens_frame():
+    rotation = np.eye(4)
+    c, s = np.cos(0.6), np.sin(0.6)
+    rotation[:2, :2] = [[c, -s], [s, c]]
+    box = Lens("box", center=(5.0, 4.0, 3.0), size=(6.0, 4.0, 2.0), transform=rotation,
+               appearance=LensAppearance("clip"))
+    points = np.random.default_rng(0).uniform(-2, 12, size=(4000, 3))
+    local = (points - box.center) @ rotation[:3, :3]  # world -> the box's own frame
+    expected = np.all(np.abs(local) <= np.array(box.size) / 2, axis=1)
+    np.testing.assert_array_equal(box.contains(points), expected)
+    sphere = Lens("sphere", center=(8.0, 8.0, 8.0), radius=5.0, appearance=LensAppearance("clip"))
+    np.testing.assert_array_equal(sphere.contains(points), np.linalg.norm(points - 8.0, axis=1) <= 5.0)
+    volume = Volume(np.zeros((16, 16, 16), np.uint8), spacing=(1.0, 1.0, 1.0))
+    shift = np.eye(4)
+    shift[:3, 3] = [1.0, 0.0, 0.0]  # voxel (i, j, k)'s centre at (i + 1.5, j + 0.5, k + 0.5)
+    mask = sphere.voxel_mask(volume, shift)
+    k, j, i = np.nonzero(mask)
+    assert np.all((i + 1.5 - 8) ** 2 + (j + 0.5 - 8) ** 2 + (k + 0.5 - 8) ** 2 <= 25)
+    assert abs(mask.sum() - 4 / 3 * np.pi * 125) < 0.1 * 4 / 3 * np.pi * 125  # 552 lattice points

@@ -154,7 +154,7 @@ def test_unknown_option_lists_the_valid_ones():
 @needs_vtk
 def test_options_and_environment_are_recorded(gpu, cpu):
     assert gpu.options == {"step_factor": 0.25, "early_termination": False, "depth_pass": False,
-                           "effective_step": gpu._last_step}
+                           "lens_method": "label-map", "effective_step": gpu._last_step}
     assert cpu.options["threads"] == 1 and cpu.options["effective_threads"] == 1
     for backend, mapper in ((gpu, "vtkOpenGLGPUVolumeRayCastMapper"), (cpu, "vtkFixedPointVolumeRayCastMapper")):
         env = backend.environment()

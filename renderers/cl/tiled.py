@@ -205,7 +205,10 @@ class ClTiledRenderer(Renderer):
         reasons={
             "modes": "the segment walk composites (dvr) or keeps the maximum (mip); iso is not implemented",
             "max_volumes": "the active-object set is one 64-bit mask",
-            "lenses": "lens volumes are added with the Ropinski 2005 issue",
+            "lenses": "a lens would be the volume twice under CSG boundaries (box minus lens with the outside "
+                      "appearance, lens ∩ box with the inside one); not built: boundaries are polygon meshes, so a "
+                      "sphere lens would be a tessellation, and a boundary test per sample is the per-sample method "
+                      "gl-raycast already measures",
         },
     )
     option_table = (

@@ -197,7 +197,8 @@ class GLIsbvrRenderer(GLSlicerRenderer):
             "max_volumes": "the surfaces and slices of one volume's box only",
             "gradient_opacity": "gradient-magnitude opacity modulation is not in the shaders",
             "meshes": "no polygon pass (the Kainz 2009 caster has one)",
-            "lenses": "lens volumes are added with the Ropinski 2005 issue",
+            "lenses": "the culling surfaces Φ_t and Φ_p come from one classification of the whole volume; a lens "
+                      "reclassifies its inside, so they would not bound it (gl-raycast renders lenses)",
             "camera_inside_volume": "the box's front faces, which exit-based leaping starts from, lie behind an eye "
                                     "inside the box",
         },

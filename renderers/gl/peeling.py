@@ -224,7 +224,8 @@ class GLPeelRenderer(GLRenderer):
                    "shader casters cannot do (the paper's point)",
             "homogeneous_media": "a medium fills a mesh's inside over whole intervals; the peeled layers track "
                                  "the boxes' parity only, not the meshes'",
-            "lenses": "lens volumes belong to the Ropinski 2005 issue",
+            "lenses": "the peeling caster cuts rays at mesh layers; a lens is one more convex boundary per ray, which "
+                      "gl-raycast renders (segments, fused, per-sample)",
         },
     )
     BOUNDARY_REASON = ("a polygonal boundary bounds a volume by a mesh's inside; the peeled layers track the boxes' "

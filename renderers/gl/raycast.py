@@ -80,12 +80,20 @@ Implementation gaps of the paper, decided here (note 000 §2.3)
 
 Lenses (Ropinski et al. 2005)
 -----------------------------
-A lens scene (one ``clip`` or ``dvr`` lens, :mod:`core.lens`) renders in the ``single-pass``
-variant only, by option ``lens_method`` (:mod:`renderers.gl.lens`): ``fused`` computes the lens
-interval per ray and loops over the segments in front of, inside and behind the lens;
-``per-sample`` tests every sample's position. The samples stay on the no-lens lattice either way,
-so a lens with the outside appearance changes nothing. The multi-pass variants and ``mip``/``iso``
-lens appearances are refused (:class:`~core.errors.UnsupportedFeatureError`) before any work.
+A lens scene (one lens, :mod:`core.lens`) renders in the ``single-pass`` variant, by option
+``lens_method`` (:mod:`renderers.gl.lens` describes each; :mod:`renderers.gl.lens_passes` issues
+the passes): ``segments`` (the paper: a geometry pass rasterising the lens into entry and exit
+images, then a pass per region back to front, or ``region_order='front-to-back'``), ``fused`` (the
+lens interval per ray, one loop over the three segments), ``per-sample`` (an inside test per
+sample), ``per-sample-mask`` (a 3-D mask fetch per sample), ``frag-depth`` (per-sample depth
+comparison, writing ``gl_FragDepth``). The samples stay on the no-lens lattice, so a lens with
+the outside appearance changes nothing. ``mip`` and ``iso`` lenses need ``segments`` or ``fused``.
+The multi-pass variants refuse lenses (:class:`~core.errors.UnsupportedFeatureError`) before any
+work. Lens frames add the stages ``lens_geometry``, ``region0``–``region2`` (or ``main``), the
+preparation ``lens_mask`` (``per-sample-mask``) and the counters ``samples_region0``–``2``,
+``lens_rays`` (rays whose lens segment inside the box is not empty; not for the per-sample
+methods, which never compute it) and ``fragments_shaded`` (volume-pass shader invocations: with
+an occluder, what early-z saved).
 
 Timing and counters
 -------------------
@@ -113,6 +121,7 @@ from core.resources import check_memory
 from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.gl import context, emptyspace, glsl
 from renderers.gl import lens as lenses
+from renderers.gl import lens_passes, stencil
 from renderers.gl.base import TIMING, GLRenderer, set_uniforms
 from renderers.gl.view import SLIVER, make_view, ray_lengths
 
@@ -121,7 +130,8 @@ MULTI_PASS = ("rc", "rc-a", "rc-b")
 
 # Texture units, fixed for every program of the backend.
 UNITS = {"u_volume": 0, "u_tf": 1, "u_gradient": 2, "u_entry": 3, "u_dir": 4, "u_start": 5, "u_res": 6,
-         "u_blocks": 7, "u_ct": 8, "u_lens_tf": 9}
+         "u_blocks": 7, "u_ct": 8, "u_lens_tf": 9, "u_lens_mask": 10, "u_lens_t": 11, "u_acc": 12,
+         "u_transition0": 13, "u_transition1": 14}  # 15: the stencil sequence's box depth
 
 ENTRY_FRAGMENT = """
 in vec3 v_tex;
@@ -429,7 +439,8 @@ def occluder_cut(mvp, width, fraction):
 class GLRaycastRenderer(GLRenderer):
     """Multi-pass GPU ray caster (Krüger & Westermann 2003) and a single-pass one, OpenGL 4.3."""
 
-    technique_stages = ("intermediate", "main", "resolve", "occluder")
+    technique_stages = ("intermediate", "main", "resolve", "occluder", "lens_geometry", "region0", "region1",
+                        "region2")
     """The stages that are the technique itself: the GPU passes, timed on the device; not the readback."""
 
     name = "gl-raycast"
@@ -447,8 +458,9 @@ class GLRaycastRenderer(GLRenderer):
             "gradient_opacity": "gradient-magnitude opacity modulation is not in the shaders (the paper classifies "
                                 "by scalar only)",
             "meshes": "no polygon pass (added with the Kainz 2009 issue)",
-            "lenses": "one clip or dvr lens, single-pass variant only (the multi-pass variants' `segments` method "
-                      "is to come; mip and iso lens appearances are not in the shaders)",
+            "lenses": "one lens, single-pass variant only (every lens method's passes loop from an entry to an "
+                      "exit; the multi-pass variants' M samples per pass are not cut at a lens); mip and iso lenses "
+                      "with lens_method segments or fused only (they need the lens segment whole)",
         },
     )
     option_table = (
@@ -469,10 +481,15 @@ class GLRaycastRenderer(GLRenderer):
                "opaque plane drawn before the main passes (the paper's early-z demonstration; 0: none). The "
                "covered pixels show the plane's grey, so images compare with the reference only at 0.",
                low=0, high=1),
-        Option("lens_method", str, "fused", "How a lens scene's samples are classified (``single-pass``): "
-               "``fused``: the lens interval per ray, analytically, and one loop over the segments in front of, "
-               "inside and behind the lens (Ropinski 2005); ``per-sample``: an inside test at every sample (the "
-               "baseline the paper argues against). No effect without a lens.", choices=lenses.LENS_METHODS),
+        Option("lens_method", str, "segments", "How a lens scene is cut into regions (``single-pass``): "
+               "``segments``: the paper's (Ropinski 2005) geometry pass and a pass per region; ``fused``: the lens "
+               "interval per ray, analytically, one loop over the regions; ``per-sample``: an inside test at every "
+               "sample; ``per-sample-mask``: a 3-D lens-mask fetch at every sample; ``frag-depth``: a depth "
+               "comparison at every sample, writing gl_FragDepth. No effect without a lens.",
+               choices=lenses.LENS_METHODS),
+        Option("region_order", str, "back-to-front", "Order of the ``segments`` region passes: "
+               "``back-to-front`` (the paper, blended over) or ``front-to-back`` (each pass continues the "
+               "accumulation, so rays opaque in front of the lens stop there).", choices=lenses.REGION_ORDERS),
         TIMING,
     )
     quality_sweep = (tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
@@ -484,9 +501,7 @@ class GLRaycastRenderer(GLRenderer):
 
     def __init__(self, **options):
         super().__init__(**options)
-        if self.occluder > 0 and self.variant not in MULTI_PASS:
-            raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
-                             f"use a multi-pass variant ({', '.join(MULTI_PASS)}), not {self.variant!r}")
+        lenses.check_region_order(self.region_order, self.lens_method, self.occluder)
         self._ray_key = None
         self._ray_max = 0.0
         self._lens_key = None
@@ -501,7 +516,12 @@ class GLRaycastRenderer(GLRenderer):
         """
         super().check(scene)
         if scene.lenses:
-            lenses.check_lens(self.name, self.variant, scene.lenses[0], self.variant == "single-pass")
+            lenses.check_lens(self.name, self.variant, scene.lenses[0], self.variant == "single-pass",
+                              self.lens_method)
+        elif self.occluder > 0 and self.variant not in MULTI_PASS:
+            raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
+                             f"use a multi-pass variant ({', '.join(MULTI_PASS)}) or a lens scene, not "
+                             f"{self.variant!r} without a lens")
         if self.variant != "rc-b" or scene.mode == "mip":
             return
         volume = scene.volumes[0].volume
@@ -521,12 +541,12 @@ class GLRaycastRenderer(GLRenderer):
     def _programs(self, ctx, mode, phong, lens=None):
         """The programs of this variant for ``mode``, shading and ``lens`` (compiled once per process)."""
         if lens is not None:
-            main = glsl.fragment_source(SAMPLING, lenses.LENS_GLSL, lenses.SINGLE_PASS_FRAGMENT, phong=phong, mode=mode,
-                                        defines=lenses.defines(lens, self.lens_method))
+            programs = lens_passes.programs(ctx, lens, self.lens_method, phong=phong, sampling=SAMPLING,
+                                            front_to_back=self.region_order == "front-to-back")
         else:
             main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if self.variant in MULTI_PASS else
                                         SINGLE_PASS_FRAGMENT, phong=phong, mode=mode)
-        programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
+            programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
         if self.variant in MULTI_PASS:
             programs["entry"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(ENTRY_FRAGMENT))
             programs["direction"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(DIRECTION_FRAGMENT))
@@ -543,10 +563,13 @@ class GLRaycastRenderer(GLRenderer):
     def _frame_targets(self, width, height):
         def build():
             size = (width, height)
-            entry, direction, start, res, out = (self._float_texture(size) for _ in range(5))
+            entry, direction, start, res, out, res2 = (self._float_texture(size) for _ in range(6))
+            lens_t = self._float_texture(size, 2)
             depth = self._ctx.depth_texture(size)
             targets = {"entry": entry, "direction": direction, "start": start, "res": res, "out": out,
-                       "depth": depth,
+                       "depth": depth, "res2": res2, "lens_t": lens_t,
+                       "res2_fbo": self._ctx.framebuffer([res2]),
+                       "lens_fbo": self._ctx.framebuffer([lens_t]),
                        "entry_fbo": self._ctx.framebuffer([entry]),
                        "direction_fbo": self._ctx.framebuffer([direction, start]),
                        "main_fbo": self._ctx.framebuffer([res], depth),
@@ -600,8 +623,10 @@ class GLRaycastRenderer(GLRenderer):
             if mode == "dvr":
                 textures["u_ct"] = cache.visibility_table(instance.transfer_function, self.min_opacity, prep)
         lens = scene.lenses[0] if scene.lenses else None
-        if lens is not None and lens.appearance.mode == "dvr":
+        if lens is not None and lens.appearance.mode != "clip":
             textures["u_lens_tf"] = cache.transfer_function(self._lens_table(lens, instance), prep)
+        if lens is not None and self.lens_method == "per-sample-mask":
+            textures["u_lens_mask"] = cache.lens_mask(instance, lens, prep)
         programs = self._programs(ctx, mode, phong, lens)
 
         start = time.perf_counter()
@@ -610,7 +635,7 @@ class GLRaycastRenderer(GLRenderer):
         width, height = scene.width, scene.height
         targets = self._frame_targets(width, height)
         textures.update(u_entry=targets["entry"], u_dir=targets["direction"], u_start=targets["start"],
-                        u_res=targets["res"])
+                        u_res=targets["res"], u_lens_t=targets["lens_t"])
         nx, ny, nz = instance.volume.shape_xyz
         uniforms = {
             **view.uniforms, **UNITS,
@@ -629,11 +654,13 @@ class GLRaycastRenderer(GLRenderer):
         }
         if lens is not None:
             uniforms.update(lenses.uniforms(lens))
+            uniforms["u_lens_refine"] = self.iso_refine
             if "u_lens_tf" in textures:
                 uniforms["u_lens_tf_size"] = textures["u_lens_tf"].width
-            planes = programs["main"].get("u_lens_planes", None)
-            if planes is not None:
-                planes.write(lenses.planes(lens))
+            for program in programs.values():
+                planes = program.get("u_lens_planes", None)
+                if planes is not None:
+                    planes.write(lenses.planes(lens))
         for program in programs.values():
             set_uniforms(program, uniforms)
         for name, texture in textures.items():
@@ -642,7 +669,11 @@ class GLRaycastRenderer(GLRenderer):
 
         timer = self._timer
         cells = int(np.ceil(max(self._longest_ray(scene) - SLIVER * step, 0.0) / step))
-        if self.variant == "single-pass":
+        lens_counts = {}
+        if lens is not None:
+            passes_main, passes_intermediate, counter = 1, 0, None
+            output, lens_counts = self._lens_frame(ctx, timer, programs, targets, scene, view, lens)
+        elif self.variant == "single-pass":
             passes_main, passes_intermediate = 1, 0
             counter = self._single_pass(ctx, timer, programs, targets)
         else:
@@ -650,7 +681,8 @@ class GLRaycastRenderer(GLRenderer):
             passes_main = -(-cells // self.samples_per_pass)
             passes_intermediate = max(passes_main - 1, 0) if self.variant != "rc" else 0
             self._multi_pass(ctx, timer, programs, targets, mode, passes_main, passes_intermediate)
-        output = targets["res"]
+        if lens is None:
+            output = targets["res"]
         if mode == "mip":
             ctx.enable_only(moderngl.NOTHING)
             targets["res"].use(location=UNITS["u_res"])
@@ -662,15 +694,20 @@ class GLRaycastRenderer(GLRenderer):
         total = time.perf_counter() - start
 
         main_counts = fragments.get("main", [])
-        # The direction pass draws every ray's back face once; so does the single pass.
-        rays = (fragments.get("setup") or main_counts or [0])[0]
-        if counter is None:
+        # The direction pass draws every ray's back face once; so do the single pass and region₀'s.
+        rays = (fragments.get("setup") or main_counts or fragments.get("region0") or [0])[0]
+        if lens is not None:
+            samples = lens_counts.pop("samples")
+        elif counter is None:
             samples = sum(main_counts) * self.samples_per_pass  # every main-pass fragment takes M samples
         else:
             samples = int(np.frombuffer(counter.read(4), dtype=np.uint32)[0])
         self._last_step = step
-        stages = ("setup", "occluder", "main", "intermediate", "resolve") if self.occluder > 0 else \
-            ("setup", "main", "intermediate", "resolve")
+        stages = ("setup", "main", "intermediate", "resolve")
+        if lens is not None:
+            stages = lenses.stages(self.lens_method)
+        if self.occluder > 0:
+            stages = ("occluder",) + stages
         timings = {stage: seconds.get(stage, 0.0) for stage in stages}
         timings.update(readback=readback, total=total, **prep.timings)
         counters = {
@@ -684,6 +721,17 @@ class GLRaycastRenderer(GLRenderer):
         }
         if self.occluder > 0:
             counters["rays_occluded"] = int(sum(fragments.get("occluder", [])))
+        if lens is not None:
+            if self.lens_method not in lenses.INTERVAL_METHODS:
+                del lens_counts["lens_rays"]  # a per-sample test never knows a ray's lens segment
+            if self.lens_method != "segments-stencil":
+                del lens_counts["hole_rays"]
+            if self.lens_method not in lenses.WHOLE_SEGMENT_METHODS:
+                for region in range(3):   # one loop over the ray: its samples are not told apart by region
+                    del lens_counts[f"samples_region{region}"]
+            counters.update(lens_counts)
+            counters.update({f"fragments_{stage}": int(sum(fragments.get(stage, []))) for stage in stages
+                             if stage.startswith("region")})
         info = {
             "variant": self.variant,
             "step": step,
@@ -700,6 +748,7 @@ class GLRaycastRenderer(GLRenderer):
         if lens is not None:
             info["lens"] = f"{lens.shape} {lens.appearance.mode}"
             info["lens_method"] = self.lens_method
+            info["region_order"] = self.region_order
         return RenderResult(image=image, timings=timings, counters=counters, info=info)
 
     def _multi_pass(self, ctx, timer, programs, targets, mode, passes_main, passes_intermediate):
@@ -729,16 +778,7 @@ class GLRaycastRenderer(GLRenderer):
         timer.run("setup", direction_pass, count=True)  # its fragments are the rays
         timer.run("setup", clear_targets)
         if self.occluder > 0:
-            def occluder_pass():
-                targets["main_fbo"].depth_mask = True
-                targets["main_fbo"].use()
-                cube["occluder"].render()
-                targets["main_fbo"].depth_mask = False
-
-            ctx.enable_only(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
-            ctx.depth_func = "1"
-            ctx.cull_face = "front"  # the back faces: one fragment per ray, the camera inside the box too
-            timer.run("occluder", occluder_pass, count=True)
+            self._occlude(ctx, timer, cube["occluder"], targets)
         ctx.cull_face = "front"  # main and intermediate passes rasterise the back faces
         main_state = moderngl.DEPTH_TEST | moderngl.BLEND | moderngl.CULL_FACE
         for index in range(passes_main):
@@ -760,6 +800,65 @@ class GLRaycastRenderer(GLRenderer):
                 targets["depth_fbo"].use()
                 timer.run("intermediate", cube["intermediate"].render, count=True)
         ctx.blend_equation = moderngl.FUNC_ADD
+
+    def lens_images(self):
+        """The last lens frame's per-pixel images, volbench row order, NaN where nothing was written.
+
+        ``lens_entry``, ``lens_exit``: the world ray parameters where each pixel's ray enters and
+        leaves the lens (the geometry pass: the paper's ``lens_front``/``lens_back`` before the box
+        cuts them; ``lens_entry`` is −inf where the lens encloses the eye). ``segments-stencil``
+        adds ``transition0`` and ``transition1`` (the paper's Fig. 3). For the report's figures and
+        the tests; ``None`` before any lens frame with an image method.
+        """
+        if self._ctx is None or not self._targets or self.lens_method not in lenses.IMAGE_METHODS:
+            return None
+        targets = next(iter(self._targets.values()))
+        width, height = targets["lens_t"].size
+        raw = np.frombuffer(targets["lens_t"].read(), np.float32).reshape(height, width, 2)[::-1]
+        entry = np.where(raw[..., 0] >= lenses.NO_HIT, -np.inf, raw[..., 0])
+        missed = raw[..., 1] >= lenses.NO_HIT
+        images = {"lens_entry": np.where(missed, np.nan, entry), "lens_exit": np.where(missed, np.nan, -raw[..., 1])}
+        if "stencil" in targets:
+            for name in ("transition0", "transition1"):
+                image = np.frombuffer(getattr(targets["stencil"], name).read(), np.float32).reshape(height, width, 4)
+                images[name] = np.where(image[::-1, :, 3] > 0, image[::-1, :, 0], np.nan)
+        return images
+
+    def _occlude(self, ctx, timer, vao, targets):
+        """Draw the occluder into ``main_fbo``: grey, and depth 1 (a finished ray) where it covers a ray."""
+        import moderngl
+
+        def occluder_pass():
+            targets["main_fbo"].depth_mask = True
+            targets["main_fbo"].use()
+            vao.render()
+            targets["main_fbo"].depth_mask = False
+
+        ctx.enable_only(moderngl.DEPTH_TEST | moderngl.CULL_FACE)
+        ctx.depth_func = "1"
+        ctx.cull_face = "front"  # the back faces: one fragment per ray, the camera inside the box too
+        timer.run("occluder", occluder_pass, count=True)
+
+    def _lens_frame(self, ctx, timer, programs, targets, scene, view, lens):
+        """A lens frame (:mod:`renderers.gl.lens_passes`): ``(output texture, counters)``."""
+        counter = self._buffer("lens_counters", np.zeros(len(lenses.COUNTERS), np.float32))  # uint zeros
+        counter.bind_to_storage_buffer(0)
+        targets["main_fbo"].clear(0.0, 0.0, 0.0, 0.0)
+        targets["depth_fbo"].clear(depth=0.0)
+        if self.occluder > 0:
+            self._occlude(ctx, timer, self._cube_vao(ctx, programs["occluder"]), targets)
+        if "geometry" in programs:
+            lens_passes.geometry_pass(self, ctx, timer, programs["geometry"], targets, scene, view, lens)
+        if self.lens_method == "segments-stencil":
+            if "stencil" not in targets:  # made with the frame's targets, released with them
+                targets["stencil"] = stencil.StencilTargets(ctx, (scene.width, scene.height))
+            stencil.transition_passes(self, ctx, timer, programs, targets["stencil"], scene, view, lens)
+            targets["stencil"].transition0.use(location=UNITS["u_transition0"])
+            targets["stencil"].transition1.use(location=UNITS["u_transition1"])
+        output = lens_passes.volume_passes(self, ctx, timer, programs, targets, lens, self.lens_method,
+                                           self.region_order == "front-to-back")
+        ctx.memory_barrier()
+        return output, lens_passes.counters(counter)
 
     def _single_pass(self, ctx, timer, programs, targets):
         """One loop-with-break draw of the back faces; returns the buffer counting its samples."""

@@ -32,6 +32,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from renderers.gl import emptyspace
+from renderers.gl import lens as lenses
 
 VOLUME_CACHE_SIZE = 2
 """Volumes kept per renderer (each with its gradient texture and block grids)."""
@@ -204,6 +205,15 @@ class ResourceCache:
             return self._texture3d(grid, 2, "u1", prep, "minmax", linear=False), (bx, by, bz)
 
         return self._get("blocks", (volume, block_size), self.volumes, build)
+
+    def lens_mask(self, instance, lens, prep):
+        """The 3-D mask of ``lens`` on ``instance``'s voxels (:func:`renderers.gl.lens.lens_mask`), linear."""
+        def build():
+            with prep.cpu("lens_mask"):
+                mask = lenses.lens_mask(instance.volume, instance.transform, lens)
+            return self._texture3d(mask, 1, "f1", prep, "lens_mask", linear=True)
+
+        return self._get("lens_mask", (instance.volume, instance.transform, lens), CLASSIFICATION_CACHE_SIZE, build)
 
     def transfer_function(self, tf, prep):
         """The ``N × 1`` RGBA32F texture of ``tf``'s table."""

@@ -253,7 +253,8 @@ class GLSlicerRenderer(GLRenderer):
             "max_volumes": "slices of one volume's box only (several volumes need interleaved slice sets)",
             "gradient_opacity": "gradient-magnitude opacity modulation is not in the shaders",
             "meshes": "no polygon pass (added with the Kainz 2009 issue)",
-            "lenses": "lens volumes are added with the Ropinski 2005 issue",
+            "lenses": "a slice is composited whole, so a lens would be an inside test per fragment of every slice (the "
+                      "per-sample method the paper argues against, measured in gl-raycast, which renders lenses)",
         },
     )
     option_table = (

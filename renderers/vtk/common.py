@@ -60,7 +60,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from core.errors import BackendUnavailableError
-from core.transfer import MAX_GRADIENT
+from core.transfer import MAX_GRADIENT, correct_opacity
 from renderers.base import Renderer
 
 VTK_FLOAT = 10
@@ -92,7 +92,7 @@ def vtk_modules():
     """The VTK classes the backends use, imported once (``ImportError`` if VTK is missing)."""
     from vtkmodules.util.numpy_support import numpy_to_vtk
     from vtkmodules.vtkCommonCore import vtkMultiThreader, vtkVersion
-    from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPiecewiseFunction
+    from vtkmodules.vtkCommonDataModel import vtkImageData, vtkPiecewiseFunction, vtkPlane, vtkPlaneCollection
     from vtkmodules.vtkCommonMath import vtkMatrix4x4
     from vtkmodules.vtkFiltersCore import vtkCellDataToPointData
     from vtkmodules.vtkRenderingCore import (vtkColorTransferFunction, vtkLight, vtkRenderer, vtkVolume,
@@ -104,7 +104,8 @@ def vtk_modules():
 
     return SimpleNamespace(
         numpy_to_vtk=numpy_to_vtk, vtkMultiThreader=vtkMultiThreader, vtkVersion=vtkVersion,
-        vtkImageData=vtkImageData, vtkPiecewiseFunction=vtkPiecewiseFunction, vtkMatrix4x4=vtkMatrix4x4,
+        vtkImageData=vtkImageData, vtkPiecewiseFunction=vtkPiecewiseFunction, vtkPlane=vtkPlane,
+        vtkPlaneCollection=vtkPlaneCollection, vtkMatrix4x4=vtkMatrix4x4,
         vtkColorTransferFunction=vtkColorTransferFunction, vtkLight=vtkLight, vtkRenderer=vtkRenderer,
         vtkVolume=vtkVolume, vtkVolumeProperty=vtkVolumeProperty, vtkEGLRenderWindow=vtkEGLRenderWindow,
         vtkFramebufferPass=vtkFramebufferPass, vtkRenderStepsPass=vtkRenderStepsPass,
@@ -237,7 +238,7 @@ def node_functions(transfer_function):
     return _functions(0.0, 1.0, transfer_function.table.astype(np.float64))
 
 
-def dense_functions(transfer_function, lo, hi, width):
+def dense_functions(transfer_function, lo, hi, width, *, step=None, reference_step=None):
     """``(colour, opacity)`` VTK functions that fill a ``width``-texel lookup texture with our table.
 
     The GPU mapper samples its functions at ``x_i = lo + i·(hi − lo)/(width − 1)`` into a
@@ -246,9 +247,14 @@ def dense_functions(transfer_function, lo, hi, width):
     the functions nodes at ``x_i`` holding our classification at the texel centres makes the
     texture hold our table at the texel centres, instead of shifting it by up to half a texel.
     ``width`` must be what VTK picks: the next power of two of the node count, at least 1024.
+    ``step`` and ``reference_step`` (``Δ``, ``Δ0``) correct the opacity here, for a table VTK
+    does not correct itself (the GPU mapper's label-map tables).
     """
     s = lo + (np.arange(width) + 0.5) / width * (hi - lo)
-    return _functions(lo, hi, transfer_function.lookup(s))
+    rgba = transfer_function.lookup(s)
+    if step is not None:
+        rgba[:, 3] = correct_opacity(rgba[:, 3], step, reference_step)
+    return _functions(lo, hi, rgba)
 
 
 def _functions(lo, hi, rgba):

@@ -107,7 +107,8 @@ class VtkCpuRenderer(common.VtkRenderer):
             "max_volumes": "the fixed-point mapper renders one vtkImageData; VTK blends several volumes "
                            "per sample only on the GPU (vtkMultiVolume)",
             "meshes": "the backend renders volumes only (VTK's polygon mappers are not wired in)",
-            "lenses": "VTK's fixed-point mapper has no lens volumes",
+            "lenses": "the fixed-point mapper has cropping regions and clipping planes (vtk-gpu's clip-lens methods, "
+                      "not wired in here) but no label-map mask, so no dvr lens; vtk-gpu carries VTK's lens peers",
         },
     )
     option_table = (
