@@ -22,9 +22,23 @@ Voxel records (4 bytes, the thesis's layout): ``uint32 = opacity | colour index 
 normal code << 16``: opacity quantised to 8 bits (``round(255·α)``; the per-view opacity
 correction table is indexed by it, as in VolPack), the colour index ``round(255·s)`` into a
 256-entry table of the transfer function's RGB (exact for 8-bit data with a 256-entry table,
-else an 8-bit quantisation of the scalar), and the 13-bit normal code below. For
+else an 8-bit quantisation of the scalar), and the 13-bit normal code below (with
+:data:`NO_NORMAL`, bits 16–29). Bit 30 (:data:`LENS_BIT`) marks a voxel classified with a lens's
+table, whose colour is row ``256 + index`` of a 512-row colour table (the compositing kernels
+decode a record with :func:`renderers.shearwarp.composite.colour_index` and ``normal_code``). For
 ``shading="procedural"`` an aligned float32 array keeps each voxel's unquantised object-space
 gradient.
+
+Lenses (Ropinski et al. 2005, by pre-classification)
+----------------------------------------------------
+With a :class:`LensClassification` each voxel whose centre lies in the lens (closed: on its
+surface counts as inside) is classified with the lens's appearance instead of the volume's: a
+``clip`` lens makes it transparent, a ``dvr`` lens classifies it with the lens's opacity and
+gradient-opacity tables by the rule above and sets :data:`LENS_BIT`. Every other voxel gets the
+record it has without a lens, bit for bit. The lens is placed in voxel-index space once
+(:func:`lens_classification`: index → object → world by the instance transform → the lens's own
+frame), so the test per voxel is a sphere's ``|p|² <= r²`` or a convex solid's ``n·p <= c`` for
+every face, in the lens frame.
 
 13-bit normals (thesis §7.1, Fig. 7.2)
 --------------------------------------
@@ -74,6 +88,10 @@ NO_NORMAL = 8192
 """Normal code of a zero gradient (ambient light only); codes 0..8191 are directions."""
 NORMAL_CODES = NO_NORMAL + 1
 SQRT2 = math.sqrt(2.0)
+LENS_BIT = np.uint32(1 << 30)
+"""Record bit of a voxel classified with a ``dvr`` lens's table (its colour: row ``256 + index``)."""
+NO_LENS, LENS_SPHERE, LENS_PLANES = 0, 1, 2
+"""Lens shapes in the kernels: none, a sphere about the lens frame's origin, half-spaces of the lens frame."""
 
 
 @njit(**_JIT)
@@ -153,16 +171,54 @@ def classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opac
     return np.uint32(opacity | (colour << 8) | (code << 16)), gx, gy, gz, True
 
 
+@njit(inline="always", **_JIT)
+def inside_lens(z, y, x, kind, m, radius, normals, offsets):
+    """Whether voxel ``(z, y, x)``'s centre lies in the lens; ``m`` (3, 4) maps voxel indices to the lens frame."""
+    fx = np.float64(x)
+    fy = np.float64(y)
+    fz = np.float64(z)
+    px = m[0, 0] * fx + m[0, 1] * fy + m[0, 2] * fz + m[0, 3]
+    py = m[1, 0] * fx + m[1, 1] * fy + m[1, 2] * fz + m[1, 3]
+    pz = m[2, 0] * fx + m[2, 1] * fy + m[2, 2] * fz + m[2, 3]
+    if kind == LENS_SPHERE:
+        return px * px + py * py + pz * pz <= radius * radius
+    for i in range(normals.shape[0]):
+        if normals[i, 0] * px + normals[i, 1] * py + normals[i, 2] * pz > offsets[i]:
+            return False
+    return True
+
+
+@njit(inline="always", **_JIT)
+def classify_lens_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity, lens_kind, lens_m,
+                        lens_radius, lens_normals, lens_offsets, lens_clip, lens_alpha, lens_gtab):
+    """:func:`classify_voxel` with the lens's tables inside the lens (``lens_kind`` :data:`NO_LENS`: none).
+
+    A ``clip`` lens's voxels are transparent, a ``dvr`` lens's non-zero records carry :data:`LENS_BIT`.
+    """
+    if lens_kind != NO_LENS and inside_lens(z, y, x, lens_kind, lens_m, lens_radius, lens_normals, lens_offsets):
+        if lens_clip:
+            return np.uint32(0), 0.0, 0.0, 0.0, False
+        record, gx, gy, gz, visible = classify_voxel(s, z, y, x, sx, sy, sz, lens_alpha, lens_gtab, ref_step,
+                                                     min_opacity)
+        if record != 0:
+            record |= LENS_BIT
+        return record, gx, gy, gz, visible
+    return classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity)
+
+
 @njit(parallel=True, **_JIT)
-def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, records, gradients, nontransparent):
+def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, lens_kind, lens_m,
+                     lens_radius, lens_normals, lens_offsets, lens_clip, lens_alpha, lens_gtab, records, gradients,
+                     nontransparent):
     nz, ny, nx = s.shape
     sx, sy, sz = spacing[0], spacing[1], spacing[2]
     for z in prange(nz):
         count = 0
         for y in range(ny):
             for x in range(nx):
-                record, gx, gy, gz, visible = classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step,
-                                                             min_opacity)
+                record, gx, gy, gz, visible = classify_lens_voxel(
+                    s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity, lens_kind, lens_m, lens_radius,
+                    lens_normals, lens_offsets, lens_clip, lens_alpha, lens_gtab)
                 records[z, y, x] = record
                 if want_gradients:
                     gradients[z, y, x, 0] = gx
@@ -171,6 +227,80 @@ def _classify_kernel(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_
                 if visible:
                     count += 1
         nontransparent[z] = count
+
+
+@dataclass(frozen=True, eq=False)
+class LensClassification:
+    """A lens as the classification kernels see it (built by :func:`lens_classification`).
+
+    ``index_to_lens`` (3, 4) maps voxel indices ``(x, y, z)`` to the lens frame; ``kind`` is
+    :data:`LENS_SPHERE` (``radius`` about the frame's origin) or :data:`LENS_PLANES` (inside:
+    ``normals @ p <= offsets``). ``clip``: the lens's voxels are transparent; otherwise they are
+    classified with ``alpha_table``, ``gradient_table`` (``(0,)``: no gradient opacity) and coloured
+    by ``colour_table`` (256 rows, the lens table's RGB).
+    """
+
+    kind: int
+    index_to_lens: np.ndarray
+    radius: float
+    normals: np.ndarray
+    offsets: np.ndarray
+    clip: bool
+    alpha_table: np.ndarray
+    gradient_table: np.ndarray
+    colour_table: np.ndarray | None
+
+    def kernel_arguments(self):
+        """The kernels' lens arguments, in their order (``lens_kind`` … ``lens_gtab``)."""
+        return (self.kind, self.index_to_lens, self.radius, self.normals, self.offsets, self.clip, self.alpha_table,
+                self.gradient_table)
+
+    def colour_table_beside(self, outside):
+        """The colour table beside ``outside``'s: its 256 rows, then the lens's (a ``clip`` lens: ``outside``)."""
+        if self.colour_table is None:
+            return outside
+        return np.ascontiguousarray(np.concatenate([outside, self.colour_table]))
+
+
+NO_LENS_ARGUMENTS = (NO_LENS, np.zeros((3, 4)), 0.0, np.zeros((0, 3)), np.zeros(0), False, np.zeros(2), np.zeros(0))
+"""The kernels' lens arguments when there is no lens (the same types, never read)."""
+
+
+def lens_classification(lens, transform, spacing, outside):
+    """The :class:`LensClassification` of ``lens`` over a volume placed by ``transform`` with ``spacing``.
+
+    Parameters
+    ----------
+    lens : core.lens.Lens
+        A ``clip`` or ``dvr`` lens (the renderer refuses ``mip`` and ``iso`` first).
+    transform : numpy.ndarray
+        The instance's 4×4 object→world transform.
+    spacing : tuple of float
+        ``(sx, sy, sz)``: voxel ``(i, j, k)``'s centre is ``((i + ½)·sx, (j + ½)·sy, (k + ½)·sz)`` in
+        object space.
+    outside : core.transfer.TransferFunction
+        The volume's own table (a ``dvr`` appearance's table may derive from it, see
+        :meth:`core.lens.LensAppearance.classification`).
+    """
+    sx, sy, sz = spacing
+    index_to_object = np.array([[sx, 0, 0, 0.5 * sx], [0, sy, 0, 0.5 * sy], [0, 0, sz, 0.5 * sz], [0, 0, 0, 1.0]])
+    index_to_lens = np.linalg.inv(lens.object_to_world()) @ np.asarray(transform, dtype=np.float64) @ index_to_object
+    normals, offsets = lens.half_spaces()
+    appearance = lens.appearance
+    tf = appearance.classification(outside)
+    clip = tf is None
+    return LensClassification(
+        kind=LENS_SPHERE if lens.shape == "sphere" else LENS_PLANES,
+        index_to_lens=np.ascontiguousarray(index_to_lens[:3]),
+        radius=float(lens.radius or 0.0),
+        normals=np.ascontiguousarray(normals, dtype=np.float64),
+        offsets=np.ascontiguousarray(offsets, dtype=np.float64),
+        clip=clip,
+        alpha_table=np.zeros(2) if clip else np.ascontiguousarray(tf.table[:, 3], dtype=np.float64),
+        gradient_table=(np.zeros(0) if clip or appearance.gradient_opacity is None
+                        else np.ascontiguousarray(appearance.gradient_opacity.table, dtype=np.float64)),
+        colour_table=None if clip else np.ascontiguousarray(tf.lookup(np.arange(256) / 255.0)[:, :3]),
+    )
 
 
 @dataclass(frozen=True, eq=False)
@@ -183,7 +313,8 @@ class Classified:
     nontransparent: int
 
 
-def classify(scalars, spacing, transfer_function, gradient_opacity, reference_step, min_opacity, *, gradients=False):
+def classify(scalars, spacing, transfer_function, gradient_opacity, reference_step, min_opacity, *, gradients=False,
+             lens=None):
     """Classify normalised float32 ``scalars`` (``[z, y, x]``) into 4-byte voxel records.
 
     Parameters
@@ -200,6 +331,9 @@ def classify(scalars, spacing, transfer_function, gradient_opacity, reference_st
         Voxels with ``α <= min_opacity`` are transparent (record 0).
     gradients : bool
         Also keep each voxel's object-space gradient (float32, zero where transparent).
+    lens : LensClassification, optional
+        Classify the voxels inside it with its appearance (module notes); the colour table then
+        has 512 rows for a ``dvr`` lens.
 
     Returns
     -------
@@ -212,9 +346,12 @@ def classify(scalars, spacing, transfer_function, gradient_opacity, reference_st
     gtab = (np.zeros(0) if gradient_opacity is None
             else np.ascontiguousarray(gradient_opacity.table, dtype=np.float64))
     counts = np.zeros(scalars.shape[0], dtype=np.int64)
+    lens_arguments = NO_LENS_ARGUMENTS if lens is None else lens.kernel_arguments()
     _classify_kernel(scalars, np.asarray(spacing, dtype=np.float64), alpha_table, gtab, float(reference_step),
-                     float(min_opacity), bool(gradients), records, grads, counts)
+                     float(min_opacity), bool(gradients), *lens_arguments, records, grads, counts)
     colour_table = np.ascontiguousarray(transfer_function.lookup(np.arange(256) / 255.0)[:, :3])
+    if lens is not None:
+        colour_table = lens.colour_table_beside(colour_table)
     return Classified(records, grads if gradients else None, colour_table, int(counts.sum()))
 
 

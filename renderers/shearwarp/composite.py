@@ -18,9 +18,10 @@ The intermediate image is float32 premultiplied RGBA, pixel ``(row, column)`` at
 fractions ``(fu, fv)``; intermediate pixel ``(row, iu + x)`` of that slice is the bilinear
 combination of voxels ``x`` and ``x − 1`` of voxel scanlines ``j = row − iv`` and ``j − 1``, with the
 weights ``(1−fu)(1−fv)``, ``(1−fu)fv``, ``fu(1−fv)``, ``fu·fv``, the same for the whole slice
-(property 3). Each voxel is opacity-corrected (table), coloured (colour table, shaded by the LUT
-or procedurally) and premultiplied before resampling, as the thesis does (classify → shade →
-interpolate), and each sample is composited front to back, ``C += (1 − A)·c``, ``A += (1 − A)·α``.
+(property 3). Each voxel is opacity-corrected (table), coloured (colour table, the lens's rows
+for a voxel classified by a lens: :func:`colour_index`; shaded by the LUT or procedurally) and
+premultiplied before resampling, as the thesis does (classify → shade → interpolate), and each
+sample is composited front to back, ``C += (1 − A)·c``, ``A += (1 − A)·α``.
 
 Along a row the two voxel scanlines are walked with run cursors, positions ``x = 0..n_i`` (the
 ``n_i + 1`` pixels a scanline's bilinear footprint covers). Three cases per position, as in Fig.
@@ -91,6 +92,23 @@ def _fetch_add(typingctx, array, index, value):
         return builder.atomic_rmw("add", pointer, val, "seq_cst")
 
     return signature, codegen
+
+
+# ---------------------------------------------------------------------------------------------
+# Voxel records (layout: renderers.shearwarp.classify). Defined here, beside the kernels that inline
+# them: Numba's cache of a kernel is invalidated by edits to its own file only.
+
+
+@njit(inline="always", **_JIT)
+def colour_index(record):
+    """Row of the colour table for ``record``: its 8-bit index, plus 256 for a lens voxel (``LENS_BIT``)."""
+    return ((record >> 8) & 255) | ((record >> 22) & 256)
+
+
+@njit(inline="always", **_JIT)
+def normal_code(record):
+    """The 13-bit normal code of ``record`` (or ``NO_NORMAL``), without the lens bit."""
+    return (record >> 16) & 16383
 
 
 # ---------------------------------------------------------------------------------------------
@@ -311,12 +329,12 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                         record = voxels[index]
                         opacity = record & 255
                         if opacity != 0:
-                            ci = (record >> 8) & 255
+                            ci = colour_index(record)
                             f = 1.0
                             h = 0.0
                             if shade_mode == SHADE_LUT:
-                                f = shadetab[record >> 16, 0]
-                                h = shadetab[record >> 16, 1]
+                                f = shadetab[normal_code(record), 0]
+                                h = shadetab[normal_code(record), 1]
                             elif shade_mode == SHADE_PROCEDURAL:
                                 f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
                                                    m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
@@ -336,12 +354,12 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                         record = voxels[index]
                         opacity = record & 255
                         if opacity != 0:
-                            ci = (record >> 8) & 255
+                            ci = colour_index(record)
                             f = 1.0
                             h = 0.0
                             if shade_mode == SHADE_LUT:
-                                f = shadetab[record >> 16, 0]
-                                h = shadetab[record >> 16, 1]
+                                f = shadetab[normal_code(record), 0]
+                                h = shadetab[normal_code(record), 1]
                             elif shade_mode == SHADE_PROCEDURAL:
                                 f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
                                                    m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
@@ -386,12 +404,12 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                     record = voxels[index]
                     opacity = record & 255
                     if opacity != 0:
-                        ci = (record >> 8) & 255
+                        ci = colour_index(record)
                         f = 1.0
                         h = 0.0
                         if shade_mode == SHADE_LUT:
-                            f = shadetab[record >> 16, 0]
-                            h = shadetab[record >> 16, 1]
+                            f = shadetab[normal_code(record), 0]
+                            h = shadetab[normal_code(record), 1]
                         elif shade_mode == SHADE_PROCEDURAL:
                             f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
                                                m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
@@ -403,12 +421,12 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                     record = voxels[index]
                     opacity = record & 255
                     if opacity != 0:
-                        ci = (record >> 8) & 255
+                        ci = colour_index(record)
                         f = 1.0
                         h = 0.0
                         if shade_mode == SHADE_LUT:
-                            f = shadetab[record >> 16, 0]
-                            h = shadetab[record >> 16, 1]
+                            f = shadetab[normal_code(record), 0]
+                            h = shadetab[normal_code(record), 1]
                         elif shade_mode == SHADE_PROCEDURAL:
                             f, h = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
                                                m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,

@@ -44,6 +44,13 @@ over its box is 0 (or the node is empty), else ``NONTRANSPARENT`` if it is a lea
 ``SUBDIVIDE``. The verdict is conservative: a transparent node holds no voxel with
 ``α > min_opacity`` (tested against brute-force classification).
 
+With a lens (:class:`renderers.shearwarp.classify.LensClassification`) a voxel may be classified
+by either table, so a node is transparent only where the volume's table and a ``dvr`` lens's
+table both say so (a ``clip`` lens only removes voxels: the volume's verdict stays conservative);
+the SAT kept is the volume's. The on-the-fly classification then tests each candidate voxel
+against the lens as :func:`renderers.shearwarp.classify.classify` does, so the exact encodings
+stay byte-identical to the brute-force build with the lens.
+
 Voxel runs and encodings (:func:`encode`)
 -----------------------------------------
 For principal axis ``axis`` the scanlines run along ``i`` in standard object order ``[k, j, i]``.
@@ -77,7 +84,8 @@ from core.errors import InputError
 from core.transfer import MAX_GRADIENT
 from core.validation import check_positive_int
 from renderers.base.numba_kernels import table_position
-from renderers.shearwarp.classify import Encoding, _scanline_runs, central_gradient, classify_voxel
+from renderers.shearwarp.classify import (NO_LENS_ARGUMENTS, Encoding, _scanline_runs, central_gradient,
+                                          classify_lens_voxel)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -335,13 +343,14 @@ def _interval_maxima(table, lo, hi, out):
 class OctreeClassification:
     """One classification of an octree: the SAT, node statuses and the per-voxel tables."""
 
-    sat: np.ndarray  # int32 (bins + 1, bins + 1), row/column 0 zero
+    sat: np.ndarray  # int32 (bins + 1, bins + 1), row/column 0 zero; the volume's table's with a lens
     status: np.ndarray  # uint8 per node
     alpha_table: np.ndarray
     gradient_table: np.ndarray  # (0,) without gradient opacity
     reference_step: float
     min_opacity: float
     colour_table: np.ndarray
+    lens: object = None  # classify.LensClassification or None
 
     def box_sum(self, s_lo, s_hi, g_lo, g_hi):
         """SAT integral of the indicator over bins ``[s_lo, s_hi] × [g_lo, g_hi]`` (arrays allowed)."""
@@ -349,12 +358,9 @@ class OctreeClassification:
         return (sat[s_hi + 1, g_hi + 1] - sat[s_lo, g_hi + 1] - sat[s_hi + 1, g_lo] + sat[s_lo, g_lo])
 
 
-def classify_octree(octree, transfer_function, gradient_opacity, reference_step, min_opacity):
-    """Summed-area table of the classification and the status of every octree node (Fig. 4.17)."""
+def _verdicts(octree, alpha_table, gtab, reference_step, min_opacity):
+    """The SAT of one opacity / gradient-opacity table pair and every node's status (module notes)."""
     bins = octree.bins
-    alpha_table = np.ascontiguousarray(transfer_function.table[:, 3], dtype=np.float64)
-    gtab = (np.zeros(0) if gradient_opacity is None
-            else np.ascontiguousarray(gradient_opacity.table, dtype=np.float64))
     b = np.arange(bins, dtype=np.float64)
     pad = 1e-12
     s_max = np.empty(bins)
@@ -385,9 +391,28 @@ def classify_octree(octree, transfer_function, gradient_opacity, reference_step,
     total = sat[hi_s + 1, hi_g + 1] - sat[lo_s, hi_g + 1] - sat[hi_s + 1, lo_g] + sat[lo_s, lo_g]
     status = np.where(empty | (total == 0), TRANSPARENT,
                       np.where(octree.child < 0, NONTRANSPARENT, SUBDIVIDE)).astype(np.uint8)
+    return sat, status
+
+
+def classify_octree(octree, transfer_function, gradient_opacity, reference_step, min_opacity, *, lens=None):
+    """Summed-area table of the classification and the status of every octree node (Fig. 4.17).
+
+    ``lens`` (a :class:`renderers.shearwarp.classify.LensClassification`): a node is transparent
+    only where a ``dvr`` lens's table also makes it so (module notes).
+    """
+    alpha_table = np.ascontiguousarray(transfer_function.table[:, 3], dtype=np.float64)
+    gtab = (np.zeros(0) if gradient_opacity is None
+            else np.ascontiguousarray(gradient_opacity.table, dtype=np.float64))
+    sat, status = _verdicts(octree, alpha_table, gtab, reference_step, min_opacity)
     colour_table = np.ascontiguousarray(transfer_function.lookup(np.arange(256) / 255.0)[:, :3])
+    if lens is not None:
+        if not lens.clip:
+            # A node's non-transparent verdicts agree (leaf or not), so the union is the larger status.
+            _, inside = _verdicts(octree, lens.alpha_table, lens.gradient_table, reference_step, min_opacity)
+            status = np.maximum(status, inside)
+        colour_table = lens.colour_table_beside(colour_table)
     return OctreeClassification(sat, status, alpha_table, gtab, float(reference_step), float(min_opacity),
-                                colour_table)
+                                colour_table, lens)
 
 
 # ---------------------------------------------------------------------------------------------
@@ -463,7 +488,8 @@ def _object_index(i, j, k, ax_i, ax_j, ax_k):
 
 
 @njit(parallel=True, **_JIT)
-def _classify_candidates(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, ax_i, ax_j, ax_k,
+def _classify_candidates(s, spacing, alpha_table, gtab, ref_step, min_opacity, want_gradients, lens_kind, lens_m,
+                         lens_radius, lens_normals, lens_offsets, lens_clip, lens_alpha, lens_gtab, ax_i, ax_j, ax_k,
                          ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records, gradients):
     """Classify every candidate voxel, scanline by scanline, into the packed candidate arrays."""
     sx, sy, sz = spacing[0], spacing[1], spacing[2]
@@ -475,8 +501,9 @@ def _classify_candidates(s, spacing, alpha_table, gtab, ref_step, min_opacity, w
             for r in range(run_count[t]):
                 for i in range(runs[t, r, 0], runs[t, r, 1]):
                     z, y, x = _object_index(np.int64(i), np.int64(j), k, ax_i, ax_j, ax_k)
-                    rec, gx, gy, gz, _visible = classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab,
-                                                               ref_step, min_opacity)
+                    rec, gx, gy, gz, _visible = classify_lens_voxel(
+                        s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity, lens_kind, lens_m,
+                        lens_radius, lens_normals, lens_offsets, lens_clip, lens_alpha, lens_gtab)
                     records[d] = rec
                     if want_gradients:
                         if rec != 0:
@@ -636,9 +663,10 @@ def encode(octree, classification, axis, *, exact=True, gradients=False):
     records = np.empty(n_cand, dtype=np.uint32)
     cand_gradients = np.empty((n_cand if gradients else 0, 3), dtype=np.float32)
     scalars = octree.scalars
+    lens = NO_LENS_ARGUMENTS if classification.lens is None else classification.lens.kernel_arguments()
     _classify_candidates(scalars, np.asarray(octree.spacing, dtype=np.float64), classification.alpha_table,
                          classification.gradient_table, classification.reference_step, classification.min_opacity,
-                         bool(gradients), ax_i, ax_j, ax_k, ni, nj, nk, base, nbj, runs, run_count, cand_offsets,
+                         bool(gradients), *lens, ax_i, ax_j, ax_k, ni, nj, nk, base, nbj, runs, run_count, cand_offsets,
                          records, cand_gradients if gradients else np.zeros((1, 3), np.float32))
     run_counts = np.empty(nk * nj, dtype=np.int64)
     run_offsets = np.zeros(nk * nj + 1, dtype=np.int64)

@@ -51,7 +51,7 @@ from numba import njit, prange
 
 from renderers.shearwarp.composite import (BIG, C_CREATES, C_FINDS, C_RUNS, C_SAMPLES, C_SKIPPED, SHADE_LUT,
                                            SHADE_NONE, SHADE_PROCEDURAL, _fetch_add, _premultiply, _procedural,
-                                           _root_rank, _union_rank, opacity_table)
+                                           _root_rank, _union_rank, colour_index, normal_code, opacity_table)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -228,12 +228,12 @@ def _composite_task(r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, r
                             continue
                         a0 = optabs[tb, opacity]
                         alpha = a0 + tw * (optabs[tb + 1, opacity] - a0)
-                        ci = (record >> 8) & 255
+                        ci = colour_index(record)
                         fs = 1.0
                         hs = 0.0
                         if shade_mode == SHADE_LUT:
-                            fs = shadetab[record >> 16, 0]
-                            hs = shadetab[record >> 16, 1]
+                            fs = shadetab[normal_code(record), 0]
+                            hs = shadetab[normal_code(record), 1]
                         elif shade_mode == SHADE_PROCEDURAL:
                             fs, hs = _procedural(gradients[index, 0], gradients[index, 1], gradients[index, 2],
                                                  m00, m01, m02, m10, m11, m12, m20, m21, m22, lx, ly, lz, hx, hy, hz,
