@@ -2,10 +2,11 @@
 
 :mod:`renderers.gl.lens` has the methods, their GLSL and the lens's geometry; this module issues
 the draws in their order, with their GL state, and reads the counters back. Every volume pass
-rasterises the box's back faces (one fragment per ray that meets the box in front of the eye)
-with the depth test ``GREATER`` against a depth buffer cleared to 0, where an occluder has
-written 1: passes that do not write ``gl_FragDepth`` drop the occluded fragments before their
-shader runs (early depth test), ``frag-depth`` runs its shader first.
+rasterises back faces (the box's: one fragment per ray that meets the box in front of the eye;
+for region₁ and region₂ the lens's) with the depth test ``GREATER`` against a depth buffer
+cleared to 0, where an occluder has written 1: passes that do not write ``gl_FragDepth`` drop
+the occluded fragments before their shader runs (early depth test), ``frag-depth`` runs its
+shader first.
 """
 
 import numpy as np
@@ -50,19 +51,54 @@ def geometry_pass(renderer, ctx, timer, program, targets, scene, view, lens):
     ctx.blend_equation = moderngl.FUNC_ADD
 
 
-def volume_passes(renderer, ctx, timer, programs, targets, lens, method, front_to_back):
-    """The volume passes of ``method`` into ``main_fbo`` (or the ping-pong pair); returns the output texture."""
+def lens_footprint(lens, view, world_mvp):
+    """The lens's triangles in the volume's texture coordinates, wound counter-clockwise seen from outside
+    (``(T·3, 3)`` float32), and their texture → clip matrix: drawn with front faces culled they give one
+    fragment per ray that meets the lens in front of the eye, the only rays with a region₁ or region₂."""
+    rows = lenses.geometry(lens)
+    triangles = rows[:, :3].reshape(-1, 3, 3).astype(np.float64)
+    normals = rows[::3, 3:]
+    turned = np.einsum("ij,ij->i", np.cross(triangles[:, 1] - triangles[:, 0], triangles[:, 2] - triangles[:, 0]),
+                       normals) < 0
+    triangles[turned] = triangles[turned][:, ::-1]
+    to_tex = np.linalg.inv(view.model)
+    tex = triangles.reshape(-1, 3) @ to_tex[:3, :3].T + to_tex[:3, 3]
+    return tex.astype(np.float32), world_mvp @ view.model
+
+
+def volume_passes(renderer, ctx, timer, programs, targets, scene, view, lens, method, front_to_back):
+    """The volume passes of ``method`` into ``main_fbo`` (or the ping-pong pair); returns the output texture.
+
+    Region₀'s pass and the single pass draw the box's back faces (every ray); region₁'s and region₂'s
+    draw the lens's back faces (:func:`lens_footprint`: the paper's regions exist only there), so rays
+    that miss the lens cost those passes nothing.
+    """
     import moderngl
 
     volume = programs["volume"]
-    vao = renderer._cube_vao(ctx, volume)
-    ctx.cull_face = "front"               # the box's back faces: one fragment per ray
+    box = renderer._cube_vao(ctx, volume)
+    ctx.cull_face = "front"               # back faces: one fragment per ray
     if method not in lenses.SEGMENT_METHODS:
         ctx.enable_only(moderngl.CULL_FACE | moderngl.DEPTH_TEST)
         ctx.depth_func = ">"
         targets["main_fbo"].use()
-        timer.run("main", vao.render, count=True)
+        timer.run("main", box.render, count=True)
         return targets["res"]
+    triangles, lens_mvp = lens_footprint(lens, view, lenses.geometry_projection(scene, view, lenses.geometry(lens)[:, :3]))
+    buffer = renderer._buffer("lens_footprint", triangles)
+    footprint = renderer._vao((volume, buffer), lambda: ctx.vertex_array(volume, [(buffer, "3f", "in_tex")]))
+
+    def draw(region):
+        def run():
+            if region == 0:
+                volume["u_mvp"].write(np.ascontiguousarray(view.mvp.T, dtype=np.float32).tobytes())
+                box.render()
+            else:
+                volume["u_mvp"].write(np.ascontiguousarray(lens_mvp.T, dtype=np.float32).tobytes())
+                footprint.render(vertices=len(triangles))
+        volume["u_region"].value = region
+        timer.run(f"region{region}", run, count=True)
+
     regions = (0, 1, 2)
     if lens.appearance.mode == "clip":
         regions = (0, 2)                  # a clipping lens's region is not rendered
@@ -72,18 +108,20 @@ def volume_passes(renderer, ctx, timer, programs, targets, lens, method, front_t
         ctx.blend_func = moderngl.ONE, moderngl.ONE_MINUS_SRC_ALPHA    # premultiplied "over", back to front
         targets["main_fbo"].use()
         for region in regions:
-            volume["u_region"].value = region
-            timer.run(f"region{region}", vao.render, count=True)
+            draw(region)
         return targets["res"]
-    # Front to back: each pass continues the other target's accumulation (no blending, no occluder).
+    # Front to back: each pass continues the other target's accumulation (no blending, no occluder). Until
+    # region₀'s pass every ray outside the lens's footprint has accumulated nothing, so the partial passes'
+    # targets start cleared.
     ctx.enable_only(moderngl.CULL_FACE)
-    source, target = ("res2", "res")
+    source, target = "res2", "res"
     targets["res2_fbo"].clear(0.0, 0.0, 0.0, 0.0)
     for region in reversed(regions):
-        volume["u_region"].value = region
         targets[source].use(location=volume["u_acc"].value)
-        targets[f"{target}_fbo" if target == "res2" else "main_fbo"].use()
-        timer.run(f"region{region}", vao.render, count=True)
+        fbo = targets["res2_fbo" if target == "res2" else "main_fbo"]
+        fbo.clear(0.0, 0.0, 0.0, 0.0)
+        fbo.use()
+        draw(region)
         source, target = target, source
     return targets[source]
 

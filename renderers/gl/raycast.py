@@ -855,7 +855,7 @@ class GLRaycastRenderer(GLRenderer):
             stencil.transition_passes(self, ctx, timer, programs, targets["stencil"], scene, view, lens)
             targets["stencil"].transition0.use(location=UNITS["u_transition0"])
             targets["stencil"].transition1.use(location=UNITS["u_transition1"])
-        output = lens_passes.volume_passes(self, ctx, timer, programs, targets, lens, self.lens_method,
+        output = lens_passes.volume_passes(self, ctx, timer, programs, targets, scene, view, lens, self.lens_method,
                                            self.region_order == "front-to-back")
         ctx.memory_barrier()
         return output, lens_passes.counters(counter)
