@@ -172,7 +172,7 @@ HIGHER_IS_BETTER = frozenset({"psnr", "ssim"})
 
 def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_col="backend",
                    label_col=None, title=None, log_x=True, log_y=True, pareto=False,
-                   time_range_cols=None, x_label=None, y_label=None, better=None):
+                   time_range_cols=None, x_label=None, y_label=None, better=None, join=True):
     """Scatter of time against error, one line-and-marker series per group.
 
     Each series is joined from its least to its most accurate point, so the settings of a quality
@@ -204,6 +204,9 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
         Axis labels; default words and units for known columns (see ``_label``).
     better : str, optional
         Where the good points lie (e.g. ``"upper left"``), written in the corner opposite.
+    join : bool, optional
+        Join each series' points by a line (a sweep's curve); ``False`` for points that are not one
+        curve (a series over scenes).
 
     Returns
     -------
@@ -221,8 +224,9 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
             group = group.sort_values([error_col, time_col], ascending=[least_accurate_first, True], kind="stable")
             x = group[time_col].to_numpy(float)
             xerr = _error_bars(group, x, ranges)
+            style = {**_style(i), **({} if join else {"linestyle": "none"})}
             ax.errorbar(x, group[error_col], xerr=xerr, label=name or error_col, capsize=2,
-                        elinewidth=0.8, **_style(i))
+                        elinewidth=0.8, **style)
             if label_col is not None:
                 for x, y, text in zip(group[time_col], group[error_col], group[label_col]):
                     ax.annotate(str(text), (x, y), xytext=(3, 3), textcoords="offset points",

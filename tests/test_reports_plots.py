@@ -160,3 +160,12 @@ def test_lines_draws_each_row_with_its_range_marks_and_guides(tmp_path):
     assert with_bars.count("<path") > without.count("<path")  # error bars, the switch line, the guide
     with pytest.raises(InputError, match="missing column"):
         plots.lines(frame, tmp_path / "c.svg", y_range=("low", "nope"), **common)
+
+
+def test_speed_accuracy_can_leave_points_unjoined(tmp_path):
+    frame = pd.DataFrame({"t": [1.0, 2.0, 3.0], "e": [3.0, 1.0, 2.0], "g": ["a", "a", "a"]})
+    joined = plots.speed_accuracy(frame, tmp_path / "joined.svg", time_col="t", error_col="e", group_col="g")
+    loose = plots.speed_accuracy(frame, tmp_path / "loose.svg", time_col="t", error_col="e", group_col="g",
+                                 join=False)
+    # The joined series draws one polyline through its three points; the unjoined one none.
+    assert joined.read_text().count("stroke-linecap") > loose.read_text().count("stroke-linecap")

@@ -98,10 +98,33 @@ class Check:
         raise NotImplementedError
 
 
-def _with_interval(measured, decision, show):
-    """``"×1.12 (95 % CI ×1.08–×1.17)"``: the measured text with its interval where it has one."""
+def with_interval(text, decision, show=as_ratio):
+    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval (shown by ``show``) where it has one."""
     words = intervals.interval_words(decision, show)
-    return f"{measured} ({words})" if words else measured
+    return f"{text} ({words})" if words else text
+
+
+def decision_words(decision, show=as_ratio):
+    """A decision's value (shown by ``show``) with its interval where it has one."""
+    return with_interval(show(decision.value), decision, show)
+
+
+def every(decisions, *, show=as_ratio, notes=None, what="", extra=""):
+    """One result of labelled decisions that must all hold (:func:`~pipeline.experiments.kit.intervals.combine`).
+
+    ``decisions`` maps a label (a scene, an image size) to its
+    :class:`~pipeline.experiments.kit.intervals.Decision`. ``measured`` gives the deciding (worst)
+    label's value after ``what``; the detail lists every label's value with its interval and its note
+    from ``notes`` (counts, which do not depend on the machine), then ``extra``.
+    """
+    combined = intervals.combine(decisions.values())
+    worst = next(label for label, d in decisions.items()
+                 if (d.value, d.interval, d.holds) == (combined.value, combined.interval, combined.holds))
+    notes = notes or {}
+    detail = "; ".join(f"{label}: {decision_words(d, show)}" + (f" ({notes[label]})" if notes.get(label) else "")
+                       for label, d in decisions.items())
+    return ClaimResult.decided(f"{what}{decision_words(combined, show)} ({worst})", combined,
+                               detail + (f"; {extra}" if extra else ""))
 
 
 def _bound_words(at_least, at_most, show):
@@ -130,7 +153,7 @@ class Ratio(Check):
         a, b = self.numerator.draws(df, resampler), self.denominator.draws(df, resampler)
         interval = intervals.interval_of(a / b) if a is not None and b is not None else None
         decision = intervals.decide(top / bottom, interval, at_least=self.at_least, at_most=self.at_most)
-        return ClaimResult.decided(_with_interval(as_ratio(decision.value), decision, as_ratio), decision,
+        return ClaimResult.decided(with_interval(as_ratio(decision.value), decision, as_ratio), decision,
                                    f"{self.numerator.words(top)}, {self.denominator.words(bottom)}")
 
 
@@ -155,7 +178,7 @@ class Bound(Check):
         decision = intervals.decide(value, interval, at_least=self.at_least, at_most=self.at_most)
         scale = 1e3 if self.measure.unit == "ms" else 1.0
         show = lambda v: f"{format_number(v * scale)} {self.measure.unit}".strip()  # noqa: E731
-        return ClaimResult.decided(_with_interval(measured + (f" ({name})" if name else ""), decision, show),
+        return ClaimResult.decided(with_interval(measured + (f" ({name})" if name else ""), decision, show),
                                    decision, self.measure.what)
 
 
@@ -214,6 +237,6 @@ class Growth(Check):
             slopes = np.polyfit(x, np.log(np.column_stack(draws).T), 1)[0]
             interval = intervals.interval_of(slopes)
         decision = intervals.decide(exponent, interval, at_least=self.at_least, at_most=self.at_most)
-        return ClaimResult.decided(_with_interval(format_number(exponent), decision, format_number), decision,
+        return ClaimResult.decided(with_interval(format_number(exponent), decision, format_number), decision,
                                    f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
                                    f"{format_number(points[-1][0])}")

@@ -4,9 +4,9 @@ fraction from their counts, decisions in words and the page note for what this m
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.model import ClaimResult, Run
-from pipeline.experiments.kit.pages import as_ratio, not_measurable
+from pipeline.experiments.kit.checks import decision_words, every, with_interval  # noqa: F401 - the kit's, re-exported
+from pipeline.experiments.kit.model import Run
+from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, unregistered
 from pipeline.experiments.kit.results import numeric
 
@@ -71,30 +71,3 @@ def culled_fraction(rows):
                          "(gl-isbvr's count_fragments option)")
     return value
 
-
-def with_interval(text, decision, show=as_ratio):
-    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval (shown by ``show``) where it has one."""
-    words = intervals.interval_words(decision, show)
-    return f"{text} ({words})" if words else text
-
-
-def decision_words(decision, show=as_ratio):
-    """A decision's value (shown by ``show``) with its interval where it has one."""
-    return with_interval(show(decision.value), decision, show)
-
-
-def every(decisions, *, show=as_ratio, notes=None, what="", extra=""):
-    """One result of labelled decisions that must all hold (:func:`~pipeline.experiments.kit.intervals.combine`).
-
-    ``measured`` gives the deciding (worst) label's value after ``what``; the detail lists every label's
-    value with its interval and its note from ``notes`` (counts, which do not depend on the machine),
-    then ``extra``.
-    """
-    combined = intervals.combine(decisions.values())
-    worst = next(label for label, d in decisions.items()
-                 if (d.value, d.interval, d.holds) == (combined.value, combined.interval, combined.holds))
-    notes = notes or {}
-    detail = "; ".join(f"{label}: {decision_words(d, show)}" + (f" ({notes[label]})" if notes.get(label) else "")
-                       for label, d in decisions.items())
-    return ClaimResult.decided(f"{what}{decision_words(combined, show)} ({worst})", combined,
-                               detail + (f"; {extra}" if extra else ""))

@@ -1,0 +1,172 @@
+"""What the paper's experiments share: the lens methods as ``gl-raycast`` options, their runs, their rows and
+ratios, the devices that timed them and what this machine cannot measure.
+
+A lens run is ``gl-raycast``'s single-pass variant with option ``lens_method``; a lens-off run is the same
+variant on the scene without its lens (``lens_method`` does nothing there), so the two differ only by the
+lens. Method names come from :data:`METHODS` alone: a method the backend does not offer yet is still
+planned, its runs fail with the backend's unknown-option error and the page lists it
+(:func:`raycast_not_measurable`).
+"""
+
+import numpy as np
+import pandas as pd
+
+import renderers
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.model import Run
+from pipeline.experiments.kit.pages import frames_counted, not_measurable
+from pipeline.experiments.kit.planning import missing_options, unregistered
+from pipeline.experiments.kit.results import numeric, rows_matching
+
+RAYCAST = "gl-raycast"
+
+VARIANT = {"variant": "single-pass"}
+"""The caster's variant for every lens run and its lens-off control (the multi-pass variants take no lens)."""
+
+METHODS = {
+    # config: (gl-raycast options beside the variant, its name in words)
+    "segments": ({"lens_method": "segments"},
+                 "segments (the paper: lens images, three region passes back to front)"),
+    "segments-stencil": ({"lens_method": "segments-stencil"},
+                         "segments, transitions by stencil and second depth test (the paper's sequence)"),
+    "fused": ({"lens_method": "fused"}, "fused (one pass looping over the three segments)"),
+    "per-sample": ({"lens_method": "per-sample"}, "per-sample inside test (analytic)"),
+    "per-sample-mask": ({"lens_method": "per-sample-mask"}, "per-sample 3-D lens-mask fetch (Weiskopf et al.)"),
+    "frag-depth": ({"lens_method": "frag-depth"}, "depth-based clipping writing gl_FragDepth"),
+    "segments-ftb": ({"lens_method": "segments", "region_order": "front-to-back"},
+                     "segments, regions front to back (not in the paper)"),
+}
+"""The lens methods as ``gl-raycast`` options (note 004 §4.1; issue 24)."""
+
+PAPER_METHOD = "segments"
+"""The paper's method: the one Table 1's lens runs use."""
+
+OFF = "off"
+"""The config of a lens-off run (the scene without its lens)."""
+
+STEP = 0.5
+"""Samples half a voxel apart (the caster's default; the paper gives no step, note 004 §2.11)."""
+
+OPTIONS = ("variant", "lens_method", "region_order", "step_factor", "opaque_threshold")
+"""The ``gl-raycast`` options these experiments set."""
+
+STAGES = ("setup", "lens_geometry", "region0", "region1", "region2", "main", "readback")
+"""The frame's stages a lens frame can report, in the order they run (the segments method's regions
+back to front; ``main`` the single pass of the other methods and of a lens-off frame)."""
+
+REGIONS = {"region2": "region₂ (in front of the lens)", "region1": "region₁ (inside lens ∩ box)",
+           "region0": "region₀ (behind and beside the lens)"}
+"""The segments method's region passes, in words (note 004 §2.2)."""
+
+
+def method_name(config):
+    """The words for ``config`` (a key of :data:`METHODS`, or :data:`OFF`)."""
+    return "no lens" if config == OFF else METHODS[config][1]
+
+
+def method_options(config, *, step_factor=STEP, **extra):
+    """``gl-raycast``'s options for ``config`` (a key of :data:`METHODS`, or :data:`OFF`), plus ``extra``."""
+    method = {} if config == OFF else METHODS[config][0]
+    return {**VARIANT, **method, "step_factor": step_factor, **extra}
+
+
+def lens_run(experiment, run_id, scene_spec, views, config, frames, tags, *, step_factor=STEP, group=None,
+             reference=None, options=None):
+    """A ``gl-raycast`` run of ``config`` (a lens method, or :data:`OFF` on the lens-free scene).
+
+    ``frames`` are the run's warm-up, repeat and min_time (``UNTIMED`` or ``timed_frames``); ``group``
+    its interleave group (runs compared by a timing claim are timed together); ``options`` more
+    backend options (``opaque_threshold``). The tags get ``config``.
+    """
+    return Run(experiment, run_id, RAYCAST, scene_spec, tuple(views),
+               options=method_options(config, step_factor=step_factor, **(options or {})), reference=reference,
+               **frames, tags={**tags, "config": config}, interleave=group)
+
+
+def unknown_methods(configs):
+    """``[(what, reason)]`` for each of ``configs`` whose options ``gl-raycast`` does not offer here."""
+    try:
+        table = {option.name: option for option in renderers.backend_class(RAYCAST).option_table}
+    except Exception:  # noqa: BLE001 - not importable here: the runs are skipped with the reason
+        return []
+    out = []
+    for config in dict.fromkeys(c for c in configs if c != OFF):
+        for name, value in METHODS[config][0].items():
+            choices = getattr(table.get(name), "choices", ())
+            if name in table and choices and value not in choices:
+                out.append((f"lens method {config}", f"{RAYCAST}'s {name} has no {value!r} here (its choices: "
+                                                     f"{', '.join(choices)}), so its runs fail"))
+    return out
+
+
+def raycast_not_measurable(configs=()):
+    """The page's note of what this machine lacks: ``gl-raycast``, its lens options, the methods ``configs`` use."""
+    return not_measurable(unregistered(RAYCAST) + missing_options(RAYCAST, *OPTIONS) + unknown_methods(configs))
+
+
+def config_rows(frame, config, **match):
+    """The rows of ``config`` matching ``match`` (tag columns); ValueError naming them if none."""
+    rows = rows_matching(frame, config, config=config, **match)
+    if rows.empty:
+        raise ValueError(f"no successful {config} run" + (f" for {match}" if match else ""))
+    return rows
+
+
+def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, column="time_total", **match):
+    """``time(slow) / time(fast)`` of two configs on the rows matching ``match``, judged with its interval.
+
+    Each side is the median over its views of each view's median frame; runs timed in one interleave group
+    are resampled round by round (:mod:`~pipeline.experiments.kit.intervals`), with ``resampler`` shared by
+    every ratio of one claim.
+    """
+    return intervals.ratio_decision(config_rows(frame, slow, **match), config_rows(frame, fast, **match),
+                                    column=column, at_least=at_least, at_most=at_most, resampler=resampler)
+
+
+def median_count(rows, column):
+    """The median over ``rows`` (views) of a counter (machine-independent); NaN where none counted it."""
+    return float(numeric(rows, column).median()) if column in rows else np.nan
+
+
+def lens_coverage(rows):
+    """The share of the rays meeting lens ∩ box (``lens_rays / rays``), the median over ``rows``; NaN if uncounted."""
+    if "count_lens_rays" not in rows or "count_rays" not in rows:
+        return np.nan
+    return float((numeric(rows, "count_lens_rays") / numeric(rows, "count_rays")).median())
+
+
+GL_TIMING = {"query": "passes timed on the device with GL timer queries",
+             "finish": "each pass timed by waiting for it (glFinish): a software rasterizer's timer queries do not "
+                       "cover its deferred work"}
+"""How ``gl-raycast`` times its passes (its ``timing`` option, as it took effect), in words."""
+
+
+def frames_caption(frame):
+    """How the frames of ``frame`` were timed: frames counted, uploads excluded, the GL timing method."""
+    methods = set(frame.option_effective_timing.dropna()) if "option_effective_timing" in frame else set()
+    timed = ("; ".join(GL_TIMING.get(m, f"passes timed by {m!r}") for m in sorted(methods))
+             or "timing method not recorded")
+    return f"{frames_counted(frame)} after warm-up, uploads excluded as their own stage; {timed}."
+
+
+def devices(frame):
+    """The GL device of each row (``"unknown device"`` where not recorded)."""
+    if "gl_renderer" not in frame:
+        return pd.Series("unknown device", index=frame.index)
+    return frame.gl_renderer.astype(object).fillna("unknown device").astype(str)
+
+
+def device_takeaways(tests):
+    """Which GL devices timed the page, and what a CPU rasterizer's frame times mean beside the paper's."""
+    if tests.empty:
+        return []
+    names = sorted(set(devices(tests)))
+    sentence = f"Frame times on this page were measured on {', '.join(names)}"
+    if "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all():
+        sentence += (", a CPU rasterizer: its fragment shaders run on the CPU's cores, so a lens pass costs what "
+                     "its samples cost there, not what a GPU's fill rate makes of it; only ratios of runs timed "
+                     "together compare with the paper's, and the sample counts (machine-independent) say what "
+                     "any device has to do")
+    elif len(names) > 1:
+        sentence += "; ratios are computed per device, never across devices"
+    return [sentence + "."]

@@ -1,0 +1,248 @@
+"""``ropinski2005-samples`` (E3): the lens leaves the samples where they were, and the regions split them.
+
+The paper (§3): "The number of samples used during rendering of each region is determined based on the
+length of the current section of the ray", so a ray takes as many samples with the lens as without.
+``gl-raycast`` counts every sample it takes (``samples``) and, for the methods that know a ray's lens
+segment, the samples of each region (``samples_region0``–``2``). With early termination off (opacity
+threshold 1, so no sample is skipped because of what was composited before it) a lens showing the
+outside appearance must take exactly the lens-off samples, by every method, and its regions must
+partition them; with the lens's own appearance only region₁'s samples may change (a clipping lens takes
+none there, an isosurface lens stops at its hit).
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STEP,
+                                                       lens_run, method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, outside_appearance, without_lens
+from reports import blocks, plots
+
+COUNTED = {"opaque_threshold": 1.0}
+"""Early termination off: every sample of a ray's span is taken, whatever was composited before it."""
+
+APPEARANCES = {"none": "no lens", "outside": "lens with the outside appearance", "lens": "lens with its own appearance"}
+"""The ``appearance`` tag of each run, in words."""
+
+REGION_COLUMNS = tuple(f"count_samples_{region}" for region in ("region0", "region1", "region2"))
+
+
+def _pairs(df, appearance):
+    """``[(scene, view, config, row, row_off)]``: every ``appearance`` run's view beside the lens-off run's."""
+    runs = rows_matching(df, appearance, appearance=appearance)
+    off = rows_matching(df, "the lens-off runs", appearance="none")
+    pairs = []
+    for row in runs.itertuples():
+        match = off[(text_column(off, "scene") == str(row.scene)) & (text_column(off, "view") == str(row.view))]
+        if not match.empty:
+            pairs.append((row.scene, row.view, row.config, row, match.iloc[0]))
+    if not pairs:
+        raise ValueError(f"no {APPEARANCES[appearance]} run beside a lens-off run of its scene")
+    return pairs
+
+
+def _count(row, column):
+    value = float(getattr(row, column, np.nan))
+    if not np.isfinite(value):
+        raise ValueError(f"run {row.run} counted no {column.removeprefix('count_')}")
+    return value
+
+
+def _invariant(df):
+    """Every outside-appearance run took exactly its scene's lens-off samples."""
+    unequal, detail = [], {}
+    for scene, view, config, row, off in _pairs(df, "outside"):
+        lens, none = _count(row, "count_samples"), _count(off, "count_samples")
+        detail.setdefault(config, []).append(lens - none)
+        if lens != none:
+            unequal.append((abs(lens - none), lens - none, config, scene, view))
+    words = "; ".join(f"{c}: {len(d)} views, " + ("equal" if not any(d) else
+                                                 f"differences {', '.join(format_number(x, 4) for x in d if x)}")
+                      for c, d in detail.items())
+    if unequal:
+        _, difference, config, scene, view = max(unequal)
+        measured = f"{format_number(difference, 4)} samples ({config}, {scene}, {view})"
+    else:
+        measured = f"equal on {sum(map(len, detail.values()))} views"
+    return ClaimResult(measured, not unequal, words + "; early termination off (opacity threshold 1)")
+
+
+def _region_counts(row):
+    """A row's samples per region, or ``None`` where its method does not count regions."""
+    values = [float(getattr(row, column, np.nan)) for column in REGION_COLUMNS]
+    return values if all(np.isfinite(values)) else None
+
+
+def _partition(df):
+    """With the outside appearance, the regions' samples sum to the lens-off samples."""
+    checked, wrong = [], []
+    for scene, view, config, row, off in _pairs(df, "outside"):
+        regions = _region_counts(row)
+        if regions is None:
+            continue
+        difference = sum(regions) - _count(off, "count_samples")
+        checked.append(config)
+        if difference:
+            wrong.append((abs(difference), difference, config, scene, view))
+    if not checked:
+        raise ValueError("no outside-appearance run counted samples per region (samples_region0–2)")
+    if wrong:
+        _, difference, config, scene, view = max(wrong)
+        measured = f"regions − no lens = {format_number(difference, 4)} samples ({config}, {scene}, {view})"
+    else:
+        measured = f"equal on {len(checked)} views"
+    return ClaimResult(measured, not wrong, f"methods counting regions: {', '.join(dict.fromkeys(checked))}")
+
+
+def _outside_unchanged(df):
+    """With the lens's own appearance, region₀ and region₂ take the samples they take with the outside one."""
+    outside = rows_matching(df, "the outside-appearance runs", appearance="outside")
+    checked, wrong, inside = 0, [], []
+    for row in rows_matching(df, "the lens-appearance runs", appearance="lens").itertuples():
+        match = outside[(text_column(outside, "scene") == str(row.scene))
+                        & (text_column(outside, "view") == str(row.view))
+                        & (text_column(outside, "config") == str(row.config))]
+        own = _region_counts(row)
+        if match.empty or own is None:
+            continue
+        control = _region_counts(next(match.itertuples()))
+        if control is None:
+            continue
+        checked += 1
+        inside.append(f"{row.scene} {row.config} region₁ {format_number(own[1], 4)} of "
+                      f"{format_number(control[1], 4)}")
+        for index in (0, 2):
+            if own[index] != control[index]:
+                wrong.append((abs(own[index] - control[index]), f"region{index}", row.config, row.scene, row.view))
+    if not checked:
+        raise ValueError("no lens-appearance run beside an outside-appearance run, both counting regions")
+    if wrong:
+        difference, region, config, scene, view = max(wrong)
+        measured = f"{region} differs by {format_number(difference, 4)} samples ({config}, {scene}, {view})"
+    else:
+        measured = f"region₀ and region₂ equal on {checked} views"
+    return ClaimResult(measured, not wrong, "; ".join(inside))
+
+
+CLAIMS = (
+    Claim("invariant", "The lens does not change the number of samples: each region takes the lattice points of "
+          "its own section of the ray (§3)", "samples with a lens showing the outside appearance = samples without "
+          "the lens, exactly, every method, scene and view (early termination off)", _invariant),
+    Claim("regions-partition", "The three regions split a ray's samples between them, none counted twice or left "
+          "out", "samples of region₀ + region₁ + region₂ = samples without the lens, exactly, every method that "
+          "counts regions (outside appearance)", _partition),
+    Claim("outside-unchanged", "The lens's appearance changes only the work inside it: region₀ and region₂ take "
+          "the same samples whatever the lens shows", "region₀ and region₂ samples with the lens's own appearance "
+          "= with the outside appearance, exactly, every method that counts regions, scene and view",
+          _outside_unchanged),
+)
+
+
+# ------------------------------------------------------------------------------------------------ page
+def sample_table(tests):
+    """Per scene and method: samples without the lens, with the outside appearance and with its own, by region."""
+    rows = []
+    headline = tests[text_column(tests, "view") == "headline"]
+    off = headline[text_column(headline, "appearance") == "none"]
+    for (scene, config), part in headline[text_column(headline, "appearance") != "none"].groupby(["scene", "config"],
+                                                                                               sort=False):
+        row = {"scene": scene, "method": method_name(config),
+               "no lens": numeric(off[off.scene == scene], "count_samples").median()}
+        for appearance in ("outside", "lens"):
+            chosen = part[part.appearance == appearance]
+            row[APPEARANCES[appearance]] = numeric(chosen, "count_samples").median()
+            for column, region in zip(REGION_COLUMNS, ("region₀", "region₁", "region₂")):
+                if column in chosen:
+                    row[f"{region}, {appearance}"] = numeric(chosen, column).median()
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _region_figure(tests, ctx):
+    """Samples per region and scene with the lens's own appearance (the paper's method), as bars."""
+    own = tests[(text_column(tests, "appearance") == "lens") & (text_column(tests, "view") == "headline")
+                & (text_column(tests, "config") == PAPER_METHOD)]
+    if own.empty or not all(column in own for column in REGION_COLUMNS):
+        return []
+    bars = pd.DataFrame({"scene": own.scene.to_numpy()})
+    for column, region in zip(REGION_COLUMNS, ("region0", "region1", "region2")):
+        bars[REGIONS[region]] = numeric(own, column).to_numpy() / 1e6
+    path, rel = ctx.plot_path("samples-regions")
+    plots.bar_compare(bars, path, category_col="scene", value_cols=list(REGIONS.values())[::-1],
+                      value_label="samples per frame (millions)",
+                      title="Samples per region, the paper's method")
+    return [blocks.Figure("Samples per region", rel, "Counted by the caster (exact, machine-independent), the lens "
+                          "with its own appearance, headline view, early termination off.")]
+
+
+class Samples(Experiment):
+    """Samples with and without the lens, and per region, counted by every lens method."""
+
+    name = "ropinski2005-samples"
+    paper = "ropinski2005"
+    title = "Sample counts with and without the lens, region by region (E3)"
+    settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit", "step_factor"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
+              "full": {"volume_size": 256, "image_size": 512, "orbit": 2}}
+    description = (
+        "The paper's argument for cutting rays into regions instead of testing samples: each region takes the "
+        "samples of its own section of the ray, so the lens costs no samples (§3). gl-raycast counts every "
+        "sample it takes and, where the method knows each ray's lens segment, the samples of each region. "
+        "Every lens method renders each lens scene three ways, once each from the headline view with early "
+        "termination off: without the lens, with the lens showing the outside appearance (DVR with the "
+        "volume's own transfer function: the lens then changes nothing but where each sample is composited) "
+        "and with the lens's own appearance. Counts do not depend on the machine, so every claim is exact."
+    )
+    claims = CLAIMS
+    CONFIGS = tuple(config for config in METHODS if config != "segments-ftb")
+    """Every lens method; the front-to-back region order samples as back-to-front does."""
+
+    def runs(self, profile):
+        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
+            return []
+        wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
+        methods = listed(profile, self, "methods", self.CONFIGS, known=METHODS)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        orbit = int(profile.setting(self, "orbit", 0))
+        step = profile.setting(self, "step_factor", STEP)
+        runs = []
+        for scene_name in wanted:
+            setup = SETUPS[scene_name]
+            spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
+            views = lens_views(scene_name, orbit)
+            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "role": "test"}
+            # One job per scene (an interleave group of single untimed frames): a job's start costs more than
+            # such a frame, and counts do not depend on what ran beside them.
+            runs.append(lens_run(self.name, f"{scene_name}.{OFF}", without_lens(spec), views, OFF, UNTIMED,
+                                 {**tags, "appearance": "none"}, step_factor=step, options=COUNTED, group=scene_name))
+            for method in methods:
+                for appearance, scene_spec in (("outside", outside_appearance(spec)), ("lens", spec)):
+                    runs.append(lens_run(self.name, f"{scene_name}.{method}.{appearance}", scene_spec, views, method,
+                                         UNTIMED, {**tags, "appearance": appearance}, step_factor=step,
+                                         options=COUNTED, group=scene_name))
+        return runs
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        out = [claim_takeaways(self.claims, results)]
+        methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else list(self.CONFIGS)
+        if not tests.empty:
+            out += _region_figure(tests, ctx)
+            out.append(blocks.Table("Samples per frame (headline view)", sample_table(tests), csv_name="samples.csv",
+                                    caption="Counted by the caster, early termination off: every sample of every "
+                                            "ray's span. Region columns only for the methods that count regions."))
+            headline = tests[text_column(tests, "view") == "headline"]
+            out.append(linked_table("Every run (headline view)", headline.assign(
+                method=[method_name(c) for c in text_column(headline, "config")]),
+                ["scene", "method", "appearance", "count_samples", *REGION_COLUMNS, "count_lens_rays"], ctx,
+                names={"count_samples": "samples", REGION_COLUMNS[0]: "region₀", REGION_COLUMNS[1]: "region₁",
+                       REGION_COLUMNS[2]: "region₂", "count_lens_rays": "rays through the lens"},
+                csv_name="samples_runs.csv"))
+        return out + raycast_not_measurable(methods)

@@ -1,0 +1,286 @@
+"""``ropinski2005-table1`` (E1): Table 1's frame rates without and with the lens, as overheads beside the paper's.
+
+The seismic, skull and foot stand-ins, the real CT head (in the skull's row) and the engine (Fig. 1, not
+timed in the paper), each with its lens (:mod:`~pipeline.experiments.ropinski2005.scenes`), rendered by
+``gl-raycast`` without and with the lens (the paper's ``segments`` method) at two image sizes. The four
+runs of a scene are timed together, frame against frame, so each overhead (frame time with the lens over
+frame time without it) comes with a paired bootstrap interval, judged against the paper's
+fps(no lens) / fps(lens) of its row at the matching viewport.
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.checks import decision_words, every
+from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
+                                                       frames_caption, lens_coverage, lens_run, median_count,
+                                                       method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, without_lens
+from pipeline.experiments.ropinski2005.tables import (PAPER_DEVICE, PAPER_SIZES, TABLE1, derived_table, paper_drop,
+                                                      paper_fps, paper_time_ratio)
+from reports import blocks, plots
+
+TIMES = "whole frames (time_total), median over the views of each view's median frame"
+"""The scope of the overheads: the paper's frame rates are of whole frames from views it does not give."""
+
+
+# ------------------------------------------------------------------------------------------- rows and ratios
+def image_sizes(frame):
+    """The image sizes (pixels per side) of ``frame``'s rows, ascending."""
+    return sorted(int(s) for s in numeric(frame, "image_size").dropna().unique())
+
+
+def lens_rows(frame, scene, image, lens):
+    """The rows of ``scene`` at ``image`` with the lens (``lens`` "on") or without ("off"); ValueError if none."""
+    rows = rows_matching(frame, scene, scene=scene, lens=lens)
+    rows = rows[numeric(rows, "image_size") == image]  # a number: runs.csv holds it as 512.0 beside other tables
+    if rows.empty:
+        raise ValueError(f"no successful run of {scene} at {image}² with the lens {lens}")
+    return rows
+
+
+def overhead(frame, scene, image, *, resampler, at_most=None):
+    """time(lens) / time(no lens) of ``scene`` at ``image``, judged against ``at_most`` with its paired interval."""
+    return intervals.ratio_decision(lens_rows(frame, scene, image, "on"), lens_rows(frame, scene, image, "off"),
+                                    at_most=at_most, resampler=resampler)
+
+
+def drop(ratio):
+    """The fps drop ``1 − fps_lens / fps_no_lens`` of a frame-time ratio ``t_lens / t_no_lens``."""
+    return 1.0 - 1.0 / ratio
+
+
+def scenes_of(frame):
+    """The scenes of ``frame``'s rows, in their order."""
+    return list(pd.unique(text_column(frame, "scene")))
+
+
+def _paper_scenes(frame):
+    scenes = [s for s in scenes_of(frame) if s in SETUPS and SETUPS[s].paper_row]
+    if not scenes:
+        raise ValueError("no successful run of a scene of Table 1")
+    return scenes
+
+
+def coverage_note(frame, scene, image):
+    """``"lens on 18 % of the rays"`` (rays meeting lens ∩ box, counted; empty where not counted)."""
+    share = lens_coverage(lens_rows(frame, scene, image, "on"))
+    return f"lens on {as_percent(share)} of the rays" if np.isfinite(share) else ""
+
+
+# ------------------------------------------------------------------------------------------------- claims
+def _overhead_claim(df, which):
+    """Every Table 1 scene's overhead at our smaller (``which`` 0) or larger (-1) image within the paper's."""
+    sizes = image_sizes(df)
+    if which == 0 and len(sizes) < 2:
+        raise ValueError(f"one image size only ({sizes[0]}²): the smaller-viewport claim needs two")
+    image, paper_image = sizes[which], PAPER_SIZES[which]
+    resampler = intervals.Resampler()
+    decisions, notes = {}, {}
+    for scene in _paper_scenes(df):
+        row = SETUPS[scene].paper_row
+        bound = paper_time_ratio(row, paper_image)
+        decisions[scene] = overhead(df, scene, image, resampler=resampler, at_most=bound)
+        notes[scene] = ", ".join(filter(None, [
+            f"fps drop {as_percent(drop(decisions[scene].value))}, paper {as_ratio(bound)} "
+            f"= {as_percent(paper_drop(row, paper_image))} ({row}, {paper_image}²)", coverage_note(df, scene, image)]))
+    return every(decisions, notes=notes, what=f"time with / without the lens at {image}² ",
+                 extra=f"{TIMES}; lens and no lens timed together, frame against frame")
+
+
+def _bounds(paper_image):
+    return ", ".join(f"{as_ratio(paper_time_ratio(row, paper_image))} {row}" for row in TABLE1)
+
+
+CLAIMS = (
+    Claim("overhead-small", "Applying the lens costs at most the paper's share of the frame at the smaller viewport "
+          "(paper, 512²: seismic 2.8 %, skull 20.3 %, foot 14.8 % of the frame rate)",
+          f"time(lens) / time(no lens) ≤ the paper's fps(no lens) / fps(lens) at 512² ({_bounds(512)}; the real CT "
+          f"head in the skull's row) at our smaller image, every Table 1 scene ({TIMES})",
+          lambda df: _overhead_claim(df, 0)),
+    Claim("overhead-large", "Applying the lens costs at most the paper's share of the frame at the larger viewport "
+          "(paper, 1024²: seismic 7.4 %, skull 22.6 %, foot 34.5 % of the frame rate)",
+          f"time(lens) / time(no lens) ≤ the paper's fps(no lens) / fps(lens) at 1024² ({_bounds(1024)}; the real "
+          f"CT head in the skull's row) at our larger image, every Table 1 scene ({TIMES})",
+          lambda df: _overhead_claim(df, -1)),
+)
+
+
+# ------------------------------------------------------------------------------------------------ page
+def overhead_table(tests):
+    """Per scene and image size: the paper's frame rates and drop beside our frame times, ratio and drop."""
+    sizes = image_sizes(tests)
+    rows = []
+    for scene in scenes_of(tests):
+        setup = SETUPS[scene]
+        for position, image in enumerate(sizes):
+            try:
+                decision = overhead(tests, scene, image, resampler=intervals.Resampler())
+                on, off = (lens_rows(tests, scene, image, lens) for lens in ("on", "off"))
+            except (KeyError, ValueError):
+                continue
+            low, high = decision.interval or (np.nan, np.nan)
+            paper_image = PAPER_SIZES[0] if position == 0 and len(sizes) > 1 else PAPER_SIZES[-1]
+            row = {"scene": scene, "image (px)": image, "paper row": setup.paper_row or "not in Table 1",
+                   "paper viewport (px)": paper_image if setup.paper_row else np.nan}
+            if setup.paper_row:
+                row |= {"paper fps, no lens": paper_fps(setup.paper_row, paper_image, False),
+                        "paper fps, lens": paper_fps(setup.paper_row, paper_image, True),
+                        "paper fps drop (%)": round(100 * paper_drop(setup.paper_row, paper_image), 1)}
+            row |= {"ours ms, no lens": 1e3 * numeric(off, "time_total").median(),
+                    "ours ms, lens": 1e3 * numeric(on, "time_total").median(),
+                    "ours time ratio": decision.value, "ratio 95 % CI low": low, "ratio 95 % CI high": high,
+                    "ours fps drop (%)": 100 * drop(decision.value),
+                    "rays through the lens (%)": 100 * lens_coverage(on),
+                    "samples lens / no lens": median_count(on, "count_samples") / median_count(off, "count_samples")}
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _overhead_figure(table, ctx):
+    """Fps drop against image size, ours with its interval beside the paper's, one series per data set."""
+    points = []
+    for ours in table.to_dict("records"):
+        points.append({"series": f"{ours['scene']} (ours)", "image": ours["image (px)"],
+                       "drop": ours["ours fps drop (%)"], "low": 100 * drop(ours["ratio 95 % CI low"]),
+                       "high": 100 * drop(ours["ratio 95 % CI high"])})
+    for row in TABLE1:
+        for image in PAPER_SIZES:
+            points.append({"series": f"{row} (paper)", "image": image, "drop": 100 * paper_drop(row, image),
+                           "low": np.nan, "high": np.nan})
+    path, rel = ctx.plot_path("table1-overhead")
+    plots.lines(pd.DataFrame(points), path, x="image", y="drop", group="series", y_range=("low", "high"),
+                title="Lens overhead per data set: ours beside the paper's Table 1", log_x=True,
+                x_label="image width and height (pixels)",
+                y_label="fps drop with the lens, 1 − t(no lens) / t(lens) (%)")
+    return blocks.Figure("Lens overhead against image size", rel,
+                         "Ours: the fps drop implied by the median frame-time ratio, bars its 95 % bootstrap interval "
+                         "(lens and no lens timed together); paper: Table 1's drop at 512² and 1024² (no interval "
+                         "given). The sizes differ: compare the shape per data set, not one point against another.")
+
+
+def _other_takeaways(tests):
+    """The overhead of each scene without a Table 1 row (the engine), in words: measured, not judged."""
+    sentences = []
+    for scene in scenes_of(tests):
+        if SETUPS[scene].paper_row:
+            continue
+        try:
+            words = [f"{image}² {decision_words(overhead(tests, scene, image, resampler=intervals.Resampler()))}"
+                     for image in image_sizes(tests)]
+        except (KeyError, ValueError):
+            continue
+        sentences.append(f"The {scene} ({SETUPS[scene].what}): time with / without the lens {', '.join(words)}; "
+                         "measured, not judged, as the paper gives it no frame rate.")
+    return sentences
+
+
+def _gallery(tests, ctx):
+    """The headline view of each scene at the largest image, with the lens beside without it."""
+    largest = image_sizes(tests)[-1]
+    gallery = blocks.Gallery(f"Headline view at {largest}²: each scene with its lens and without",
+                             caption="Left with the lens (the paper's method), right without it.")
+    headline = tests[(text_column(tests, "view") == "headline") & (numeric(tests, "image_size") == largest)]
+    for scene in scenes_of(headline):
+        on, off = (rows_matching(headline, scene, scene=scene, lens=lens) for lens in ("on", "off"))
+        if on.empty:
+            continue
+        row = on.iloc[0]
+        extra = (("no lens", ctx.image(off.png.iloc[0])),) if not off.empty else ()
+        note = f"{format_number(row.time_total * 1e3)} ms with the lens"
+        if not off.empty:
+            note += f", {format_number(off.time_total.iloc[0] * 1e3)} ms without"
+        gallery.items.append(blocks.GalleryItem(f"{scene}: {SETUPS[scene].what}", ctx.image(row.png), label="lens",
+                                                extra=extra, note=note))
+    return gallery
+
+
+class Table1(Experiment):
+    """Table 1: every lens scene without and with its lens at two image sizes, overheads beside the paper's."""
+
+    name = "ropinski2005-table1"
+    paper = "ropinski2005"
+    title = "Table 1: frame rates without and with the lens (E1)"
+    settings = frozenset({"scenes", "volume_size", "image_sizes", "orbit", "step_factor", "lens_method", "repeat",
+                          "min_time"})
+    scales = {"smoke": {"volume_size": 32, "image_sizes": [32, 48], "orbit": 0},
+              "default": {"volume_size": 128, "image_sizes": [256, 512], "orbit": 0},
+              "full": {"volume_size": 256, "image_sizes": list(PAPER_SIZES), "orbit": 4}}
+    description = (
+        "The paper's only measurement: frame rates of three 256³ data sets (seismic, skull, foot) at 512² and "
+        "1024², without and with the lens, on a GeForce 6800; lens shapes and appearances per row are not given. "
+        "Here gl-raycast's single-pass caster renders each lens scene of note 004 §5 (the seismic cube with a "
+        "spherical clipping lens sticking out of its front top corner, the skull with a spherical transparency "
+        "lens, the foot with a spherical bone-isosurface lens over the metatarsals, the real CT head in the "
+        "skull's row, and the engine of Fig. 1 with its rotated cuboid transparency lens) without the lens and "
+        "with it (the paper's segments method: lens entry and exit images, three region passes back to front), "
+        "at two image sizes, from the headline view (30° yaw, 20° pitch; at full scale around an orbit too). The "
+        "four runs of a scene are timed together, frame against frame; each overhead, whole-frame time with the "
+        "lens over time without it (the median over the views), is judged with its paired bootstrap interval against "
+        "the paper's fps(no lens) / fps(lens) of its row: our smaller image against the paper's 512², our "
+        "larger against its 1024² (the same sizes at full scale). A 2005 GPU's frame rates do not transfer; "
+        "the overhead, a ratio on one machine, does."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
+            return []
+        wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        sizes = sorted(int(s) for s in profile.setting(self, "image_sizes", [profile.image_size]))
+        orbit = int(profile.setting(self, "orbit", 1))
+        step = profile.setting(self, "step_factor", STEP)
+        method = profile.setting(self, "lens_method", PAPER_METHOD)
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in wanted:
+            setup = SETUPS[scene_name]
+            views = lens_views(scene_name, orbit)
+            for image in sizes:
+                spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
+                tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
+                        "role": "test"}
+                runs.append(lens_run(self.name, f"{scene_name}.{image}.{OFF}", without_lens(spec), views, OFF, frames,
+                                     {**tags, "lens": "off"}, step_factor=step, group=scene_name))
+                runs.append(lens_run(self.name, f"{scene_name}.{image}.{method}", spec, views, method, frames,
+                                     {**tags, "lens": "on"}, step_factor=step, group=scene_name))
+        return runs
+
+    def paper_table(self):
+        return pd.DataFrame(derived_table()).assign(device=PAPER_DEVICE)
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        out = [claim_takeaways(self.claims, results, device_takeaways(tests), _other_takeaways(tests))]
+        methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else [PAPER_METHOD]
+        if not tests.empty:
+            table = overhead_table(tests)
+            if not table.empty:
+                out.append(blocks.Table(
+                    "Table 1 beside ours: frame times and the lens overhead", table.round(3),
+                    csv_name="table1_overhead.csv",
+                    caption="Ours: median whole-frame times over the views, with the lens (the paper's method) and "
+                            "without, timed together; the time ratio's 95 % interval is a paired bootstrap over "
+                            "the frames. The fps drop is 1 − t(no lens) / t(lens), the paper's 1 − fps(lens) / "
+                            "fps(no lens). Our smaller image stands beside the paper's 512², our larger beside its "
+                            "1024². Rays through the lens: rays meeting lens ∩ box (counted by the caster); "
+                            "samples: all samples taken with the lens over without it (a clip lens skips its "
+                            "own)."))
+                out.append(_overhead_figure(table, ctx))
+            headline = speed_points(tests[text_column(tests, "view") == "headline"])
+            headline["method"] = [method_name(c) for c in text_column(headline, "config")]
+            out.append(linked_table("Every run (headline view)", headline,
+                                    ["scene", "image_size", "method", "time_ms", "time_ms_min", "time_ms_max",
+                                     "count_samples", "count_lens_rays", "count_rays"], ctx,
+                                    names={"image_size": "image (px)", "count_samples": "samples",
+                                           "count_lens_rays": "rays through the lens", "count_rays": "rays"},
+                                    csv_name="table1_runs.csv", caption=frames_caption(headline)))
+            out.append(_gallery(tests, ctx))
+        return out + raycast_not_measurable(methods)
