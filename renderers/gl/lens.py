@@ -202,7 +202,11 @@ void march(int first, int last, bool inside, vec3 start, vec3 d, float len, floa
         float t = cell_sample(k, len, full, ratio);
         vec3 p = start + t * d;
         float s = scalar_at(p);
+#ifdef REGION_OUTSIDE
+        composite_classified(classify(s), p, ratio, ray_dir, acc);
+#else
         composite_classified(inside ? classify_lens(s) : classify(s), p, ratio, ray_dir, acc);
+#endif
         taken++;
     }
 }
@@ -438,13 +442,17 @@ COUNTERS = ("samples", "samples_region0", "samples_region1", "samples_region2", 
 """The storage buffer's uints, in order."""
 
 
-def defines(lens, method, *, region=False, front_to_back=False):
-    """The preprocessor names of the lens volume pass for ``lens`` and ``method``."""
+def defines(lens, method, *, outside=False, front_to_back=False):
+    """The preprocessor names of the lens volume pass for ``lens`` and ``method``; ``outside``: the segment
+    methods' pass for region₀ and region₂, which never classifies with the lens (one program for every
+    appearance, so those passes cost the same whatever the lens shows)."""
     names = [f"LENS_{lens.appearance.mode.upper()}", f"NO_HIT {NO_HIT:g}"]
     if method in SEGMENT_METHODS:
         names += ["LENS_REGION", "LENS_IMAGES"]
         if method == "segments-stencil":
             names.append("LENS_STENCIL")
+        if outside:
+            names.append("REGION_OUTSIDE")
         if front_to_back:
             names.append("FRONT_TO_BACK")
     elif method == "fused":

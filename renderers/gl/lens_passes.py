@@ -17,10 +17,16 @@ from renderers.gl import lens as lenses
 
 def programs(ctx, lens, method, *, front_to_back, phong, sampling):
     """The lens frame's programs: ``volume``, for the image methods ``geometry``, and the stencil sequence's."""
-    source = glsl.fragment_source(sampling, lenses.LENS_GLSL, lenses.INSIDE_GLSL, lenses.MARCH_GLSL,
-                                  lenses.VOLUME_FRAGMENT, phong=phong, mode="dvr",
-                                  defines=lenses.defines(lens, method, front_to_back=front_to_back))
-    result = {"volume": context.program(ctx, glsl.CUBE_VERTEX, source)}
+    def volume(outside):
+        source = glsl.fragment_source(sampling, lenses.LENS_GLSL, lenses.INSIDE_GLSL, lenses.MARCH_GLSL,
+                                      lenses.VOLUME_FRAGMENT, phong=phong, mode="dvr",
+                                      defines=lenses.defines(lens, method, outside=outside,
+                                                             front_to_back=front_to_back))
+        return context.program(ctx, glsl.CUBE_VERTEX, source)
+
+    result = {"volume": volume(False)}
+    if method in lenses.SEGMENT_METHODS:
+        result["volume_outside"] = volume(True)
     if method in lenses.IMAGE_METHODS:
         result["geometry"] = context.program(ctx, lenses.GEOMETRY_VERTEX,
                                              glsl.fragment_source(lenses.LENS_GLSL, lenses.GEOMETRY_FRAGMENT))
@@ -84,20 +90,20 @@ def volume_passes(renderer, ctx, timer, programs, targets, scene, view, lens, me
         targets["main_fbo"].use()
         timer.run("main", box.render, count=True)
         return targets["res"]
-    triangles, lens_mvp = lens_footprint(lens, view, lenses.geometry_projection(scene, view, lenses.geometry(lens)[:, :3]))
+    triangles, lens_mvp = lens_footprint(lens, view, lenses.geometry_projection(scene, view,
+                                                                              lenses.geometry(lens)[:, :3]))
     buffer = renderer._buffer("lens_footprint", triangles)
-    footprint = renderer._vao((volume, buffer), lambda: ctx.vertex_array(volume, [(buffer, "3f", "in_tex")]))
 
     def draw(region):
-        def run():
-            if region == 0:
-                volume["u_mvp"].write(np.ascontiguousarray(view.mvp.T, dtype=np.float32).tobytes())
-                box.render()
-            else:
-                volume["u_mvp"].write(np.ascontiguousarray(lens_mvp.T, dtype=np.float32).tobytes())
-                footprint.render(vertices=len(triangles))
-        volume["u_region"].value = region
-        timer.run(f"region{region}", run, count=True)
+        program = volume if region == 1 else programs["volume_outside"]
+        program["u_region"].value = region
+        if region == 0:
+            program["u_mvp"].write(np.ascontiguousarray(view.mvp.T, dtype=np.float32).tobytes())
+            timer.run("region0", renderer._cube_vao(ctx, program).render, count=True)
+            return
+        program["u_mvp"].write(np.ascontiguousarray(lens_mvp.T, dtype=np.float32).tobytes())
+        footprint = renderer._vao((program, buffer), lambda: ctx.vertex_array(program, [(buffer, "3f", "in_tex")]))
+        timer.run(f"region{region}", lambda: footprint.render(vertices=len(triangles)), count=True)
 
     regions = (0, 1, 2)
     if lens.appearance.mode == "clip":
@@ -117,7 +123,7 @@ def volume_passes(renderer, ctx, timer, programs, targets, scene, view, lens, me
     source, target = "res2", "res"
     targets["res2_fbo"].clear(0.0, 0.0, 0.0, 0.0)
     for region in reversed(regions):
-        targets[source].use(location=volume["u_acc"].value)
+        targets[source].use(location=volume["u_acc"].value)  # one unit for every program (raycast.UNITS)
         fbo = targets["res2_fbo" if target == "res2" else "main_fbo"]
         fbo.clear(0.0, 0.0, 0.0, 0.0)
         fbo.use()

@@ -10,8 +10,15 @@ lens) say what any device has to do.
   sizes, the overheads beside the paper's;
 * :mod:`.passes`: ``ropinski2005-passes`` (E2): the segments method's frame, pass by pass;
 * :mod:`.samples`: ``ropinski2005-samples`` (E3): the samples with and without the lens, and per region;
+* :mod:`.methods_compared`: ``ropinski2005-methods`` (E4): the segments method against the per-sample
+  tests, the mask fetch, frag-depth and the fused loop, with and without an occluder (early-z);
+* :mod:`.lens_size`: ``ropinski2005-size`` (E5): the overhead against the lens's coverage;
+* :mod:`.appearances`: ``ropinski2005-appearance`` (E6): clip, transparency, iso and MIP lenses;
 * :mod:`.correctness`: ``ropinski2005-correctness`` (E7): every lens method against the reference, and a
   lens showing the outside appearance against no lens;
+* :mod:`.edges`: ``ropinski2005-edges`` (E8): lenses partly outside, in front, behind, enclosing the volume
+  or the camera, grazing: holes and accuracy, the paper's hole in the stencil method;
+* :mod:`.order`: ``ropinski2005-order`` (E9): region passes front to back against back to front;
 * :mod:`.peers`: ``ropinski2005-peers``: the lens in VTK (label map, cropping, clipping planes) and in
   shear-warp's pre-classification beside the paper's method, by overhead and error;
 * :mod:`.scenes`: the lens scenes (note 004 §5) and their controls; :mod:`.methods`: the lens methods as
@@ -19,13 +26,18 @@ lens) say what any device has to do.
 """
 
 from pipeline.experiments.kit.model import Paper
+from pipeline.experiments.ropinski2005.appearances import Appearances
 from pipeline.experiments.ropinski2005.correctness import Correctness
+from pipeline.experiments.ropinski2005.edges import Edges
+from pipeline.experiments.ropinski2005.lens_size import LensSize
+from pipeline.experiments.ropinski2005.methods_compared import MethodsCompared
+from pipeline.experiments.ropinski2005.order import Order
 from pipeline.experiments.ropinski2005.passes import Passes
 from pipeline.experiments.ropinski2005.peers import Peers
 from pipeline.experiments.ropinski2005.samples import Samples
 from pipeline.experiments.ropinski2005.table1 import Table1
 
-EXPERIMENTS = (Table1, Passes, Samples, Correctness, Peers)
+EXPERIMENTS = (Table1, Passes, Samples, MethodsCompared, LensSize, Appearances, Correctness, Edges, Order, Peers)
 
 PAPER = Paper("ropinski2005", "gl-raycast", needs="lens volumes (regions of interest) in the OpenGL ray caster",
               experiments=EXPERIMENTS)

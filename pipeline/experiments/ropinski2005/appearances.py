@@ -1,0 +1,328 @@
+"""``ropinski2005-appearance`` (E6): one lens, four appearances: clip, transparency, isosurface, MIP.
+
+Note 004 §4.2 E6: "Clipping is cheapest inside the lens but exposes region₀ (longer traversal behind).
+Isosurface stops at the first hit." Each scene's lens keeps its shape and place and shows, in turn,
+nothing (``clip``), the volume's table with its opacity scaled down (``dvr``, a transparency lens), the
+first crossing of an isovalue (``iso``) and the largest sample (``mip``, not in the paper). The lens-off
+frame and the four appearances are timed together in one job per scene (the paper's segments method),
+and ``gl-raycast`` counts each region's samples. The segments method casts region₀ whole behind whatever
+the lens shows (back to front), so what a lens exposes behind it shows where early termination runs
+across the regions: the ``fused`` method (one loop over the three segments) renders the clipping and the
+isosurface lens in the same job.
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.checks import every
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
+                                                       frames_caption, lens_coverage, lens_run, median_count,
+                                                       method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, SETUPS, lens_scene, lens_views, without_lens
+from reports import blocks, plots
+
+APPEARANCES = {"clip": "clipping (nothing inside)", "transparency": "transparency (opacity × 0.2)",
+               "iso": "isosurface (first crossing)", "mip": "MIP (largest sample)"}
+"""The lens appearances swept, in words."""
+
+TRANSPARENCY = 0.2
+"""Opacity scale of the transparency lens (the skull's and the engine's own lenses scale by the same)."""
+
+ISOVALUES = {"seismic": 0.6, "skull": 0.631, "foot": BONE_ISOVALUE, "cthead": 0.435, "engine": 0.7}
+"""The isosurface lens's value per scene (normalised): a horizon between the seismic cube's bands (0.2–0.9),
+the skull's and the CT head's bone presets' isovalues, the foot's bone (:data:`~.scenes.BONE_ISOVALUE`), the
+engine's dense inserts (0.85–1 against its body's 0.45–0.55, note 004 §5)."""
+
+EXPOSURE_METHOD = "fused"
+"""The method whose early termination runs across the regions (one loop over the three segments)."""
+
+EXPOSED = ("clip", "iso")
+"""The appearances ``fused`` renders: the one that shows nothing in front of region₀ and the opaque one."""
+
+REGION_COLUMNS = {region: f"count_samples_{region}" for region in ("region2", "region1", "region0")}
+
+TIMES = "whole frames (time_total), median over the views of each view's median frame"
+
+
+def appearance_entry(scene, appearance):
+    """The ``appearance`` entry of ``scene``'s lens showing ``appearance`` (a key of :data:`APPEARANCES`)."""
+    setup = SETUPS[scene]
+    if appearance == "clip":
+        return {"mode": "clip"}
+    if appearance == "transparency":
+        return {"mode": "dvr", "preset": setup.preset, "opacity_scale": TRANSPARENCY}
+    if appearance == "iso":
+        return {"mode": "iso", "isovalue": ISOVALUES[scene]}
+    return {"mode": "mip"}
+
+
+# ------------------------------------------------------------------------------------------- rows
+def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
+    """The rows of ``scene`` with the lens showing ``appearance`` by ``method``; ValueError if none."""
+    rows = rows_matching(frame, scene, scene=scene, appearance=appearance, config=method)
+    if rows.empty:
+        raise ValueError(f"no successful {method} run of {scene} with a {appearance} lens")
+    return rows
+
+
+def off_rows(frame, scene):
+    rows = rows_matching(frame, scene, scene=scene, config=OFF)
+    if rows.empty:
+        raise ValueError(f"no successful lens-off run of {scene}")
+    return rows
+
+
+def scenes_of(frame):
+    return list(pd.unique(text_column(frame, "scene")))
+
+
+def swept(frame, scene):
+    """The appearances ``scene`` was rendered with by the segments method, in :data:`APPEARANCES` order."""
+    rows = rows_matching(frame, scene, scene=scene, config=PAPER_METHOD)
+    present = set(text_column(rows, "appearance"))
+    return [a for a in APPEARANCES if a in present]
+
+
+def count(rows, column, what):
+    value = median_count(rows, column)
+    if not np.isfinite(value):
+        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
+    return value
+
+
+# ------------------------------------------------------------------------------------------------- claims
+def _clip_cheapest(df):
+    resampler = intervals.Resampler()
+    decisions, notes = {}, {}
+    for scene in scenes_of(df):
+        clip = appearance_rows(df, scene, "clip")
+        for appearance in (a for a in swept(df, scene) if a != "clip"):
+            other = appearance_rows(df, scene, appearance)
+            label = f"{scene}, {appearance}"
+            decisions[label] = intervals.ratio_decision(other, clip, at_least=1.0, resampler=resampler)
+            inside = (count(other, REGION_COLUMNS["region1"], label),
+                      count(clip, REGION_COLUMNS["region1"], f"{scene}, clip"))
+            notes[label] = f"region₁ samples {format_number(inside[0])} against {format_number(inside[1])}"
+    if not decisions:
+        raise ValueError("no scene rendered with a clipping lens and another appearance")
+    return every(decisions, notes=notes, what="time(appearance) / time(clip) ",
+                 extra=f"{TIMES}; the segments method; every appearance of a scene timed together")
+
+
+def _iso_stops(df):
+    compared, wrong = [], []
+    for scene in scenes_of(df):
+        iso = count(appearance_rows(df, scene, "iso"), REGION_COLUMNS["region1"], f"{scene}, iso")
+        dvr = count(appearance_rows(df, scene, "transparency"), REGION_COLUMNS["region1"], f"{scene}, transparency")
+        compared.append((iso / dvr if dvr else np.inf, scene, iso, dvr))
+        if not iso < dvr:
+            wrong.append(scene)
+    share, scene, iso, dvr = max(compared)
+    return ClaimResult(f"{as_percent(share)} ({scene})", not wrong,
+                       "; ".join(f"{s}: iso {format_number(i)}, transparency {format_number(d)} region₁ samples"
+                                 for _, s, i, d in compared) + "; the segments method, counted")
+
+
+def _clip_exposes(df):
+    compared, wrong = [], []
+    for scene in scenes_of(df):
+        clip = count(appearance_rows(df, scene, "clip", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, clip")
+        iso = count(appearance_rows(df, scene, "iso", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, iso")
+        compared.append((clip / iso if iso else np.inf, scene, clip, iso))
+        if not clip > iso:
+            wrong.append(scene)
+    ratio, scene, clip, iso = min(compared)
+    return ClaimResult(f"×{format_number(ratio)} ({scene})", not wrong,
+                       "; ".join(f"{s}: clip {format_number(c)}, iso {format_number(i)} region₀ samples"
+                                 for _, s, c, i in compared)
+                       + f"; the {EXPOSURE_METHOD} method (early termination across the regions), counted")
+
+
+CLAIMS = (
+    Claim("clip-cheapest", "A clipping lens is the cheapest appearance: it takes no sample inside the lens (note 004 "
+          "§4.2 E6)", f"time(transparency, iso, mip lens) / time(clip lens) ≥ ×1, every scene ({TIMES}; the "
+          "segments method; 95 % paired bootstrap interval wholly above ×1)", _clip_cheapest),
+    Claim("iso-stops", "An isosurface lens stops each ray at its first hit: it takes fewer samples inside the lens "
+          "than a transparency lens (note 004 §4.2 E6)",
+          "region₁ samples of the isosurface lens < region₁ samples of the transparency lens, every scene "
+          "(counted, the segments method)", _iso_stops),
+    Claim("clip-exposes", "But a clipping lens exposes region₀: where early termination runs across the regions, "
+          "rays take more samples behind a clipping lens than behind an (opaque) isosurface lens (note 004 §4.2 E6)",
+          f"region₀ samples behind the clipping lens > behind the isosurface lens, every scene (counted, the "
+          f"{EXPOSURE_METHOD} method: one loop over the three segments)", _clip_exposes),
+)
+
+
+# ------------------------------------------------------------------------------------------------ page
+def appearance_table(tests):
+    """Per scene and appearance: frame time, overhead over no lens with its interval, samples per region."""
+    rows = []
+    resampler = intervals.Resampler()
+    for scene in scenes_of(tests):
+        try:
+            off = off_rows(tests, scene)
+        except ValueError:
+            continue
+        off_samples = median_count(off, "count_samples")
+        for appearance in swept(tests, scene):
+            for method in (PAPER_METHOD, EXPOSURE_METHOD):
+                try:
+                    lens = appearance_rows(tests, scene, appearance, method)
+                except ValueError:
+                    continue
+                decision = intervals.ratio_decision(lens, off, resampler=resampler)
+                low, high = decision.interval or (np.nan, np.nan)
+                rows.append({"scene": scene, "appearance": appearance, "method": method,
+                             "frame (ms)": 1e3 * numeric(lens, "time_total").median(),
+                             "overhead (%)": 100 * (decision.value - 1), "95 % CI low (%)": 100 * (low - 1),
+                             "95 % CI high (%)": 100 * (high - 1),
+                             **{f"{words} pass (ms)": 1e3 * numeric(lens, f"time_{region}").median()
+                                if f"time_{region}" in lens else np.nan
+                                for region, words in (("region0", "region₀"), ("region1", "region₁"))},
+                             "samples lens / no lens": median_count(lens, "count_samples") / off_samples,
+                             **{f"{region} samples": median_count(lens, column)
+                                for region, column in REGION_COLUMNS.items()},
+                             "rays through the lens (%)": 100 * lens_coverage(lens)})
+    return pd.DataFrame(rows)
+
+
+def _figure(table, ctx):
+    paper = table[table.method == PAPER_METHOD]
+    if paper.empty:
+        return []
+    points = paper.assign(series=[APPEARANCES[a] for a in paper.appearance])
+    path, rel = ctx.plot_path("overhead")
+    plots.lines(points, path, x="samples lens / no lens", y="overhead (%)", group="series",
+                y_range=("95 % CI low (%)", "95 % CI high (%)"),
+                title="Each appearance's overhead against the samples it takes",
+                x_label="samples with the lens / samples without it (counted)",
+                y_label="overhead, t(lens) / t(no lens) − 1 (%)")
+    return [blocks.Figure("Overhead against samples, per appearance", rel,
+                          "One point per scene and appearance, the segments method (a line joins an appearance's "
+                          "scenes; the table names each point); bars: 95 % paired bootstrap interval (every "
+                          "appearance timed together with the lens-off frame).")]
+
+
+def _region_figure(table, ctx):
+    paper = table[table.method == PAPER_METHOD]
+    if paper.empty:
+        return []
+    bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
+    bars = bars.rename(columns=APPEARANCES).reset_index()
+    path, rel = ctx.plot_path("region1")
+    plots.bar_compare(bars, path, category_col="scene",
+                      value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
+                      value_label="region₁ samples per frame (millions)",
+                      title="What each appearance takes inside the lens")
+    return [blocks.Figure("Samples inside the lens, per appearance", rel,
+                          "Region₁ samples counted by the caster (the segments method, median over the views).")]
+
+
+def _takeaways(table):
+    """The overhead of each appearance in words, per scene (measured, not judged)."""
+    sentences = []
+    for scene, part in table[table.method == PAPER_METHOD].groupby("scene", sort=False):
+        words = [f"{row['appearance']} {format_number(row['overhead (%)'])} % (95 % CI "
+                 f"{format_number(row['95 % CI low (%)'])}–{format_number(row['95 % CI high (%)'])} %)"
+                 for row in part.to_dict("records")]
+        sentences.append(f"Overhead of each lens appearance on the {scene} (segments): {', '.join(words)}.")
+    return sentences
+
+
+def _gallery(tests, ctx):
+    gallery = blocks.Gallery("Headline view: the lens's four appearances",
+                             caption="No lens first, then the segments method's image with each appearance.")
+    headline = tests[text_column(tests, "view") == "headline"]
+    for scene in scenes_of(headline):
+        here = rows_matching(headline, scene, scene=scene)
+        for row in here[text_column(here, "config").isin([OFF, PAPER_METHOD])].itertuples():
+            label = "no lens" if row.config == OFF else APPEARANCES.get(row.appearance, row.appearance)
+            gallery.items.append(blocks.GalleryItem(f"{scene}, {label}", ctx.image(row.png),
+                                                    note=f"{format_number(row.time_total * 1e3)} ms"))
+    return gallery
+
+
+class Appearances(Experiment):
+    """Each scene's lens as clip, transparency, isosurface and MIP: overheads and samples per region."""
+
+    name = "ropinski2005-appearance"
+    paper = "ropinski2005"
+    title = "Lens appearances: clip, transparency, isosurface, MIP (E6)"
+    settings = frozenset({"scenes", "appearances", "volume_size", "image_size", "orbit", "step_factor", "repeat",
+                          "min_time"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0, "scenes": ["seismic", "skull", "foot"]},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 0, "scenes": ["seismic", "skull", "foot"]},
+              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    description = (
+        "The paper shows a transparency lens (the engine), a clipping lens (the seismic cube) and an isosurface "
+        "lens (the foot); note 004 §4.2 E6 sweeps the appearance on each data set. Here each scene's lens keeps "
+        "its shape and place and shows in turn nothing (clip), the volume's table with its opacity × 0.2 "
+        "(transparency), the first crossing of an isovalue (iso: a horizon of the seismic cube, bone on the skull, "
+        "the foot and the CT head, the engine's dense inserts) and the largest sample (MIP, not in the paper). "
+        "gl-raycast renders the scene without the lens and with each appearance by the paper's segments method, "
+        "and the clipping and isosurface lenses also by the fused method (one loop over the three segments, so "
+        "that early termination runs across the regions), all timed together in one job per scene; it counts "
+        "each region's samples. The Table 1 stand-ins at default scale, every lens scene at full scale."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
+            return []
+        wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
+        appearances = listed(profile, self, "appearances", tuple(APPEARANCES), known=APPEARANCES)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        orbit = int(profile.setting(self, "orbit", 0))
+        step = profile.setting(self, "step_factor", STEP)
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in wanted:
+            setup = SETUPS[scene_name]
+            views = lens_views(scene_name, orbit)
+            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
+                    "role": "test"}
+            spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
+            runs.append(lens_run(self.name, f"{scene_name}.{OFF}", without_lens(spec), views, OFF, frames,
+                                 {**tags, "appearance": "none"}, step_factor=step, group=scene_name))
+            for appearance in appearances:
+                spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data,
+                                  appearance=appearance_entry(scene_name, appearance))
+                methods = (PAPER_METHOD,) + ((EXPOSURE_METHOD,) if appearance in EXPOSED else ())
+                for method in methods:
+                    runs.append(lens_run(self.name, f"{scene_name}.{appearance}.{method}", spec, views, method,
+                                         frames, {**tags, "appearance": appearance}, step_factor=step,
+                                         group=scene_name))
+        return runs
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        table = appearance_table(tests) if not tests.empty else pd.DataFrame()
+        out = [claim_takeaways(self.claims, results, device_takeaways(tests),
+                               _takeaways(table) if not table.empty else [])]
+        if not table.empty:
+            out += _figure(table, ctx)
+            out += _region_figure(table, ctx)
+            out.append(blocks.Table("Each appearance: overhead and samples per region", table.round(3),
+                                    csv_name="appearance.csv",
+                                    caption="Overhead: frame time with the lens over without it, minus one, with its "
+                                            "95 % paired bootstrap interval; region₀ and region₁ pass: their stage "
+                                            "times (segments only; region₀ takes the same samples whatever the lens "
+                                            "shows); samples counted by the caster. " + frames_caption(tests)))
+        if not tests.empty:
+            out.append(_gallery(tests, ctx))
+            headline = speed_points(tests[text_column(tests, "view") == "headline"])
+            headline["method"] = [method_name(c) for c in text_column(headline, "config")]
+            out.append(linked_table("Every run (headline view)", headline,
+                                    ["scene", "appearance", "method", "time_ms", "time_ms_min", "time_ms_max",
+                                     *REGION_COLUMNS.values(), "count_samples"], ctx,
+                                    names={**{c: f"{r} samples" for r, c in REGION_COLUMNS.items()},
+                                           "count_samples": "samples"}, csv_name="appearance_runs.csv"))
+        return out + raycast_not_measurable([PAPER_METHOD, EXPOSURE_METHOD])
+

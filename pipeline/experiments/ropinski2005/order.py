@@ -1,0 +1,272 @@
+"""``ropinski2005-order`` (E9): the region passes back to front (the paper) against front to back.
+
+The paper casts region₀, then region₁, then region₂, each blended "over" what is there (§4, note 004
+§2.8). Opacity gathered in front of the lens then cannot stop the rays behind it, which were cast
+first: an opaque isosurface lens wastes every region₀ sample behind it. Note 004 §4.2 E9 proposes the
+other order as an ablation: region₂, region₁, region₀, each pass continuing the accumulation of the
+passes before it, so early termination runs across the regions (``gl-raycast``'s ``region_order``). It
+should be faster where region₁ or region₂ is opaque and give the same image: exactly the same with
+early termination off, and with it on differing by no more than early termination drops (the light
+behind an opacity of the threshold).
+"""
+
+import numpy as np
+import pandas as pd
+
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.checks import every
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.pages import DIFF_SCALE, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, speed_points, text_column
+from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, config_rows,
+                                                       device_takeaways, frames_caption, lens_run, median_count,
+                                                       raycast_not_measurable, time_ratio)
+from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, SETUPS, lens_scene, lens_views
+from reports import blocks
+
+FRONT_TO_BACK = "segments-ftb"
+"""The front-to-back region order's config (:data:`~.methods.METHODS`)."""
+
+THRESHOLD = 0.95
+"""Opacity at which a ray stops (``gl-raycast``'s ``opaque_threshold``, its default) in the timed runs."""
+
+NO_TERMINATION = 1.0
+"""``opaque_threshold`` of the control runs: no ray stops, so both orders composite every sample."""
+
+OPAQUE_SCALE = 4.0
+"""Opacity scale of the skull's lens made opaque: its bone table × 4 (a transparency lens's table × 0.2)."""
+
+OPAQUE_BONE = {"points": [[0.0, 0.93, 0.89, 0.8, 1.0], [1.0, 0.93, 0.89, 0.8, 1.0]]}
+"""The foot's isosurface lens's table: bone white, opacity 1. An isosurface lens takes its colour and opacity from
+a table at the crossing (the volume's by default, whose opacity at the foot's bone isovalue is below 1), so this
+one makes region₁ opaque wherever the surface is met."""
+
+SCENES = {
+    "foot": ({"appearance": {"mode": "iso", "isovalue": BONE_ISOVALUE, "transfer_function": OPAQUE_BONE}},
+             "region₁ opaque where the surface is met: the foot's bone isosurface lens, drawn opaque"),
+    "skull": ({"appearance": {"mode": "dvr", "preset": "bone", "opacity_scale": OPAQUE_SCALE}},
+              f"region₁ opaque: the skull's lens with its bone table's opacity × {format_number(OPAQUE_SCALE)}"),
+    "seismic": ({"center": (0.0, 0.0, 0.0)},
+                "region₂ opaque: the clipping lens moved to the cube's centre, behind the dense layers in front of it"),
+}
+"""The scenes where region₁ or region₂ is opaque: what changes in the scene's lens (:func:`~.scenes.lens_scene`'s
+keywords) and why."""
+
+TIMES = "whole frames (time_total), median over the views of each view's median frame"
+
+
+def termination_rows(frame, termination):
+    """The rows with early termination ``"on"`` (:data:`THRESHOLD`) or ``"off"`` (:data:`NO_TERMINATION`)."""
+    return frame[text_column(frame, "termination") == termination]
+
+
+def scenes_of(frame):
+    scenes = list(pd.unique(text_column(frame, "scene")))
+    if not scenes:
+        raise ValueError("no successful run")
+    return scenes
+
+
+def order_difference(frame, termination, scene):
+    """The largest |front-to-back − back-to-front| (``max_error`` of the front-to-back run against its reference)."""
+    rows = config_rows(termination_rows(frame, termination), FRONT_TO_BACK, scene=scene)
+    values = numeric(rows, "max_error").dropna()
+    if values.empty:
+        raise ValueError(f"the front-to-back image of {scene} (early termination {termination}) was not compared "
+                         "with the back-to-front one")
+    return float(values.max())
+
+
+def _count(rows, column, what):
+    value = median_count(rows, column)
+    if not np.isfinite(value):
+        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
+    return value
+
+
+# ------------------------------------------------------------------------------------------------- claims
+def _faster(df):
+    rows = termination_rows(df, "on")
+    resampler = intervals.Resampler()
+    decisions, notes = {}, {}
+    for scene in scenes_of(rows):
+        decisions[scene] = time_ratio(rows, PAPER_METHOD, FRONT_TO_BACK, resampler=resampler, at_least=1.0,
+                                      scene=scene)
+        region0 = [median_count(config_rows(rows, c, scene=scene), "count_samples_region0")
+                   for c in (PAPER_METHOD, FRONT_TO_BACK)]
+        if all(np.isfinite(region0)):
+            notes[scene] = (f"region₀ samples {format_number(region0[0])} back to front, {format_number(region0[1])} "
+                            "front to back")
+    return every(decisions, notes=notes, what="time(back to front) / time(front to back) ",
+                 extra=f"{TIMES}; both orders timed together, early termination at opacity {format_number(THRESHOLD)}")
+
+
+def _fewer_samples(df):
+    rows = termination_rows(df, "on")
+    compared, wrong = [], []
+    for scene in scenes_of(rows):
+        back = _count(config_rows(rows, PAPER_METHOD, scene=scene), "count_samples_region0", f"{scene} back to front")
+        front = _count(config_rows(rows, FRONT_TO_BACK, scene=scene), "count_samples_region0", f"{scene} front to back")
+        compared.append((front / back if back else np.inf, scene, front, back))
+        if not front < back:
+            wrong.append(scene)
+    share, scene, front, back = max(compared)
+    return ClaimResult(f"front to back takes {format_number(100 * share)} % of the region₀ samples ({scene})",
+                       not wrong,
+                       "; ".join(f"{s}: {format_number(f)} of {format_number(b)}" for _, s, f, b in compared)
+                       + f"; counted, early termination at opacity {format_number(THRESHOLD)}")
+
+
+def _same_image(df):
+    differences = {scene: order_difference(df, "off", scene) for scene in scenes_of(termination_rows(df, "off"))}
+    scene = max(differences, key=differences.get)
+    return ClaimResult(f"{format_number(differences[scene])} ({scene})",
+                       all(v <= SEAM_TOLERANCE for v in differences.values()),
+                       ", ".join(f"{s}: {format_number(v)}" for s, v in differences.items())
+                       + "; largest |front to back − back to front| over every pixel and RGBA channel, early "
+                         "termination off")
+
+
+def _drops_only_terminated(df):
+    bound = 1.0 - THRESHOLD
+    differences = {scene: order_difference(df, "on", scene) for scene in scenes_of(termination_rows(df, "on"))}
+    scene = max(differences, key=differences.get)
+    return ClaimResult(f"{format_number(differences[scene])} ({scene})",
+                       all(v <= bound for v in differences.values()),
+                       ", ".join(f"{s}: {format_number(v)}" for s, v in differences.items())
+                       + f"; early termination at opacity {format_number(THRESHOLD)} drops at most the light behind "
+                         f"it, {format_number(bound)} of a pixel in either order")
+
+
+CLAIMS = (
+    Claim("front-to-back-faster", "Front to back is faster where region₁ or region₂ is opaque: the rays stop before "
+          "the regions behind (note 004 §2.8, §4.2 E9; not in the paper)",
+          f"time(back to front) / time(front to back) ≥ ×1, every scene ({TIMES}; 95 % paired bootstrap interval "
+          "wholly above ×1)", _faster),
+    Claim("front-to-back-samples", "Because it takes fewer samples behind the lens", "region₀ samples front to "
+          "back < back to front, every scene (counted)", _fewer_samples),
+    Claim("same-image", "Both orders composite the same samples into the same image",
+          f"max |front to back − back to front| ≤ {SEAM_TOLERANCE:g} on every pixel and channel, early termination "
+          "off, every scene", _same_image),
+    Claim("drops-only-terminated", "With early termination on, front to back drops only what early termination "
+          "drops",
+          f"max |front to back − back to front| ≤ 1 − the opacity threshold ({format_number(1 - THRESHOLD)}), every "
+          "scene", _drops_only_terminated),
+)
+
+
+# ------------------------------------------------------------------------------------------------ page
+def order_table(tests):
+    """Per scene and early termination: both orders' frame times, their ratio with its interval, samples, difference."""
+    rows = []
+    resampler = intervals.Resampler()
+    for termination in ("on", "off"):
+        part = termination_rows(tests, termination)
+        for scene in pd.unique(part.scene):
+            try:
+                decision = time_ratio(part, PAPER_METHOD, FRONT_TO_BACK, resampler=resampler, scene=scene)
+                back, front = (config_rows(part, c, scene=scene) for c in (PAPER_METHOD, FRONT_TO_BACK))
+            except (KeyError, ValueError):
+                continue
+            low, high = decision.interval or (np.nan, np.nan)
+            row = {"scene": scene, "early termination": termination,
+                   "back to front (ms)": 1e3 * numeric(back, "time_total").median(),
+                   "front to back (ms)": 1e3 * numeric(front, "time_total").median(),
+                   "back / front": decision.value, "95 % CI low": low, "95 % CI high": high}
+            for region in ("region2", "region1", "region0"):
+                for name, rows_ in (("back", back), ("front", front)):
+                    row[f"{region} samples, {name}"] = median_count(rows_, f"count_samples_{region}")
+            try:
+                row["max |front − back|"] = order_difference(tests, termination, scene)
+            except (KeyError, ValueError):
+                row["max |front − back|"] = np.nan
+            rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def _gallery(tests, results, ctx):
+    gallery = blocks.Gallery("Front to back against back to front (headline view)", diff_scale=DIFF_SCALE,
+                             caption="Left the front-to-back image, right |front to back − back to front| (early "
+                                     "termination on, then off).")
+    front = tests[(text_column(tests, "config") == FRONT_TO_BACK) & (text_column(tests, "view") == "headline")]
+    for row in front.itertuples():
+        gallery.items.append(blocks.GalleryItem(
+            f"{row.scene}, early termination {row.termination}", ctx.image(row.png),
+            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
+            note=f"max difference {format_number(getattr(row, 'max_error', np.nan))}"))
+    return gallery
+
+
+class Order(Experiment):
+    """Back-to-front against front-to-back region passes where region₁ or region₂ is opaque."""
+
+    name = "ropinski2005-order"
+    paper = "ropinski2005"
+    title = "Region order: back to front (the paper) against front to back (E9)"
+    settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "step_factor", "repeat", "min_time"})
+    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
+              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    description = (
+        "Not in the paper, which casts region₀, region₁ and region₂ back to front, each blended over the "
+        "image: opacity in front of the lens cannot stop the rays behind it, cast first. gl-raycast's "
+        "region_order front-to-back casts region₂, region₁, region₀, each pass continuing the accumulation of "
+        "the ones before, so a ray that is opaque in front of the lens takes no samples behind it (note 004 "
+        "§2.8's ablation). Three scenes where region₁ or region₂ is opaque: the foot's bone isosurface lens "
+        f"(drawn opaque), the skull's lens with its bone table's opacity × {format_number(OPAQUE_SCALE)}, and the "
+        "seismic cube whose "
+        "clipping lens, moved to the centre, lies behind dense layers. Both orders are timed together with early "
+        f"termination at opacity {format_number(THRESHOLD)}, and again without early termination (every sample "
+        "composited), in one job per scene; each front-to-back image is compared with the back-to-front one."
+    )
+    claims = CLAIMS
+
+    def runs(self, profile):
+        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
+            return []
+        wanted = listed(profile, self, "scenes", tuple(SCENES), known=SCENES)
+        size = profile.setting(self, "volume_size", profile.volume_size)
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        orbit = int(profile.setting(self, "orbit", 0))
+        step = profile.setting(self, "step_factor", STEP)
+        frames = timed_frames(profile, self)
+        runs = []
+        for scene_name in wanted:
+            setup = SETUPS[scene_name]
+            lens, why = SCENES[scene_name]
+            spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data, **lens)
+            views = lens_views(scene_name, orbit)
+            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
+                    "role": "test", "opaque": why}
+            for termination, threshold in (("on", THRESHOLD), ("off", NO_TERMINATION)):
+                suffix = "" if termination == "on" else ".all"
+                back = lens_run(self.name, f"{scene_name}.back{suffix}", spec, views, PAPER_METHOD, frames,
+                                {**tags, "termination": termination}, step_factor=step, group=scene_name,
+                                options={"opaque_threshold": threshold})
+                runs += [back, lens_run(self.name, f"{scene_name}.front{suffix}", spec, views, FRONT_TO_BACK, frames,
+                                        {**tags, "termination": termination}, step_factor=step, group=scene_name,
+                                        reference=back.id, options={"opaque_threshold": threshold})]
+        return runs
+
+    def report(self, results, ctx):
+        ok = ok_rows(results)
+        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        out = [claim_takeaways(self.claims, results, device_takeaways(tests))]
+        if not tests.empty:
+            out.append(blocks.Table("Both orders, with and without early termination", order_table(tests).round(4),
+                                    csv_name="order.csv",
+                                    caption="Median frame times over the views; back / front with its 95 % paired "
+                                            "bootstrap interval; samples per region counted by the caster; max "
+                                            "|front − back| over every pixel and RGBA channel. "
+                                            + frames_caption(tests)))
+            out.append(_gallery(tests, results, ctx))
+            headline = speed_points(tests[text_column(tests, "view") == "headline"])
+            out.append(linked_table("Every run (headline view)", headline,
+                                    ["scene", "config", "termination", "time_ms", "time_ms_min", "time_ms_max",
+                                     "count_samples", "count_samples_region0", "max_error"], ctx,
+                                    names={"config": "method", "termination": "early termination",
+                                           "count_samples": "samples", "count_samples_region0": "region₀ samples",
+                                           "max_error": "max |front − back|"}, csv_name="order_runs.csv"))
+        return out + raycast_not_measurable([PAPER_METHOD, FRONT_TO_BACK])
