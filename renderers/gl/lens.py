@@ -45,6 +45,8 @@ the per-sample methods refuse them. A box or mesh lens is at most :data:`MAX_LEN
 half-spaces (a uniform array).
 """
 
+import functools
+
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
@@ -531,9 +533,11 @@ def planes(lens):
     return rows.tobytes()
 
 
+@functools.lru_cache(maxsize=8)
 def geometry(lens):
     """The lens's triangles for the geometry pass: ``(T·3, 6)`` float32 rows of world position and the
-    face's outward world normal.
+    face's outward world normal (read-only; cached per lens, which is immutable: a frame's passes and
+    the frames of a view all reuse one).
 
     A box or mesh is its own faces (each half-space's polygon is the mesh's triangles, a box's
     the cube's); a sphere its circumscribed cube (the fragments solve the quadratic).
@@ -553,7 +557,9 @@ def geometry(lens):
     world = triangles @ matrix[:3, :3].T + matrix[:3, 3]
     normals = per_vertex @ np.linalg.inv(matrix[:3, :3])       # normals transform by the inverse transpose
     normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-    return np.hstack([world, normals]).astype(np.float32)
+    rows = np.hstack([world, normals]).astype(np.float32)
+    rows.flags.writeable = False
+    return rows
 
 
 def geometry_projection(scene, view, world):
