@@ -8,6 +8,7 @@ from core.errors import InputError
 from pipeline.experiments.kit.checks import Band, Bound, Growth, Measure, Ratio
 from pipeline.experiments.kit.intervals import format_frames
 from pipeline.experiments.kit.model import Experiment, Paper, Profile
+from pipeline.experiments.kit.pages import device_takeaways, gl_devices
 from pipeline.experiments.kit.planning import listed, scene, truth_run
 
 
@@ -129,3 +130,15 @@ def test_a_growth_exponent_on_timed_frames_has_an_interval():
     straddling = Growth(Measure("frame time"), "size", at_most=3.0)(sizes)
     assert straddling.inconclusive and straddling.holds is None
     assert Growth(Measure("frame time"), "size", at_least=3.5)(sizes).holds is False
+
+
+def test_device_takeaways_name_the_devices_and_add_the_papers_note_for_a_cpu_rasterizer():
+    rows = pd.DataFrame({"gl_renderer": ["llvmpipe", "llvmpipe", None], "vtk_gl_renderer": [None, None, "llvmpipe"],
+                         "gl_software_rasterizer": [True, True, True]})
+    assert list(gl_devices(rows)) == ["llvmpipe"] * 3
+    assert device_takeaways(rows, software="only ratios count") == [
+        "Frame times on this page were measured on llvmpipe, a CPU rasterizer: only ratios count."]
+    mixed = rows.assign(gl_renderer=["llvmpipe", "NVIDIA H100", None], gl_software_rasterizer=[True, False, True])
+    (sentence,) = device_takeaways(mixed, software="only ratios count")
+    assert "NVIDIA H100" in sentence and "per device" in sentence and "only ratios" not in sentence
+    assert device_takeaways(rows.iloc[:0], software="x") == []

@@ -127,7 +127,7 @@ def test_device_sentence_and_ratios_per_device():
     assert "CPU rasterizer" in software[0] and "no GPU run" in software[0]
     both = T._device_takeaways(rows)
     assert "per device" in both[0] and "NVIDIA H100" in both[0]
-    groups = dict(list(rows.groupby(T._devices(rows))))
+    groups = dict(list(rows.groupby(T.gl_devices(rows))))
     assert set(groups) == {"llvmpipe (LLVM 15)", "NVIDIA H100"}
     ratio = T._ratio_table(groups["NVIDIA H100"])
     assert ratio["RC-b / RC (ours)"].iloc[0] == pytest.approx(5.0)

@@ -90,3 +90,25 @@ def claim_takeaways(claims, results, *more):
     sentence (:func:`~pipeline.experiments.kit.verdicts.claim_sentences`).
     """
     return blocks.Takeaways(claim_sentences(claims, results) + [s for sentences in more for s in sentences])
+
+
+def gl_devices(frame):
+    """The GL device each row was timed on (VTK's own context for its rows; ``"unknown device"`` if unrecorded)."""
+    device = frame.get("gl_renderer", pd.Series(np.nan, index=frame.index))
+    if "vtk_gl_renderer" in frame:
+        device = device.fillna(frame.vtk_gl_renderer)
+    return device.fillna("unknown device").astype(str)
+
+
+def device_takeaways(tests, *, software):
+    """Which GL devices timed a page, in a sentence; ``software`` says what a CPU rasterizer's numbers mean
+    for this paper (added when every timed row ran on one)."""
+    if tests.empty:
+        return []
+    names = sorted(set(gl_devices(tests)))
+    sentence = f"Frame times on this page were measured on {', '.join(names)}"
+    if "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all():
+        sentence += f", a CPU rasterizer: {software}"
+    elif len(names) > 1:
+        sentence += "; ratios are computed per device, never across devices"
+    return [sentence + "."]

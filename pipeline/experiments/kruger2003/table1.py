@@ -10,8 +10,8 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, device_takeaways, format_number,
+                                            gl_devices, linked_table)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, reference_exr,
@@ -173,29 +173,12 @@ def _bar_title(ratios):
     return f"RC-b over slicing: up to {as_ratio(best['RC-b / SBVR (ours)'])} here ({best.scene}), paper up to ×3.3"
 
 
-def _devices(frame):
-    """The GL device each row was timed on (VTK's own context for its rows)."""
-    device = frame.get("gl_renderer", pd.Series(np.nan, index=frame.index))
-    if "vtk_gl_renderer" in frame:
-        device = device.fillna(frame.vtk_gl_renderer)
-    return device.fillna("unknown device").astype(str)
-
-
 def _device_takeaways(tests):
     """Which GL devices timed this page, and what a CPU rasterizer's numbers mean."""
-    if tests.empty:
-        return []
-    devices = sorted(set(_devices(tests)))
-    software = "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all()
-    sentence = f"GL frame times on this page were measured on {', '.join(devices)}"
-    if software:
-        sentence += (", a CPU rasterizer: fragment shaders run on the CPU's cores and early-z rejects whole tiles "
-                     "in software, so its frame times are not a GPU's and only ratios between methods measured in "
-                     "one run compare with the paper's (the samples-passed counts show what each method drew); no "
-                     "GPU run is in these results")
-    elif len(devices) > 1:
-        sentence += "; ratios are computed per device, never across devices"
-    return [sentence + "."]
+    return device_takeaways(tests, software=(
+        "fragment shaders run on the CPU's cores and early-z rejects whole tiles in software, so its frame times "
+        "are not a GPU's and only ratios between methods measured in one run compare with the paper's (the "
+        "samples-passed counts show what each method drew); no GPU run is in these results"))
 
 
 def _peer_takeaways(ok):
@@ -210,7 +193,7 @@ def _peer_takeaways(ok):
 def _ratio_blocks(tests, ctx):
     """Table 1's speed-ups beside ours, per device, and RC-b over slicing as bars (as the claims: every view)."""
     ratios = pd.concat([_ratio_table(group).assign(device=device)
-                        for device, group in tests.groupby(_devices(tests))], ignore_index=True)
+                        for device, group in tests.groupby(gl_devices(tests))], ignore_index=True)
     if ratios.empty:
         return []
     path, rel = ctx.plot_path("table1-ratios")

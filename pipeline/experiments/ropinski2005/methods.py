@@ -9,10 +9,9 @@ planned, its runs fail with the backend's unknown-option error and the page list
 """
 
 import numpy as np
-import pandas as pd
 
 import renderers
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, pages
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import frames_counted, not_measurable
 from pipeline.experiments.kit.planning import missing_options, unregistered
@@ -149,24 +148,9 @@ def frames_caption(frame):
     return f"{frames_counted(frame)} after warm-up, uploads excluded as their own stage; {timed}."
 
 
-def devices(frame):
-    """The GL device of each row (``"unknown device"`` where not recorded)."""
-    if "gl_renderer" not in frame:
-        return pd.Series("unknown device", index=frame.index)
-    return frame.gl_renderer.astype(object).fillna("unknown device").astype(str)
-
-
 def device_takeaways(tests):
     """Which GL devices timed the page, and what a CPU rasterizer's frame times mean beside the paper's."""
-    if tests.empty:
-        return []
-    names = sorted(set(devices(tests)))
-    sentence = f"Frame times on this page were measured on {', '.join(names)}"
-    if "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all():
-        sentence += (", a CPU rasterizer: its fragment shaders run on the CPU's cores, so a lens pass costs what "
-                     "its samples cost there, not what a GPU's fill rate makes of it; only ratios of runs timed "
-                     "together compare with the paper's, and the sample counts (machine-independent) say what "
-                     "any device has to do")
-    elif len(names) > 1:
-        sentence += "; ratios are computed per device, never across devices"
-    return [sentence + "."]
+    return pages.device_takeaways(tests, software=(
+        "its fragment shaders run on the CPU's cores, so a lens pass costs what its samples cost there, not what a "
+        "GPU's fill rate makes of it; only ratios of runs timed together compare with the paper's, and the sample "
+        "counts (machine-independent) say what any device has to do"))

@@ -14,7 +14,7 @@ The helpers here (mode rows, per-scene time ratios, culled fractions, image pair
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, pages
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
                                             linked_table)
@@ -257,25 +257,12 @@ CLAIMS = (
 
 
 # ------------------------------------------------------------------------------------------------- page
-def devices(frame):
-    """The GL device of each row (``"unknown device"`` where not recorded)."""
-    return frame.get("gl_renderer", pd.Series(np.nan, index=frame.index)).fillna("unknown device").astype(str)
-
-
 def device_takeaways(tests):
     """Which GL devices timed the page, and what a CPU rasterizer's numbers mean."""
-    if tests.empty:
-        return []
-    names = sorted(set(devices(tests)))
-    sentence = f"Frame times on this page were measured on {', '.join(names)}"
-    if "gl_software_rasterizer" in tests and tests.gl_software_rasterizer.dropna().astype(bool).all():
-        sentence += (", a CPU rasterizer that tests depth early per 4×2-pixel block, without the Radeon's "
-                     "hierarchical z: culled fragments still cost time there, so only ratios between modes "
-                     "timed together compare with the paper's, and the culled fractions α' (machine-independent) "
-                     "say what any device could gain")
-    elif len(names) > 1:
-        sentence += "; ratios are computed per device, never across devices"
-    return [sentence + "."]
+    return pages.device_takeaways(tests, software=(
+        "it tests depth early per 4×2-pixel block, without the Radeon's hierarchical z: culled fragments still "
+        "cost time there, so only ratios between modes timed together compare with the paper's, and the culled "
+        "fractions α' (machine-independent) say what any device could gain"))
 
 
 def _culling_takeaways(tests):
@@ -380,7 +367,7 @@ def _culling_table(tests):
 def _ratio_blocks(tests, ctx):
     """Table 1's speed-ups beside ours per device, ESS+ERT as bars, and the culled fractions."""
     ratios = pd.concat([_ratio_table(group).assign(device=device)
-                        for device, group in tests.groupby(devices(tests))], ignore_index=True)
+                        for device, group in tests.groupby(pages.gl_devices(tests))], ignore_index=True)
     if ratios.empty:
         return []
     path, rel = ctx.plot_path("table1-speedups")
