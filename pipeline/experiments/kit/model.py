@@ -196,7 +196,9 @@ class Run:
     interleave : str, optional
         Runs of one experiment with the same ``interleave`` name are timed together in one job, their
         frames alternating view by view (:func:`pipeline.timing.measure_together`): a claim comparing
-        them takes its ratio round by round, with an interval. Every run of a group must be timed.
+        them takes its ratio round by round, with an interval. The runs of a group share their frames:
+        all timed, or all one untimed frame (then the job renders them in turn, one job start for many
+        pictures).
     """
 
     experiment: str
