@@ -417,7 +417,7 @@ def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False,
 
 
 def lines(frame, path, *, x, y, group, title, x_label, y_label, y_range=None, log_x=False, log_y=False,
-          vlines=(), guides=()):
+          vlines=(), guides=(), join=True, label=None):
     """Lines of ``y`` against ``x`` per ``group``, with vertical error bars from ``y_range`` columns.
 
     Unlike :func:`scaling` (medians, no bars) each row is one point, so a sweep whose rows carry
@@ -443,13 +443,17 @@ def lines(frame, path, *, x, y, group, title, x_label, y_label, y_range=None, lo
         x positions marked with dotted lines (e.g. the principal-axis switches of shear-warp).
     guides : sequence of (label, xs, ys), optional
         Reference curves drawn in grey (e.g. the paper's slope).
+    join : bool, optional
+        Join a series' points by a line; ``False`` where its points are not one sweep (one per scene).
+    label : str, optional
+        Column whose value annotates each point (e.g. the scene, where points are not joined).
 
     Returns
     -------
     pathlib.Path
         The written file.
     """
-    _check_frame(frame, [x, y, group, *(y_range or ())])
+    _check_frame(frame, [x, y, group, label, *(y_range or ())])
     rows = frame.copy()
     for column in [x, y, *(y_range or ())]:
         rows[column] = pd.to_numeric(rows[column], errors="coerce")
@@ -470,12 +474,16 @@ def lines(frame, path, *, x, y, group, title, x_label, y_label, y_range=None, lo
                 values = part[y].to_numpy(float)
                 yerr = np.vstack([np.where(np.isfinite(low), np.clip(values - low, 0, None), 0.0),
                                   np.where(np.isfinite(high), np.clip(high - values, 0, None), 0.0)])
+            style = {**_style(i), **({} if join else {"linestyle": "none", "markersize": 5})}
             ax.errorbar(part[x], part[y], yerr=yerr, label=str(name) if name is not None else y, capsize=2,
-                        elinewidth=0.8, markersize=3, **_style(i))
+                        elinewidth=0.8, **{"markersize": 3, **style})
+            if label is not None:
+                for px, py, text in zip(part[x], part[y], part[label]):
+                    ax.annotate(str(text), (px, py), xytext=(3, 3), textcoords="offset points", fontsize=7)
         for position in vlines:
             ax.axvline(position, color="0.6", linestyle=":", linewidth=0.8, zorder=0)
-        for i, (label, gx, gy) in enumerate(guides):
-            ax.plot(gx, gy, color="0.5", linestyle=("--", ":", "-.")[i % 3], label=label, zorder=1)
+        for i, (guide, gx, gy) in enumerate(guides):
+            ax.plot(gx, gy, color="0.5", linestyle=("--", ":", "-.")[i % 3], label=guide, zorder=1)
         _axes(ax, log_x, log_y, x_label, y_label)
         ax.legend(fontsize=7)
 

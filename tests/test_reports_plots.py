@@ -169,3 +169,15 @@ def test_speed_accuracy_can_leave_points_unjoined(tmp_path):
                                  join=False)
     # The joined series draws one polyline through its three points; the unjoined one none.
     assert joined.read_text().count("stroke-linecap") > loose.read_text().count("stroke-linecap")
+
+
+def test_lines_can_leave_points_unjoined_and_label_them(tmp_path):
+    frame = pd.DataFrame({"x": [1.0, 2.0, 3.0], "y": [3.0, 1.0, 2.0], "g": ["a"] * 3,
+                          "name": ["first", "second", "third"]})
+    common = dict(x="x", y="y", group="g", title="t", x_label="x", y_label="y")
+    joined = plots.lines(frame, tmp_path / "joined.svg", **common).read_text()
+    loose = plots.lines(frame, tmp_path / "loose.svg", join=False, label="name", **common).read_text()
+    assert joined.count("stroke-linecap") > loose.count("stroke-linecap")
+    assert all(name in loose and name not in joined for name in ("first", "second", "third"))
+    with pytest.raises(InputError, match="missing column"):
+        plots.lines(frame, tmp_path / "bad.svg", join=False, label="scene", **common)

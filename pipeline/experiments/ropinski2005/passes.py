@@ -133,13 +133,14 @@ def _pass_blocks(tests, ctx):
     points = share_points(tests)
     if not points.empty and points.coverage.notna().any():
         path, rel = ctx.plot_path("passes-shares")
-        plots.lines(points, path, x="coverage", y="share", group="stage", y_range=("low", "high"),
-                    title=_share_title(points),
+        plots.lines(points, path, x="coverage", y="share", group="stage", y_range=("low", "high"), join=False,
+                    label="scene", title=_share_title(points),
                     x_label="rays meeting lens ∩ box (% of the rays)", y_label="share of the frame time (%)",
                     guides=(("the claim's bound", [points.coverage.min(), points.coverage.max()],
                              [100 * GEOMETRY_SHARE] * 2),))
         out.append(blocks.Figure("Geometry and lens-region shares against lens coverage", rel,
-                                 "One point per scene; bars: 95 % bootstrap interval over the run's frames; dashed: "
+                                 "One point per scene and pass (not joined: the scenes are not a sweep); bars: 95 % "
+                                 "bootstrap interval over the run's frames; dashed: "
                                  "the claim's bound on the geometry share."))
     out.append(blocks.Table("Passes and samples per scene (median frame)", pass_table(tests).round(3),
                             csv_name="passes.csv",
