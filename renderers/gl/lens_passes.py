@@ -35,13 +35,13 @@ def programs(ctx, lens, method, *, front_to_back, phong, sampling):
     return result
 
 
-def geometry_pass(renderer, ctx, timer, program, targets, scene, view, lens):
-    """Rasterise the lens into ``targets["lens_t"]``: r its entry, g minus its exit along each pixel's ray."""
+def geometry_pass(renderer, ctx, timer, program, targets, world_mvp, lens):
+    """Rasterise the lens into ``targets["lens_t"]``: r its entry, g minus its exit along each pixel's ray
+    (``world_mvp``: :func:`renderers.gl.lens.geometry_projection`)."""
     import moderngl
 
     rows = lenses.geometry(lens)
-    program["u_world_mvp"].write(np.ascontiguousarray(
-        lenses.geometry_projection(scene, view, rows[:, :3]).T, dtype=np.float32).tobytes())
+    program["u_world_mvp"].write(np.ascontiguousarray(world_mvp.T, dtype=np.float32).tobytes())
     buffer = renderer._buffer("lens_geometry", rows)
     vao = renderer._vao((program, buffer), lambda: ctx.vertex_array(
         program, [(buffer, "3f 3f", "in_world", "in_normal")]))
@@ -72,7 +72,7 @@ def lens_footprint(lens, view, world_mvp):
     return tex.astype(np.float32), world_mvp @ view.model
 
 
-def volume_passes(renderer, ctx, timer, programs, targets, scene, view, lens, method, front_to_back):
+def volume_passes(renderer, ctx, timer, programs, targets, view, world_mvp, lens, method, front_to_back):
     """The volume passes of ``method`` into ``main_fbo`` (or the ping-pong pair); returns the output texture.
 
     Region₀'s pass and the single pass draw the box's back faces (every ray); region₁'s and region₂'s
@@ -90,8 +90,7 @@ def volume_passes(renderer, ctx, timer, programs, targets, scene, view, lens, me
         targets["main_fbo"].use()
         timer.run("main", box.render, count=True)
         return targets["res"]
-    triangles, lens_mvp = lens_footprint(lens, view, lenses.geometry_projection(scene, view,
-                                                                              lenses.geometry(lens)[:, :3]))
+    triangles, lens_mvp = lens_footprint(lens, view, world_mvp)
     buffer = renderer._buffer("lens_footprint", triangles)
 
     def draw(region):

@@ -847,16 +847,19 @@ class GLRaycastRenderer(GLRenderer):
         targets["depth_fbo"].clear(depth=0.0)
         if self.occluder > 0:
             self._occlude(ctx, timer, self._cube_vao(ctx, programs["occluder"]), targets)
+        # World → clip with near and far planes bracketing the lens too, for every pass that draws the lens.
+        world_mvp = (lenses.geometry_projection(scene, view, lenses.geometry(lens)[:, :3])
+                     if self.lens_method in lenses.IMAGE_METHODS else None)
         if "geometry" in programs:
-            lens_passes.geometry_pass(self, ctx, timer, programs["geometry"], targets, scene, view, lens)
+            lens_passes.geometry_pass(self, ctx, timer, programs["geometry"], targets, world_mvp, lens)
         if self.lens_method == "segments-stencil":
             if "stencil" not in targets:  # made with the frame's targets, released with them
                 targets["stencil"] = stencil.StencilTargets(ctx, (scene.width, scene.height))
-            stencil.transition_passes(self, ctx, timer, programs, targets["stencil"], scene, view, lens)
+            stencil.transition_passes(self, ctx, timer, programs, targets["stencil"], view, world_mvp, lens)
             targets["stencil"].transition0.use(location=UNITS["u_transition0"])
             targets["stencil"].transition1.use(location=UNITS["u_transition1"])
-        output = lens_passes.volume_passes(self, ctx, timer, programs, targets, scene, view, lens, self.lens_method,
-                                           self.region_order == "front-to-back")
+        output = lens_passes.volume_passes(self, ctx, timer, programs, targets, view, world_mvp, lens,
+                                           self.lens_method, self.region_order == "front-to-back")
         ctx.memory_barrier()
         return output, lens_passes.counters(counter)
 

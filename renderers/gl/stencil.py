@@ -133,13 +133,12 @@ class StencilTargets:
         GL.glDeleteRenderbuffers(1, [self._renderbuffer])
 
 
-def transition_passes(renderer, ctx, timer, programs, stencil_targets, scene, view, lens):
+def transition_passes(renderer, ctx, timer, programs, stencil_targets, view, world_mvp, lens):
     """Build ``transition₀`` and ``transition₁`` (stage ``lens_geometry``; see the module notes)."""
     import moderngl
     from OpenGL import GL
 
     rows = lenses.geometry(lens)
-    world_mvp = lenses.geometry_projection(scene, view, rows[:, :3])
     box, faces = programs["stencil_box"], programs["stencil_faces"]
     box["u_mvp"].write(np.ascontiguousarray((world_mvp @ view.model).T, dtype=np.float32).tobytes())
     faces["u_world_mvp"].write(np.ascontiguousarray(world_mvp.T, dtype=np.float32).tobytes())
