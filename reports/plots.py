@@ -10,6 +10,13 @@ Rows whose plotted values are NaN or infinite, or not positive on a logarithmic 
 and the title says how many. A frame with nothing left to plot gives a placeholder figure that
 says "no data" instead of an error.
 
+Every figure is laid out for reading (:func:`_tidy`, after the chart is drawn, by measuring the laid-out
+text rather than per chart): the title and its note are wrapped to the figure's width, axis labels to
+the axes; crowded tick labels are wrapped or rotated (categories) or thinned (numbers); a legend that
+would cover data or labels, or has many entries, goes outside the axes; a point label that would
+overlap another text or the legend, or leave the figure, is left out and the title's note counts it. Series
+take distinct (colour, marker) pairs from 20 colours and 10 markers (see :func:`_style`).
+
 matplotlib is imported where a figure is drawn, not with this module: every experiment module
 imports this one, and the jobs that only plan or tabulate runs (each Snakemake start, each
 experiment's tabulate job) would otherwise pay 0.4 s for charts they never draw.
@@ -25,6 +32,12 @@ from core.errors import InputError
 __all__ = ["bar_compare", "convergence", "difference_colorbar", "scaling", "speed_accuracy", "stage_breakdown"]
 
 FIGSIZE = (6.0, 4.0)
+# matplotlib's ten colours, then ten more told apart from them (dark, saturated or light hues).
+_PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#e377c2", "#7f7f7f", "#bcbd22",
+            "#17becf", "#000000", "#000080", "#808000", "#800000", "#008080", "#c51b7d", "#e6ab02", "#66a61e",
+            "#54278f", "#fb8072")
+MIN_AXES_HEIGHT = 150.0  # points: the figure grows where titles and labels leave the axes less
+MANY_ENTRIES = 6  # a legend with more entries than this always goes beside the axes
 _RC = {
     "svg.hashsalt": "volbench",
     "svg.fonttype": "none",
@@ -32,7 +45,7 @@ _RC = {
     "axes.grid": True,
     "grid.alpha": 0.3,
 }
-_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*")
+_MARKERS = ("o", "s", "^", "D", "v", "P", "X", "*", "<", ">")
 _GUIDES = ("--", ":", "-.")  # line styles of convergence guide lines
 # Axis labels in words, with units, for the well-known columns of the results table.
 _WORDS = {
@@ -131,8 +144,279 @@ def _median_curve(rows, x_col, y_col):
 
 
 def _style(index):
-    """Colour and marker of the ``index``-th series."""
-    return {"color": f"C{index % 10}", "marker": _MARKERS[index % len(_MARKERS)]}
+    """Colour and marker of the ``index``-th series, a pair no other of the first 200 series has.
+
+    The marker advances one extra place each time the colours come round again; 21 (colours + 1)
+    and 10 (markers) share no factor, so the pairs repeat only after 20 × 10 series.
+    """
+    colours, markers = len(_PALETTE), len(_MARKERS)
+    return {"color": _PALETTE[index % colours], "marker": _MARKERS[(index + index // colours) % markers]}
+
+
+def _text_width(text, size):
+    """Width in points of one line of ``text`` at ``size`` points, as the SVG writer measures it."""
+    from matplotlib.font_manager import FontProperties
+    from matplotlib.textpath import text_to_path
+
+    return text_to_path.get_text_width_height_descent(text, FontProperties(size=size), ismath=False)[0]
+
+
+def _wrap(text, width, size):
+    """``text`` broken at spaces into lines at most ``width`` points wide.
+
+    A word longer than a line is cut after its last comma that fits, else between characters.
+    """
+    lines = []
+    for paragraph in str(text).split("\n"):
+        line = ""
+        for word in paragraph.split(" "):
+            candidate = f"{line} {word}" if line else word
+            if line and _text_width(candidate, size) > width:
+                lines.append(line)
+                candidate = word
+            while len(candidate) > 1 and _text_width(candidate, size) > width:
+                fits = [k for k in range(1, len(candidate)) if _text_width(candidate[:k], size) <= width] or [1]
+                cut = next((k for k in reversed(fits) if candidate[k - 1] == ","), fits[-1])
+                lines.append(candidate[:cut])
+                candidate = candidate[cut:]
+            line = candidate
+        lines.append(line)
+    return "\n".join(lines)
+
+
+def _layout(fig):
+    """Lay ``fig`` out (constrained layout, text measured) without writing it."""
+    fig.draw_without_rendering()
+
+
+TEXT_GAP = 2.0
+"""Points kept between texts: a browser's text box (the font's ascent and descent) is about 1 point
+taller than the box matplotlib measures."""
+
+
+def _overlap(a, b, pad=1.0):
+    """Whether boxes ``a`` and ``b`` overlap by more than ``pad`` points both ways (a negative ``pad``: come closer than it)."""
+    return min(a.x1, b.x1) - max(a.x0, b.x0) > pad and min(a.y1, b.y1) - max(a.y0, b.y0) > pad
+
+
+def _crowded(boxes):
+    """Whether any two of ``boxes`` come closer than ``TEXT_GAP``."""
+    return any(_overlap(a, b, pad=-TEXT_GAP) for i, a in enumerate(boxes) for b in boxes[i + 1:])
+
+
+def _crowded_ticks(labels):
+    """Whether tick ``labels`` come closer than ``TEXT_GAP``; rotated ones measured across their slant.
+
+    Rotated labels are parallel: their distance across is the distance between their anchors times
+    the sine of the angle, which must exceed a line's height (boxes of slanted text would overlap).
+    """
+    angle = np.radians(labels[0].get_rotation()) if labels else 0.0
+    if not np.sin(angle):
+        return _crowded([t.get_window_extent() for t in labels])
+    anchors = sorted(t.get_window_extent().x1 for t in labels)  # right-aligned at their ticks
+    line = max(t.get_fontsize() * 1.2 * (t.get_text().count("\n") + 1) for t in labels)
+    return any((b - a) * abs(np.sin(angle)) < line + TEXT_GAP for a, b in zip(anchors, anchors[1:]))
+
+
+def _shown_ticklabels(axis, ax):
+    """The axis' tick labels with text that lie within the axes' extent along the axis."""
+    box, labels = ax.get_window_extent(), []
+    for label in axis.get_ticklabels():
+        if not (label.get_visible() and label.get_text()):
+            continue
+        extent = label.get_window_extent()
+        middle, (low, high) = ((extent.x0 + extent.x1) / 2, (box.x0, box.x1)) if axis is ax.xaxis else \
+            ((extent.y0 + extent.y1) / 2, (box.y0, box.y1))
+        if low - 1 <= middle <= high + 1:
+            labels.append(label)
+    return labels
+
+
+def _fix_ticks(fig, ax):
+    """Wrap, rotate or thin the tick labels of each axis until no two overlap; leaves ``fig`` laid out.
+
+    Category labels (fixed texts) are wrapped to the space between ticks where their words fit in
+    three lines, else rotated 30°, 45°, 90° (a y axis' categories wrap to 40 % of the figure's width); numbers keep fewer ticks:
+    only decades on a logarithmic axis, then fewer decades, fewer steps on a linear one.
+    """
+    from matplotlib.category import StrCategoryLocator
+    from matplotlib.ticker import FixedLocator
+
+    original = {}
+    for axis in (ax.xaxis, ax.yaxis):
+        categorical = isinstance(axis.get_major_locator(), (FixedLocator, StrCategoryLocator))  # texts at fixed places
+        texts = [t.get_text() for t in axis.get_ticklabels()]
+        original[axis] = categorical, list(axis.get_majorticklocs()), texts
+        if categorical and axis is ax.yaxis and texts:
+            size = axis.get_ticklabels()[0].get_fontsize()
+            axis.set_ticks(original[axis][1], [_wrap(t, fig.bbox.width * 0.4, size) for t in texts])
+    attempts = dict.fromkeys(original, 0)
+    while True:
+        _layout(fig)
+        crowded = [axis for axis in original if attempts[axis] < 5 and _crowded_ticks(_shown_ticklabels(axis, ax))]
+        if not crowded:
+            return
+        for axis in crowded:
+            _thin(fig, ax, axis, *original[axis], attempts[axis])
+            attempts[axis] += 1
+
+
+def _thin(fig, ax, axis, categorical, locs, texts, attempt):
+    """One more step of :func:`_fix_ticks` on ``axis`` (``attempt`` counts the steps taken)."""
+    from matplotlib.ticker import LogLocator, MaxNLocator
+
+    labels = _shown_ticklabels(axis, ax)
+    size = labels[0].get_fontsize()
+    if categorical and axis is ax.xaxis:
+        centres = sorted((t.get_window_extent().x0 + t.get_window_extent().x1) / 2 for t in labels)
+        room = min((b - a for a, b in zip(centres, centres[1:])), default=fig.bbox.width) - 2 * TEXT_GAP
+        words = [w for t in texts for w in t.split()]
+        wrapped = [_wrap(t, room, size) for t in texts] if attempt == 0 and words and \
+            max(_text_width(w, size) for w in words) <= room else []
+        if wrapped and max(w.count("\n") for w in wrapped) < 3:  # whole words, at most three lines
+            axis.set_ticks(locs, wrapped)
+        else:
+            axis.set_ticks(locs, texts)
+            for label in axis.get_ticklabels():
+                label.set(rotation=(30, 30, 45, 90, 90)[attempt], horizontalalignment="right", rotation_mode="anchor")
+    elif categorical:  # y categories too many for the height: give each its line
+        fig.set_figheight(fig.get_figheight() * 1.25)
+    elif axis.get_scale() == "log":
+        axis.set_major_locator(LogLocator(base=10, subs=(1.0,), numticks=(12, 6, 4, 3, 2)[attempt]))
+    else:
+        axis.set_major_locator(MaxNLocator(nbins=max(2, len(labels) // 2)))
+
+
+def _data_boxes(ax):
+    """Display-space points and boxes of what ``ax`` draws as data (lines, markers, bars, labels)."""
+    from matplotlib.collections import PathCollection
+
+    points = []
+    for line in ax.get_lines():
+        if line.get_visible():
+            points.append(line.get_transform().transform(line.get_xydata()))
+    for collection in ax.collections:
+        if isinstance(collection, PathCollection):
+            points.append(collection.get_offset_transform().transform(collection.get_offsets()))
+        else:
+            points += [collection.get_transform().transform(path.vertices) for path in collection.get_paths()]
+    points = np.vstack([p for p in points if len(p)] or [np.empty((0, 2))])
+    boxes = [patch.get_window_extent() for patch in ax.patches if patch.get_visible()]
+    boxes += [text.get_window_extent() for text in ax.texts if text.get_visible()]
+    return points[np.isfinite(points).all(axis=1)], boxes
+
+
+def _legend_covers(ax, legend):
+    """Whether ``legend`` lies over a data point, bar or label of ``ax`` (within the axes)."""
+    from matplotlib.transforms import Bbox
+
+    frame, axes = legend.get_window_extent(), ax.get_window_extent()
+    points, boxes = _data_boxes(ax)
+    x, y = points.T
+    inside = (x > frame.x0 + 1) & (x < frame.x1 - 1) & (y > frame.y0 + 1) & (y < frame.y1 - 1)
+    inside &= (x >= axes.x0) & (x <= axes.x1) & (y >= axes.y0) & (y <= axes.y1)
+    return bool(inside.any()) or any(
+        _overlap(frame, clipped) for box in boxes if (clipped := Bbox.intersection(box, axes)) is not None)
+
+
+def _place_legend(fig, ax, outside=False):
+    """Keep the legend inside the axes only if it covers nothing and has few entries; else beside them.
+
+    A legend of more than ``3 * MANY_ENTRIES`` entries goes under the chart in columns, and the
+    figure grows by its height; leaves ``fig`` laid out.
+    """
+    _layout(fig)
+    legend = ax.get_legend()
+    if legend is None:
+        return
+    entries = len(legend.get_texts())
+    if not (outside or entries > MANY_ENTRIES or _legend_covers(ax, legend)):
+        return
+    if entries > 3 * MANY_ENTRIES:
+        handles, labels = ax.get_legend_handles_labels()
+        size = legend.get_texts()[0].get_fontsize()
+        column = max(_text_width(label, size) for label in labels) + 3 * size  # the handle and the gaps
+        title = legend.get_title().get_text() or None
+        legend.remove()
+        below = fig.legend(handles, labels, loc="outside lower center", title=title, fontsize=size,
+                           ncols=max(1, int(fig.bbox.width * 0.95 // column)))
+        _layout(fig)
+        fig.set_figheight(fig.get_figheight() + below.get_window_extent().height / fig.dpi)
+        _layout(fig)
+        return
+    legend.set_loc("upper left")
+    legend.set_bbox_to_anchor((1.02, 1.0), transform=ax.transAxes)
+    for text in [*legend.get_texts(), legend.get_title()]:
+        text.set_text(_wrap(text.get_text(), fig.bbox.width * 0.3, text.get_fontsize()))
+    _layout(fig)
+    needed = legend.get_window_extent().height / fig.dpi + 0.3  # inches, with the layout's padding
+    if needed > fig.get_figheight():
+        fig.set_figheight(needed)
+
+
+def _declutter(fig, ax):
+    """Leave out point and bar labels that would overlap another text or the legend, or leave the figure.
+
+    Bar value labels that crowd each other are first turned upright, with head room above the bars.
+    Expects ``fig`` laid out; returns how many labels were left out.
+    """
+    from matplotlib.text import Annotation
+
+    bar_labels = [t for t in ax.texts if t.get_gid() == "bar-value"]
+    if _crowded([t.get_window_extent() for t in bar_labels if t.get_text()]):
+        for label in bar_labels:
+            label.set_rotation(90)
+        ax.set_ymargin(0.3)
+        ax.autoscale_view()
+        _layout(fig)
+    area, legend = fig.bbox, ax.get_legend()
+    others = [t for t in ax.texts if not isinstance(t, Annotation)] + _shown_ticklabels(ax.xaxis, ax) \
+        + _shown_ticklabels(ax.yaxis, ax) + [ax.xaxis.label, ax.yaxis.label, *fig.texts]
+    taken = [t.get_window_extent() for t in others if t.get_visible() and t.get_text()]
+    if legend is not None:
+        taken.append(legend.get_window_extent())
+    left_out = 0
+    for label in [t for t in ax.texts if isinstance(t, Annotation) and t.get_text()]:
+        box = label.get_window_extent()
+        if area.x0 <= box.x0 and box.x1 <= area.x1 and area.y0 <= box.y0 and box.y1 <= area.y1 \
+                and not any(_overlap(box, other, pad=-TEXT_GAP) for other in taken):
+            taken.append(box)
+        else:
+            label.remove()
+            left_out += 1
+    return left_out
+
+
+def _tidy(fig, ax, title, notes, legend_outside=False):
+    """Lay the drawn figure out for reading (see the module docstring); ``notes`` join the title."""
+    heading = fig.suptitle("")
+
+    def set_heading(extra=()):
+        text = title + (f"\n({'; '.join([*notes, *extra])})" if [*notes, *extra] else "")
+        heading.set_text(_wrap(text, fig.bbox.width - 12, heading.get_fontsize()))
+
+    set_heading()
+    if not ax.axison:
+        return
+    _place_legend(fig, ax, outside=legend_outside)  # leaves the figure laid out
+    box = ax.get_window_extent()
+    for label, room in ((ax.xaxis.label, box.width), (ax.yaxis.label, box.height)):
+        label.set_text(_wrap(label.get_text(), max(room, 60.0), label.get_fontsize()))
+    _fix_ticks(fig, ax)
+    short = MIN_AXES_HEIGHT - ax.get_window_extent().height  # a long title or slanted labels took the height
+    if short > 0:
+        fig.set_figheight(fig.get_figheight() + short / fig.dpi)
+        _fix_ticks(fig, ax)
+    legend = ax.get_legend()
+    if legend is not None and _legend_covers(ax, legend):  # the axes changed shape under it
+        _place_legend(fig, ax, outside=True)
+        _fix_ticks(fig, ax)
+    left_out = _declutter(fig, ax)
+    if left_out:
+        set_heading([f"{left_out} point label{'s' if left_out > 1 else ''} left out where they overlapped"])
+        _layout(fig)
+        left_out += _declutter(fig, ax)  # the longer title took height from the axes
+        set_heading([f"{left_out} point label{'s' if left_out > 1 else ''} left out where they overlapped"])
 
 
 def _save(fig, path):
@@ -143,26 +427,30 @@ def _save(fig, path):
     return path
 
 
-def _plot(path, title, note, empty, draw):
-    """Create the figure, call ``draw(ax)`` unless ``empty`` (then say "no data"), save it.
+def _plot(path, title, note, empty, draw, *, figsize=FIGSIZE, legend_outside=False):
+    """Create the figure, call ``draw(ax)`` unless ``empty`` (then say "no data"), tidy and save it.
 
-    ``note`` (what was dropped) goes on a second title line.
+    ``note`` (what was dropped) goes on a second title line; ``legend_outside`` puts the legend
+    beside the axes whatever it covers.
     """
     if Path(path).suffix.lower() != ".svg":
         raise InputError(f"path: expected a .svg file name, got {str(path)!r}")
     import matplotlib as mpl
+    from matplotlib.backends.backend_svg import FigureCanvasSVG
     from matplotlib.figure import Figure
 
     with mpl.rc_context(_RC):
-        fig = Figure(figsize=FIGSIZE, layout="constrained")
+        # 72 dpi and the SVG canvas: layout measures text in the SVG's own units (points) and metrics.
+        fig = Figure(figsize=figsize, dpi=72, layout="constrained")
+        FigureCanvasSVG(fig)
         ax = fig.add_subplot()
-        ax.set_title(f"{title}\n({note})" if note else title)
         if empty:
             ax.set_axis_off()
             ax.text(0.5, 0.5, "no data", ha="center", va="center", fontsize=14,
                     transform=ax.transAxes)
         else:
             draw(ax)
+        _tidy(fig, ax, title, [note] if note else [], legend_outside=legend_outside)
         return _save(fig, path)
 
 
@@ -367,16 +655,20 @@ def stage_breakdown(df, path, *, stage_cols, group_col="backend", title="time pe
 
     def draw(ax):
         left = np.zeros(len(medians))
-        labels = list(medians.index)
+        rows = np.arange(len(medians))
         for i, stage in enumerate(stage_cols):
-            ax.barh(labels, medians[stage], left=left, label=_label(stage).removesuffix(" (s)"),
-                    color=f"C{i % 10}")
+            ax.barh(rows, medians[stage], left=left, label=_label(stage).removesuffix(" (s)"),
+                    color=_PALETTE[i % len(_PALETTE)])
             left += medians[stage].to_numpy()
+        ax.set_yticks(rows, [str(name) for name in medians.index])
         ax.invert_yaxis()  # first group on top
         ax.set_xlabel(f"median time per frame ({unit})")
+        ax.grid(axis="y", visible=False)
         ax.legend(title="stage")
 
-    return _plot(path, title, note, medians.empty, draw)
+    # About a fifth of an inch per bar beyond the first dozen, so that labels keep a line each.
+    figsize = (FIGSIZE[0], max(FIGSIZE[1], 1.6 + 0.22 * len(medians)))
+    return _plot(path, title, note, medians.empty, draw, figsize=figsize, legend_outside=True)
 
 
 def scaling(df, path, *, x_col, y_col, group_col=None, log_x=False, log_y=False, title=None,
@@ -542,8 +834,9 @@ def bar_compare(df, path, *, category_col, value_cols, value_label=None, title=N
         width = 0.8 / len(value_cols)
         for i, column in enumerate(value_cols):
             offset = (i - (len(value_cols) - 1) / 2) * width
-            bars = ax.bar(x + offset, medians[column], width, label=column, color=f"C{i % 10}")
-            ax.bar_label(bars, labels=[_bar_text(v) for v in medians[column]], fontsize=7)
+            bars = ax.bar(x + offset, medians[column], width, label=column, color=_PALETTE[i % len(_PALETTE)])
+            for label in ax.bar_label(bars, labels=[_bar_text(v) for v in medians[column]], fontsize=7):
+                label.set_gid("bar-value")  # _declutter may turn these upright or leave some out
         ax.set_xticks(x, list(medians.index))
         ax.set_yscale("log" if log_y else "linear")
         ax.set_xlabel(str(category_col))

@@ -181,3 +181,94 @@ def test_lines_can_leave_points_unjoined_and_label_them(tmp_path):
     assert all(name in loose and name not in joined for name in ("first", "second", "third"))
     with pytest.raises(InputError, match="missing column"):
         plots.lines(frame, tmp_path / "bad.svg", join=False, label="scene", **common)
+
+
+def test_series_get_distinct_colours_and_pairs_for_many_series(tmp_path):
+    styles = [plots._style(i) for i in range(200)]
+    assert len({s["color"] for s in styles[:20]}) == 20  # 12 series no longer share colours
+    assert len({(s["color"], s["marker"]) for s in styles}) == 200
+    frame = pd.DataFrame({"t": np.arange(1.0, 13.0), "e": np.arange(1.0, 13.0), "g": [f"s{i}" for i in range(12)]})
+    text = svg_text(plots.speed_accuracy(frame, tmp_path / "a.svg", time_col="t", error_col="e", group_col="g"))
+    assert len({c for c in plots._PALETTE[:12] if f"stroke: {c}" in text}) == 12
+
+
+def _text_lines(text):
+    """The text of each <text> element in an SVG string."""
+    import re
+
+    return [line for line in re.findall(r"<text[^>]*>([^<]*)</text>", text)]
+
+
+def test_long_titles_and_labels_are_wrapped_to_the_figure(tmp_path, runs):
+    import matplotlib as mpl
+
+    title = "a finding that goes on " * 8 + "to its end"
+    text = svg_text(plots.scaling(runs, tmp_path / "a.svg", x_col="step", y_col="time_total", title=title,
+                                  y_label="a y label long enough to run past the height of the axes " * 2))
+    pieces = [line for line in _text_lines(text) if "finding" in line or "its end" in line]
+    assert len(pieces) > 1 and " ".join(pieces).split() == title.split()
+    with mpl.rc_context(plots._RC):
+        assert max(plots._text_width(p, 10.8) for p in pieces) <= 432  # the figure is 432 pt wide
+    assert sum("y label" in line for line in _text_lines(text)) > 1
+
+
+def test_overlapping_point_labels_are_left_out_and_counted(tmp_path):
+    frame = pd.DataFrame({"t": 1 + np.arange(30) * 1e-3, "e": 1 + np.arange(30) * 1e-3, "g": ["a"] * 30,
+                          "name": [f"point {i}" for i in range(30)]})
+    text = svg_text(plots.speed_accuracy(frame, tmp_path / "a.svg", time_col="t", error_col="e", group_col="g",
+                                         label_col="name"))
+    shown = [line for line in _text_lines(text) if line.startswith("point ")]
+    assert 0 < len(shown) < 30
+    assert f"{30 - len(shown)} point labels left out" in text
+
+
+def _legend_and_axes_right_edges(text):
+    """x of the legend frame's left edge and of the axes' right edge, from matplotlib's SVG groups."""
+    import re
+
+    def xs(group):
+        path = re.search(rf'<g id="{group}">\s*<g id="patch_\d+">\s*<path d="([^"]*)"', text) if group == "legend_1" \
+            else re.search(rf'<g id="{group}">\s*<path d="([^"]*)"', text)
+        return [float(v) for v in re.findall(r"([-\d.]+) [-\d.]+", path.group(1))]
+
+    return min(xs("legend_1")), max(xs("patch_2"))
+
+
+def test_a_legend_that_would_cover_data_or_lists_many_series_goes_beside_the_axes(tmp_path):
+    grid = np.linspace(1, 10, 12)
+    covering = pd.DataFrame({"t": np.tile(grid, 12), "e": np.repeat(grid, 12), "g": ["a"] * 144})
+    text = svg_text(plots.speed_accuracy(covering, tmp_path / "a.svg", time_col="t", error_col="e", group_col="g",
+                                         log_x=False, log_y=False, join=False))
+    legend_left, axes_right = _legend_and_axes_right_edges(text)
+    assert legend_left > axes_right
+    corner = pd.DataFrame({"t": [1.0, 2.0], "e": [1.0, 2.0], "g": ["a", "a"]})  # the upper right is free
+    text = svg_text(plots.speed_accuracy(corner, tmp_path / "b.svg", time_col="t", error_col="e", group_col="g"))
+    legend_left, axes_right = _legend_and_axes_right_edges(text)
+    assert legend_left < axes_right
+    many = pd.DataFrame({"t": [1.0, 2.0] * 8, "e": [1.0, 2.0] * 8, "g": np.repeat([f"s{i}" for i in range(8)], 2)})
+    text = svg_text(plots.speed_accuracy(many, tmp_path / "c.svg", time_col="t", error_col="e", group_col="g"))
+    legend_left, axes_right = _legend_and_axes_right_edges(text)
+    assert legend_left > axes_right
+
+
+def test_stage_breakdown_grows_with_its_bars_and_keeps_its_legend_off_them(tmp_path):
+    import re
+
+    frame = pd.DataFrame({"backend": [f"setting {i}" for i in range(36)], "time_a": 0.01, "time_b": 0.02})
+    text = svg_text(plots.stage_breakdown(frame, tmp_path / "a.svg", stage_cols=["time_a", "time_b"]))
+    assert float(re.search(r'height="([\d.]+)pt"', text).group(1)) > 36 * 9  # a line of 9 pt text per bar
+    legend_left, axes_right = _legend_and_axes_right_edges(text)
+    assert legend_left > axes_right
+
+
+def test_crowded_category_ticks_are_wrapped_or_rotated(tmp_path):
+    import re
+
+    names = [f"a long category name {i}" for i in range(12)]
+    table = pd.DataFrame({"category": names, "value": np.arange(1.0, 13.0)})
+    text = svg_text(plots.bar_compare(table, tmp_path / "a.svg", category_col="category", value_cols=["value"]))
+    angles = re.findall(r'transform="rotate\((-?[\d.]+)[^"]*"[^>]*>a long category name', text)
+    assert len(angles) == 12 and all(float(a) in (-30, -45, -90) for a in angles)  # whole names, rotated
+    short = pd.DataFrame({"category": ["early stop", "empty skip", "both"], "value": [1.0, 2.0, 3.0]})
+    text = svg_text(plots.bar_compare(short, tmp_path / "b.svg", category_col="category", value_cols=["value"]))
+    assert "early stop" in _text_lines(text) and "rotate(-30" not in text  # room enough: left as it is
