@@ -220,6 +220,7 @@ def claims_table(frame, experiments):
     Each claim is checked on the successful rows and gets a verdict (:mod:`pipeline.experiments.kit.verdicts`):
     ``blocked`` where it would read runs that should have happened here and did not.
     """
+    from pipeline.experiments.kit.pages import claim_evidence
     from pipeline.experiments.kit.verdicts import judge
 
     # One block per dtype: pandas.read_csv of runs.csv gives one per column (hundreds), and every
@@ -236,13 +237,14 @@ def claims_table(frame, experiments):
                 "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
                 "interval_low": verdict.interval[0] if verdict.interval else None,
                 "interval_high": verdict.interval[1] if verdict.interval else None,
-                "margin": verdict.margin,
+                "margin": verdict.margin, **claim_evidence(verdict, part),
             })
     return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
 
 
 CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "expected", "measured", "holds", "verdict", "detail",
-                 "interval_low", "interval_high", "margin"]
+                 "interval_low", "interval_high", "margin", "disturbed_views", "software_rasterizer", "stand_in"]
 """The columns of ``claims.csv``: ``interval_low``/``interval_high`` bound the 95 % interval of the measured value
 where it rests on timed frames (in the value's unit: a ratio, seconds), ``margin`` is its relative distance
-from the bound, positive on the holding side (the worst row's, for a claim over several)."""
+from the bound, positive on the holding side (the worst row's, for a claim over several); the last three are
+what a failing claim's likely cause is read from (:func:`pipeline.experiments.kit.pages.claim_evidence`)."""

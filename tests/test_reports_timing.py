@@ -29,8 +29,9 @@ def test_the_claims_sentence_counts_inconclusive_claims_as_measured_and_names_th
                            "measured": ["×3", "×1.5", "×2.1 (95 % CI ×1.9–×2.3)", "n/a"],
                            "verdict": ["holds", "fails", "inconclusive", "not measured"]})
     assert takeaways.claims(claims) == [
-        "1 of 3 measured claims hold; failing: b (measured ×1.5, expected ≥ ×2); inconclusive (the interval "
-        "straddles the bound): c (measured ×2.1 (95 % CI ×1.9–×2.3), expected ≥ ×2); 1 not measured."]
+        "1 of 3 measured claims hold; 1 fail; 1 inconclusive; 1 not measured.",
+        "Fails: b (measured ×1.5, expected ≥ ×2); likely cause: cause not determined.",
+        "Inconclusive (cause not determined × 1): c (measured ×2.1 (95 % CI ×1.9–×2.3), expected ≥ ×2)."]
 
 
 # ------------------------------------------------------------------------------ interval and margin
@@ -119,6 +120,9 @@ def test_quiet_timings_list_nothing_and_results_before_disturbances_say_nothing(
     assert outcomes.disturbance_notice(None) == ""
     failed = _rows(info_disturbed=DISTURBED, status=["failed"] * 5)
     assert outcomes.timing_disturbances(failed)["disturbed"] == []  # a run that made no frame was not timed
+    # Untimed frames (ground truths, accuracy-only runs) are never called disturbed, whatever their record says.
+    untimed = outcomes.timing_disturbances(_rows(info_disturbed=DISTURBED, info_untimed=[True] * 5))
+    assert untimed["views"] == 0 and untimed["disturbed"] == []
 
 
 # --------------------------------------------------------------------------------- the pages built
@@ -154,10 +158,17 @@ def _report(tmp_path, runs, claims=CLAIMS, environment=PROFILE):
     return html.unescape(index.read_text()), html.unescape((index.parent / "fake2024.html").read_text())
 
 
+def _appendix(tmp_path, runs, claims=CLAIMS, environment=PROFILE):
+    """The appendix (how frames are timed, which were disturbed) of :func:`_report`'s report."""
+    _report(tmp_path, runs, claims, environment)
+    return html.unescape((tmp_path / "report" / "appendix.html").read_text())
+
+
 def test_pages_list_disturbed_and_starved_runs_and_say_so_on_the_paper_page(tmp_path):
     runs = _rows(info_disturbed=DISTURBED, rerun=RERUN,
                  info_starved=[np.nan] * 4 + ["2 workers had 1.4 free cores (other work used 0.60)"])
-    index, page = _report(tmp_path, runs)
+    _, page = _report(tmp_path, runs)
+    index = _appendix(tmp_path, runs)
     listing = index[index.index('id="disturbances"'):index.index('id="environment"')]
     items = re.findall(r"<li>(.*?)</li>", listing, flags=re.S)
     assert len(items) == 3  # two sets of causes (e1 and e2 are one experiment here), one starved run
@@ -171,11 +182,12 @@ def test_pages_list_disturbed_and_starved_runs_and_say_so_on_the_paper_page(tmp_
             in " ".join(index.split()))
     notice = page[page.index('class="disturbed"'):page.index('class="takeaways"')]
     assert ("3 of the 5 timed views on this page were disturbed while timed and 1 parallel run had fewer free cores "
-            "than workers") in notice and 'href="index.html#disturbances"' in notice
+            "than workers") in notice and 'href="appendix.html#disturbances"' in notice
 
 
 def test_quiet_pages_have_no_listing_and_no_notice(tmp_path):
-    index, page = _report(tmp_path, _rows(info_starved=np.nan))
+    _, page = _report(tmp_path, _rows(info_starved=np.nan))
+    index = _appendix(tmp_path, _rows(info_starved=np.nan))
     section = index[index.index('id="disturbances"'):index.index('id="environment"')]
     assert "<li>" not in section and "No timed view was still disturbed" in section
     assert 'class="disturbed"' not in page
@@ -198,7 +210,8 @@ def test_the_claims_table_shows_interval_margin_and_the_inconclusive_verdict(tmp
 
 def test_results_without_interval_or_disturbance_columns_still_render(tmp_path):
     old_claims = CLAIMS.drop(columns=["interval_low", "interval_high", "margin", "verdict"])
-    index, page = _report(tmp_path, _rows().drop(columns=["info_disturbed", "rerun"]), old_claims, environment={})
+    _, page = _report(tmp_path, _rows().drop(columns=["info_disturbed", "rerun"]), old_claims, environment={})
+    index = _appendix(tmp_path, _rows().drop(columns=["info_disturbed", "rerun"]), old_claims, environment={})
     assert 'id="timing"' in index and 'id="disturbances"' not in index
     assert "until there are at least the profile's repeat and they took at least its min_time (" in " ".join(index.split())
     assert "×1.55–×1.7" in page  # from the check's words

@@ -13,7 +13,7 @@ from pipeline.experiments.kainz2009.ratios import (KERNELS, TECHNIQUE, combined,
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, format_number
+from pipeline.experiments.kit.pages import claim_takeaways, db_words, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, listed, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from reports import blocks, plots
@@ -92,7 +92,8 @@ def _hull_accuracy(df):
             raise ValueError(f"no PSNR of the box and hull runs on {name}")
         worst[name] = float(box.iloc[0] - hull.min())
     name = max(worst, key=worst.get)
-    return ClaimResult(f"{format_number(worst[name])} dB below the box ({name})", bool(worst[name] <= 1.0),
+    words = db_words(-worst[name], more="above", less="below", same="level with")
+    return ClaimResult(f"{words} the box ({name})", bool(worst[name] <= 1.0),
                        ", ".join(f"{s}: {format_number(v)} dB" for s, v in worst.items()))
 
 

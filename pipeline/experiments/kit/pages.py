@@ -1,5 +1,9 @@
 """Report pages: claim take-aways, linked tables, numbers in words, one difference scale.
 
+Words with a sign go through one helper each, so that no page says "-8.69 % slower":
+:func:`change_words` for ratios ("8.69 % faster", "×14.9 slower"), :func:`db_words` for differences in
+dB ("2 dB less"); :func:`setting_words` says a backend's options as words ("step 0.5 voxel").
+
 Every experiment's ``report`` builds its blocks (:mod:`reports.blocks`) with these, so that every
 page links a number to its run the same way and draws every difference map on :data:`DIFF_SCALE`.
 """
@@ -7,9 +11,14 @@ page links a number to its run the same way and draws every difference map on :d
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit.verdicts import claim_sentences
+from datasets.registry import DATASETS
+from pipeline.experiments.kit.verdicts import claim_sentences, disturbed_detail
 from reports import blocks
-from reports.takeaways import number
+from reports.takeaways import change_words, db_words, number, setting_words
+
+__all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
+           "device_takeaways", "format_number", "frames_counted", "frames_note", "gl_devices", "linked_table", "links",
+           "ms", "not_measurable", "setting_words"]
 
 DIFF_SCALE = 0.1
 """Absolute error at the top of every difference image's colour map, on every page (one stated scale)."""
@@ -112,3 +121,38 @@ def device_takeaways(tests, *, software):
     elif len(names) > 1:
         sentence += "; ratios are computed per device, never across devices"
     return [sentence + "."]
+
+
+_DISTURBED = disturbed_detail([("", "", "")]).partition(" 1 view")[0]
+"""How a verdict's detail starts when it rests on disturbed views (:func:`~pipeline.experiments.kit.verdicts.judge`)."""
+
+
+def claim_evidence(verdict, rows):
+    """What ``claims.csv`` carries for :func:`reports.takeaways.likely_cause`, from a claim's
+    :class:`~pipeline.experiments.kit.verdicts.Verdict` and its experiment's ``rows``.
+
+    Returns ``{"disturbed_views": n, "software_rasterizer": names, "stand_in": phantoms}``: how many
+    disturbed views the verdict rests on (it says so in its detail), the CPU rasterizers that timed the
+    experiment's GL runs, and its phantoms that stand in for a paper's data set (the registry gives
+    them the original's statistics as targets: :attr:`datasets.registry.DatasetSpec.targets_by_preset`);
+    empty text where none.
+    """
+    disturbed = 0
+    if verdict.detail.startswith(_DISTURBED):
+        disturbed = int(verdict.detail.removeprefix(_DISTURBED).split()[0])
+    ok = rows[rows.status == "ok"] if "status" in rows else rows
+    software = ""
+    if {"gl_software_rasterizer", "gl_renderer"} <= set(ok.columns):
+        cpu = ok[ok.gl_software_rasterizer.astype("boolean").fillna(False).astype(bool)]
+        software = ", ".join(sorted(set(cpu.gl_renderer.dropna().astype(str))))
+    names = sorted(set(ok.dataset.dropna().astype(str))) if "dataset" in ok else []
+    stand_ins = [n for n in names if n in DATASETS and DATASETS[n].kind == "phantom" and DATASETS[n].targets_by_preset]
+    return {"disturbed_views": disturbed, "software_rasterizer": software,
+            "stand_in": _stand_in_words(stand_ins)}
+
+
+def _stand_in_words(names):
+    if not names:
+        return ""
+    shown = ", ".join(names[:2]) + (f" and {len(names) - 2} more" if len(names) > 2 else "")
+    return f"{shown} standing in for the paper's data"

@@ -7,7 +7,7 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import change_words, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
 from pipeline.experiments.kruger2003.methods import (RAYCAST, STRICTLY_ABOVE_ONE, gl_not_measurable, median_count,
@@ -42,9 +42,9 @@ def _threshold(df):
     low, high = (rows[rows.setting == rows.setting.iloc[end]] for end in (0, -1))
     decision = intervals.ratio_decision(high, low, at_least=STRICTLY_ABOVE_ONE)
     low_psnr, high_psnr = float(low.psnr.iloc[0]), float(high.psnr.iloc[0])
-    measured = (f"T {format_number(low.setting.iloc[0])} faster by {ratio_words(decision)}; "
-                f"{format_number(low_psnr)} dB against {format_number(high_psnr)} dB at T "
-                f"{format_number(high.setting.iloc[0])}")
+    low_t, high_t = format_number(low.setting.iloc[0]), format_number(high.setting.iloc[0])
+    measured = (f"T {low_t} {change_words(1 / decision.value)} than T {high_t} (time at T {high_t} / at T {low_t} "
+                f"{ratio_words(decision)}); {format_number(low_psnr)} dB against {format_number(high_psnr)} dB")
     detail = (f"RC-b on the head, whole frames interleaved: {format_number(stage_time(low.iloc[0]) * 1e3)} ms and "
               f"{format_number(stage_time(high.iloc[0]) * 1e3)} ms; samples {format_number(median_count(low))} and "
               f"{format_number(median_count(high))}")

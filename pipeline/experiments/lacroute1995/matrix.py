@@ -9,7 +9,7 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, format_number, linked_table, not_measurable
+from pipeline.experiments.kit.pages import as_ratio, change_words, format_number, linked_table, not_measurable
 from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
@@ -215,8 +215,9 @@ def _title(table):
     both = table[table.optimisation == MATRIX_CONFIGS["rle+early-termination"][1]]
     if both.empty:
         return "Frame time against the number of samples"
-    return (f"RLE + early termination: {format_number(1 / both['samples / brute force'].median(), 2)}× fewer samples, "
-            f"a {format_number(both['composite speed-up'].median(), 2)}× faster compositing loop than brute force (median)")
+    samples = change_words(both["samples / brute force"].median(), faster="fewer", slower="more")
+    loop = change_words(1 / both["composite speed-up"].median())
+    return f"RLE + early termination: {samples} samples, a compositing loop {loop} than brute force (median)"
 
 
 def _takeaways(table):

@@ -11,8 +11,8 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, format_number,
+                                            linked_table, not_measurable)
 from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, text_column
 from pipeline.experiments.lacroute1995 import tables
@@ -175,7 +175,8 @@ def _falls(df):
     psnr_ = perspective.footprint_psnr.to_numpy(float)
     drop = psnr_[0] - psnr_[-1]
     rise = float(np.max(np.diff(psnr_)))
-    return ClaimResult(f"{format_number(drop)} dB lower at {perspective.fov.iloc[-1]:g}° than at {perspective.fov.iloc[0]:g}°",
+    return ClaimResult(f"{db_words(-drop, more='higher', less='lower')} at {perspective.fov.iloc[-1]:g}° than at "
+                       f"{perspective.fov.iloc[0]:g}°",
                        bool(drop >= 1.0 and rise <= 0.5),
                        ", ".join(f"{r.fov:g}°: {format_number(r.footprint_psnr)} dB over {as_percent(r.coverage)} of the "
                                  f"frame (whole frame {format_number(float(getattr(r, 'psnr', np.nan)))} dB)"

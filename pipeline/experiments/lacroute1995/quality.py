@@ -12,8 +12,8 @@ import pandas as pd
 
 import datasets
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, format_number,
+                                            linked_table, not_measurable)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, missing_options,
                                                phantom, scene, truth_run, unregistered)
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, text_column
@@ -297,7 +297,8 @@ def _drop(df, tf, aliasing, truth="pre"):
         details.append(detail)
     key = min(drops, key=drops.get) if aliasing else max(drops, key=drops.get)
     what = " beyond the smooth one's loss" if aliasing else ""
-    return ClaimResult(f"{format_number(drops[key])} dB lost from {base:g}° to 45°{what} ({key})", bool(holds),
+    words = db_words(-drops[key], more="gained", less="lost")
+    return ClaimResult(f"{words} from {base:g}° to 45°{what} ({key})", bool(holds),
                        "; ".join(details))
 
 

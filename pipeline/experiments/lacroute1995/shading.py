@@ -11,8 +11,8 @@ import pandas as pd
 from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, change_words, claim_takeaways, format_number,
+                                            linked_table, not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
@@ -309,5 +309,9 @@ def _mode_switch(df):
 
 
 def _lut_title(ok):
-    return title_or(lambda d: f"Lookup-table shading is {LUT_SPEED(d).measured} faster than per-voxel Phong", ok,
+    def title(d):
+        ratio = LUT_SPEED.denominator.value(d) / LUT_SPEED.numerator.value(d)
+        return f"Lookup-table shading is {change_words(ratio)} than per-voxel Phong"
+
+    return title_or(title, ok,
                     "Per-frame time by stage")

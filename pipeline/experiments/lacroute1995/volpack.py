@@ -10,7 +10,8 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, format_number, linked_table, not_measurable
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, change_words, format_number, linked_table,
+                                            not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, listed, missing_options, phantom,
                                                scene, timed_frames, truth_run, unregistered)
 from pipeline.experiments.kit.results import ok_rows, pair_metrics, rows_matching, speed_points, text_column
@@ -254,9 +255,7 @@ def _chart_title(scene_name, group):
     if ours.empty or vp.empty:
         return f"{scene_name}: frame time against PSNR"
     ratio = float(ours.time_total.iloc[0] / vp.time_total.iloc[0])
-    word = "faster" if ratio < 1 else "slower"
-    return (f"{scene_name}: our shear-warp on 1 core is {format_number(1 / ratio if ratio < 1 else ratio, 2)}× {word} "
-            f"than VolPack")
+    return f"{scene_name}: our shear-warp on 1 core is {change_words(ratio)} than VolPack"
 
 
 def _takeaways(ok):
