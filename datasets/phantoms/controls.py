@@ -7,7 +7,7 @@ and 000 (§6: the E2 control where no ray terminates and no block is empty).
 import numpy as np
 
 from datasets import noise
-from datasets.shapes import Canvas, Grid, Sphere
+from datasets.shapes import Canvas, Grid, Shell, Sphere
 from core.volume import Volume
 from core.errors import InputError
 from core.validation import check_positive_int
@@ -19,15 +19,19 @@ def _check_value(value, name):
     return int(value)
 
 
-def sphere(size, seed):
-    """One band-limited solid sphere, radius 100 voxels at 256 (0.39 of the box), value 200 on 0.
+def sphere(size, seed, shell=0):
+    """One band-limited sphere, radius 100 voxels at 256 (0.39 of the box), value 200 on 0.
 
     The view-independence control of Lacroute's Fig. 5.3 and the strided-access test. No noise,
-    so ``seed`` does not change it.
+    so ``seed`` does not change it. ``shell`` > 0 keeps only the outer layer that many voxels
+    thick (of this ``size``): the thin features of the stability atlas. 0 is the solid sphere.
     """
+    if isinstance(shell, bool) or not isinstance(shell, (int, float, np.integer, np.floating)) or not shell >= 0:
+        raise InputError(f"sphere shell: expected a thickness in voxels >= 0 (0: solid), got {shell!r}")
     grid = Grid.for_aspect(size)
     canvas = Canvas(grid)
-    canvas.paint(Sphere((0, 0, 0), 100 / 256), 200)
+    ball = Sphere((0, 0, 0), 100 / 256)
+    canvas.paint(Shell(ball, float(shell) * grid.h) if shell else ball, 200)
     return Volume(canvas.to_uint8(), name="sphere")
 
 

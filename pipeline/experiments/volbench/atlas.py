@@ -1,0 +1,356 @@
+"""``volbench-atlas``: the stability atlas, every backend swept along every stress axis it supports.
+
+Each axis of :mod:`.atlas_axes` sweeps one thing on one scene shared by every backend; every point is
+one untimed frame compared with the reference at a fine step. The page opens with each technique's
+failure threshold (30 dB PSNR: it "breaks"; 40 dB: accurate), then a technique × axis heat map of the
+worst PSNR, each cell linked to its axis's sweep chart and its worst difference image; a backend that
+lacks an axis's feature or option shows why in its cell.
+"""
+
+import dataclasses
+import functools
+
+import numpy as np
+import pandas as pd
+
+import renderers
+from core.errors import InputError
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.pages import DIFF_SCALE, format_number, linked_table
+from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, truth_run
+from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
+from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, axis_reason, points, short
+from reports import blocks
+from reports.takeaways import PSNR_GOOD
+
+PSNR_BREAKS = 30.0
+"""Below this PSNR against the reference a technique "breaks" on a point (40 dB, PSNR_GOOD: accurate)."""
+
+TRUTH_STEP = 1 / 8
+"""The reference's step for every ground truth, in voxels."""
+
+CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
+"""The reference's own steps on the step axis: its error must fall as the step shrinks."""
+
+
+def _values(frame):
+    """Each row's swept value: its ``value`` tag, or (a view axis) the number in its view name ``at<v>``."""
+    tagged = pd.to_numeric(frame["value"], errors="coerce") if "value" in frame else pd.Series(np.nan, frame.index)
+    from_view = pd.to_numeric(frame["view"].astype(str).str.removeprefix("at"), errors="coerce")
+    return tagged.fillna(from_view)
+
+
+def atlas_rows(results):
+    """The successful test rows (reference excluded), with numeric ``value``, ``psnr`` and ``flip``."""
+    ok = ok_rows(results)
+    if ok.empty or "role" not in ok:
+        return ok.iloc[:0].assign(value=[], psnr=[], flip=[])
+    tests = ok[(ok.role == "test") & (ok.backend != REFERENCE)].copy()
+    tests["value"] = _values(tests)
+    tests["psnr"] = numeric(tests, "psnr") if "psnr" in tests else np.nan
+    tests["flip"] = pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan
+    return tests[tests.psnr.notna()]
+
+
+def threshold(rows, axis, *, breaks=PSNR_BREAKS):
+    """Where ``rows`` (one backend on ``axis``) fall below ``breaks`` dB, in words, or ``None`` if never.
+
+    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest
+    of them); failing points that run to the milder end instead give the reverse ("≤ v"), and
+    failures in the middle only are listed.
+
+    Returns
+    -------
+    dict or None
+        ``{"words", "value", "psnr", "everywhere", "expected"}``: the threshold in words, where it
+        lies, the worst PSNR, whether every point failed and whether the failures lie at the harsher
+        end (the expected side).
+    """
+    if rows.empty:
+        return None
+    order = rows.sort_values("value", ascending=axis.harsher == "up").reset_index(drop=True)
+    fails = (order.psnr < breaks).to_numpy()
+    if not fails.any():
+        return None
+    name, worst = axis.words.split(" (")[0], float(order.psnr.min())
+    if fails.all():
+        words = (f"any {name} tried ({axis.point(order.value.iloc[0])} to {axis.point(order.value.iloc[-1])})"
+                 if len(order) > 1 else f"{name} {axis.point(order.value.iloc[0])}")
+        return {"words": words, "value": float(order.value.iloc[0]), "psnr": worst, "everywhere": True,
+                "expected": True}
+    if fails[-1]:
+        first = len(fails) - np.argmin(fails[::-1])  # the mildest of the failing tail
+        return {"words": axis.threshold(order.value.iloc[first]), "value": float(order.value.iloc[first]),
+                "psnr": worst, "everywhere": False, "expected": True}
+    if fails[0]:
+        last = np.argmin(fails) - 1
+        reverse = dataclasses.replace(axis, harsher="down" if axis.harsher == "up" else "up")
+        return {"words": reverse.threshold(order.value.iloc[last]), "value": float(order.value.iloc[last]),
+                "psnr": worst, "everywhere": False, "expected": False}
+    failing = order[fails]
+    return {"words": f"{name} at " + ", ".join(axis.point(v) for v in failing.value), "value": float(failing.value.iloc[0]),
+            "psnr": worst, "everywhere": False, "expected": False}
+
+
+def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
+    """``{backend: phrase}`` completing "fails when …" (see :meth:`Atlas.failures`)."""
+    out = {}
+    for backend in backends:
+        mine = tests[tests.backend == backend]
+        if mine.empty:
+            continue
+        found = []
+        for axis in AXES:
+            hit = threshold(mine[mine.axis == axis.key], axis, breaks=breaks)
+            if hit:
+                found.append(((hit["everywhere"], not hit["expected"], hit["psnr"]), axis, hit))
+        if found:
+            # A threshold inside a sweep, on its harsher side, says more than an axis failing everywhere
+            # (a default that breaks) or than failures at the milder end.
+            _, axis, hit = min(found, key=lambda f: f[0])
+            out[backend] = f"{hit['words']} on {axis.scene_words} ({format_number(hit['psnr'])} dB)"
+        else:
+            worst = mine.loc[mine.psnr.idxmin()]
+            axis = AXIS_BY_KEY[worst.axis]
+            out[backend] = (f"no axis below {breaks:g} dB (worst {format_number(worst.psnr)} dB at "
+                            f"{axis.words.split(' (')[0]} {axis.point(worst.value)})")
+    return out
+
+
+def heat_cells(tests, backends, reasons, *, unrendered=None, difference=None):
+    """The heat map's cells: ``{(backend, axis words): HeatCell}``.
+
+    ``reasons`` maps ``(backend, axis key)`` to why the backend was left out of that axis,
+    ``unrendered`` to why its planned runs made no frame (skipped or failed);
+    ``difference(row)`` gives the worst point's difference image (``None``: no image).
+    """
+    cells = {}
+    for backend in backends:
+        for axis in AXES:
+            why = reasons.get((backend, axis.key), "")
+            rows = tests[(tests.backend == backend) & (tests.axis == axis.key)]
+            if why or rows.empty:
+                text = why or f"no frame here: {(unrendered or {}).get((backend, axis.key), 'not run')}"
+                cells[(backend, axis.words)] = blocks.HeatCell(text=text, value=None)
+                continue
+            worst = rows.loc[rows.psnr.idxmin()]
+            flip = f"FLIP {format_number(worst.flip)} at " if pd.notna(worst.flip) else "at "
+            cells[(backend, axis.words)] = blocks.HeatCell(
+                text=f"{worst.psnr:.1f} dB", value=float(worst.psnr), link=f"#atlas-{axis.key}",
+                image=difference(worst) if difference else None,
+                note=f"{flip}{axis.words.split(' (')[0]} {axis.point(worst.value)}")
+    return cells
+
+
+def _convergence(df):
+    rows = rows_matching(df, "the reference's step sweep", role="convergence")
+    if len(rows) < 2:
+        raise ValueError("fewer than two steps of the reference's own sweep")
+    rows = rows.assign(step=numeric(rows, "value"), psnr=numeric(rows, "psnr")).sort_values("step", ascending=False)
+    gains = np.diff(rows.psnr.to_numpy())
+    measured = ", ".join(f"{format_number(p)} dB at {s:g}" for s, p in zip(rows.step, rows.psnr))
+    return ClaimResult(measured, bool((gains > 0).all()), "PSNR against the reference at 1/8 voxel, "
+                       "largest step first")
+
+
+def _shearwarp_45(df):
+    rows = rows_matching(df, "shear-warp's angle sweep", backend="shearwarp", axis="angle")
+    if len(rows) < 3:
+        raise ValueError("fewer than three angles of shear-warp's sweep")
+    rows = rows.assign(angle=_values(rows), psnr=numeric(rows, "psnr"))
+    worst = rows.loc[rows.psnr.idxmin()]
+    spread = rows.psnr.max() - rows.psnr.min()
+    return ClaimResult(f"worst at {worst.angle:g}° ({format_number(worst.psnr)} dB)", bool(worst.angle >= 35.0),
+                       f"PSNR spread over the sweep {format_number(spread)} dB")
+
+
+class Atlas(Experiment):
+    """Every backend along every stress axis it supports, against the reference: where each one breaks."""
+
+    name = "volbench-atlas"
+    title = "Stability atlas: where each technique breaks"
+    page = "atlas"
+    atlas = True
+    """The index's decision panel reads :meth:`failures` from the experiment that sets this."""
+    settings = frozenset({"volume_size", "image_size", "axes"})
+    scales = {"smoke": {"volume_size": 24, "image_size": 32},
+              "default": {"volume_size": 48, "image_size": 64},
+              "full": {"volume_size": 128, "image_size": 256}}
+    description = (
+        "One sweep per stress axis, each on one scene shared by every backend (same data, camera and "
+        "transfer function), every point one untimed frame compared with the reference at 1/8 voxel. A "
+        "backend without an axis's feature or option is not run on it; its cell says why. A point below "
+        f"{PSNR_BREAKS:g} dB PSNR breaks; {PSNR_GOOD:g} dB is accurate. The pre-classified reference is not "
+        "an axis here (lacroute1995-quality compares shear-warp with it)."
+    )
+    claims = (
+        Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
+              "PSNR against the 1/8-voxel reference rises with every halving of the step (1, 1/2, 1/4 voxel)",
+              _convergence),
+        Claim("shearwarp-45", "Shear-warp's worst view is near 45°, where its principal axis switches",
+              "the lowest PSNR of shear-warp's angle sweep lies at 35° or more", _shearwarp_45),
+    )
+
+    def axes(self, profile):
+        """The axes of this profile (its ``axes`` setting: keys of :data:`AXIS_BY_KEY`; default all)."""
+        keys = list(profile.setting(self, "axes", [axis.key for axis in AXES]))
+        unknown = [k for k in keys if k not in AXIS_BY_KEY]
+        if unknown:
+            raise InputError(f"profile {profile.name!r} settings.{self.name}.axes: unknown {unknown}; "
+                             f"known: {list(AXIS_BY_KEY)}")
+        return [AXIS_BY_KEY[k] for k in keys]
+
+    def plan(self, profile):
+        """``{axis key: points}``: each axis's ``(value, scene, views)`` at this profile's scale."""
+        size = int(profile.setting(self, "volume_size", profile.volume_size))
+        image = int(profile.setting(self, "image_size", profile.image_size))
+        return {axis.key: points(axis, axis.values[profile.scale], size=size, image=image)
+                for axis in self.axes(profile)}
+
+    def runs(self, profile):
+        runs = []
+        reasons = left_out()
+        for key, planned in self.plan(profile).items():
+            axis = AXIS_BY_KEY[key]
+            values = axis.values[profile.scale]
+            for index, (value, spec, views) in enumerate(planned):
+                tags = {"axis": key, "scene": spec["name"], **({"value": value} if value is not None else {})}
+                prefix = f"{key}.{index}"
+                truth = dataclasses.replace(truth_run(self.name, prefix, spec, views, TRUTH_STEP, tags),
+                                            interleave=f"{key}.truth")
+                runs.append(truth)
+                for backend in renderers.names():
+                    if backend == REFERENCE or (backend, key) in reasons:
+                        continue
+                    base = (axis.backend_options or {}).get(backend, {})
+                    sweep = [(v, {axis.option: v}) for v in values] if axis.option else [(value, {})]
+                    for number, (point, options) in enumerate(sweep):
+                        run_tags = {**tags, "role": "test", **({"value": point} if point is not None else {})}
+                        runs.append(Run(self.name, f"{prefix}.{backend}.{number}", backend, spec, views,
+                                        options={**base, **options}, reference=truth.id, **UNTIMED,
+                                        interleave=f"{key}.{backend}", tags=run_tags))
+                if key == "step":
+                    runs += [Run(self.name, f"{prefix}.reference.{number}", REFERENCE, spec, views,
+                                 options={"step_factor": step}, reference=truth.id, **UNTIMED,
+                                 interleave=f"{key}.truth", tags={**tags, "role": "convergence", "value": step})
+                             for number, step in enumerate(CONVERGENCE_STEPS)]
+        return runs
+
+    def failures(self, results):
+        """``{backend: phrase}`` completing "fails when …", from the atlas's numbers.
+
+        The mildest value of an axis below 30 dB ("min opacity ≥ 0.01 on the semi-transparent engine
+        (17.6 dB)"), preferring a threshold inside a sweep to an axis that fails at every value; a
+        backend that never falls below 30 dB gets its worst point ("no axis below 30 dB (worst …)").
+        """
+        tests = atlas_rows(results)
+        return failure_phrases(tests, sorted(set(tests.backend)))
+
+    def report(self, results, ctx):
+        from reports import plots  # matplotlib: only when the report is built
+
+        tests = atlas_rows(results)
+        backends = [b for b in renderers.names() if b != REFERENCE]
+        reasons = left_out()
+        out = [blocks.Takeaways(_takeaways(tests))]
+        cells = heat_cells(tests, backends, reasons, unrendered=_unrendered(results),
+                           difference=lambda row: ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE))
+        out.append(blocks.HeatMap(
+            "Worst PSNR of each technique on each axis", backends, [axis.words for axis in AXES], cells,
+            caption=f"Each cell: the lowest PSNR against the reference over that axis's sweep, with the worst FLIP "
+                    f"and where; red below {PSNR_BREAKS:g} dB (breaks), amber to {PSNR_GOOD:g} dB, green above "
+                    "(accurate). A cell links to its sweep chart and shows the worst point's difference image "
+                    f"(absolute error, full colour at {DIFF_SCALE:g}). Grey: the technique lacks the axis, and why.",
+            thresholds=(PSNR_BREAKS, PSNR_GOOD)))
+        for axis in AXES:
+            rows = tests[tests.axis == axis.key] if "axis" in tests else tests.iloc[:0]
+            if rows.empty:
+                continue
+            out += _axis_blocks(axis, rows, results, ctx, plots)
+        if not tests.empty:
+            named = {"value": "swept value", "axis_words": "axis"}
+            table = tests.assign(axis_words=[AXIS_BY_KEY[k].words for k in tests.axis])
+            out.append(linked_table("Every point", table.sort_values(["axis", "backend", "value"]),
+                                    ["backend", "axis_words", "value", "psnr", "flip"], ctx, names=named,
+                                    csv_name="atlas.csv",
+                                    caption="One untimed frame per point; each row links to its run record and EXR."))
+        return out
+
+
+@functools.lru_cache(maxsize=1)
+def left_out():
+    """``{(backend, axis key): reason}`` for every backend left out of an axis, at any scale.
+
+    Judged on every value of every scale at once (what a backend lacks is a feature or an option,
+    not a size), so the plan and the report agree whatever profile made the results.
+    """
+    reasons = {}
+    for axis in AXES:
+        values = sorted({v for scale in axis.values.values() for v in scale})
+        planned = points(axis, values, size=32, image=32)
+        for backend in renderers.names():
+            why = "" if backend == REFERENCE else axis_reason(axis, backend, planned)
+            if why:
+                reasons[(backend, axis.key)] = why
+    return reasons
+
+
+def _unrendered(results):
+    """``{(backend, axis key): reason}`` of the first run of each that made no frame."""
+    if "status" not in results or "axis" not in results:
+        return {}
+    missed = results[(results.status != "ok") & results.axis.notna()]
+    return {(row.backend, row.axis): short(str(row.reason)) for row in missed.itertuples()}
+
+
+def _takeaways(tests):
+    """At most five sentences: the thresholds, the techniques that never break, the worst axis."""
+    if tests.empty:
+        return ["No atlas point rendered here; the table of skipped runs says why."]
+    phrases = failure_phrases(tests, sorted(set(tests.backend)))
+    failing = {b: p for b, p in phrases.items() if not p.startswith("no axis")}
+    holding = [b for b in phrases if b not in failing]
+    out = [f"A point breaks below {PSNR_BREAKS:g} dB PSNR against the reference and is accurate from "
+           f"{PSNR_GOOD:g} dB."]
+    if failing:
+        out.append("Below " + f"{PSNR_BREAKS:g} dB: " + "; ".join(f"{b} once {p}" for b, p in failing.items()) + ".")
+    if holding:
+        worst = tests[tests.backend.isin(holding)].groupby("backend").psnr.min()
+        out.append(f"Never below {PSNR_BREAKS:g} dB on any axis: "
+                   + ", ".join(f"{b} (worst {format_number(worst[b])} dB)" for b in holding) + ".")
+    per_axis = tests.groupby(["axis", "backend"]).psnr.min().groupby("axis")
+    broken = per_axis.apply(lambda s: int((s < PSNR_BREAKS).sum()))
+    median = per_axis.median()
+    worst_axis = max(broken.index, key=lambda k: (broken[k], -median[k]))
+    out.append(f"The worst axis overall is {AXIS_BY_KEY[worst_axis].words.split(' (')[0]}: "
+               f"{broken[worst_axis]} of {per_axis.size().get(worst_axis, 0)} techniques break on it "
+               f"(median worst PSNR {format_number(median[worst_axis])} dB).")
+    return out[:5]
+
+
+def _axis_blocks(axis, rows, results, ctx, plots):
+    """One axis: its sweep chart (anchored for the heat map) and a gallery of each backend's worst point."""
+    path, rel = ctx.plot_path(axis.key)
+    low, high = float(rows.value.min()), float(rows.value.max())
+    guides = [(f"{PSNR_BREAKS:g} dB (breaks)", [low, high], [PSNR_BREAKS] * 2),
+              (f"{PSNR_GOOD:g} dB (accurate)", [low, high], [PSNR_GOOD] * 2)]
+    below = sorted(set(rows[rows.psnr < PSNR_BREAKS].backend))
+    title = (f"{axis.words.split(' (')[0].capitalize()}: {len(below)} of {rows.backend.nunique()} techniques "
+             f"fall below {PSNR_BREAKS:g} dB")
+    plots.lines(rows.sort_values("value"), path, x="value", y="psnr", group="backend", title=title,
+                x_label=axis.words, y_label="PSNR against the reference (dB)", guides=guides,
+                log_x=axis.key in ("step", "min_opacity") and low > 0)
+    out = [blocks.Figure(f"{axis.words.split(' (')[0].capitalize()} on {axis.scene_words}", rel,
+                         f"PSNR against the reference at each point, one line per technique; grey lines at "
+                         f"{PSNR_BREAKS:g} dB (breaks) and {PSNR_GOOD:g} dB (accurate).", anchor=f"atlas-{axis.key}")]
+    gallery = blocks.Gallery(f"{axis.words.split(' (')[0].capitalize()}: each technique's worst point",
+                             diff_scale=DIFF_SCALE)
+    for backend, mine in rows.groupby("backend"):
+        worst = mine.loc[mine.psnr.idxmin()]
+        gallery.items.append(blocks.GalleryItem(
+            caption=f"{backend} at {axis.point(worst.value)}", image=ctx.image(worst.png),
+            difference=ctx.difference(reference_exr(results, worst), worst.exr, DIFF_SCALE),
+            note=f"PSNR {format_number(worst.psnr)} dB" + (f", FLIP {format_number(worst.flip)}"
+                                                           if pd.notna(worst.flip) else "")))
+    out.append(gallery)
+    return out

@@ -1,0 +1,256 @@
+"""The stability atlas's stress axes: what each sweeps, on which one scene, and who can render it.
+
+An :class:`Axis` sweeps one thing on one scene definition shared by every backend (same data, camera
+and transfer function): a backend option (``option``), the camera over views of one run (``view_key``),
+or the scene itself (a scene, and a ground truth, per point). :func:`axis_reason` says why a backend
+is left out of an axis before any run is planned: the capability's reason (:class:`renderers.base.
+interface.Capabilities`) or the option it lacks.
+"""
+
+from dataclasses import dataclass
+from types import SimpleNamespace
+
+import renderers
+from pipeline.experiments.kit.planning import dataset_view, phantom, scene
+
+BASE = ("engine", "semi")
+"""The semi-transparent engine: the data set and preset of every axis that does not need its own."""
+
+ENGINE_ASPECT = (1.0, 1.0, 0.5)
+"""The engine phantom's box proportions (its generator's grid): ``size`` voxels along x and y."""
+
+
+@dataclass(frozen=True)
+class Axis:
+    """One stress axis of the atlas.
+
+    Parameters
+    ----------
+    key : str
+        Short name: run ids, tags, anchors.
+    words : str
+        The swept quantity in words with its unit (the heat map's column, the charts' x label).
+    unit : str
+        Appended to a value in sentences (``" voxels"``, ``"°"``; ``""`` for none).
+    scene_words : str
+        The scene in words ("the semi-transparent engine").
+    values : dict
+        ``{scale: [values]}`` for smoke, default and full.
+    harsher : {"up", "down"}
+        Whether larger (``"up"``) or smaller values stress the backends more: a failure threshold
+        reads "≥ v" or "≤ v".
+    option : str, optional
+        The backend option swept; backends without it are left out with ``option_reason``.
+    option_reason : str
+        Why a backend without ``option`` has nothing to sweep.
+    view_key : str, optional
+        The camera field swept over the views of one run (``"azimuth"``, ``"fov_y"``).
+    backend_options : dict
+        ``{backend: options}`` a backend needs to render this axis at all (gl-raycast's lenses).
+    """
+
+    key: str
+    words: str
+    unit: str
+    scene_words: str
+    values: dict
+    harsher: str = "up"
+    option: str | None = None
+    option_reason: str = ""
+    view_key: str | None = None
+    backend_options: dict = None
+
+    def point(self, value):
+        """A value with its unit, as sentences write it."""
+        unit = self.unit[:-1] if self.unit.endswith("s") and value == 1 else self.unit
+        return f"{value:g}{unit}"
+
+    def threshold(self, value):
+        """"words ≥ value": where the harsher side of the sweep starts."""
+        return f"{self.words.split(' (')[0]} {'≥' if self.harsher == 'up' else '≤'} {self.point(value)}"
+
+
+AXES = (
+    Axis("step", "step size (voxels)", " voxels", "the semi-transparent engine",
+         {"smoke": [1.0, 0.5], "default": [2.0, 1.0, 0.5, 0.25], "full": [2.0, 1.0, 0.5, 0.25, 0.125]},
+         option="step_factor", option_reason="samples once per slice, so it has no step size"),
+    Axis("angle", "view angle (°)", "°", "the semi-transparent engine",
+         {"smoke": [0.0, 25.0, 45.0], "default": [float(a) for a in range(0, 50, 5)],
+          "full": [float(a) for a in range(0, 46, 3)]},
+         view_key="azimuth"),
+    Axis("tf", "TF ramp width (raw values; 1 = binary)", "", "the engine, one opaque ramp",
+         {"smoke": [32.0, 1.0], "default": [64.0, 16.0, 4.0, 1.0], "full": [64.0, 32.0, 16.0, 8.0, 4.0, 2.0, 1.0]},
+         harsher="down"),
+    Axis("min_opacity", "min opacity", "", "the semi-transparent engine",
+         {"smoke": [0.0, 0.05], "default": [0.0, 0.005, 0.01, 0.02, 0.05],
+          "full": [0.0, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1]},
+         option="min_opacity", option_reason="composites every sample"),
+    Axis("termination", "termination threshold (opacity)", "", "the semi-transparent engine",
+         {"smoke": [0.9, 1.0], "default": [0.8, 0.9, 0.95, 0.99, 1.0], "full": [0.7, 0.8, 0.9, 0.95, 0.99, 1.0]},
+         harsher="down", option="opaque_threshold", option_reason="its early termination is fixed or absent"),
+    Axis("shell", "shell thickness (voxels)", " voxels", "an opaque sphere shell",
+         {"smoke": [4.0, 1.0], "default": [8.0, 4.0, 2.0, 1.0], "full": [8.0, 6.0, 4.0, 3.0, 2.0, 1.0]},
+         harsher="down"),
+    Axis("image", "image size (px)", " px", "the semi-transparent engine",
+         {"smoke": [24.0, 48.0], "default": [32.0, 64.0, 128.0], "full": [64.0, 128.0, 256.0, 512.0]}),
+    Axis("volume", "volume size (voxels)", " voxels", "the semi-transparent engine",
+         {"smoke": [32.0, 16.0], "default": [64.0, 32.0, 16.0], "full": [128.0, 64.0, 32.0, 16.0]},
+         harsher="down"),
+    Axis("fov", "field of view (°)", "°", "the semi-transparent engine, perspective",
+         {"smoke": [30.0, 90.0], "default": [15.0, 30.0, 60.0, 90.0], "full": [15.0, 30.0, 45.0, 60.0, 75.0, 90.0]},
+         view_key="fov_y"),
+    Axis("volumes", "overlapping volumes", " volumes", "overlapping smoke clouds",
+         {"smoke": [1.0, 2.0], "default": [1.0, 2.0, 4.0], "full": [1.0, 2.0, 4.0, 7.0]}),
+    Axis("inside", "eye inside (distance from the centre, edges)", " of the edge",
+         "the semi-transparent engine, perspective eye inside",
+         {"smoke": [0.2], "default": [0.1, 0.2, 0.3], "full": [0.05, 0.1, 0.2, 0.3, 0.4]}, harsher="down"),
+    Axis("lens", "lens radius (box fractions)", " of the box", "the semi-transparent engine, spherical lens",
+         {"smoke": [0.25], "default": [0.15, 0.25, 0.35], "full": [0.1, 0.15, 0.2, 0.25, 0.3, 0.35]},
+         backend_options={"gl-raycast": {"variant": "single-pass"}}),
+)
+"""Every axis, in the heat map's column order."""
+
+AXIS_BY_KEY = {axis.key: axis for axis in AXES}
+
+RAMP_CENTER = 170
+"""The engine's metal (raw 160–200 in its presets): where the sharpness axis puts its ramp."""
+
+IVORY = (0.95, 0.92, 0.85)
+
+ANGLE_ELEVATION = 0.0
+"""The angle sweep turns about the body axis at eye level, so 45° is exactly between two principal axes."""
+
+
+def ramp(width, center=RAMP_CENTER, color=IVORY):
+    """A transfer function rising from α 0 to 1 over ``width`` raw values about ``center`` (1: a step)."""
+    low, high = center - width / 2, center + width / 2
+    if width <= 1:
+        low, high = center - 1, center
+    return {"points": [[0.0, *color, 0.0], [low / 255, *color, 0.0], [high / 255, *color, 1.0], [1.0, *color, 1.0]],
+            "name": f"ramp{width:g}"}
+
+
+def engine_extent(size):
+    """The engine box's world extent at phantom ``size`` (a voxel is one world unit)."""
+    return tuple(float(max(1, round(size * a))) for a in ENGINE_ASPECT)
+
+
+def headline(dataset="engine"):
+    """The view every non-view axis uses: 30° yaw, 20° pitch of the upright data set."""
+    return dataset_view(dataset, "atlas", 30.0, 20.0)
+
+
+def clouds(count, size):
+    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge along x and y."""
+    entries = []
+    for i in range(count):
+        extra = {"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
+        entries.append(phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **extra))
+    return entries
+
+
+def points(axis, scale_values, *, size, image):
+    """``[(value, scene, views)]``: each point's scene and views (a view axis: one scene, every value a view).
+
+    Parameters
+    ----------
+    axis : Axis
+    scale_values : list of float
+        The values swept at this profile's scale.
+    size, image : int
+        The phantoms' longest edge in voxels and the image's height and width in pixels.
+    """
+    engine = [phantom(BASE[0], size, preset=BASE[1])]
+    name = f"atlas-{axis.key}"
+    if axis.option:
+        return [(None, scene(name, image, volumes=engine), (headline(),))]
+    if axis.view_key == "azimuth":
+        views = tuple(dataset_view(BASE[0], f"at{v:g}", v, ANGLE_ELEVATION) for v in scale_values)
+        return [(None, scene(name, image, volumes=engine), views)]
+    if axis.view_key == "fov_y":
+        spec = scene(name, image, volumes=engine, camera={"projection": "perspective"})
+        return [(None, spec, tuple({**headline(), "view": f"at{v:g}", "fov_y": v} for v in scale_values))]
+    out = []
+    for value in scale_values:
+        label = f"{name}-{value:g}"
+        if axis.key == "tf":
+            spec = scene(label, image, volumes=[phantom(BASE[0], size, transfer_function=ramp(value))])
+        elif axis.key == "shell":
+            volumes = [phantom("sphere", size, preset="opaque", params={"shell": value})]
+            out.append((value, scene(label, image, volumes=volumes), (headline("sphere"),)))
+            continue
+        elif axis.key == "image":
+            spec = scene(label, int(value), volumes=engine)
+        elif axis.key == "volume":
+            spec = scene(label, image, volumes=[phantom(BASE[0], int(value), preset=BASE[1])])
+        elif axis.key == "volumes":
+            spec = scene(label, image, volumes=clouds(int(value), size), camera={"view_height": 1.5 * size})
+            out.append((value, spec, (headline("smoke_cloud"),)))
+            continue
+        elif axis.key == "inside":
+            spec = scene(label, image, volumes=engine,
+                         camera={"projection": "perspective", "fov_y": 60.0, "distance": round(value * size, 4)})
+        elif axis.key == "lens":
+            radius = round(value * max(engine_extent(size)), 4)
+            spec = scene(label, image, volumes=engine)
+            spec["lenses"] = [{"shape": "sphere", "center": [0.0, 0.0, 0.0], "radius": radius,
+                               "appearance": {"mode": "dvr", "preset": BASE[1], "opacity_scale": 0.2}}]
+        else:
+            raise ValueError(f"atlas axis {axis.key!r} has no scene of its own")
+        out.append((value, spec, (headline(),)))
+    return out
+
+
+class _Needs:
+    """What a scene mapping needs, shaped as :meth:`Capabilities.missing` reads a Scene: no volume is loaded."""
+
+    def __init__(self, spec, view):
+        camera = {**spec.get("camera", {}), **{k: v for k, v in view.items() if k != "view"}}
+        self.camera = SimpleNamespace(projection=camera.get("projection", "orthographic"))
+        self._inside = "distance" in camera and camera.get("projection") == "perspective"
+        self._features = {"projections": self.camera.projection, "modes": spec["mode"],
+                          "shading": spec["shading"]["model"], "max_volumes": len(spec["volumes"])}
+        if any("transform" in v for v in spec["volumes"]):
+            self._features["transforms"] = True
+        if spec.get("lenses"):
+            self._features["lenses"] = True
+
+    def features(self):
+        return dict(self._features)
+
+    def camera_inside_volume(self):
+        # The inside axis puts the eye at a fraction of an edge from the centre: inside the box by construction.
+        return ["engine"] if self._inside else []
+
+
+def option_names(backend):
+    """The options ``backend`` takes (``None`` if its class cannot be imported: the runner records why)."""
+    try:
+        return set(renderers.option_names(renderers.backend_class(backend)) or ())
+    except Exception:  # noqa: BLE001 - an unimportable backend is planned and recorded as skipped
+        return None
+
+
+def axis_reason(axis, backend, planned):
+    """Why ``backend`` is left out of ``axis`` (short, for its heat-map cell), or ``""`` when it takes part.
+
+    ``planned`` are the axis's ``(value, scene, views)`` points; every one must be renderable.
+    """
+    if axis.option:
+        names = option_names(backend)
+        if names is not None and axis.option not in names:
+            return f"no {axis.option} option: {axis.option_reason}"
+    capabilities = renderers.backend_class(backend).capabilities
+    for _, spec, views in planned:
+        for view in views:
+            missing = capabilities.missing(_Needs(spec, view))
+            if missing:
+                feature, reason = missing[0]
+                return f"{feature}: {short(reason)}"
+    return ""
+
+
+def short(reason, limit=110):
+    """A capability's reason cut at its first clause, at most ``limit`` characters."""
+    first = reason.split(";")[0].split(" (")[0].strip()
+    return first if len(first) <= limit else first[: limit - 1].rstrip() + "…"
