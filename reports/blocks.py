@@ -41,11 +41,15 @@ class Table:
 
 @dataclass
 class Figure:
-    """An SVG chart; ``path`` is relative to the report folder."""
+    """An SVG chart; ``path`` is relative to the report folder.
+
+    ``anchor`` is the figure's id on its page, so that other blocks (a heat-map cell) can link to it.
+    """
 
     title: str
     path: str
     caption: str = ""
+    anchor: str = ""
 
 
 @dataclass
@@ -76,3 +80,36 @@ class Gallery:
     items: list = field(default_factory=list)
     caption: str = ""
     diff_scale: float | None = None
+
+
+@dataclass
+class HeatCell:
+    """One cell of a :class:`HeatMap`.
+
+    ``value`` (dB PSNR) colours the cell; ``None`` marks a combination that was not measured, and
+    ``text`` then says why (a backend lacks the feature). ``link`` is where the cell leads (e.g.
+    ``"#<anchor>"`` of a chart on the page), ``image`` a picture it links beside it (the worst
+    difference image), ``note`` a second, smaller line.
+    """
+
+    text: str
+    value: float | None
+    link: str | None = None
+    image: str | None = None
+    note: str = ""
+
+
+@dataclass
+class HeatMap:
+    """A rows × columns table of cells coloured by a PSNR: red below ``thresholds[0]`` dB, amber up to
+    ``thresholds[1]`` dB, green above, grey where not measured.
+
+    ``cells`` maps ``(row, column)`` to a :class:`HeatCell`; a missing key is a cell nobody planned.
+    """
+
+    title: str
+    rows: list
+    columns: list
+    cells: dict
+    caption: str = ""
+    thresholds: tuple = (30.0, 40.0)

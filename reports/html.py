@@ -28,7 +28,7 @@ import pandas as pd
 
 from core.outcomes import CAUSE_WORDS
 from core.papers import PAPERS
-from reports import blocks, nodes, outcomes, takeaways
+from reports import blocks, decision, nodes, outcomes, takeaways
 from reports.imageio import read_image, write_png
 from reports.metrics import difference_image
 
@@ -164,7 +164,13 @@ def _render_block(block, ctx):
         return {"kind": "table", "title": block.title, "caption": block.caption,
                 "html": _table_html(block.frame, block.links), "csv": csv}
     if isinstance(block, blocks.Figure):
-        return {"kind": "figure", "title": block.title, "caption": block.caption, "path": block.path}
+        return {"kind": "figure", "title": block.title, "caption": block.caption, "path": block.path,
+                "anchor": block.anchor}
+    if isinstance(block, blocks.HeatMap):
+        return {"kind": "heatmap", "title": block.title, "caption": block.caption, "columns": list(block.columns),
+                "thresholds": [takeaways.number(t) for t in block.thresholds],
+                "rows": [(row, [_heat_cell(block.cells.get((row, column)), block.thresholds)
+                                for column in block.columns]) for row in block.rows]}
     if isinstance(block, blocks.Gallery):
         items = []
         for item in block.items:
@@ -182,6 +188,17 @@ def _render_block(block, ctx):
     if isinstance(block, blocks.Takeaways):
         return {"kind": "takeaways", "sentences": list(block.sentences)}
     raise TypeError(f"unknown report block {type(block).__name__}")
+
+
+def _heat_cell(cell, thresholds):
+    """A heat-map cell for the template: its text, CSS class (by PSNR against ``thresholds``) and links."""
+    if cell is None:
+        return {"text": "not planned", "css": "absent", "link": None, "image": None, "note": ""}
+    if cell.value is None or not _finite(cell.value):
+        css = "absent"
+    else:
+        css = "broken" if cell.value < thresholds[0] else "poor" if cell.value < thresholds[1] else "good"
+    return {"text": cell.text, "css": css, "link": cell.link, "image": cell.image, "note": cell.note}
 
 
 def _status_summary(frame, ctx, *, stated_above=()):
@@ -212,40 +229,6 @@ PROBLEM_RUNS_SHOWN = 6
 
 
 # ------------------------------------------------------------------------- techniques × data sets
-def _technique_label(backend, setting):
-    return f"{backend} ({setting})" if setting and setting != "default" else str(backend)
-
-
-def technique_rows(frame):
-    """One row per run compared with a reference: technique, data set, time (s), PSNR, SSIM, FLIP.
-
-    ``frame`` is tidy results (one row per run and view); views are reduced to the median time
-    and metrics, the fastest frame's minimum and the slowest frame's maximum.
-    """
-    needed = {"status", "reference", "time_total", "psnr"}
-    if frame.empty or not needed <= set(frame.columns):
-        return pd.DataFrame(columns=["technique", "backend", "setting", "dataset", "time_total", "time_min",
-                                     "time_max", "psnr", "ssim", "flip", "record", "exr", "run", "experiment"])
-    rows = frame[(frame.status == "ok") & frame.reference.notna()].copy()
-    rows["setting"] = rows["setting"].fillna("") if "setting" in rows else ""
-    rows["dataset"] = rows["scene"] if "scene" in rows else rows.get("dataset", "")
-    for column in ("time_total_min", "time_total_max", "ssim", "flip", "record", "exr"):
-        if column not in rows:
-            rows[column] = np.nan
-    out = []
-    for (experiment, run), group in rows.groupby(["experiment", "run"], sort=False):
-        first = group.iloc[0]
-        out.append({
-            "technique": _technique_label(first.backend, first.setting), "backend": first.backend,
-            "setting": first.setting, "dataset": first.dataset,
-            "time_total": float(group.time_total.median()), "time_min": float(group.time_total_min.min()),
-            "time_max": float(group.time_total_max.max()), "psnr": float(group.psnr.median()),
-            "ssim": float(group.ssim.median()), "flip": float(group.flip.median()),
-            "record": first.record, "exr": first.exr, "run": run, "experiment": experiment,
-        })
-    return pd.DataFrame(out)
-
-
 def _technique_matrix(rows, ctx, psnr_min):
     """Techniques (rows) × data sets (columns); each cell one run with its numbers and links."""
     if rows.empty:
@@ -264,10 +247,11 @@ def _technique_matrix(rows, ctx, psnr_min):
                 "time": takeaways.number(r.time_total * 1e3),
                 "range": f"{takeaways.number(r.time_min * 1e3)}–{takeaways.number(r.time_max * 1e3)}",
                 "psnr": takeaways.number(r.psnr), "ssim": takeaways.number(r.ssim),
-                "flip": takeaways.number(r.flip), "fails": bool(r.psnr < psnr_min),
+                "flip": takeaways.number(r.flip), "fails": bool(r.psnr < psnr_min) and r.backend != decision.REFERENCE,
                 "record": ctx.file(r.record), "exr": ctx.file(r.exr), "run": r.run,
             })
-        matrix.append({"technique": group.backend.iloc[0], "setting": group.setting.iloc[0], "cells": cells})
+        matrix.append({"technique": group.backend.iloc[0], "setting": takeaways.setting_words(group.setting.iloc[0]),
+                       "cells": cells})
     return {"datasets": datasets, "rows": matrix}
 
 
@@ -393,12 +377,13 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     claims_df["verdict"] = _verdicts(claims_df)
     env = _jinja()
     facts = provenance(environment, runs_df, real_data)
+    banner = decision.timing_banner(runs_df)
     node_rows = nodes.nodes_table(runs_df)
     runs = outcomes.per_run(runs_df)
     backend_runs = outcomes.backend_outcomes(runs)
     silent = outcomes.silent_backends(backend_runs)
     techniques = dict(techniques or {})
-    pages, overview_rows = {}, []
+    pages, overview_rows, overview_runs, failures = {}, [], [], {}
     for experiment in experiments:
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
         ctx = ReportContext(report_dir, results_dir, experiment.name)
@@ -409,24 +394,30 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
                     if counts["ok"] else [])
         section = {
-            "name": experiment.name, "title": experiment.title, "description": experiment.description,
+            "name": experiment.name, "title": experiment.title,
+            "description": takeaways.rst_inline(experiment.description),
             "counts": counts, "problems": problems, "claims": claims,
             "paper_table": _table_html(paper_table) if paper_table is not None else None,
             "takeaways": [s for b in rendered if b["kind"] == "takeaways" for s in b["sentences"]],
             "blocks": [b for b in rendered if b["kind"] != "takeaways"],
             "csv": f"csv/{experiment.name}.csv",
             "backends": set(frame.backend) if "backend" in frame else set(),
+            "paper": experiment.paper,
         }
         if getattr(experiment, "overview", False):
-            overview_rows.append(technique_rows(frame))
-        pages.setdefault(experiment.paper, []).append(section)
+            overview_rows.append(decision.technique_rows(frame))
+            overview_runs.append(outcomes.per_run(frame))
+        if getattr(experiment, "atlas", False) and counts["ok"]:
+            failures.update(experiment.failures(frame))
+        pages.setdefault(getattr(experiment, "page", None) or experiment.paper, []).append(section)
 
     page_template = env.get_template("paper.html")
-    summaries = []
-    for paper, sections in pages.items():
+    summaries, studies = [], []
+    study_pages = {e.page for e in experiments if getattr(e, "page", None)}
+    for page, sections in pages.items():
         claims = [c for s in sections for c in s["claims"]]
         page_backends = set().union(*(s["backends"] for s in sections))
-        technique = techniques.get(paper)
+        technique = techniques.get(page)
         reproduced = backend_runs[technique]["ran"] if technique in backend_runs else None
         # What made no frame on this page, once, at its top: which backend, how many runs, the message.
         alerts = [outcomes.did_not_run(name, silent[name]) + "." for name in silent if name in page_backends]
@@ -441,41 +432,100 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         page_takeaways = list(dict.fromkeys(takeaways.claims(pd.DataFrame(claims))
                                             + [t for s in sections for t in s["takeaways"]]
                                             + takeaways.problems(outcomes.problem_groups(page_runs))))
-        (report_dir / f"{paper}.html").write_text(page_template.render(
-            paper=paper, paper_title=PAPERS.get(paper, paper), sections=sections, environment=environment,
+        title = PAGE_TITLES.get(page) or PAPERS.get(page, page)
+        (report_dir / f"{page}.html").write_text(page_template.render(
+            paper=page, paper_title=title, sections=sections, environment=environment,
             notices=list(notices), alerts=alerts, disturbed=disturbed, verdict_classes=VERDICT_CLASSES,
             nodes=node_rows, provenance=facts, takeaways=page_takeaways))
-        summaries.append({
-            "paper": paper, "title": PAPERS.get(paper, paper), "page": f"{paper}.html",
+        summary = {
+            "paper": page, "title": title, "page": f"{page}.html",
             "experiments": [(s["name"], s["title"]) for s in sections],
             "technique": technique, "reproduced": reproduced,
             "claims": {verdict: sum(c["verdict"] == verdict for c in claims) for verdict in VERDICT_CLASSES},
             "runs": {k: sum(s["counts"][k] for s in sections) for k in ("ok", "skipped", "failed")},
-        })
+        }
+        (studies if page in study_pages else summaries).append(summary)
 
     index_ctx = ReportContext(report_dir, results_dir, "index")
-    overview = pd.concat(overview_rows, ignore_index=True) if overview_rows else technique_rows(pd.DataFrame())
+    overview = pd.concat(overview_rows, ignore_index=True) if overview_rows else decision.technique_rows(pd.DataFrame())
     matrix = _technique_matrix(overview, index_ctx, psnr_min)
     if not overview.empty:
         overview.drop(columns=["record", "exr"]).to_csv(report_dir / "csv" / "techniques.csv", index=False)
+    panels = _decision_panels(overview, pd.concat(overview_runs, ignore_index=True) if overview_runs else None,
+                              failures, index_ctx, psnr_min, silent)
     backends = [{**b, "runs": backend_runs.get(b["name"])} for b in backends or []]
     index_alerts = [outcomes.did_not_run(name, outcome) + "." for name, outcome in silent.items()]
     index_alerts += [f"{summary['title']}: not reproduced on this machine ({summary['technique']} made no frame)."
                      for summary in summaries if summary["reproduced"] is False]
     index_takeaways = (
-        takeaways.claims(claims_df)
-        + (takeaways.fastest_at_accuracy(overview, psnr_min=psnr_min, scene_col="dataset") if not overview.empty else [])
-        + (takeaways.accuracy_failures(overview, psnr_min=psnr_min, scene_col="dataset") if not overview.empty else [])
+        _decision_sentences(panels, psnr_min)
+        + _claims_summary(claims_df)
         + _backend_sentences(backend_runs, planned or [], silent)
         + takeaways.problems(outcomes.problem_groups(runs[~runs.backend.isin(silent)]))
     )
     index = report_dir / "index.html"
+    common = dict(papers=summaries, studies=studies, environment=environment, nodes=node_rows, provenance=facts,
+                  notices=list(notices), banner=banner)
     index.write_text(env.get_template("index.html").render(
-        papers=summaries, environment=environment, nodes=node_rows, provenance=facts, takeaways=index_takeaways,
-        notices=list(notices), alerts=index_alerts, timing=_timing(runs_df, environment, index_ctx),
+        **common, takeaways=index_takeaways, alerts=index_alerts, panels=panels,
+        atlas=next((s["page"] for s in studies if s["paper"] == "atlas"), None),
         verdict_classes=VERDICT_CLASSES, matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends,
-        planned=list(planned or []), real_data=real_data, phantoms=_phantom_summary(phantoms)))
+        planned=list(planned or [])))
+    (report_dir / "appendix.html").write_text(env.get_template("appendix.html").render(
+        **common, timing=_timing(runs_df, environment, index_ctx), real_data=real_data,
+        phantoms=_phantom_summary(phantoms)))
     return index
+
+
+PAGE_TITLES = {"atlas": "Stability atlas — where each technique breaks"}
+"""Titles of the report pages that are not a paper's (:attr:`Experiment.page`)."""
+
+
+def _decision_panels(overview, runs, failures, ctx, psnr_min, silent):
+    """The index's decision panel: per scene, the chart of every technique's Pareto front and its table."""
+    panels = decision.panel(overview, runs, psnr_min=psnr_min, failures=failures,
+                            setting_words=takeaways.setting_words, stated_above=silent)
+    for item in panels:
+        path, rel = ctx.plot_path(f"decision-{item['scene']}")
+        decision.chart(item["points"], path, psnr_min=psnr_min,
+                       title=f"{item['kind'].capitalize()} ({item['scene']}): time against accuracy")
+        item["chart"] = rel
+        for row in item["table"]:
+            row["record"] = ctx.file(row["record"])
+        del item["points"]
+    return panels
+
+
+def _claims_summary(claims_df):
+    """The index's word on the claims: their count, and the failing ones by likely cause (each paper's page
+    lists its own failing claims; the index does not repeat them)."""
+    sentences = takeaways.claims(claims_df)[:1]
+    failing = claims_df[claims_df.verdict == "fails"] if "verdict" in claims_df else claims_df.iloc[:0]
+    if sentences and len(failing):
+        causes = pd.Series([takeaways.likely_cause(row).split(" (")[0] for row in failing.to_dict("records")])
+        counts = ", ".join(f"{n} {cause}" for cause, n in causes.value_counts().items())
+        sentences.append(f"Failing claims by likely cause: {counts}; each paper's page lists its own, first.")
+    return sentences
+
+
+def _decision_sentences(panels, psnr_min):
+    """Per scene of the decision panel: the fastest technique that reaches ``psnr_min``, and by how much."""
+    sentences = []
+    for item in panels:
+        accurate = [r for r in item["table"] if r["accurate"]]
+        if not accurate:
+            sentences.append(f"{item['kind'].capitalize()} ({item['scene']}): no technique reaches "
+                             f"{takeaways.number(psnr_min)} dB here.")
+            continue
+        best = accurate[0]
+        sentence = (f"{item['kind'].capitalize()} ({item['scene']}): {best['backend']} is the fastest at "
+                    f"≥ {takeaways.number(psnr_min)} dB ({best['setting']}, {best['ms']} ms, {best['psnr']} dB)")
+        if len(accurate) > 1:
+            runner = accurate[1]
+            sentence += (f", {takeaways.change_words(best['time'] / runner['time'])} than the next, "
+                         f"{runner['backend']} ({runner['ms']} ms)")
+        sentences.append(sentence + ".")
+    return sentences
 
 
 def _timing(runs_df, environment, ctx):

@@ -167,8 +167,10 @@ def timing_disturbances(runs_df):
         group["busy"] = (f"workers busy {_span([f'{100 * v:.0f}' for v in shares])} % of the compositing"
                          if len(shares) else "")
     quiet = rows[(rerun != "") & (disturbed == "")]
-    untimed = texts("info_untimed").str.lower() == "true"
-    return {"views": int((~untimed).sum()), "disturbed": _cause_groups(rows, disturbed[disturbed != ""], rerun),
+    untimed = texts("info_untimed").astype(str).str.lower() == "true"
+    # An untimed frame (a ground truth, an accuracy-only run) has no timing for a disturbance to spoil.
+    return {"views": int((~untimed).sum()),
+            "disturbed": _cause_groups(rows, disturbed[(disturbed != "") & ~untimed], rerun),
             "starved": starved_groups, "quiet_again": quiet.groupby("experiment", sort=True).size().to_dict()}
 
 

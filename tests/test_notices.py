@@ -27,7 +27,7 @@ def _top(page):
 
 def test_every_page_gets_the_notice_first_and_a_second_mark_replaces_the_first(report):
     pages = sorted(report.glob("*.html"))
-    assert [p.name for p in pages] == ["index.html", "volbench.html"]
+    assert [p.name for p in pages] == ["appendix.html", "index.html", "volbench.html"]
     originals = {page: page.read_text() for page in pages}
     assert mark_report(report, "Run <1> did not finish.", kind="unfinished") == pages
     assert mark_report(report, "Run 2 did not\nfinish.", kind="unfinished") == pages

@@ -309,10 +309,14 @@ class Experiment:
         ``{scale: {key: value}}``: the experiment's own settings for each profile scale
         (:data:`SCALES`), kept beside the experiment as scikit-image's benchmarks keep their
         reduced and full parameters; a profile's ``settings`` override single keys.
+    page : str or None
+        The report page (``<page>.html``) that shows this experiment; ``None``: its paper's page.
+        A study that spans every paper's backends (the stability atlas) has a page of its own.
     """
 
     name = ""
     paper = "volbench"
+    page = None
     title = ""
     description = ""
     claims = ()

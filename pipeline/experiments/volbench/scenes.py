@@ -3,7 +3,7 @@
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, phantom, scene, truth_run
 
 
-def scene_and_truth(experiment, profile, scene_name, scene_def, truth_factor, tags):
+def scene_and_truth(experiment, profile, scene_name, scene_def, truth_factor, tags, *, mode="dvr"):
     """The scene of ``scene_def = (dataset, preset, shading)`` and its ground truth ``<scene_name>.truth``.
 
     Parameters
@@ -32,6 +32,6 @@ def scene_and_truth(experiment, profile, scene_name, scene_def, truth_factor, ta
     size = profile.setting(experiment, "volume_size", profile.volume_size)
     image_size = profile.setting(experiment, "image_size", profile.image_size)
     volume = phantom(dataset, size, **({"preset": preset} if preset else {}))
-    spec = scene(scene_name, image_size, volumes=[volume], shading=shading)
+    spec = scene(scene_name, image_size, volumes=[volume], shading=shading, mode=mode)
     truth = truth_run(experiment.name, scene_name, spec, (HEADLINE_VIEW,), truth_factor, {"scene": scene_name, **tags})
     return spec, truth

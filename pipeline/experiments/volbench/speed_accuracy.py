@@ -9,17 +9,23 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, METRICS, as_ratio, format_number, linked_table, ms
+from pipeline.experiments.kit.pages import DIFF_SCALE, METRICS, as_ratio, format_number, linked_table, ms, setting_words
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed
 from pipeline.experiments.kit.results import reference_exr, speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
-from reports import blocks, takeaways
+from reports import blocks, decision, takeaways
 
 SPEED_ACCURACY_SCENES = {
     "skull-bone": ("ct_skull", "bone", "phong"),
     "engine-semi": ("engine", None, "phong"),
+    "skull-mip": ("ct_skull", None, "none"),
+    "foot-iso": ("foot", "iso", "phong"),
 }
 """Scene → (data set, preset or None for its default, shading)."""
+
+SCENE_KINDS = {"skull-bone": "opaque", "engine-semi": "semi-transparent", "skull-mip": "mip", "foot-iso": "iso"}
+"""Scene → its kind: the index's decision panel has one chart per kind (opaque surfaces, semi-transparent
+material, maximum intensity projection, iso-surface). The mode is the kind's where it names one."""
 
 
 def _tradeoff(df):
@@ -57,16 +63,24 @@ class SpeedAccuracy(Experiment):
     def runs(self, profile):
         runs = []
         for scene_name in listed(profile, self, "scenes", SPEED_ACCURACY_SCENES, SPEED_ACCURACY_SCENES):
+            kind = SCENE_KINDS[scene_name]
             scene, truth = scene_and_truth(self, profile, scene_name, SPEED_ACCURACY_SCENES[scene_name],
-                                           self.TRUTH_FACTOR, {"setting": "truth"})
+                                           self.TRUTH_FACTOR, {"setting": "truth", "kind": kind},
+                                           mode=kind if kind in ("mip", "iso") else "dvr")
             runs.append(truth)
+            mode = scene["mode"]
             for backend in renderers.names():
-                for index, options in enumerate(renderers.backend_class(backend).quality_sweep):
+                backend_class = renderers.backend_class(backend)
+                sweep = backend_class.quality_sweep
+                if mode not in backend_class.capabilities.modes:
+                    sweep = sweep[:1]  # one run, skipped with the backend's reason, says why it is absent
+                for index, options in enumerate(sweep):
                     setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
                     runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
                                     (HEADLINE_VIEW,), options=dict(options), reference=truth.id,
                                     warmup=profile.warmup, repeat=profile.repeat,
-                                    tags={"scene": scene_name, "setting": setting, "role": "sweep"}))
+                                    tags={"scene": scene_name, "setting": setting, "role": "sweep",
+                                          "kind": kind}))
         return runs
 
     claims = (
@@ -82,31 +96,36 @@ class SpeedAccuracy(Experiment):
 
         ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
         ok["setting"] = ok.setting.fillna("default").astype(str)
-        ok["technique"] = [f"{b} ({s})" if s != "default" else b for b, s in zip(ok.backend, ok.setting)]
+        ok["technique"] = [f"{b} ({setting_words(s)})" if s != "default" else b for b, s in zip(ok.backend, ok.setting)]
         ok = speed_points(ok)
         out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
                                 + _stage_takeaways(ok))]
-        for scene, group in ok.groupby("scene"):
-            path, rel = ctx.plot_path(f"speed-accuracy-{scene}")
-            plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="backend",
-                                 label_col="setting", title=_speed_title(scene, group), log_y=False,
-                                 time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                                 x_label="median frame time (ms); bars: fastest to slowest frame",
-                                 y_label="PSNR against the reference (dB)")
-            out.append(blocks.Figure(f"{scene}: median frame time against PSNR", rel,
-                                     "Each point is one quality setting, labelled with it; higher and further "
-                                     "left is better. Error bars span the fastest and slowest timed frame."))
+        fronts = decision.panel(decision.technique_rows(results[results.role == "sweep"]), None)
+        for item in fronts:
+            path, rel = ctx.plot_path(f"speed-accuracy-{item['scene']}")
+            group = ok[ok.scene == item["scene"]]
+            decision.chart(item["points"], path, title=_speed_title(item["scene"], group[group.backend != "reference"]))
+            out.append(blocks.Figure(f"{item['scene']} ({item['kind']}): median frame time against PSNR", rel,
+                                     "Each technique's Pareto front over its settings (the settings no other setting "
+                                     "of it beats in both time and PSNR) as a line, its other settings as hollow "
+                                     "markers; higher and further left is better. Bars span the fastest and slowest "
+                                     "timed frame. The reference's own sweep is its convergence study, not drawn here; "
+                                     "every setting is in the table below."))
         stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
                   and not c.endswith(("_min", "_max"))]
-        ok["backend_setting"] = ok.backend + " " + ok.setting
         if stages:
+            # One bar per backend: its first quality setting (the run id's last part is the setting's index),
+            # median over the scenes it rendered; every setting's stages are in the table below.
+            first = ok[ok.run.str.endswith(".0")]
             path, rel = ctx.plot_path("stages")
-            plots.stage_breakdown(ok, path, stage_cols=stages, group_col="backend_setting",
-                                  title=_stage_title(ok, stages))
-            out.append(blocks.Figure("Time per stage (median over scenes)", rel,
-                                     "Each backend's own stages, as it reports them (CONVENTIONS, Results)."))
+            plots.stage_breakdown(first, path, stage_cols=stages, group_col="backend",
+                                  title=_stage_title(first, stages))
+            out.append(blocks.Figure("Time per stage: each backend's first setting (median over scenes)", rel,
+                                     "Each backend's own stages, as it reports them (CONVENTIONS, Results), at the "
+                                     "first setting of its quality sweep; the table below has every setting."))
         times = ms(ok)
         table = pd.concat([ok, times], axis=1).sort_values(["scene", "backend", "time (ms)"])
+        table["setting"] = table.setting.map(setting_words)
         out.append(linked_table("All settings", table, ["scene", "backend", "setting", *times, *METRICS], ctx,
                                 csv_name="speed_accuracy.csv",
                                 caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
