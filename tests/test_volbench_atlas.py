@@ -52,6 +52,19 @@ def test_each_axis_renders_one_scene_per_point_for_every_backend(scale):
         assert len(scenes) == expected, axis.key
 
 
+def test_shear_warp_runs_at_min_opacity_0_except_on_the_axis_that_sweeps_it():
+    runs = [r for r in _runs("default") if r.backend in ("shearwarp", "volpack")]
+    for run in runs:
+        if run.tags["axis"] == "min_opacity":
+            assert run.options == {"min_opacity": run.tags["value"]}  # the default 0.05 is one of its points
+        else:
+            assert run.options.get("min_opacity") == 0.0, run.id
+    assert {r.options["min_opacity"] for r in runs if r.tags["axis"] == "min_opacity"} >= {0.0, 0.05}
+    # The others keep their own options.
+    assert all("min_opacity" not in r.options for r in _runs("smoke") if r.backend == "gl-raycast"
+               and r.tags["axis"] != "min_opacity")
+
+
 def test_run_counts_follow_the_axes():
     runs = _runs("smoke")
     reasons = left_out()

@@ -112,6 +112,19 @@ AXES = (
 
 AXIS_BY_KEY = {axis.key: axis for axis in AXES}
 
+ISOLATING_OPTIONS = {"shearwarp": {"min_opacity": 0.0}, "volpack": {"min_opacity": 0.0}}
+"""Options every axis but the min-opacity one gives these backends, so that each column shows its own stress.
+
+Shear-warp and VolPack skip voxels below ``min_opacity`` (0.05 by default) before compositing, which drops
+the semi-transparent engine's whole casing on every scene; the min-opacity axis shows that (its sweep
+includes the default), and the other axes would otherwise only show it again."""
+
+
+def backend_options(axis, backend):
+    """The fixed options ``backend`` renders every point of ``axis`` with (besides the swept one)."""
+    isolating = ISOLATING_OPTIONS.get(backend, {}) if axis.option != "min_opacity" else {}
+    return {**isolating, **(axis.backend_options or {}).get(backend, {})}
+
 RAMP_CENTER = 170
 """The engine's metal (raw 160–200 in its presets): where the sharpness axis puts its ramp."""
 
