@@ -45,7 +45,8 @@ def test_each_axis_renders_one_scene_per_point_for_every_backend(scale):
         truth = truths[run.reference]
         assert run.scene == truth.scene and run.views == truth.views, run.id  # the same data, camera and TF
         assert (run.warmup, run.repeat) == (0, 1)
-        assert run.interleave == f"{run.tags['axis']}.{'truth' if run.backend == 'reference' else run.backend}"
+        own = "reference-pre" if run.options.get("classification") == "pre" else run.backend
+        assert run.interleave == f"{run.tags['axis']}.{'truth' if own == 'reference' else own}"
     for axis in AXES:
         scenes = {r.scene["name"] for r in runs if r.tags["axis"] == axis.key}
         expected = 1 if axis.option or axis.view_key else len(axis.values[scale])
@@ -74,8 +75,13 @@ def test_run_counts_follow_the_axes():
         backends = sum((b, axis.key) not in reasons for b in BACKENDS)
         scenes = 1 if axis.option or axis.view_key else values
         expected += scenes + backends * (values if axis.option or not axis.view_key else 1)
+        if axis.key in atlas_module.PRE_CLASSIFIED_AXES:
+            expected += scenes  # the pre-classified reference, one run per point
     expected += len(atlas_module.CONVERGENCE_STEPS)
     assert len(runs) == expected
+    pre = [r for r in runs if r.options.get("classification") == "pre"]
+    assert {r.tags["axis"] for r in pre} == {"tf"} and all(r.backend == "reference" for r in pre)
+    assert all(r.options["step_factor"] == atlas_module.TRUTH_STEP for r in pre)  # only the order differs
     assert sum(r.tags["role"] == "convergence" for r in runs) == len(atlas_module.CONVERGENCE_STEPS)
 
 
@@ -85,6 +91,7 @@ def test_reasons_name_what_is_missing():
     assert reasons[("volpack", "fov")].startswith("projections 'perspective': VolPack")
     assert ("gl-raycast", "lens") not in reasons  # it renders lenses with its single-pass variant
     assert ("vtk-gpu", "volumes") not in reasons and ("gl-raycast", "volumes") in reasons
+    assert (atlas_module.PRE_CLASSIFIED, "tf") not in reasons and (atlas_module.PRE_CLASSIFIED, "step") in reasons
 
 
 def test_axes_setting_is_checked():
@@ -195,7 +202,7 @@ def test_report_on_synthetic_rows(tmp_path):
     assert any("breaks once min opacity ≥ 0.01" in s for s in out[0].sentences)
     heat = out[1]
     assert isinstance(heat, blocks.HeatMap) and heat.thresholds == (30.0, 40.0)
-    assert heat.rows == BACKENDS and heat.columns == [axis.words for axis in AXES]
+    assert heat.rows == [*BACKENDS, atlas_module.PRE_CLASSIFIED] and heat.columns == [axis.words for axis in AXES]
     figures = [b for b in out if isinstance(b, blocks.Figure)]
     assert {f.anchor for f in figures} == {"atlas-min_opacity", "atlas-angle", "atlas-step"}
     assert all((report_dir / f.path).is_file() for f in figures)

@@ -32,6 +32,15 @@ TRUTH_STEP = 1 / 8
 CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
 """The reference's own steps on the step axis: its error must fall as the step shrinks."""
 
+PRE_CLASSIFIED = "reference, pre-classified"
+"""The reference classifying voxels before interpolating them (shear-warp's and VolPack's order), as a
+technique of its own: on the TF axis it separates what pre-classification costs from what the
+shear-warp factorization does."""
+
+PRE_CLASSIFIED_AXES = ("tf",)
+"""The axes the pre-classified reference is swept on: the order of classification matters where the
+transfer function is sharp."""
+
 
 def _values(frame):
     """Each row's swept value: its ``value`` tag, or (a view axis) the number in its view name ``at<v>``."""
@@ -41,11 +50,13 @@ def _values(frame):
 
 
 def atlas_rows(results):
-    """The successful test rows (reference excluded), with numeric ``value``, ``psnr`` and ``flip``."""
+    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; the reference's test runs
+    (pre-classified) are named :data:`PRE_CLASSIFIED`."""
     ok = ok_rows(results)
     if ok.empty or "role" not in ok:
         return ok.iloc[:0].assign(value=[], psnr=[], flip=[])
-    tests = ok[(ok.role == "test") & (ok.backend != REFERENCE)].copy()
+    tests = ok[ok.role == "test"].copy()
+    tests["backend"] = tests.backend.where(tests.backend != REFERENCE, PRE_CLASSIFIED)
     tests["value"] = _values(tests)
     tests["psnr"] = numeric(tests, "psnr") if "psnr" in tests else np.nan
     tests["flip"] = pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan
@@ -183,8 +194,9 @@ class Atlas(Experiment):
         f"{PSNR_BREAKS:g} dB PSNR breaks; {PSNR_GOOD:g} dB is accurate. Shear-warp and VolPack skip voxels "
         "below their ``min_opacity`` (0.05 by default), which drops the semi-transparent engine's casing on "
         "every scene: the min-opacity axis shows that, with the default in its sweep; every other axis runs "
-        "them at min opacity 0, so that its column shows its own stress. The pre-classified reference is not "
-        "an axis here (lacroute1995-quality compares shear-warp with it)."
+        "them at min opacity 0, so that its column shows its own stress. On the TF axis the reference also "
+        "runs pre-classified (voxels classified, then interpolated: shear-warp's order) at the truth's step, a "
+        "row of its own: what the order of classification costs, apart from the shear-warp factorization."
     )
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
@@ -232,6 +244,11 @@ class Atlas(Experiment):
                         runs.append(Run(self.name, f"{prefix}.{backend}.{number}", backend, spec, views,
                                         options={**base, **options}, reference=truth.id, **UNTIMED,
                                         interleave=f"{key}.{backend}", tags=run_tags))
+                if key in PRE_CLASSIFIED_AXES:
+                    runs.append(Run(self.name, f"{prefix}.reference-pre", REFERENCE, spec, views,
+                                    options={"classification": "pre", "step_factor": TRUTH_STEP},
+                                    reference=truth.id, **UNTIMED, interleave=f"{key}.reference-pre",
+                                    tags={**tags, "role": "test"}))
                 if key == "step":
                     runs += [Run(self.name, f"{prefix}.reference.{number}", REFERENCE, spec, views,
                                  options={"step_factor": step}, reference=truth.id, **UNTIMED,
@@ -253,7 +270,7 @@ class Atlas(Experiment):
         from reports import plots  # matplotlib: only when the report is built
 
         tests = atlas_rows(results)
-        backends = [b for b in renderers.names() if b != REFERENCE]
+        backends = [b for b in renderers.names() if b != REFERENCE] + [PRE_CLASSIFIED]
         reasons = left_out()
         out = [blocks.Takeaways(_takeaways(tests))]
         cells = heat_cells(tests, backends, reasons, unrendered=_unrendered(results),
@@ -295,6 +312,8 @@ def left_out():
             why = "" if backend == REFERENCE else axis_reason(axis, backend, planned)
             if why:
                 reasons[(backend, axis.key)] = why
+        if axis.key not in PRE_CLASSIFIED_AXES:
+            reasons[(PRE_CLASSIFIED, axis.key)] = "swept on the TF axis only, where the order of classification matters"
     return reasons
 
 
