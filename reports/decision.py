@@ -229,7 +229,7 @@ def _absent(runs, scene, present, failures, stated_above):
     return rows
 
 
-def chart(points, path, *, title, psnr_min=takeaways.PSNR_GOOD):
+def chart(points, path, *, title, psnr_min=takeaways.PSNR_GOOD, techniques=None):
     """Time against PSNR: each technique's Pareto front as a line, its other settings as hollow markers.
 
     Parameters
@@ -242,12 +242,17 @@ def chart(points, path, *, title, psnr_min=takeaways.PSNR_GOOD):
     title : str
     psnr_min : float
         The accuracy bar, drawn as a dashed line.
+    techniques : sequence of str, optional
+        Every technique of the charts drawn side by side, so that each keeps its colour and marker in
+        all of them; default the techniques of ``points``, sorted.
     """
     from reports import plots
 
+    order = list(techniques) if techniques is not None else sorted(set(points.backend))
+
     def draw(ax):
-        for index, (backend, rows) in enumerate(points.groupby("backend", sort=True)):
-            style = plots._style(index)
+        for backend, rows in points.groupby("backend", sort=True):
+            style = plots._style(order.index(backend))
             front = rows[rows.front].sort_values("time_total")
             ms = front.time_total.to_numpy(float) * 1e3
             spread = np.vstack([np.clip(ms - front.time_min.to_numpy(float) * 1e3, 0, None),

@@ -111,3 +111,16 @@ def test_the_index_opens_with_the_decision_panel(tmp_path):
     assert "<b>reference</b>" not in panel
     # engine-semi's reference run failed (the synthetic results' one failure): the others still have a row.
     assert "Test CPU 9000" in text and "Where these times were measured" in text
+
+
+def test_a_technique_keeps_its_colour_in_every_chart_of_the_panel(tmp_path):
+    both = _rows([("cl-tiled", "default", 3, 45), ("gl-raycast", "default", 8, 45)])
+    alone = _rows([("gl-raycast", "default", 8, 45)], scene="skull-mip", kind="mip")
+    colours = []
+    for rows, name in ((both, "a.svg"), (alone, "b.svg")):
+        [item] = decision.panel(rows, None)
+        text = decision.chart(item["points"], tmp_path / name, title="t",
+                              techniques=["cl-tiled", "gl-raycast"]).read_text()
+        # The legend's gl-raycast entry: its line's stroke colour comes right before its label.
+        colours.append(re.findall(r"stroke: (#[0-9a-f]{6})", text.split(">gl-raycast<")[0])[-1])
+    assert colours[0] == colours[1]

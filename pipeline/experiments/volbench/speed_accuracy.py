@@ -101,10 +101,12 @@ class SpeedAccuracy(Experiment):
         out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
                                 + _stage_takeaways(ok))]
         fronts = decision.panel(decision.technique_rows(results[results.role == "sweep"]), None)
+        techniques = sorted({b for item in fronts for b in item["points"].backend})
         for item in fronts:
             path, rel = ctx.plot_path(f"speed-accuracy-{item['scene']}")
             group = ok[ok.scene == item["scene"]]
-            decision.chart(item["points"], path, title=_speed_title(item["scene"], group[group.backend != "reference"]))
+            decision.chart(item["points"], path, title=_speed_title(item["scene"], group[group.backend != "reference"]),
+                           techniques=techniques)
             out.append(blocks.Figure(f"{item['scene']} ({item['kind']}): median frame time against PSNR", rel,
                                      "Each technique's Pareto front over its settings (the settings no other setting "
                                      "of it beats in both time and PSNR) as a line, its other settings as hollow "
