@@ -98,6 +98,17 @@ def collect(args):
         print(f"left out the tables of experiments volbench no longer has: {', '.join(dropped)}")
 
 
+EARLIER_NAMED = 3
+"""Up to this many experiments from earlier pipeline runs, the notice names each with its dates."""
+
+
+def _span(dates):
+    """``"d"`` or ``"d0 to d1"`` of sorted dates; ``"date not recorded"`` without any."""
+    if not dates:
+        return "date not recorded"
+    return dates[0] if dates[0] == dates[-1] else f"{dates[0]} to {dates[-1]}"
+
+
 def report_contents(runs_df, claims_df, this_run, registry, results_dir):
     """``(experiments, notices)``: what a report shows, and what its pages say first where that mixes pipeline runs.
 
@@ -109,14 +120,20 @@ def report_contents(runs_df, claims_df, this_run, registry, results_dir):
     present = set(runs_df.get("experiment", ())) | set(claims_df.get("experiment", ()))
     this_names = {experiment.name for experiment in this_run}
     shown = [experiment for name, experiment in registry.items() if name in this_names or name in present]
-    earlier = []
+    earlier, all_dates = [], []
     for name in (experiment.name for experiment in shown if experiment.name not in this_names):
         dates = sorted(map(str, runs_df.loc[runs_df.experiment == name, "date"].dropna().unique())) \
             if "date" in runs_df else []
-        when = (dates[0] if len(dates) == 1 else f"{dates[0]} to {dates[-1]}") if dates else "date not recorded"
-        earlier.append(f"{name} ({when})")
+        all_dates += dates
+        earlier.append(f"{name} ({_span(dates)})")
     notices = []
-    if earlier:
+    if len(earlier) > EARLIER_NAMED:
+        # Many earlier experiments (one rerun after a whole profile): name what the last run made instead.
+        last = ", ".join(sorted(this_names & present)) or "nothing shown here"
+        notices.append(f"Not all of this report comes from its last pipeline run: that run made {last}; the "
+                       f"results of the other {len(earlier)} experiments are from earlier runs (measured "
+                       f"{_span(sorted(all_dates))}, UTC; each run's date is in runs.csv).")
+    elif earlier:
         notices.append(f"Not all of this report comes from its last pipeline run: the results of {len(earlier)} "
                        f"experiments are from earlier runs (measured, UTC): {', '.join(earlier)}.")
     dropped = sorted(path.stem for path in (Path(results_dir) / "tables").glob("*.csv") if path.stem not in registry)

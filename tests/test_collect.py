@@ -175,6 +175,14 @@ def test_the_report_shows_earlier_runs_experiments_with_their_dates_and_the_drop
                           "c2002-third (date not recorded).")
     assert notices[1].startswith("Left out: the results of gone1999-renamed, which volbench no longer has")
     assert report_contents(runs, claims, list(registry.values()), registry, tmp_path / "other") == (list(registry.values()), [])
+    # Many earlier experiments (one rerun after a whole profile): the notice names the last run's instead.
+    many = {f"e{i}-x": SimpleNamespace(name=f"e{i}-x") for i in range(5)}
+    runs = pd.DataFrame({"experiment": list(many), "date": [f"2026-01-0{i + 1} 10:00" for i in range(5)]})
+    _, notices = report_contents(runs, pd.DataFrame({"experiment": list(many)}), [many["e4-x"]], many,
+                                 tmp_path / "other")
+    assert notices == ["Not all of this report comes from its last pipeline run: that run made e4-x; the results of "
+                       "the other 4 experiments are from earlier runs (measured 2026-01-01 10:00 to 2026-01-04 "
+                       "10:00, UTC; each run's date is in runs.csv)."]
 
 
 def test_a_views_frames_load_and_second_timing_are_columns_of_its_row(tmp_path):
