@@ -133,7 +133,9 @@ def test_threshold_is_the_mildest_failing_value_in_the_axis_order():
 
 def test_failures_prefer_a_threshold_inside_a_sweep_and_name_the_worst_point_otherwise():
     phrases = failure_phrases(atlas_rows(_synthetic()), ["breaks", "holds", "absent"])
-    assert phrases["breaks"] == "min opacity ≥ 0.01 on the semi-transparent engine (17.6 dB)"
+    # Its threshold inside a sweep first, with the scene; then the other axes it breaks on.
+    assert phrases["breaks"] == ("min opacity ≥ 0.01 on the semi-transparent engine (17.6 dB); also any view angle "
+                                 "tried (0° to 45°) (26 dB)")
     assert phrases["holds"] == f"no axis below {PSNR_BREAKS:g} dB (worst 34 dB at min opacity 0.05)"
     assert "absent" not in phrases
     only_angle = _synthetic().query("axis == 'angle'")
@@ -142,7 +144,9 @@ def test_failures_prefer_a_threshold_inside_a_sweep_and_name_the_worst_point_oth
     assert Atlas().failures(_synthetic()) == {k: v for k, v in phrases.items() if k != "absent"}
     reversed_fov = [_row("breaks", "fov", np.nan, p, view=f"at{f:g}") for f, p in ((15, 10.0), (90, 45.0))]
     with_fov = pd.concat([_synthetic(), pd.DataFrame(reversed_fov)])  # lower, but on the milder side
-    assert failure_phrases(atlas_rows(with_fov), ["breaks"])["breaks"] == phrases["breaks"]
+    assert failure_phrases(atlas_rows(with_fov), ["breaks"])["breaks"] == (
+        "min opacity ≥ 0.01 on the semi-transparent engine (17.6 dB); also field of view ≤ 15° (10 dB), any view "
+        "angle tried (0° to 45°) (26 dB)")
 
 
 def test_heat_cells_show_the_worst_point_or_the_reason():

@@ -103,6 +103,10 @@ def threshold(rows, axis, *, breaks=PSNR_BREAKS):
             "psnr": worst, "everywhere": False, "expected": False}
 
 
+OTHERS_NAMED = 2
+"""Besides its first threshold, a technique's "fails when …" names this many more axes it breaks on."""
+
+
 def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
     """``{backend: phrase}`` completing "fails when …" (see :meth:`Atlas.failures`)."""
     out = {}
@@ -117,9 +121,15 @@ def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
                 found.append(((hit["everywhere"], not hit["expected"], hit["psnr"]), axis, hit))
         if found:
             # A threshold inside a sweep, on its harsher side, says more than an axis failing everywhere
-            # (a default that breaks) or than failures at the milder end.
-            _, axis, hit = min(found, key=lambda f: f[0])
-            out[backend] = f"{hit['words']} on {axis.scene_words} ({format_number(hit['psnr'])} dB)"
+            # (a default that breaks) or than failures at the milder end: it comes first, with its scene.
+            found.sort(key=lambda f: f[0])
+            (_, axis, hit), others = found[0], found[1:]
+            phrase = f"{hit['words']} on {axis.scene_words} ({format_number(hit['psnr'])} dB)"
+            if others:
+                shown = [f"{h['words']} ({format_number(h['psnr'])} dB)" for _, _, h in others[:OTHERS_NAMED]]
+                more = len(others) - len(shown)
+                phrase += "; also " + ", ".join(shown) + (f" and {more} more {'axis' if more == 1 else 'axes'}" if more else "")
+            out[backend] = phrase
         else:
             worst = mine.loc[mine.psnr.idxmin()]
             axis = AXIS_BY_KEY[worst.axis]
