@@ -106,7 +106,7 @@ def test_claim_evidence_reads_the_verdict_and_the_experiments_rows():
                          "gl_software_rasterizer": [True, False, None, True],
                          "gl_renderer": ["llvmpipe (LLVM 15)", "NVIDIA H100", None, "softpipe"]})
     detail = disturbed_detail([("r", "v", "busy"), ("r", "w", "busy")]) + "; more"
-    evidence = claim_evidence(Verdict("inconclusive", "×2", None, detail), rows)
+    evidence = claim_evidence(Verdict("inconclusive", "×2", None, detail, disturbed_views=2), rows)
     assert evidence == {"disturbed_views": 2, "software_rasterizer": "llvmpipe (LLVM 15)",
                         "stand_in": "ct_skull standing in for the paper's data"}
     assert claim_evidence(Verdict("fails", "×2", False, "x"), rows[["status"]]) == {

@@ -129,6 +129,7 @@ def test_a_timing_claim_whose_interval_straddles_its_bound_is_inconclusive():
         f"C1 is at least twice as fast as C8: {verdict.measured}, inconclusive ({verdict.detail})."]
     clear = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002), _timed("C8.tiled", 0.005)))
     assert clear.verdict == "holds" and clear.interval[0] > 2.0 and clear.margin == pytest.approx(0.25)
+    assert clear.disturbed_views == verdict.disturbed_views == 0
     short = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002), _timed("C8.tiled", 0.003)))
     assert short.verdict == "fails" and short.interval[1] < 2.0 and short.margin == pytest.approx(-0.25)
 
@@ -138,7 +139,7 @@ def test_a_verdict_that_rests_on_a_disturbed_view_is_inconclusive():
     # C8 disturbed: ten times faster it would not be twice as slow as C1.
     rows = _runs(_timed("C1.tiled", 0.002, info_disturbed=""), _timed("C8.tiled", 0.005, **disturbed))
     verdict = judge(SPEED_UP, rows)
-    assert verdict.verdict == "inconclusive" and verdict.holds is None
+    assert verdict.verdict == "inconclusive" and verdict.holds is None and verdict.disturbed_views == 1
     assert verdict.detail.startswith("inconclusive: its verdict rests on 1 view timed while the machine was disturbed "
                                      "(C8.tiled/front: other work used 1.00 cores while it was timed)")
     assert judge(SPEED_UP, rows.drop(columns="frames_total")).verdict == "inconclusive"  # on its times alone

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from datasets.registry import DATASETS
-from pipeline.experiments.kit.verdicts import claim_sentences, disturbed_detail
+from pipeline.experiments.kit.verdicts import claim_sentences
 from reports import blocks
 from reports.takeaways import change_words, db_words, number, setting_words
 
@@ -123,23 +123,16 @@ def device_takeaways(tests, *, software):
     return [sentence + "."]
 
 
-_DISTURBED = disturbed_detail([("", "", "")]).partition(" 1 view")[0]
-"""How a verdict's detail starts when it rests on disturbed views (:func:`~pipeline.experiments.kit.verdicts.judge`)."""
-
-
 def claim_evidence(verdict, rows):
     """What ``claims.csv`` carries for :func:`reports.takeaways.likely_cause`, from a claim's
     :class:`~pipeline.experiments.kit.verdicts.Verdict` and its experiment's ``rows``.
 
     Returns ``{"disturbed_views": n, "software_rasterizer": names, "stand_in": phantoms}``: how many
-    disturbed views the verdict rests on (it says so in its detail), the CPU rasterizers that timed the
+    disturbed views the verdict rests on, the CPU rasterizers that timed the
     experiment's GL runs, and its phantoms that stand in for a paper's data set (the registry gives
     them the original's statistics as targets: :attr:`datasets.registry.DatasetSpec.targets_by_preset`);
     empty text where none.
     """
-    disturbed = 0
-    if verdict.detail.startswith(_DISTURBED):
-        disturbed = int(verdict.detail.removeprefix(_DISTURBED).split()[0])
     ok = rows[rows.status == "ok"] if "status" in rows else rows
     software = ""
     if {"gl_software_rasterizer", "gl_renderer"} <= set(ok.columns):
@@ -147,7 +140,7 @@ def claim_evidence(verdict, rows):
         software = ", ".join(sorted(set(cpu.gl_renderer.dropna().astype(str))))
     names = sorted(set(ok.dataset.dropna().astype(str))) if "dataset" in ok else []
     stand_ins = [n for n in names if n in DATASETS and DATASETS[n].kind == "phantom" and DATASETS[n].targets_by_preset]
-    return {"disturbed_views": disturbed, "software_rasterizer": software,
+    return {"disturbed_views": verdict.disturbed_views, "software_rasterizer": software,
             "stand_in": _stand_in_words(stand_ins)}
 
 

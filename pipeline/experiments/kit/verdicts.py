@@ -223,6 +223,8 @@ class Verdict:
     missing: tuple = ()
     interval: tuple | None = None
     margin: float | None = None
+    disturbed_views: int = 0
+    """How many disturbed views an inconclusive verdict rests on (0: none)."""
 
 
 DISTURBED_SPEED_UP = 10.0
@@ -306,7 +308,7 @@ def judge(claim, rows):
         views = rests_on_disturbed(claim, ok, before=result)
         if views:
             return Verdict("inconclusive", result.measured, None, f"{disturbed_detail(views)}; {result.detail}".rstrip("; "),
-                           interval=result.interval, margin=result.margin)
+                           interval=result.interval, margin=result.margin, disturbed_views=len(views))
     if result.inconclusive:
         return Verdict("inconclusive", result.measured, None, result.detail, interval=result.interval,
                        margin=result.margin)
