@@ -18,7 +18,7 @@ import pandas as pd
 
 from reports import takeaways
 
-__all__ = ["KIND_WORDS", "pareto_front", "panel", "technique_rows", "timing_banner"]
+__all__ = ["KIND_WORDS", "chart", "pareto_front", "panel", "technique_label", "technique_rows", "timing_banner"]
 
 KIND_WORDS = {
     "opaque": "opaque surfaces",
@@ -31,7 +31,8 @@ KIND_WORDS = {
 REFERENCE = "reference"
 
 
-def _technique_label(backend, setting):
+def technique_label(backend, setting):
+    """``"gl-raycast (step 0.5 voxel)"``: a backend with its setting in words (``"default"``: the name alone)."""
     return f"{backend} ({takeaways.setting_words(setting)})" if setting and setting != "default" else str(backend)
 
 
@@ -55,7 +56,7 @@ def technique_rows(frame):
     for (experiment, run), group in rows.groupby(["experiment", "run"], sort=False):
         first = group.iloc[0]
         out.append({
-            "technique": _technique_label(first.backend, first.setting), "backend": first.backend,
+            "technique": technique_label(first.backend, first.setting), "backend": first.backend,
             "setting": first.setting, "dataset": first.dataset,
             "time_total": float(group.time_total.median()), "time_min": float(group.time_total_min.min()),
             "time_max": float(group.time_total_max.max()), "psnr": float(group.psnr.median()),
@@ -151,7 +152,7 @@ def _values(rows, column):
     return sorted({str(v) for v in rows[column].dropna() if str(v) not in ("", "nan", "None")})
 
 
-def panel(overview, runs, *, psnr_min=takeaways.PSNR_GOOD, failures=None, setting_words=str, stated_above=()):
+def panel(overview, runs, *, psnr_min=takeaways.PSNR_GOOD, failures=None, stated_above=()):
     """The decision panel's content, per scene of the overview runs.
 
     Parameters
@@ -167,8 +168,6 @@ def panel(overview, runs, *, psnr_min=takeaways.PSNR_GOOD, failures=None, settin
     failures : dict, optional
         ``{backend: phrase}`` completing "fails when …" (the stability atlas); a backend without
         an entry gets "not in the atlas".
-    setting_words : callable
-        Turns a setting (``"step_factor=0.5"``) into words for the reader.
     stated_above : collection of str
         Backends whose failure the page states at its top: their rows refer to it instead of repeating
         the message.
@@ -197,7 +196,7 @@ def panel(overview, runs, *, psnr_min=takeaways.PSNR_GOOD, failures=None, settin
             chosen = accurate.loc[accurate.time_total.idxmin()] if not accurate.empty else \
                 settings.loc[settings.psnr.idxmax()]
             table.append({
-                "backend": backend, "setting": setting_words(chosen.setting or "default"),
+                "backend": backend, "setting": takeaways.setting_words(chosen.setting or "default"),
                 "ms": takeaways.number(chosen.time_total * 1e3),
                 "range": f"{takeaways.number(chosen.time_min * 1e3)}–{takeaways.number(chosen.time_max * 1e3)}",
                 "psnr": takeaways.number(chosen.psnr), "accurate": not accurate.empty,

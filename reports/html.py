@@ -383,7 +383,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     backend_runs = outcomes.backend_outcomes(runs)
     silent = outcomes.silent_backends(backend_runs)
     techniques = dict(techniques or {})
-    pages, overview_rows, overview_runs, failures = {}, [], [], {}
+    pages, overview_rows, overview_runs, failures, atlas = {}, [], [], {}, None
     for experiment in experiments:
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
         ctx = ReportContext(report_dir, results_dir, experiment.name)
@@ -402,14 +402,15 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
             "blocks": [b for b in rendered if b["kind"] != "takeaways"],
             "csv": f"csv/{experiment.name}.csv",
             "backends": set(frame.backend) if "backend" in frame else set(),
-            "paper": experiment.paper,
         }
         if getattr(experiment, "overview", False):
             overview_rows.append(decision.technique_rows(frame))
             overview_runs.append(outcomes.per_run(frame))
+        page = getattr(experiment, "page", None) or experiment.paper
         if getattr(experiment, "atlas", False) and counts["ok"]:
             failures.update(experiment.failures(frame))
-        pages.setdefault(getattr(experiment, "page", None) or experiment.paper, []).append(section)
+            atlas = f"{page}.html"
+        pages.setdefault(page, []).append(section)
 
     page_template = env.get_template("paper.html")
     summaries, studies = [], []
@@ -429,14 +430,14 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         page_runs = runs[runs.experiment.isin([s["name"] for s in sections]) & ~runs.backend.isin(silent)]
         disturbed = outcomes.disturbance_notice(outcomes.timing_disturbances(
             runs_df[runs_df.experiment.isin([s["name"] for s in sections])]))
-        page_takeaways = list(dict.fromkeys(takeaways.claims(pd.DataFrame(claims))
-                                            + [t for s in sections for t in s["takeaways"]]
-                                            + takeaways.problems(outcomes.problem_groups(page_runs))))
+        page_takeaways = takeaways.ranked(takeaways.claims(pd.DataFrame(claims))
+                                          + [t for s in sections for t in s["takeaways"]]
+                                          + takeaways.problems(outcomes.problem_groups(page_runs)))
         title = PAGE_TITLES.get(page) or PAPERS.get(page, page)
         (report_dir / f"{page}.html").write_text(page_template.render(
             paper=page, paper_title=title, sections=sections, environment=environment,
             notices=list(notices), alerts=alerts, disturbed=disturbed, verdict_classes=VERDICT_CLASSES,
-            nodes=node_rows, provenance=facts, takeaways=page_takeaways))
+            nodes=node_rows, provenance=facts, takeaways=page_takeaways, shown=takeaways.SHOWN))
         summary = {
             "paper": page, "title": title, "page": f"{page}.html",
             "experiments": [(s["name"], s["title"]) for s in sections],
@@ -457,7 +458,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     index_alerts = [outcomes.did_not_run(name, outcome) + "." for name, outcome in silent.items()]
     index_alerts += [f"{summary['title']}: not reproduced on this machine ({summary['technique']} made no frame)."
                      for summary in summaries if summary["reproduced"] is False]
-    index_takeaways = (
+    index_takeaways = takeaways.ranked(
         _decision_sentences(panels, psnr_min)
         + _claims_summary(claims_df)
         + _backend_sentences(backend_runs, planned or [], silent)
@@ -467,8 +468,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     common = dict(papers=summaries, studies=studies, environment=environment, nodes=node_rows, provenance=facts,
                   notices=list(notices), banner=banner)
     index.write_text(env.get_template("index.html").render(
-        **common, takeaways=index_takeaways, alerts=index_alerts, panels=panels,
-        atlas=next((s["page"] for s in studies if s["paper"] == "atlas"), None),
+        **common, takeaways=index_takeaways, shown=takeaways.SHOWN, alerts=index_alerts, panels=panels, atlas=atlas,
         verdict_classes=VERDICT_CLASSES, matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends,
         planned=list(planned or [])))
     (report_dir / "appendix.html").write_text(env.get_template("appendix.html").render(
@@ -483,8 +483,7 @@ PAGE_TITLES = {"atlas": "Stability atlas — where each technique breaks"}
 
 def _decision_panels(overview, runs, failures, ctx, psnr_min, silent):
     """The index's decision panel: per scene, the chart of every technique's Pareto front and its table."""
-    panels = decision.panel(overview, runs, psnr_min=psnr_min, failures=failures,
-                            setting_words=takeaways.setting_words, stated_above=silent)
+    panels = decision.panel(overview, runs, psnr_min=psnr_min, failures=failures, stated_above=silent)
     techniques = sorted({b for item in panels for b in item["points"].backend})
     for item in panels:
         path, rel = ctx.plot_path(f"decision-{item['scene']}")

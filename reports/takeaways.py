@@ -12,8 +12,8 @@ import numpy as np
 import pandas as pd
 from markupsafe import Markup
 
-__all__ = ["ACCURACY_FAILURE", "FAILING_CLAIM", "Takeaway", "accuracy_failures", "change_words", "claims",
-           "db_words", "fastest_at_accuracy", "likely_cause", "ms", "number", "order_range", "problems",
+__all__ = ["ACCURACY_FAILURE", "FAILING_CLAIM", "SHOWN", "Takeaway", "accuracy_failures", "change_words", "claims",
+           "db_words", "fastest_at_accuracy", "likely_cause", "ms", "number", "order_range", "problems", "ranked",
            "rst_inline", "setting_words"]
 
 PSNR_GOOD = 40.0
@@ -34,6 +34,17 @@ class Takeaway(str):
         sentence = super().__new__(cls, text)
         sentence.importance = importance
         return sentence
+
+
+SHOWN = 5
+"""Take-aways a page shows; the rest are folded (``takeaways.html``)."""
+
+
+def ranked(sentences):
+    """``sentences`` without repeats, most important first (:class:`Takeaway`; a plain sentence after both
+    kinds), each level in its given order."""
+    unique = list(dict.fromkeys(sentences))
+    return sorted(unique, key=lambda sentence: getattr(sentence, "importance", ACCURACY_FAILURE + 1))
 
 
 def number(value, digits=3):

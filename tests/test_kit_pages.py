@@ -114,8 +114,9 @@ def test_claim_evidence_reads_the_verdict_and_the_experiments_rows():
 
 
 def _render(sentences):
-    # The report's own environment: undefined attributes (a plain sentence's importance) raise there.
-    return html._jinja().get_template("takeaways.html").render(takeaways=sentences)
+    # As the report builds a page: ranked in Python, rendered in the report's own (strict) environment.
+    return html._jinja().get_template("takeaways.html").render(takeaways=takeaways.ranked(sentences),
+                                                               shown=takeaways.SHOWN)
 
 
 def test_a_page_shows_five_take_aways_most_important_first_and_folds_the_rest():
@@ -127,3 +128,4 @@ def test_a_page_shows_five_take_aways_most_important_first_and_folds_the_rest():
     assert shown.index("failing") < shown.index("accuracy") < shown.index("r1") < shown.index("r3")
     assert "<summary>3 more take-aways</summary>" in folded and all(f"<li>{s}</li>" in folded for s in ("r4", "r5", "r6"))
     assert "<details>" not in _render(["a", "b", "c", "d", "e"]) and _render([]).strip() == ""
+    assert takeaways.ranked(["a", Takeaway("f", FAILING_CLAIM), "a", "b"]) == ["f", "a", "b"]  # repeats said once

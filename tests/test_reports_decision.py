@@ -29,12 +29,11 @@ def test_the_panel_picks_each_techniques_fastest_accurate_setting_and_leaves_the
     rows = _rows([("reference", "step_factor=1.0", 100, 45), ("gl-raycast", "step_factor=1.0", 8, 38),
                   ("gl-raycast", "step_factor=0.5", 15, 44), ("gl-raycast", "step_factor=0.25", 30, 50),
                   ("shearwarp", "default", 5, 17.6), ("shearwarp", "min_opacity=0.0", 9, 37)])
-    [item] = decision.panel(rows, None, psnr_min=40, failures={"shearwarp": "min opacity ≥ 0.01 (17.6 dB)"},
-                            setting_words=lambda s: s.replace("_", " "))
+    [item] = decision.panel(rows, None, psnr_min=40, failures={"shearwarp": "min opacity ≥ 0.01 (17.6 dB)"})
     assert item["kind"] == "opaque surfaces" and "reference" not in set(item["points"].backend)
     gl, sw = item["table"]
     assert (gl["backend"], gl["setting"], gl["ms"], gl["psnr"], gl["accurate"]) == \
-        ("gl-raycast", "step factor=0.5", "15", "44", True)
+        ("gl-raycast", "step 0.5 voxel", "15", "44", True)
     assert gl["fails_when"] == "not in the atlas"
     # No setting gets there: its most accurate is shown, marked, after every technique that does.
     assert (sw["backend"], sw["psnr"], sw["accurate"]) == ("shearwarp", "37", False)

@@ -96,7 +96,7 @@ class SpeedAccuracy(Experiment):
 
         ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
         ok["setting"] = ok.setting.fillna("default").astype(str)
-        ok["technique"] = [f"{b} ({setting_words(s)})" if s != "default" else b for b, s in zip(ok.backend, ok.setting)]
+        ok["technique"] = [decision.technique_label(b, s) for b, s in zip(ok.backend, ok.setting)]
         ok = speed_points(ok)
         out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
                                 + _stage_takeaways(ok))]
