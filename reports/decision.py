@@ -17,8 +17,9 @@ import numpy as np
 import pandas as pd
 
 from reports import takeaways
+from reports.plots import pareto_mask
 
-__all__ = ["KIND_WORDS", "chart", "pareto_front", "panel", "technique_label", "technique_rows", "timing_banner"]
+__all__ = ["KIND_WORDS", "pareto_front", "panel", "technique_label", "technique_rows", "timing_banner"]
 
 KIND_WORDS = {
     "opaque": "opaque surfaces",
@@ -80,14 +81,8 @@ def pareto_front(rows, *, time_col="time_total", accuracy_col="psnr"):
     -------
     pandas.DataFrame
     """
-    rows = rows[np.isfinite(rows[time_col].astype(float)) & np.isfinite(rows[accuracy_col].astype(float))]
-    ordered = rows.sort_values([time_col, accuracy_col], ascending=[True, False], kind="stable")
-    keep, best = [], -np.inf
-    for index, accuracy in zip(ordered.index, ordered[accuracy_col].astype(float)):
-        if accuracy > best:
-            keep.append(index)
-            best = accuracy
-    return ordered.loc[keep]
+    front = rows[pareto_mask(rows[time_col], rows[accuracy_col])]
+    return front.sort_values(time_col, kind="stable")
 
 
 def _device_family(backend):
@@ -227,47 +222,3 @@ def _absent(runs, scene, present, failures, stated_above):
                      "run": group.run.iloc[0], "record": group.record.iloc[0] if "record" in group else None})
     return rows
 
-
-def chart(points, path, *, title, psnr_min=takeaways.PSNR_GOOD, techniques=None):
-    """Time against PSNR: each technique's Pareto front as a line, its other settings as hollow markers.
-
-    Parameters
-    ----------
-    points : pandas.DataFrame
-        One scene's ``points`` from :func:`panel` (``backend``, ``time_total`` in seconds, ``time_min``,
-        ``time_max``, ``psnr``, ``front``).
-    path : path
-        The ``.svg`` to write.
-    title : str
-    psnr_min : float
-        The accuracy bar, drawn as a dashed line.
-    techniques : sequence of str, optional
-        Every technique of the charts drawn side by side, so that each keeps its colour and marker in
-        all of them; default the techniques of ``points``, sorted.
-    """
-    from reports import plots
-
-    order = list(techniques) if techniques is not None else sorted(set(points.backend))
-
-    def draw(ax):
-        for backend, rows in points.groupby("backend", sort=True):
-            style = plots._style(order.index(backend))
-            front = rows[rows.front].sort_values("time_total")
-            ms = front.time_total.to_numpy(float) * 1e3
-            spread = np.vstack([np.clip(ms - front.time_min.to_numpy(float) * 1e3, 0, None),
-                                np.clip(front.time_max.to_numpy(float) * 1e3 - ms, 0, None)])
-            ax.errorbar(ms, front.psnr, xerr=np.nan_to_num(spread), label=backend, capsize=2, elinewidth=0.8,
-                        markersize=5, **style)
-            others = rows[~rows.front]
-            if len(others):
-                ax.plot(others.time_total * 1e3, others.psnr, linestyle="none", marker=style["marker"],
-                        markerfacecolor="none", markeredgecolor=style["color"], markersize=5, alpha=0.7)
-        ax.axhline(psnr_min, color="0.3", linestyle="--", linewidth=0.8)
-        ax.annotate(f"{takeaways.number(psnr_min)} dB: accurate", (0, psnr_min), xycoords=("axes fraction", "data"),
-                    xytext=(3, 3), textcoords="offset points", fontsize=7, color="0.3")
-        plots._axes(ax, True, False, "median frame time (ms, log scale); bars: fastest to slowest frame",
-                    "PSNR against the reference (dB)")
-        ax.legend(title="technique", loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7, title_fontsize=7,
-                  borderaxespad=0)
-
-    return plots._plot(path, title, "", points.empty, draw)

@@ -483,11 +483,12 @@ PAGE_TITLES = {"atlas": "Stability atlas — where each technique breaks"}
 
 def _decision_panels(overview, runs, failures, ctx, psnr_min, silent):
     """The index's decision panel: per scene, the chart of every technique's Pareto front and its table."""
+    from reports import plots  # matplotlib: only where a chart is drawn
     panels = decision.panel(overview, runs, psnr_min=psnr_min, failures=failures, stated_above=silent)
     techniques = sorted({b for item in panels for b in item["points"].backend})
     for item in panels:
         path, rel = ctx.plot_path(f"decision-{item['scene']}")
-        decision.chart(item["points"], path, psnr_min=psnr_min, techniques=techniques,
+        plots.pareto_fronts(item["points"], path, psnr_min=psnr_min, techniques=techniques,
                        title=f"{item['kind'].capitalize()} ({item['scene']}): time against accuracy")
         item["chart"] = rel
         for row in item["table"]:

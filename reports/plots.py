@@ -29,7 +29,8 @@ import pandas as pd
 
 from core.errors import InputError
 
-__all__ = ["bar_compare", "convergence", "difference_colorbar", "scaling", "speed_accuracy", "stage_breakdown"]
+__all__ = ["bar_compare", "convergence", "difference_colorbar", "pareto_fronts", "pareto_mask", "scaling",
+           "speed_accuracy", "stage_breakdown"]
 
 FIGSIZE = (6.0, 4.0)
 # matplotlib's ten colours, then ten more told apart from them (dark, saturated or light hues).
@@ -520,8 +521,10 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
                     ax.annotate(str(text), (x, y), xytext=(3, 3), textcoords="offset points",
                                 fontsize=7)
         if pareto:
-            front = _pareto_front(rows[time_col].to_numpy(), rows[error_col].to_numpy())
-            ax.step(*front, where="post", color="0.4", linestyle="--", label="Pareto front")
+            errors = rows[error_col].to_numpy(float)
+            front = rows[pareto_mask(rows[time_col], errors if error_col in HIGHER_IS_BETTER else -errors)]
+            front = front.sort_values(time_col)
+            ax.step(front[time_col], front[error_col], where="post", color="0.4", linestyle="--", label="Pareto front")
         _axes(ax, log_x, log_y, x_label or _label(time_col), y_label or _label(error_col))
         if better:
             ax.text(0.99, 0.01, f"better: {better}", transform=ax.transAxes, ha="right", va="bottom",
@@ -529,6 +532,49 @@ def speed_accuracy(df, path, *, time_col="time_total", error_col="rmse", group_c
         ax.legend(title=group_col.replace("_", " ") if group_col else None)
 
     return _plot(path, title or f"{_label(error_col)} against {_label(time_col)}", note, rows.empty, draw)
+
+
+def pareto_fronts(points, path, *, title, psnr_min, techniques=None):
+    """Time against PSNR: each technique's Pareto front as a line, its other settings as hollow markers.
+
+    Parameters
+    ----------
+    points : pandas.DataFrame
+        One scene's ``points`` from :func:`reports.decision.panel` (``backend``, ``time_total`` in seconds, ``time_min``,
+        ``time_max``, ``psnr``, ``front``).
+    path : path
+        The ``.svg`` to write.
+    title : str
+    psnr_min : float
+        The accuracy bar (dB), drawn as a dashed line.
+    techniques : sequence of str, optional
+        Every technique of the charts drawn side by side, so that each keeps its colour and marker in
+        all of them; default the techniques of ``points``, sorted.
+    """
+    order = list(techniques) if techniques is not None else sorted(set(points.backend))
+
+    def draw(ax):
+        for backend, rows in points.groupby("backend", sort=True):
+            style = _style(order.index(backend))
+            front = rows[rows.front].sort_values("time_total")
+            ms = front.time_total.to_numpy(float) * 1e3
+            spread = np.vstack([np.clip(ms - front.time_min.to_numpy(float) * 1e3, 0, None),
+                                np.clip(front.time_max.to_numpy(float) * 1e3 - ms, 0, None)])
+            ax.errorbar(ms, front.psnr, xerr=np.nan_to_num(spread), label=backend, capsize=2, elinewidth=0.8,
+                        markersize=5, **style)
+            others = rows[~rows.front]
+            if len(others):
+                ax.plot(others.time_total * 1e3, others.psnr, linestyle="none", marker=style["marker"],
+                        markerfacecolor="none", markeredgecolor=style["color"], markersize=5, alpha=0.7)
+        ax.axhline(psnr_min, color="0.3", linestyle="--", linewidth=0.8)
+        ax.annotate(f"{psnr_min:g} dB: accurate", (0, psnr_min), xycoords=("axes fraction", "data"),
+                    xytext=(3, 3), textcoords="offset points", fontsize=7, color="0.3")
+        _axes(ax, True, False, "median frame time (ms, log scale); bars: fastest to slowest frame",
+                    "PSNR against the reference (dB)")
+        ax.legend(title="technique", loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7, title_fontsize=7,
+                  borderaxespad=0)
+
+    return _plot(path, title, "", points.empty, draw)
 
 
 def _error_bars(group, x, ranges):
@@ -554,15 +600,20 @@ def _axes(ax, log_x, log_y, x_label, y_label):
     ax.set_ylabel(y_label)
 
 
-def _pareto_front(times, errors):
-    """Points not dominated in (time, error), sorted by time."""
-    order = np.lexsort((errors, times))
-    front_t, front_e = [], []
-    for t, e in zip(times[order], errors[order]):
-        if not front_e or e < front_e[-1]:
-            front_t.append(t)
-            front_e.append(e)
-    return np.array(front_t), np.array(front_e)
+def pareto_mask(times, scores):
+    """Which points no other beats: none is at least as fast and scores at least as high while better in one.
+
+    ``times``: lower is better; ``scores``: higher is better (a PSNR; pass ``-error`` for an error).
+    Points with a non-finite value are never on the front.
+    """
+    times, scores = np.asarray(times, float), np.asarray(scores, float)
+    mask = np.zeros(len(times), bool)
+    finite = np.flatnonzero(np.isfinite(times) & np.isfinite(scores))
+    best = -np.inf
+    for index in finite[np.lexsort((-scores[finite], times[finite]))]:  # fastest first, best score first
+        if scores[index] > best:
+            mask[index], best = True, scores[index]
+    return mask
 
 
 def convergence(df, path, *, x_col="step", y_col="rmse", group_col=None, reference_slopes=(1, 2),

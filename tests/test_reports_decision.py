@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from reports import decision
+from reports import decision, plots
 
 
 def _rows(points, scene="skull-bone", kind="opaque"):
@@ -118,7 +118,7 @@ def test_a_technique_keeps_its_colour_in_every_chart_of_the_panel(tmp_path):
     colours = []
     for rows, name in ((both, "a.svg"), (alone, "b.svg")):
         [item] = decision.panel(rows, None)
-        text = decision.chart(item["points"], tmp_path / name, title="t",
+        text = plots.pareto_fronts(item["points"], tmp_path / name, title="t", psnr_min=40,
                               techniques=["cl-tiled", "gl-raycast"]).read_text()
         # The legend's gl-raycast entry: its line's stroke colour comes right before its label.
         colours.append(re.findall(r"stroke: (#[0-9a-f]{6})", text.split(">gl-raycast<")[0])[-1])

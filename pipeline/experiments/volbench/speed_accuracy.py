@@ -105,8 +105,8 @@ class SpeedAccuracy(Experiment):
         for item in fronts:
             path, rel = ctx.plot_path(f"speed-accuracy-{item['scene']}")
             group = ok[ok.scene == item["scene"]]
-            decision.chart(item["points"], path, title=_speed_title(item["scene"], group[group.backend != "reference"]),
-                           techniques=techniques)
+            plots.pareto_fronts(item["points"], path, title=_speed_title(item["scene"], group[group.backend != "reference"]),
+                                psnr_min=takeaways.PSNR_GOOD, techniques=techniques)
             out.append(blocks.Figure(f"{item['scene']} ({item['kind']}): median frame time against PSNR", rel,
                                      "Each technique's Pareto front over its settings (the settings no other setting "
                                      "of it beats in both time and PSNR) as a line, its other settings as hollow "
