@@ -64,7 +64,8 @@ class _Arm:
 
     def __init__(self, renderer, scene):
         self.renderer, self.scene = renderer, scene
-        self.frames, self.walls, self.waits = [], [], []
+        self.frames, self.walls, self.waits = [], [], []  # every timed frame's stage times; walls; waits
+        self.last = None  # the last timed frame's whole result (its image is the run's picture)
         self.first_frame = None
         self.preprocessing = {}
         self.warmup = 0
@@ -101,19 +102,22 @@ class _Arm:
         before = disturbance.thread_waits()
         result, wall = self.render()
         after = disturbance.thread_waits()
-        self.frames.append(result)
+        # Only the stage times are kept of every frame: keeping each frame's image alive would hand every
+        # next frame fresh pages to fault in, a cost of the harness that would be timed as the backend's.
+        self.frames.append(result.timings)
+        self.last = result
         self.walls.append(wall)
         self.waits.append(after - before if None not in (before, after) else 0.0)
         return result
 
     def result(self, load):
         frames = self.frames
-        stages = list(dict.fromkeys(stage for frame in frames for stage in frame.timings))
-        per_stage = {stage: [frame.timings[stage] for frame in frames if stage in frame.timings] for stage in stages}
+        stages = list(dict.fromkeys(stage for frame in frames for stage in frame))
+        per_stage = {stage: [frame[stage] for frame in frames if stage in frame] for stage in stages}
         timings = {stage: statistics.median(values) for stage, values in per_stage.items()}
         # Preprocessing happens once: its stages are the preprocessing frame's, not in any timed frame.
         once = {stage: value for stage, value in self.preprocessing.items() if stage not in timings}
-        last = frames[-1]
+        last = self.last
         info = {**last.info, "frames": len(frames), "warmup": self.warmup, "settled": self.settled,
                 "first_frame": self.first_frame, "load": load,
                 "disturbed": disturbance.verdict(load, per_stage.get("total", []), self.waits, self.walls),

@@ -67,7 +67,7 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from renderers.shearwarp.classify import NORMAL_CODES, NORMAL_DIRECTIONS
+from renderers.shearwarp.classify import INDEX_SHIFT, NORMAL_CODES, NORMAL_DIRECTIONS
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -230,8 +230,8 @@ def _union_rank(link, rank, runend, row, a, b):
 
 
 @njit(**_JIT)
-def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, voxels,
-                    gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params, early,
+def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, run_index,
+                    voxels, gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params, early,
                     threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
     """Composite every slice, front to back, into intermediate rows ``r0 .. r1 − 1``.
 
@@ -247,6 +247,7 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
     lx, ly, lz = light[0], light[1], light[2]
     hx, hy, hz = half[0], half[1], half[2]
     ambient, diffuse, specular, shininess = params[0], params[1], params[2], params[3]
+    samples = runs = finds = creates = skipped = 0  # this task's counters
     for s in range(slices.shape[0]):
         k = slices[s]
         iuk = iu[k]
@@ -260,34 +261,37 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
         for row in range(row_lo, row_hi):
             j = row - ivk
             sl_a = k * nj + j
-            samples = 0
-            runs = 0
-            finds = 0
-            creates = 0
-            skipped = 0
             a_ok = j < nj
             b_ok = j >= 1
+            if skip_empty and (not a_ok or data_offsets[sl_a + 1] == data_offsets[sl_a]) and (
+                    not b_ok or data_offsets[sl_a] == data_offsets[sl_a - 1]):
+                continue  # both scanlines hold no voxel: every sample of the row would be zero
             # Cursor A: scanline j (weight 1 − fv); cursor B: scanline j − 1 (weight fv). A scanline
             # outside the slice is one endless transparent run (end = BIG), so the loop needs no
             # test for it.
+            sl_b = sl_a - 1
             a_run = 0
             a_start = 0
             a_end = BIG
             a_nt = False
             a_dat = 0
+            a_first = 0
+            a_base = 0
             if a_ok:
-                a_run = run_offsets[sl_a]
+                a_first = a_run = run_offsets[sl_a]
                 a_end = np.int64(lengths[a_run])
-                a_dat = data_offsets[sl_a]
+                a_base = a_dat = data_offsets[sl_a]
             b_run = 0
             b_start = 0
             b_end = BIG
             b_nt = False
             b_dat = 0
+            b_first = 0
+            b_base = 0
             if b_ok:
-                b_run = run_offsets[sl_a - 1]
+                b_first = b_run = run_offsets[sl_b]
                 b_end = np.int64(lengths[b_run])
-                b_dat = data_offsets[sl_a - 1]
+                b_base = b_dat = data_offsets[sl_b]
             par = pag = pab = paa = 0.0  # previous voxel (x − 1) of scanline A, premultiplied
             pbr = pbg = pbb = pba = 0.0
             x = 0
@@ -316,6 +320,15 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                     left = landing - 1
                     par = pag = pab = paa = 0.0
                     pbr = pbg = pbb = pba = 0.0
+                    if left >= a_end and (left >> INDEX_SHIFT) << INDEX_SHIFT >= a_end:
+                        # A checkpoint of the run index lies past the current run: jump there.
+                        point = left >> INDEX_SHIFT
+                        rel = np.int64(run_index[sl_a, point, 0])
+                        a_run = a_first + rel
+                        a_start = np.int64(run_index[sl_a, point, 1])
+                        a_end = a_start + lengths[a_run]
+                        a_dat = a_base + run_index[sl_a, point, 2]
+                        a_nt = (rel & 1) == 1
                     while left >= a_end:
                         if a_nt:
                             a_dat += a_end - a_start
@@ -341,6 +354,15 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                                                    has_half, ambient, diffuse, specular, shininess)
                             par, pag, pab, paa = _premultiply(optab[opacity], coltab[ci, 0], coltab[ci, 1],
                                                               coltab[ci, 2], f, h, shade_mode != SHADE_NONE)
+                    if left >= b_end and (left >> INDEX_SHIFT) << INDEX_SHIFT >= b_end:
+                        # A checkpoint of the run index lies past the current run: jump there.
+                        point = left >> INDEX_SHIFT
+                        rel = np.int64(run_index[sl_b, point, 0])
+                        b_run = b_first + rel
+                        b_start = np.int64(run_index[sl_b, point, 1])
+                        b_end = b_start + lengths[b_run]
+                        b_dat = b_base + run_index[sl_b, point, 2]
+                        b_nt = (rel & 1) == 1
                     while left >= b_end:
                         if b_nt:
                             b_dat += b_end - b_start
@@ -461,16 +483,17 @@ def _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offset
                 par, pag, pab, paa = car, cag, cab, caa
                 pbr, pbg, pbb, pba = cbr, cbg, cbb, cba
                 x += 1
-            counters[row, C_SAMPLES] += samples
-            counters[row, C_RUNS] += runs
-            counters[row, C_FINDS] += finds
-            counters[row, C_CREATES] += creates
-            counters[row, C_SKIPPED] += skipped
 
+    counters[task, C_SAMPLES] = samples
+    counters[task, C_RUNS] = runs
+    counters[task, C_FINDS] = finds
+    counters[task, C_CREATES] = creates
+    counters[task, C_SKIPPED] = skipped
 
 @njit(parallel=True, **_JIT)
 def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, iu, iv, weights,
-              ni, nj, lengths, run_offsets, data_offsets, voxels, gradients, optab, coltab, shadetab, shade_mode, nmat,
+              ni, nj, lengths, run_offsets, data_offsets, run_index, voxels, gradients, optab, coltab, shadetab,
+              shade_mode, nmat,
               light, half, has_half, params, early, threshold, rank_mode, skip_empty, image, link, rank, runend,
               counters):
     """Composite every slice into the intermediate image, tasks dealt to ``workers`` queues.
@@ -482,7 +505,7 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
     height = image.shape[0]
     for w in prange(workers):
         done = 0
-        samples_before = 0
+        samples = 0
         for t in range(workers if steal else 1):
             queue = (w + t) % workers
             while True:
@@ -492,21 +515,19 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
                 task = queue_tasks[position]
                 r0 = task * task_size
                 r1 = min(height, r0 + task_size)
-                for row in range(r0, r1):
-                    samples_before -= counters[row, C_SAMPLES]
-                _composite_task(r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, voxels,
+                _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, run_index,
+                                voxels,
                                 gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params,
                                 early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters)
-                for row in range(r0, r1):
-                    samples_before += counters[row, C_SAMPLES]
+                samples += counters[task, C_SAMPLES]
                 done += 1
         worker_stats[w, 0] = done
-        worker_stats[w, 1] = samples_before
+        worker_stats[w, 1] = samples
 
 
 @njit(parallel=True, **_JIT)
-def clear(image, link, counters):
-    """Zero the intermediate image, its skip links and the per-row counters."""
+def clear(image, link):
+    """Zero the intermediate image and its skip links."""
     for row in prange(image.shape[0]):
         for col in range(image.shape[1]):
             image[row, col, 0] = 0.0
@@ -515,5 +536,3 @@ def clear(image, link, counters):
             image[row, col, 3] = 0.0
         for col in range(link.shape[1]):
             link[row, col] = 0
-        for c in range(counters.shape[1]):
-            counters[row, c] = 0

@@ -102,7 +102,7 @@ def _overlap(i, c, half_width):
 
 
 @njit(**_JIT)
-def _composite_task(r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, run_offsets, data_offsets, voxels,
+def _composite_task(task, r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, run_offsets, data_offsets, voxels,
                     gradients, optabs, pix_table, pix_weight, coltab, shadetab, shade_mode, nmat, light, half, has_half,
                     params, early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
     """Composite every slice, front to back, into intermediate rows ``r0 .. r1 − 1`` (module notes)."""
@@ -121,6 +121,7 @@ def _composite_task(r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, r
     c_nt = np.zeros(fmax, dtype=np.bool_)
     c_dat = np.zeros(fmax, dtype=np.int64)
     c_weight = np.zeros(fmax, dtype=np.float64)
+    samples = runs = finds = creates = skipped = 0  # this task's counters
     for s in range(slices.shape[0]):
         k = slices[s]
         f = scales[k]
@@ -148,11 +149,6 @@ def _composite_task(r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, r
                 c_nt[q] = False
                 c_dat[q] = data_offsets[sl]
                 c_weight[q] = f * _overlap(j_lo + q, cv, hp)
-            samples = 0
-            runs = 0
-            finds = 0
-            creates = 0
-            skipped = 0
             x = col_lo
             while x <= col_hi:
                 p = x
@@ -266,12 +262,12 @@ def _composite_task(r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, r
                         else:
                             link[row, p] = 1
                 x += 1
-            counters[row, C_SAMPLES] += samples
-            counters[row, C_RUNS] += runs
-            counters[row, C_FINDS] += finds
-            counters[row, C_CREATES] += creates
-            counters[row, C_SKIPPED] += skipped
 
+    counters[task, C_SAMPLES] = samples
+    counters[task, C_RUNS] = runs
+    counters[task, C_FINDS] = finds
+    counters[task, C_CREATES] = creates
+    counters[task, C_SKIPPED] = skipped
 
 @njit(parallel=True, **_JIT)
 def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, scales, uoff,
@@ -283,7 +279,7 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
     height = image.shape[0]
     for w in prange(workers):
         done = 0
-        samples_before = 0
+        samples = 0
         for t in range(workers if steal else 1):
             queue = (w + t) % workers
             while True:
@@ -293,14 +289,11 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
                 task = queue_tasks[position]
                 r0 = task * task_size
                 r1 = min(height, r0 + task_size)
-                for row in range(r0, r1):
-                    samples_before -= counters[row, C_SAMPLES]
-                _composite_task(r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, run_offsets, data_offsets,
+                _composite_task(task, r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, run_offsets, data_offsets,
                                 voxels, gradients, optabs, pix_table, pix_weight, coltab, shadetab, shade_mode, nmat,
                                 light, half, has_half, params, early, threshold, rank_mode, skip_empty, image, link,
                                 rank, runend, counters)
-                for row in range(r0, r1):
-                    samples_before += counters[row, C_SAMPLES]
+                samples += counters[task, C_SAMPLES]
                 done += 1
         worker_stats[w, 0] = done
-        worker_stats[w, 1] = samples_before
+        worker_stats[w, 1] = samples

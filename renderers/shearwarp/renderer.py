@@ -550,8 +550,8 @@ class ShearWarpRenderer(Renderer):
         link = self._buffer("link", height * (width + 1), np.int32).reshape(height, width + 1)
         rank = self._buffer("rank", height * (width + 1), np.uint8).reshape(height, width + 1)
         runend = self._buffer("runend", height * (width + 1), np.int32).reshape(height, width + 1)
-        counters = self._buffer("counters", height * composite.N_COUNTERS, np.int64).reshape(height, -1)
         n_tasks = -(-height // self.task_size)
+        counters = self._buffer("counters", n_tasks * composite.N_COUNTERS, np.int64).reshape(n_tasks, -1)
         queue_tasks, queue_start = self._task_queues(n_tasks)
         queue_next = queue_start[:-1].copy()
         worker_stats = np.zeros((self.workers, 2), dtype=np.int64)
@@ -561,7 +561,7 @@ class ShearWarpRenderer(Renderer):
         numba.set_num_threads(self.workers)
         try:
             t0 = time.perf_counter()
-            composite.clear(image, link, counters)
+            composite.clear(image, link)
             t1 = time.perf_counter()
             cpu1 = time.process_time()
             if perspective:
@@ -575,7 +575,7 @@ class ShearWarpRenderer(Renderer):
                 composite.composite(
                     self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
                     queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, enc.lengths, enc.run_offsets,
-                    enc.data_offsets, enc.voxels, gradients, optab, colour_table, shadetab, shade_mode, normal_matrix,
+                    enc.data_offsets, enc.run_index, enc.voxels, gradients, optab, colour_table, shadetab, shade_mode, normal_matrix,
                     light, half, has_half, params, self.early_termination, self.opaque_threshold,
                     self.union == "rank", enc.encoded, image, link, rank, runend, counters)
             t2 = time.perf_counter()
