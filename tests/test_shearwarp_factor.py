@@ -201,6 +201,30 @@ def test_rle_round_trips_the_classified_volume(axis):
     np.testing.assert_array_equal(cl.decode(brute), dense)
 
 
+@pytest.mark.parametrize("axis", [0, 1, 2])
+def test_run_index_holds_where_a_walk_from_the_scanline_start_stands(axis):
+    classified, _ = classified_field()
+    for encoding in (cl.encode(classified, axis), cl.dense_encoding(classified, axis)):
+        ni = encoding.shape_ijk[0]
+        index = encoding.run_index
+        assert index.shape == (encoding.run_offsets.size - 1, -(-ni // cl.INDEX_STEP), 3)
+        assert index.dtype == np.uint16
+        for sl in range(0, index.shape[0], 7):
+            first, start, data = int(encoding.run_offsets[sl]), 0, 0
+            run = first
+            for c in range(index.shape[1]):
+                position = c * cl.INDEX_STEP
+                # The compositing cursor's walk: past every run that ends at or before the position.
+                while start + int(encoding.lengths[run]) <= position:
+                    data += int(encoding.lengths[run]) if (run - first) % 2 else 0
+                    start += int(encoding.lengths[run])
+                    run += 1
+                assert tuple(index[sl, c]) == (run - first, start, data), (sl, c)
+    # Scanlines too long for 16-bit entries get 32-bit ones.
+    assert cl.run_index(np.array([255, 0] * 200 + [0], np.uint8)[:-1], np.array([0, 400]), np.array([0, 0]),
+                        51000).dtype == np.int32
+
+
 def test_classification_thresholds_and_quantises_like_the_tables():
     field = np.linspace(0, 1, 4 * 5 * 6, dtype=np.float32).reshape(4, 5, 6)
     tf = TransferFunction.ramp(0.2, 0.8, color=(0.5, 0.25, 1.0))

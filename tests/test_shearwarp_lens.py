@@ -78,7 +78,11 @@ def test_a_dvr_lens_with_the_outside_appearance_gives_the_no_lens_image_bit_for_
     got = ShearWarpRenderer(**options).render(lensed)
     assert expected.image[..., 3].max() > 0.5
     np.testing.assert_array_equal(got.image, expected.image)
-    assert got.counters == expected.counters
+    # With a lens the octree mode classifies every candidate voxel before compositing, without one only
+    # those compositing reaches: the classification's work differs, the compositing's does not.
+    work = {"rle_bytes", "classified_on_the_fly"} if options.get("classification") == "octree" else set()
+    assert ({name: value for name, value in got.counters.items() if name not in work}
+            == {name: value for name, value in expected.counters.items() if name not in work})
     # The lens does cover what is seen: a transparency lens in the same place changes the image.
     fainter = replace(same, appearance=replace(same.appearance, opacity_scale=0.5))
     assert np.abs(ShearWarpRenderer(**options).render(replace(plain, lenses=(fainter,))).image - got.image).max() > 0.05

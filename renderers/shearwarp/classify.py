@@ -144,31 +144,63 @@ def central_gradient(s, z, y, x, sx, sy, sz):
     return gx, gy, gz
 
 
+@njit(inline="always", **_JIT)
+def scalar_opacity(value, alpha_table):
+    """The transfer function's opacity at normalised scalar ``value`` (float64), interpolated."""
+    i0, w = table_position(value, alpha_table.shape[0])
+    return alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
+
+
+@njit(inline="always", **_JIT)
+def gradient_factor(magnitude, gtab, ref_step):
+    """The gradient-opacity factor ``g(u)``, ``u = |∇s|·Δ0/(√3/2)``, interpolated (``gtab`` non-empty)."""
+    j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, gtab.shape[0])
+    return gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
+
+
+@njit(inline="always", **_JIT)
+def pack_record(alpha, value, code):
+    """The 4-byte record of a visible voxel: 8-bit opacity, 8-bit colour index, normal code."""
+    opacity = min(int(alpha * 255.0 + 0.5), 255)
+    colour = min(int(value * 255.0 + 0.5), 255)
+    return np.uint32(opacity | (colour << 8) | (code << 16))
+
+
 @njit(inline="always", **_JIT)  # inlined in Numba IR: no per-voxel call or array reference counting
 def classify_voxel(s, z, y, x, sx, sy, sz, alpha_table, gtab, ref_step, min_opacity):
     """One voxel's ``(record, gx, gy, gz, visible)``: record and gradient 0 where it is transparent.
 
     ``visible`` says the opacity passed ``min_opacity`` (a faint voxel's record can still be 0 once
     its opacity is rounded to 8 bits). The one classification rule of the RLE build
-    (:func:`_classify_kernel`) and the octree's on-the-fly classification.
+    (:func:`_classify_kernel`) and the octree's on-the-fly classification; :func:`classify_parameters`
+    is the same rule on precomputed parameters.
     """
     value = np.float64(s[z, y, x])
-    i0, w = table_position(value, alpha_table.shape[0])
-    alpha = alpha_table[i0] * (1.0 - w) + alpha_table[i0 + 1] * w
+    alpha = scalar_opacity(value, alpha_table)
     if not alpha > min_opacity:
         return np.uint32(0), 0.0, 0.0, 0.0, False
     gx, gy, gz = central_gradient(s, z, y, x, sx, sy, sz)
-    g_size = gtab.shape[0]
-    if g_size > 0:
-        magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
-        j0, wg = table_position(magnitude * ref_step / MAX_GRADIENT, g_size)
-        alpha *= gtab[j0] * (1.0 - wg) + gtab[j0 + 1] * wg
+    if gtab.shape[0] > 0:
+        alpha *= gradient_factor(math.sqrt(gx * gx + gy * gy + gz * gz), gtab, ref_step)
         if not alpha > min_opacity:
             return np.uint32(0), 0.0, 0.0, 0.0, False
-    opacity = min(int(alpha * 255.0 + 0.5), 255)
-    colour = min(int(value * 255.0 + 0.5), 255)
-    code = encode_normal(gx, gy, gz)
-    return np.uint32(opacity | (colour << 8) | (code << 16)), gx, gy, gz, True
+    return pack_record(alpha, value, encode_normal(gx, gy, gz)), gx, gy, gz, True
+
+
+@njit(inline="always", **_JIT)
+def classify_parameters(value, magnitude, code, alpha_table, gtab, ref_step, min_opacity):
+    """:func:`classify_voxel`'s record from a voxel's precomputed parameters (the fast classification's
+    voxel array): its scalar (float32), gradient magnitude and normal code, computed as that function
+    computes them, so the record is the same bits."""
+    value = np.float64(value)
+    alpha = scalar_opacity(value, alpha_table)
+    if not alpha > min_opacity:
+        return np.uint32(0)
+    if gtab.shape[0] > 0:
+        alpha *= gradient_factor(magnitude, gtab, ref_step)
+        if not alpha > min_opacity:
+            return np.uint32(0)
+    return pack_record(alpha, value, code)
 
 
 @njit(inline="always", **_JIT)

@@ -40,17 +40,30 @@ non-opaque pixel and, with path compression, rewrites every visited link to poin
 root, and unions a new opaque pixel with its opaque neighbours by rank, FIND also compressing
 paths. Links are int32 (the thesis's are 8-bit, capping one skip at 255 pixels).
 
+Skipping opaque pixels jumps in the voxel scanlines too: FIND's landing position is reached from the
+scanline's run index (:func:`renderers.shearwarp.classify.run_index`, a cursor checkpoint every 32
+voxels) instead of by walking every run under the opaque pixels; on a 256³ head this walk was nine
+runs in ten that the cursors passed. A row whose two scanlines hold no voxel at all is skipped whole.
+
+Fast classification (thesis §4.3.4, Fig. 4.17), ``lazy``: the scanlines are the octree's candidate
+runs (:func:`renderers.shearwarp.octree.voxel_runs`) and a voxel is classified where the loop first
+needs it, from the unclassified voxel array (scalar, gradient magnitude, normal code, 16 bytes;
+:func:`renderers.shearwarp.classify.classify_parameters`, the same record bits as the classified
+RLE's). Voxels behind opaque pixels are never classified. Scanline ``j``'s records, classified as
+row ``j``'s cursor A, are kept in a two-scanline cache for row ``j + 1``'s cursor B (a task's rows
+are consecutive), so most voxels are classified once per frame.
+
 Speed notes: the row loop is written out inside :func:`_composite_task` (one call per task, not
 per slice and row), and inside the loops only scalars are passed to helper functions. Numba
 reference-counts array arguments at calls it does not inline (an atomic increment and decrement
 per array), which made a sample several times dearer than its arithmetic; the shading lookups
 and FIND are therefore written in place, with :func:`_procedural` and :func:`_premultiply`
-taking scalars only. Each voxel is shaded where it is first needed and carried in registers as
-the "previous" voxel of the next position (twice per slice: once per scanline of the pair);
-shading whole scanlines ahead of time would shade many voxels that early termination never
-reaches (on the bone phantom five times more voxels than samples). A lazily filled two-scanline
-cache (scanline ``j`` shaded once as A and reused as B by the next row) was measured and gained
-nothing: the time goes to run and FIND bookkeeping and the image update, not to shading.
+taking scalars only, and helpers that take arrays are inlined (``inline="always"``). Each voxel is
+shaded where it is first needed and carried in registers as the "previous" voxel of the next
+position (twice per slice: once per scanline of the pair); shading whole scanlines ahead of time
+would shade many voxels that early termination never reaches (on the bone phantom five times more
+voxels than samples). Counters are kept in registers for the whole task and written once: five
+read-modify-writes of a shared array per row and slice cost 8 % of the frame.
 
 Threads (Ch. 6): the intermediate image's rows are cut into tasks of ``task_size`` rows; a task
 composites all slices front to back over its rows. Tasks are dealt to ``workers`` queues
@@ -67,13 +80,13 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
-from renderers.shearwarp.classify import INDEX_SHIFT, NORMAL_CODES, NORMAL_DIRECTIONS
+from renderers.shearwarp.classify import INDEX_SHIFT, NORMAL_CODES, NORMAL_DIRECTIONS, classify_parameters
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 SHADE_NONE, SHADE_LUT, SHADE_PROCEDURAL = 0, 1, 2
-N_COUNTERS = 5
-C_SAMPLES, C_RUNS, C_FINDS, C_CREATES, C_SKIPPED = range(N_COUNTERS)
+N_COUNTERS = 6
+C_SAMPLES, C_RUNS, C_FINDS, C_CREATES, C_SKIPPED, C_CLASSIFIED = range(N_COUNTERS)
 BIG = 1 << 60
 
 
@@ -109,6 +122,20 @@ def colour_index(record):
 def normal_code(record):
     """The 13-bit normal code of ``record`` (or ``NO_NORMAL``), without the lens bit."""
     return (record >> 16) & 16383
+
+
+@njit(inline="always", **_JIT)
+def _lazy_record(records, tags, slot, position, tag, index, raw, alpha_table, gtab, ref_step, min_opacity):
+    """``(record, 1)``: voxel ``index`` of the unclassified voxel array classified now and kept in scanline
+    cache ``slot`` at ``position`` under ``tag``; ``(record, 0)`` when the cache holds it already."""
+    if tags[slot, position] == tag:
+        return records[slot, position], 0
+    voxel = raw[index]
+    record = classify_parameters(voxel.scalar, voxel.magnitude, np.int64(voxel.normal), alpha_table, gtab, ref_step,
+                                 min_opacity)
+    records[slot, position] = record
+    tags[slot, position] = tag
+    return record, 1
 
 
 # ---------------------------------------------------------------------------------------------
@@ -232,13 +259,17 @@ def _union_rank(link, rank, runend, row, a, b):
 @njit(**_JIT)
 def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, run_index,
                     voxels, gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params, early,
-                    threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
+                    threshold, rank_mode, skip_empty, lazy, raw, alpha_table, gtab, ref_step, min_opacity, stride_i,
+                    stride_j, stride_k, image, link, rank, runend, counters):
     """Composite every slice, front to back, into intermediate rows ``r0 .. r1 − 1``.
 
     The row loop is written out here (one call per task, not per row and slice: a call with
     this many array arguments costs more than a short row). For each slice and row, voxel
     scanlines ``j = row − iv[k]`` (cursor A, weights ``wca``/``wpa``) and ``j − 1`` (cursor B)
-    are walked as the module notes describe.
+    are walked as the module notes describe. ``lazy``: the records are classified from ``raw`` (the
+    unclassified voxel array, flat; voxel ``(i, j, k)`` at ``i·stride_i + j·stride_j + k·stride_k``)
+    with the tables ``alpha_table``, ``gtab`` instead of read from ``voxels``. The task's counters go
+    to ``counters[task]``.
     """
     # Scalars only inside the loops: array references created there would cost reference counting.
     m00, m01, m02 = nmat[0, 0], nmat[0, 1], nmat[0, 2]
@@ -247,7 +278,11 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
     lx, ly, lz = light[0], light[1], light[2]
     hx, hy, hz = half[0], half[1], half[2]
     ambient, diffuse, specular, shininess = params[0], params[1], params[2], params[3]
-    samples = runs = finds = creates = skipped = 0  # this task's counters
+    samples = runs = finds = creates = skipped = classified = 0  # this task's counters
+    # Fast classification: the records of the last two voxel scanlines classified, so that scanline j,
+    # classified as row j's cursor A, is read back as row j + 1's cursor B (tag: slice and scanline).
+    line_records = np.empty((2, ni if lazy else 0), dtype=np.uint32)
+    line_tags = np.full((2, ni if lazy else 0), -1, dtype=np.int64)
     for s in range(slices.shape[0]):
         k = slices[s]
         iuk = iu[k]
@@ -270,6 +305,12 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
             # outside the slice is one endless transparent run (end = BIG), so the loop needs no
             # test for it.
             sl_b = sl_a - 1
+            a_obj = j * stride_j + k * stride_k  # lazy: voxel i of scanline j is a_obj + i·stride_i
+            b_obj = a_obj - stride_j
+            tag_a = s * (nj + 1) + j
+            tag_b = tag_a - 1
+            slot_a = j & 1
+            slot_b = 1 - slot_a
             a_run = 0
             a_start = 0
             a_end = BIG
@@ -339,7 +380,13 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                         runs += 1
                     if a_nt:
                         index = a_dat + left - a_start
-                        record = voxels[index]
+                        if lazy:
+                            record, fresh = _lazy_record(line_records, line_tags, slot_a, left, tag_a,
+                                                         a_obj + left * stride_i, raw, alpha_table, gtab, ref_step,
+                                                         min_opacity)
+                            classified += fresh
+                        else:
+                            record = voxels[index]
                         opacity = record & 255
                         if opacity != 0:
                             ci = colour_index(record)
@@ -373,7 +420,13 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                         runs += 1
                     if b_nt:
                         index = b_dat + left - b_start
-                        record = voxels[index]
+                        if lazy:
+                            record, fresh = _lazy_record(line_records, line_tags, slot_b, left, tag_b,
+                                                         b_obj + left * stride_i, raw, alpha_table, gtab, ref_step,
+                                                         min_opacity)
+                            classified += fresh
+                        else:
+                            record = voxels[index]
                         opacity = record & 255
                         if opacity != 0:
                             ci = colour_index(record)
@@ -423,7 +476,12 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                 cbr = cbg = cbb = cba = 0.0
                 if cur_a:
                     index = a_dat + x - a_start
-                    record = voxels[index]
+                    if lazy:
+                        record, fresh = _lazy_record(line_records, line_tags, slot_a, x, tag_a, a_obj + x * stride_i,
+                                                     raw, alpha_table, gtab, ref_step, min_opacity)
+                        classified += fresh
+                    else:
+                        record = voxels[index]
                     opacity = record & 255
                     if opacity != 0:
                         ci = colour_index(record)
@@ -440,7 +498,12 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                                                           f, h, shade_mode != SHADE_NONE)
                 if cur_b:
                     index = b_dat + x - b_start
-                    record = voxels[index]
+                    if lazy:
+                        record, fresh = _lazy_record(line_records, line_tags, slot_b, x, tag_b, b_obj + x * stride_i,
+                                                     raw, alpha_table, gtab, ref_step, min_opacity)
+                        classified += fresh
+                    else:
+                        record = voxels[index]
                     opacity = record & 255
                     if opacity != 0:
                         ci = colour_index(record)
@@ -489,12 +552,13 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
     counters[task, C_FINDS] = finds
     counters[task, C_CREATES] = creates
     counters[task, C_SKIPPED] = skipped
+    counters[task, C_CLASSIFIED] = classified
 
 @njit(parallel=True, **_JIT)
 def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, iu, iv, weights,
               ni, nj, lengths, run_offsets, data_offsets, run_index, voxels, gradients, optab, coltab, shadetab,
-              shade_mode, nmat,
-              light, half, has_half, params, early, threshold, rank_mode, skip_empty, image, link, rank, runend,
+              shade_mode, nmat, light, half, has_half, params, early, threshold, rank_mode, skip_empty, lazy, raw,
+              alpha_table, gtab, ref_step, min_opacity, stride_i, stride_j, stride_k, image, link, rank, runend,
               counters):
     """Composite every slice into the intermediate image, tasks dealt to ``workers`` queues.
 
@@ -515,10 +579,11 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
                 task = queue_tasks[position]
                 r0 = task * task_size
                 r1 = min(height, r0 + task_size)
-                _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets, run_index,
-                                voxels,
-                                gradients, optab, coltab, shadetab, shade_mode, nmat, light, half, has_half, params,
-                                early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters)
+                _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets,
+                                run_index, voxels, gradients, optab, coltab, shadetab, shade_mode, nmat, light, half,
+                                has_half, params, early, threshold, rank_mode, skip_empty, lazy, raw, alpha_table,
+                                gtab, ref_step, min_opacity, stride_i, stride_j, stride_k, image, link, rank, runend,
+                                counters)
                 samples += counters[task, C_SAMPLES]
                 done += 1
         worker_stats[w, 0] = done

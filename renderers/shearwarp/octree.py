@@ -29,6 +29,13 @@ children of a node contiguous (``child[n]`` = the first, −1 for a leaf; child 
 outside a non-cubic volume are *empty* nodes (``min > max``), always transparent.
 :attr:`MinMaxOctree.nbytes` counts the node arrays (4 bytes of min/max bins per node with
 ``bins ≤ 256`` and a 4-byte child pointer); the float32 scalars it also keeps are the volume.
+Beside it the build keeps the thesis's *unclassified voxel array* (:data:`VOXEL`, one 16-byte entry
+per voxel: scalar, normal code and gradient magnitude, :attr:`MinMaxOctree.voxel_bytes`), from which
+the compositing loop classifies the voxels it reaches. The thesis stores one byte of scalar and one
+of gradient magnitude (4 bytes a voxel); here they keep the classification's float precision, so
+that a lazily classified voxel gets the classified RLE's record bit for bit. Its rows and planes are
+padded to an odd number of cache lines (:func:`padded_shape`): scanlines along ``y`` or ``z`` read
+it a row or a plane apart.
 
 Summed-area table (:func:`classify_octree`, once per classification)
 --------------------------------------------------------------------
@@ -65,10 +72,16 @@ other voxel is transparent. Then:
   scanline with :mod:`.classify`'s own run writer, so the result is byte-identical to
   ``classify.encode(classify.classify(...), axis)``, built without classifying or scanning the
   voxels of transparent nodes;
-* ``exact=False`` (rendering unclassified volumes, Fig. 4.17): the candidate runs *are* the
-  non-transparent runs, transparent voxels inside them stored as zero records. The compositing
-  kernels resample them to exact zeros, so the image is bit-identical to the classified RLE's;
-  only the sample count grows (the thesis's "conservative runs produce more samples").
+* :func:`voxel_runs` (rendering unclassified volumes, Fig. 4.17, what ``classification="octree"``
+  does every frame): the candidate runs alone, their voxels classified later by the compositing loop
+  as it reaches them;
+* ``exact=False`` (the same with every candidate classified first: a perspective view, a lens or
+  procedural shading): the candidate runs *are* the non-transparent runs, transparent voxels inside
+  them stored as zero records.
+
+Either way the compositing kernels resample a transparent candidate to exact zeros, so the image is
+bit-identical to the classified RLE's; only the sample count grows (the thesis's "conservative runs
+produce more samples").
 
 The octree is stored once in ``[z, y, x]`` order (no transposes, as in the thesis): for
 ``axis ≠ z`` the on-the-fly classification reads the scalars against the storage stride.
@@ -85,7 +98,7 @@ from core.transfer import MAX_GRADIENT
 from core.validation import check_positive_int
 from renderers.base.numba_kernels import table_position
 from renderers.shearwarp.classify import (NO_LENS_ARGUMENTS, Encoding, _scanline_runs, central_gradient,
-                                          classify_lens_voxel)
+                                          classify_lens_voxel, encode_normal)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -98,16 +111,38 @@ MARGIN = 1e-9
 # Octree build
 
 
+VOXEL = np.dtype([("scalar", np.float32), ("normal", np.uint16), ("magnitude", np.float64)], align=True)
+"""One voxel of the unclassified voxel array (16 bytes): its scalar, 13-bit normal code and gradient
+magnitude, the last two computed exactly as :func:`renderers.shearwarp.classify.classify_voxel` computes
+them (so classifying these parameters gives that function's record, bit for bit)."""
+
+
+def padded_shape(shape_zyx):
+    """``(nz, ny', nx')`` of the voxel array: rows and planes an odd number of 64-byte lines apart.
+
+    A scanline along ``y`` or ``z`` reads one voxel a row or a plane apart; at a power-of-two distance
+    every such voxel falls in the same cache set and evicts the last, so each read would go to memory.
+    """
+    nz, ny, nx = shape_zyx
+    per_line = 64 // VOXEL.itemsize
+    nx_padded = nx + (per_line - nx % (2 * per_line)) % (2 * per_line)  # nx' / per_line odd
+    ny_padded = ny + (1 - ny % 2)  # odd: the plane holds an odd number of lines too
+    return nz, ny_padded, nx_padded
+
+
 @njit(parallel=True, **_JIT)
-def _magnitudes(s, spacing, out):
-    """Gradient magnitude per voxel, the classification's central differences (float64)."""
+def _voxel_parameters(s, spacing, voxels):
+    """Scalar, gradient magnitude and normal code of every voxel (the classification's central differences)."""
     nz, ny, nx = s.shape
     sx, sy, sz = spacing[0], spacing[1], spacing[2]
     for z in prange(nz):
         for y in range(ny):
             for x in range(nx):
                 gx, gy, gz = central_gradient(s, z, y, x, sx, sy, sz)
-                out[z, y, x] = math.sqrt(gx * gx + gy * gy + gz * gz)
+                voxel = voxels[z, y, x]
+                voxel.scalar = s[z, y, x]
+                voxel.magnitude = math.sqrt(gx * gx + gy * gy + gz * gz)
+                voxel.normal = encode_normal(gx, gy, gz)
 
 
 @njit(parallel=True, **_JIT)
@@ -234,6 +269,7 @@ class MinMaxOctree:
     root_size: int
     gradient_max: float
     scalars: np.ndarray  # float32 [z, y, x], normalised
+    voxels: np.ndarray  # VOXEL [z, y', x'] (padded_shape): the unclassified voxel array of the fast classification
     smin: np.ndarray
     smax: np.ndarray
     gmin: np.ndarray
@@ -248,6 +284,11 @@ class MinMaxOctree:
     def nbytes(self):
         """Bytes of the node arrays (min/max bins and child pointers; not the scalars)."""
         return int(self.smin.nbytes + self.smax.nbytes + self.gmin.nbytes + self.gmax.nbytes + self.child.nbytes)
+
+    @property
+    def voxel_bytes(self):
+        """Bytes of the unclassified voxel array (16 per voxel, padding included)."""
+        return int(self.voxels.nbytes)
 
     def gradient_bin_edges(self):
         """``(lo, hi)`` float64 magnitude interval of each gradient bin."""
@@ -286,8 +327,9 @@ def build_octree(scalars, spacing, *, base_size=4, threshold=4, bins=256):
     if s.ndim != 3 or min(s.shape) < 1:
         raise InputError(f"octree scalars: expected a non-empty 3-D array, got shape {s.shape}")
     spacing_arr = np.asarray(spacing, dtype=np.float64)
-    mag = np.empty(s.shape, dtype=np.float64)
-    _magnitudes(s, spacing_arr, mag)
+    voxels = np.zeros(padded_shape(s.shape), dtype=VOXEL)
+    _voxel_parameters(s, spacing_arr, voxels)
+    mag = voxels["magnitude"][:, :s.shape[1], :s.shape[2]]
     gradient_max = float(mag.max())
     gscale = bins / gradient_max if gradient_max > 0 else 0.0
 
@@ -303,7 +345,6 @@ def build_octree(scalars, spacing, *, base_size=4, threshold=4, bins=256):
     dtype = np.uint8 if bins <= 256 else np.uint16
     work = [np.empty(total, dtype=np.int32) for _ in range(4)]
     _base_level(s, mag, bins, gscale, base_size, dims_arr[0], *work)
-    del mag
     for level in range(1, levels):
         _parent_level(dims_arr[level - 1], offsets[level - 1], dims_arr[level], offsets[level], *work)
     capacity = 1 + 8 * int(offsets[-1] - offsets[1])
@@ -313,7 +354,7 @@ def build_octree(scalars, spacing, *, base_size=4, threshold=4, bins=256):
     smin, smax, gmin, gmax = (np.ascontiguousarray(a[:count]).astype(dtype) for a in out)
     # Empty nodes were written as (bins − 1, 0): min > max survives the narrowing cast (bins >= 2).
     return MinMaxOctree((nz, ny, nx), tuple(float(v) for v in spacing_arr), base_size, int(threshold), bins, levels,
-                        base_size << (levels - 1), gradient_max, s, smin, smax, gmin, gmax,
+                        base_size << (levels - 1), gradient_max, s, voxels, smin, smax, gmin, gmax,
                         np.ascontiguousarray(child[:count]))
 
 
@@ -619,26 +660,9 @@ class OctreeEncodingStats:
     candidate_runs: int
 
 
-def encode(octree, classification, axis, *, exact=True, gradients=False):
-    """Run-length encoding of ``axis`` built from the octree (see the module notes).
-
-    Parameters
-    ----------
-    octree : MinMaxOctree
-    classification : OctreeClassification
-        From :func:`classify_octree` for this octree.
-    axis : int
-        Principal axis 0/1/2 (x/y/z).
-    exact : bool
-        ``True``: byte-identical to ``classify.encode`` (the mode switch); ``False``: the octree's
-        conservative runs, transparent voxels inside them stored as zero records.
-    gradients : bool
-        Keep each stored voxel's float32 gradient (procedural shading).
-
-    Returns
-    -------
-    (Encoding, OctreeEncodingStats)
-    """
+def _candidate_runs(octree, classification, axis):
+    """ComputeVoxelRuns for every block of scanlines of ``axis``: the runs, their counts and the candidate
+    voxels' offsets per scanline, with the shape ``(ni, nj, nk)``, the axes and the block counts."""
     from renderers.shearwarp.factor import axes_ijk
 
     ax_i, ax_j, ax_k = axes_ijk(axis)
@@ -659,6 +683,59 @@ def encode(octree, classification, axis, *, exact=True, gradients=False):
     cand_counts = block_voxels[(kk // base) * nbj + jj // base]
     cand_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
     np.cumsum(cand_counts, out=cand_offsets[1:])
+    return runs, run_count, cand_offsets, (ni, nj, nk), (ax_i, ax_j, ax_k), nbj
+
+
+def _conservative_lengths(ni, nj, nk, base, nbj, runs, run_count):
+    """The candidate runs as run lengths per scanline (classify's format) and the scanlines' run offsets."""
+    run_counts = np.empty(nk * nj, dtype=np.int64)
+    run_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
+    dummy = np.zeros(1, dtype=np.uint8)
+    _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, dummy, False, run_counts)
+    np.cumsum(run_counts, out=run_offsets[1:])
+    lengths = np.empty(run_offsets[-1], dtype=np.uint8)
+    _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, lengths, True, run_counts)
+    return lengths, run_offsets
+
+
+def voxel_runs(octree, classification, axis):
+    """The candidate runs of ``axis``'s scanlines, unclassified: the fast classification's per-frame step.
+
+    The compositing kernel classifies the voxels it reaches inside these runs from the octree's voxel
+    array (:func:`renderers.shearwarp.classify.classify_parameters`). Returns ``(Encoding, candidates)``:
+    the encoding holds the run lengths and run offsets only (no records; its ``data_offsets`` count the
+    candidate voxels before each scanline); ``candidates`` is the number of voxels in the runs.
+    """
+    runs, run_count, cand_offsets, (ni, nj, nk), _, nbj = _candidate_runs(octree, classification, axis)
+    lengths, run_offsets = _conservative_lengths(ni, nj, nk, octree.base_size, nbj, runs, run_count)
+    encoding = Encoding(axis, (ni, nj, nk), lengths, run_offsets, cand_offsets, np.zeros(0, np.uint32),
+                        np.zeros((0, 3), np.float32), True)
+    return encoding, int(cand_offsets[-1])
+
+
+def encode(octree, classification, axis, *, exact=True, gradients=False):
+    """Run-length encoding of ``axis`` built from the octree (see the module notes).
+
+    Parameters
+    ----------
+    octree : MinMaxOctree
+    classification : OctreeClassification
+        From :func:`classify_octree` for this octree.
+    axis : int
+        Principal axis 0/1/2 (x/y/z).
+    exact : bool
+        ``True``: byte-identical to ``classify.encode`` (the mode switch); ``False``: the octree's
+        conservative runs, transparent voxels inside them stored as zero records.
+    gradients : bool
+        Keep each stored voxel's float32 gradient (procedural shading).
+
+    Returns
+    -------
+    (Encoding, OctreeEncodingStats)
+    """
+    runs, run_count, cand_offsets, (ni, nj, nk), (ax_i, ax_j, ax_k), nbj = _candidate_runs(octree, classification,
+                                                                                          axis)
+    base = octree.base_size
     n_cand = int(cand_offsets[-1])
     records = np.empty(n_cand, dtype=np.uint32)
     cand_gradients = np.empty((n_cand if gradients else 0, 3), dtype=np.float32)
@@ -668,9 +745,9 @@ def encode(octree, classification, axis, *, exact=True, gradients=False):
                          classification.gradient_table, classification.reference_step, classification.min_opacity,
                          bool(gradients), *lens, ax_i, ax_j, ax_k, ni, nj, nk, base, nbj, runs, run_count, cand_offsets,
                          records, cand_gradients if gradients else np.zeros((1, 3), np.float32))
-    run_counts = np.empty(nk * nj, dtype=np.int64)
-    run_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
     if exact:
+        run_counts = np.empty(nk * nj, dtype=np.int64)
+        run_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
         voxel_counts = np.empty(nk * nj, dtype=np.int64)
         _exact_counts(ni, nj, nk, base, nbj, runs, run_count, cand_offsets, records, run_counts, voxel_counts)
         np.cumsum(run_counts, out=run_offsets[1:])
@@ -684,11 +761,7 @@ def encode(octree, classification, axis, *, exact=True, gradients=False):
                     data_offsets, lengths, voxels, out_gradients if gradients else np.zeros((1, 3), np.float32))
         nontransparent = int(data_offsets[-1])
     else:
-        dummy = np.zeros(1, dtype=np.uint8)
-        _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, dummy, False, run_counts)
-        np.cumsum(run_counts, out=run_offsets[1:])
-        lengths = np.empty(run_offsets[-1], dtype=np.uint8)
-        _conservative_runs(ni, nj, nk, base, nbj, runs, run_count, run_offsets, lengths, True, run_counts)
+        lengths, run_offsets = _conservative_lengths(ni, nj, nk, base, nbj, runs, run_count)
         data_offsets = cand_offsets
         voxels = records
         out_gradients = cand_gradients

@@ -170,24 +170,30 @@ class ShearWarpRenderer(Renderer):
     Timings: ``classify`` and ``rle_build`` (only in the frame that builds them; cached per volume,
     classification and lens afterwards), ``shade_table``, ``opacity_table``, ``clear``, ``composite``,
     ``warp``, ``total``. Counters: ``samples`` (resampled and composited positions),
-    ``voxel_runs`` (runs the scanline cursors passed), ``pixel_run_finds``, ``pixel_run_creates``,
-    ``skipped_early_termination`` (samples skipped because their pixel was opaque), ``rle_bytes``
-    (the three per-axis copies the frame reads: run lengths, 4-byte voxel records, per-scanline
-    offsets; with ``rle=False`` the unencoded copies), ``raw_bytes`` (the volume's scalars).
-    With ``classification="octree"`` or ``octree_rle_build``: ``octree_build`` (once per volume) and
-    ``sat_build`` (summed-area table and node statuses, once per classification) replace
-    ``classify``; ``"octree"`` adds ``octree_classify`` to every frame (the view axis's runs and
-    on-the-fly classification, inside ``total``) and builds no ``rle_build``. Counters then add
-    ``octree_nodes``, ``octree_bytes`` and ``classified_on_the_fly`` (voxels classified from the
-    octree's candidate runs in this frame, 0 when nothing was built); in ``"octree"`` mode
-    ``rle_bytes`` is the one per-frame encoding.
+    ``voxel_runs`` (runs the scanline cursors walked; a skip over opaque pixels jumps by the run
+    index instead), ``pixel_run_finds``, ``pixel_run_creates``, ``skipped_early_termination``
+    (samples skipped because their pixel was opaque), ``rle_bytes`` (the three per-axis copies the
+    frame reads: run lengths, 4-byte voxel records, per-scanline offsets and run index; with
+    ``rle=False`` the unencoded copies), ``raw_bytes`` (the volume's scalars).
+    With ``classification="octree"`` or ``octree_rle_build``: ``octree_build`` (once per volume: the
+    octree and the unclassified voxel array) and ``sat_build`` (summed-area table and node statuses,
+    once per classification) replace ``classify``; ``"octree"`` builds no ``rle_build`` and adds to
+    every frame ``octree_runs`` (the view axis's candidate runs; the voxels are classified inside
+    ``composite`` as it reaches them) or, with a perspective view, a lens or procedural shading,
+    ``octree_classify`` (the runs and every candidate voxel classified before compositing). Counters
+    then add ``octree_nodes``, ``octree_bytes``, ``classified_on_the_fly`` (voxels classified in this
+    frame, 0 when nothing was built) and, in ``"octree"`` mode, ``candidate_voxels`` (voxels in the
+    candidate runs) and ``voxel_array_bytes``; ``rle_bytes`` is then the one per-frame encoding.
     ``info["worker_tasks"]`` and ``info["worker_samples"]`` give each worker's share (a load-balance
     measure), ``info["worker_busy"]`` the workers' mean busy share over the compositing (CPU time of
     the process over wall time × workers; per-worker busy time is not measured inside the kernel).
     """
 
-    technique_stages = ("octree_classify", "opacity_table", "shade_table", "clear", "composite", "warp")
-    """The stages that are the technique itself: the per-view opacity and shading tables, clearing the intermediate image, compositing and the warp: the kernels; not the view factorisation, buffers or Python around them."""
+    technique_stages = ("octree_runs", "octree_classify", "opacity_table", "shade_table", "clear", "composite",
+                        "warp")
+    """The stages that are the technique itself: the octree's runs (fast classification), the per-view
+    opacity and shading tables, clearing the intermediate image, compositing and the warp: the kernels;
+    not the view factorisation, buffers or Python around them."""
 
     name = "shearwarp"
     description = ("Shear-warp factorization (Lacroute 1995), CPU Numba: pre-classified RLE volume ×3, "
@@ -237,10 +243,11 @@ class ShearWarpRenderer(Renderer):
                choices=UNIONS),
         Option("classification", str, "rle",
                "``rle``: classify the volume and build the three RLE copies once per volume and classification "
-               "(viewing mode). ``octree``: the thesis's fast classification (§4.3): a min-max octree once per "
-               "volume, a summed-area table per classification, and every frame the view axis's voxel runs from "
-               "the octree with their voxels classified on the fly (same image as ``rle``, more samples; for "
-               "interactive transfer-function edits). Needs ``rle=True``.", choices=CLASSIFICATIONS),
+               "(viewing mode). ``octree``: the thesis's fast classification (§4.3): a min-max octree and an "
+               "unclassified voxel array (16 bytes a voxel) once per volume, a summed-area table per "
+               "classification, and every frame the view axis's voxel runs from the octree with their voxels "
+               "classified where compositing reaches them (same image as ``rle``, more samples; for interactive "
+               "transfer-function edits). Needs ``rle=True``.", choices=CLASSIFICATIONS),
         Option("octree_rle_build", bool, False,
                "Build the three RLE copies from the min-max octree (the thesis's mode switch, §4.4): transparent "
                "octree nodes are skipped without classifying their voxels; the encodings are byte-identical to the "
@@ -454,6 +461,16 @@ class ShearWarpRenderer(Renderer):
     def _render(self, scene):
         import numba
 
+        # Every kernel of the frame (the octree's runs, the tables, compositing, the warp) runs on
+        # ``workers`` threads: a one-worker frame takes one core, whatever else the machine runs.
+        previous_threads = numba.get_num_threads()
+        numba.set_num_threads(self.workers)
+        try:
+            return self._frame(scene)
+        finally:
+            numba.set_num_threads(previous_threads)
+
+    def _frame(self, scene):
         composite = self._composite_module
         start = time.perf_counter()
         timings = {}
@@ -466,8 +483,18 @@ class ShearWarpRenderer(Renderer):
         lens = scene.lenses[0] if scene.lenses else None
         entry = self._classification(instance, procedural, timings, lens)
         self._last_octree_classified = 0
-        if self.classification == "octree":
-            # Fast classification (§4.3): this view axis's runs from the octree, voxels classified on the fly.
+        # Fast classification (§4.3): this view axis's candidate runs from the octree every frame. Lazily
+        # (the thesis's Fig. 4.17 with a parallel projection) the compositing loop classifies only the voxels
+        # it reaches; a perspective view, a lens or procedural shading classify every candidate first.
+        lazy = self.classification == "octree" and not (perspective or lens is not None or procedural)
+        nontransparent = None
+        if lazy:
+            tree = self._octree(instance.volume, timings)
+            t0 = time.perf_counter()
+            enc, candidates = self._octree_module.voxel_runs(tree, entry.octree_classification, fact.axis)
+            timings["octree_runs"] = time.perf_counter() - t0
+            encodings = (enc,)
+        elif self.classification == "octree":
             tree = self._octree(instance.volume, timings)
             t0 = time.perf_counter()
             enc, octree_stats = self._octree_module.encode(tree, entry.octree_classification, fact.axis, exact=False,
@@ -556,34 +583,39 @@ class ShearWarpRenderer(Renderer):
         queue_next = queue_start[:-1].copy()
         worker_stats = np.zeros((self.workers, 2), dtype=np.int64)
         gradients = enc.gradients if shade_mode == composite.SHADE_PROCEDURAL else np.zeros((0, 3), np.float32)
+        if lazy:
+            octree_classification = entry.octree_classification
+            raw = (tree.voxels.reshape(-1), octree_classification.alpha_table, octree_classification.gradient_table,
+                   octree_classification.reference_step, octree_classification.min_opacity)
+            _, ny, nx = tree.voxels.shape  # padded
+            object_strides = (1, nx, nx * ny)  # of x, y, z in the [z, y, x] voxel array
+            strides = tuple(object_strides[a] for a in self._factor_module.axes_ijk(fact.axis))
+        else:
+            raw = (np.zeros(0, self._octree_module.VOXEL), np.zeros(2), np.zeros(0), 1.0, 0.0)
+            strides = (0, 0, 0)
 
-        previous_threads = numba.get_num_threads()
-        numba.set_num_threads(self.workers)
-        try:
-            t0 = time.perf_counter()
-            composite.clear(image, link)
-            t1 = time.perf_counter()
-            cpu1 = time.process_time()
-            if perspective:
-                self._perspective_module.composite(
-                    self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
-                    queue_next, worker_stats, slices, scales, u0, v0, fmax, n_i, n_j, enc.lengths, enc.run_offsets,
-                    enc.data_offsets, enc.voxels, gradients, optabs, pix_table, pix_weight, colour_table, shadetab,
-                    shade_mode, normal_matrix, light, half, has_half, params, self.early_termination,
-                    self.opaque_threshold, self.union == "rank", enc.encoded, image, link, rank, runend, counters)
-            else:
-                composite.composite(
-                    self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
-                    queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, enc.lengths, enc.run_offsets,
-                    enc.data_offsets, enc.run_index, enc.voxels, gradients, optab, colour_table, shadetab, shade_mode, normal_matrix,
-                    light, half, has_half, params, self.early_termination, self.opaque_threshold,
-                    self.union == "rank", enc.encoded, image, link, rank, runend, counters)
-            t2 = time.perf_counter()
-            cpu2 = time.process_time()
-            output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
-            t3 = time.perf_counter()
-        finally:
-            numba.set_num_threads(previous_threads)
+        t0 = time.perf_counter()
+        composite.clear(image, link)
+        t1 = time.perf_counter()
+        cpu1 = time.process_time()
+        if perspective:
+            self._perspective_module.composite(
+                self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
+                queue_next, worker_stats, slices, scales, u0, v0, fmax, n_i, n_j, enc.lengths, enc.run_offsets,
+                enc.data_offsets, enc.voxels, gradients, optabs, pix_table, pix_weight, colour_table, shadetab,
+                shade_mode, normal_matrix, light, half, has_half, params, self.early_termination,
+                self.opaque_threshold, self.union == "rank", enc.encoded, image, link, rank, runend, counters)
+        else:
+            composite.composite(
+                self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
+                queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, enc.lengths, enc.run_offsets,
+                enc.data_offsets, enc.run_index, enc.voxels, gradients, optab, colour_table, shadetab, shade_mode,
+                normal_matrix, light, half, has_half, params, self.early_termination, self.opaque_threshold,
+                self.union == "rank", enc.encoded, lazy, *raw, *strides, image, link, rank, runend, counters)
+        t2 = time.perf_counter()
+        cpu2 = time.process_time()
+        output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
+        t3 = time.perf_counter()
         timings["clear"] = t1 - t0
         timings["composite"] = t2 - t1
         timings["warp"] = t3 - t2
@@ -603,7 +635,11 @@ class ShearWarpRenderer(Renderer):
             tree = self._octree(instance.volume, timings)
             counters_out["octree_nodes"] = tree.nodes
             counters_out["octree_bytes"] = tree.nbytes
-            counters_out["classified_on_the_fly"] = int(self._last_octree_classified)
+            counters_out["classified_on_the_fly"] = int(totals[composite.C_CLASSIFIED] if lazy
+                                                        else self._last_octree_classified)
+        if self.classification == "octree":
+            counters_out["voxel_array_bytes"] = tree.voxel_bytes
+            counters_out["candidate_voxels"] = candidates if lazy else int(octree_stats.classified)
         voxels = int(np.prod(instance.volume.shape_xyz))
         info = {
             "principal_axis": "xyz"[fact.axis],
@@ -612,7 +648,8 @@ class ShearWarpRenderer(Renderer):
             "intermediate_shape": list(fact.intermediate_shape),
             "sample_spacing_ratio": ratio,
             "projection": scene.camera.projection,
-            "nontransparent_fraction": nontransparent / voxels,
+            # Lazily classified, the frame never counts every non-transparent voxel.
+            "nontransparent_fraction": None if nontransparent is None else nontransparent / voxels,
             "classification": "pre-classified at voxel centres (shear-warp), 8-bit opacity, 13-bit normals",
             "worker_tasks": worker_stats[:, 0].tolist(),
             "worker_samples": worker_stats[:, 1].tolist(),

@@ -159,8 +159,8 @@ class Variants(Experiment):
                                     + missing_options(VP, "mode"))
 
 
-STAGE_COLUMNS = ("classify", "rle_build", "octree", "octree_build", "sat_build", "octree_classify", "shade_table",
-                 "composite", "render")
+STAGE_COLUMNS = ("classify", "rle_build", "octree", "octree_build", "sat_build", "octree_runs", "octree_classify",
+                 "shade_table", "composite", "render")
 """The stages the table of every variant shows, where a run reported them."""
 
 
@@ -201,12 +201,12 @@ def mode_switch_table(df):
             continue
         row = match.iloc[0]
         entry = {"mode": label}
-        for stage in ("octree_build", "classify", "sat_build", "rle_build", "octree_classify"):
+        for stage in ("octree_build", "classify", "sat_build", "rle_build", "octree_runs", "octree_classify"):
             value = float(row.get(f"time_{stage}", np.nan))
             entry[f"{stage} (ms)"] = value * 1e3 if np.isfinite(value) else np.nan
         entry["frame (ms)"] = stage_time(row, "technique") * 1e3
         entry["after an edit (ms)"] = (sum(stage_time(row, s) for s in edit) + stage_time(row, "technique")) * 1e3
-        for counter in ("rle_bytes", "octree_bytes", "classified_on_the_fly"):
+        for counter in ("rle_bytes", "octree_bytes", "voxel_array_bytes", "classified_on_the_fly"):
             entry[counter] = float(row.get(f"count_{counter}", np.nan))
         rows.append(entry)
     if not rows:
