@@ -145,7 +145,7 @@ def test_octree_mode_renders_the_same_bits_as_the_classified_rle(az, el, shading
             assert classified == candidates and "octree_classify" in fast.timings
             assert fast.info["nontransparent_fraction"] == pytest.approx(rle.info["nontransparent_fraction"])
         else:
-            # Lazily, in the compositing loop: each voxel at most once per row that reads its scanline.
+            # Lazily, in the compositing loop: each voxel at most once for each of the two rows reading it.
             assert "octree_runs" in fast.timings and "octree_classify" not in fast.timings
             assert fast.info["nontransparent_fraction"] is None and classified <= 2 * candidates
 
