@@ -404,18 +404,21 @@ class Encoding:
     gradients: np.ndarray  # (n, 3) float32 aligned with voxels, or (0, 3)
     encoded: bool
     run_index: np.ndarray = None  # (scanlines, checkpoints, 3): see run_index(); built when None
+    extents: np.ndarray = None  # (scanlines, 2): see scanline_extents(); built when None
 
     def __post_init__(self):
         if self.run_index is None:
             object.__setattr__(self, "run_index", run_index(self.lengths, self.run_offsets, self.data_offsets,
                                                             self.shape_ijk[0]))
+        if self.extents is None:
+            object.__setattr__(self, "extents", scanline_extents(self.lengths, self.run_offsets, self.shape_ijk[0]))
 
     @property
     def nbytes(self):
-        """Bytes of the encoding: run lengths, voxel records, per-scanline offsets and the run index (gradients
-        apart)."""
+        """Bytes of the encoding: run lengths, voxel records, per-scanline offsets, run index and extents
+        (gradients apart)."""
         return int(self.lengths.nbytes + self.voxels.nbytes + self.run_offsets.nbytes + self.data_offsets.nbytes
-                   + self.run_index.nbytes)
+                   + self.run_index.nbytes + self.extents.nbytes)
 
     @property
     def runs(self):
@@ -467,6 +470,35 @@ def run_index(lengths, run_offsets, data_offsets, ni):
     out = np.empty((run_offsets.size - 1, checkpoints, 3), dtype=dtype)
     if out.size:
         _run_index_kernel(lengths, run_offsets, data_offsets, out)
+    return out
+
+
+@njit(parallel=True, **_JIT)
+def _extents_kernel(lengths, run_offsets, ni, out):
+    for sl in prange(out.shape[0]):
+        first = ni
+        end = 0
+        position = 0
+        for run in range(run_offsets[sl], run_offsets[sl + 1]):
+            length = np.int64(lengths[run])
+            if (run - run_offsets[sl]) & 1 and length > 0:
+                first = min(first, position)
+                end = position + length
+            position += length
+        out[sl, 0] = first
+        out[sl, 1] = end
+
+
+def scanline_extents(lengths, run_offsets, ni):
+    """``(scanlines, 2)`` int32: each scanline's first non-transparent voxel and the voxel after its last.
+
+    ``(ni, 0)`` for a scanline without one. Compositing a row starts at the first of its two scanlines'
+    first voxels and stops one past their last (the bilinear footprint's reach): every position
+    outside resamples to zero.
+    """
+    out = np.empty((run_offsets.size - 1, 2), dtype=np.int32)
+    if out.size:
+        _extents_kernel(lengths, run_offsets, int(ni), out)
     return out
 
 

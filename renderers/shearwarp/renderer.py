@@ -609,8 +609,8 @@ class ShearWarpRenderer(Renderer):
             composite.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
                 queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, enc.lengths, enc.run_offsets,
-                enc.data_offsets, enc.run_index, enc.voxels, gradients, optab, colour_table, shadetab, shade_mode,
-                normal_matrix, light, half, has_half, params, self.early_termination, self.opaque_threshold,
+                enc.data_offsets, enc.run_index, enc.extents, enc.voxels, gradients, optab, colour_table, shadetab,
+                shade_mode, normal_matrix, light, half, has_half, params, self.early_termination, self.opaque_threshold,
                 self.union == "rank", enc.encoded, lazy, *raw, *strides, image, link, rank, runend, counters)
         t2 = time.perf_counter()
         cpu2 = time.process_time()
