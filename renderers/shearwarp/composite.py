@@ -269,7 +269,7 @@ def _union_rank(link, rank, runend, row, a, b):
 
 
 @njit(**_JIT)
-def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets,
+def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets,
                     run_index, extents, voxels, gradients, optab, coltab, shadetab, shade_mode, nmat, light, half,
                     has_half, params, early, threshold, rank_mode, skip_empty, lazy, raw, alpha_table, gtab, ref_step,
                     min_opacity, stride_i, stride_j, stride_k, image, link, rank, runend, counters):
@@ -291,6 +291,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
     hx, hy, hz = half[0], half[1], half[2]
     ambient, diffuse, specular, shininess = params[0], params[1], params[2], params[3]
     samples = runs = finds = creates = skipped = classified = 0  # this task's counters
+    indexed = run_index.shape[1] > 0
     for s in range(slices.shape[0]):
         k = slices[s]
         iuk = iu[k]
@@ -303,7 +304,9 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
         row_hi = min(r1, ivk + nj + 1)
         for row in range(row_lo, row_hi):
             j = row - ivk
-            sl_a = k * nj + j
+            # The scanlines' entries in the per-scanline tables (per block of scanlines with the octree's runs).
+            sl_a = scan_k[k] + scan_j[j]
+            sl_b = scan_k[k] + scan_j[j - 1] if j >= 1 else 0
             a_ok = j < nj
             b_ok = j >= 1
             # Positions x_lo .. x_hi reach a voxel of either scanline; every sample outside them is zero.
@@ -313,8 +316,8 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                 x_lo = min(x_lo, np.int64(extents[sl_a, 0]))
                 x_hi = max(x_hi, np.int64(extents[sl_a, 1]))
             if b_ok:
-                x_lo = min(x_lo, np.int64(extents[sl_a - 1, 0]))
-                x_hi = max(x_hi, np.int64(extents[sl_a - 1, 1]))
+                x_lo = min(x_lo, np.int64(extents[sl_b, 0]))
+                x_hi = max(x_hi, np.int64(extents[sl_b, 1]))
             if not skip_empty:
                 x_lo = 0
                 x_hi = ni
@@ -323,7 +326,6 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
             # Cursor A: scanline j (weight 1 − fv); cursor B: scanline j − 1 (weight fv). A scanline
             # outside the slice is one endless transparent run (end = BIG), so the loop needs no
             # test for it.
-            sl_b = sl_a - 1
             a_obj = j * stride_j + k * stride_k  # lazy: voxel i of scanline j is a_obj + i·stride_i
             b_obj = a_obj - stride_j
             a_run = 0
@@ -376,7 +378,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                     left = landing - 1
                     par = pag = pab = paa = 0.0
                     pbr = pbg = pbb = pba = 0.0
-                    if left >= a_end and (left >> INDEX_SHIFT) << INDEX_SHIFT >= a_end:
+                    if indexed and left >= a_end and (left >> INDEX_SHIFT) << INDEX_SHIFT >= a_end:
                         # A checkpoint of the run index lies past the current run: jump there.
                         point = left >> INDEX_SHIFT
                         rel = np.int64(run_index[sl_a, point, 0])
@@ -415,7 +417,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
                                                    has_half, ambient, diffuse, specular, shininess)
                             par, pag, pab, paa = _premultiply(optab[opacity], coltab[ci, 0], coltab[ci, 1],
                                                               coltab[ci, 2], f, h, shade_mode != SHADE_NONE)
-                    if left >= b_end and (left >> INDEX_SHIFT) << INDEX_SHIFT >= b_end:
+                    if indexed and left >= b_end and (left >> INDEX_SHIFT) << INDEX_SHIFT >= b_end:
                         # A checkpoint of the run index lies past the current run: jump there.
                         point = left >> INDEX_SHIFT
                         rel = np.int64(run_index[sl_b, point, 0])
@@ -567,7 +569,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_
 
 @njit(parallel=True, **_JIT)
 def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, iu, iv, weights,
-              ni, nj, lengths, run_offsets, data_offsets, run_index, extents, voxels, gradients, optab, coltab,
+              ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets, run_index, extents, voxels, gradients, optab, coltab,
               shadetab, shade_mode, nmat, light, half, has_half, params, early, threshold, rank_mode, skip_empty, lazy,
               raw, alpha_table, gtab, ref_step, min_opacity, stride_i, stride_j, stride_k, image, link, rank, runend,
               counters):
@@ -590,7 +592,7 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
                 task = queue_tasks[position]
                 r0 = task * task_size
                 r1 = min(height, r0 + task_size)
-                _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, lengths, run_offsets, data_offsets,
+                _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets,
                                 run_index, extents, voxels, gradients, optab, coltab, shadetab, shade_mode, nmat, light,
                                 half, has_half, params, early, threshold, rank_mode, skip_empty, lazy, raw,
                                 alpha_table, gtab, ref_step, min_opacity, stride_i, stride_j, stride_k, image, link,

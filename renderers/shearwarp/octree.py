@@ -662,7 +662,8 @@ class OctreeEncodingStats:
 
 def _candidate_runs(octree, classification, axis):
     """ComputeVoxelRuns for every block of scanlines of ``axis``: the runs, their counts and the candidate
-    voxels' offsets per scanline, with the shape ``(ni, nj, nk)``, the axes and the block counts."""
+    voxels of one of the block's scanlines, with the shape ``(ni, nj, nk)``, the axes and the blocks along
+    ``j``."""
     from renderers.shearwarp.factor import axes_ijk
 
     ax_i, ax_j, ax_k = axes_ijk(axis)
@@ -676,14 +677,17 @@ def _candidate_runs(octree, classification, axis):
     run_count = np.empty(nbj * nbk, dtype=np.int64)
     _all_block_runs(classification.status, octree.child, octree.root_size, base, ni, nbj, nbk, ax_i, ax_j, ax_k,
                     octree.levels, runs, run_count)
-    # Candidate voxels per scanline: the block's run lengths, the same for its base² scanlines.
+    # Candidate voxels of each of a block's base² scanlines: the lengths of the block's runs.
     block_voxels = (runs[:, :, 1] - runs[:, :, 0]) * (np.arange(max_runs)[None, :] < run_count[:, None])
-    block_voxels = block_voxels.sum(axis=1)
+    return runs, run_count, block_voxels.sum(axis=1), (ni, nj, nk), (ax_i, ax_j, ax_k), nbj
+
+
+def _candidate_offsets(block_voxels, nj, nk, base, nbj):
+    """Where each scanline's candidate voxels start in the packed candidate arrays (``nk·nj + 1``)."""
     kk, jj = np.divmod(np.arange(nk * nj), nj)
-    cand_counts = block_voxels[(kk // base) * nbj + jj // base]
     cand_offsets = np.zeros(nk * nj + 1, dtype=np.int64)
-    np.cumsum(cand_counts, out=cand_offsets[1:])
-    return runs, run_count, cand_offsets, (ni, nj, nk), (ax_i, ax_j, ax_k), nbj
+    np.cumsum(block_voxels[(kk // base) * nbj + jj // base], out=cand_offsets[1:])
+    return cand_offsets
 
 
 def _conservative_lengths(ni, nj, nk, base, nbj, runs, run_count):
@@ -698,19 +702,67 @@ def _conservative_lengths(ni, nj, nk, base, nbj, runs, run_count):
     return lengths, run_offsets
 
 
+@njit(parallel=True, **_JIT)
+def _block_lengths(ni, runs, run_count, run_offsets, lengths, write, counts):
+    dummy = np.zeros(1, dtype=np.uint8)
+    for t in prange(run_count.shape[0]):
+        if write:
+            _interval_runs(runs[t], run_count[t], ni, lengths, run_offsets[t], True)
+        else:
+            counts[t] = _interval_runs(runs[t], run_count[t], ni, dummy, 0, False)
+
+
+@dataclass(frozen=True, eq=False)
+class VoxelRuns:
+    """The candidate runs of one principal axis, one run-length list per block of ``block²`` scanlines.
+
+    All scanlines of a block cross the same octree nodes, so they share their runs (the thesis's reuse
+    over ``n_min`` scanlines): ``lengths`` (classify's format) from ``run_offsets[t]`` and ``extents[t]``
+    (first candidate voxel, one past the last) belong to block ``t = (k // block)·blocks_j + j // block``.
+    """
+
+    axis: int
+    shape_ijk: tuple
+    block: int
+    blocks_j: int
+    lengths: np.ndarray
+    run_offsets: np.ndarray
+    extents: np.ndarray
+    candidates: int
+
+    @property
+    def nbytes(self):
+        return int(self.lengths.nbytes + self.run_offsets.nbytes + self.extents.nbytes)
+
+    def scanline_tables(self):
+        """``(scan_k, scan_j)``: scanline ``(j, k)``'s block is ``scan_k[k] + scan_j[j]`` (``j`` up to ``nj``)."""
+        _, nj, nk = self.shape_ijk
+        return ((np.arange(nk, dtype=np.int64) // self.block) * self.blocks_j,
+                np.arange(nj + 1, dtype=np.int64) // self.block)
+
+
 def voxel_runs(octree, classification, axis):
     """The candidate runs of ``axis``'s scanlines, unclassified: the fast classification's per-frame step.
 
     The compositing kernel classifies the voxels it reaches inside these runs from the octree's voxel
-    array (:func:`renderers.shearwarp.classify.classify_parameters`). Returns ``(Encoding, candidates)``:
-    the encoding holds the run lengths and run offsets only (no records; its ``data_offsets`` count the
-    candidate voxels before each scanline); ``candidates`` is the number of voxels in the runs.
+    array (:func:`renderers.shearwarp.classify.classify_parameters`). Returns a :class:`VoxelRuns`.
     """
-    runs, run_count, cand_offsets, (ni, nj, nk), _, nbj = _candidate_runs(octree, classification, axis)
-    lengths, run_offsets = _conservative_lengths(ni, nj, nk, octree.base_size, nbj, runs, run_count)
-    encoding = Encoding(axis, (ni, nj, nk), lengths, run_offsets, cand_offsets, np.zeros(0, np.uint32),
-                        np.zeros((0, 3), np.float32), True)
-    return encoding, int(cand_offsets[-1])
+    runs, run_count, block_voxels, (ni, nj, nk), _, nbj = _candidate_runs(octree, classification, axis)
+    base = octree.base_size
+    scanlines = np.outer(np.minimum(base, nk - base * np.arange(-(-nk // base))),
+                         np.minimum(base, nj - base * np.arange(nbj))).ravel()  # per block
+    counts = np.empty(run_count.size, dtype=np.int64)
+    _block_lengths(ni, runs, run_count, np.zeros(1, np.int64), np.zeros(1, np.uint8), False, counts)
+    run_offsets = np.zeros(run_count.size + 1, dtype=np.int64)
+    np.cumsum(counts, out=run_offsets[1:])
+    lengths = np.empty(run_offsets[-1], dtype=np.uint8)
+    _block_lengths(ni, runs, run_count, run_offsets, lengths, True, counts)
+    extents = np.empty((run_count.size, 2), dtype=np.int32)
+    blocks = np.arange(run_count.size)
+    last = np.maximum(run_count - 1, 0)
+    extents[:, 0] = np.where(run_count > 0, runs[blocks, 0, 0], ni)
+    extents[:, 1] = np.where(run_count > 0, runs[blocks, last, 1], 0)
+    return VoxelRuns(axis, (ni, nj, nk), base, nbj, lengths, run_offsets, extents, int(block_voxels @ scanlines))
 
 
 def encode(octree, classification, axis, *, exact=True, gradients=False):
@@ -733,9 +785,10 @@ def encode(octree, classification, axis, *, exact=True, gradients=False):
     -------
     (Encoding, OctreeEncodingStats)
     """
-    runs, run_count, cand_offsets, (ni, nj, nk), (ax_i, ax_j, ax_k), nbj = _candidate_runs(octree, classification,
+    runs, run_count, block_voxels, (ni, nj, nk), (ax_i, ax_j, ax_k), nbj = _candidate_runs(octree, classification,
                                                                                           axis)
     base = octree.base_size
+    cand_offsets = _candidate_offsets(block_voxels, nj, nk, base, nbj)
     n_cand = int(cand_offsets[-1])
     records = np.empty(n_cand, dtype=np.uint32)
     cand_gradients = np.empty((n_cand if gradients else 0, 3), dtype=np.float32)

@@ -491,9 +491,9 @@ class ShearWarpRenderer(Renderer):
         if lazy:
             tree = self._octree(instance.volume, timings)
             t0 = time.perf_counter()
-            enc, candidates = self._octree_module.voxel_runs(tree, entry.octree_classification, fact.axis)
+            voxel_runs = self._octree_module.voxel_runs(tree, entry.octree_classification, fact.axis)
             timings["octree_runs"] = time.perf_counter() - t0
-            encodings = (enc,)
+            encodings = (voxel_runs,)
         elif self.classification == "octree":
             tree = self._octree(instance.volume, timings)
             t0 = time.perf_counter()
@@ -582,8 +582,15 @@ class ShearWarpRenderer(Renderer):
         queue_tasks, queue_start = self._task_queues(n_tasks)
         queue_next = queue_start[:-1].copy()
         worker_stats = np.zeros((self.workers, 2), dtype=np.int64)
-        gradients = enc.gradients if shade_mode == composite.SHADE_PROCEDURAL else np.zeros((0, 3), np.float32)
+        gradients = (enc.gradients if shade_mode == composite.SHADE_PROCEDURAL and not lazy
+                     else np.zeros((0, 3), np.float32))
         if lazy:
+            # Runs and extents per block of scanlines, no records (classified from the voxel array as
+            # compositing reaches them) and no run index (a block's few runs are walked).
+            scan_k, scan_j = voxel_runs.scanline_tables()
+            blocks = voxel_runs.extents.shape[0]
+            scanline_arrays = (voxel_runs.lengths, voxel_runs.run_offsets, np.zeros(blocks + 1, np.int64),
+                               np.zeros((blocks, 0, 3), np.uint16), voxel_runs.extents, np.zeros(0, np.uint32))
             octree_classification = entry.octree_classification
             raw = (tree.voxels.reshape(-1), octree_classification.alpha_table, octree_classification.gradient_table,
                    octree_classification.reference_step, octree_classification.min_opacity)
@@ -591,6 +598,8 @@ class ShearWarpRenderer(Renderer):
             object_strides = (1, nx, nx * ny)  # of x, y, z in the [z, y, x] voxel array
             strides = tuple(object_strides[a] for a in self._factor_module.axes_ijk(fact.axis))
         else:
+            scan_k, scan_j = np.arange(n_k, dtype=np.int64) * n_j, np.arange(n_j + 1, dtype=np.int64)
+            scanline_arrays = (enc.lengths, enc.run_offsets, enc.data_offsets, enc.run_index, enc.extents, enc.voxels)
             raw = (np.zeros(0, self._octree_module.VOXEL), np.zeros(2), np.zeros(0), 1.0, 0.0)
             strides = (0, 0, 0)
 
@@ -608,10 +617,10 @@ class ShearWarpRenderer(Renderer):
         else:
             composite.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
-                queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, enc.lengths, enc.run_offsets,
-                enc.data_offsets, enc.run_index, enc.extents, enc.voxels, gradients, optab, colour_table, shadetab,
-                shade_mode, normal_matrix, light, half, has_half, params, self.early_termination, self.opaque_threshold,
-                self.union == "rank", enc.encoded, lazy, *raw, *strides, image, link, rank, runend, counters)
+                queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, scan_k, scan_j, *scanline_arrays,
+                gradients, optab, colour_table, shadetab, shade_mode, normal_matrix, light, half, has_half, params,
+                self.early_termination, self.opaque_threshold, self.union == "rank", lazy or enc.encoded, lazy, *raw,
+                *strides, image, link, rank, runend, counters)
         t2 = time.perf_counter()
         cpu2 = time.process_time()
         output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
@@ -639,7 +648,7 @@ class ShearWarpRenderer(Renderer):
                                                         else self._last_octree_classified)
         if self.classification == "octree":
             counters_out["voxel_array_bytes"] = tree.voxel_bytes
-            counters_out["candidate_voxels"] = candidates if lazy else int(octree_stats.classified)
+            counters_out["candidate_voxels"] = voxel_runs.candidates if lazy else int(octree_stats.classified)
         voxels = int(np.prod(instance.volume.shape_xyz))
         info = {
             "principal_axis": "xyz"[fact.axis],
