@@ -147,7 +147,7 @@ def test_runs_need_registered_backends(monkeypatch):
 
 
 def test_profile_settings_are_checked(all_backends):
-    for name, settings in (("lacroute1995-volpack", {"scenes": ["head"]}),
+    for name, settings in (("lacroute1995-volpack", {"scenes": ["engine"]}),
                            ("lacroute1995-quality", {"datasets": ["nucleon"]}),
                            ("lacroute1995-matrix", {"datasets": ["nucleon"]}),
                            ("lacroute1995-angles", {"angle_step": 0}),
