@@ -85,7 +85,9 @@ def pareto_front(rows, *, time_col="time_total", accuracy_col="psnr"):
     return front.sort_values(time_col, kind="stable")
 
 
-def _device_family(backend):
+def device_family(backend):
+    """``"gl"``, ``"cl"`` or ``"cpu"``: the device that times ``backend``'s frames (VTK's CPU ray caster
+    draws through OpenGL, but its rays are cast on the CPU)."""
     if backend.startswith("gl-") or backend == "vtk-gpu":
         return "gl"
     if backend.startswith("cl-"):
@@ -109,7 +111,7 @@ def timing_banner(runs_df):
     timed = ok[ok.backend != REFERENCE]
     out = []
     for family in ("gl", "cl", "cpu"):
-        rows = timed[[_device_family(b) == family for b in timed.backend]]
+        rows = timed[[device_family(b) == family for b in timed.backend]]
         if rows.empty:
             continue
         backends = ", ".join(sorted(set(rows.backend)))

@@ -91,6 +91,26 @@ def test_phong_lut_and_procedural_match_the_reference(volume, reference):
     assert not np.array_equal(lut, ShearWarpRenderer().render(scene_of(volume)).image)
 
 
+@pytest.mark.parametrize("shininess", [20.0, 7.5, 0.0, 64.0, 100.0])
+def test_shading_table_is_the_blinn_phong_formula(shininess):
+    from renderers.shearwarp.classify import NORMAL_DIRECTIONS
+    from renderers.shearwarp.composite import shade_table
+
+    rng = np.random.default_rng(1)
+    normal_matrix = rng.normal(size=(3, 3))
+    light, half = np.array([0.48, 0.6, 0.64]), np.array([0.0, 0.6, 0.8])
+    params = np.array([0.2, 0.6, 0.4, shininess])
+    table = shade_table(normal_matrix, light, half, True, params)
+    normals = NORMAL_DIRECTIONS @ normal_matrix.T
+    norm = np.linalg.norm(normals, axis=1)
+    lit = norm > 0
+    unit = normals[lit] / norm[lit, None]
+    np.testing.assert_allclose(table[lit, 0], 0.2 + 0.6 * np.abs(unit @ light), rtol=1e-13)
+    # A whole exponent is raised by repeated squaring: a few ulp from pow, never more.
+    np.testing.assert_allclose(table[lit, 1], 0.4 * np.abs(unit @ half) ** shininess, rtol=1e-12, atol=1e-15)
+    assert np.all(table[~lit] == (0.2, 0.0))
+
+
 def test_rle_and_brute_force_give_the_same_bits(volume):
     scene = scene_of(volume, az=37.0, el=-25.0, shading="phong")
     rle = ShearWarpRenderer(early_termination=False).render(scene)

@@ -202,7 +202,7 @@ def test_rle_round_trips_the_classified_volume(axis):
 
 
 @pytest.mark.parametrize("axis", [0, 1, 2])
-def test_run_index_holds_where_a_walk_from_the_scanline_start_stands(axis):
+def test_run_index_and_extents_hold_where_a_walk_from_the_scanline_start_stands(axis):
     classified, _ = classified_field()
     for encoding in (cl.encode(classified, axis), cl.dense_encoding(classified, axis)):
         ni = encoding.shape_ijk[0]
@@ -220,6 +220,14 @@ def test_run_index_holds_where_a_walk_from_the_scanline_start_stands(axis):
                     start += int(encoding.lengths[run])
                     run += 1
                 assert tuple(index[sl, c]) == (run - first, start, data), (sl, c)
+    # Each scanline's extent: its first non-transparent voxel and one past its last.
+    for encoding in (cl.encode(classified, axis),):
+        dense = cl.standard_order(classified.records, axis).reshape(-1, encoding.shape_ijk[0])
+        for sl in range(dense.shape[0]):
+            filled = np.flatnonzero(dense[sl])
+            expected = (filled[0], filled[-1] + 1) if filled.size else (encoding.shape_ijk[0], 0)
+            assert tuple(encoding.extents[sl]) == expected, sl
+    assert np.all(cl.dense_encoding(classified, axis).extents == (0, encoding.shape_ijk[0]))
     # Scanlines too long for 16-bit entries get 32-bit ones.
     assert cl.run_index(np.array([255, 0] * 200 + [0], np.uint8)[:-1], np.array([0, 400]), np.array([0, 0]),
                         51000).dtype == np.int32

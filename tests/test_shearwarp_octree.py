@@ -78,6 +78,17 @@ def test_octree_verdicts_never_hide_a_nontransparent_voxel(seed):
             loose, _ = O.encode(tree, verdict, axis, exact=False)
             np.testing.assert_array_equal(C.decode(loose), C.standard_order(brute.records, axis))
             assert loose.gradients.shape == (0, 3)
+            # The lazy mode's runs, one list per block of scanlines, are every scanline's conservative runs.
+            runs = O.voxel_runs(tree, verdict, axis)
+            scan_k, scan_j = runs.scanline_tables()
+            ni, nj, nk = runs.shape_ijk
+            assert runs.candidates == int(loose.data_offsets[-1])
+            for sl in range(0, nk * nj, 5):
+                k, j = divmod(sl, nj)
+                t = scan_k[k] + scan_j[j]
+                np.testing.assert_array_equal(runs.lengths[runs.run_offsets[t]:runs.run_offsets[t + 1]],
+                                              loose.lengths[loose.run_offsets[sl]:loose.run_offsets[sl + 1]])
+                np.testing.assert_array_equal(runs.extents[t], loose.extents[sl])
     assert hidden_any > 0  # the octree did skip something for these volumes
 
 

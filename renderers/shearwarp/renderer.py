@@ -13,11 +13,14 @@ The parallel-projection algorithm of the thesis's §4.1 with its Ch. 6 multiproc
    ``classify``): voxels are *pre-classified* at their centres (opacity ``α_tf(s)·g(u)``, colour
    index, 13-bit normal), where the reference renderer classifies after interpolation; this is
    shear-warp's documented difference (thesis §4.1.4). Three run-length encodings, one per
-   principal axis (``rle_build``); with ``rle=False`` three unencoded copies in the same format.
-4. **Per frame**: the opacity-correction table (``opacity_table``, ``Δ/Δ0`` from the world length of
-   the ray step between two slices), the shading table (``shade_table``: Blinn–Phong over the 8193
-   normal codes, rebuilt every frame), ``clear``, ``composite`` (:mod:`.composite`), ``warp``
-   (:mod:`.warp`).
+   principal axis, each with a run index (a cursor checkpoint every 32 voxels of a scanline) and
+   each scanline's extent (``rle_build``); with ``rle=False`` three unencoded copies in the same
+   format. With ``classification="octree"`` a min-max octree and the unclassified voxel array
+   instead, the voxels classified where compositing reaches them (:mod:`.octree`).
+4. **Per frame**, every kernel on ``workers`` threads: the opacity-correction table
+   (``opacity_table``, ``Δ/Δ0`` from the world length of the ray step between two slices), the
+   shading table (``shade_table``: Blinn–Phong over the 8193 normal codes, rebuilt every frame, as a
+   new viewpoint needs), ``clear``, ``composite`` (:mod:`.composite`), ``warp`` (:mod:`.warp`).
 
 Choices and limits
 ------------------

@@ -14,6 +14,7 @@ import pandas as pd
 from datasets.registry import DATASETS
 from pipeline.experiments.kit.verdicts import claim_sentences
 from reports import blocks
+from reports.decision import device_family
 from reports.takeaways import change_words, db_words, number, setting_words
 
 __all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
@@ -129,14 +130,16 @@ def claim_evidence(verdict, rows):
 
     Returns ``{"disturbed_views": n, "software_rasterizer": names, "stand_in": phantoms}``: how many
     disturbed views the verdict rests on, the CPU rasterizers that timed the
-    experiment's GL runs, and its phantoms that stand in for a paper's data set (the registry gives
+    experiment's GL backends' runs, and its phantoms that stand in for a paper's data set (the registry gives
     them the original's statistics as targets: :attr:`datasets.registry.DatasetSpec.targets_by_preset`);
     empty text where none.
     """
     ok = rows[rows.status == "ok"] if "status" in rows else rows
     software = ""
-    if {"gl_software_rasterizer", "gl_renderer"} <= set(ok.columns):
-        cpu = ok[ok.gl_software_rasterizer.astype("boolean").fillna(False).astype(bool)]
+    # Every run records the machine's GL device; only the GL backends' frames are timed on it.
+    gl = ok[[device_family(str(b)) == "gl" for b in ok.backend]] if "backend" in ok else ok
+    if {"gl_software_rasterizer", "gl_renderer"} <= set(gl.columns):
+        cpu = gl[gl.gl_software_rasterizer.astype("boolean").fillna(False).astype(bool)]
         software = ", ".join(sorted(set(cpu.gl_renderer.dropna().astype(str))))
     names = sorted(set(ok.dataset.dropna().astype(str))) if "dataset" in ok else []
     stand_ins = [n for n in names if n in DATASETS and DATASETS[n].kind == "phantom" and DATASETS[n].targets_by_preset]
