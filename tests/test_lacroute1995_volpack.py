@@ -205,7 +205,7 @@ def test_page_shows_each_mode_against_volpacks_and_where_the_time_goes(tmp_path)
     assert "without USE_TIMER" in texts
     counts = tables["The counts behind the times"]
     assert list(counts["samples composited"]) == ["900", "", "900", ""]  # VolPack counts no samples
-    assert list(counts["RLE bytes"]) == ["", "1,000", "", "1,000"]
+    assert list(counts["RLE (MB)"]) == ["", "0.001", "", "0.001"]
     takeaways = next(b for b in out if isinstance(b, blocks.Takeaways)).sentences
     assert takeaways[0].startswith("Speed against VolPack (bound ×1 unless said): one worker, technique, against "
                                    "VolPack RLE: ×0.8 (s; 95 % CI ×0.8–×0.8), holds; one worker, whole frame: "

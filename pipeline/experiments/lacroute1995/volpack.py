@@ -312,14 +312,15 @@ def _where_the_time_goes(tests, ctx):
               "count_classified_on_the_fly", "count_rle_bytes", "count_octree_bytes", "count_voxel_array_bytes",
               "count_intermediate_pixels"]
     shown = runs.assign(technique=[_technique(c) for c in runs.config],
-                        **{c: [_count(v) for v in runs[c]] for c in counts if c in runs})
+                        **{c: [_megabytes(v) if c.endswith("_bytes") else _count(v) for v in runs[c]]
+                           for c in counts if c in runs})
     out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx,
                             names={"count_samples": "samples composited", "count_voxel_runs": "voxel runs",
                                    "count_pixel_run_finds": "pixel-run finds",
                                    "count_candidate_voxels": "octree candidate voxels",
                                    "count_classified_on_the_fly": "voxels classified on the fly",
-                                   "count_voxel_array_bytes": "unclassified voxel array bytes",
-                                   "count_rle_bytes": "RLE bytes", "count_octree_bytes": "octree bytes",
+                                   "count_voxel_array_bytes": "unclassified voxel array (MB)",
+                                   "count_rle_bytes": "RLE (MB)", "count_octree_bytes": "octree (MB)",
                                    "count_intermediate_pixels": "intermediate pixels"},
                             csv_name="volpack-counts.csv",
                             caption="Per frame. VolPack counts no samples or runs; it reports the sizes of its "
@@ -416,6 +417,12 @@ def _on_the_fly(rows):
     if not counts:
         return ""
     return "voxels classified on the fly per frame: " + ", ".join(f"{_count(c)} ({s})" for s, c in counts)
+
+
+def _megabytes(value):
+    """``"4.89"``: a byte count in MB (10⁶ bytes); ``""`` if missing."""
+    value = pd.to_numeric(value, errors="coerce")
+    return format_number(value / 1e6) if pd.notna(value) else ""
 
 
 def _count(value):
