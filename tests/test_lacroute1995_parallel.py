@@ -2,9 +2,13 @@
 
 import json
 
+import pandas as pd
 import pytest
 
+from pipeline import experiments
 from pipeline.experiments.lacroute1995.parallel import worker_imbalance
+from reports import blocks
+from reports.html import ReportContext
 from test_lacroute1995_package import check_report, evaluate, planned, timed
 
 NAME = "lacroute1995-parallel"
@@ -94,3 +98,13 @@ def test_starved_runs_decide_no_failure(tmp_path):
 def test_report_writes_its_charts(tmp_path):
     rows = _parallel_rows(schedules=ORDERED, tasks={1: 0.02, 64: 0.015})
     check_report(tmp_path, NAME, [{**row, "study": "workers"} for row in rows])
+
+
+def test_every_run_table_says_which_runs_were_starved(tmp_path):
+    rows = [{**row, "study": "workers", "status": "ok", "view": "headline", "png": "", "exr": "", "record": "",
+             "run": f"r{i}"} for i, row in enumerate(_parallel_rows(schedules=ORDERED))]
+    rows[1]["info_starved"] = STARVED
+    out = experiments.get(NAME).report(pd.DataFrame(rows), ReportContext(tmp_path / "report", tmp_path, NAME))
+    table = next(b.frame for b in out if isinstance(b, blocks.Table) and b.title == "Every run")
+    assert list(table["fewer free cores than workers"]).count(STARVED) == 1
+    assert (table["fewer free cores than workers"] == "").sum() == len(rows) - 1

@@ -161,8 +161,14 @@ class Parallel(Experiment):
                         y_label="median frame time (ms)")
             out.append(blocks.Figure("Frame time against the task size", rel,
                                      f"{int(frame.workers.max())} workers, round robin with stealing."))
+        # A run whose workers had fewer free cores than threads timed the machine: said on its row.
+        frame["starved"] = [text if isinstance(text, str) else "" for text in frame.get("info_starved", [""] * len(frame))]
         out.append(linked_table("Every run", frame, ["volume_size", "workers", "schedule", "task_size", "study", "time_ms",
-                                                     "time_ms_min", "time_ms_max"], ctx, csv_name="parallel.csv"))
+                                                     "time_ms_min", "time_ms_max", "starved"], ctx,
+                                names={"starved": "fewer free cores than workers"}, csv_name="parallel.csv",
+                                caption="'Fewer free cores than workers': the machine's other work, measured over the "
+                                        "run's frames, left its threads fewer cores than they needed; the claims "
+                                        "that read such a run are inconclusive."))
         missing = unregistered(SW) + missing_options(SW, "workers", "schedule", "task_size")
         missing.append(("load imbalance in busy time (Table 6.4)", "the backend does not time inside its kernel; "
                         "the imbalance here is of the samples each worker composited"))
