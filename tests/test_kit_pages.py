@@ -103,7 +103,7 @@ def test_likely_cause_says_only_what_the_row_shows(row, cause):
 
 def test_claim_evidence_reads_the_verdict_and_the_experiments_rows():
     rows = pd.DataFrame({"status": ["ok", "ok", "ok", "failed", "ok"],
-                         "dataset": ["ct_skull", "sphere", "cthead", "engine", "sphere"],
+                         "dataset": ["ct_skull", "sphere", "sphere", "engine", "sphere"],
                          "backend": ["gl-raycast", "gl-raycast", "gl-slicing", "gl-raycast", "shearwarp"],
                          "gl_software_rasterizer": [True, False, None, True, True],
                          "gl_renderer": ["llvmpipe (LLVM 15)", "NVIDIA H100", None, "softpipe", "softpipe"]})
@@ -111,6 +111,9 @@ def test_claim_evidence_reads_the_verdict_and_the_experiments_rows():
     evidence = claim_evidence(Verdict("inconclusive", "×2", None, detail, disturbed_views=2), rows)
     assert evidence == {"disturbed_views": 2, "software_rasterizer": "llvmpipe (LLVM 15)",
                         "stand_in": "ct_skull standing in for the paper's data"}
+    # A claim that reads a real scan too is not put down to the phantom beside it.
+    with_scan = rows.assign(dataset=["ct_skull", "sphere", "cthead", "engine", "sphere"])
+    assert claim_evidence(Verdict("fails", "×2", False, "x"), with_scan)["stand_in"] == ""
     # Every run records the machine's GL device; a CPU backend's claim is not timed on it.
     cpu_only = rows.assign(backend=["shearwarp", "volpack", "vtk-cpu", "shearwarp", "reference"])
     assert claim_evidence(Verdict("fails", "×2", False, "x"), cpu_only)["software_rasterizer"] == ""

@@ -131,8 +131,8 @@ def claim_evidence(verdict, rows):
     Returns ``{"disturbed_views": n, "software_rasterizer": names, "stand_in": phantoms}``: how many
     disturbed views the verdict rests on, the CPU rasterizers that timed the
     experiment's GL backends' runs, and its phantoms that stand in for a paper's data set (the registry gives
-    them the original's statistics as targets: :attr:`datasets.registry.DatasetSpec.targets_by_preset`);
-    empty text where none.
+    them the original's statistics as targets: :attr:`datasets.registry.DatasetSpec.targets_by_preset`)
+    where it reads no real scan; empty text where none.
     """
     ok = rows[rows.status == "ok"] if "status" in rows else rows
     software = ""
@@ -143,6 +143,8 @@ def claim_evidence(verdict, rows):
         software = ", ".join(sorted(set(cpu.gl_renderer.dropna().astype(str))))
     names = sorted(set(ok.dataset.dropna().astype(str))) if "dataset" in ok else []
     stand_ins = [n for n in names if n in DATASETS and DATASETS[n].kind == "phantom" and DATASETS[n].targets_by_preset]
+    if any(n in DATASETS and DATASETS[n].kind != "phantom" for n in names):
+        stand_ins = []  # the claim reads a real scan too: a phantom does not explain its verdict
     return {"disturbed_views": verdict.disturbed_views, "software_rasterizer": software,
             "stand_in": _stand_in_words(stand_ins)}
 
