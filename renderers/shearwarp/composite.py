@@ -43,7 +43,9 @@ paths. Links are int32 (the thesis's are 8-bit, capping one skip at 255 pixels).
 Skipping opaque pixels jumps in the voxel scanlines too: FIND's landing position is reached from the
 scanline's run index (:func:`renderers.shearwarp.classify.run_index`, a cursor checkpoint every 32
 voxels) instead of by walking every run under the opaque pixels; on a 256³ head this walk was nine
-runs in ten that the cursors passed. A row whose two scanlines hold no voxel at all is skipped whole.
+runs in ten that the cursors passed. A row composites only the positions its two scanlines' voxels
+reach (:func:`renderers.shearwarp.classify.scanline_extents`; every other sample is zero), so a row
+without voxels is skipped whole and one wholly behind opaque pixels ends at its first FIND.
 
 Fast classification (thesis §4.3.4, Fig. 4.17), ``lazy``: the scanlines are the octree's candidate
 runs (:func:`renderers.shearwarp.octree.voxel_runs`) and a voxel is classified where the loop first
@@ -63,9 +65,9 @@ taking scalars only, and helpers that take arrays are inlined (``inline="always"
 shaded where it is first needed and carried in registers as the "previous" voxel of the next
 position (twice per slice: once per scanline of the pair); shading whole scanlines ahead of time
 would shade many voxels that early termination never reaches (on the bone phantom five times more
-voxels than samples), and for the same reason no cache of shaded scanlines is kept. Counters are
-kept in registers for the whole task and written once: five read-modify-writes of a shared array per
-row and slice cost 8 % of the frame.
+voxels than samples); a lazily filled two-scanline cache of shaded voxels was measured and gained
+nothing. Counters are kept in registers for the whole task and written once: five read-modify-writes
+of a shared array per row and slice cost 8 % of the frame.
 
 Threads (Ch. 6): the intermediate image's rows are cut into tasks of ``task_size`` rows; a task
 composites all slices front to back over its rows. Tasks are dealt to ``workers`` queues
