@@ -50,6 +50,23 @@ def test_the_cold_frame_is_its_own_stage_and_never_timed():
     assert result.info["frames"] == 3 and result.info["warmup"] == 2 and result.info["settled"]
 
 
+def test_only_the_last_timed_frames_image_is_kept():
+    # Every earlier frame's image is released as the next one arrives: kept alive, each new frame
+    # would fault in fresh pages and the harness's cost would be timed as the backend's.
+    import weakref
+
+    class Tracked(Scripted):
+        def _render(self, scene):
+            result = super()._render(scene)
+            images.append(weakref.ref(result.image))
+            return result
+
+    images = []
+    result = measure(Tracked([5.0, 1.0, 1.0, 1.0, 1.0, 1.0]), scene=None, warmup=1, repeat=4)
+    assert result.image[0, 0, 0] == len(images)  # the last frame's picture
+    assert sum(ref() is not None for ref in images) == 1
+
+
 def test_warm_up_lasts_until_the_frame_time_settles():
     renderer = Scripted([50.0, 9.0, 6.0, 4.0, 3.0, 2.9, 1.0])
     result = measure(renderer, scene=None, warmup=1, repeat=3)
