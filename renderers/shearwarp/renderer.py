@@ -585,25 +585,31 @@ class ShearWarpRenderer(Renderer):
         queue_tasks, queue_start = self._task_queues(n_tasks)
         queue_next = queue_start[:-1].copy()
         worker_stats = np.zeros((self.workers, 2), dtype=np.int64)
-        gradients = (enc.gradients if shade_mode == composite.SHADE_PROCEDURAL and not lazy
-                     else np.zeros((0, 3), np.float32))
+        # Each feature an option turns off is passed to the kernels as None: they are compiled without its code.
+        gradients = enc.gradients if shade_mode == composite.SHADE_PROCEDURAL and not lazy else None
         if lazy:
             # Runs and extents per block of scanlines, no records (classified from the voxel array as
             # compositing reaches them) and no run index (a block's few runs are walked).
             scan_k, scan_j = voxel_runs.scanline_tables()
             blocks = voxel_runs.extents.shape[0]
-            scanline_arrays = (voxel_runs.lengths, voxel_runs.run_offsets, np.zeros(blocks + 1, np.int64),
-                               np.zeros((blocks, 0, 3), np.uint16), voxel_runs.extents, np.zeros(0, np.uint32))
+            lengths, run_offsets, extents = voxel_runs.lengths, voxel_runs.run_offsets, voxel_runs.extents
+            data_offsets = np.zeros(blocks + 1, np.int64)
+            run_index = np.zeros((blocks, 0, 3), np.uint16)
+            records = np.zeros(0, np.uint32)
             octree_classification = entry.octree_classification
-            raw = (tree.voxels.reshape(-1), octree_classification.alpha_table, octree_classification.gradient_table,
-                   octree_classification.reference_step, octree_classification.min_opacity)
+            raw_voxels = tree.voxels.reshape(-1)
+            classification_tables = (octree_classification.alpha_table, octree_classification.gradient_table,
+                                     octree_classification.reference_step, octree_classification.min_opacity)
             _, ny, nx = tree.voxels.shape  # padded
             object_strides = (1, nx, nx * ny)  # of x, y, z in the [z, y, x] voxel array
             strides = tuple(object_strides[a] for a in self._factor_module.axes_ijk(fact.axis))
         else:
             scan_k, scan_j = np.arange(n_k, dtype=np.int64) * n_j, np.arange(n_j + 1, dtype=np.int64)
-            scanline_arrays = (enc.lengths, enc.run_offsets, enc.data_offsets, enc.run_index, enc.extents, enc.voxels)
-            raw = (np.zeros(0, self._octree_module.VOXEL), np.zeros(2), np.zeros(0), 1.0, 0.0)
+            lengths, run_offsets, data_offsets, run_index, records = (enc.lengths, enc.run_offsets, enc.data_offsets,
+                                                                      enc.run_index, enc.voxels)
+            extents = enc.extents if enc.encoded else None  # brute force: every position
+            raw_voxels = None
+            classification_tables = (np.zeros(2), np.zeros(0), 1.0, 0.0)
             strides = (0, 0, 0)
 
         t0 = time.perf_counter()
@@ -614,16 +620,20 @@ class ShearWarpRenderer(Renderer):
             self._perspective_module.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
                 queue_next, worker_stats, slices, scales, u0, v0, fmax, n_i, n_j, enc.lengths, enc.run_offsets,
-                enc.data_offsets, enc.voxels, gradients, optabs, pix_table, pix_weight, colour_table, shadetab,
+                enc.data_offsets, enc.voxels, np.zeros((0, 3), np.float32) if gradients is None else gradients,
+                optabs, pix_table, pix_weight, colour_table, shadetab,
                 shade_mode, normal_matrix, light, half, has_half, params, self.early_termination,
                 self.opaque_threshold, self.union == "rank", enc.encoded, image, link, rank, runend, counters)
         else:
+            early = self.early_termination
+            by_rank = early and self.union == "rank"
             composite.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
-                queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, scan_k, scan_j, *scanline_arrays,
-                gradients, optab, colour_table, shadetab, shade_mode, normal_matrix, light, half, has_half, params,
-                self.early_termination, self.opaque_threshold, self.union == "rank", lazy or enc.encoded, lazy, *raw,
-                *strides, image, link, rank, runend, counters)
+                queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, scan_k, scan_j, lengths, run_offsets,
+                data_offsets, run_index, extents, records, gradients, optab, colour_table,
+                shadetab if shade_mode == composite.SHADE_LUT else None, normal_matrix, light, half, has_half, params,
+                self.opaque_threshold, raw_voxels, *classification_tables, *strides, image, link if early else None,
+                rank if by_rank else None, runend if by_rank else None, counters)
         t2 = time.perf_counter()
         cpu2 = time.process_time()
         output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
