@@ -204,7 +204,7 @@ def test_matches_the_reference_and_a_wrong_framing_does_not(scene, truth, monkey
     assert psnr(result.image, truth) >= 34.0  # measured 36.5 dB
     assert result.info["projection"] == "perspective"
     assert result.info["slice_scale_range"][1] == 1.0 and result.info["slice_scale_range"][0] < 0.8
-    for key in ("clear", "composite", "warp", "opacity_table", "shade_table", "total"):
+    for key in ("composite", "warp", "opacity_table", "shade_table", "total"):
         assert key in result.timings
     assert result.counters["samples"] > 0 and result.counters["skipped_early_termination"] > 0
     # Ignoring the per-slice scale (every slice at scale 1, same offsets) is far off.

@@ -51,7 +51,8 @@ from numba import njit, prange
 
 from renderers.shearwarp.composite import (BIG, C_CREATES, C_FINDS, C_RUNS, C_SAMPLES, C_SKIPPED, SHADE_LUT,
                                            SHADE_NONE, SHADE_PROCEDURAL, _fetch_add, _premultiply, _procedural,
-                                           _root_rank, _union_rank, colour_index, normal_code, opacity_table)
+                                           _root_rank, _union_rank, clear_rows, colour_index, normal_code,
+                                           opacity_table)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -105,8 +106,9 @@ def _overlap(i, c, half_width):
 def _composite_task(task, r0, r1, slices, scales, uoff, voff, fmax, ni, nj, lengths, run_offsets, data_offsets, voxels,
                     gradients, optabs, pix_table, pix_weight, coltab, shadetab, shade_mode, nmat, light, half, has_half,
                     params, early, threshold, rank_mode, skip_empty, image, link, rank, runend, counters):
-    """Composite every slice, front to back, into intermediate rows ``r0 .. r1 − 1`` (module notes)."""
+    """Clear intermediate rows ``r0 .. r1 − 1`` and composite every slice into them, front to back (module notes)."""
     height, width = image.shape[0], image.shape[1]
+    clear_rows(image, link, r0, r1)
     m00, m01, m02 = nmat[0, 0], nmat[0, 1], nmat[0, 2]
     m10, m11, m12 = nmat[1, 0], nmat[1, 1], nmat[1, 2]
     m20, m21, m22 = nmat[2, 0], nmat[2, 1], nmat[2, 2]
@@ -274,7 +276,7 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
               voff, fmax, ni, nj, lengths, run_offsets, data_offsets, voxels, gradients, optabs, pix_table, pix_weight,
               coltab, shadetab, shade_mode, nmat, light, half, has_half, params, early, threshold, rank_mode,
               skip_empty, image, link, rank, runend, counters):
-    """Composite every slice into the intermediate image; tasks dealt as in
+    """Clear the intermediate image and composite every slice into it; tasks dealt as in
     :func:`renderers.shearwarp.composite.composite`."""
     height = image.shape[0]
     for w in prange(workers):

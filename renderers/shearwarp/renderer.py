@@ -20,7 +20,8 @@ The parallel-projection algorithm of the thesis's §4.1 with its Ch. 6 multiproc
 4. **Per frame**, every kernel on ``workers`` threads: the opacity-correction table
    (``opacity_table``, ``Δ/Δ0`` from the world length of the ray step between two slices), the
    shading table (``shade_table``: Blinn–Phong over the 8193 normal codes, rebuilt every frame, as a
-   new viewpoint needs), ``clear``, ``composite`` (:mod:`.composite`), ``warp`` (:mod:`.warp`).
+   new viewpoint needs), ``composite`` (:mod:`.composite`; each task clears its own rows of the
+   intermediate image first), ``warp`` (:mod:`.warp`).
 
 Choices and limits
 ------------------
@@ -171,7 +172,7 @@ class ShearWarpRenderer(Renderer):
     Notes
     -----
     Timings: ``classify`` and ``rle_build`` (only in the frame that builds them; cached per volume,
-    classification and lens afterwards), ``shade_table``, ``opacity_table``, ``clear``, ``composite``,
+    classification and lens afterwards), ``shade_table``, ``opacity_table``, ``composite``,
     ``warp``, ``total``. Counters: ``samples`` (resampled and composited positions),
     ``voxel_runs`` (runs the scanline cursors walked; a skip over opaque pixels jumps by the run
     index instead), ``pixel_run_finds``, ``pixel_run_creates``, ``skipped_early_termination``
@@ -192,10 +193,9 @@ class ShearWarpRenderer(Renderer):
     the process over wall time × workers; per-worker busy time is not measured inside the kernel).
     """
 
-    technique_stages = ("octree_runs", "octree_classify", "opacity_table", "shade_table", "clear", "composite",
-                        "warp")
+    technique_stages = ("octree_runs", "octree_classify", "opacity_table", "shade_table", "composite", "warp")
     """The stages that are the technique itself: the octree's runs (fast classification), the per-view
-    opacity and shading tables, clearing the intermediate image, compositing and the warp: the kernels;
+    opacity and shading tables, compositing (each task clears its rows first) and the warp: the kernels;
     not the view factorisation, buffers or Python around them."""
 
     name = "shearwarp"
@@ -612,8 +612,6 @@ class ShearWarpRenderer(Renderer):
             classification_tables = (np.zeros(2), np.zeros(0), 1.0, 0.0)
             strides = (0, 0, 0)
 
-        t0 = time.perf_counter()
-        composite.clear(image, link)
         t1 = time.perf_counter()
         cpu1 = time.process_time()
         if perspective:
@@ -638,7 +636,6 @@ class ShearWarpRenderer(Renderer):
         cpu2 = time.process_time()
         output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
         t3 = time.perf_counter()
-        timings["clear"] = t1 - t0
         timings["composite"] = t2 - t1
         timings["warp"] = t3 - t2
         timings["total"] = t3 - start
