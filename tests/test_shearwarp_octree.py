@@ -55,7 +55,7 @@ def test_octree_verdicts_never_hide_a_nontransparent_voxel(seed):
     spacing = tuple(rng.choice([1.0, 0.7, 1.5], 3))
     scalars = Volume(data).normalized(np.float32)
     tree = O.build_octree(scalars, spacing, threshold=int(rng.choice([0, 4, 16])))
-    hidden_any = 0
+    hidden_any = flagged_any = transparent_any = 0
     for _ in range(4):
         tf, go = random_tf(rng), random_go(rng)
         min_opacity = float(rng.choice([0.0, 0.05, 0.1]))
@@ -66,6 +66,14 @@ def test_octree_verdicts_never_hide_a_nontransparent_voxel(seed):
         # Octree classification equals brute-force classification: nothing non-transparent is hidden ...
         assert not np.any(hidden & (brute.records != 0))
         hidden_any += int(hidden.sum())
+        # The lazy classification's per-voxel bin test is conservative too, on the octree's binning rule.
+        nz, ny, nx = data.shape
+        voxels = tree.voxels[:, :ny, :nx]
+        np.testing.assert_array_equal(voxels["scalar_bin"], np.minimum(np.floor(scalars * 256.0), 255))
+        flagged = verdict.voxel_visible[voxels["scalar_bin"], voxels["gradient_bin"]] == 0
+        assert not np.any(flagged & (brute.records != 0))
+        flagged_any += int(flagged.sum())
+        transparent_any += int((brute.records == 0).sum())
         # ... and the octree-built encodings are the brute-force ones, byte for byte.
         for axis in range(3):
             built, stats = O.encode(tree, verdict, axis, exact=True, gradients=True)
@@ -90,6 +98,7 @@ def test_octree_verdicts_never_hide_a_nontransparent_voxel(seed):
                                               loose.lengths[loose.run_offsets[sl]:loose.run_offsets[sl + 1]])
                 np.testing.assert_array_equal(runs.extents[t], loose.extents[sl])
     assert hidden_any > 0  # the octree did skip something for these volumes
+    assert flagged_any > 0.5 * transparent_any  # and the bin test decides most transparent voxels without tables
 
 
 def test_octree_structure_pruning_and_bins():

@@ -51,7 +51,8 @@ Fast classification (thesis §4.3.4, Fig. 4.17), ``lazy``: the scanlines are the
 runs (:func:`renderers.shearwarp.octree.voxel_runs`) and a voxel is classified where the loop first
 needs it, from the unclassified voxel array (scalar, gradient magnitude, normal code, 16 bytes;
 :func:`renderers.shearwarp.classify.classify_parameters`, the same record bits as the classified
-RLE's). Voxels behind opaque pixels are never classified; a voxel is classified once for each of
+RLE's), after a one-lookup test of its parameter bins that decides most transparent voxels
+(:func:`_lazy_record`). Voxels behind opaque pixels are never classified; a voxel is classified once for each of
 the two rows that read its scanline, as VolPack's raw-volume loop does. Keeping scanline ``j``'s
 records for row ``j + 1`` (a two-scanline cache) halved the classifications and made the frame
 slower: 30 ms against 22 ms on a 256³ head.
@@ -137,9 +138,16 @@ def normal_code(record):
 
 
 @njit(inline="always", **_JIT)
-def _lazy_record(index, raw, alpha_table, gtab, ref_step, min_opacity):
-    """The record of voxel ``index`` of the unclassified voxel array, classified now (fast classification)."""
+def _lazy_record(index, raw, alpha_table, gtab, ref_step, min_opacity, visible):
+    """The record of voxel ``index`` of the unclassified voxel array, classified now (fast classification).
+
+    A voxel whose parameter bins ``visible`` marks 0 is transparent without interpolating either table:
+    no value in those bins has ``α > min_opacity`` (the octree's conservative bound), so
+    :func:`classify_parameters` would return 0 too.
+    """
     voxel = raw[index]
+    if visible[voxel.scalar_bin, voxel.gradient_bin] == 0:
+        return np.uint32(0)
     return classify_parameters(voxel.scalar, voxel.magnitude, np.int64(voxel.normal), alpha_table, gtab, ref_step,
                                min_opacity)
 
@@ -295,8 +303,8 @@ def clear_rows(image, link, r0, r1):
 @njit(**_JIT)
 def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets,
                     run_index, extents, voxels, gradients, optab, coltab, shadetab, nmat, light, half, has_half, params,
-                    threshold, raw, alpha_table, gtab, ref_step, min_opacity, stride_i, stride_j, stride_k, image, link,
-                    rank, runend, counters):
+                    threshold, raw, alpha_table, gtab, ref_step, min_opacity, visible, stride_i, stride_j, stride_k,
+                    image, link, rank, runend, counters):
     """Clear intermediate rows ``r0 .. r1 − 1`` and composite every slice into them, front to back.
 
     The row loop is written out here (one call per task, not per row and slice: a call with
@@ -310,7 +318,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
     None: no early termination; ``rank`` and ``runend`` given: the union-by-rank variant; ``raw``
     given: fast classification, the records classified from ``raw`` (the unclassified voxel array,
     flat; voxel ``(i, j, k)`` at ``i·stride_i + j·stride_j + k·stride_k``) with the tables
-    ``alpha_table``, ``gtab`` instead of read from ``voxels``.
+    ``alpha_table``, ``gtab`` and the bin test ``visible`` instead of read from ``voxels``.
     """
     # Scalars only inside the loops: array references created there would cost reference counting.
     m00, m01, m02 = nmat[0, 0], nmat[0, 1], nmat[0, 2]
@@ -433,7 +441,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
                         index = a_dat + left - a_start
                         if raw is not None:
                             record = _lazy_record(a_obj + left * stride_i, raw, alpha_table, gtab, ref_step,
-                                                  min_opacity)
+                                                  min_opacity, visible)
                             classified += 1
                         else:
                             record = voxels[index]
@@ -472,7 +480,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
                         index = b_dat + left - b_start
                         if raw is not None:
                             record = _lazy_record(b_obj + left * stride_i, raw, alpha_table, gtab, ref_step,
-                                                  min_opacity)
+                                                  min_opacity, visible)
                             classified += 1
                         else:
                             record = voxels[index]
@@ -526,7 +534,8 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
                 if cur_a:
                     index = a_dat + x - a_start
                     if raw is not None:
-                        record = _lazy_record(a_obj + x * stride_i, raw, alpha_table, gtab, ref_step, min_opacity)
+                        record = _lazy_record(a_obj + x * stride_i, raw, alpha_table, gtab, ref_step, min_opacity,
+                                              visible)
                         classified += 1
                     else:
                         record = voxels[index]
@@ -547,7 +556,8 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
                 if cur_b:
                     index = b_dat + x - b_start
                     if raw is not None:
-                        record = _lazy_record(b_obj + x * stride_i, raw, alpha_table, gtab, ref_step, min_opacity)
+                        record = _lazy_record(b_obj + x * stride_i, raw, alpha_table, gtab, ref_step, min_opacity,
+                                              visible)
                         classified += 1
                     else:
                         record = voxels[index]
@@ -605,7 +615,7 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
 def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, iu, iv, weights,
               ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets, run_index, extents, voxels, gradients, optab, coltab,
               shadetab, nmat, light, half, has_half, params, threshold, raw, alpha_table, gtab, ref_step, min_opacity,
-              stride_i, stride_j, stride_k, image, link, rank, runend, counters):
+              visible, stride_i, stride_j, stride_k, image, link, rank, runend, counters):
     """Clear the intermediate image and composite every slice into it, tasks dealt to ``workers`` queues.
 
     ``queue_tasks[queue_start[w]:queue_start[w + 1]]`` is worker ``w``'s queue and ``queue_next[w]``
@@ -628,8 +638,8 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
                 r1 = min(height, r0 + task_size)
                 _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets,
                                 run_index, extents, voxels, gradients, optab, coltab, shadetab, nmat, light, half,
-                                has_half, params, threshold, raw, alpha_table, gtab, ref_step, min_opacity, stride_i,
-                                stride_j, stride_k, image, link, rank, runend, counters)
+                                has_half, params, threshold, raw, alpha_table, gtab, ref_step, min_opacity, visible,
+                                stride_i, stride_j, stride_k, image, link, rank, runend, counters)
                 samples += counters[task, C_SAMPLES]
                 done += 1
         worker_stats[w, 0] = done

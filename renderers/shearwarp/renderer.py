@@ -599,7 +599,8 @@ class ShearWarpRenderer(Renderer):
             octree_classification = entry.octree_classification
             raw_voxels = tree.voxels.reshape(-1)
             classification_tables = (octree_classification.alpha_table, octree_classification.gradient_table,
-                                     octree_classification.reference_step, octree_classification.min_opacity)
+                                     octree_classification.reference_step, octree_classification.min_opacity,
+                                     octree_classification.voxel_visible)
             _, ny, nx = tree.voxels.shape  # padded
             object_strides = (1, nx, nx * ny)  # of x, y, z in the [z, y, x] voxel array
             strides = tuple(object_strides[a] for a in self._factor_module.axes_ijk(fact.axis))
@@ -609,7 +610,7 @@ class ShearWarpRenderer(Renderer):
                                                                       enc.run_index, enc.voxels)
             extents = enc.extents if enc.encoded else None  # brute force: every position
             raw_voxels = None
-            classification_tables = (np.zeros(2), np.zeros(0), 1.0, 0.0)
+            classification_tables = (np.zeros(2), np.zeros(0), 1.0, 0.0, np.zeros((0, 0), np.uint8))
             strides = (0, 0, 0)
 
         t1 = time.perf_counter()
