@@ -498,19 +498,14 @@ def classify_octree(octree, transfer_function, gradient_opacity, reference_step,
 
 
 @njit(**_JIT)
-def _block_runs(status, child, root_size, ni, jc, kc, bit_i, bit_j, bit_k, levels, out):
+def _block_runs(status, child, root_size, ni, jc, kc, bit_i, bit_j, bit_k, stack, out):
     """Candidate (possibly non-transparent) runs of the scanlines through ``(j, k) = (jc, kc)``.
 
     Writes ``[start, end)`` pairs to ``out`` in increasing order, merged and clipped to ``[0, ni)``;
-    returns their number.
+    returns their number. ``stack``: ``(5, 2·levels + 2)`` int64 scratch for the walk (the caller's, so
+    that a block costs no allocation).
     """
-    depth = 2 * levels + 2
-    st_node = np.empty(depth, np.int64)
-    st_oi = np.empty(depth, np.int64)
-    st_oj = np.empty(depth, np.int64)
-    st_ok = np.empty(depth, np.int64)
-    st_size = np.empty(depth, np.int64)
-    top = 0
+    st_node, st_oi, st_oj, st_ok, st_size = stack[0], stack[1], stack[2], stack[3], stack[4]
     st_node[0], st_oi[0], st_oj[0], st_ok[0], st_size[0] = 0, 0, 0, 0, root_size
     top = 1
     count = 0
@@ -548,12 +543,22 @@ def _block_runs(status, child, root_size, ni, jc, kc, bit_i, bit_j, bit_k, level
 
 
 @njit(parallel=True, **_JIT)
-def _all_block_runs(status, child, root_size, base, ni, nbj, nbk, bit_i, bit_j, bit_k, levels, runs, run_count):
-    for t in prange(nbj * nbk):
-        bk = t // nbj
-        bj = t - bk * nbj
-        run_count[t] = _block_runs(status, child, root_size, ni, bj * base, bk * base, bit_i, bit_j, bit_k, levels,
-                                   runs[t])
+def _all_block_runs(status, child, root_size, base, ni, nbj, nbk, bit_i, bit_j, bit_k, levels, runs, run_count,
+                    block_voxels):
+    """Every block's candidate runs (``runs[t, :run_count[t]]``) and their voxels per scanline (``block_voxels``)."""
+    blocks = nbj * nbk
+    chunks = min(blocks, 64)  # one walk stack per chunk of blocks (an allocation per block was a quarter of the walk)
+    for c in prange(chunks):
+        stack = np.empty((5, 2 * levels + 2), np.int64)
+        for t in range(c * blocks // chunks, (c + 1) * blocks // chunks):
+            bk = t // nbj
+            bj = t - bk * nbj
+            count = _block_runs(status, child, root_size, ni, bj * base, bk * base, bit_i, bit_j, bit_k, stack, runs[t])
+            run_count[t] = count
+            voxels = 0
+            for r in range(count):
+                voxels += runs[t, r, 1] - runs[t, r, 0]
+            block_voxels[t] = voxels
 
 
 @njit(**_JIT)
@@ -712,11 +717,10 @@ def _candidate_runs(octree, classification, axis):
     max_runs = -(-ni // base) // 2 + 2
     runs = np.empty((nbj * nbk, max_runs, 2), dtype=np.int64)
     run_count = np.empty(nbj * nbk, dtype=np.int64)
+    block_voxels = np.empty(nbj * nbk, dtype=np.int64)  # candidate voxels of each of a block's base² scanlines
     _all_block_runs(classification.status, octree.child, octree.root_size, base, ni, nbj, nbk, ax_i, ax_j, ax_k,
-                    octree.levels, runs, run_count)
-    # Candidate voxels of each of a block's base² scanlines: the lengths of the block's runs.
-    block_voxels = (runs[:, :, 1] - runs[:, :, 0]) * (np.arange(max_runs)[None, :] < run_count[:, None])
-    return runs, run_count, block_voxels.sum(axis=1), (ni, nj, nk), (ax_i, ax_j, ax_k), nbj
+                    octree.levels, runs, run_count, block_voxels)
+    return runs, run_count, block_voxels, (ni, nj, nk), (ax_i, ax_j, ax_k), nbj
 
 
 def _candidate_offsets(block_voxels, nj, nk, base, nbj):
