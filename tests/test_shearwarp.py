@@ -247,6 +247,10 @@ def test_warp_skipping_of_empty_regions_changes_no_bit():
         assert np.isfinite(skipped).all() and (skipped[..., 3] > 0).sum() > 20
         np.testing.assert_array_equal(skipped.view(np.uint32), every.view(np.uint32))
         np.testing.assert_array_equal(wp.warp_image(src, matrix, (70, 80)).view(np.uint32), skipped.view(np.uint32))
+        given = wp.warp_image(src, matrix, (70, 80), row_extents=extent)  # the compositing tasks' extents
+        np.testing.assert_array_equal(given.view(np.uint32), skipped.view(np.uint32))
+    with pytest.raises(InputError, match="row_extents"):
+        wp.warp_image(src, affine, (70, 80), row_extents=extent[1:])
 
 
 def _lopsided(shape=(26, 30, 36)):

@@ -94,6 +94,7 @@ from numba.core import cgutils
 from numba.extending import intrinsic
 
 from renderers.shearwarp.classify import INDEX_SHIFT, NORMAL_CODES, NORMAL_DIRECTIONS, classify_parameters
+from renderers.shearwarp.warp import row_extent
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -304,13 +305,15 @@ def clear_rows(image, link, r0, r1):
 def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets,
                     run_index, extents, voxels, gradients, optab, coltab, shadetab, nmat, light, half, has_half, params,
                     threshold, raw, alpha_table, gtab, ref_step, min_opacity, visible, stride_i, stride_j, stride_k,
-                    image, link, rank, runend, counters):
+                    image, link, rank, runend, extent, counters):
     """Clear intermediate rows ``r0 .. r1 − 1`` and composite every slice into them, front to back.
 
     The row loop is written out here (one call per task, not per row and slice: a call with
     this many array arguments costs more than a short row). For each slice and row, voxel
     scanlines ``j = row − iv[k]`` (cursor A, weights ``wca``/``wpa``) and ``j − 1`` (cursor B)
-    are walked as the module notes describe. The task's counters go to ``counters[task]``.
+    are walked as the module notes describe. The task's counters go to ``counters[task]`` and each
+    finished row's first and last non-zero pixel to ``extent[row]`` (for the warp: the rows are still
+    in cache here, where a pass over the image would read them again).
 
     An optional array passed as ``None`` turns its feature off (module notes, "Specialised kernels"):
     ``extents`` None: brute force, every position resampled and no transparent stretch skipped;
@@ -604,6 +607,8 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
                 pbr, pbg, pbb, pba = cbr, cbg, cbb, cba
                 x += 1
 
+    for row in range(r0, r1):
+        row_extent(image, row, extent)
     counters[task, C_SAMPLES] = samples
     counters[task, C_RUNS] = runs
     counters[task, C_FINDS] = finds
@@ -615,8 +620,9 @@ def _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_
 def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, worker_stats, slices, iu, iv, weights,
               ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets, run_index, extents, voxels, gradients, optab, coltab,
               shadetab, nmat, light, half, has_half, params, threshold, raw, alpha_table, gtab, ref_step, min_opacity,
-              visible, stride_i, stride_j, stride_k, image, link, rank, runend, counters):
-    """Clear the intermediate image and composite every slice into it, tasks dealt to ``workers`` queues.
+              visible, stride_i, stride_j, stride_k, image, link, rank, runend, extent, counters):
+    """Clear the intermediate image, composite every slice into it and find each row's non-zero extent, tasks
+    dealt to ``workers`` queues.
 
     ``queue_tasks[queue_start[w]:queue_start[w + 1]]`` is worker ``w``'s queue and ``queue_next[w]``
     (set to ``queue_start[w]`` by the caller) its next position; ``worker_stats[w]`` receives the
@@ -639,7 +645,7 @@ def composite(workers, steal, task_size, queue_tasks, queue_start, queue_next, w
                 _composite_task(task, r0, r1, slices, iu, iv, weights, ni, nj, scan_k, scan_j, lengths, run_offsets, data_offsets,
                                 run_index, extents, voxels, gradients, optab, coltab, shadetab, nmat, light, half,
                                 has_half, params, threshold, raw, alpha_table, gtab, ref_step, min_opacity, visible,
-                                stride_i, stride_j, stride_k, image, link, rank, runend, counters)
+                                stride_i, stride_j, stride_k, image, link, rank, runend, extent, counters)
                 samples += counters[task, C_SAMPLES]
                 done += 1
         worker_stats[w, 0] = done

@@ -616,6 +616,7 @@ class ShearWarpRenderer(Renderer):
         t1 = time.perf_counter()
         cpu1 = time.process_time()
         if perspective:
+            row_extents = None  # the warp finds them
             self._perspective_module.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
                 queue_next, worker_stats, slices, scales, u0, v0, fmax, n_i, n_j, enc.lengths, enc.run_offsets,
@@ -626,16 +627,17 @@ class ShearWarpRenderer(Renderer):
         else:
             early = self.early_termination
             by_rank = early and self.union == "rank"
+            row_extents = self._buffer("row_extents", height * 2, np.int64).reshape(height, 2)
             composite.composite(
                 self.workers, self.schedule.endswith("-steal"), self.task_size, queue_tasks, queue_start,
                 queue_next, worker_stats, slices, iu, iv, weights, n_i, n_j, scan_k, scan_j, lengths, run_offsets,
                 data_offsets, run_index, extents, records, gradients, optab, colour_table,
                 shadetab if shade_mode == composite.SHADE_LUT else None, normal_matrix, light, half, has_half, params,
                 self.opaque_threshold, raw_voxels, *classification_tables, *strides, image, link if early else None,
-                rank if by_rank else None, runend if by_rank else None, counters)
+                rank if by_rank else None, runend if by_rank else None, row_extents, counters)
         t2 = time.perf_counter()
         cpu2 = time.process_time()
-        output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width))
+        output = self._warp_module.warp_image(image, fact.warp, (scene.height, scene.width), row_extents=row_extents)
         t3 = time.perf_counter()
         timings["composite"] = t2 - t1
         timings["warp"] = t3 - t2

@@ -9,8 +9,9 @@ for a projective one), and the intermediate image is sampled bilinearly with its
 so the footprint fades over half a pixel at its border. Premultiplied RGBA is interpolated as is.
 Rows are independent, so the ``prange`` over rows gives the same bits on any number of threads.
 
-Empty regions are skipped without changing a bit: a first pass records each intermediate row's
-first and last non-zero pixel; an affine warp then limits each output row to the columns whose
+Empty regions are skipped without changing a bit: each intermediate row's first and last non-zero
+pixel (:func:`row_extent`, found by the compositing tasks as they finish their rows, or by a pass over
+the image); an affine warp then limits each output row to the columns whose
 taps can reach a non-zero row and column range (a conservative interval, the exact tests stay in
 the loop), and any pixel whose four taps all lie outside their rows' extents is zero without
 reading them. Interior pixels sum their four taps in the same order as the border code.
@@ -50,23 +51,30 @@ def _column_range(c_x, c_0, limit, out_w):
     return lo, max(lo, hi)
 
 
+@njit(inline="always", **_JIT)
+def row_extent(src, row, extent):
+    """Write the first and last column of ``src[row]`` holding a non-zero value to ``extent[row]`` (``(w, −1)``:
+    none)."""
+    width = src.shape[1]
+    lo = 0
+    while lo < width and (src[row, lo, 0] == 0.0 and src[row, lo, 1] == 0.0 and src[row, lo, 2] == 0.0
+                          and src[row, lo, 3] == 0.0):
+        lo += 1
+    hi = width - 1
+    while hi > lo and (src[row, hi, 0] == 0.0 and src[row, hi, 1] == 0.0 and src[row, hi, 2] == 0.0
+                       and src[row, hi, 3] == 0.0):
+        hi -= 1
+    if lo == width:
+        hi = -1
+    extent[row, 0] = lo
+    extent[row, 1] = hi
+
+
 @njit(parallel=True, **_JIT)
 def _row_extents(src, extent):
-    """First and last column of each row holding a non-zero value (``(w, −1)`` for an empty row)."""
-    height, width = src.shape[0], src.shape[1]
-    for row in prange(height):
-        lo = 0
-        while lo < width and (src[row, lo, 0] == 0.0 and src[row, lo, 1] == 0.0 and src[row, lo, 2] == 0.0
-                              and src[row, lo, 3] == 0.0):
-            lo += 1
-        hi = width - 1
-        while hi > lo and (src[row, hi, 0] == 0.0 and src[row, hi, 1] == 0.0 and src[row, hi, 2] == 0.0
-                           and src[row, hi, 3] == 0.0):
-            hi -= 1
-        if lo == width:
-            hi = -1
-        extent[row, 0] = lo
-        extent[row, 1] = hi
+    """:func:`row_extent` of every row."""
+    for row in prange(src.shape[0]):
+        row_extent(src, row, extent)
 
 
 @njit(parallel=True, **_JIT)
@@ -174,7 +182,7 @@ def _warp_kernel(src, inverse, affine, extent, out):
             out[row, col, 3] = a
 
 
-def warp_image(intermediate, warp, out_shape, *, out=None):
+def warp_image(intermediate, warp, out_shape, *, out=None, row_extents=None):
     """Warp a premultiplied RGBA intermediate image into the final image.
 
     Parameters
@@ -188,6 +196,9 @@ def warp_image(intermediate, warp, out_shape, *, out=None):
         ``(H, W)`` of the final image.
     out : numpy.ndarray, optional
         ``(H, W, 4)`` float32 array to write into.
+    row_extents : numpy.ndarray, shape (h, 2), int64, optional
+        Each intermediate row's first and last non-zero column (:func:`row_extent`), when the caller
+        has them; found by a pass over the image otherwise.
 
     Returns
     -------
@@ -216,7 +227,11 @@ def warp_image(intermediate, warp, out_shape, *, out=None):
     elif inverse[2] @ (0.5 * width, 0.5 * height, 1.0) < 0:
         inverse = -inverse  # projective: the same map, oriented so that w > 0 at the picture centre
     src = np.ascontiguousarray(src)
-    extent = np.empty((src.shape[0], 2), dtype=np.int64)
-    _row_extents(src, extent)
-    _warp_kernel(src, np.ascontiguousarray(inverse), affine, extent, out)
+    if row_extents is None:
+        row_extents = np.empty((src.shape[0], 2), dtype=np.int64)
+        _row_extents(src, row_extents)
+    elif row_extents.shape != (src.shape[0], 2) or row_extents.dtype != np.int64:
+        raise InputError(f"warp_image row_extents: expected ({src.shape[0]}, 2) int64, got {row_extents.dtype} "
+                         f"{row_extents.shape}")
+    _warp_kernel(src, np.ascontiguousarray(inverse), affine, row_extents, out)
     return out
