@@ -443,8 +443,10 @@ def _octree_words(scene_name, part, row):
     if not (vp_rle.empty or vp_octree.empty):
         vp_extra = float(vp_octree.iloc[0][judging.TECHNIQUE]) - float(vp_rle.iloc[0][judging.TECHNIQUE])
         sentence += (f", where VolPack's octree mode takes {format_number(vp_extra * 1e3)} ms more than its RLE mode "
-                     "(VolPack classifies by two 8-bit table lookups; ours interpolates the transfer function and "
-                     "gradient-opacity tables in floating point, so that its records equal the RLE mode's)")
+                     "(VolPack classifies by two 8-bit table lookups; ours rules out most transparent voxels by one "
+                     "lookup of their two 8-bit parameter bins and interpolates the transfer function and "
+                     "gradient-opacity tables in floating point for the rest, so that its records equal the RLE "
+                     "mode's)")
     return sentence + "."
 
 
