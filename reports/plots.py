@@ -320,6 +320,13 @@ def _legend_covers(ax, legend):
         _overlap(frame, clipped) for box in boxes if (clipped := Bbox.intersection(box, axes)) is not None)
 
 
+def _pin(legend, ax):
+    """Keep ``legend`` where it is now: a "best" location is chosen again at every draw, so after the axes
+    change shape it could move onto a label that the checks above saw free."""
+    frame, axes = legend.get_window_extent(), ax.get_window_extent()
+    legend.set_loc(((frame.x0 - axes.x0) / axes.width, (frame.y0 - axes.y0) / axes.height))
+
+
 def _place_legend(fig, ax, outside=False):
     """Keep the legend inside the axes only if it covers nothing and has few entries; else beside them.
 
@@ -332,6 +339,7 @@ def _place_legend(fig, ax, outside=False):
         return
     entries = len(legend.get_texts())
     if not (outside or entries > MANY_ENTRIES or _legend_covers(ax, legend)):
+        _pin(legend, ax)
         return
     if entries > 3 * MANY_ENTRIES:
         handles, labels = ax.get_legend_handles_labels()

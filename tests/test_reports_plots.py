@@ -272,3 +272,28 @@ def test_crowded_category_ticks_are_wrapped_or_rotated(tmp_path):
     short = pd.DataFrame({"category": ["early stop", "empty skip", "both"], "value": [1.0, 2.0, 3.0]})
     text = svg_text(plots.bar_compare(short, tmp_path / "b.svg", category_col="category", value_cols=["value"]))
     assert "early stop" in _text_lines(text) and "rotate(-30" not in text  # room enough: left as it is
+
+
+def test_a_legend_kept_inside_stays_where_it_was_checked():
+    """A "best" legend is placed again at every draw: once the checks keep it inside the axes, it is pinned
+    there, so a later change of the axes' shape (wrapped labels, thinned ticks) cannot move it onto a label
+    the checks saw free (a smoke report's chart once had its legend over the "better" note)."""
+    import matplotlib as mpl
+    from matplotlib.backends.backend_svg import FigureCanvasSVG
+    from matplotlib.figure import Figure
+
+    with mpl.rc_context(plots._RC):
+        fig = Figure(figsize=plots.FIGSIZE, dpi=72, layout="constrained")
+        FigureCanvasSVG(fig)
+        ax = fig.add_subplot()
+        ax.plot([1.0, 2.0, 3.0], [1.0, 1.2, 3.0], marker="o", label="a")
+        ax.legend(title="g")
+        plots._place_legend(fig, ax)
+        legend = ax.get_legend()
+        checked = legend.get_window_extent().transformed(ax.transAxes.inverted())
+        ax.plot([1.0, 1.1], [2.9, 3.0], marker="o")  # data where the legend is: "best" would move it
+        fig.set_figheight(fig.get_figheight() * 1.4)
+        plots._layout(fig)
+        drawn = legend.get_window_extent().transformed(ax.transAxes.inverted())
+        np.testing.assert_allclose(drawn.p0, checked.p0, atol=1e-6)
+        assert plots._legend_covers(ax, legend)  # what _tidy's second check then finds, and moves it beside
