@@ -78,8 +78,8 @@ termination, union by rank, fast classification) is passed as an array or ``None
 tests ``x is None``. Numba compiles the kernel once per combination of argument types and drops the
 branches a ``None`` decides before typing, so each option set runs a loop with only its own code in
 it (a flag argument would be tested at run time at every position). Measured on a 256³ CT head at
-512² and on brainsmall at 256², one worker: the compositing took 10 to 15 % less time, the same
-bits.
+512² and on brainsmall at 256², one worker, each alone: the compositing took 10 to 15 % less time,
+the same bits (1 to 6 % in lacroute1995-volpack's interleaved job).
 
 Threads (Ch. 6): the intermediate image's rows are cut into tasks of ``task_size`` rows; a task
 composites all slices front to back over its rows. Tasks are dealt to ``workers`` queues
