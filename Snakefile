@@ -1,7 +1,9 @@
 # volbench workflow: phantoms → one job per run (images + JSON record) → per experiment, metrics of
 # each run against its reference and the experiment's table and claims → tidy CSV → HTML report.
 #
-#   snakemake --cores 2 --configfile config/default.yaml        (what `make reproduce` runs)
+#   volbench run --profile default                                (what `make reproduce` runs: this
+#                                                                 workflow through pipeline.driver)
+#   snakemake --cores 2 --configfile config/default.yaml         (by hand: every render job a process)
 #   snakemake -n --configfile config/full.yaml                   (dry run: list the jobs)
 #   snakemake --workflow-profile config/profiles/slurm --cores 32 --configfile config/full.yaml
 #                                                                (a SLURM cluster, via the executor plugin)
@@ -39,7 +41,7 @@ from pathlib import Path
 sys.path.insert(0, workflow.basedir)
 
 import datasets
-from pipeline import digests
+from pipeline import digests, progress
 from pipeline.environment import uses_device
 from pipeline.experiments import Profile, plan, selected
 from pipeline.scene_io import phantom_requests
@@ -71,6 +73,20 @@ ROOT = Path(workflow.basedir)
 RENDER_RESOURCES = {
     "gpu": lambda w: int(uses_device(run_of(w).backend)),
 }
+
+# Cores and order. A timed render job takes every core, so nothing else runs beside its timed frames
+# (on a cluster: a node of its own); an untimed one (a ground truth, a picture, the atlas's single
+# frames) takes one, so untimed work runs side by side. Untimed renders go first (priority 2), then
+# the timed ones (1), then the evaluations and tables (0), which wait for every run of their experiment.
+UNTIMED_PRIORITY, TIMED_PRIORITY = 2, 1
+
+
+def render_threads(runs):
+    return workflow.cores if any(run.timed for run in runs) else 1
+
+
+def render_priority(runs):
+    return TIMED_PRIORITY if any(run.timed for run in runs) else UNTIMED_PRIORITY
 if PROFILE.render_time_limit is not None:
     # Minutes: the run's limit plus ten for start-up and writing the images and the record.
     RENDER_RESOURCES["runtime"] = math.ceil(PROFILE.render_time_limit / 60) + 10
@@ -112,6 +128,8 @@ def run_of(wildcards):
 
 def record(run):
     return f"{R}/runs/{run.experiment}/{run.id}.json"
+
+
 
 
 def metrics(run):
@@ -163,8 +181,10 @@ rule environment:
         "{PY} -m pipeline.jobs environment --output {output}"
 
 
-# Render jobs take every core (on a cluster: `--cores` per job, on a node of their own; see the
-# workflow profile): timings are taken with nothing else running beside them.
+# Timed render jobs take every core (on a cluster: `--cores` per job, on a node of their own; see the
+# workflow profile): timings are taken with nothing else running beside them. Where `volbench run`
+# runs the workflow on this machine, a render job hands its runs to a warm worker process of the
+# render service (pipeline.workers) and waits; elsewhere it renders in a process of its own.
 #
 # Runs of one experiment with the same `interleave` name are one job, made by a rule of their own
 # (explicit outputs: Snakemake prefers it to `render`'s pattern): their frames alternate view by view,
@@ -173,6 +193,14 @@ INTERLEAVED = {}
 for _run in RUNS.values():
     if _run.interleave:
         INTERLEAVED.setdefault((_run.experiment, _run.interleave), []).append(_run)
+
+# The progress line's estimate weighs each render job by what it renders (pipeline.progress).
+if workflow.is_main_process:
+    _grouped = {run.key for members in INTERLEAVED.values() for run in members}
+    progress.expect_renders({
+        **{record(members[0]): (any(m.timed for m in members), sum(len(m.views) for m in members))
+           for members in INTERLEAVED.values()},
+        **{record(run): (run.timed, len(run.views)) for run in RUNS.values() if run.key not in _grouped}})
 
 # Short rule names: a cluster job's name joins the names of every rule of its group. With names made
 # of the experiment and group, kruger2003-stability's (four groups) was cut short with "...", and
@@ -192,13 +220,14 @@ for _index, ((_experiment, _group), _members) in enumerate(INTERLEAVED.items()):
             runs=json.dumps([member.as_dict() for member in _members]),
             spec_hash=[member.spec_hash() for member in _members],
             code=sorted({BACKEND_CODE[member.backend] for member in _members}),
-        threads: workflow.cores
+        threads: render_threads(_members)
+        priority: render_priority(_members)
         resources:
             gpu=int(any(uses_device(member.backend) for member in _members)),
             **({"runtime": RENDER_RESOURCES["runtime"] * len(_members)} if "runtime" in RENDER_RESOURCES else {}),
         shell:
             "NUMBA_NUM_THREADS={threads} {PY} -m pipeline.jobs render --run {params.runs:q}"
-            " --profile {PROFILE_JSON:q} --device-env {input.environment}"
+            " --profile {PROFILE_JSON:q} --device-env {input.environment} --threads {threads}"
     # What a workflow profile sets for `render` (on a cluster: a node of its own, its memory) holds for
     # these render jobs too: `set-resources` names rules, and these rules' names are made here.
     _set = workflow.resource_settings.overwrite_resources
@@ -218,12 +247,13 @@ rule render:
         run=lambda w: json.dumps(run_of(w).as_dict()),
         spec_hash=lambda w: run_of(w).spec_hash(),
         code=lambda w: BACKEND_CODE[run_of(w).backend],
-    threads: workflow.cores
+    threads: lambda w: render_threads([run_of(w)])
+    priority: lambda w: render_priority([run_of(w)])
     resources:
         **RENDER_RESOURCES,
     shell:
         "NUMBA_NUM_THREADS={threads} {PY} -m pipeline.jobs render --run {params.run:q}"
-        " --profile {PROFILE_JSON:q} --device-env {input.environment}"
+        " --profile {PROFILE_JSON:q} --device-env {input.environment} --threads {threads}"
 
 
 # One job compares every run of an experiment that has a reference with it (a comparison of small

@@ -46,6 +46,7 @@ def rows_for(record_path, *, results_dir):
         **_flatten("stat_", record.get("statistics")),
         **record["environment"], **(record.get("backend_environment") or {}),
         "node": node_name(record["environment"]),
+        **_flatten("harness_", record.get("harness")),
     }
     if record["status"] != "ok":
         # The views it would have rendered, so that a claim can be judged without this run.
@@ -60,7 +61,8 @@ def rows_for(record_path, *, results_dir):
                **_flatten("info_", {k: v for k, v in view["info"].items() if not isinstance(v, (dict, list))}),
                **{f"frames_{stage}": format_frames(values) for stage, values in (view.get("frames") or {}).items()},
                **{f"load_{k.removeprefix('load_')}": v for k, v in (view["info"].get("load") or {}).items()
-                  if k in ("foreign_cores", "job_foreign_cores", "steal_share", "waited_share", "load_average")},
+                  if k in ("foreign_cores", "job_foreign_cores", "steal_share", "waited_share", "load_average",
+                           "orchestrator_cores")},
                "rerun": _rerun_words(view.get("rerun"))}
         view_metrics = metrics.get("views", {}).get(view["view"])
         if view_metrics:

@@ -59,8 +59,9 @@ warm-up settled, whether the machine was disturbed or a parallel run starved (:m
 
 def is_timing(column):
     """Timings (``time_*``, each frame's ``frames_*``), durations (``*_seconds``), the machine's load
-    (``load_*``) and what the timing harness decided from them (:data:`TIMING_INFO`) differ run to run."""
-    return (column.startswith(("time_", "frames_", "load_")) or column.endswith("_seconds")
+    (``load_*``), what the timing harness decided from them (:data:`TIMING_INFO`) and what the harness
+    cost (``harness_*``: which process rendered, its start-up, the pipeline run) differ run to run."""
+    return (column.startswith(("time_", "frames_", "load_", "harness_")) or column.endswith("_seconds")
             or column in TIMING_INFO)
 
 

@@ -16,6 +16,7 @@ the reason. Where ``/proc`` does not exist (not Linux) nothing is measured and n
 import os
 import time
 from dataclasses import dataclass
+from pathlib import Path
 
 FOREIGN_LIMIT = 0.25
 """Cores of other work, averaged over the timed frames, above which a run is disturbed. Snakemake
@@ -50,10 +51,32 @@ class Snapshot:
     busy: int | None
     steal: int | None
     own: int | None
+    orchestrator: dict | None = None
+    """``{pid: ticks}`` of the watched processes (:func:`watch`) alive at this instant."""
+
+
+_WATCHED = []
+"""The processes of volbench's own orchestration whose CPU time every snapshot reads (:func:`watch`)."""
+
+
+def watch(pids):
+    """Read the CPU time of ``pids`` (the process that runs Snakemake, the waiting job) in every snapshot.
+
+    What they use while a view is timed is the orchestrator's share of the other work
+    (``orchestrator_cores`` in :func:`between`): a run's record shows that its own harness was quiet.
+    """
+    _WATCHED[:] = sorted({int(pid) for pid in pids if pid and int(pid) != os.getpid()})
+
+
+def _cpu_ticks(stat_path):
+    with open(stat_path) as f:
+        # The command name may hold spaces: the fields after it start after the last ')'.
+        after = f.read().rsplit(")", 1)[1].split()
+    return int(after[11]) + int(after[12])  # utime, stime
 
 
 def snapshot():
-    """This instant's machine-wide busy and steal ticks and this process's CPU ticks."""
+    """This instant's machine-wide busy and steal ticks, this process's and the watched processes' CPU ticks."""
     wall = time.monotonic()
     try:
         with open("/proc/stat") as f:
@@ -61,13 +84,50 @@ def snapshot():
         # user nice system idle iowait irq softirq steal [guest guest_nice: already in user, nice]
         busy = sum(fields[:8]) - fields[3] - fields[4]
         steal = fields[7] if len(fields) > 7 else 0
-        with open("/proc/self/stat") as f:
-            # The command name may hold spaces: the fields after it start after the last ')'.
-            after = f.read().rsplit(")", 1)[1].split()
-        own = int(after[11]) + int(after[12])  # utime, stime
+        own = _cpu_ticks("/proc/self/stat")
     except (OSError, ValueError, IndexError):
         return Snapshot(wall, None, None, None)
-    return Snapshot(wall, busy, steal, own)
+    orchestrator = {}
+    for pid in _WATCHED:
+        try:
+            orchestrator[pid] = _cpu_ticks(f"/proc/{pid}/stat")
+        except (OSError, ValueError, IndexError):  # ended meanwhile
+            continue
+    return Snapshot(wall, busy, steal, own, orchestrator)
+
+
+DRIVER = "pipeline.driver"
+"""The module that runs Snakemake for ``volbench run`` (:mod:`pipeline.driver`)."""
+
+
+def is_orchestrator(argv):
+    """Whether a command line runs the workflow: ``python -m snakemake ...``, Snakemake's ``snakemake``
+    script or ``volbench run``'s driver (``python -m pipeline.driver ...``)."""
+    return (any(Path(arg).name == "snakemake" for arg in argv[:2])
+            or any(argv[i:i + 2] in (["-m", "snakemake"], ["-m", DRIVER]) for i in range(len(argv) - 1)))
+
+
+def orchestrator_pids(start=None, *, levels=4):
+    """This process's ancestors up to the one that runs the workflow (a render job's own, its shell, Snakemake).
+
+    Empty where ``/proc`` cannot be read or no ancestor within ``levels`` runs the workflow.
+    """
+    pid, found = os.getppid() if start is None else start, []
+    for _ in range(levels):
+        if pid <= 1:
+            break
+        try:
+            with open(f"/proc/{pid}/cmdline", "rb") as f:
+                argv = f.read().decode(errors="replace").split("\0")
+            with open(f"/proc/{pid}/stat") as f:
+                parent = int(f.read().rsplit(")", 1)[1].split()[1])
+        except (OSError, ValueError, IndexError):
+            return []
+        found.append(pid)
+        if is_orchestrator(argv):
+            return found
+        pid = parent
+    return []
 
 
 def thread_waits():
@@ -117,7 +177,8 @@ def between(start, end):
     frame to the last timed frame of a view.
     """
     seconds = end.wall - start.wall
-    out = {"seconds": seconds, "foreign_cores": None, "own_cores": None, "steal_share": None}
+    out = {"seconds": seconds, "foreign_cores": None, "own_cores": None, "steal_share": None,
+           "orchestrator_cores": None}
     if None in (start.busy, end.busy) or seconds < MIN_SPAN:
         return out
     busy = (end.busy - start.busy) / _TICK
@@ -125,6 +186,10 @@ def between(start, end):
     cpus = os.cpu_count() or 1
     out.update(foreign_cores=max(0.0, busy - own) / seconds, own_cores=own / seconds,
                steal_share=(end.steal - start.steal) / _TICK / seconds / cpus)
+    if start.orchestrator and end.orchestrator:
+        spent = sum(end.orchestrator[pid] - ticks for pid, ticks in start.orchestrator.items()
+                    if pid in end.orchestrator)
+        out["orchestrator_cores"] = max(0, spent) / _TICK / seconds
     return out
 
 

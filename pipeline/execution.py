@@ -52,9 +52,8 @@ def execute_together_limited(runs, *, profile, device_environment=None, start_me
         raise InputError(f"start_method {start_method!r}: use one of {', '.join(START_METHODS)}")
     limit = profile.render_time_limit
     if limit is None:
-        from pipeline.rendering import execute_together
-
-        return execute_together(runs, profile=profile, device_environment=device_environment)
+        return execute_in_process(runs, profile=profile, device_environment=device_environment,
+                                  harness={"process": "job"})
     paths = [run_record_path(profile.results, run.experiment, run.id) for run in runs]
     for path in paths:
         path.unlink(missing_ok=True)  # an old record must not pass for this attempt's
@@ -69,8 +68,22 @@ def execute_together_limited(runs, *, profile, device_environment=None, start_me
     if killed:
         child.kill()
         child.join()
+    return record_unfinished(runs, profile=profile, device_environment=device_environment, killed=killed,
+                             exitcode=child.exitcode, started=started)
+
+
+def record_unfinished(runs, *, profile, device_environment, killed, exitcode, started):
+    """The records of ``runs`` after their process ended: each one's own where it wrote it, else a failure.
+
+    A run without a record failed at the time limit (``killed``: the limit times the number of runs
+    of its group) or with the process (``exitcode``); ``started`` (monotonic) is when the process
+    began, for the record's ``elapsed``. Used by :func:`execute_together_limited` and by the render
+    service of :mod:`pipeline.workers`.
+    """
+    limit = profile.render_time_limit
     records = []
-    for run, path in zip(runs, paths):
+    for run in runs:
+        path = run_record_path(profile.results, run.experiment, run.id)
         if path.is_file():
             records.append(json.loads(path.read_text()))
             continue
@@ -78,7 +91,7 @@ def execute_together_limited(runs, *, profile, device_environment=None, start_me
             group = f" per run ({limit * len(runs):g} s for its interleave group of {len(runs)})" if len(runs) > 1 else ""
             reason, cause = time_limit_reason(limit) + group, "time-limit"
         else:
-            reason, cause = f"the render process died without a record (exit code {child.exitcode})", "crash"
+            reason, cause = f"the render process died without a record (exit code {exitcode})", "crash"
         record = new_record(run, device_environment)
         record.update(status="failed", reason=reason, cause=cause, elapsed=time.monotonic() - started)
         write_json(path, record)
@@ -87,22 +100,32 @@ def execute_together_limited(runs, *, profile, device_environment=None, start_me
 
 
 def _execute_child(runs, profile, device_environment, backends):
-    """Body of :func:`execute_together_limited`'s child: the parent's registry, then the rendering.
+    """Body of :func:`execute_together_limited`'s child: the parent's registry, then the rendering."""
+    renderers.BACKENDS.update(backends)
+    execute_in_process(runs, profile=profile, device_environment=device_environment, harness={"process": "job"})
+
+
+def execute_in_process(runs, *, profile, device_environment=None, harness=None):
+    """:func:`pipeline.rendering.execute_together` in this process; the records of ``runs``.
 
     An error ``execute_together`` lets through (a scene that cannot be built) is recorded as a failed
-    run here, since the parent only sees an exit code.
+    run, so that the process that waits on this one (a job's parent, the render service) finds a record
+    for every run; ``harness`` is what the records say of the process (:mod:`pipeline.workers`).
     """
     from pipeline.rendering import execute_together
 
-    renderers.BACKENDS.update(backends)
     try:
-        execute_together(runs, profile=profile, device_environment=device_environment)
+        return execute_together(runs, profile=profile, device_environment=device_environment, harness=harness)
     except Exception as exc:
+        records = []
         for run in runs:
             path = run_record_path(profile.results, run.experiment, run.id)
             if path.is_file():
+                records.append(json.loads(path.read_text()))
                 continue
             record = new_record(run, device_environment)
             record.update(status="failed", reason=f"{type(exc).__name__}: {exc}", cause="error",
                           traceback=traceback.format_exc(limit=8))
             write_json(path, record)
+            records.append(record)
+        return records

@@ -2,7 +2,8 @@
 
 Each step is one small, separately restartable unit of the workflow; the Snakefile passes it
 everything it needs on the command line, so a job runs the same on this machine or on a cluster
-node through an executor plugin.
+node through an executor plugin. Each step imports what it uses only: a render job that hands its
+runs to the render service (:mod:`pipeline.workers`) starts, waits and ends without loading NumPy.
 """
 
 import argparse
@@ -11,12 +12,11 @@ import json
 import sys
 from pathlib import Path
 
-from core.errors import InputError
-from pipeline.experiments import Profile, Run, plan, selected
 
+def parse_profile(text):
+    from pipeline.experiments import Profile
 
-def _profile(text):
-    return Profile.from_mapping(json.loads(text))
+    return Profile.from_json(text)
 
 
 def volume(args):
@@ -34,18 +34,40 @@ def environment(args):
 
 
 def render(args):
-    """Render one run, or (``--run`` a JSON list) the runs of one interleave group timed together."""
-    from pipeline.execution import execute_together_limited
+    """Render one run, or (``--run`` a JSON list) the runs of one interleave group timed together.
 
-    fields = json.loads(args.run)
-    runs = [Run(**{**one, "views": tuple(one["views"])}) for one in (fields if isinstance(fields, list) else [fields])]
-    device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
-    device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
-    # This process has only parsed its arguments: a forked child needs no fresh interpreter.
-    records = execute_together_limited(runs, profile=_profile(args.profile), device_environment=device_env,
-                                       start_method="fork")
-    for run, record in zip(runs, records):
-        print(f"{run.key}: {record['status']} {record['reason']}".rstrip())
+    Where ``volbench run`` runs a render service on this machine (:mod:`pipeline.workers`), a warm
+    worker renders the runs and this job only waits; else the job renders them in a child process of
+    its own under the profile's time limit. Either way a run that failed is named on the output
+    (Snakemake's log); a run that rendered or was skipped, as planned, says nothing.
+    """
+    from pipeline import workers
+
+    address = workers.service_address()
+    outcomes = None
+    if address is not None:
+        try:
+            outcomes = workers.request_render(address, runs=args.run, profile=args.profile,
+                                              device_env=args.device_env, threads=args.threads)
+        except workers.ServiceUnavailable as exc:
+            print(f"volbench: {exc}; this job renders in a process of its own", file=sys.stderr)
+    if outcomes is None:
+        from pipeline import disturbance
+        from pipeline.execution import execute_together_limited
+        from pipeline.experiments import Run
+
+        runs = Run.list_from_json(args.run)
+        device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
+        device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
+        disturbance.watch(disturbance.orchestrator_pids())
+        # This process has only parsed its arguments: a forked child needs no fresh interpreter.
+        records = execute_together_limited(runs, profile=parse_profile(args.profile), device_environment=device_env,
+                                           start_method="fork")
+        outcomes = [{"key": run.key, "status": record["status"], "reason": record["reason"]}
+                    for run, record in zip(runs, records)]
+    for outcome in outcomes:
+        if outcome["status"] == "failed":
+            print(f"{outcome['key']}: failed: {(outcome['reason'].splitlines() or [''])[0]}".rstrip())
 
 
 def evaluate(args):
@@ -57,26 +79,31 @@ def evaluate(args):
     from pipeline.rendering import evaluate as evaluate_run
 
     pairs = json.loads(args.pairs)
-    for done, (record, reference, output) in enumerate(pairs, 1):
+    for record, reference, output in pairs:
         metrics = evaluate_run(record, reference, output)
-        print(f"evaluated {done}/{len(pairs)}: {metrics['experiment']}/{metrics['run']} {metrics['status']}", flush=True)
+        if metrics["status"] == "failed":
+            reason = (metrics["reason"].splitlines() or [""])[0]
+            print(f"{metrics['experiment']}/{metrics['run']}: metrics failed: {reason}", flush=True)
 
 
 def phantoms(args):
     from pipeline.collect import phantom_manifest
+    from pipeline.experiments import plan
     from pipeline.scene_io import phantom_requests
 
-    profile = _profile(args.profile)
+    profile = parse_profile(args.profile)
     requests = phantom_requests([entry for run in plan(profile).values() for entry in run.volume_entries],
                                 size=profile.volume_size)
     phantom_manifest(requests, cache_dir=profile.cache).to_csv(args.output, index=False)
 
 
 def tabulate(args):
+    from core.errors import InputError
     from pipeline.collect import tabulate as tabulate_experiment
+    from pipeline.experiments import plan, selected
     from pipeline.records import run_record_path
 
-    profile = _profile(args.profile)
+    profile = parse_profile(args.profile)
     experiment = next((e for e in selected(profile) if e.name == args.experiment), None)
     if experiment is None:
         raise InputError(f"experiment {args.experiment!r} is not in profile {profile.name!r}; "
@@ -88,9 +115,9 @@ def tabulate(args):
 
 def collect(args):
     from pipeline.collect import merge
-    from pipeline.experiments import all_experiments
+    from pipeline.experiments import all_experiments, selected
 
-    profile = _profile(args.profile)
+    profile = parse_profile(args.profile)
     earlier, dropped = merge(selected(profile), results_dir=profile.results, known=list(all_experiments().values()))
     if earlier:
         print(f"merged the tables of {len(earlier)} experiments from earlier runs: {', '.join(earlier)}")
@@ -149,12 +176,11 @@ def report(args):
 
     import renderers
     from pipeline.environment import real_data_provenance
-    from pipeline.experiments import all_experiments
-    from pipeline.experiments import papers
+    from pipeline.experiments import all_experiments, papers, selected
     from pipeline.experiments.planned import planned, techniques
     from reports.html import build_report
 
-    profile = _profile(args.profile)
+    profile = parse_profile(args.profile)
     results = Path(profile.results)
     runs_df = pd.read_csv(results / "runs.csv", low_memory=False)
     claims_df = pd.read_csv(results / "claims.csv")
@@ -166,11 +192,14 @@ def report(args):
                 for b in renderers.available()]
     registry = all_experiments()
     experiments, notices = report_contents(runs_df, claims_df, selected(profile), registry, results)
+    from pipeline import harness
+
+    account = harness.account(harness.read_log(harness.log_path(results)), runs_df, run=harness.pipeline_run())
     index = build_report(runs_df, claims_df, experiments, results_dir=results, environment=environment_,
                          backends=backends, planned=planned(renderers.names(), papers().values()), notices=notices,
                          real_data=real_data_provenance(profile.real_data),
                          phantoms=pd.read_csv(results / "volumes.csv", dtype={"params": str}),
-                         techniques=techniques(papers().values()))
+                         techniques=techniques(papers().values()), harness=account)
     print(f"volbench report: {index.resolve()}")
 
 
@@ -188,6 +217,7 @@ def main(argv=None):
     p.add_argument("--run", required=True)
     p.add_argument("--profile", required=True)
     p.add_argument("--device-env")
+    p.add_argument("--threads", type=int, default=1, help="the cores Snakemake gave the job")
     p.set_defaults(func=render)
     p = steps.add_parser("evaluate", help="compare runs with their reference runs")
     p.add_argument("--pairs", required=True, help="JSON list of [run record, reference record, metrics output]")

@@ -21,6 +21,7 @@ from pathlib import Path
 import psutil
 
 from core.errors import InputError, VolbenchError
+from pipeline.disturbance import DRIVER, is_orchestrator
 
 ROOT = Path(__file__).resolve().parent.parent
 
@@ -126,12 +127,6 @@ def _check_folders(profile):
                             "of the real scans, or null to read $VOLBENCH_REAL_DATA or ../shared/data/real")
 
 
-def _is_snakemake(argv):
-    """Whether a command line runs Snakemake: ``python -m snakemake ...`` or its ``snakemake`` script."""
-    return (any(Path(arg).name == "snakemake" for arg in argv[:2])
-            or any(argv[i:i + 2] == ["-m", "snakemake"] for i in range(len(argv) - 1)))
-
-
 def _workdir(argv, cwd):
     """The folder a Snakemake command line works in (its ``--directory``, else ``cwd``); ``None`` where unknown."""
     given = None
@@ -157,7 +152,7 @@ def snakemake_processes(directory):
     found = []
     for process in psutil.process_iter(["cmdline", "cwd", "create_time"]):
         argv = process.info["cmdline"] or []
-        if process.pid != os.getpid() and _is_snakemake(argv) and _workdir(argv, process.info["cwd"]) in (directory, None):
+        if process.pid != os.getpid() and is_orchestrator(argv) and _workdir(argv, process.info["cwd"]) in (directory, None):
             found.append(process)
     return found
 
@@ -295,10 +290,16 @@ def _run_snakemake(command, *, runs, results):
     """Run the pipeline; then say what failed, mark a report this run did not replace, and return the exit status.
 
     The status is Snakemake's where it failed (the report, from an earlier run, then says so at the
-    top: :func:`reports.notices.mark_report`), else 1 where a run of this plan failed, else 0.
+    top: :func:`reports.notices.mark_report`), else 1 where a run of this plan failed, else 0. The
+    pipeline run gets a name and a harness log (:mod:`pipeline.harness`) that its jobs append to.
     """
+    from pipeline import harness
     from reports.notices import mark_report, unmark_report
 
+    pipeline_run = harness.new_pipeline_run()
+    log = harness.log_path(results)
+    harness.log_start(log, run=pipeline_run, steps=len(runs))
+    environment = {**os.environ, harness.PIPELINE_RUN_VARIABLE: pipeline_run, harness.LOG_VARIABLE: str(log)}
     started = datetime.datetime.now(datetime.timezone.utc)
     logs = ROOT / ".snakemake" / "log"
     before = set(logs.glob("*.snakemake.log"))
@@ -317,7 +318,7 @@ def _run_snakemake(command, *, runs, results):
 
     previous = signal.signal(signal.SIGTERM, forward)
     try:
-        process = subprocess.Popen(command)
+        process = subprocess.Popen(command, env=environment)
         try:
             returncode = process.wait()
         except KeyboardInterrupt:
@@ -363,28 +364,22 @@ def run(args):
     profile = _run_profile(profile_path, items)
     runs = plan(profile)  # an unknown experiment or setting stops here, before Snakemake starts
     _check_folders(profile)
-    snakemake = [sys.executable, "-m", "snakemake", "--snakefile", str(ROOT / "Snakefile"),
-                 "--directory", str(ROOT), "--configfile", str(profile_path.resolve())]
+    workflow = ["--snakefile", str(ROOT / "Snakefile"), "--directory", str(ROOT),
+                "--configfile", str(profile_path.resolve())]
     config = ["--config", *items] if items else []
-    _check_lock([*snakemake, "--cores", "1", "--unlock", *config], dry_run=args.dry_run, profile=profile, runs=runs)
+    _check_lock([sys.executable, "-m", "snakemake", *workflow, "--cores", "1", "--unlock", *config],
+                dry_run=args.dry_run, profile=profile, runs=runs)
     compile_packages()
-    command = [*snakemake, "--cores", str(args.cores), "--rerun-incomplete",
+    # Snakemake through the driver: no job-rate limiter (its scheduler sleeps while a job runs), the
+    # render service's warm workers, one progress line (pipeline.driver).
+    command = [sys.executable, "-m", DRIVER, *workflow, "--cores", str(args.cores), "--rerun-incomplete",
                # A failed job stops only the jobs that need its output; the others go on, and
                # volbench run then says what failed (_run_snakemake).
                "--keep-going",
                # The greedy scheduler: the default (an integer program solved after every job) only
                # pays where temporary files must be deleted early, and this workflow has none; with
-               # hundreds of small jobs its solves take CPU from the timed render beside it.
+               # hundreds of small jobs its solves take CPU between the renders.
                "--scheduler", "greedy",
-               # A rate limit that never binds, checked every 10 s. Under the default (100/1s),
-               # Snakemake 9 ends every scheduler pass that leaves jobs waiting by starting a timer
-               # for another pass a timespan later, and every finished job adds a pass, so these
-               # timers multiply: with render jobs waiting for the cores all run long, the smoke
-               # profile's main Snakemake made ~100 passes a second by its end (64 000 timer threads)
-               # and took half a core from the renders. Ten seconds make a tenth of the passes; the
-               # timers are not daemon threads, so Snakemake exits up to one timespan after its last
-               # job (a day's timespan kept it alive for a day).
-               "--max-jobs-per-timespan", "1000000/10s",
                *(["--dry-run"] if args.dry_run else []), *extra, *config]
     print("volbench:", " ".join(command), flush=True)
     if args.dry_run:

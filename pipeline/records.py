@@ -13,7 +13,7 @@ import json
 import os
 from pathlib import Path
 
-from pipeline.environment import host_environment
+from pipeline.environment import host_environment, now_utc
 
 
 def write_json(path, payload):
@@ -49,14 +49,15 @@ def new_record(run, device_environment):
     """The record of ``run`` before it renders: status ``ok``, no views yet, and this host's environment.
 
     ``device_environment`` (the workflow's probe of the OpenGL and OpenCL devices, or ``None``) is
-    merged into the host's facts.
+    merged into the host's facts. ``date`` is now, not when the process started: a worker of the
+    render service (:mod:`pipeline.workers`) renders runs for as long as the pipeline runs.
     """
     return {
         "experiment": run.experiment, "run": run.id, "backend": run.backend, "options": run.options,
         "tags": run.tags, "reference": run.reference, "spec_hash": run.spec_hash(), "interleave": run.interleave,
         "status": "ok", "reason": "", "cause": "", "views": [], "statistics": None,
         "planned_views": [view["view"] for view in run.views],
-        "environment": {**host_environment(), **(device_environment or {})},
+        "environment": {**host_environment(), "date": now_utc(), **(device_environment or {})},
     }
 
 

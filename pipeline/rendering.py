@@ -36,12 +36,12 @@ RERUN_PAUSE = 2.0
 """Seconds a render job waits before timing a disturbed view again (a passing burst of other work)."""
 
 
-def execute(run, *, profile, device_environment=None):
+def execute(run, *, profile, device_environment=None, harness=None):
     """Render every view of ``run``, write its images and record; return the record."""
-    return execute_together([run], profile=profile, device_environment=device_environment)[0]
+    return execute_together([run], profile=profile, device_environment=device_environment, harness=harness)[0]
 
 
-def execute_together(runs, *, profile, device_environment=None):
+def execute_together(runs, *, profile, device_environment=None, harness=None):
     """Render the runs of one interleave group (or one run), timed together view by view; their records.
 
     Each run gets its own record and images, as if rendered alone; the timed frames of the runs that
@@ -49,7 +49,15 @@ def execute_together(runs, *, profile, device_environment=None):
     two of them is measured under the same conditions. A view whose frames were disturbed
     (:mod:`pipeline.disturbance`) is timed once more after a pause, and the quieter attempt kept; the
     record says so (``rerun``).
+
+    Every record's ``harness`` says what the harness itself cost: ``harness`` as given (the process
+    that rendered: a job's own or a warm worker of :mod:`pipeline.workers`, and what starting it took),
+    the pipeline run (:data:`pipeline.harness.PIPELINE_RUN_VARIABLE`) and ``seconds``, the wall time of
+    this call for the whole group (its ``runs``, that many).
     """
+    from pipeline.harness import pipeline_run
+
+    began = time.perf_counter()
     records, arms = [], []
     job_start = disturbance.snapshot()
     for run in runs:
@@ -92,10 +100,13 @@ def execute_together(runs, *, profile, device_environment=None):
                     except Exception as exc:  # noqa: BLE001 - recorded with its traceback
                         _failed(member[1], exc)
         _judge_short_views(live, disturbance.between(job_start, disturbance.snapshot()))
+        account = {**(harness or {}), "pipeline_run": pipeline_run(), "runs": len(runs),
+                   "seconds": time.perf_counter() - began}
         for run, record, record_path, scene, renderer in live:
             if record["status"] == "ok":
                 # After rendering: some effective options (a step derived from the scene) exist only now.
                 record["options"] = {**run.options, **renderer.options}
+            record["harness"] = account
             write_json(record_path, record)
     return records
 
@@ -153,6 +164,10 @@ def _time_view(name, members):
         still = _reasons(again)
         quieter = not still or _foreign(again) < _foreign(results)
         rerun = {"first": disturbed, "second": still, "kept": "second" if quieter else "first"}
+        # The attempt not kept was frames rendered for nothing: the harness's cost, not the run's.
+        for kept, dropped in zip(again if quieter else results, results if quieter else again):
+            kept.info["rerun_seconds"] = sum(dropped.info.get(key) or 0.0 for key in
+                                             ("cold_seconds", "untimed_seconds", "timed_seconds"))
         if quieter:
             for kept, cold in zip(again, results):
                 # The cold frame (compilation, first uploads) happened in the first attempt only.

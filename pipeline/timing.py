@@ -16,7 +16,10 @@ A timing is a distribution, not a number. For one view of one run (or several ru
 
 Each stage's every timed frame is kept (``frames``), with the median, fastest and slowest; claims take
 their confidence intervals from the frames (:mod:`pipeline.experiments.kit.intervals`). The machine's
-load over the timed frames is measured (:mod:`pipeline.disturbance`) and returned with the result.
+load over the timed frames is measured (:mod:`pipeline.disturbance`) and returned with the result, and
+so is what the frames cost the harness (``info``: ``cold_seconds``, the first frame; ``untimed_seconds``,
+the preprocessing and warm-up frames; ``timed_seconds``, the timed frames' wall time), which the
+report's account of the harness sums (:mod:`pipeline.harness`).
 A run of one untimed frame (``warmup=0, repeat=1``, a ground truth or a picture) renders that frame only.
 """
 
@@ -70,6 +73,7 @@ class _Arm:
         self.preprocessing = {}
         self.warmup = 0
         self.settled = False
+        self.untimed_seconds = 0.0  # the preprocessing and warm-up frames' wall time (the harness's own account)
 
     def render(self):
         start = time.perf_counter()
@@ -83,12 +87,14 @@ class _Arm:
         _, self.first_frame = self.render()
         bar.update()
         if self.renderer.drop_caches():
-            result, _ = self.render()
+            result, wall = self.render()
             self.preprocessing = dict(result.timings)
+            self.untimed_seconds += wall
             bar.update()
         previous, started = None, time.perf_counter()
         while True:
             result, wall = self.render()
+            self.untimed_seconds += wall
             self.warmup += 1
             bar.update()
             now = _total(result, wall)
@@ -119,7 +125,8 @@ class _Arm:
         once = {stage: value for stage, value in self.preprocessing.items() if stage not in timings}
         last = self.last
         info = {**last.info, "frames": len(frames), "warmup": self.warmup, "settled": self.settled,
-                "first_frame": self.first_frame, "load": load,
+                "first_frame": self.first_frame, "load": load, "cold_seconds": self.first_frame,
+                "untimed_seconds": self.untimed_seconds, "timed_seconds": sum(self.walls),
                 "disturbed": disturbance.verdict(load, per_stage.get("total", []), self.waits, self.walls),
                 "starved": disturbance.starvation(load, _workers(self.renderer))}
         return RenderResult(
@@ -146,13 +153,16 @@ def _workers(renderer):
 
 
 def _untimed(renderer, scene, bar):
+    start = time.perf_counter()
     result = renderer.render(scene)
+    wall = time.perf_counter() - start
     _add_technique(renderer, result)
     bar.update()
     per_stage = {stage: [value] for stage, value in result.timings.items()}
     return RenderResult(image=result.image, timings=dict(result.timings), counters=dict(result.counters),
                         timings_min=dict(result.timings), timings_max=dict(result.timings),
-                        info={**result.info, "frames": 1, "warmup": 0, "untimed": True}, frames=per_stage)
+                        info={**result.info, "frames": 1, "warmup": 0, "untimed": True, "untimed_seconds": wall},
+                        frames=per_stage)
 
 
 def measure(renderer, scene, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_FRAMES, progress=False):

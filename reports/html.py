@@ -329,7 +329,8 @@ def _experiment_blocks(experiment, frame, ctx):
 
 
 def build_report(runs_df, claims_df, experiments, *, results_dir, environment, backends=None, planned=None,
-                 real_data=None, phantoms=None, notices=(), techniques=None, psnr_min=takeaways.PSNR_GOOD):
+                 real_data=None, phantoms=None, notices=(), techniques=None, psnr_min=takeaways.PSNR_GOOD,
+                 harness=None):
     """Write the report into ``results_dir/report``; return the path of ``index.html``.
 
     Parameters
@@ -473,7 +474,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         planned=list(planned or [])))
     (report_dir / "appendix.html").write_text(env.get_template("appendix.html").render(
         **common, timing=_timing(runs_df, environment, index_ctx), real_data=real_data,
-        phantoms=_phantom_summary(phantoms)))
+        phantoms=_phantom_summary(phantoms), harness=_harness(harness, runs_df)))
     return index
 
 
@@ -557,6 +558,54 @@ def _timing(runs_df, environment, ctx):
             group["shown"] = [(run, ctx.file(record)) for run, record in zip(shown, group["records"])]
             group["more"] = len(group["runs"]) - len(shown)
     return {"budget": budget, "disturbances": disturbances}
+
+
+def _seconds(value):
+    """Seconds for the harness table: ``"12.3"``, ``"1 234"``, ``"–"`` for none."""
+    if value is None or not _finite(value) or float(value) <= 0:
+        return "–"
+    value = float(value)
+    return f"{value:,.0f}".replace(",", " ") if value >= 100 else f"{value:.3g}"
+
+
+def _share(part, whole):
+    return f"{100 * part / whole:.0f} %" if whole and _finite(part) and _finite(whole) and whole > 0 else "–"
+
+
+def _harness(account, runs_df):
+    """The appendix's account of the harness itself (``None`` without one): where the run's wall time went,
+    per experiment and for the whole run, and how quiet the machine was while views were timed.
+
+    ``account`` is :func:`pipeline.harness.account` of the pipeline run that made the report.
+    """
+    quiet = outcomes.quiet_summary(runs_df)
+    if account is None and quiet is None:
+        return None
+    out = {"quiet": None, "table": None}
+    if quiet:
+        quiet = dict(quiet)
+        for key in ("orchestrator_max", "orchestrator_median", "foreign_median"):
+            quiet[key] = f"{quiet[key]:.2f}" if quiet[key] is not None else None
+        out["quiet"] = quiet
+    if account:
+        rows = []
+        for row in account["rows"]:
+            other = max(0.0, row["overhead"] - row["cold"] - row["startup"])
+            rows.append({"name": row["name"], "experiment": row["experiment"], "steps": row["steps"],
+                         "wall": _seconds(row["wall"]), "timed": _seconds(row["timed"]),
+                         "untimed": _seconds(row["untimed"]), "work": _seconds(row["work"]),
+                         "cold": _seconds(row["cold"]),
+                         "startup": _seconds(row["startup"]), "other": _seconds(other),
+                         "share": _share(row["timed"] + row["untimed"], row["wall"])})
+        span = account["span"]
+        out["table"] = {
+            "run": account["run"], "started": account["started"], "rows": rows,
+            "span": _seconds(span), "minutes": takeaways.number(span / 60, 3), "gaps": _seconds(account["gaps"]),
+            "wall": _seconds(account["wall"]), "timed": _seconds(account["timed"]),
+            "untimed": _seconds(account["untimed"]), "timed_share": _share(account["timed"], span),
+            "frames_share": _share(account["timed"] + account["untimed"], span),
+            "gaps_share": _share(account["gaps"], span)}
+    return out
 
 
 def _phantom_summary(phantoms):

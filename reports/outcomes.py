@@ -192,3 +192,34 @@ def disturbance_notice(disturbances):
     if not parts:
         return ""
     return " and ".join(parts) + ": their times and the intervals of the claims that read them are less certain."
+
+
+def quiet_summary(runs_df):
+    """How quiet the machine was while views were timed: a dict for the appendix, or ``None`` without timed views.
+
+    ``views`` (timed views: successful, not one untimed frame), ``timed_twice`` (disturbed at first,
+    timed again), ``disturbed`` (still disturbed in the timing kept), and over the timed views the
+    CPU that volbench's own orchestration used (``orchestrator_max``, ``orchestrator_median``: cores,
+    from each view's ``load_orchestrator_cores``; ``None`` where no view recorded it) and all other
+    work (``foreign_median``).
+    """
+    if runs_df is None or runs_df.empty or "info_disturbed" not in runs_df:
+        return None
+    rows = runs_df[runs_df["status"] == "ok"] if "status" in runs_df else runs_df
+    untimed = rows["info_untimed"].map(_text).astype(str).str.lower() == "true" if "info_untimed" in rows \
+        else pd.Series(False, index=rows.index)
+    rows = rows[~untimed]
+    if rows.empty:
+        return None
+
+    def numbers(column):
+        return pd.to_numeric(rows[column], errors="coerce").dropna() if column in rows else pd.Series(dtype=float)
+
+    orchestrator, foreign = numbers("load_orchestrator_cores"), numbers("load_foreign_cores")
+    rerun = rows["rerun"].map(_text) if "rerun" in rows else pd.Series("", index=rows.index)
+    return {"views": len(rows), "timed_twice": int((rerun != "").sum()),
+            "disturbed": int((rows["info_disturbed"].map(_text) != "").sum()),
+            "orchestrator_views": len(orchestrator),
+            "orchestrator_max": float(orchestrator.max()) if len(orchestrator) else None,
+            "orchestrator_median": float(orchestrator.median()) if len(orchestrator) else None,
+            "foreign_median": float(foreign.median()) if len(foreign) else None}

@@ -2,6 +2,7 @@
 
 import io
 import time
+from pathlib import Path
 
 import pytest
 
@@ -37,7 +38,7 @@ def test_spans_too_short_for_the_counters_or_without_proc_have_no_load():
     start = Snapshot(wall=0.0, busy=0, steal=0, own=0)
     short = between(start, Snapshot(wall=disturbance.MIN_SPAN * 0.9, busy=_ticks(1), steal=0, own=0))
     assert short == {"seconds": disturbance.MIN_SPAN * 0.9, "foreign_cores": None, "own_cores": None,
-                     "steal_share": None}
+                     "steal_share": None, "orchestrator_cores": None}
     assert between(start, Snapshot(wall=disturbance.MIN_SPAN, busy=_ticks(1), steal=0, own=0))["foreign_cores"] > 0
     unreadable = Snapshot(wall=5.0, busy=None, steal=None, own=None)
     assert between(start, unreadable)["foreign_cores"] is None and between(unreadable, start)["own_cores"] is None
@@ -120,6 +121,48 @@ def test_snapshot_on_this_machine_counts_this_process_working():
     end = snapshot()
     assert end.own - start.own >= _ticks(0.05) and end.busy - start.busy >= end.own - start.own - 2
     assert end.wall > start.wall
+
+
+def test_the_orchestrators_share_of_other_work_is_read_from_the_watched_processes(four_cpus):
+    start = Snapshot(wall=10.0, busy=_ticks(50), steal=0, own=_ticks(10), orchestrator={7: _ticks(3), 8: _ticks(1)})
+    # Process 8 ended meanwhile: only 7's 0.2 s count, over 2 s.
+    end = Snapshot(wall=12.0, busy=_ticks(53), steal=0, own=_ticks(11), orchestrator={7: _ticks(3.2)})
+    load = between(start, end)
+    assert load["orchestrator_cores"] == pytest.approx(0.1) and load["foreign_cores"] == pytest.approx(1.0)
+    assert between(Snapshot(10.0, 0, 0, 0), Snapshot(12.0, 0, 0, 0))["orchestrator_cores"] is None
+
+
+def test_watched_processes_are_read_in_every_snapshot_and_this_one_is_never_watched():
+    import os
+    import subprocess
+    import sys
+
+    busy = subprocess.Popen([sys.executable, "-c", "import time\nt = time.process_time() + 0.3\n"
+                                                   "while time.process_time() < t: pass"])
+    try:
+        disturbance.watch([busy.pid, os.getpid(), 0])
+        start = snapshot()
+        busy.wait()
+        assert list(start.orchestrator) == [busy.pid]
+    finally:
+        disturbance.watch([])
+    assert snapshot().orchestrator == {}
+
+
+def test_the_orchestrator_is_found_among_a_jobs_ancestors(tmp_path):
+    import subprocess
+    import sys
+
+    # A job's process under a shell under a process whose command line runs Snakemake.
+    job = tmp_path / "job.py"
+    job.write_text("from pipeline import disturbance\nprint(len(disturbance.orchestrator_pids()))\n")
+    fake = tmp_path / "snakemake"
+    fake.write_text(f"import subprocess\nsubprocess.run(['bash', '-c', '{sys.executable} {job}; true'])\n")
+    out = subprocess.run([sys.executable, str(fake)], capture_output=True, text=True, cwd=Path(__file__).parent.parent)
+    assert out.stdout.strip() == "2"  # the shell, then the "Snakemake"
+    assert disturbance.orchestrator_pids(levels=1) == []  # pytest's parent runs no workflow
+    assert disturbance.is_orchestrator(["python", "-m", "pipeline.driver", "--cores", "2"])
+    assert not disturbance.is_orchestrator(["bash", "-c", "cat .snakemake/x"])
 
 
 def test_thread_waits_reads_the_schedulers_run_queue_delay(monkeypatch):

@@ -202,3 +202,25 @@ def test_the_runs_of_an_interleave_group_are_one_render_job(tmp_path):
         resources = dict(item.split("=", 1) for item in re.search(r"resources: (.*)", jobs[rule])[1].split(", "))
         assert resources["slurm_extra"] == "--exclusive" and resources["mem_mb"] == "4000" and resources["gpu"] == "0"
         assert int(resources["runtime"]) == (math.ceil(profile["render_time_limit"] / 60) + 10) * len(members)
+
+
+def test_timed_renders_take_every_core_and_untimed_work_one_and_goes_first(tmp_path):
+    """A timed render job never shares the machine; untimed renders (truths) take a core each and run first."""
+    from pipeline.experiments import Profile, plan
+
+    profile = yaml.safe_load((ROOT / "config" / "smoke.yaml").read_text())
+    profile.update(results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
+                   experiments=["volbench-convergence"])
+    (tmp_path / "profile.yaml").write_text(yaml.safe_dump(profile))
+    out = subprocess.run([sys.executable, "-m", "snakemake", "--dry-run", "--cores", "2", "--snakefile",
+                          str(ROOT / "Snakefile"), "--directory", str(ROOT), "--configfile", str(tmp_path / "profile.yaml")],
+                         capture_output=True, text=True, timeout=180)
+    assert out.returncode == 0, out.stderr[-3000:]
+    jobs = re.findall(r"rule (render\w*):\n(.*?)(?=^\s*\[|^\S|\Z)", out.stdout + out.stderr, re.M | re.S)
+    runs = {run.id: run for run in plan(Profile.from_mapping(profile)).values()}
+    assert len(jobs) == len(runs) and {run.timed for run in runs.values()} == {True, False}
+    for _, job in jobs:
+        run = runs[re.search(r"run=([^,\s]+)", job)[1]]
+        threads = re.search(r"threads: (\d+)", job)
+        assert (int(threads[1]) if threads else 1) == (2 if run.timed else 1), job
+        assert int(re.search(r"priority: (\d+)", job)[1]) == (1 if run.timed else 2), job

@@ -151,6 +151,11 @@ class Profile:
         """The profile of a YAML file, read strictly (:func:`core.yaml_io.load_yaml_file`) and checked."""
         return cls.from_mapping(load_yaml_file(path, what="profile"))
 
+    @classmethod
+    def from_json(cls, text):
+        """The profile of a job's ``--profile`` argument (JSON of its fields, as the Snakefile writes it)."""
+        return cls.from_mapping(json.loads(text))
+
     def setting(self, experiment, key, default):
         """What ``experiment`` takes for ``key`` in this profile.
 
@@ -230,12 +235,26 @@ class Run:
         return f"{self.experiment}/{self.id}"
 
     @property
+    def timed(self):
+        """Whether the run's frames are timed (else one untimed frame: :func:`pipeline.timing.measure_together`).
+
+        An untimed run's job may share the machine with other untimed work; a timed one's never does.
+        """
+        return not (self.warmup == 0 and self.repeat == 1 and self.min_time == 0)
+
+    @property
     def volume_entries(self):
         """The volume entries (scene format) the run reads: its scene's, and its statistics entry."""
         return [*self.scene["volumes"], *([self.statistics] if self.statistics else [])]
 
     def as_dict(self):
         return {name: getattr(self, name) for name in self.__dataclass_fields__}
+
+    @classmethod
+    def list_from_json(cls, text):
+        """The runs of a render job's ``--run`` argument: one run's :meth:`as_dict` as JSON, or a group's list."""
+        fields = json.loads(text)
+        return [cls(**{**one, "views": tuple(one["views"])}) for one in (fields if isinstance(fields, list) else [fields])]
 
     def spec_hash(self):
         """Hash of everything that determines the output; Snakemake reruns a job when it changes."""
