@@ -74,15 +74,24 @@ RENDER_RESOURCES = {
     "gpu": lambda w: int(uses_device(run_of(w).backend)),
 }
 
-# Cores and order. A timed render job takes every core, so nothing else runs beside its timed frames
-# (on a cluster: a node of its own); an untimed one (a ground truth, a picture, the atlas's single
-# frames) takes one, so untimed work runs side by side. Untimed renders go first (priority 2), then
+# Cores and order. A timed render job takes every core, so nothing else runs beside its timed frames;
+# on this machine an untimed one (a ground truth, a picture, the atlas's single frames) takes one, so
+# untimed work runs side by side (on a cluster every render has a node of its own). Untimed renders go first (priority 2), then
 # the timed ones (1), then the evaluations and tables (0), which wait for every run of their experiment.
 UNTIMED_PRIORITY, TIMED_PRIORITY = 2, 1
 
 
 def render_threads(runs):
-    return workflow.cores if any(run.timed for run in runs) else 1
+    """The threads of a render job, a function of its wildcards: the executor is known only then."""
+    def threads(wildcards):
+        # On a cluster every render job has a node of its own (--exclusive) and asks for all its
+        # cores: an experiment's jobs are one cluster job (a group), which asks for its widest layer
+        # of jobs that could run side by side, and two one-core renders would ask one node for two
+        # devices. (A dry run shows this machine's threads.)
+        if not workflow.local_exec or any(run.timed for run in runs):
+            return workflow.cores
+        return 1
+    return threads
 
 
 def render_priority(runs):
@@ -247,7 +256,7 @@ rule render:
         run=lambda w: json.dumps(run_of(w).as_dict()),
         spec_hash=lambda w: run_of(w).spec_hash(),
         code=lambda w: BACKEND_CODE[run_of(w).backend],
-    threads: lambda w: render_threads([run_of(w)])
+    threads: lambda w: render_threads([run_of(w)])(w)
     priority: lambda w: render_priority([run_of(w)])
     resources:
         **RENDER_RESOURCES,

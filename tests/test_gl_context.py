@@ -24,6 +24,7 @@ class _FakeContext:
         self.info = {"GL_VERSION": f"{version_code // 100}.{version_code % 100 // 10} fake", "GL_RENDERER": renderer}
         self.released = False
         self.dead = False
+        self.error = "GL_NO_ERROR"
 
     def __enter__(self):
         return self

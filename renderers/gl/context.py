@@ -251,6 +251,9 @@ def activate(ctx):
     try:
         ctx.__enter__()  # current from now on; never left, so no previous context is restored
         ctx.buffer(reserve=4).release()
+        # Reading the error flag clears it: an error left by earlier work in this process (another
+        # run, another backend) would otherwise surface in the next PyOpenGL call (segments-stencil).
+        ctx.error
     except Exception:  # moderngl.Error, or an InvalidObject after a release: the context is unusable
         return False
     return True
