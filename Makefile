@@ -1,7 +1,8 @@
 # volbench: two commands on a fresh Debian machine (as root):
 #   make reproduce   # set up, run the pipeline on PROFILE (default), print where the report is
-#   make test        # set up, run the test suite (all but the `cluster` tests)
+#   make test        # set up, run the unit tests (all but the `integration` and `cluster` tests)
 # and
+#   make integration-test  # the tests that run Snakemake, a whole workflow or a browser (CI runs them)
 #   make cluster-test  # the smoke profile on a one-node SLURM started here and, side by side, the
 #                      # local smoke run brought up to date (results/smoke); then the two compared
 SHELL := /bin/bash
@@ -27,7 +28,7 @@ BROWSER_PACKAGES := chromium
 CLUSTER_BASELINE ?= results/smoke
 STAMP := $(VENV)/.volbench-installed
 
-.PHONY: setup system-packages cluster-packages browser-packages reproduce smoke test cluster-test clean
+.PHONY: setup system-packages cluster-packages browser-packages reproduce smoke test integration-test cluster-test clean
 
 setup: system-packages $(STAMP)
 	@# Every job and test process imports the project: its bytecode once here (pipeline.cli).
@@ -68,8 +69,13 @@ smoke:
 
 # --dist loadfile: a module's tests share a worker, so the Numba kernels they use are compiled
 # once, not in every worker (a fresh clone: 214 s instead of 245 s on 2 cores; warm 148 s, not 159).
+# The unit tests; the tests that run Snakemake on copies of the workflow, a workflow of their own or a
+# browser are `integration` tests, which CI runs as a stage of their own (.ci/run).
 test: setup
-	$(PY) -m pytest -q -n $(CORES) --dist loadfile -m "not cluster"
+	$(PY) -m pytest -q -n $(CORES) --dist loadfile -m "not cluster and not integration"
+
+integration-test: setup
+	$(PY) -m pytest -q -n $(CORES) --dist loadfile -m "integration and not cluster"
 
 # Starts (and stops) the one-node SLURM itself; needs root. VOLBENCH_REQUIRE_CLUSTER=1 turns its
 # skips (no root, SLURM will not start) into failures, as CI wants.

@@ -47,6 +47,7 @@ def test_bad_input_is_an_error_message_not_a_traceback(capsys):
     assert main(["run", "--profile", "nonexistent"]) == 2
 
 
+@pytest.mark.integration
 def test_run_dry_run_goes_through_snakemake(tmp_path):
     out = subprocess.run([sys.executable, "-m", "pipeline.cli", "run", "--profile", "smoke", "--dry-run",
                           "--experiment", "volbench-convergence", "--", "--config", f"results={tmp_path}/r",

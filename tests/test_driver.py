@@ -50,7 +50,7 @@ MEASURE = textwrap.dedent('''
 ''')
 
 
-@pytest.mark.slow
+@pytest.mark.integration
 def test_the_orchestrator_uses_no_cpu_while_a_job_runs(tmp_path):
     measure = tmp_path / "measure.py"
     measure.write_text(MEASURE)

@@ -149,6 +149,7 @@ def test_report_from_collected_results(profile):
     assert images and all(f'src="{p.relative_to(index.parent)}"' in page for p in images)
 
 
+@pytest.mark.integration
 def test_snakemake_dry_run_plans_every_job(tmp_path):
     out = subprocess.run([sys.executable, "-m", "snakemake", "--dry-run", "--cores", "1", "--quiet", "rules",
                           "--configfile", "config/smoke.yaml",

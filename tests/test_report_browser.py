@@ -35,8 +35,9 @@ from test_reports_html import broken_links, synthetic_report
 
 CHROMIUM = next((shutil.which(n) for n in ("chromium", "chromium-browser", "google-chrome") if shutil.which(n)), None)
 # CI sets VOLBENCH_REQUIRE_BROWSER=1 so that a missing Chromium fails there instead of skipping.
-pytestmark = pytest.mark.skipif(CHROMIUM is None and not os.environ.get("VOLBENCH_REQUIRE_BROWSER"),
-                                reason="Chromium is not installed (apt-get install chromium)")
+pytestmark = [pytest.mark.integration,
+              pytest.mark.skipif(CHROMIUM is None and not os.environ.get("VOLBENCH_REQUIRE_BROWSER"),
+                                 reason="Chromium is not installed (apt-get install chromium)")]
 
 FLAGS = ["--headless", "--no-sandbox", "--disable-gpu", "--disable-quic", "--no-first-run",
          "--disable-background-networking", "--disable-component-update", "--disable-sync",
