@@ -10,7 +10,11 @@ A timing is a distribution, not a number. For one view of one run (or several ru
    caches and renders once more, so that the preprocessing stages (``classify``, ``rle_build``, ...) are
    timed with their code compiled, as their own stages;
 3. renders **warm-up frames** until the frame time settles (two consecutive frames within
-   :data:`SETTLED` of each other), at least ``warmup`` and at most :data:`MAX_WARMUP`;
+   :data:`SETTLED` of each other), at least ``warmup`` and at most :data:`MAX_WARMUP` (or
+   :data:`MAX_WARMUP_TIME` seconds); the frame that agrees with the one before is the first timed
+   frame, so a view whose time settles at once costs one warm-up frame, not two. Runs timed together
+   warm up in rounds once each has had ``warmup`` frames: the first round in which every run's frame
+   agrees with its frame before is their first timed round;
 4. renders **timed frames** until there are at least ``repeat`` of them *and* they took at least
    ``min_time`` seconds, at most ``max_frames``.
 
@@ -73,6 +77,8 @@ class _Arm:
         self.preprocessing = {}
         self.warmup = 0
         self.settled = False
+        self.previous = None  # the last frame's time, for the settling test
+        self.warm_started = None
         self.untimed_seconds = 0.0  # the preprocessing and warm-up frames' wall time (the harness's own account)
 
     def render(self):
@@ -83,7 +89,7 @@ class _Arm:
         return result, wall
 
     def prepare(self, warmup, bar):
-        """The cold frame, the preprocessing frame and the warm-up frames."""
+        """The cold frame, the preprocessing frame and the first ``max(warmup, 1)`` warm-up frames."""
         _, self.first_frame = self.render()
         bar.update()
         if self.renderer.drop_caches():
@@ -91,30 +97,43 @@ class _Arm:
             self.preprocessing = dict(result.timings)
             self.untimed_seconds += wall
             bar.update()
-        previous, started = None, time.perf_counter()
-        while True:
+        self.warm_started = time.perf_counter()
+        for _ in range(max(warmup, 1)):
             result, wall = self.render()
-            self.untimed_seconds += wall
-            self.warmup += 1
+            self.agrees(result, wall)
+            self.warm_up(wall)
             bar.update()
-            now = _total(result, wall)
-            self.settled = previous is not None and abs(now - previous) <= SETTLED * max(now, previous)
-            previous = now
-            if self.warmup >= max(warmup, 1) and (self.settled or self.warmup >= MAX_WARMUP
-                                                  or time.perf_counter() - started > MAX_WARMUP_TIME):
-                break
 
-    def timed(self):
+    def agrees(self, result, wall):
+        """Whether this frame's time is within :data:`SETTLED` of the frame before (and remember it)."""
+        now = _total(result, wall)
+        agrees = self.previous is not None and abs(now - self.previous) <= SETTLED * max(now, self.previous)
+        self.previous = now
+        return agrees
+
+    def warm_up(self, wall):
+        """Count a frame as warm-up."""
+        self.untimed_seconds += wall
+        self.warmup += 1
+
+    def capped(self):
+        """Whether the warm-up has had its most frames or time (:data:`MAX_WARMUP`, :data:`MAX_WARMUP_TIME`)."""
+        return self.warmup >= MAX_WARMUP or time.perf_counter() - self.warm_started > MAX_WARMUP_TIME
+
+    def frame(self):
+        """One frame of a round: ``(result, wall, wait for a CPU)``; :meth:`keep` makes it a timed frame."""
         before = disturbance.thread_waits()
         result, wall = self.render()
         after = disturbance.thread_waits()
+        return result, wall, (after - before if None not in (before, after) else 0.0)
+
+    def keep(self, result, wall, wait):
         # Only the stage times are kept of every frame: keeping each frame's image alive would hand every
         # next frame fresh pages to fault in, a cost of the harness that would be timed as the backend's.
         self.frames.append(result.timings)
         self.last = result
         self.walls.append(wall)
-        self.waits.append(after - before if None not in (before, after) else 0.0)
-        return result
+        self.waits.append(wait)
 
     def result(self, load):
         frames = self.frames
@@ -225,15 +244,33 @@ def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_F
             state.prepare(warmup, bar)
         started, waited = time.perf_counter(), disturbance.thread_waits()
         spent = [0.0] * len(states)
-        rounds = 0
+        rounds = played = 0  # timed rounds; every round, warm-up rounds included
+        warming = True
         while rounds < max_frames and (rounds < repeat or (min(spent) < min_time
                                                           and max(spent) < GROUP_TIME_FACTOR * min_time)):
-            order = states if rounds % 2 == 0 else states[::-1]
+            order = states if played % 2 == 0 else states[::-1]
+            frames = {}
             for state in order:
                 began = time.perf_counter()
-                state.timed()
-                spent[states.index(state)] += time.perf_counter() - began
+                frames[id(state)] = state.frame()
+                frames[id(state)] += (time.perf_counter() - began,)
                 bar.update()
+            played += 1
+            if warming:
+                # Warm-up goes on in rounds until every arm's frame agrees with its frame before (or the
+                # arm's warm-up is capped): that round is the first timed round.
+                agreed = [state.agrees(*frames[id(state)][:2]) for state in states]
+                if not all(ok or state.capped() for ok, state in zip(agreed, states)):
+                    for state in states:
+                        state.warm_up(frames[id(state)][1])
+                    continue
+                warming = False
+                for ok, state in zip(agreed, states):
+                    state.settled = ok
+            for i, state in enumerate(states):
+                result, wall, wait, took = frames[id(state)]
+                state.keep(result, wall, wait)
+                spent[i] += took
             rounds += 1
         elapsed, now_waited = time.perf_counter() - started, disturbance.thread_waits()
         load = {**disturbance.between(start, disturbance.snapshot()),

@@ -41,13 +41,13 @@ class Scripted(Renderer):
 
 
 def test_the_cold_frame_is_its_own_stage_and_never_timed():
-    # cold 100, warm-up 3 and 3 (settled), then the timed frames 1, 2, 10.
-    renderer = Scripted([100.0, 3.0, 3.0, 1.0, 2.0, 10.0])
+    # cold 100, warm-up 3, then 3 (within 10 % of the frame before: settled, the first timed frame), 2, 10.
+    renderer = Scripted([100.0, 3.0, 3.0, 2.0, 10.0])
     result = measure(renderer, scene=None, warmup=1, repeat=3)
     assert result.timings["first_frame"] > 0 and result.info["first_frame"] == result.timings["first_frame"]
-    assert result.frames["total"] == [1.0, 2.0, 10.0]
-    assert result.timings["total"] == 2.0 and result.timings_min["total"] == 1.0 and result.timings_max["total"] == 10.0
-    assert result.info["frames"] == 3 and result.info["warmup"] == 2 and result.info["settled"]
+    assert result.frames["total"] == [3.0, 2.0, 10.0]
+    assert result.timings["total"] == 3.0 and result.timings_min["total"] == 2.0 and result.timings_max["total"] == 10.0
+    assert result.info["frames"] == 3 and result.info["warmup"] == 1 and result.info["settled"]
 
 
 def test_only_the_last_timed_frames_image_is_kept():
@@ -71,8 +71,27 @@ def test_only_the_last_timed_frames_image_is_kept():
 def test_warm_up_lasts_until_the_frame_time_settles():
     renderer = Scripted([50.0, 9.0, 6.0, 4.0, 3.0, 2.9, 1.0])
     result = measure(renderer, scene=None, warmup=1, repeat=3)
-    assert result.info["warmup"] == 5  # 9, 6, 4, 3, 2.9: the first two within 10 % end it
-    assert result.frames["total"] == [1.0, 1.0, 1.0]
+    assert result.info["warmup"] == 4  # 9, 6, 4, 3; then 2.9, within 10 % of 3, is the first timed frame
+    assert result.frames["total"] == [2.9, 1.0, 1.0]
+
+
+def test_a_warm_up_that_never_settles_ends_at_its_cap():
+    from pipeline import timing
+
+    renderer = Scripted([50.0] + [1.0, 2.0] * 30)
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.info["warmup"] == timing.MAX_WARMUP and not result.info["settled"]
+    assert len(result.frames["total"]) == 3
+
+
+def test_runs_timed_together_warm_up_in_rounds_until_every_one_agrees_with_its_frame_before():
+    log = []
+    # a settles at once; b's frames fall 4, 2, 1, 1: rounds 1 and 2 are warm-up for both.
+    a, b = Scripted([9.0, 1.0], log=log, label="a"), Scripted([9.0, 4.0, 2.0, 1.0], log=log, label="b")
+    results = measure_together([(a, None), (b, None)], warmup=1, repeat=3)
+    assert [r.info["warmup"] for r in results] == [3, 3]  # the prepared frame and two rounds
+    assert results[0].frames["total"] == [1.0] * 3 and results[1].frames["total"] == [1.0] * 3
+    assert log[4:] == ["a", "b", "b", "a", "a", "b", "b", "a", "a", "b"]  # the order alternates from the first round
 
 
 def test_the_budget_adds_frames_until_min_time(monkeypatch):
@@ -105,7 +124,7 @@ def test_arms_alternate_round_by_round_with_the_order_reversed():
     a, b = Scripted([1.0], log=log, label="a"), Scripted([2.0], log=log, label="b")
     results = measure_together([(a, None), (b, None)], warmup=1, repeat=4)
     timed = log[-8:]
-    assert timed == ["a", "b", "b", "a", "a", "b", "b", "a"]
+    assert timed == ["a", "b", "b", "a", "a", "b", "b", "a"]  # both settled at once: round 1 is timed
     assert [len(r.frames["total"]) for r in results] == [4, 4]
     assert results[0].timings["total"] == 1.0 and results[1].timings["total"] == 2.0
 
