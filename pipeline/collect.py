@@ -21,6 +21,7 @@ import pandas as pd
 
 from pipeline.environment import node_name
 from pipeline.experiments.kit.intervals import format_frames
+from pipeline.experiments.kit.results import compact
 from pipeline.records import metrics_record_path
 from reports.metrics import METRIC_KEYS
 
@@ -104,7 +105,7 @@ def tabulate(record_paths, experiment, *, results_dir):
     results_dir : path
         Where :func:`table_path` and :func:`claims_path` are written.
     """
-    frame = pd.DataFrame([row for path in record_paths for row in rows_for(path, results_dir=results_dir)])
+    frame = compact(pd.DataFrame([row for path in record_paths for row in rows_for(path, results_dir=results_dir)]))
     rows = experiment_rows(frame, experiment)
     claims = claims_table(rows, [experiment])
     for path, table in ((table_path(results_dir, experiment.name), rows),

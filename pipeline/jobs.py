@@ -182,7 +182,9 @@ def report(args):
 
     profile = parse_profile(args.profile)
     results = Path(profile.results)
-    runs_df = pd.read_csv(results / "runs.csv", low_memory=False)
+    from pipeline.experiments.kit.results import compact
+
+    runs_df = compact(pd.read_csv(results / "runs.csv", low_memory=False))
     claims_df = pd.read_csv(results / "claims.csv")
     claims_df["holds"] = claims_df["holds"].map({True: True, False: False, "True": True, "False": False})
     claims_df[["measured", "detail"]] = claims_df[["measured", "detail"]].fillna("")

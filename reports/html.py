@@ -38,12 +38,14 @@ GIB = 1024 ** 3
 
 @dataclass
 class ReportContext:
-    """What an experiment's ``report`` method uses to place files in the report folder."""
+    """What an experiment's ``report`` method uses: where to place files in the report folder, and its
+    claims as ``claims.csv`` judged them (``claims``: one row per claim; pages read verdicts, never judge)."""
 
     report_dir: Path
     results_dir: Path
     experiment: str
     _copied: set = field(default_factory=set)
+    claims: object = None
 
     def _relative(self, source):
         try:
@@ -387,10 +389,10 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     pages, overview_rows, overview_runs, failures, atlas = {}, [], [], {}, None
     for experiment in experiments:
         frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
-        ctx = ReportContext(report_dir, results_dir, experiment.name)
+        judged = claims_df[claims_df.experiment == experiment.name]
+        ctx = ReportContext(report_dir, results_dir, experiment.name, claims=judged)
         counts, problems = _status_summary(frame, ctx, stated_above=silent)
-        claims = [{**claim, "cells": claim_cells(claim)}
-                  for claim in claims_df[claims_df.experiment == experiment.name].to_dict("records")]
+        claims = [{**claim, "cells": claim_cells(claim)} for claim in judged.to_dict("records")]
         paper_table = experiment.paper_table()
         rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
                     if counts["ok"] else [])

@@ -88,3 +88,23 @@ def test_log_start_writes_the_plan(tmp_path):
     log = tmp_path / "jobs.jsonl"
     harness.log_start(log, run="x", steps=12)
     assert json.loads(log.read_text())["planned_runs"] == 12
+
+
+def test_the_appendix_shows_where_the_runs_time_went_and_how_quiet_the_timed_views_were(tmp_path):
+    from pipeline.experiments.volbench.phantoms import PhantomGallery
+    from reports.html import build_report
+
+    runs = _runs().assign(run=["a", "b", "c"], status="ok", view="v", backend="reference", info_disturbed=["", "", "other work"],
+                          rerun=["", "timed twice: ...", ""], info_untimed=False,
+                          load_orchestrator_cores=[0.0, 0.01, None], load_foreign_cores=[0.02, 0.03, 0.9])
+    account = harness.account(_log(), runs, run="r", now=1030.0)
+    index = build_report(runs, pd.DataFrame(columns=["experiment", "claim", "holds"]), [PhantomGallery()],
+                         results_dir=tmp_path, environment={}, harness=account)
+    page = (index.parent / "appendix.html").read_text()
+    assert "What the harness itself cost" in page
+    assert "used at most 0.01 cores (median 0.01, over 2 views long enough to measure)" in page
+    assert "1 view was disturbed when first timed and timed again; 1 is still disturbed" in page
+    assert "took 0.5 minutes until its report: 23 % of that wall time went to timed frames and 33 % " in page
+    # Wall, timed, untimed, evaluation, cold frames, worker start-up, the rest, and the share in frames.
+    assert ("<td class=\"text\">e1</td><td>3</td><td>18</td><td>7</td><td>3</td><td>2</td><td>0.75</td><td>2</td>"
+            "<td>3.25</td><td>56 %</td>") in page

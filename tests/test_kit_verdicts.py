@@ -99,8 +99,15 @@ def test_a_column_only_the_missing_runs_report_blocks_rather_than_goes_unmeasure
 def test_take_away_sentences_leave_blocked_claims_to_the_claims_table():
     rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {}), ("C8.tiled", "tiled", "C8", "failed", "error", None, {}),
                  ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
-    assert claim_sentences((RATIO, PEEL_ONLY), rows) == [
+    assert claim_sentences(_judged((RATIO, PEEL_ONLY), rows)) == [
         "depth peeling renders C1 under 10 ms: ok, holds ()."]
+
+
+def _judged(claims, rows):
+    """The claims as claims.csv holds them once judged: what a page's take-aways read."""
+    verdicts = [judge(claim, rows) for claim in claims]
+    return pd.DataFrame([{"claim": c.id, "statement": c.statement, "verdict": v.verdict, "measured": v.measured,
+                          "detail": v.detail} for c, v in zip(claims, verdicts)])
 
 
 NOISE = 1 + 0.02 * np.random.default_rng(11).standard_normal(30)
@@ -125,7 +132,7 @@ def test_a_timing_claim_whose_interval_straddles_its_bound_is_inconclusive():
     low, high = verdict.interval
     assert low < 2.0 < high and verdict.margin == pytest.approx(0.0)
     assert verdict.measured.startswith("×2 (95 % CI")
-    assert claim_sentences((SPEED_UP,), rows) == [
+    assert claim_sentences(_judged((SPEED_UP,), rows)) == [
         f"C1 is at least twice as fast as C8: {verdict.measured}, inconclusive ({verdict.detail})."]
     clear = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002), _timed("C8.tiled", 0.005)))
     assert clear.verdict == "holds" and clear.interval[0] > 2.0 and clear.margin == pytest.approx(0.25)

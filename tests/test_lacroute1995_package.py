@@ -13,6 +13,7 @@ import renderers
 from core.camera import Camera
 from core.errors import InputError
 from pipeline import experiments
+from pipeline.collect import claims_table
 from pipeline.experiments.kit.model import Profile
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import unregistered
@@ -93,11 +94,15 @@ def check_report(tmp_path, name, rows):
     for column, value in (("view", "headline"), ("png", ""), ("exr", ""), ("record", "")):
         if column not in frame:
             frame[column] = value
-    out = experiments.get(name).report(frame, ReportContext(report, tmp_path, name))
+    # The page says what claims.csv says: its claims judged on these rows, as tabulate judges them.
+    claims = claims_table(frame, [experiments.get(name)])
+    out = experiments.get(name).report(frame, ReportContext(report, tmp_path, name, claims=claims))
     kinds = {type(b) for b in out}
     assert blocks.Takeaways in kinds and blocks.Figure in kinds, name
     takeaways = next(b for b in out if isinstance(b, blocks.Takeaways))
     assert takeaways.sentences, name
+    judged = claims[claims.verdict.isin(["holds", "fails", "inconclusive"])]
+    assert all(any(s.startswith(statement) for s in takeaways.sentences) for statement in judged.statement), name
     for figure in (b for b in out if isinstance(b, blocks.Figure)):
         svg = (report / figure.path).read_text()
         assert "no data" not in svg, (name, figure.path)

@@ -178,7 +178,7 @@ class Coverage(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         timing = _coverage_rows(ok)
-        out = [claim_takeaways(self.claims, results, device_note(timing))]
+        out = [claim_takeaways(ctx, device_note(timing))]
         if not timing.empty:
             wide = timing.pivot_table(index="triangles", columns="config", values="binning_ms").reset_index()
             present = [m for m in METHODS if m in wide]

@@ -267,7 +267,7 @@ class Depth(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         rows = _depth_rows(ok)
         if not rows.empty:
             rows["method"] = rows.config.map(METHOD_NAMES)

@@ -192,7 +192,7 @@ class DepthCap(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         rows = _cap_rows(ok)
         if not rows.empty:
             rows = speed_points(rows)

@@ -191,7 +191,7 @@ class EmptySpace(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
         if not tests.empty:
             rows = speed_points(tests)

@@ -189,7 +189,7 @@ class Media(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         rows = _media_rows(ok)
-        out = [claim_takeaways(self.claims, results, device_note(rows))]
+        out = [claim_takeaways(ctx, device_note(rows))]
         if not rows.empty:
             out.append(table("Analytic and sampled media", rows.sort_values(["view", "config"]),
                              ["view", "config", "time_ms", "time_ms_min", "time_ms_max", "pixel kernel (ms)", "psnr",

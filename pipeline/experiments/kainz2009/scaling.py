@@ -213,7 +213,7 @@ class Scaling(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_note(tests), _scaling_takeaways(tests))]
+        out = [claim_takeaways(ctx, device_note(tests), _scaling_takeaways(tests))]
         if not tests.empty:
             rows = speed_points(tests)
             rows["count"] = numeric(rows, "count")

@@ -189,7 +189,7 @@ class Sorting(Experiment):
         ok = ok_rows(results)
         rows = _sorting_rows(ok)
         extra = [] if rows.empty else device_note(rows) + _sorting_takeaways(rows)
-        out = [claim_takeaways(self.claims, results, extra)]
+        out = [claim_takeaways(ctx, extra)]
         if not rows.empty:
             full = rows[rows.part == "full"].copy()
             full["label"] = full.scene + ", " + full.order

@@ -127,7 +127,7 @@ class Step(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         rows = _step_rows(ok)
         if not rows.empty:
             for y, label, y_range, what in (("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"),

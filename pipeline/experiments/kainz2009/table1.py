@@ -259,7 +259,7 @@ class Table1(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, _peer_takeaways(tests))]
+        out = [claim_takeaways(ctx, _peer_takeaways(tests))]
         if not tests.empty:
             rows = speed_points(tests)
             rows["method"] = rows.config.map(METHOD_NAMES)

@@ -93,13 +93,14 @@ def not_measurable(items):
     return [blocks.Text("Not measurable here: " + "; ".join(f"{what} — {why}" for what, why in items) + ".")]
 
 
-def claim_takeaways(claims, results, *more):
-    """The take-aways block of a section: each claim that holds or fails in a sentence, then ``more``.
+def claim_takeaways(ctx, *more):
+    """The take-aways block of a section: each judged claim in a sentence, as ``claims.csv`` says, then ``more``.
 
-    ``results`` is every row of the experiment: a claim blocked by a run that did not happen gets no
-    sentence (:func:`~pipeline.experiments.kit.verdicts.claim_sentences`).
+    ``ctx`` is the report's context of the experiment: it carries the experiment's claims as judged
+    (:func:`~pipeline.experiments.kit.verdicts.claim_sentences`); a claim blocked by a run that did
+    not happen gets no sentence.
     """
-    return blocks.Takeaways(claim_sentences(claims, results) + [s for sentences in more for s in sentences])
+    return blocks.Takeaways(claim_sentences(getattr(ctx, "claims", None)) + [s for sentences in more for s in sentences])
 
 
 def gl_devices(frame):

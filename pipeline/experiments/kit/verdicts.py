@@ -318,17 +318,28 @@ def judge(claim, rows):
                    interval=result.interval, margin=result.margin)
 
 
-def claim_sentences(claims, rows):
-    """A take-away sentence per claim that holds or fails: statement, measurement, verdict, detail.
+VERDICT_WORDS = {"holds": "holds", "fails": "does not hold", "inconclusive": "inconclusive"}
+"""How a take-away sentence says each verdict that was judged on measurements."""
 
-    ``rows`` is every row of the experiment. Blocked and unmeasured claims get no sentence: the
-    claims table gives each its reason and the page's count of verdicts says how many there are.
+
+def claim_sentences(judged):
+    """A take-away sentence per claim that holds, fails or is inconclusive: statement, measurement, verdict, detail.
+
+    ``judged`` is the experiment's rows of ``claims.csv`` (``statement``, ``measured``, ``verdict``,
+    ``detail``): a page says what the claims table says, and judges nothing again. Blocked and
+    unmeasured claims get no sentence: the claims table gives each its reason and the page's count of
+    verdicts says how many there are.
     """
     sentences = []
-    for claim in claims:
-        verdict = judge(claim, rows)
-        if verdict.verdict in ("holds", "fails", "inconclusive"):
-            word = {"holds": "holds", "fails": "does not hold", "inconclusive": "inconclusive"}[verdict.verdict]
-            detail = verdict.detail.removeprefix("inconclusive: ")
-            sentences.append(f"{claim.statement}: {verdict.measured}, {word} ({detail}).")
+    if judged is None:
+        return sentences
+    for claim in judged.to_dict("records"):
+        word = VERDICT_WORDS.get(claim.get("verdict"))
+        if word:
+            detail = _text(claim.get("detail")).removeprefix("inconclusive: ")
+            sentences.append(f"{claim['statement']}: {_text(claim.get('measured'))}, {word} ({detail}).")
     return sentences
+
+
+def _text(value):
+    return "" if value is None or (isinstance(value, float) and value != value) else str(value)

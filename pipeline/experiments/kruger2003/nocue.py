@@ -90,7 +90,7 @@ class NoCue(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         if not tests.empty:
             timing = speed_points(tests)
             timing["method"] = [method_name(c) for c in timing.config]

@@ -149,7 +149,7 @@ class Occluder(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         rows = _occluder_rows(ok)
         if not rows.empty:
             rows["method"] = [method_name(c) for c in rows.config]

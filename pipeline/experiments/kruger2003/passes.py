@@ -176,7 +176,7 @@ class Passes(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         curves = _pass_curves(ok)
         if not curves.empty:
             path, rel = ctx.plot_path("fragments-per-pass")

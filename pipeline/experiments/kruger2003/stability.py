@@ -140,7 +140,7 @@ class Stability(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         tests = ok[ok.get("role") == "test"] if "role" in ok else ok.iloc[:0]
         for sweep, words, label in SWEEPS:
             rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]

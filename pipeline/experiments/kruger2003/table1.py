@@ -308,7 +308,7 @@ class Table1(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.role == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, _device_takeaways(tests), _peer_takeaways(ok))]
+        out = [claim_takeaways(ctx, _device_takeaways(tests), _peer_takeaways(ok))]
         if not tests.empty:
             headline = tests[tests.view == "headline"]
             out += _ratio_blocks(tests, ctx) + _speed_blocks(headline, tests, ctx)

@@ -10,7 +10,7 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, format_number, not_measurable
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
                                                unregistered)
 from pipeline.experiments.kit.results import numeric, ok_rows
@@ -93,7 +93,7 @@ class ViewAngles(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         frame = _turns(ok)
-        out = [blocks.Takeaways(_takeaways(ok))]
+        out = [claim_takeaways(ctx, _takeaways(ok))]
         if frame.empty:
             return out
         frame["time_ms"] = numeric(frame, TIME) * 1e3

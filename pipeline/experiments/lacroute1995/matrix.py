@@ -9,7 +9,8 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, change_words, format_number, linked_table, not_measurable
+from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, format_number, linked_table,
+                                            not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
@@ -95,7 +96,7 @@ class OptimisationMatrix(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         table = _table(ok)
-        out = [blocks.Takeaways(_takeaways(table))]
+        out = [claim_takeaways(ctx, _takeaways(table))]
         if table.empty:
             return out
         out.append(linked_table("Samples and time per optimisation", table.join(ok.reindex(columns=["record", "exr"])),

@@ -136,7 +136,7 @@ class Parallel(Experiment):
         frame = speed_points(ok)
         for column in ("workers", "task_size", "volume_size"):
             frame[column] = numeric(frame, column)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         speed = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.task_size == DEFAULT_TASK_SIZE)].copy()
         if speed.workers.nunique() > 1:
             out.append(_speedup_figure(speed, ok, ctx))

@@ -84,7 +84,7 @@ class PerspectiveQuality(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         try:
             rows = fov_rows(ok)
         except (KeyError, ValueError):

@@ -131,7 +131,7 @@ class Projections(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         try:
             summary = projection_summary(ok)
         except (KeyError, ValueError):

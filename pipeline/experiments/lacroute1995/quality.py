@@ -166,7 +166,7 @@ class ImageQuality(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results, _real_versus_phantom(ok))]
+        out = [claim_takeaways(ctx, _real_versus_phantom(ok))]
         tests = ok[(ok.get("part") == "classification") & (ok.role == "test")].copy() if "part" in ok else ok.iloc[:0]
         if not tests.empty:
             out += _classification_blocks(tests, results, ctx)

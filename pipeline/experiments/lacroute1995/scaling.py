@@ -91,7 +91,7 @@ class SizeScaling(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         if ok.empty:
             return out
         frame = speed_points(ok)

@@ -131,7 +131,7 @@ class Variants(Experiment):
         ok = ok_rows(results)
         if ok.empty:
             return []
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         frame = speed_points(ok)
         stages = [c for c in frame.columns if c.startswith("time_") and not c.endswith(("_min", "_max"))
                   and c not in ("time_total", "time_ms")]

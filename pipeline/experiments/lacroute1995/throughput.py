@@ -170,7 +170,7 @@ class Throughput(Experiment):
         frame = speed_points(ok)
         frame["samples"] = numeric(frame, "count_samples")
         frame["runs"] = numeric(frame, "count_voxel_runs")
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         cubes = frame[frame.series == "cube"].copy()
         if not cubes.empty:
             out.append(_cube_figure(cubes, ok, ctx))

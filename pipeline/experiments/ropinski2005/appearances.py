@@ -304,7 +304,7 @@ class Appearances(Experiment):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
         table = appearance_table(tests) if not tests.empty else pd.DataFrame()
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests),
+        out = [claim_takeaways(ctx, device_takeaways(tests),
                                _takeaways(table) if not table.empty else [])]
         if not table.empty:
             out += _figure(table, ctx)

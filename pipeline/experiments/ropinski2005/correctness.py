@@ -206,7 +206,7 @@ class Correctness(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         methods = sorted(set(text_column(ok, "config")) - {OFF, REFERENCE_CONFIG}) if "config" in ok else [PAPER_METHOD]
         if not ok.empty and "appearance" in ok:
             table = psnr_table(ok)

@@ -294,7 +294,7 @@ class Edges(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         if not tests.empty:
             try:
                 counts = hole_counts(ok)

@@ -276,7 +276,7 @@ class LensSize(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests), own_takeaways(tests))]
+        out = [claim_takeaways(ctx, device_takeaways(tests), own_takeaways(tests))]
         if not tests.empty:
             table = sweep_table(tests)
             out += _figure(table, ctx)

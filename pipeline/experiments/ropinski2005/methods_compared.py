@@ -412,7 +412,7 @@ class MethodsCompared(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests), _other_takeaways(tests))]
+        out = [claim_takeaways(ctx, device_takeaways(tests), _other_takeaways(tests))]
         if not tests.empty:
             table = method_table(tests)
             if not table.empty:

@@ -253,7 +253,7 @@ class Order(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests))]
+        out = [claim_takeaways(ctx, device_takeaways(tests))]
         if not tests.empty:
             out.append(blocks.Table("Both orders, with and without early termination", order_table(tests).round(4),
                                     csv_name="order.csv",

@@ -286,7 +286,7 @@ class Peers(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "lens").isin(["on", "off"])].copy() if "lens" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests), _takeaways(tests))]
+        out = [claim_takeaways(ctx, device_takeaways(tests), _takeaways(tests))]
         if not tests.empty:
             table = summary_table(tests)
             if not table.empty:

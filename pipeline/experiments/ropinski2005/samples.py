@@ -231,7 +231,7 @@ class Samples(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else list(self.CONFIGS)
         if not tests.empty:
             out += _region_figure(tests, ctx)

@@ -258,7 +258,7 @@ class Table1(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests), _other_takeaways(tests))]
+        out = [claim_takeaways(ctx, device_takeaways(tests), _other_takeaways(tests))]
         methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else [PAPER_METHOD]
         if not tests.empty:
             table = overhead_table(tests)

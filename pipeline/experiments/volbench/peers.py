@@ -140,7 +140,7 @@ class Peers(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         timed = _timed(ok)
-        out = [claim_takeaways(self.claims, results, _peer_takeaways(timed))]
+        out = [claim_takeaways(ctx, _peer_takeaways(timed))]
         if not timed.empty:
             out.append(linked_table("Every backend against VTK", timed,
                                     ["scene", "mode", "image_size", "technique", "time_ms", "time_ms_min",

@@ -391,7 +391,7 @@ class CostModelCheck(Experiment):
             table = _model_rows(ok)
         except (KeyError, ValueError):
             table = pd.DataFrame()
-        out = [claim_takeaways(self.claims, results, [] if table.empty else _culling_takeaways(table))]
+        out = [claim_takeaways(ctx, [] if table.empty else _culling_takeaways(table))]
         if not table.empty:
             stand_ins = table[table["extra taps"] == 0]
             out.append(blocks.Table("Eq. 9 per stand-in, beside the paper", _shown(stand_ins).drop(columns="extra taps"),

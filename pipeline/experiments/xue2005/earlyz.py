@@ -310,7 +310,7 @@ class EarlyZ(Experiment):
             table = _quantities(ok)
         except (KeyError, ValueError):
             table = pd.DataFrame()
-        out = [claim_takeaways(self.claims, results, [] if table.empty else _model_takeaways(table))]
+        out = [claim_takeaways(ctx, [] if table.empty else _model_takeaways(table))]
         if not table.empty:
             out.append(blocks.Table("T_s, T_z and T_c per fragment", table, csv_name="earlyz.csv",
                                     caption=f"Each time per fragment is {SCOPE}, interval from the frames "

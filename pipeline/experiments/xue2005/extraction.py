@@ -166,7 +166,7 @@ class Extraction(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         rows = ok[ok.backend == ISBVR] if "backend" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         if not rows.empty and "time_phi_t" in rows:
             summary = _summary(rows)
             out += [blocks.Table("Extraction per data set, beside the paper's", summary.round(2),

@@ -238,7 +238,7 @@ class Fuzziness(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         try:
             table = summary(rows_matching(ok, "the haze sweep", scene=SCENE))
         except (KeyError, ValueError):

@@ -244,7 +244,7 @@ class Octree(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.backend == ISBVR] if "backend" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_sentence(tests))]
+        out = [claim_takeaways(ctx, device_sentence(tests))]
         rows = _page_rows(ok)
         if not rows.empty:
             basic = rows_matching(ok, "Basic", config="basic")

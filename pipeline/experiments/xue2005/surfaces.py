@@ -366,7 +366,7 @@ class Surfaces(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[ok.backend == ISBVR] if "backend" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_sentence(tests),
+        out = [claim_takeaways(ctx, device_sentence(tests),
                                _triangle_takeaways(tests) if "variant" in tests else [])]
         if not tests.empty and "variant" in tests:
             rows = _page_rows(tests, _errors(tests))

@@ -403,7 +403,7 @@ class TransferSweep(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        out = [claim_takeaways(self.claims, results)]
+        out = [claim_takeaways(ctx)]
         table = summary(ok) if {"interleave", "config", "kind"} <= set(ok.columns) else pd.DataFrame()
         if not table.empty:
             out += _sweep_figures(table, ctx)

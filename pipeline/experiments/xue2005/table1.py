@@ -520,7 +520,7 @@ class Table1(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests), _culling_takeaways(tests),
+        out = [claim_takeaways(ctx, device_takeaways(tests), _culling_takeaways(tests),
                                _slicer_takeaways(ok), _raycast_takeaways(ok), _vtk_takeaways(ok))]
         if not tests.empty:
             headline = tests[tests.view == "headline"]

@@ -464,7 +464,7 @@ class TwoPass(Experiment):
             models = point_models(ok)
         except (KeyError, ValueError):
             models = []
-        out = [claim_takeaways(self.claims, results, _takeaways(models) if models else [])]
+        out = [claim_takeaways(ctx, _takeaways(models) if models else [])]
         if models:
             table = _table(models)
             out.append(_chart(table, ctx))

@@ -238,7 +238,7 @@ class Variants(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
-        out = [claim_takeaways(self.claims, results, device_takeaways(tests))]
+        out = [claim_takeaways(ctx, device_takeaways(tests))]
         if not tests.empty:
             out += _blocks(tests, ctx)
             out.append(_gallery(tests, ctx))
