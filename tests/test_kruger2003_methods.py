@@ -82,7 +82,7 @@ def test_plan_times_methods_and_renders_truth_once(monkeypatch):
     assert {r.tags["config"] for r in table1} == set(METHODS)
     assert {r.tags["scene"] for r in table1} == set(TABLE1)
     headline = table1[0].views[0]
-    assert headline["view"] == "headline" and len(table1[0].views) == 5  # headline + 4 orbit views
+    assert headline["view"] == "headline" and len(table1[0].views) == 3  # headline + 2 orbit views
     # One step for every method of a scene: the claims compare like with like.
     assert len({r.options["step_factor"] for r in table1}) == 1
     sweep = [r for r in runs if r.tags.get("part") == "m-sweep"]

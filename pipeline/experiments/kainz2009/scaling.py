@@ -125,7 +125,7 @@ class Scaling(Experiment):
     scales = {
         "smoke": {"counts": [1, 50], "series": ["clouds"], "small_size": 16, "large_size": 32, "image_size": 48,
                   "mesh_triangles": 2000, "truth_counts": [50]},
-        "default": {"counts": [1, 2, 4, 8, 16, 32, 50, 64], "small_size": 32, "large_size": 96, "image_size": 192,
+        "default": {"counts": [1, 4, 8, 16, 50, 64], "small_size": 32, "large_size": 96, "image_size": 192,
                     "mesh_triangles": 30000, "truth_counts": [1, 8, 50]},
         "full": {"small_size": 64, "large_size": 256, "image_size": 512, "mesh_triangles": 30000},
     }

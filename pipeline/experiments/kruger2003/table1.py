@@ -253,7 +253,7 @@ class Table1(Experiment):
     settings = frozenset({"scenes", "volume_size", "image_size", "step_factor", "truth_step_factor", "orbit",
                           "repeat"})
     scales = {"smoke": {"scenes": ["head"], "volume_size": 32, "image_size": 64, "orbit": 1},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 4},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 2},
               "full": {"volume_size": 256, "image_size": 512, "orbit": 8}}
     description = (
         "The paper times 3D-texture slicing (SBVR) against its multi-pass GPU ray caster without "

@@ -72,7 +72,7 @@ class Peers(Experiment):
                           "truth_step_factor", "repeat"})
     scales = {
         "smoke": {"scenes": ["skull"], "matched_scenes": ["sphere"], "image_sizes": [48]},
-        "default": {"volume_size": 128, "image_sizes": [256, 512]},
+        "default": {"volume_size": 128, "image_sizes": [256]},
         "full": {"volume_size": 256, "image_sizes": [256, 512]},
     }
     description = (

@@ -440,7 +440,7 @@ class Table1(Experiment):
     title = "Table 1: Basic slicing against exit-based leaping (ESS), pseudo early termination (ERT) and both (E1)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "truth_step_factor", "repeat", "min_time"})
     scales = {"smoke": {"scenes": ["head", "aneurysm"], "volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 3},
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 1},
               "full": {"volume_size": 256, "image_size": 512, "orbit": 8}}
     description = (
         "The paper times plain 3D-texture slicing (Basic SBVR) against three depth-init modes that let the "

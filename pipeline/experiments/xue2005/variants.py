@@ -196,7 +196,7 @@ class Variants(Experiment):
             "exit-based leaping (E12, E13)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "repeat", "min_time"})
     scales = {"smoke": {"scenes": ["head"], "volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 128, "image_size": 256, "orbit": 2},
+              "default": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 128, "image_size": 256, "orbit": 1},
               "full": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 256, "image_size": 512, "orbit": 4}}
     description = (
         "Two variants the paper describes without measuring. Slice order (§3.5: iSBVR \"works equally well\" "
