@@ -13,8 +13,9 @@ A timing is a distribution, not a number. For one view of one run (or several ru
    :data:`SETTLED` of each other), at least ``warmup`` and at most :data:`MAX_WARMUP` (or
    :data:`MAX_WARMUP_TIME` seconds); the frame that agrees with the one before is the first timed
    frame, so a view whose time settles at once costs one warm-up frame, not two. Runs timed together
-   warm up in rounds once each has had ``warmup`` frames: the first round in which every run's frame
-   agrees with its frame before is their first timed round;
+   warm up in rounds once each has had ``warmup`` frames: an arm has settled once one of its frames
+   agrees with its frame before (or its warm-up is capped), and the round in which the last arm
+   settles is their first timed round;
 4. renders **timed frames** until there are at least ``repeat`` of them *and* they took at least
    ``min_time`` seconds, at most ``max_frames``.
 
@@ -100,7 +101,8 @@ class _Arm:
         self.warm_started = time.perf_counter()
         for _ in range(max(warmup, 1)):
             result, wall = self.render()
-            self.agrees(result, wall)
+            if self.agrees(result, wall):
+                self.settled = True
             self.warm_up(wall)
             bar.update()
 
@@ -257,16 +259,18 @@ def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_F
                 bar.update()
             played += 1
             if warming:
-                # Warm-up goes on in rounds until every arm's frame agrees with its frame before (or the
-                # arm's warm-up is capped): that round is the first timed round.
-                agreed = [state.agrees(*frames[id(state)][:2]) for state in states]
-                if not all(ok or state.capped() for ok, state in zip(agreed, states)):
+                # Warm-up goes on in rounds until every arm has settled (a frame that agreed with its
+                # frame before; an arm stays settled) or had its most warm-up: the round in which the
+                # last one does is the first timed round. Waiting for every arm to agree in one round
+                # would keep a group of five noisy arms warming up to the cap.
+                for state in states:
+                    if state.agrees(*frames[id(state)][:2]):
+                        state.settled = True
+                if not all(state.settled or state.capped() for state in states):
                     for state in states:
                         state.warm_up(frames[id(state)][1])
                     continue
                 warming = False
-                for ok, state in zip(agreed, states):
-                    state.settled = ok
             for i, state in enumerate(states):
                 result, wall, wait, took = frames[id(state)]
                 state.keep(result, wall, wait)

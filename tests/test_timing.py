@@ -154,3 +154,14 @@ def test_render_result_requires_total_and_rgba_float32():
     with pytest.raises(ValueError, match="float32"):
         RenderResult(np.zeros((2, 2, 3), np.float32), timings={"total": 1.0})
 
+
+
+def test_an_arm_that_settled_stays_settled_while_the_others_warm_up():
+    # a settles in round 1, then jitters by 30 % frame to frame; b's frames fall 8, 4, 2, 1, 1. Waiting for
+    # both to agree in one round would warm up to the cap; the round in which b settles is the first timed.
+    a = Scripted([9.0, 1.0, 1.0, 1.3, 1.0, 1.3, 1.0, 1.3], label="a")
+    b = Scripted([9.0, 8.0, 4.0, 2.0, 1.0, 1.0], label="b")
+    results = measure_together([(a, None), (b, None)], warmup=1, repeat=3)
+    assert [r.info["warmup"] for r in results] == [4, 4]  # the prepared frame and three rounds
+    assert [r.info["settled"] for r in results] == [True, True]
+    assert results[1].frames["total"] == [1.0] * 3
