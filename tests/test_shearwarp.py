@@ -1,6 +1,7 @@
 """The shear-warp backend: framing and accuracy against the reference, RLE vs brute force, early
 termination bound, schedules, shading, opacity correction, caching, options and capabilities."""
 
+import numba
 import numpy as np
 import pytest
 
@@ -149,8 +150,6 @@ def test_early_termination_stays_within_its_bound(volume):
 
 @pytest.mark.parametrize("schedule", ["contiguous", "round-robin", "contiguous-steal", "round-robin-steal"])
 def test_schedules_and_workers_are_bit_identical(volume, schedule):
-    import numba
-
     scene = scene_of(volume, az=120.0, el=35.0, shading="phong")
     base = ShearWarpRenderer(workers=1, schedule="contiguous", task_size=64).render(scene)
     result = ShearWarpRenderer(workers=numba.config.NUMBA_NUM_THREADS, schedule=schedule, task_size=3).render(scene)
@@ -375,3 +374,15 @@ def test_reused_buffers_give_a_fresh_renderers_image(volume, options):
     with renderers.get("shearwarp", workers=2, **options) as fresh:
         np.testing.assert_array_equal(backend.render(perspective).image, fresh.render(perspective).image)
     backend.close()
+
+
+def test_default_workers_are_the_threads_the_job_was_given():
+    """A warm worker has every core's Numba threads and lowers them to an untimed job's one core."""
+    before = numba.get_num_threads()
+    try:
+        numba.set_num_threads(1)
+        assert ShearWarpRenderer().workers == 1
+        numba.set_num_threads(numba.config.NUMBA_NUM_THREADS)
+        assert ShearWarpRenderer().workers == numba.config.NUMBA_NUM_THREADS
+    finally:
+        numba.set_num_threads(before)

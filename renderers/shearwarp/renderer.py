@@ -237,8 +237,8 @@ class ShearWarpRenderer(Renderer):
         Option("shading", str, "lut", "Phong through a per-frame table over 13-bit quantised normals, or computed "
                "per voxel from its gradient (applies when the scene's shading model is ``phong``).",
                choices=SHADING_OPTIONS),
-        Option("workers", int, None, "Threads; ``None``: all of Numba's threads (NUMBA_NUM_THREADS), which "
-               "``options`` records.", low=1),
+        Option("workers", int, None, "Threads; ``None``: the threads Numba may use in this thread now "
+               "(``numba.get_num_threads()``: the cores the job was given), which ``options`` records.", low=1),
         Option("schedule", str, "round-robin-steal",
                "How intermediate-image scanline tasks are dealt to the workers (thesis Ch. 6).", choices=SCHEDULES),
         Option("task_size", int, 8, "Intermediate-image scanlines per task.", low=1),
@@ -290,7 +290,9 @@ class ShearWarpRenderer(Renderer):
                              "(no RLE copies are built); drop it or use classification='rle'")
         limit = numba.config.NUMBA_NUM_THREADS
         if self.workers is None:
-            self.workers = limit
+            # Not NUMBA_NUM_THREADS: a warm render worker is started with every core's threads and
+            # lowered to the job's share (one core for an untimed job) before each request.
+            self.workers = numba.get_num_threads()
         elif self.workers > limit:
             raise InputError(f"shearwarp option workers: {self.workers} is more than Numba's {limit} threads "
                              "(NUMBA_NUM_THREADS); choose at most that many or raise NUMBA_NUM_THREADS")
