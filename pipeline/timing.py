@@ -17,7 +17,8 @@ A timing is a distribution, not a number. For one view of one run (or several ru
    agrees with its frame before (or its warm-up is capped), and the round in which the last arm
    settles is their first timed round;
 4. renders **timed frames** until there are at least ``repeat`` of them *and* they took at least
-   ``min_time`` seconds, at most ``max_frames``.
+   ``min_time`` seconds *and* the span the load is read over (from the cold frame on) is long enough
+   to read (:data:`pipeline.disturbance.MIN_SPAN`), at most ``max_frames``.
 
 Each stage's every timed frame is kept (``frames``), with the median, fastest and slowest; claims take
 their confidence intervals from the frames (:mod:`pipeline.experiments.kit.intervals`). The machine's
@@ -53,6 +54,13 @@ GROUP_TIME_FACTOR = 4
 """Runs timed together take rounds until each has ``min_time`` seconds of frames, unless the slowest has
 this many times ``min_time`` already: a group of a 1 ms and a 500 ms frame stops there, with the fast
 run's frames fewer than its budget rather than the slow run's hundreds."""
+
+
+def _unreadable(start):
+    """Whether the load since ``start`` is still too short a span for the counters to tell
+    (:data:`pipeline.disturbance.MIN_SPAN`): a view is timed on until it is not, so that a disturbance
+    is seen in every view, fast frames too, instead of the view passing as quiet unmeasured."""
+    return time.monotonic() - start.wall < disturbance.MIN_SPAN
 
 
 def _total(result, wall):
@@ -249,7 +257,8 @@ def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_F
         rounds = played = 0  # timed rounds; every round, warm-up rounds included
         warming = True
         while rounds < max_frames and (rounds < repeat or (min(spent) < min_time
-                                                          and max(spent) < GROUP_TIME_FACTOR * min_time)):
+                                                          and max(spent) < GROUP_TIME_FACTOR * min_time)
+                                       or _unreadable(start)):
             order = states if played % 2 == 0 else states[::-1]
             frames = {}
             for state in order:

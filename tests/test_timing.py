@@ -2,8 +2,18 @@ import numpy as np
 import pytest
 
 from core.errors import InputError
+from pipeline import disturbance, timing
 from pipeline.timing import measure, measure_together
 from renderers.base import Capabilities, Renderer, RenderResult
+
+
+READABLE = timing._unreadable
+
+
+@pytest.fixture(autouse=True)
+def no_load_span(monkeypatch):
+    """Scripted frames take no time: the span the load needs (its own test below) would add hundreds."""
+    monkeypatch.setattr(timing, "_unreadable", lambda start: False)
 
 
 class Scripted(Renderer):
@@ -76,7 +86,6 @@ def test_warm_up_lasts_until_the_frame_time_settles():
 
 
 def test_a_warm_up_that_never_settles_ends_at_its_cap():
-    from pipeline import timing
 
     renderer = Scripted([50.0] + [1.0, 2.0] * 30)
     result = measure(renderer, scene=None, warmup=1, repeat=3)
@@ -165,3 +174,13 @@ def test_an_arm_that_settled_stays_settled_while_the_others_warm_up():
     assert [r.info["warmup"] for r in results] == [4, 4]  # the prepared frame and three rounds
     assert [r.info["settled"] for r in results] == [True, True]
     assert results[1].frames["total"] == [1.0] * 3
+
+
+def test_a_view_is_timed_until_the_load_can_be_read(monkeypatch):
+    """Frames too fast for the counters' span: timed on until it is long enough, so a disturbance shows."""
+    monkeypatch.setattr(timing, "_unreadable", READABLE)
+    monkeypatch.setattr(disturbance, "MIN_SPAN", 0.05)
+    result = measure(Scripted([0.001]), scene=None, warmup=1, repeat=3)
+    assert result.info["frames"] > 3 and result.info["load"]["seconds"] >= 0.05
+    capped = measure(Scripted([0.001]), scene=None, warmup=1, repeat=3, max_frames=5)
+    assert capped.info["frames"] == 5  # never past max_frames
