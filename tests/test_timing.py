@@ -8,12 +8,7 @@ from renderers.base import Capabilities, Renderer, RenderResult
 
 
 READABLE = timing._unreadable
-
-
-@pytest.fixture(autouse=True)
-def no_load_span(monkeypatch):
-    """Scripted frames take no time: the span the load needs (its own test below) would add hundreds."""
-    monkeypatch.setattr(timing, "_unreadable", lambda start: False)
+"""The rule conftest.py turns off for every test: this module's last test checks it."""
 
 
 class Scripted(Renderer):
