@@ -175,7 +175,8 @@ the verdict rests on, the CPU rasterizer that timed the claim's GL runs (empty: 
 standing in for the paper's scans (empty: none)."""
 
 
-def _text(value):
+def cell_text(value):
+    """A cell of a results table as text: ``""`` for an empty one (``None``, or NaN once read back)."""
     return "" if value is None or (isinstance(value, float) and math.isnan(value)) else str(value)
 
 
@@ -196,12 +197,12 @@ def likely_cause(claim):
         return "timing noise (its 95 % interval straddles the bound)"
     if not all(column in claim for column in EVIDENCE_COLUMNS):
         return "cause not determined"
-    if timing and _text(claim.get("software_rasterizer")):
-        return f"llvmpipe (GL frames timed on {_text(claim['software_rasterizer'])}, a CPU rasterizer)"
+    if timing and cell_text(claim.get("software_rasterizer")):
+        return f"llvmpipe (GL frames timed on {cell_text(claim['software_rasterizer'])}, a CPU rasterizer)"
     # A phantom changes how much a technique saves (its empty space, its opacity), not whether two
     # renderers of the same phantom agree: only a timing claim is put down to the stand-in.
-    if timing and _text(claim.get("stand_in")):
-        return f"stand-in data ({_text(claim['stand_in'])})"
+    if timing and cell_text(claim.get("stand_in")):
+        return f"stand-in data ({cell_text(claim['stand_in'])})"
     return "a real discrepancy"
 
 

@@ -100,7 +100,7 @@ def claim_takeaways(ctx, *more):
     (:func:`~pipeline.experiments.kit.verdicts.claim_sentences`); a claim blocked by a run that did
     not happen gets no sentence.
     """
-    return blocks.Takeaways(claim_sentences(getattr(ctx, "claims", None)) + [s for sentences in more for s in sentences])
+    return blocks.Takeaways(claim_sentences(ctx.claims) + [s for sentences in more for s in sentences])
 
 
 def gl_devices(frame):

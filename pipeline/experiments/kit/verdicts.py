@@ -28,6 +28,7 @@ import pandas as pd
 from core.outcomes import CAUSE_WORDS, INCOMPLETE_CAUSES, cause_of
 from pipeline.experiments.kit.results import MissingColumn
 from reports.metrics import METRIC_KEYS
+from reports.takeaways import cell_text
 
 VERDICTS = ("holds", "fails", "inconclusive", "blocked", "not measured")
 """Every verdict a claim can get, in the order the report counts them."""
@@ -336,10 +337,6 @@ def claim_sentences(judged):
     for claim in judged.to_dict("records"):
         word = VERDICT_WORDS.get(claim.get("verdict"))
         if word:
-            detail = _text(claim.get("detail")).removeprefix("inconclusive: ")
-            sentences.append(f"{claim['statement']}: {_text(claim.get('measured'))}, {word} ({detail}).")
+            detail = cell_text(claim.get("detail")).removeprefix("inconclusive: ")
+            sentences.append(f"{claim['statement']}: {cell_text(claim.get('measured'))}, {word} ({detail}).")
     return sentences
-
-
-def _text(value):
-    return "" if value is None or (isinstance(value, float) and value != value) else str(value)

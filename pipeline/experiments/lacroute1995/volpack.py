@@ -20,6 +20,7 @@ from pipeline.experiments.kit.results import numeric, ok_rows, pair_metrics, row
 from pipeline.experiments.lacroute1995 import judging, tables
 from pipeline.experiments.lacroute1995.planning import SW, VP
 from reports import blocks, plots
+from reports.takeaways import cell_text
 
 VOLPACK_CONFIGS = {
     # config: (backend, options, label)
@@ -543,9 +544,7 @@ def _takeaways(judged, results):
     verdicts = []
     for claim_id, words in VERDICTS:
         row = by_id.get(claim_id, {})
-        measured = row.get("measured")
-        measured = measured if isinstance(measured, str) and measured else "no value"
-        verdicts.append(f"{words}: {measured}, {row.get('verdict', 'not measured')}")
+        verdicts.append(f"{words}: {cell_text(row.get('measured')) or 'no value'}, {row.get('verdict', 'not measured')}")
     sentences = ["Speed against VolPack (bound ×1 unless said): " + "; ".join(verdicts) + "."]
     ok = ok_rows(results)
     for scene_name in pd.unique(ok.scene) if "scene" in ok else []:
