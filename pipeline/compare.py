@@ -52,9 +52,10 @@ VARYING_FACTORS = (0.25, 4.0)
 
 
 TIMING_INFO = ("info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "info_starved",
-               "rerun")
+               "info_preprocessing_frame", "rerun")
 """What the timing harness decides from the times themselves: how many frames the budget took, when the
-warm-up settled, whether the machine was disturbed or a parallel run starved (:mod:`pipeline.timing`)."""
+warm-up settled, whether the machine was disturbed or a parallel run starved (:mod:`pipeline.timing`), and
+what the process had compiled before (whether the cold frame was also the preprocessing frame)."""
 
 
 def is_timing(column):

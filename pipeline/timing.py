@@ -6,9 +6,12 @@ A timing is a distribution, not a number. For one view of one run (or several ru
 1. renders the **first frame** alone and records its time as the stage ``first_frame``: Numba's and the
    drivers' compilation, first uploads and the backend's preprocessing happen here, never in a timed
    frame;
-2. where the backend caches preprocessing (:meth:`renderers.base.Renderer.drop_caches`), drops the
-   caches and renders once more, so that the preprocessing stages (``classify``, ``rle_build``, ...) are
-   timed with their code compiled, as their own stages;
+2. where the backend caches preprocessing (:attr:`renderers.base.Renderer.caches_preprocessing`), the
+   cold frame builds it (the caches dropped first) and the preprocessing stages (``classify``,
+   ``rle_build``, ...) are its, timed as their own stages, unless it compiled a kernel
+   (:mod:`renderers.base.compilation`): then the caches are dropped and a **preprocessing frame**
+   builds them again with the code compiled (``info["preprocessing_frame"]``: ``"cold"`` or ``"own"``).
+   In a warm worker that compiled the backend's kernels before, a view so costs one frame fewer;
 3. renders **warm-up frames** until the frame time settles (two consecutive frames within
    :data:`SETTLED` of each other), at least ``warmup`` and at most :data:`MAX_WARMUP` (or
    :data:`MAX_WARMUP_TIME` seconds); the frame that agrees with the one before is the first timed
@@ -36,7 +39,7 @@ from tqdm import tqdm
 
 from core.validation import check_positive_int, check_scalar
 from pipeline import disturbance
-from renderers.base import RenderResult
+from renderers.base import RenderResult, compilation
 
 SETTLED = 0.1
 """Relative difference of two consecutive warm-up frames under which the frame time has settled."""
@@ -84,6 +87,7 @@ class _Arm:
         self.last = None  # the last timed frame's whole result (its image is the run's picture)
         self.first_frame = None
         self.preprocessing = {}
+        self.compiled = None  # whether the cold frame compiled (where the preprocessing is cached)
         self.warmup = 0
         self.settled = False
         self.previous = None  # the last frame's time, for the settling test
@@ -98,14 +102,21 @@ class _Arm:
         return result, wall
 
     def prepare(self, warmup, bar):
-        """The cold frame, the preprocessing frame and the first ``max(warmup, 1)`` warm-up frames."""
-        _, self.first_frame = self.render()
+        """The cold frame, the preprocessing frame where it compiled, the first ``max(warmup, 1)`` warm-up frames."""
+        caches = self.renderer.caches_preprocessing
+        if caches:
+            self.renderer.drop_caches()  # a view after the first builds its preprocessing again too
+        compiled = compilation.count()
+        result, self.first_frame = self.render()
         bar.update()
-        if self.renderer.drop_caches():
-            result, wall = self.render()
+        if caches:
+            self.compiled = compilation.count() != compiled
+            if self.compiled:
+                self.renderer.drop_caches()
+                result, wall = self.render()
+                self.untimed_seconds += wall
+                bar.update()
             self.preprocessing = dict(result.timings)
-            self.untimed_seconds += wall
-            bar.update()
         self.warm_started = time.perf_counter()
         for _ in range(max(warmup, 1)):
             result, wall = self.render()
@@ -155,6 +166,7 @@ class _Arm:
         last = self.last
         info = {**last.info, "frames": len(frames), "warmup": self.warmup, "settled": self.settled,
                 "first_frame": self.first_frame, "load": load, "cold_seconds": self.first_frame,
+                "preprocessing_frame": None if self.compiled is None else "own" if self.compiled else "cold",
                 "untimed_seconds": self.untimed_seconds, "timed_seconds": sum(self.walls),
                 "disturbed": disturbance.verdict(load, per_stage.get("total", []), self.waits, self.walls),
                 "starved": disturbance.starvation(load, _workers(self.renderer))}

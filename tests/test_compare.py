@@ -84,7 +84,8 @@ def test_timings_durations_and_the_environment_are_left_out(folders):
     "time_total", "time_composite_min", "stat_generation_seconds",  # times and durations
     "frames_total", "frames_technique",  # every timed frame
     "load_foreign_cores", "load_steal_share", "load_waited_share", "load_job_foreign_cores", "load_average",
-    "info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "info_starved", "rerun",
+    "info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "info_starved",
+    "info_preprocessing_frame", "rerun",
 ])
 def test_what_the_timing_harness_measured_or_decided_from_the_times_is_timing(column):
     assert compare.is_timing(column)

@@ -4,7 +4,7 @@ import pytest
 from core.errors import InputError
 from pipeline import disturbance, timing
 from pipeline.timing import measure, measure_together
-from renderers.base import Capabilities, Renderer, RenderResult
+from renderers.base import Capabilities, Renderer, RenderResult, compilation
 
 
 READABLE = timing._unreadable
@@ -18,28 +18,31 @@ class Scripted(Renderer):
     capabilities = Capabilities()
     technique_stages = ("stage",)
 
-    def __init__(self, totals, *, log=None, label="a", caches=False):
+    def __init__(self, totals, *, log=None, label="a", caches=False, compiles=0):
         self.totals = list(totals)
         self.calls = 0
         self.log = log if log is not None else []
         self.label = label
-        self.caches = caches
+        self.caches_preprocessing = caches
         self.cached = False
+        self.compiles = compiles  # the first frames that compile a kernel (and preprocess 10 times slower)
 
     def check(self, scene):
         pass
 
     def drop_caches(self):
         self.cached = False
-        return self.caches
 
     def _render(self, scene):
         total = self.totals[min(self.calls, len(self.totals) - 1)]
+        compiling = self.calls < self.compiles
+        if compiling:
+            compilation.record()
         self.calls += 1
         self.log.append(self.label)
         timings = {"total": total, "stage": total / 2}
-        if self.caches and not self.cached:
-            timings["classify"] = 7.0
+        if self.caches_preprocessing and not self.cached:
+            timings["classify"] = 70.0 if compiling else 7.0
             self.cached = True
         return RenderResult(np.full((2, 2, 4), self.calls, np.float32), timings=timings,
                             counters={"samples": self.calls})
@@ -106,10 +109,27 @@ def test_the_budget_adds_frames_until_min_time(monkeypatch):
     assert capped.info["frames"] == 10
 
 
-def test_preprocessing_is_timed_after_the_cold_frame_as_its_own_stage():
-    renderer = Scripted([1.0], caches=True)
+def test_preprocessing_that_compiled_is_timed_again_in_a_frame_of_its_own():
+    renderer = Scripted([1.0], caches=True, compiles=1)
     result = measure(renderer, scene=None, warmup=1, repeat=3)
     assert result.timings["classify"] == 7.0 and "classify" not in result.frames
+    assert result.info["preprocessing_frame"] == "own"
+    assert renderer.calls == 1 + 1 + 1 + 3  # cold, preprocessing, one warm-up frame, three timed
+
+
+def test_the_cold_frame_is_the_preprocessing_frame_where_nothing_compiled():
+    renderer = Scripted([1.0], caches=True)
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.timings["classify"] == 7.0 and result.info["preprocessing_frame"] == "cold"
+    assert renderer.calls == 1 + 1 + 3
+    # A next view of the same renderer (its caches warm) builds its preprocessing in its cold frame too.
+    again = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert again.timings["classify"] == 7.0 and again.info["preprocessing_frame"] == "cold"
+
+
+def test_a_backend_without_cached_preprocessing_has_no_preprocessing_frame():
+    result = measure(Scripted([1.0], compiles=1), scene=None, warmup=1, repeat=3)
+    assert result.info["preprocessing_frame"] is None and "classify" not in result.timings
 
 
 def test_technique_is_the_sum_of_the_backends_technique_stages():
@@ -174,8 +194,9 @@ def test_an_arm_that_settled_stays_settled_while_the_others_warm_up():
 def test_a_view_is_timed_until_the_load_can_be_read(monkeypatch):
     """Frames too fast for the counters' span: timed on until it is long enough, so a disturbance shows."""
     monkeypatch.setattr(timing, "_unreadable", READABLE)
-    monkeypatch.setattr(disturbance, "MIN_SPAN", 0.05)
+    # 20 ms: long against a scripted frame (a tenth of a millisecond), short against the 400 frames' cap.
+    monkeypatch.setattr(disturbance, "MIN_SPAN", 0.02)
     result = measure(Scripted([0.001]), scene=None, warmup=1, repeat=3)
-    assert result.info["frames"] > 3 and result.info["load"]["seconds"] >= 0.05
+    assert 3 < result.info["frames"] < timing.MAX_FRAMES and result.info["load"]["seconds"] >= 0.02
     capped = measure(Scripted([0.001]), scene=None, warmup=1, repeat=3, max_frames=5)
     assert capped.info["frames"] == 5  # never past max_frames

@@ -207,14 +207,18 @@ class Renderer(abc.ABC):
     included): a speed claim compares like with like, technique against technique or frame against frame.
     Empty: the backend's frame is not split, and ``technique`` is not recorded."""
 
-    def drop_caches(self):
-        """Forget cached preprocessing, so that the next frame builds it again; whether there was any.
+    caches_preprocessing = False
+    """Whether a frame reuses preprocessing an earlier frame built (a classified volume, extracted
+    surfaces), which :meth:`drop_caches` forgets. The timing harness then times the preprocessing as
+    stages of their own, once per view, from a frame that built it with its code compiled
+    (:mod:`pipeline.timing`); such a backend compiles only where :mod:`renderers.base.compilation`
+    counts it."""
 
-        The timing harness calls it after the cold frame (compilation, first uploads) and times the
-        next frame's preprocessing stages on their own (:mod:`pipeline.timing`). A backend that caches
-        nothing across frames keeps this default.
+    def drop_caches(self):
+        """Forget cached preprocessing, so that the next frame builds it again.
+
+        Only a backend that sets :attr:`caches_preprocessing` overrides it.
         """
-        return False
 
     def close(self):
         """Release contexts and device memory."""

@@ -47,6 +47,7 @@ import os
 from dataclasses import dataclass, field
 
 from core.errors import BackendUnavailableError, InputError
+from renderers.base import compilation
 
 DEVICE_VARIABLE = "VOLBENCH_GL_DEVICE"
 """Environment variable choosing the EGL device: an index or a substring of the renderer's name."""
@@ -354,5 +355,6 @@ def program(ctx, vertex_shader, fragment_shader):
     compiled = _SHARED.programs.get(key)
     if compiled is None:
         compiled = ctx.program(vertex_shader=vertex_shader, fragment_shader=fragment_shader)
+        compilation.record()
         _SHARED.programs[key] = compiled
     return compiled

@@ -237,11 +237,14 @@ class GLIsbvrRenderer(GLSlicerRenderer):
                              "set order='front-to-back'")
         self._surfaces = None  # (key, Surfaces, buffers)
 
+    caches_preprocessing = True
+
     def drop_caches(self):
-        """Forget the surfaces, so that the next frame extracts them again (timed as ``phi_t``, ``phi_p``)."""
-        had = self._surfaces is not None
+        """Forget the surfaces (timed as ``phi_t``, ``phi_p`` when extracted again) and the textures
+        (``gradients``, ``upload``, ...): the next frame builds all of a cold frame's preprocessing."""
         self._release_surfaces()
-        return had
+        if self._cache is not None and self._ctx is not None and context.activate(self._ctx):
+            self._cache.release()
 
     def _release_surfaces(self):
         if self._surfaces is not None:

@@ -344,10 +344,11 @@ class ShearWarpRenderer(Renderer):
         return {"numba": numba.__version__, "numba_threads": numba.get_num_threads(),
                 "numba_threading_layer": numba.config.THREADING_LAYER}
 
+    caches_preprocessing = True
+
     def drop_caches(self):
         self._cache = []
         self._octrees = []
-        return True
 
     def close(self):
         self.drop_caches()

@@ -244,9 +244,10 @@ class VolPackRenderer(Renderer):
                                    if self._timers_compiled is False else "not checked yet"),
                 "volpack_threads": 1}
 
+    caches_preprocessing = True
+
     def drop_caches(self):
         self.close()
-        return True
 
     def close(self):
         if self._prepared is not None:
