@@ -326,5 +326,7 @@ rule report:
     params:
         experiments=sorted(EXPERIMENT_RUNS),
         code=CODE["report"],
+    # It draws its pages' charts on every core it has (reports.html); nothing else is left to run beside it.
+    threads: workflow.cores
     shell:
         "{PY} -m pipeline.jobs report --profile {PROFILE_JSON:q}"

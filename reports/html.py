@@ -14,11 +14,15 @@ verdict, its 95 % interval and its margin, and says in one line when some of its
 disturbed.
 """
 
+import hashlib
 import html
 import json
 import math
+import multiprocessing
+import os
 import re
 import shutil
+from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -48,10 +52,13 @@ class ReportContext:
     claims: object = None
 
     def _relative(self, source):
+        resolved = Path(source).resolve()
         try:
-            return Path(source).resolve().relative_to(self.results_dir.resolve())
+            return resolved.relative_to(self.results_dir.resolve())
         except ValueError:
-            return Path("external") / Path(source).name
+            # Files of one name from two folders (a phantom's cache entry and a real scan's) stay apart.
+            folder = hashlib.sha256(str(resolved.parent).encode()).hexdigest()[:10]
+            return Path("external") / folder / resolved.name
 
     def _copy(self, path, folder):
         if path is None or (isinstance(path, float) and pd.isna(path)) or path == "":
@@ -387,31 +394,19 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     silent = outcomes.silent_backends(backend_runs)
     techniques = dict(techniques or {})
     pages, overview_rows, overview_runs, failures, atlas = {}, [], [], {}, None
-    for experiment in experiments:
-        frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
-        judged = claims_df[claims_df.experiment == experiment.name]
-        ctx = ReportContext(report_dir, results_dir, experiment.name, claims=judged)
-        counts, problems = _status_summary(frame, ctx, stated_above=silent)
-        claims = [{**claim, "cells": claim_cells(claim)} for claim in judged.to_dict("records")]
-        paper_table = experiment.paper_table()
-        rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
-                    if counts["ok"] else [])
-        section = {
-            "name": experiment.name, "title": experiment.title,
-            "description": takeaways.rst_inline(experiment.description),
-            "counts": counts, "problems": problems, "claims": claims,
-            "paper_table": _table_html(paper_table) if paper_table is not None else None,
-            "takeaways": [s for b in rendered if b["kind"] == "takeaways" for s in b["sentences"]],
-            "blocks": [b for b in rendered if b["kind"] != "takeaways"],
-            "csv": f"csv/{experiment.name}.csv",
-            "backends": set(frame.backend) if "backend" in frame else set(),
-        }
-        if getattr(experiment, "overview", False):
-            overview_rows.append(decision.technique_rows(frame))
-            overview_runs.append(outcomes.per_run(frame))
+    global _SECTION_INPUTS
+    _SECTION_INPUTS = (experiments, runs_df, claims_df, report_dir, results_dir, silent)
+    try:
+        built = _map_in_processes(_section, range(len(experiments)))
+    finally:
+        _SECTION_INPUTS = None
+    for experiment, (section, overview, experiment_failures) in zip(experiments, built):
+        if overview is not None:
+            overview_rows.append(overview[0])
+            overview_runs.append(overview[1])
         page = getattr(experiment, "page", None) or experiment.paper
-        if getattr(experiment, "atlas", False) and counts["ok"]:
-            failures.update(experiment.failures(frame))
+        if experiment_failures is not None:
+            failures.update(experiment_failures)
             atlas = f"{page}.html"
         pages.setdefault(page, []).append(section)
 
@@ -478,6 +473,56 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
         **common, timing=_timing(runs_df, environment, index_ctx), real_data=real_data,
         phantoms=_phantom_summary(phantoms), harness=_harness(harness, runs_df)))
     return index
+
+
+_SECTION_INPUTS = None
+"""What :func:`_section` reads besides its experiment, set by :func:`build_report` for the processes it forks."""
+
+
+def _section(index):
+    """Experiment ``index``'s section of its page: ``(section, (overview rows, runs) or None, atlas failures or None)``.
+
+    The charts (matplotlib's layout: most of a report's time) are drawn here, in a process of its own
+    per core (:func:`_map_in_processes`); what it returns are the page's strings and tables.
+    """
+    experiments, runs_df, claims_df, report_dir, results_dir, silent = _SECTION_INPUTS
+    experiment = experiments[index]
+    frame = runs_df[runs_df.experiment == experiment.name].dropna(axis=1, how="all")
+    judged = claims_df[claims_df.experiment == experiment.name]
+    ctx = ReportContext(report_dir, results_dir, experiment.name, claims=judged)
+    counts, problems = _status_summary(frame, ctx, stated_above=silent)
+    claims = [{**claim, "cells": claim_cells(claim)} for claim in judged.to_dict("records")]
+    paper_table = experiment.paper_table()
+    rendered = ([_render_block(b, ctx) for b in _experiment_blocks(experiment, frame, ctx)]
+                if counts["ok"] else [])
+    section = {
+        "name": experiment.name, "title": experiment.title,
+        "description": takeaways.rst_inline(experiment.description),
+        "counts": counts, "problems": problems, "claims": claims,
+        "paper_table": _table_html(paper_table) if paper_table is not None else None,
+        "takeaways": [s for b in rendered if b["kind"] == "takeaways" for s in b["sentences"]],
+        "blocks": [b for b in rendered if b["kind"] != "takeaways"],
+        "csv": f"csv/{experiment.name}.csv",
+        "backends": set(frame.backend) if "backend" in frame else set(),
+    }
+    overview = ((decision.technique_rows(frame), outcomes.per_run(frame))
+                if getattr(experiment, "overview", False) else None)
+    failures = experiment.failures(frame) if getattr(experiment, "atlas", False) and counts["ok"] else None
+    return section, overview, failures
+
+
+def _map_in_processes(function, items):
+    """``[function(item) for item in items]``, over as many forked processes as this process may use cores.
+
+    Forked: the children share the parent's data (:data:`_SECTION_INPUTS`) without pickling it; one core
+    (or one item) maps in this process.
+    """
+    items = list(items)
+    cores = len(os.sched_getaffinity(0)) if hasattr(os, "sched_getaffinity") else (os.cpu_count() or 1)
+    if cores < 2 or len(items) < 2 or "fork" not in multiprocessing.get_all_start_methods():
+        return [function(item) for item in items]
+    with ProcessPoolExecutor(max_workers=min(cores, len(items)), mp_context=multiprocessing.get_context("fork")) as pool:
+        return list(pool.map(function, items))
 
 
 PAGE_TITLES = {"atlas": "Stability atlas — where each technique breaks"}

@@ -35,6 +35,9 @@ class Takeaway(str):
         sentence.importance = importance
         return sentence
 
+    def __reduce__(self):  # pickled with its importance (the report builds its pages in several processes)
+        return type(self), (str(self), self.importance)
+
 
 SHOWN = 5
 """Take-aways a page shows; the rest are folded (``takeaways.html``)."""

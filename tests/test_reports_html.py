@@ -423,3 +423,22 @@ def test_a_paper_whose_technique_made_no_frame_is_not_reproduced_and_its_claims_
     # What did run is still shown: depth peeling's runs are charted and tabled with their images.
     assert 'src="plots/kainz2009-scaling-time.svg"' in page
     assert re.search(r'href="data/runs/kainz2009-scaling/clouds\.n01\.gl-peel/[^"]+\.exr"', page)
+
+
+def test_files_of_one_name_from_two_folders_outside_the_results_stay_apart(tmp_path):
+    from reports.html import ReportContext
+
+    (tmp_path / "a").mkdir(), (tmp_path / "b").mkdir()
+    (tmp_path / "a" / "head.json").write_text("a"), (tmp_path / "b" / "head.json").write_text("b")
+    ctx = ReportContext(tmp_path / "report", tmp_path / "results", "x")
+    first, second = ctx.file(tmp_path / "a" / "head.json"), ctx.file(tmp_path / "b" / "head.json")
+    assert first != second
+    assert [(tmp_path / "report" / path).read_text() for path in (first, second)] == ["a", "b"]
+
+
+def test_a_takeaway_keeps_its_importance_across_processes():
+    import pickle
+
+    sentence = takeaways.Takeaway("A claim fails.", takeaways.FAILING_CLAIM)
+    copy = pickle.loads(pickle.dumps(sentence))
+    assert copy == sentence and copy.importance == takeaways.FAILING_CLAIM
