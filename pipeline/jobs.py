@@ -238,7 +238,32 @@ def main(argv=None):
         p.add_argument("--profile", required=True)
         p.set_defaults(func=func)
     args = parser.parse_args(argv)
+    if args.step in SERVED and _served(sys.argv[1:] if argv is None else list(argv)):
+        return
     args.func(args)
+
+
+SERVED = ("volume", "evaluate", "tabulate")
+"""Steps a warm worker of ``volbench run``'s render service runs where there is one (:mod:`pipeline.workers`):
+each costs less than the imports of a process of its own."""
+
+
+def _served(argv):
+    """Whether a worker of the render service ran step ``argv`` (its output printed, its failure raised)."""
+    from pipeline import workers
+
+    address = workers.service_address()
+    if address is None:
+        return False
+    try:
+        status, output = workers.request_step(address, argv)
+    except workers.ServiceUnavailable as exc:
+        print(f"volbench: {exc}; this job runs in a process of its own", file=sys.stderr)
+        return False
+    sys.stdout.write(output)
+    if status:
+        raise SystemExit(status)
+    return True
 
 
 if __name__ == "__main__":

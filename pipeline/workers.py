@@ -20,6 +20,10 @@ Three parts:
   cluster node, Snakemake started by hand) the job renders in a process of its own instead, as before.
 - **The worker** (``python -m pipeline.workers``) renders with :func:`pipeline.rendering.execute_together`.
 
+The untimed steps that start often, the phantoms (``volume``), the comparisons (``evaluate``) and the
+tables (``tabulate``), hand their arguments to a worker the same way (:func:`request_step`): each was
+a process whose imports cost it more than its work.
+
 A worker renders any backend: a request goes to the idle worker that has already rendered the most of
 its backends, so the runs of one backend, within one experiment or across experiments, and the runs
 of one interleave group reuse processes whose kernels are compiled and whose device contexts exist
@@ -120,6 +124,30 @@ def request_render(address, *, runs, profile, device_env, threads):
     if reply.get("error"):
         raise RuntimeError(reply["error"])
     return reply["outcomes"]
+
+
+def request_step(address, argv):
+    """Have the service at ``address`` run the job step ``argv`` (``pipeline.jobs`` arguments) in a worker.
+
+    Returns ``(exit status, output)``: what the step printed, for the job's log. Raises
+    :class:`ServiceUnavailable` where nothing answers at ``address``.
+    """
+    connection = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
+    connection.settimeout(CONNECT_TIMEOUT)
+    try:
+        connection.connect(address)
+    except OSError as exc:
+        connection.close()
+        raise ServiceUnavailable(f"no render service at {address} ({exc.strerror or exc})") from None
+    with connection:
+        connection.settimeout(None)
+        _send_json(connection, {"step": list(argv)})
+        reply = _receive_json(connection)
+    if reply is None:
+        raise ServiceUnavailable(f"the render service at {address} closed the connection without an answer")
+    if reply.get("error"):
+        raise RuntimeError(reply["error"])
+    return reply["step"]["status"], reply["step"]["output"]
 
 
 # ----------------------------------------------------------------------------------------- service
@@ -283,7 +311,7 @@ class RenderService:
         with connection:
             try:
                 request = _receive_json(connection)
-                reply = {"outcomes": self.render(request)}
+                reply = {"step": self.step(request)} if "step" in request else {"outcomes": self.render(request)}
             except Exception as exc:  # noqa: BLE001 - the job reports it and fails, the service goes on
                 reply = {"error": f"the render service failed: {type(exc).__name__}: {exc}"}
             try:
@@ -330,6 +358,29 @@ class RenderService:
                     closing.append(oldest)
         for old in closing:
             old.close()
+
+    def step(self, request):
+        """Run one job step of :func:`request_step` in a worker: ``{"status", "output"}``.
+
+        Any idle worker does (the step imports what it lacks once per worker); no time limit, as for
+        the step's own process.
+        """
+        worker, new = self._take(())
+        answer = None
+        try:
+            if not new or worker.receive(None) is not None:
+                worker.send(request)
+                answer = worker.receive(None)
+        except (EOFError, OSError, ValueError):
+            pass
+        finally:
+            if answer is None:
+                worker.kill()
+            self._give_back(worker, healthy=answer is not None)
+        if answer is None:
+            return {"status": 1, "output": f"volbench: the worker running {' '.join(request['step'][:1])} died "
+                                           f"(exit status {worker.process.returncode}); its log: {worker.log_path}\n"}
+        return answer["step"]
 
     def render(self, request):
         """Render one request of :func:`request_render` in a worker; its outcomes."""
@@ -420,6 +471,9 @@ def _serve_requests(reply):
     reply({"ready": True})
     for line in sys.stdin.buffer:
         request = json.loads(line)
+        if "step" in request:
+            reply({"step": _run_step(request["step"])})
+            continue
         runs = Run.list_from_json(request["runs"])
         profile = Profile.from_json(request["profile"])
         numba.set_num_threads(max(1, min(int(request.get("threads") or 1), numba.config.NUMBA_NUM_THREADS)))
@@ -428,6 +482,28 @@ def _serve_requests(reply):
                                      harness={"process": "worker", **request.get("worker", {})})
         reply({"outcomes": [{"key": run.key, "status": record["status"], "reason": record["reason"]}
                             for run, record in zip(runs, records)]})
+
+
+def _run_step(argv):
+    """Run ``pipeline.jobs`` step ``argv`` here: ``{"status", "output"}`` (its printed output, a traceback
+    where it failed), as its own process would have exited and printed."""
+    import contextlib
+    import io
+    import traceback
+
+    from pipeline import jobs
+
+    output = io.StringIO()
+    status = 0
+    with contextlib.redirect_stdout(output), contextlib.redirect_stderr(output):
+        try:
+            jobs.main(argv)
+        except SystemExit as exc:  # argparse's refusal of its arguments
+            status = exc.code if isinstance(exc.code, int) else 1
+        except Exception:  # noqa: BLE001 - the job fails with it, the worker goes on
+            traceback.print_exc()
+            status = 1
+    return {"status": status, "output": output.getvalue()}
 
 
 def main(argv=None):

@@ -171,3 +171,24 @@ def test_a_real_worker_renders_run_after_run_in_one_process(tmp_path):
     assert [h["new"] for h in harness] == [True, False]
     assert harness[0]["pid"] == harness[1]["pid"] and harness[0]["startup"] > 0
     assert records[0]["views"][0]["info"]["untimed_seconds"] > 0
+
+
+def test_a_real_worker_runs_job_steps_and_says_how_they_ended(tmp_path, monkeypatch, capsys):
+    """volume, evaluate and tabulate jobs hand their arguments to a warm worker; its output and exit status
+    are the job's, a failure included."""
+    import socket
+
+    from pipeline import jobs
+
+    with workers.RenderService(cores=1, root=os.getcwd(), log_dir=tmp_path / "logs") as service:
+        assert workers.request_step(service.socket_path, ["evaluate", "--pairs", "[]"]) == (0, "")
+        status, output = workers.request_step(service.socket_path, ["tabulate", "--profile", "{", "--experiment", "x"])
+        assert status == 1 and "Traceback" in output and "JSONDecodeError" in output
+        status, output = workers.request_step(service.socket_path, ["evaluate"])
+        assert status == 2 and "--pairs" in output  # argparse's refusal
+        monkeypatch.setenv(workers.SERVICE_VARIABLE, f"{socket.gethostname()}:{service.socket_path}")
+        jobs.main(["evaluate", "--pairs", "[]"])
+        with pytest.raises(SystemExit) as failed:
+            jobs.main(["tabulate", "--profile", "{", "--experiment", "x"])
+        assert failed.value.code == 1 and "JSONDecodeError" in capsys.readouterr().out
+        assert service.started == 1  # one warm worker ran every step
