@@ -20,6 +20,8 @@ def parse_profile(text):
 
 
 def volume(args):
+    if _served(args):
+        return
     import datasets
 
     request = json.loads(args.request)
@@ -76,6 +78,8 @@ def evaluate(args):
     One process for the experiment rather than one per run: a comparison of small images takes
     milliseconds and a process start a second.
     """
+    if _served(args):
+        return
     from pipeline.rendering import evaluate as evaluate_run
 
     pairs = json.loads(args.pairs)
@@ -98,6 +102,8 @@ def phantoms(args):
 
 
 def tabulate(args):
+    if _served(args):
+        return
     from core.errors import InputError
     from pipeline.collect import tabulate as tabulate_experiment
     from pipeline.experiments import selected
@@ -238,25 +244,21 @@ def main(argv=None):
         p.add_argument("--profile", required=True)
         p.set_defaults(func=func)
     args = parser.parse_args(argv)
-    if args.step in SERVED and _served(sys.argv[1:] if argv is None else list(argv)):
-        return
+    args.argv = sys.argv[1:] if argv is None else list(argv)
     args.func(args)
 
 
-SERVED = ("volume", "evaluate", "tabulate")
-"""Steps a warm worker of ``volbench run``'s render service runs where there is one (:mod:`pipeline.workers`):
-each costs less than the imports of a process of its own."""
-
-
-def _served(argv):
-    """Whether a worker of the render service ran step ``argv`` (its output printed, its failure raised)."""
+def _served(args):
+    """Whether a warm worker of ``volbench run``'s render service ran this step (:mod:`pipeline.workers`; its
+    output printed, its failure raised): the phantom, comparison and table steps cost less than the
+    imports of a process of their own."""
     from pipeline import workers
 
     address = workers.service_address()
     if address is None:
         return False
     try:
-        status, output = workers.request_step(address, argv)
+        status, output = workers.request_step(address, args.argv)
     except workers.ServiceUnavailable as exc:
         print(f"volbench: {exc}; this job runs in a process of its own", file=sys.stderr)
         return False
