@@ -99,38 +99,10 @@ def _receive_json(connection):
     return json.loads(data) if data.strip() else None
 
 
-def request_render(address, *, runs, profile, device_env, threads):
-    """Have the service at ``address`` render ``runs``; return its outcomes ``[{"key", "status", "reason"}]``.
-
-    ``runs`` and ``profile`` are the JSON texts of the render job's command line, ``device_env``
-    the path of the workflow's device probe (or ``None``) and ``threads`` the cores Snakemake gave
-    the job. Raises :class:`ServiceUnavailable` where nothing answers at ``address``.
-    """
-    connection = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
-    connection.settimeout(CONNECT_TIMEOUT)
-    try:
-        connection.connect(address)
-    except OSError as exc:
-        connection.close()
-        raise ServiceUnavailable(f"no render service at {address} ({exc.strerror or exc})") from None
-    with connection:
-        connection.settimeout(None)  # the render takes what it takes: the service enforces the time limit
-        _send_json(connection, {"runs": runs, "profile": profile, "device_env": device_env, "threads": threads,
-                                "watch": [os.getpid(), os.getppid()]})
-        reply = _receive_json(connection)
-    if reply is None:
-        raise ServiceUnavailable(f"the render service at {address} closed the connection without an answer")
-    if reply.get("error"):
-        raise RuntimeError(reply["error"])
-    return reply["outcomes"]
-
-
-def request_step(address, argv):
-    """Have the service at ``address`` run the job step ``argv`` (``pipeline.jobs`` arguments) in a worker.
-
-    Returns ``(exit status, output)``: what the step printed, for the job's log. Raises
-    :class:`ServiceUnavailable` where nothing answers at ``address``.
-    """
+def _ask(address, request):
+    """Send ``request`` to the service at ``address`` and wait for its answer, however long it takes (the
+    service holds renders to their time limit). Raises :class:`ServiceUnavailable` where nothing answers,
+    :class:`RuntimeError` where the service failed."""
     connection = socket.socket(socket.AF_UNIX, socket.SOCK_STREAM)
     connection.settimeout(CONNECT_TIMEOUT)
     try:
@@ -140,13 +112,34 @@ def request_step(address, argv):
         raise ServiceUnavailable(f"no render service at {address} ({exc.strerror or exc})") from None
     with connection:
         connection.settimeout(None)
-        _send_json(connection, {"step": list(argv)})
+        _send_json(connection, request)
         reply = _receive_json(connection)
     if reply is None:
         raise ServiceUnavailable(f"the render service at {address} closed the connection without an answer")
     if reply.get("error"):
         raise RuntimeError(reply["error"])
-    return reply["step"]["status"], reply["step"]["output"]
+    return reply
+
+
+def request_render(address, *, runs, profile, device_env, threads):
+    """Have the service at ``address`` render ``runs``; return its outcomes ``[{"key", "status", "reason"}]``.
+
+    ``runs`` and ``profile`` are the JSON texts of the render job's command line, ``device_env``
+    the path of the workflow's device probe (or ``None``) and ``threads`` the cores Snakemake gave
+    the job. Raises :class:`ServiceUnavailable` where nothing answers at ``address``.
+    """
+    return _ask(address, {"runs": runs, "profile": profile, "device_env": device_env, "threads": threads,
+                          "watch": [os.getpid(), os.getppid()]})["outcomes"]
+
+
+def request_step(address, argv):
+    """Have the service at ``address`` run the job step ``argv`` (``pipeline.jobs`` arguments) in a worker.
+
+    Returns ``(exit status, output)``: what the step printed, for the job's log. Raises
+    :class:`ServiceUnavailable` where nothing answers at ``address``.
+    """
+    step = _ask(address, {"step": list(argv)})["step"]
+    return step["status"], step["output"]
 
 
 # ----------------------------------------------------------------------------------------- service
