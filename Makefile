@@ -58,9 +58,7 @@ browser-packages:
 $(STAMP): pyproject.toml
 	test -x $(PY) || $(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install -q --upgrade pip
-	@# --no-compile: bytecode for the modules a process imports is written on first import; compiling every
-	@# installed module up front (VTK's, SciPy's and pandas' tests included) took a third of the install.
-	$(PY) -m pip install -q --no-compile -e '.[test]'
+	$(PY) -m pip install -q -e '.[test]'
 	touch $@
 
 reproduce: setup
