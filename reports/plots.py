@@ -86,13 +86,20 @@ def _tick_text(value, _position=None):
 
 
 def _readable_log(axis):
-    """Ticks at 1, 2 and 5 × 10^k labelled as plain numbers (or only the decades when too many)."""
+    """Log-axis ticks labelled as plain numbers: the decades over a wide range, 1, 2 and 5 × 10^k over a few
+    decades, and evenly spaced values where even those leave fewer than two ticks in view (a range within one
+    decade, such as 0.3 to 0.45, would otherwise show no label, or matplotlib's own labels in powers of ten)."""
+    from matplotlib.ticker import FixedLocator, FuncFormatter, LogLocator, MaxNLocator, NullFormatter
+
     low, high = sorted(axis.get_view_interval())
     decades = np.log10(high / low) if low > 0 else 99
     subs = (1.0, 2.0, 5.0) if decades <= 3 else (1.0,)
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
-
-    axis.set_major_locator(LogLocator(base=10, subs=subs, numticks=12))
+    locator = LogLocator(base=10, subs=subs, numticks=12)
+    ticks = locator.tick_values(low, high) if low > 0 else np.array([])
+    if low > 0 and np.count_nonzero((ticks >= low) & (ticks <= high)) < 2:
+        values = MaxNLocator(nbins=4).tick_values(low, high)
+        locator = FixedLocator(values[values > 0])
+    axis.set_major_locator(locator)
     axis.set_major_formatter(FuncFormatter(_tick_text))
     axis.set_minor_formatter(NullFormatter())
 
@@ -898,6 +905,8 @@ def bar_compare(df, path, *, category_col, value_cols, value_label=None, title=N
                 label.set_gid("bar-value")  # _declutter may turn these upright or leave some out
         ax.set_xticks(x, list(medians.index))
         ax.set_yscale("log" if log_y else "linear")
+        if log_y:
+            _readable_log(ax.yaxis)
         ax.set_xlabel(str(category_col))
         ax.set_ylabel(value_label or "value")
         ax.grid(axis="x", visible=False)
