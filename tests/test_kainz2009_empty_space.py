@@ -49,7 +49,7 @@ def test_ess_claims():
     for claim in ("hull-faster", "best-brick-8", "hull-accurate", "build-cheap"):
         assert _evaluate(claim, rows).holds is True, claim
     gain = _evaluate("hull-faster", rows)
-    assert gain.measured.startswith("torso: ×1.1") and "95 % CI" in gain.measured
+    assert gain.detail.startswith("torso: ×1.1") and "95 % CI" in gain.measured and gain.measured.endswith(")")
     assert "samples box: 9e+03, 4: 4e+03, 8: 8e+03, 16: 1.6e+04" in gain.detail
     assert "fastest: torso: 8³" in _evaluate("best-brick-8", rows).detail
     rows = _ess_rows(0.010, {4: 0.012, 8: 0.011, 16: 0.0105}, psnr_hull=40.0, build_ms=20.0)

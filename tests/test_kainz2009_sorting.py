@@ -61,7 +61,7 @@ def test_sorting_claims(tmp_path):
     pixel = {"scene": 0.011, "front-to-back": 0.010, "back-to-front": 0.012}
     rows = _rows(tmp_path, sort_only={"front-to-back": 0.002, "back-to-front": 0.004}, pixel=pixel)
     result = _evaluate("sort-small", rows)
-    assert result.holds is True and result.measured == "boxes: ×0.25 (95 % CI ×0.25–×0.25)"   # 2 ms against 8 ms
+    assert result.holds is True and result.measured == "×0.25 (95 % CI ×0.25–×0.25) (boxes)"   # 2 ms against 8 ms
     assert result.detail.endswith("boxes: worst-case sort 2 ms, traversal 8 ms, sort moves front-to-back: 100, "
                                   "back-to-front: 200")
     assert _evaluate("order-invariant", rows).holds is True

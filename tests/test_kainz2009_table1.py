@@ -85,7 +85,7 @@ def test_table1_claims():
     assert band.measured.startswith("×1.7") and "(95 % CI ×" in band.measured
     assert band.measured.endswith(", C8 over C2")
     assert band.detail.endswith("volume samples C1: 1e+03, C2: 2e+03, C3: 3e+03, C8: 4e+03")
-    assert _evaluate("pixel-kernel-dominates", rows).measured.startswith("C1: 5 % (95 % CI ")
+    assert _evaluate("pixel-kernel-dominates", rows).detail.startswith("C1: 5 % (95 % CI ")
     rows = _table1_rows({**good, "C8": 1.0}, psnr=35.0, binning=0.2, pool=7 * 2 ** 20)
     for claim in ("accuracy", "narrow-band", "pixel-kernel-dominates", "pool-enough"):
         assert _evaluate(claim, rows).holds is False, claim
@@ -105,7 +105,7 @@ def test_depth_peeling_claims():
     table = _peeling_rows((("C1", TILED, 0.08), ("C1", PEEL, 0.05), ("C3", TILED, 0.05), ("C3", PEEL, 0.15)))
     assert _evaluate("peeling-wins-one-volume", table).holds is True
     result = _evaluate("tiled-wins-many-volumes", table)
-    assert result.holds is True and result.measured.startswith("C3: ×3") and "95 % CI" in result.measured
+    assert result.holds is True and result.measured.startswith("×3") and "95 % CI" in result.measured and result.measured.endswith("(C3)")
     table = _peeling_rows((("C1", TILED, 0.08), ("C1", PEEL, 0.1), ("C3", TILED, 0.05), ("C3", PEEL, 0.04)))
     assert _evaluate("peeling-wins-one-volume", table).holds is False
     assert _evaluate("tiled-wins-many-volumes", table).holds is False
@@ -114,4 +114,4 @@ def test_depth_peeling_claims():
     table = _peeling_rows((("C6", TILED, 0.05), ("C6", PEEL, 0.1), ("C7", TILED, 0.05), ("C7", PEEL, 0.051)),
                           spread=0.3)
     result = _evaluate("peeling-collapses-with-meshes", table)
-    assert result.inconclusive and result.measured.startswith("C6: ×")
+    assert result.inconclusive and result.detail.startswith("C6: ×") and result.measured.endswith("(C7)")

@@ -14,7 +14,7 @@ import renderers
 from pipeline import experiments
 from pipeline.experiments import Profile
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kruger2003.methods import METHODS, every, frames_caption, method_runs, time_ratio
+from pipeline.experiments.kruger2003.methods import METHODS, method_runs
 from pipeline.experiments.kruger2003.passes import M_VALUES
 from pipeline.experiments.kruger2003.tables import TABLE1
 
@@ -150,40 +150,3 @@ def test_a_method_whose_backend_is_not_registered_is_left_out(monkeypatch):
                        {"scene": "head"}, {"warmup": 1, "repeat": 3})
     assert [r.tags["config"] for r in runs] == ["rc", "rc-a", "rc-b", "single-pass"]
     assert {r.reference for r in runs} == {"head.truth"} and {r.options["step_factor"] for r in runs} == {0.5}
-
-
-def test_time_ratios_decide_on_interleaved_frames():
-    steady = [1.0] * 5
-    rows = pd.DataFrame([timed(NOISY, group="g", config="slow", view="v"), timed(steady, group="g", config="fast",
-                                                                                 view="v")])
-    decision = time_ratio(rows, "slow", "fast", resampler=intervals.Resampler(), at_least=2.0)
-    assert decision.value == pytest.approx(1.0) and decision.interval == pytest.approx((1.0, 3.0))
-    assert decision.inconclusive
-    # Frames of one round are drawn together: a disturbance that slowed both cancels in their ratio.
-    rows = pd.DataFrame([timed([2 * t for t in NOISY], group="g", config="slow", view="v"),
-                         timed(NOISY, group="g", config="fast", view="v")])
-    decision = time_ratio(rows, "slow", "fast", resampler=intervals.Resampler(), at_least=1.9)
-    assert decision.interval == pytest.approx((2.0, 2.0)) and decision.holds is True
-    alone = rows.assign(interleave="")
-    assert time_ratio(alone, "slow", "fast", resampler=intervals.Resampler(), at_least=1.9).inconclusive
-    with pytest.raises(ValueError, match="no successful other run"):
-        time_ratio(rows, "other", "fast", resampler=intervals.Resampler())
-
-
-def test_every_labelled_decision_must_hold_and_the_worst_is_named():
-    holds, fails = intervals.decide(3.0, (2.5, 3.5), at_least=2.0), intervals.decide(1.5, (1.4, 1.6), at_least=2.0)
-    straddles = intervals.decide(2.1, (1.9, 2.3), at_least=2.0)
-    result = every({"head": holds, "engine": fails, "foot": straddles}, {"head": "samples ×3"}, what="time ")
-    assert result.holds is False and result.measured == "time ×1.5 (95 % CI ×1.4–×1.6) (engine)"
-    assert result.detail.startswith("head: ×3 (95 % CI ×2.5–×3.5), samples ×3, engine: ×1.5")
-    result = every({"head": holds, "foot": straddles})
-    assert result.inconclusive and result.measured.endswith("(foot)") and result.interval == (1.9, 2.3)
-    assert every({"head": holds}).holds is True
-
-
-def test_the_caption_says_how_the_gl_frames_were_timed():
-    rows = pd.DataFrame({"info_frames": [5, 5], "option_effective_timing": ["finish", "query"]})
-    caption = frames_caption(rows)
-    assert caption.startswith("median of 5 frames after warm-up")
-    assert "glFinish" in caption and "GL timer queries" in caption
-    assert frames_caption(pd.DataFrame({"info_frames": [3]})).endswith("; timing method not recorded.")

@@ -19,6 +19,8 @@ def test_passes_claims(tmp_path):
             {"part": "passes", "role": "test", "config": "rc-a", "time_total": 1.0,
              "record": _record(tmp_path, "rca", [100, 80, 40, 10])},
             {"part": "iso", "role": "test", "config": "rc-a", "time_total": 0.5}]
+    for row, samples in zip(rows, (4000, 2000, 1000)):
+        row["count_samples"] = samples
     rows += [{"part": "m-sweep", "role": "test", "config": "rc-b", "m": m, "time_total": t}
              for m, t in ((1, 3.0), (8, 1.0), (64, 2.0))]
     for claim in ("rc-flat", "rca-falls", "iso-faster", "m-u-shape"):
@@ -33,8 +35,8 @@ def test_passes_claims(tmp_path):
 
 
 def test_the_iso_surface_caster_must_be_strictly_faster():
-    rows = [{"part": "passes", "role": "test", "config": "rc-a", "time_total": 1.0},
-            {"part": "iso", "role": "test", "config": "rc-a", "time_total": 1.0}]
+    rows = [{"part": "passes", "role": "test", "config": "rc-a", "time_total": 1.0, "count_samples": 2000},
+            {"part": "iso", "role": "test", "config": "rc-a", "time_total": 1.0, "count_samples": 1000}]
     result = evaluate(NAME, "iso-faster", rows)
     assert result.holds is False and result.measured == "×1"  # equal times do not beat
 

@@ -60,14 +60,11 @@ def test_r2_draws_fit_every_draw():
     assert judging.r2_draws(x, None) is None
 
 
-def test_labelled_and_judged_name_each_scene_with_its_interval():
+def test_labelled_names_each_scene_with_its_interval():
     one = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, run="s"), judging.TECHNIQUE, Resampler(), at_least=1.5)
     other = judging.decided(1.2, None, at_least=1.5)
-    result = judging.judged({"head": one, "brain": other}, "detail")
-    assert result.measured.startswith("×2 (head; 95 % CI ×") and result.measured.endswith(", ×1.2 (brain)")
-    assert result.holds is False and result.interval is None
-    with pytest.raises(ValueError):
-        judging.judged({}, "")
+    words = judging.labelled({"head": one, "brain": other})
+    assert words.startswith("×2 (head; 95 % CI ×") and words.endswith(", ×1.2 (brain)")
 
 
 def test_a_starved_run_turns_what_it_could_decide_inconclusive():

@@ -81,7 +81,7 @@ def test_speed_compares_the_technique_with_an_interval(tmp_path):
     for row in rows:
         row["time_total"] = 0.02 if row["config"] == "shearwarp-1" else 0.01
     result = evaluate(NAME, "speed-1-worker", rows)
-    assert result.holds is True and result.measured.startswith("×0.95 (s; 95 % CI ×0.95–×0.95)")
+    assert result.holds is True and result.measured == "×0.95 (95 % CI ×0.95–×0.95) (s)"
     assert "technique ours 9.5 ms, VolPack 10 ms; whole frame ours 20 ms" in result.detail
     # Frames spread ±30 % around medians 5 % apart: the interval straddles 1.
     noisy = evaluate(NAME, "speed-1-worker", _rows(tmp_path, image, image, ours=0.0095, spread=0.3))
@@ -113,7 +113,7 @@ def test_whole_frame_claims_judge_the_whole_frames(tmp_path, claim, config):
     for row in rows:  # kernels: ours 8 and 12 ms against 10; whole frames: both ours 9 ms against 15
         row.update(timed(0.009 if row["config"] == config else row["time_technique"] * 1.5, stage="total"))
     result = evaluate(NAME, claim, rows)
-    assert result.holds is True and result.measured.startswith("×0.6 (s;")
+    assert result.holds is True and result.measured == "×0.6 (95 % CI ×0.6–×0.6) (s)"
     assert "judged on the whole frame" in result.detail and "technique ours" in result.detail
     for row in rows:
         if row["config"] == config:
@@ -128,7 +128,7 @@ def test_whole_frame_claims_judge_the_whole_frames(tmp_path, claim, config):
 
 def test_octree_claim_compares_our_octree_mode_with_volpacks(tmp_path):
     held = evaluate(NAME, "octree-speed", _rows(tmp_path, _image(), _image(), octree=0.023))  # ×1.1 of 21 ms
-    assert held.holds is True and held.measured.startswith("×1.1 (s;")
+    assert held.holds is True and held.measured.startswith("×1.1 (95 % CI") and held.measured.endswith("(s)")
     assert "VolPack 21 ms" in held.detail and "classified on the fly per frame: 5,000 (s)" in held.detail
     assert evaluate(NAME, "octree-speed", _rows(tmp_path, _image(), _image(), octree=0.030)).holds is False  # ×1.43
     noisy = evaluate(NAME, "octree-speed", _rows(tmp_path, _image(), _image(), octree=0.025, spread=0.3))
@@ -146,7 +146,7 @@ def test_parallel_speed_up_is_judged_against_the_workers(tmp_path):
         return out
 
     held = evaluate(NAME, "parallel-speed-up", rows(0.010, 0.005))  # ×2 on 2 workers ≥ ×1.8
-    assert held.holds is True and held.measured.startswith("×2 (s, 2 workers;") and "bound ×1.8" in held.detail
+    assert held.holds is True and held.measured == "×2 (95 % CI ×2–×2) (s, 2 workers)" and "bound ×1.8" in held.detail
     assert evaluate(NAME, "parallel-speed-up", rows(0.010, 0.0065)).holds is False  # ×1.54
     assert evaluate(NAME, "parallel-speed-up", rows(0.010, 0.0045, workers=4)).holds is False  # ×2.2 < ×3.6
     noisy = evaluate(NAME, "parallel-speed-up", rows(0.010, 0.0056, spread=0.3))  # ×1.79, frames ±30 %
@@ -210,10 +210,10 @@ def test_page_shows_each_mode_against_volpacks_and_where_the_time_goes(tmp_path)
     assert list(counts["RLE (MB)"]) == ["", "0.001", "", "0.001"]
     takeaways = next(b for b in out if isinstance(b, blocks.Takeaways)).sentences
     assert takeaways[0].startswith("Speed against VolPack (bound ×1 unless said): one worker, technique, against "
-                                   "VolPack RLE: ×0.8 (s; 95 % CI ×0.8–×0.8), holds; one worker, whole frame: "
-                                   "×0.6 (s; 95 % CI ×0.6–×0.6), holds; all cores, technique: ×1.2")
+                                   "VolPack RLE: ×0.8 (95 % CI ×0.8–×0.8) (s), holds; one worker, whole frame: "
+                                   "×0.6 (95 % CI ×0.6–×0.6) (s), holds; all cores, technique: ×1.2")
     assert "our octree mode against VolPack's, technique (bound ×1.2): ×1.1" in takeaways[0]
-    assert "parallel speed-up, 1 worker / all cores (bound 0.9 × the workers): ×0.667 (s, 2 workers; " in takeaways[0]
+    assert "parallel speed-up, 1 worker / all cores (bound 0.9 × the workers): ×0.667 (95 % CI ×0.667–×0.667) (s, 2 workers)" in takeaways[0]
     octree_words = next(t for t in takeaways if "octree mode classifies 5,000 voxels" in t)
     assert "of the 40,000 its octree cannot rule out, and composites ×1 the samples of our RLE mode" in octree_words
     assert "its kernels take 15 ms more than our RLE mode's, 3 µs per voxel classified" in octree_words

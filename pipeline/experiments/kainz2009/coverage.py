@@ -9,9 +9,10 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
-from pipeline.experiments.kainz2009.ratios import combined, counts, ratio, timed
+from pipeline.experiments.kainz2009.ratios import counts, ratio, timed
 from pipeline.experiments.kainz2009.scenes import mesh, volume
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, scene, timed_frames
@@ -79,7 +80,7 @@ def _mask_speedup(df):
     if not decisions:
         raise ValueError("no triangle count timed with both methods")
     bitmask = rows[text_column(rows, "config") == "bitmask"]
-    return combined(decisions, f"binning kernel (OpenCL profiling; paper: "
+    return all_of(decisions, extra=f"binning kernel (OpenCL profiling; paper: "
                                f"{as_ratio(tables.PAPER_MASK_SPEEDUP)}); tile records "
                                + counts(bitmask, "count_records", label="triangles"))
 

@@ -11,12 +11,12 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
                                                     table)
-from pipeline.experiments.kainz2009.ratios import (FRAMES, KERNELS, TECHNIQUE, TOTAL, combined, counts, judge, ratio,
-                                                   with_interval)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, judge, ratio
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
+from pipeline.experiments.kit.judging import all_of, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
@@ -128,7 +128,7 @@ def _dual_ratio(df, scenes, *, dual_faster):
             compared += [tiled, dual]
     if not decisions:
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both dual depth peeling and cl-tiled")
-    return combined(decisions, f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}, "
+    return all_of(decisions, extra=f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}, "
                                f"paper S1: 2.4×; {devices(pd.concat(compared))}")
 
 

@@ -8,10 +8,10 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
-from pipeline.experiments.kainz2009.ratios import (KERNELS, TECHNIQUE, combined, counts, draws, judge, point, ratio,
-                                                   timed)
+from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, draws, judge, point, ratio, timed
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, db_words, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, listed, scene, timed_frames, truth_run
@@ -64,7 +64,7 @@ def _ess_gain(df):
         box, hulls = _ess_rows(df, name)
         decisions[name] = ratio(box, hulls, TECHNIQUE, resampler, statistic="min", at_least=1.0)
         work.append(f"{name}: {_work(box, hulls)}")
-    return combined(decisions, f"time(box) / time(fastest hull), {KERNELS}; " + "; ".join(work))
+    return all_of(decisions, extra=f"time(box) / time(fastest hull), {KERNELS}; " + "; ".join(work))
 
 
 def _best_brick(df):
@@ -77,7 +77,7 @@ def _best_brick(df):
             raise ValueError(f"no 8³ hull and another brick size on {name}")
         fastest[name] = int(hulls.brick[numeric(hulls, TECHNIQUE).idxmin()])
         decisions[name] = ratio(others, eight, TECHNIQUE, resampler, statistic="min", at_least=1.0)
-    return combined(decisions, "fastest other brick size over 8³ (≥ ×1: 8³ is the fastest), "
+    return all_of(decisions, extra="fastest other brick size over 8³ (≥ ×1: 8³ is the fastest), "
                     f"{KERNELS}; fastest: " + ", ".join(f"{s}: {b}³" for s, b in fastest.items()))
 
 
@@ -116,7 +116,7 @@ def _build_cheap(df):
         frames = draws(frame, TECHNIQUE, resampler)
         decisions[row.scene] = judge(build / point(frame, TECHNIQUE), None if frames is None else build / frames,
                                      at_most=1.0)
-    return combined(decisions, f"bricks + hull build (one first frame, its own run) over the median frame with the 8³ "
+    return all_of(decisions, extra=f"bricks + hull build (one first frame, its own run) over the median frame with the 8³ "
                     f"hull, {KERNELS}; build " + ", ".join(f"{r.scene}: {format_number(r.build_ms)} ms"
                                                            for r in builds.itertuples()))
 

@@ -10,9 +10,10 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
-from pipeline.experiments.kainz2009.ratios import counts, ratio, timed, with_interval
+from pipeline.experiments.kainz2009.ratios import counts, ratio, timed
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, scene, timed_frames, truth_run

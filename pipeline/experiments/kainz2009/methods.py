@@ -9,7 +9,8 @@ machine, so every page says which OpenCL device cl-tiled ran on.
 
 import pandas as pd
 
-from pipeline.experiments.kit.pages import frames_counted, linked_table, not_measurable
+from pipeline.experiments.kit import pages
+from pipeline.experiments.kit.pages import linked_table, not_measurable
 from pipeline.experiments.kit.planning import is_registered
 
 PAPER_ID = "kainz2009"
@@ -77,12 +78,13 @@ def devices(rows):
 
 
 def frames_caption(frame):
-    """How the frames of ``frame``'s runs were timed, and where cl-tiled ran, for a figure's caption."""
+    """The kit's frames caption (:func:`~pipeline.experiments.kit.pages.frames_caption`) of the OpenCL runs: what
+    the warm-up frame holds, how the stages were timed, and where cl-tiled ran."""
     devices = _tiled_devices(frame)
     where = f"; cl-tiled on {', '.join(devices)}" if devices else ""
-    return (f"{frames_counted(frame, unit='timed frames')} after warm-up; uploads and hull builds happen in the "
-            f"warm-up frame (cached on the device); stage times from OpenCL profiling events, the total by wall "
-            f"clock{where}.")
+    return pages.frames_caption(frame, unit="timed frames",
+                                untimed="uploads and hull builds happen in the warm-up frame (cached on the device)",
+                                how=f"stage times from OpenCL profiling events, the total by wall clock{where}")
 
 
 def table(title, frame, columns, ctx, **options):

@@ -15,8 +15,7 @@ interval straddles its bound is inconclusive. Two scopes are compared, each like
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.model import ClaimResult
-from pipeline.experiments.kit.pages import as_ratio, format_number
+from pipeline.experiments.kit.pages import format_number
 from pipeline.experiments.kit.results import numeric, rows_matching
 
 TECHNIQUE = "time_technique"
@@ -57,23 +56,6 @@ def ratio(top, bottom, column, resampler, *, statistic="median", at_least=None, 
 def judge(value, value_draws, *, at_least=None, at_most=None):
     """A :class:`~pipeline.experiments.kit.intervals.Decision` of ``value`` with the interval of its draws."""
     return intervals.decide(value, intervals.interval_of(value_draws), at_least=at_least, at_most=at_most)
-
-
-def with_interval(text, decision, show=as_ratio):
-    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval, where it has one."""
-    words = intervals.interval_words(decision, show)
-    return f"{text} ({words})" if words else text
-
-
-def combined(decisions, detail, show=as_ratio):
-    """Every scene's decision at once (fails if one fails, inconclusive if one is), measured scene by scene.
-
-    ``decisions`` is ``{scene: Decision}``; the result's interval and margin are the deciding scene's.
-    """
-    if not decisions:
-        raise ValueError("no scene to judge")
-    measured = ", ".join(f"{name}: {with_interval(show(d.value), d, show)}" for name, d in decisions.items())
-    return ClaimResult.decided(measured, intervals.combine(decisions.values()), detail)
 
 
 def counts(rows, column, label="scene"):

@@ -15,11 +15,11 @@ from core.errors import InputError
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
                                                     device_note, devices, frames_caption, peeling_missing, table)
-from pipeline.experiments.kainz2009.ratios import (FRAMES, KERNELS, TECHNIQUE, TOTAL, draws, judge, point, timed,
-                                                   with_interval)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, draws, judge, point, timed
 from pipeline.experiments.kainz2009.scenes import blob, clouds, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure, Ratio
+from pipeline.experiments.kit.judging import with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, is_registered, listed, scene, timed_frames,

@@ -10,9 +10,10 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
-from pipeline.experiments.kainz2009.ratios import combined, counts, draws, judge, point, timed
+from pipeline.experiments.kainz2009.ratios import counts, draws, judge, point, timed
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, mesh
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import accepts, listed, scene, timed_frames
@@ -97,8 +98,7 @@ def _sort_scenes(df):
 def _sort_small(df):
     resampler = intervals.Resampler()
     judged = {name: _sort_decision(df, name, resampler) for name in _sort_scenes(df)}
-    return combined({name: decision for name, (decision, _) in judged.items()},
-                    "sort / traversal on the pixel kernel (OpenCL profiling); "
+    return all_of({name: decision for name, (decision, _) in judged.items()}, extra="sort / traversal on the pixel kernel (OpenCL profiling); "
                     + "; ".join(detail for _, detail in judged.values()))
 
 

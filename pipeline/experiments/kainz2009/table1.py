@@ -10,11 +10,11 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
                                                     devices, frames_caption, peeling_missing, table)
-from pipeline.experiments.kainz2009.ratios import (FRAMES, KERNELS, TECHNIQUE, TOTAL, combined, counts, judge, ratio,
-                                                   timed, with_interval)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, judge, ratio, timed
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, is_registered, listed, scene, timed_frames,
@@ -134,8 +134,8 @@ def _binning_share(df):
     for i, row in enumerate(rows.itertuples()):
         share_draws = None if binning is None or pixel is None else binning[:, i] / (binning[:, i] + pixel[:, i])
         decisions[row.scene] = judge(row.binning_share / 100, share_draws, at_most=0.10)
-    return combined(decisions, "binning / (binning + pixel kernel), OpenCL profiling; boundary triangles "
-                    + counts(rows, "count_triangles"), show=as_percent)
+    return all_of(decisions, extra="binning / (binning + pixel kernel), OpenCL profiling; boundary triangles "
+                  + counts(rows, "count_triangles"), show=as_percent)
 
 
 def _pool(df):
@@ -161,7 +161,7 @@ def _peel_ratio(df, scenes, *, below):
             compared += rows.values()
     if not decisions:
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both depth peeling and cl-tiled")
-    return combined(decisions, f"time of depth peeling over cl-tiled's, same scene and view, {FRAMES}; "
+    return all_of(decisions, extra=f"time of depth peeling over cl-tiled's, same scene and view, {FRAMES}; "
                                f"{devices(pd.concat(compared))}")
 
 

@@ -4,8 +4,11 @@
   :class:`~.model.Experiment`, :class:`~.model.Paper`;
 * :mod:`.planning`: frames, backends and their options, views, scenes, phantoms, truth runs;
 * :mod:`.results`: reading an experiment's rows with errors that name what is missing;
-* :mod:`.checks`: claims as small declarative checks (ratio, bound, band, growth), and one result of
-  several labelled decisions that must all hold (``every``, with ``decision_words``);
+* :mod:`.checks`: claims as small declarative checks (ratio, bound, band, growth);
+* :mod:`.judging`: what every paper's claims share, once: a configuration's rows, a time ratio with its
+  interval, a count over the views, a value with its interval in words, and one result of several
+  labelled decisions that must all hold (``all_of``);
+* :mod:`.words`: numbers, ratios and shares in words, for claims and pages;
 * :mod:`.verdicts`: a claim's verdict (holds, fails, blocked, not measured);
-* :mod:`.pages`: take-aways, linked tables, numbers in words, the one difference scale.
+* :mod:`.pages`: take-aways, linked tables, frames captions, the one difference scale.
 """

@@ -19,9 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import with_interval
 from pipeline.experiments.kit.model import ClaimResult
-from pipeline.experiments.kit.pages import as_ratio, format_number
 from pipeline.experiments.kit.results import numeric, rows_matching
+from pipeline.experiments.kit.words import as_ratio, format_number
 
 STATISTICS = {"median": np.median, "min": np.min, "max": np.max, "mean": np.mean}
 """How a :class:`Measure` reduces the values of its rows."""
@@ -96,35 +97,6 @@ class Check:
 
     def __call__(self, df):
         raise NotImplementedError
-
-
-def with_interval(text, decision, show=as_ratio):
-    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval (shown by ``show``) where it has one."""
-    words = intervals.interval_words(decision, show)
-    return f"{text} ({words})" if words else text
-
-
-def decision_words(decision, show=as_ratio):
-    """A decision's value (shown by ``show``) with its interval where it has one."""
-    return with_interval(show(decision.value), decision, show)
-
-
-def every(decisions, *, show=as_ratio, notes=None, what="", extra=""):
-    """One result of labelled decisions that must all hold (:func:`~pipeline.experiments.kit.intervals.combine`).
-
-    ``decisions`` maps a label (a scene, an image size) to its
-    :class:`~pipeline.experiments.kit.intervals.Decision`. ``measured`` gives the deciding (worst)
-    label's value after ``what``; the detail lists every label's value with its interval and its note
-    from ``notes`` (counts, which do not depend on the machine), then ``extra``.
-    """
-    combined = intervals.combine(decisions.values())
-    worst = next(label for label, d in decisions.items()
-                 if (d.value, d.interval, d.holds) == (combined.value, combined.interval, combined.holds))
-    notes = notes or {}
-    detail = "; ".join(f"{label}: {decision_words(d, show)}" + (f" ({notes[label]})" if notes.get(label) else "")
-                       for label, d in decisions.items())
-    return ClaimResult.decided(f"{what}{decision_words(combined, show)} ({worst})", combined,
-                               detail + (f"; {extra}" if extra else ""))
 
 
 def _bound_words(at_least, at_most, show):

@@ -13,12 +13,14 @@ import pandas as pd
 
 from datasets.registry import DATASETS
 from pipeline.experiments.kit.verdicts import claim_sentences
+from pipeline.experiments.kit.words import as_percent, as_ratio, format_number
 from reports import blocks
 from reports.decision import device_family
-from reports.takeaways import change_words, db_words, number, setting_words
+from reports.takeaways import change_words, db_words, setting_words
 
 __all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
-           "device_takeaways", "format_number", "frames_counted", "frames_note", "gl_devices", "linked_table", "links",
+           "device_takeaways", "format_number", "frames_caption", "frames_counted", "frames_note", "GL_TIMING",
+           "gl_timing_words", "gl_devices", "linked_table", "links",
            "ms", "not_measurable", "setting_words"]
 
 DIFF_SCALE = 0.1
@@ -32,19 +34,6 @@ METRICS = {"rmse": "RMSE", "psnr": "PSNR (dB)", "ssim": "SSIM", "flip": "FLIP"}
 
 TIME_COLUMNS = {"time_ms": "median frame (ms)", "time_ms_min": "fastest (ms)", "time_ms_max": "slowest (ms)"}
 """The columns :func:`~pipeline.experiments.kit.results.speed_points` makes, named for a table."""
-
-
-def format_number(value, digits=3):
-    """A short number for claims and tables: 3 significant digits, ``n/a``, ``∞``."""
-    return number(value, digits)
-
-
-def as_percent(value):
-    return f"{format_number(100 * value)} %"
-
-
-def as_ratio(value):
-    return f"×{format_number(value)}"
 
 
 def ms(frame, column="time_total"):
@@ -84,6 +73,28 @@ def frames_counted(frame, *, unit="frames"):
     """``"median of N frames"`` from the runs' ``info_frames`` (``"median frame"`` where none says)."""
     frames = pd.to_numeric(frame["info_frames"], errors="coerce") if "info_frames" in frame else pd.Series(dtype=float)
     return f"median of {int(frames.median())} {unit}" if frames.notna().any() else "median frame"
+
+
+GL_TIMING = {"query": "passes timed on the device with GL timer queries",
+             "finish": "each pass timed by waiting for it (glFinish): a software rasterizer's timer queries do not "
+                       "cover its deferred work"}
+"""How the GL backends time their passes (their ``timing`` option, as it took effect), in words."""
+
+
+def gl_timing_words(frame):
+    """How the GL runs of ``frame`` timed their passes (:data:`GL_TIMING`, from ``option_effective_timing``)."""
+    methods = set(frame.option_effective_timing.dropna()) if "option_effective_timing" in frame else set()
+    return "; ".join(GL_TIMING.get(m, f"passes timed by {m!r}") for m in sorted(methods)) or "timing method not recorded"
+
+
+def frames_caption(frame, *, untimed="uploads excluded as their own stage", how=None, unit="frames"):
+    """How the frames of ``frame`` were timed, for a figure's caption: frames counted, what was not timed, how.
+
+    ``untimed``: what the timed frames leave out, in words; ``how``: how the stages were timed (default: the GL
+    backends' timing method, :func:`gl_timing_words`); ``unit``: what was counted.
+    """
+    how = gl_timing_words(frame) if how is None else how
+    return f"{frames_counted(frame, unit=unit)} after warm-up, {untimed}; {how}."
 
 
 def not_measurable(items):

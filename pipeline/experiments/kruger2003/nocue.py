@@ -12,8 +12,9 @@ from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, linked_table
 from pipeline.experiments.kit.planning import is_registered, timed_frames, truth_run
 from pipeline.experiments.kit.results import ok_rows, speed_points
-from pipeline.experiments.kruger2003.methods import (RAYCAST, count_ratio, every, gl_not_measurable, method_name,
-                                                     method_runs, no_cue_control, time_ratio)
+from pipeline.experiments.kit.judging import all_of, time_ratio
+from pipeline.experiments.kruger2003.methods import (RAYCAST, count_ratio, gl_not_measurable, method_name, method_runs,
+                                                     no_cue_control)
 from pipeline.experiments.kruger2003.tables import NO_CUE
 from reports import blocks, plots
 
@@ -31,7 +32,7 @@ def _overhead(df):
     # Equal main-pass fragments show that nothing was culled: the time ratio is the intermediate passes' cost.
     fragments = {c: count_ratio(df, c, "rc", "count_fragments_main") for c in ACCELERATED}
     notes = {method_name(c): f"main-pass fragments {as_ratio(v)} of RC's" for c, v in fragments.items() if pd.notna(v)}
-    return every(decisions, notes, what="time / RC's ",
+    return all_of(decisions, notes=notes, what="time / RC's ",
                  extra="whole-frame times, interleaved with RC; main-pass fragments counted by occlusion queries")
 
 

@@ -13,8 +13,9 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, timed_frames
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points
-from pipeline.experiments.kruger2003.methods import (RAYCAST, frames_caption, gl_not_measurable, method_name,
-                                                     no_cue_control, with_interval)
+from pipeline.experiments.kit.judging import with_interval
+from pipeline.experiments.kit.pages import frames_caption
+from pipeline.experiments.kruger2003.methods import RAYCAST, UPLOADS, gl_not_measurable, method_name, no_cue_control
 from pipeline.experiments.kruger2003.tables import OCCLUDER
 from reports import blocks, plots
 
@@ -162,7 +163,7 @@ class Occluder(Experiment):
                             y_label=f"median {words} (ms)")
                 out.append(blocks.Figure(f"{words.capitalize()} against the occluded area", rel,
                                          "Bars from the fastest to the slowest frame; no-cue control, "
-                                         "seen straight at a face. " + frames_caption(rows)))
+                                         "seen straight at a face. " + frames_caption(rows, untimed=UPLOADS)))
             out.append(linked_table("Occluder sweep", rows, ["method", "fraction", "occluded_percent", "main_ms",
                                                               "time_ms", "time_ms_min", "time_ms_max",
                                                               "count_fragments_main"], ctx,

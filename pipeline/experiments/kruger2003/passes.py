@@ -16,9 +16,8 @@ from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_num
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
-from pipeline.experiments.kruger2003.methods import (RAYCAST, STRICTLY_ABOVE_ONE, config_rows, every,
-                                                     gl_not_measurable, median_count, method_name, method_runs,
-                                                     ratio_words, time_of)
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, time_of
 from pipeline.experiments.kruger2003.tables import PASSES
 from reports import blocks, plots
 
@@ -73,8 +72,8 @@ def _pass_trend(df, config, flat):
 def _iso_faster(df):
     dvr, iso = config_rows(df, "rc-a", part="passes"), config_rows(df, "rc-a", part="iso")
     decision = intervals.ratio_decision(dvr, iso, at_least=STRICTLY_ABOVE_ONE)
-    samples = median_count(dvr) / median_count(iso)
-    return ClaimResult.decided(ratio_words(decision), decision,
+    samples = median_count(dvr, "count_samples") / median_count(iso, "count_samples")
+    return ClaimResult.decided(decision_words(decision), decision,
                                f"DVR {format_number(time_of(dvr, 'rc-a') * 1e3)} ms, iso "
                                f"{format_number(time_of(iso, 'rc-a') * 1e3)} ms (whole frames, interleaved)"
                                + (f"; samples DVR / iso {as_ratio(samples)}" if np.isfinite(samples) else ""))
@@ -103,7 +102,7 @@ def _m_u_shape(df):
     resampler = intervals.Resampler()
     decisions = {f"M {m}": intervals.ratio_decision(rows[m], rows[best], at_least=STRICTLY_ABOVE_ONE,
                                                     resampler=resampler) for m in (values[0], values[-1])}
-    return every(decisions, what=f"fastest inside at M = {best}; end / M = {best} time ",
+    return all_of(decisions, what=f"fastest inside at M = {best}; end / M = {best} time ",
                  extra="; ".join(_m_words(rows[m], m) for m in values) + " (whole frames, interleaved)")
 
 

@@ -10,8 +10,8 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import change_words, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
-from pipeline.experiments.kruger2003.methods import (RAYCAST, STRICTLY_ABOVE_ONE, gl_not_measurable, median_count,
-                                                     ratio_words)
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable
 from pipeline.experiments.kruger2003.tables import TABLE1
 from reports import blocks, plots
 
@@ -44,10 +44,10 @@ def _threshold(df):
     low_psnr, high_psnr = float(low.psnr.iloc[0]), float(high.psnr.iloc[0])
     low_t, high_t = format_number(low.setting.iloc[0]), format_number(high.setting.iloc[0])
     measured = (f"T {low_t} {change_words(1 / decision.value)} than T {high_t} (time at T {high_t} / at T {low_t} "
-                f"{ratio_words(decision)}); {format_number(low_psnr)} dB against {format_number(high_psnr)} dB")
+                f"{decision_words(decision)}); {format_number(low_psnr)} dB against {format_number(high_psnr)} dB")
     detail = (f"RC-b on the head, whole frames interleaved: {format_number(stage_time(low.iloc[0]) * 1e3)} ms and "
-              f"{format_number(stage_time(high.iloc[0]) * 1e3)} ms; samples {format_number(median_count(low))} and "
-              f"{format_number(median_count(high))}")
+              f"{format_number(stage_time(high.iloc[0]) * 1e3)} ms; samples {format_number(median_count(low, 'count_samples'))} and "
+              f"{format_number(median_count(high, 'count_samples'))}")
     if low_psnr < high_psnr:
         return ClaimResult.decided(measured, decision, detail)
     # The accuracy half fails whatever the frames say: no interval can rescue it.

@@ -16,9 +16,10 @@ from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_r
                                                timed_frames, truth_run)
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, reference_exr,
                                               rows_matching, speed_points, text_column)
-from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, STRICTLY_BELOW_ONE, every,
-                                                     frames_caption, gl_not_measurable, method_name, method_runs,
-                                                     samples_note, speedup, time_ratio)
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, time_ratio
+from pipeline.experiments.kit.pages import frames_caption
+from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, gl_not_measurable, method_name,
+                                                     method_runs, samples_note, speedup)
 from pipeline.experiments.kruger2003.tables import (HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR, PAPER_DEVICE, REAL_SCANS,
                                                     TABLE1)
 from reports import blocks, plots
@@ -49,7 +50,7 @@ def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
     decisions = {s: time_ratio(df, slow, fast, resampler=resampler, at_least=low, at_most=high, scene=s)
                  for s in scenes}
     notes = {s: samples_note(df, slow, fast, scene=s) for s in scenes}
-    return every(decisions, notes, what=what,
+    return all_of(decisions, notes=notes, what=what,
                  extra="whole-frame times, median over the views (headline and orbit) of each view's median frame"
                        + ("; samples: the same ratio of the samples the shaders took (machine-independent)"
                           if any(notes.values()) else ""))
@@ -225,7 +226,7 @@ def _speed_blocks(headline, tests, ctx):
         columns={"median": "median over views (ms)", "min": "fastest view (ms)", "max": "slowest view (ms)"})
     return [linked_table("Frame times and accuracy (headline view)", timing,
                          ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
-                         csv_name="table1.csv", caption=frames_caption(timing)),
+                         csv_name="table1.csv", caption=frames_caption(timing, untimed=UPLOADS)),
             blocks.Figure("Speed against accuracy", rel, "One series per scene, each point one method "
                           "(labelled), headline view; higher and further left is better."),
             blocks.Table("Over the orbit", summary, csv_name="table1_orbit.csv",

@@ -9,6 +9,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
@@ -199,7 +200,7 @@ def _jump(df, column=TIME):
                                         centred=True)
                      for d, s in stats.items()}
     what = "technique time (tables, compositing, warp)" if column == TIME else "sample count (machine-independent)"
-    return judging.judged(decisions, "; ".join(f"{d}: {as_percent(s['switch'])} at a switch, {as_percent(s['other'])} "
+    return all_of(decisions, extra="; ".join(f"{d}: {as_percent(s['switch'])} at a switch, {as_percent(s['other'])} "
                                                "elsewhere" for d, s in stats.items())
                           + f" (changes between neighbouring angles relative to the mean {what})")
 
@@ -235,7 +236,7 @@ def _head(df):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
         decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=1.0, centred=True)
-    return judging.judged(decisions, f"sphere varies {as_percent(s['variation'])}, "
+    return all_of(decisions, extra=f"sphere varies {as_percent(s['variation'])}, "
                           + ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
                           + "; thesis: head 13 %, sphere 6 %")
 

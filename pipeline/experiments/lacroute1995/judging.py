@@ -103,13 +103,6 @@ def labelled(decisions, show=as_ratio):
     return ", ".join(parts)
 
 
-def judged(decisions, detail, show=as_ratio):
-    """The :class:`ClaimResult` of every labelled decision together (``{label: Decision}``, see :func:`combine`)."""
-    if not decisions:
-        raise ValueError("nothing to judge")
-    return ClaimResult.decided(labelled(decisions, show), intervals.combine(decisions.values()), detail)
-
-
 def milliseconds(rows, column=TECHNIQUE):
     """``"1.23 ms"``: the median of ``column`` over the rows."""
     return f"{format_number(float(numeric(rows, column).median()) * 1e3)} ms"

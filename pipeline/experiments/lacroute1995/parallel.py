@@ -13,6 +13,7 @@ import pandas as pd
 
 import datasets
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, format_number, linked_table,
                                             not_measurable)
@@ -234,7 +235,7 @@ def _speedup(df):
         parallel.append(most)
     if not decisions:
         raise ValueError("no size rendered with one worker and with more")
-    result = judging.judged(decisions, f"{judging.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", as_percent)
+    result = all_of(decisions, extra=f"{judging.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", show=as_percent)
     return judging.unless_starved(result, pd.concat(parallel), holding_survives=True)
 
 
@@ -286,7 +287,7 @@ def _task_u(df):
         read.append(part)
     if not decisions:
         raise ValueError("fewer than three task sizes swept")
-    result = judging.judged(decisions, "ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
+    result = all_of(decisions, extra="ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
                                        f"the Challenge; {_machine(pd.concat(read))}")
     return judging.unless_starved(result, pd.concat(read), holding_survives=False)
 

@@ -10,6 +10,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_view, listed, missing_options, phantom,
@@ -225,7 +226,7 @@ def _ratio(df, config, low, high):
                        + (f", thesis ×{format_number(thesis[config][0] / thesis['parallel'][0])}" if thesis else ""))
     if not decisions:
         raise ValueError(f"no data set rendered both {config} and parallel")
-    return judging.judged(decisions, "; ".join(details) + f"; {judging.SCOPES[TIME]}, the views timed together")
+    return all_of(decisions, extra="; ".join(details) + f"; {judging.SCOPES[TIME]}, the views timed together")
 
 
 def _octree_memory(df):

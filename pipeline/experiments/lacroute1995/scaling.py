@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, format_number, linked_table,
                                             not_measurable)
@@ -205,7 +206,7 @@ def _growth(df):
             except (KeyError, ValueError):
                 pass
         details.append(words)
-    return judging.judged(decisions, "per doubling: " + "; ".join(details) + " (the samples do not depend on the "
+    return all_of(decisions, extra="per doubling: " + "; ".join(details) + " (the samples do not depend on the "
                           "machine; n² is ×4)")
 
 

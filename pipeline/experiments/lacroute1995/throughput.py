@@ -13,6 +13,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, format_number, linked_table,
                                             not_measurable)
@@ -293,11 +294,10 @@ def _runs_linear(df):
             samples[s] = (rows.samples.min(), rows.samples.max())
     if not fits:
         raise ValueError("no checkerboard series with three block sizes")
-    return judging.judged({s: d for s, (_a, _b, d) in fits.items()},
-                          ", ".join(f"{format_number(slope * 1e9)} ns per run ({s}; samples {format_number(lo)}–"
+    return all_of({s: d for s, (_a, _b, d) in fits.items()}, extra=", ".join(f"{format_number(slope * 1e9)} ns per run ({s}; samples {format_number(lo)}–"
                                     f"{format_number(hi)})" for (s, (slope, _b, _d)), (lo, hi) in zip(fits.items(), samples.values()))
                           + "; thesis 400 ns. Where the samples vary, the visible count is not constant: bilinear "
-                            "footprints of small blocks reach both colours", judging.r2_words)
+                            "footprints of small blocks reach both colours", show=judging.r2_words)
 
 
 def _worst_runs(df):
@@ -354,8 +354,8 @@ def _prediction(df):
         decisions[row["dataset"]] = judging.decided(predicted / measured - 1, error_draws, at_least=-0.25, at_most=0.25)
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
-    return judging.judged(decisions, "; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "
-                          f"{format_number(b * 1e9)} ns/run, c = {format_number(c * 1e3)} ms", as_percent)
+    return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "
+                          f"{format_number(b * 1e9)} ns/run, c = {format_number(c * 1e3)} ms", show=as_percent)
 
 
 def _cube_title(ok):

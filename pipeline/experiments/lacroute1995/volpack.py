@@ -11,6 +11,7 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, format_number,
                                             linked_table, not_measurable)
@@ -404,7 +405,7 @@ def _speed(df, config, column=judging.TECHNIQUE, *, against="volpack-rle", peer=
         detail += ("; VolPack's whole frame adds our wrapper's uint8 quantisation and image conversion, ours adds "
                    "Python around the kernels")
     rows = pd.concat([ours for ours, _ in pairs.values()])
-    result = judging.judged(decisions, "; ".join(filter(None, [detail, _on_the_fly(rows), judging.busy(rows)])))
+    result = all_of(decisions, extra="; ".join(filter(None, [detail, _on_the_fly(rows), judging.busy(rows)])))
     return judging.unless_starved(result, rows, holding_survives=True)
 
 
@@ -486,7 +487,7 @@ def _parallel(df):
     most = pd.concat([m for _, m in pairs.values()])
     detail = "; ".join(filter(None, [f"judged on the {judging.SCOPES[judging.TECHNIQUE]}", *words, judging.busy(most),
                                      f"this machine: {usable_cores()} cores"]))
-    return judging.unless_starved(judging.judged(decisions, detail), most, holding_survives=True)
+    return judging.unless_starved(all_of(decisions, extra=detail), most, holding_survives=True)
 
 
 def _agree(df):
@@ -514,7 +515,7 @@ def _octree(df):
     resampler = intervals.Resampler()
     decisions = {s: judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
                  for s, (octree, rle) in _pairs(df, "volpack-octree").items()}
-    return judging.judged(decisions, "thesis: ×1.8 (brainsmall), ×2.3 (brain), ×2.5 (head); both VolPack's library calls "
+    return all_of(decisions, extra="thesis: ×1.8 (brainsmall), ×2.3 (brain), ×2.5 (head); both VolPack's library calls "
                                      "(vpShadeTable, then vpRenderRawVolume or vpRenderClassifiedVolume)")
 
 

@@ -15,14 +15,14 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import every
+
+from pipeline.experiments.kit.judging import all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       frames_caption, lens_coverage, lens_run, median_count,
-                                                       method_name, raycast_not_measurable)
+                                                       lens_coverage, lens_run, method_name, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, SETUPS, lens_scene, lens_views, without_lens
 from reports import blocks, plots
 
@@ -110,7 +110,7 @@ def _clip_cheapest(df):
             notes[label] = f"region₁ samples {format_number(inside[0])} against {format_number(inside[1])}"
     if not decisions:
         raise ValueError("no scene rendered with a clipping lens and another appearance")
-    return every(decisions, notes=notes, what="time(appearance) / time(clip) ",
+    return all_of(decisions, notes=notes, what="time(appearance) / time(clip) ",
                  extra=f"{TIMES}; the segments method; every appearance of a scene timed together")
 
 

@@ -19,13 +19,14 @@ import pandas as pd
 
 from core.camera import Camera
 from core.errors import InputError
+from pipeline.experiments.kit.judging import median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import DIFF_SCALE, as_percent, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
 from pipeline.experiments.ropinski2005.methods import (METHODS, OPTIONS, RAYCAST, STEP, lens_coverage, lens_run,
-                                                       median_count, raycast_not_measurable)
+                                                       raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, LensSetup, extent, lens_entry, lens_scene
 from reports import blocks
 

@@ -14,14 +14,14 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import decision_words, every
+
+from pipeline.experiments.kit.judging import all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       frames_caption, lens_coverage, lens_run, median_count,
-                                                       raycast_not_measurable)
+                                                       lens_coverage, lens_run, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, outside_appearance, without_lens
 from reports import blocks, plots
 
@@ -118,7 +118,7 @@ def slopes(frame, appearance):
 # ------------------------------------------------------------------------------------------------- claims
 def _grows(df):
     decisions, notes = slopes(df, "outside")
-    return every(decisions, show=format_number, notes=notes,
+    return all_of(decisions, show=format_number, notes=notes,
                  what="slope of the overhead against the coverage (% of the frame per % of the rays) ",
                  extra=f"the lens showing the outside appearance; {TIMES}; every radius and the lens-off frame "
                        "timed together")

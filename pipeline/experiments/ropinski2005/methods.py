@@ -1,5 +1,5 @@
-"""What the paper's experiments share: the lens methods as ``gl-raycast`` options, their runs, their rows and
-ratios, the devices that timed them and what this machine cannot measure.
+"""What the paper's experiments share: the lens methods as ``gl-raycast`` options, their runs, the lens coverage,
+the devices that timed them and what this machine cannot measure.
 
 A lens run is ``gl-raycast``'s single-pass variant with option ``lens_method``; a lens-off run is the same
 variant on the scene without its lens (``lens_method`` does nothing there), so the two differ only by the
@@ -11,11 +11,11 @@ planned, its runs fail with the backend's unknown-option error and the page list
 import numpy as np
 
 import renderers
-from pipeline.experiments.kit import intervals, pages
+from pipeline.experiments.kit import pages
 from pipeline.experiments.kit.model import Run
-from pipeline.experiments.kit.pages import frames_counted, not_measurable
+from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import missing_options, unregistered
-from pipeline.experiments.kit.results import numeric, rows_matching
+from pipeline.experiments.kit.results import numeric
 
 RAYCAST = "gl-raycast"
 
@@ -103,49 +103,11 @@ def raycast_not_measurable(configs=()):
     return not_measurable(unregistered(RAYCAST) + missing_options(RAYCAST, *OPTIONS) + unknown_methods(configs))
 
 
-def config_rows(frame, config, **match):
-    """The rows of ``config`` matching ``match`` (tag columns); ValueError naming them if none."""
-    rows = rows_matching(frame, config, config=config, **match)
-    if rows.empty:
-        raise ValueError(f"no successful {config} run" + (f" for {match}" if match else ""))
-    return rows
-
-
-def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, column="time_total", **match):
-    """``time(slow) / time(fast)`` of two configs on the rows matching ``match``, judged with its interval.
-
-    Each side is the median over its views of each view's median frame; runs timed in one interleave group
-    are resampled round by round (:mod:`~pipeline.experiments.kit.intervals`), with ``resampler`` shared by
-    every ratio of one claim.
-    """
-    return intervals.ratio_decision(config_rows(frame, slow, **match), config_rows(frame, fast, **match),
-                                    column=column, at_least=at_least, at_most=at_most, resampler=resampler)
-
-
-def median_count(rows, column):
-    """The median over ``rows`` (views) of a counter (machine-independent); NaN where none counted it."""
-    return float(numeric(rows, column).median()) if column in rows else np.nan
-
-
 def lens_coverage(rows):
     """The share of the rays meeting lens ∩ box (``lens_rays / rays``), the median over ``rows``; NaN if uncounted."""
     if "count_lens_rays" not in rows or "count_rays" not in rows:
         return np.nan
     return float((numeric(rows, "count_lens_rays") / numeric(rows, "count_rays")).median())
-
-
-GL_TIMING = {"query": "passes timed on the device with GL timer queries",
-             "finish": "each pass timed by waiting for it (glFinish): a software rasterizer's timer queries do not "
-                       "cover its deferred work"}
-"""How ``gl-raycast`` times its passes (its ``timing`` option, as it took effect), in words."""
-
-
-def frames_caption(frame):
-    """How the frames of ``frame`` were timed: frames counted, uploads excluded, the GL timing method."""
-    methods = set(frame.option_effective_timing.dropna()) if "option_effective_timing" in frame else set()
-    timed = ("; ".join(GL_TIMING.get(m, f"passes timed by {m!r}") for m in sorted(methods))
-             or "timing method not recorded")
-    return f"{frames_counted(frame)} after warm-up, uploads excluded as their own stage; {timed}."
 
 
 def device_takeaways(tests):

@@ -19,16 +19,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import decision_words, every
+
+from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
-                                            linked_table)
+                                            frames_caption, linked_table)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, config_rows,
-                                                       device_takeaways, frames_caption, lens_coverage, lens_run,
-                                                       median_count, method_name, raycast_not_measurable,
-                                                       time_ratio)
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
+                                                       lens_coverage, lens_run, method_name, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views
 from reports import blocks, plots
 
@@ -154,7 +153,7 @@ def _faster(occluded, baselines):
         extra = f"{TIMES}; every method of a scene timed together, frame against frame"
         if occluded == "yes":
             extra += f"; an opaque plane hides {as_percent(OCCLUDER)} of the box's footprint"
-        return every(decisions, notes=notes, what=f"time(baseline) / time(segments) at {image}² ", extra=extra)
+        return all_of(decisions, notes=notes, what=f"time(baseline) / time(segments) at {image}² ", extra=extra)
     return check
 
 
@@ -201,7 +200,7 @@ def _earlyz_time(df):
         own, _ = occluder_saving(df, scene, "frag-depth", resampler=resampler)
         paper, _ = occluder_saving(df, scene, PAPER_METHOD, resampler=resampler)
         notes[scene] = f"with / without the occluder: frag-depth {as_ratio(own)}, segments {as_ratio(paper)}"
-    return every(decisions, notes=notes, what="frag-depth's saving / segments' saving ",
+    return all_of(decisions, notes=notes, what="frag-depth's saving / segments' saving ",
                  extra=f"{TIMES}; the four runs of a scene timed together")
 
 

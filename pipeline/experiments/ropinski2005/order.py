@@ -14,15 +14,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import every
+
+from pipeline.experiments.kit.judging import all_of, config_rows, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import DIFF_SCALE, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import DIFF_SCALE, claim_takeaways, format_number, frames_caption, linked_table
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, config_rows,
-                                                       device_takeaways, frames_caption, lens_run, median_count,
-                                                       raycast_not_measurable, time_ratio)
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways, lens_run,
+                                                       raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, SETUPS, lens_scene, lens_views
 from reports import blocks
 
@@ -99,7 +99,7 @@ def _faster(df):
         if all(np.isfinite(region0)):
             notes[scene] = (f"region₀ samples {format_number(region0[0])} back to front, {format_number(region0[1])} "
                             "front to back")
-    return every(decisions, notes=notes, what="time(back to front) / time(front to back) ",
+    return all_of(decisions, notes=notes, what="time(back to front) / time(front to back) ",
                  extra=f"{TIMES}; both orders timed together, early termination at opacity {format_number(THRESHOLD)}")
 
 

@@ -12,14 +12,14 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import every
+
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES, STEP,
-                                                       device_takeaways, frames_caption, lens_coverage, lens_run,
-                                                       raycast_not_measurable)
+                                                       device_takeaways, lens_coverage, lens_run, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views
 from reports import blocks, plots
 
@@ -55,7 +55,7 @@ def _geometry(df):
                  for s in scenes}
     notes = {s: f"{format_number(1e3 * numeric(scene_rows(df, s), 'time_lens_geometry').median())} ms of "
                 f"{format_number(1e3 * numeric(scene_rows(df, s), 'time_total').median())} ms" for s in scenes}
-    return every(decisions, show=as_percent, notes=notes, what="lens geometry / frame ",
+    return all_of(decisions, show=as_percent, notes=notes, what="lens geometry / frame ",
                  extra="median frames of each run; the share's interval is a bootstrap over the run's own frames")
 
 

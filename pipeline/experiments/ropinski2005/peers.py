@@ -18,14 +18,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import decision_words
+
+from pipeline.experiments.kit.judging import decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, format_number, frames_caption,
+                                            linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       frames_caption, lens_run)
+                                                       lens_run)
 from pipeline.experiments.ropinski2005.scenes import lens_scene, lens_views, setup_of, without_lens
 from reports import blocks, plots
 

@@ -12,14 +12,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import decision_words, every
+
+from pipeline.experiments.kit.judging import all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, format_number, frames_caption,
+                                            linked_table)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       frames_caption, lens_coverage, lens_run, median_count,
-                                                       method_name, raycast_not_measurable)
+                                                       lens_coverage, lens_run, method_name, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, without_lens
 from pipeline.experiments.ropinski2005.tables import (PAPER_DEVICE, PAPER_SIZES, TABLE1, derived_table, paper_drop,
                                                       paper_fps, paper_time_ratio)
@@ -89,7 +90,7 @@ def _overhead_claim(df, which):
         notes[scene] = ", ".join(filter(None, [
             f"fps drop {as_percent(drop(decisions[scene].value))}, paper {as_ratio(bound)} "
             f"= {as_percent(paper_drop(row, paper_image))} ({row}, {paper_image}²)", coverage_note(df, scene, image)]))
-    return every(decisions, notes=notes, what=f"time with / without the lens at {image}² ",
+    return all_of(decisions, notes=notes, what=f"time with / without the lens at {image}² ",
                  extra=f"{TIMES}; lens and no lens timed together, frame against frame")
 
 

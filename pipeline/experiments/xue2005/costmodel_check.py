@@ -14,13 +14,14 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table, not_measurable
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, listed, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.earlyz import all_of, can_plan, isbvr_run, judged, per_fragment, select, with_interval
+from pipeline.experiments.xue2005.earlyz import can_plan, isbvr_run, per_fragment, select
 from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, mode_name
 from pipeline.experiments.xue2005.tables import IMPLIED_CULLING, IMPLIED_GAMMAS, TABLE1, paper_speedup
 from reports import blocks, plots
@@ -36,9 +37,6 @@ EXTRA_TAPS = (0, 4, 16)
 
 BAND = 0.2
 """The issue's target: predicted δ within 20 % of the measured δ, |predicted / measured − 1| ≤ 0.2."""
-
-STRICTLY_ABOVE_ONE = float(np.nextafter(1.0, 2.0))
-"""The bound of a strict rise: the intervals' bounds are inclusive, and an equal speed-up rises nowhere."""
 
 PASSES = "the depth-init passes and the volume pass (time_init + time_draw), summed over the views"
 """The scope of the measured speed-up: the passes Eq. 9 covers."""
@@ -158,22 +156,21 @@ def _model_words(m):
 def _eq9_within(df):
     resampler = intervals.Resampler()
     models = [scene_model(df, s, 0, resampler) for s in _scenes(df)]
-    decisions = {m["scene"]: judged(m["predicted"], m["measured"], at_least=1 - BAND, at_most=1 + BAND)
+    decisions = {m["scene"]: ratio_of_draws(m["predicted"], m["measured"], at_least=1 - BAND, at_most=1 + BAND)
                  for m in models}
-    return all_of(decisions, what=lambda d: with_interval(f"predicted / measured {as_ratio(d.value)}", d, as_ratio),
-                  detail="; ".join(_model_words(m) for m in models) + f"; measured over {PASSES}, interleaved")
+    return all_of(decisions, what="predicted / measured ",
+                  extra="; ".join(_model_words(m) for m in models) + f"; measured over {PASSES}, interleaved")
 
 
 def _speedup_rises(df):
     resampler = intervals.Resampler()
     scene_name, taps = _sweep(df)
     models = {k: scene_model(df, scene_name, k, resampler) for k in taps}
-    decisions = {f"{a} → {b} taps": judged(models[b]["measured"], models[a]["measured"], at_least=STRICTLY_ABOVE_ONE)
+    decisions = {f"{a} → {b} taps": ratio_of_draws(models[b]["measured"], models[a]["measured"], at_least=STRICTLY_ABOVE_ONE)
                  for a, b in zip(taps, taps[1:])}
     detail = ", ".join(f"{k} taps: ×{format_number(m['measured'][0])} (γ {format_number(m['gamma'])}, Eq. 9 "
                        f"×{format_number(m['predicted'][0])})" for k, m in models.items())
-    return all_of(decisions, what=lambda d: with_interval(f"speed-up {as_ratio(d.value)}", d, as_ratio),
-                  detail=f"{scene_name}, ESS+ERT over Basic: {detail}; over {PASSES}, interleaved")
+    return all_of(decisions, what="speed-up ", extra=f"{scene_name}, ESS+ERT over Basic: {detail}; over {PASSES}, interleaved")
 
 
 CLAIMS = (

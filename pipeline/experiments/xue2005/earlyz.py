@@ -19,7 +19,8 @@ from pipeline.experiments.kit.pages import claim_takeaways, format_number, linke
 from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, timed_frames, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, with_interval
+from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP
 from pipeline.experiments.xue2005.tables import EARLYZ_STATEMENTS
 from reports import blocks, plots
 
@@ -47,10 +48,6 @@ CONFIGS = {
 
 SCOPE = "the volume pass's draw time over the slices' fragments F, summed over the views"
 """What a time per fragment is, in words."""
-
-STRICTLY_BELOW_ONE = float(np.nextafter(1.0, 0.0))
-"""The bound of a strict fall: the intervals' bounds are inclusive, and an equal value falls nowhere."""
-
 
 # ------------------------------------------------------------------------------------- shared measurement
 def isbvr_run(experiment, run_id, scene_spec, views, options, frames, tags, *, group, reference=None):
@@ -82,25 +79,9 @@ def per_fragment(rows, resampler):
     return value, None if draws is None else draws.sum(axis=1) / total
 
 
-def judged(top, bottom, **bounds):
-    """A :class:`~pipeline.experiments.kit.intervals.Decision` on ``top / bottom``, each a ``(value, draws)`` pair."""
-    interval = (intervals.interval_of(top[1] / bottom[1]) if top[1] is not None and bottom[1] is not None
-                else None)
-    return intervals.decide(top[0] / bottom[0], interval, **bounds)
-
-
 def ns(seconds):
     """Seconds per fragment in words: ``"1.23 ns"``."""
     return f"{format_number(seconds * 1e9)} ns"
-
-
-
-def all_of(decisions, *, what, detail):
-    """Labelled decisions that must all hold, as one :class:`ClaimResult` naming the deciding (worst) label."""
-    combined = intervals.combine(decisions.values())
-    worst = next(label for label, d in decisions.items()
-                 if (d.value, d.interval, d.holds) == (combined.value, combined.interval, combined.holds))
-    return ClaimResult.decided(f"{what(combined)} ({worst})", combined, detail)
 
 
 # ----------------------------------------------------------------------------------------------- claims
@@ -130,7 +111,7 @@ def _culled_at_most_simple(df):
     resampler = intervals.Resampler()
     culled = per_fragment(_config_rows(df, "culled"), resampler)
     simple = per_fragment(_config_rows(df, "simple"), resampler)
-    decision = judged(culled, simple, at_most=1.0)
+    decision = ratio_of_draws(culled, simple, at_most=1.0)
     return ClaimResult.decided(with_interval(f"T_z / T_s {format_number(decision.value)}", decision, format_number),
                                decision, f"T_z {ns(culled[0])}, T_s {ns(simple[0])} per fragment ({SCOPE}; "
                                          "interleaved)")
@@ -143,12 +124,10 @@ def _gamma_falls(df):
     complex_ = {k: per_fragment(_config_rows(df, "volume", k), resampler) for k in taps}
     gammas = {k: (simple[0] / t[0], None if simple[1] is None or t[1] is None else simple[1] / t[1])
               for k, t in complex_.items()}
-    decisions = {f"{a} → {b} taps": judged(gammas[b], gammas[a], at_most=STRICTLY_BELOW_ONE)
+    decisions = {f"{a} → {b} taps": ratio_of_draws(gammas[b], gammas[a], at_most=STRICTLY_BELOW_ONE)
                  for a, b in zip(taps, taps[1:])}
-    return all_of(decisions, what=lambda d: with_interval(f"γ ×{format_number(d.value)}", d,
-                                                         lambda v: f"×{format_number(v)}"),
-                  detail=", ".join(f"{k} taps: γ {format_number(gammas[k][0])}, T_c {ns(complex_[k][0])}"
-                                   for k in taps) + f"; T_s {ns(simple[0])} ({SCOPE}; interleaved)")
+    return all_of(decisions, what="γ ", extra=", ".join(f"{k} taps: γ {format_number(gammas[k][0])}, T_c {ns(complex_[k][0])}"
+                                                        for k in taps) + f"; T_s {ns(simple[0])} ({SCOPE}; interleaved)")
 
 
 def _culls_everything(df):
@@ -192,7 +171,7 @@ def _quantities(ok):
         rows = _config_rows(ok, config, taps)
         value = per_fragment(rows, resampler)
         low, high = intervals.interval_of(value[1]) or (np.nan, np.nan)
-        gamma = judged(simple, value) if symbol == "T_c" else None
+        gamma = ratio_of_draws(simple, value) if symbol == "T_c" else None
         gamma_low, gamma_high = (gamma and gamma.interval) or (np.nan, np.nan)
         out.append({"quantity": symbol, "configuration": CONFIGS[config][1], "extra taps": taps or 0,
                     "ns per fragment": 1e9 * value[0], "CI low (ns)": 1e9 * low, "CI high (ns)": 1e9 * high,

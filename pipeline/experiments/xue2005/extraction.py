@@ -9,11 +9,12 @@ warm, after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`
 
 import pandas as pd
 
+from pipeline.experiments.kit.judging import median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
-from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, median_count
+from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable
 from pipeline.experiments.xue2005.surfaces import orbit_views, scenes_of
 from pipeline.experiments.xue2005.tables import EXTRACTION_MS, PAPER_SIZE, REAL_SCANS, TABLE1
 from reports import blocks, plots

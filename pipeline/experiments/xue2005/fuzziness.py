@@ -11,14 +11,14 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
-from pipeline.experiments.xue2005.methods import (culled_fraction, every, isbvr_not_measurable, median_count, mode_name,
-                                                  mode_runs)
-from pipeline.experiments.xue2005.sweeps import config_rows, interval_or_nan, ratio_of, speedup
+from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs
+from pipeline.experiments.xue2005.sweeps import interval_or_nan, ratio_of, speedup
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
 from reports import blocks, plots
 
@@ -37,7 +37,6 @@ CONFIGS = ("basic", "ess", "ert", "ess+ert")
 GAINS = ("ess", "ert", "ess+ert")
 """The modes whose speed-up over Basic the page follows."""
 
-STRICTLY_ABOVE_ONE = float(np.nextafter(1.0, 2.0))
 """The bound of "falls": the earlier speed-up over the later one strictly above 1 (interval bounds are inclusive)."""
 
 SCOPE = "whole frames (time_total), median over the views"
@@ -59,7 +58,7 @@ def _groups(df):
 
 
 def _alpha(rows, config="ess+ert"):
-    return culled_fraction(config_rows(rows, config, f"haze {rows.haze.iloc[0]:g}"))
+    return culled_fraction(config_rows(rows, config, what=f"haze {rows.haze.iloc[0]:g}"))
 
 
 def _speedup_falls(df):
@@ -70,7 +69,7 @@ def _speedup_falls(df):
     decisions = {f"haze {a:g} / {b:g}": ratio_of(sa, sb, at_least=STRICTLY_ABOVE_ONE)
                  for (a, sa), (b, sb) in zip(speeds, speeds[1:])}
     trend = ", ".join(f"{h:g}: {as_ratio(s[0])}" for h, s in speeds)
-    return every(decisions, what="speed-up over the next haze's ",
+    return all_of(decisions, what="speed-up over the next haze's ",
                  extra=f"ESS+ERT / Basic by haze {trend} ({SCOPE}; each haze's modes interleaved)")
 
 
@@ -96,7 +95,7 @@ def _gains_fall(df):
         decisions[short_name(config)] = ratio_of(*ends, at_least=STRICTLY_ABOVE_ONE)
         notes.append(f"{config.upper()} {as_ratio(ends[0][0])} → {as_ratio(ends[1][0])}, α' "
                      f"{as_percent(_alpha(first, config))} → {as_percent(_alpha(last, config))}")
-    return every(decisions, what=f"speed-up at haze {low:g} over haze {high:g} ",
+    return all_of(decisions, what=f"speed-up at haze {low:g} over haze {high:g} ",
                  extra="; ".join(notes) + f" ({SCOPE})")
 
 

@@ -1,10 +1,9 @@
 """What the paper's experiments share: the depth-init modes as ``gl-isbvr`` options, their runs, the culled
-fraction from their counts, decisions in words and the page note for what this machine cannot measure."""
+fraction from their counts and the page note for what this machine cannot measure."""
 
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit.checks import decision_words, every, with_interval  # noqa: F401 - the kit's, re-exported
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, unregistered
@@ -53,11 +52,6 @@ def mode_runs(experiment, prefix, scene_spec, views, configs, frames, tags, *, o
 def isbvr_not_measurable():
     """The page's note of what this machine lacks for the paper (the backend or its options)."""
     return not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS))
-
-
-def median_count(rows, column):
-    """The median of a counter over ``rows`` (the views; counts do not depend on the machine)."""
-    return float(numeric(rows, column).median())
 
 
 def culled_fraction(rows):

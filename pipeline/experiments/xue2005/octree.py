@@ -11,14 +11,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
-from pipeline.experiments.xue2005.methods import ISBVR, every, isbvr_not_measurable, median_count, mode_runs
-from pipeline.experiments.xue2005.surfaces import (ABOVE_ONE, LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence,
-                                                   image_errors, lossless_result, orbit_views)
+from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs
+from pipeline.experiments.xue2005.surfaces import (LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence, image_errors,
+                                                   lossless_result, orbit_views)
 from pipeline.experiments.xue2005.tables import PAPER_PHI_P_NODE, PHI_P_NODES, STATEMENTS, TABLE1
 from reports import blocks, plots
 
@@ -90,11 +91,11 @@ def _paper_node_fastest(df):
     if PAPER_PHI_P_NODE not in found or len(found) < 2:
         raise ValueError(f"need ERT at {PAPER_PHI_P_NODE}³ and another node size")
     resampler = intervals.Resampler()
-    decisions = {f"{n}³": intervals.ratio_decision(rows, found[PAPER_PHI_P_NODE], at_least=ABOVE_ONE,
+    decisions = {f"{n}³": intervals.ratio_decision(rows, found[PAPER_PHI_P_NODE], at_least=STRICTLY_ABOVE_ONE,
                                                    resampler=resampler)
                  for n, rows in found.items() if n != PAPER_PHI_P_NODE}
     fastest = min(found, key=lambda n: float(numeric(found[n], "time_total").median()))
-    return every(decisions, show=as_ratio, what=f"fastest here {fastest}³; time / time at {PAPER_PHI_P_NODE}³ ",
+    return all_of(decisions, show=as_ratio, what=f"fastest here {fastest}³; time / time at {PAPER_PHI_P_NODE}³ ",
                  extra="Whole frames, median over the views, timed together")
 
 

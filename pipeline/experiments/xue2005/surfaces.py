@@ -14,13 +14,13 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, text_column
-from pipeline.experiments.xue2005.methods import (ISBVR, decision_words, every, isbvr_not_measurable, median_count,
-                                                  mode_runs)
+from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs
 from pipeline.experiments.xue2005.tables import FULL_RES_TRIANGLES, PAPER_SIZE, STATEMENTS, TABLE1
 from reports import blocks, plots
 from reports.metrics import fraction_over, max_error, psnr
@@ -40,7 +40,6 @@ FAR_ABOVE = 10.0
 INIT_SHARE = 0.1
 """Cube sets keep T_a ≪ T_m: the init passes at most a tenth of the volume pass."""
 
-ABOVE_ONE = float(np.nextafter(1.0, 2.0))
 """The bound of "strictly slower": the intervals' bounds are inclusive, and equal times erode nothing."""
 
 VARIANTS = {
@@ -192,7 +191,7 @@ def _cube_init_small(df):
     decisions = {s: intervals.ratio_decision(_variant(df, "reduced", scene=s), _variant(df, "reduced", scene=s),
                                              column="time_init", bottom_column="time_draw", at_most=INIT_SHARE,
                                              resampler=resampler) for s in scenes_of(df)}
-    return every(decisions, show=format_number, what="T_a / T_m ",
+    return all_of(decisions, show=format_number, what="T_a / T_m ",
                  extra="Median over the views of each view's median frame; init passes and volume pass of the "
                        "same frames")
 
@@ -207,7 +206,7 @@ def _full_erodes(df):
     decisions, notes = {}, {}
     for s in scenes_of(df):
         full, reduced = _variant(df, "full", scene=s), _variant(df, "reduced", scene=s)
-        decisions[s] = intervals.ratio_decision(full, reduced, column="time_technique", at_least=ABOVE_ONE,
+        decisions[s] = intervals.ratio_decision(full, reduced, column="time_technique", at_least=STRICTLY_ABOVE_ONE,
                                                 resampler=resampler)
         speedups = {v: _speedup(df, v, s, resampler) for v in ("reduced", "full")}
         share = intervals.ratio_decision(full, full, column="time_init", bottom_column="time_draw", resampler=resampler)
@@ -216,7 +215,7 @@ def _full_erodes(df):
                     f"{decision_words(speedups['full'], as_ratio)} with full-resolution surfaces, whose T_a / T_m is "
                     f"{format_number(share.value)} and whose shaded fragments F'_c are {as_ratio(shaded)} the cube "
                     "sets'")
-    return every(decisions, show=as_ratio, notes=notes, what="time full / cube sets ",
+    return all_of(decisions, show=as_ratio, notes=notes, what="time full / cube sets ",
                  extra=f"Times: {TECHNIQUE}, median over the views, timed together")
 
 

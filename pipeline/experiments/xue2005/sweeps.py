@@ -19,11 +19,12 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of, config_rows, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
-from pipeline.experiments.xue2005.methods import culled_fraction, every, isbvr_not_measurable, median_count, mode_runs
+from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1, paper_speedup
 from reports import blocks, plots
 
@@ -110,14 +111,6 @@ def sweep_pairs(scene_name, iso_t, iso_p):
 
 
 # ------------------------------------------------------------------------------------- speed-ups
-def config_rows(frame, config, what=""):
-    """The rows of ``config`` in ``frame``; ValueError naming them if none."""
-    rows = rows_matching(frame, config, config=config)
-    if rows.empty:
-        raise ValueError(f"no successful {config} run" + (f" of {what}" if what else ""))
-    return rows
-
-
 def speedup(group, slow="basic", fast="ess+ert", *, resampler, column="time_total"):
     """``(value, draws)``: time(``slow``) / time(``fast``) over one interleave group's rows, each the median over
     the views, with its bootstrap draws (``None`` where no frames were kept)."""
@@ -180,7 +173,7 @@ def _iso_dependence(df):
                 f"(α' {as_percent(culled_fraction(config_rows(groups[name], 'ess+ert')))})"
                 for end, name in (("best", best), ("worst", worst))]
         notes.append(f"{scene_name}: {', '.join(ends)} of {len(speeds)} pairs")
-    return every(decisions, what="best / worst pair's speed-up ", extra="; ".join(notes) + f" ({SCOPE})")
+    return all_of(decisions, what="best / worst pair's speed-up ", extra="; ".join(notes) + f" ({SCOPE})")
 
 
 def _nothing_to_cull(df):
@@ -197,16 +190,16 @@ def _nothing_to_cull(df):
 def _no_overhead(df):
     resampler = intervals.Resampler()
     low, high = NO_OVERHEAD
-    decisions = {label: intervals.ratio_decision(config_rows(rows, "ess+ert", label), config_rows(rows, "basic", label),
+    decisions = {label: intervals.ratio_decision(config_rows(rows, "ess+ert", what=label), config_rows(rows, "basic", what=label),
                                                  at_least=low, at_most=high, resampler=resampler)
                  for label, rows in _nothing_to_cull(df).items()}
-    return every(decisions, what="ESS+ERT / Basic time ", extra=SCOPE)
+    return all_of(decisions, what="ESS+ERT / Basic time ", extra=SCOPE)
 
 
 def _nothing_culled(df):
     counts = {}
     for label, rows in _nothing_to_cull(df).items():
-        tested = config_rows(rows, "ess+ert", label)
+        tested = config_rows(rows, "ess+ert", what=label)
         generated, shaded = median_count(tested, "count_fragments_generated"), median_count(tested, "count_fragments")
         counts[label] = (generated, shaded, median_count(tested, "count_init_fragments"))
     worst = max(counts, key=lambda label: counts[label][0] - counts[label][1])
@@ -226,14 +219,14 @@ def _ert_free(df):
         raise ValueError("no successful run of the never-opaque control")
     decisions, broken = {}, []
     for scene_name, rows in groups.items():
-        both, ess = config_rows(rows, "ess+ert", scene_name), config_rows(rows, "ess", scene_name)
+        both, ess = config_rows(rows, "ess+ert", what=scene_name), config_rows(rows, "ess", what=scene_name)
         decisions[scene_name] = intervals.ratio_decision(both, ess, at_least=low, at_most=high, resampler=resampler)
         cubes, fragments = median_count(both, "count_cubes_p"), median_count(both, "count_surface_fragments_p")
         extra_culled = median_count(ess, "count_fragments") - median_count(both, "count_fragments")
         if cubes or fragments or extra_culled:
             broken.append(f"{scene_name}: {cubes:g} Φ_p cubes, F_p {fragments:g}, {extra_culled:g} more fragments "
                           f"culled than ESS")
-    result = every(decisions, what="ESS+ERT / ESS time ", extra=SCOPE + "; " + (
+    result = all_of(decisions, what="ESS+ERT / ESS time ", extra=SCOPE + "; " + (
         "; ".join(broken) if broken else "no Φ_p cube, no Φ_p fragment, the same F'_c as ESS on every scene"))
     if broken:  # a Φ_p where the TF has no opaque value fails whatever the frames say
         return ClaimResult(result.measured, False, result.detail, result.interval, result.margin)

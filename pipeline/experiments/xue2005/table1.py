@@ -15,15 +15,16 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals, pages
+from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, headline_view, listed, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, rows_matching,
+from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, 
                                               speed_points, text_column)
 from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, RAYCAST, SLICER, STEP, VTK, culled_fraction,
-                                                  decision_words, every, isbvr_not_measurable, mode_name, mode_runs)
+                                                  isbvr_not_measurable, mode_name, mode_runs)
 from pipeline.experiments.xue2005.tables import MODES_IN_TABLE, PAPER_DEVICE, REAL_SCANS, TABLE1, paper_speedup
 from reports import blocks, plots
 from reports.metrics import fraction_over, psnr
@@ -55,27 +56,9 @@ TIMES = "whole frames (time_total), median over the views"
 
 
 # ------------------------------------------------------------------------------------------- rows and ratios
-def mode_rows(frame, config, **match):
-    """The rows of ``config`` (a mode, or ``"slicer"``) matching ``match``; ValueError naming them if none."""
-    rows = rows_matching(frame, config, config=config, **match)
-    if rows.empty:
-        raise ValueError(f"no successful {config} run" + (f" for {match}" if match else ""))
-    return rows
-
-
 def scenes_of(frame, config):
     """The scenes ``config`` rendered successfully, in the order of the rows."""
-    return list(pd.unique(text_column(mode_rows(frame, config), "scene")))
-
-
-def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, column="time_total", **match):
-    """``time(slow) / time(fast)``, each the median over the matching views, judged with its bootstrap interval.
-
-    Runs of one interleave group are resampled round by round (paired); ``resampler`` is shared by every
-    ratio of one claim.
-    """
-    return intervals.ratio_decision(mode_rows(frame, slow, **match), mode_rows(frame, fast, **match),
-                                    column=column, at_least=at_least, at_most=at_most, resampler=resampler)
+    return list(pd.unique(text_column(config_rows(frame, config), "scene")))
 
 
 
@@ -88,14 +71,14 @@ def ideal_speedup(alpha):
 
 def culling_note(frame, config, **match):
     """``"α' 0.62 (ideal ×2.6)"``: the culled fraction of ``config`` and what it allows at no cost."""
-    alpha = culled_fraction(mode_rows(frame, config, **match))
+    alpha = culled_fraction(config_rows(frame, config, **match))
     return f"α' {format_number(alpha)} (ideal {as_ratio(ideal_speedup(alpha))})"
 
 
 def image_pairs(frame, first, second, *, first_match=None, second_match=None):
     """``[(scene, view, row_first, row_second)]`` for every scene and view both configs rendered to an EXR."""
-    a = mode_rows(frame, first, **(first_match or {}))
-    b = mode_rows(frame, second, **(second_match or {}))
+    a = config_rows(frame, first, **(first_match or {}))
+    b = config_rows(frame, second, **(second_match or {}))
     pairs = []
     for row in a.itertuples():
         match = b[(text_column(b, "scene") == str(row.scene)) & (text_column(b, "view") == str(row.view))]
@@ -130,7 +113,7 @@ def _gain(df, fast, bounds, what=""):
         decisions[scene_name] = time_ratio(df, "basic", fast, resampler=resampler, at_least=low, at_most=high,
                                            scene=scene_name)
         notes[scene_name] = culling_note(df, fast, scene=scene_name)
-    return every(decisions, notes=notes, what=what,
+    return all_of(decisions, notes=notes, what=what,
                  extra=f"{TIMES}; α': the share of slice fragments the depth test culled (occlusion queries, "
                        "machine-independent) and the speed-up that share would give were culled fragments free")
 
@@ -150,7 +133,7 @@ def _ess(df):
 def _basic_by_grid(df, config="basic"):
     """``{grid: rows}``: the rows of ``config`` (Basic, or Basic timed across the scenes in one job) of each
     volume size that two or more scenes share."""
-    rows = mode_rows(df, config)
+    rows = config_rows(df, config)
     grids = {grid: part for grid, part in rows.groupby(text_column(rows, "grid"), sort=False)
              if part.scene.nunique() >= 2}
     if not grids:
@@ -189,7 +172,7 @@ def _basic_time(df):
                     else intervals.interval_of(np.max(draws, axis=0) / np.min(draws, axis=0)))
         decisions[grid] = intervals.decide(medians.max() / medians.min(), interval, at_most=BASIC_TOLERANCE)
         notes[grid] = " ".join(f"{s} {format_number(m * 1e3)} ms" for s, m in zip(scenes, medians))
-    return every(decisions, notes=notes, what="slowest / fastest Basic ",
+    return all_of(decisions, notes=notes, what="slowest / fastest Basic ",
                  extra=f"{TIMES} (headline view); the scenes' Basic runs timed together in one job, frame against "
                        "frame, so the interval is paired")
 
@@ -220,7 +203,7 @@ def _culling(df):
     found = {}
     for scene_name in scenes_of(df, "ess+ert"):
         needed = 1.0 - 1.0 / paper_speedup(scene_name, "ess+ert")
-        found[scene_name] = (culled_fraction(mode_rows(df, "ess+ert", scene=scene_name)), needed)
+        found[scene_name] = (culled_fraction(config_rows(df, "ess+ert", scene=scene_name)), needed)
     worst = min(found, key=lambda s: found[s][0] - found[s][1])
     alpha, needed = found[worst]
     return ClaimResult(f"α' {format_number(alpha)} against {format_number(needed)} needed ({worst})",
@@ -269,7 +252,7 @@ def _culling_takeaways(tests):
     """What share of the gain its culled fragments allow ESS+ERT realised here (free culling: 1/(1 − α'))."""
     try:
         shares = {s: time_ratio(tests, "basic", "ess+ert", resampler=intervals.Resampler(), scene=s).value
-                  / ideal_speedup(culled_fraction(mode_rows(tests, "ess+ert", scene=s)))
+                  / ideal_speedup(culled_fraction(config_rows(tests, "ess+ert", scene=s)))
                   for s in scenes_of(tests, "ess+ert")}
     except (KeyError, ValueError):
         return []
@@ -296,7 +279,7 @@ def _raycast_takeaways(ok):
     resampler = intervals.Resampler()
     try:
         decisions = {s: time_ratio(ok, "rc-b", "ess+ert", resampler=resampler, scene=s) for s in scenes_of(ok, "rc-b")}
-        accuracy = numeric(mode_rows(ok, "rc-b"), "psnr")
+        accuracy = numeric(config_rows(ok, "rc-b"), "psnr")
     except (KeyError, ValueError):
         return []
     words = ", ".join(f"{s} {decision_words(d)}" for s, d in decisions.items())
@@ -311,7 +294,7 @@ def _vtk_takeaways(ok):
     resampler = intervals.Resampler()
     try:
         decisions = {s: time_ratio(ok, "vtk", "vtk-depth", resampler=resampler, scene=s) for s in scenes_of(ok, "vtk")}
-        plain, passed = (numeric(mode_rows(ok, config), "psnr") for config in ("vtk", "vtk-depth"))
+        plain, passed = (numeric(config_rows(ok, config), "psnr") for config in ("vtk", "vtk-depth"))
     except (KeyError, ValueError):
         return []
     words = ", ".join(f"{s} {decision_words(d)}" for s, d in decisions.items())

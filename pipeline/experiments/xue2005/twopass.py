@@ -22,17 +22,17 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number,
                                             linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, timed_frames, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, text_column
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.costmodel_check import BAND, STRICTLY_ABOVE_ONE, with_passes
-from pipeline.experiments.xue2005.earlyz import (DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, isbvr_run, judged, ns,
-                                                per_fragment)
-from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, every, median_count
-from pipeline.experiments.xue2005.sweeps import config_rows, groups_of, interval_or_nan
+from pipeline.experiments.xue2005.costmodel_check import BAND, with_passes
+from pipeline.experiments.xue2005.earlyz import DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, isbvr_run, ns, per_fragment
+from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS
+from pipeline.experiments.xue2005.sweeps import groups_of, interval_or_nan
 from pipeline.experiments.xue2005.tables import TWOPASS_STATEMENTS
 from reports import blocks, plots
 
@@ -219,7 +219,7 @@ def _break_even(df):
     notes = {_label(m): f"{_counts(m)}; Eq. 6 predicts a {m['side']}: break-even α {format_number(m['break_even'])} "
                         f"at γ {format_number(m['gamma'][0])}" for side in sides.values() for m in side}
     skipped = [_label(m) for m in models if m["side"] is None]
-    return every(decisions, notes=notes, what="Basic / slice-ert ",
+    return all_of(decisions, notes=notes, what="Basic / slice-ert ",
                  extra=(f"within ±{MARGIN:g} of the break-even, not judged: {', '.join(skipped)}; " if skipped else "")
                  + f"over {SCOPE}, interleaved")
 
@@ -230,16 +230,16 @@ def _below_ceiling(df):
                                              at_most=1.0) for m in models}
     notes = {_label(m): f"δ ×{format_number(m['measured'][0])}, 1/(2γ) ×{format_number(0.5 / m['gamma'][0])}"
              for m in models}
-    return every(decisions, notes=notes, what="measured δ / 1/(2γ) ", extra=f"δ over {SCOPE}, interleaved")
+    return all_of(decisions, notes=notes, what="measured δ / 1/(2γ) ", extra=f"δ over {SCOPE}, interleaved")
 
 
 def _eq5_within(df):
     models = point_models(df)
-    decisions = {_label(m): judged(m["predicted"], m["measured"], at_least=1 - BAND, at_most=1 + BAND)
+    decisions = {_label(m): ratio_of_draws(m["predicted"], m["measured"], at_least=1 - BAND, at_most=1 + BAND)
                  for m in models}
     notes = {_label(m): f"Eq. 5 ×{format_number(m['predicted'][0])}, measured ×{format_number(m['measured'][0])}; "
                         f"{_counts(m)}, γ {format_number(m['gamma'][0])}" for m in models}
-    return every(decisions, notes=notes, what="predicted / measured ",
+    return all_of(decisions, notes=notes, what="predicted / measured ",
                  extra=f"measured over {SCOPE}; Eq. 5 from slice-ert's counts and T_s, T_c timed with it")
 
 

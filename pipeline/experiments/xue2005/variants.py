@@ -12,16 +12,17 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number, linked_table,
                                             not_measurable)
 from pipeline.experiments.kit.planning import (accepts, dataset_view, headline_view, listed, phantom, scene,
                                                timed_frames)
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
-from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, every, isbvr_not_measurable,
-                                                  mode_name, mode_runs)
+from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, isbvr_not_measurable, mode_name,
+                                                  mode_runs)
 from pipeline.experiments.xue2005.table1 import (LOSSLESS_PSNR, TIMES, culling_note, device_takeaways, image_pairs,
-                                                 mode_rows, pair_psnr, scenes_of, time_ratio, view_count)
+                                                 pair_psnr, scenes_of, view_count)
 from pipeline.experiments.xue2005.tables import LEAPING_STATEMENTS, STATEMENTS, TABLE1
 from reports import blocks, plots
 
@@ -37,14 +38,10 @@ LEAPING_CONFIGS = ("ess", "front")
 ORDER_TOLERANCE = 1.10
 """"The same speed-up" in both orders: their ratio within ×1/1.1–×1.1."""
 
-STRICTLY_ABOVE_ONE = float(np.nextafter(1.0, 2.0))
-"""The bound of a strictly larger ratio: intervals' bounds are inclusive, and equal times beat nothing."""
-
-
 # ------------------------------------------------------------------------------------------------- claims
 def _order_decision(df, scene_name, resampler):
     """``(Basic/ESS+ERT front to back) / (Basic/ESS+ERT back to front)`` on one scene, with its paired interval."""
-    rows = [mode_rows(df, config, scene=scene_name, order=order)
+    rows = [config_rows(df, config, scene=scene_name, order=order)
             for order in (FRONT, BACK) for config in ORDER_CONFIGS]
     points = [float(numeric(r, "time_total").median()) for r in rows]
     value = (points[0] / points[1]) / (points[2] / points[3])
@@ -60,7 +57,7 @@ def _order_speedup(df):
     decisions, notes = {}, {}
     for scene_name in scenes_of(df, "ess+ert"):
         decisions[scene_name], notes[scene_name] = _order_decision(df, scene_name, resampler)
-    return every(decisions, notes=notes, what="front-to-back / back-to-front speed-up ",
+    return all_of(decisions, notes=notes, what="front-to-back / back-to-front speed-up ",
                  extra=f"speed-up: time(Basic) / time(ESS+ERT) in one order, {TIMES}; the four runs of a scene "
                        "timed interleaved")
 
@@ -77,7 +74,7 @@ def _order_image(df):
 
 
 def _front_culls(df):
-    found = {s: (culled_fraction(mode_rows(df, "front", scene=s)), culled_fraction(mode_rows(df, "ess", scene=s)))
+    found = {s: (culled_fraction(config_rows(df, "front", scene=s)), culled_fraction(config_rows(df, "ess", scene=s)))
              for s in scenes_of(df, "front")}
     worst = min(found, key=lambda s: found[s][0] - found[s][1])
     return ClaimResult(f"α' front-based {format_number(found[worst][0])}, exit-based {format_number(found[worst][1])} "
@@ -93,7 +90,7 @@ def _leaping_gain(df, slow, fast, what):
                  for s in scenes_of(df, fast)}
     notes = {s: f"{slow} {culling_note(df, slow, scene=s)}, {fast} {culling_note(df, fast, scene=s)}"
              for s in decisions}
-    return every(decisions, notes=notes, what=what, extra=f"{TIMES}; slices back to front")
+    return all_of(decisions, notes=notes, what=what, extra=f"{TIMES}; slices back to front")
 
 
 CLAIMS = (
