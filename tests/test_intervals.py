@@ -5,7 +5,8 @@ import pandas as pd
 import pytest
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.intervals import combine, decide, format_frames, frames_column, parse_frames, ratio_decision
+from pipeline.experiments.kit.intervals import (combine, decide, format_frames, frame_count, frames_column, parse_frames,
+                                                ratio_decision)
 
 
 @pytest.mark.parametrize("column, frames", [
@@ -146,11 +147,12 @@ def test_the_same_frames_give_the_same_interval():
     assert _width(rows)[1] == _width(rows.copy())[1]
 
 
-def test_rows_without_frames_are_judged_on_their_point_value():
+def test_a_timing_without_frames_is_inconclusive_not_judged_on_its_point_value():
     rows = _rows(("slow", "", 0.002 * QUIET), ("fast", "", 0.001 * QUIET))
     for lacking in (rows.drop(columns="frames_total"), rows.assign(frames_total=["", rows.frames_total[1]])):
         decision = ratio_decision(lacking[lacking.run == "slow"], lacking[lacking.run == "fast"], at_least=1.5)
-        assert decision.interval is None and decision.holds is True
+        assert decision.value == pytest.approx(2.0) and decision.interval is None and decision.inconclusive
+        assert decision.why.startswith("no timed frames behind numerator")
     # A count has no frames at all: its ratio is a point.
     counts = pd.DataFrame({"run": ["a", "b"], "count_samples": [300, 100]})
     decision = ratio_decision(counts[counts.run == "a"], counts[counts.run == "b"], column="count_samples", at_most=2)
@@ -162,3 +164,23 @@ def test_two_stages_of_the_same_rows_give_a_share():
     decision = ratio_decision(rows, rows, column="time_composite", bottom_column="time_total", at_most=0.3)
     assert decision.value == pytest.approx(0.25, rel=0.03) and decision.holds is True
     assert decision.interval[1] < 0.3
+
+
+def test_a_timing_arm_with_fewer_than_five_frames_is_inconclusive():
+    three = _rows(("slow", "", [0.002] * 3), ("fast", "", [0.001] * 3))
+    decision = ratio_decision(three[three.run == "slow"], three[three.run == "fast"], at_least=1.5)
+    assert decision.interval == pytest.approx((2.0, 2.0)) and decision.inconclusive  # a zero-width interval decides nothing
+    assert decision.why == "numerator: 3 timed frames; denominator: 3 timed frames, fewer than 5"
+    five = _rows(("slow", "", [0.002] * 5), ("fast", "", [0.001] * 5))
+    assert ratio_decision(five[five.run == "slow"], five[five.run == "fast"], at_least=1.5).holds is True
+    # Frames of several views add up: two views of three frames are six.
+    views = pd.concat([_rows(("slow", "", [0.002] * 3)).assign(view=v) for v in ("a", "b")]
+                      + [_rows(("fast", "", [0.001] * 3)).assign(view=v) for v in ("a", "b")], ignore_index=True)
+    assert ratio_decision(views[views.run == "slow"], views[views.run == "fast"], at_least=1.5).holds is True
+    assert frame_count(views[views.run == "slow"], "time_total") == 6 and frame_count(views, "count_x") == 0
+
+
+def test_a_missing_value_is_not_a_verdict():
+    for value in (np.nan, float("nan")):
+        with pytest.raises(ValueError, match="missing"):
+            decide(value, None, at_most=1.0)  # it compared False with the bound: "fails"

@@ -70,3 +70,14 @@ def test_coverage_claims(tmp_path):
     rows = _rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.003}, 4000: {"bitmask": 0.002, "edge": 0.00202}},
                  spread=0.3)
     assert _evaluate("bitshift-faster", rows).inconclusive
+
+
+def test_a_tie_is_not_faster(tmp_path):
+    # Equal times timed together (one interleave group, the same frames): ×1 with a zero-width interval, which
+    # an inclusive bound (≥ ×1) once counted as "faster".
+    rows = _rows(tmp_path, {1000: {"bitmask": 0.002, "edge": 0.002}}, spread=0.0)
+    for row in rows:
+        if row["role"] == "test":
+            row.update(interleave="sphere1000", view="az0el0", experiment=NAME)
+    result = _evaluate("bitshift-faster", rows)
+    assert result.interval == (1.0, 1.0) and result.holds is False

@@ -7,6 +7,7 @@ import pytest
 from core.errors import InputError
 from pipeline.experiments.kit.checks import Band, Bound, Growth, Measure, Ratio
 from pipeline.experiments.kit.intervals import format_frames
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE
 from pipeline.experiments.kit.model import Experiment, Paper, Profile
 from pipeline.experiments.kit.pages import device_takeaways, gl_devices
 from pipeline.experiments.kit.planning import listed, scene, truth_run
@@ -59,10 +60,10 @@ def _times(**columns):
 def test_a_ratio_check_computes_its_verdict_and_words():
     df = _times(config=["rc", "rc", "rc-b"], time_total=[0.010, 0.012, 0.004])
     check = Ratio(Measure("RC", match={"config": "rc"}), Measure("RC-b", match={"config": "rc-b"}), at_least=2.5)
-    result = check(df)
-    assert (result.measured, result.holds) == ("×2.75", True)  # median 11 ms over 4 ms
-    assert result.detail == "RC 11 ms, RC-b 4 ms" and check.expected == "RC / RC-b ≥ ×2.5"
-    assert Ratio(check.numerator, check.denominator, at_most=2.0)(df).holds is False
+    result = check(df)  # times without their frames: measured, but nothing to decide them on
+    assert (result.measured, result.holds, result.inconclusive) == ("×2.75", None, True)  # median 11 ms over 4 ms
+    assert result.detail == "RC 11 ms, RC-b 4 ms; inconclusive: no timed frames behind RC, RC-b"
+    assert check.expected == "RC / RC-b ≥ ×2.5"
     with pytest.raises(ValueError, match="no successful run of RC-b"):
         check(df[df.config == "rc"])
 
@@ -77,7 +78,11 @@ def test_bound_band_and_growth():
     assert band(df).holds is True and band.expected == "40 ± 2"
     sizes = _times(size=[32, 64, 128, 256], time_total=[1.0, 8.0, 64.0, 512.0])
     cubic = Growth(Measure("frame time"), "size", at_most=3.2)
-    assert (cubic(sizes).measured, cubic(sizes).holds) == ("3", True)
+    assert (cubic(sizes).measured, cubic(sizes).holds) == ("3", None)  # no frames: inconclusive
+    framed = pd.DataFrame([_framed(t, size=n) for n, t in ((32, 1.0), (64, 8.0), (128, 64.0), (256, 512.0))])
+    assert cubic(framed).measured.startswith("3 (95 % CI") and cubic(framed).holds is True
+    short = framed.assign(frames_total=[format_frames([t] * 3) for t in framed.time_total])
+    assert cubic(short).inconclusive and "size 32: 3 timed frames" in cubic(short).detail
     with pytest.raises(ValueError, match="need three values of size"):
         cubic(sizes.iloc[:2])
 
@@ -104,8 +109,13 @@ def test_a_ratio_on_timed_frames_has_an_interval_and_a_margin_and_may_be_inconcl
     straddling = Ratio(check.numerator, check.denominator, at_least=2.75)(df)
     assert straddling.inconclusive and straddling.holds is None and straddling.interval == result.interval
     assert Ratio(check.numerator, check.denominator, at_least=3.0)(df).holds is False
-    plain = check(df.drop(columns="frames_total"))  # results written before frames were kept
-    assert (plain.measured, plain.holds, plain.interval, plain.inconclusive) == ("×2.75", True, None, False)
+    plain = check(df.drop(columns="frames_total"))  # results written before frames were kept: not decided
+    assert (plain.measured, plain.holds, plain.interval, plain.inconclusive) == ("×2.75", None, None, True)
+    # A tie does not make "faster": equal frames, timed together, fail a strict bound and hold an inclusive one.
+    tie = pd.DataFrame([_framed(0.004, run="a", config="rc", interleave="g", experiment="x"),
+                        _framed(0.004, run="b", config="rc-b", interleave="g", experiment="x")])
+    assert Ratio(check.numerator, check.denominator, at_least=STRICTLY_ABOVE_ONE)(tie).holds is False
+    assert Ratio(check.numerator, check.denominator, at_least=1.0)(tie).holds is True
 
 
 def test_a_bound_on_a_time_has_an_interval_in_seconds():

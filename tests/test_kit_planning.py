@@ -11,9 +11,10 @@ from pipeline.scene_io import rotation_matrix
 
 
 def test_profile_frames_raise_the_floor_only():
-    profile = Profile(name="t", warmup=2, repeat=5)
-    assert C.timed_frames(profile) == {"warmup": 2, "repeat": 5, "min_time": 0.0}
-    assert C.timed_frames(Profile(name="t", warmup=0, repeat=1)) == {"warmup": 1, "repeat": 3, "min_time": 0.0}
+    profile = Profile(name="t", warmup=2, repeat=7)
+    assert C.timed_frames(profile) == {"warmup": 2, "repeat": 7, "min_time": 0.0}
+    # Five timed frames at least: fewer leave a timing claim inconclusive (intervals.MIN_FRAMES).
+    assert C.timed_frames(Profile(name="t", warmup=0, repeat=1)) == {"warmup": 1, "repeat": 5, "min_time": 0.0}
 
 
 # --------------------------------------------------------------------------------------- views

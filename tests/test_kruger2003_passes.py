@@ -2,7 +2,7 @@
 
 import json
 
-from test_kruger2003_methods import NOISY, evaluate, timed
+from test_kruger2003_methods import NOISY, evaluate, five_frames, timed
 
 NAME = "kruger2003-passes"
 
@@ -23,22 +23,25 @@ def test_passes_claims(tmp_path):
         row["count_samples"] = samples
     rows += [{"part": "m-sweep", "role": "test", "config": "rc-b", "m": m, "time_total": t}
              for m, t in ((1, 3.0), (8, 1.0), (64, 2.0))]
+    rows = [five_frames(row) for row in rows]
     for claim in ("rc-flat", "rca-falls", "iso-faster", "m-u-shape"):
         assert evaluate(NAME, claim, rows).holds is True, claim
-    assert evaluate(NAME, "m-u-shape", rows).measured == "fastest inside at M = 8; end / M = 8 time ×2 (M 64)"
+    assert evaluate(NAME, "m-u-shape", rows).measured == "fastest inside at M = 8; end / M = 8 time ×2 (95 % CI ×2–×2) (M 64)"
     rows[0]["record"] = _record(tmp_path, "rc2", [100, 90, 50, 20])
     rows[1]["record"] = _record(tmp_path, "rca2", [100, 100, 100, 90])
-    rows[2]["time_total"] = 1.5
-    rows[-1]["time_total"] = 0.5
+    rows[2] = five_frames({**rows[2], "time_total": 1.5})
+    rows[-1] = five_frames({**rows[-1], "time_total": 0.5})
     for claim in ("rc-flat", "rca-falls", "iso-faster", "m-u-shape"):
         assert evaluate(NAME, claim, rows).holds is False, claim
 
 
 def test_the_iso_surface_caster_must_be_strictly_faster():
-    rows = [{"part": "passes", "role": "test", "config": "rc-a", "time_total": 1.0, "count_samples": 2000},
-            {"part": "iso", "role": "test", "config": "rc-a", "time_total": 1.0, "count_samples": 1000}]
+    rows = [five_frames({"part": "passes", "role": "test", "config": "rc-a", "time_total": 1.0, "count_samples": 2000,
+                         "interleave": "iso", "view": "headline"}),
+            five_frames({"part": "iso", "role": "test", "config": "rc-a", "time_total": 1.0, "count_samples": 1000,
+                         "interleave": "iso", "view": "headline"})]
     result = evaluate(NAME, "iso-faster", rows)
-    assert result.holds is False and result.measured == "×1"  # equal times do not beat
+    assert result.holds is False and result.measured == "×1 (95 % CI ×1–×1)"  # equal times do not beat
 
 
 def _sweep(times, frames=lambda m, t: [t] * 5, group="m-sweep"):

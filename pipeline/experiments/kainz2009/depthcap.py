@@ -14,7 +14,7 @@ from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, ra
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, screw
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, timed_frames, truth_run
@@ -101,7 +101,7 @@ def _cap_speed(df):
     dropped = numeric(rows, "count_fragments_dropped").sum()
     if dropped:
         raise ValueError(f"the shallow scene dropped {int(dropped)} fragments: the caps did different work")
-    decision = ratio(large, small, TECHNIQUE, intervals.Resampler(), at_least=1.0)
+    decision = ratio(large, small, TECHNIQUE, intervals.Resampler(), at_least=STRICTLY_ABOVE_ONE)
     return ClaimResult.decided(with_interval(as_ratio(decision.value), decision), decision,
                                f"time(cap {max(SPEED_CAPS)}) / time(cap {min(SPEED_CAPS)}), {KERNELS}; both kept every "
                                f"fragment (at most {int(numeric(rows, 'count_fragments_max').max())} per pixel; "
@@ -184,7 +184,7 @@ class DepthCap(Experiment):
         Claim("unbounded-exact", "The unbounded global-memory lists render the reference's image",
               UNBOUNDED_EXACT.expected, UNBOUNDED_EXACT),
         Claim("small-cap-faster", "A smaller cap is faster (paper: up to 40 % from the occupancy it buys)",
-              f"time(cap 63) / time(cap 16) ≥ ×1 where both keep every fragment ({SHALLOW_CLOUDS} clouds, "
+              f"time(cap 63) / time(cap 16) > ×1 where both keep every fragment ({SHALLOW_CLOUDS} clouds, "
               f"{KERNELS})", _cap_speed),
     )
 

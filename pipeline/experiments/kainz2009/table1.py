@@ -14,7 +14,7 @@ from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TO
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, all_of, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, is_registered, listed, scene, timed_frames,
@@ -157,7 +157,7 @@ def _peel_ratio(df, scenes, *, below):
         rows = {config: part[numeric(part, TOTAL).notna()] for config, part in rows.items()}
         if not any(part.empty for part in rows.values()):
             decisions[name] = ratio(rows[PEEL], rows[TILED], TOTAL, resampler,
-                                    **({"at_most": 1.0} if below else {"at_least": 1.0}))
+                                    **({"at_most": STRICTLY_BELOW_ONE} if below else {"at_least": STRICTLY_ABOVE_ONE}))
             compared += rows.values()
     if not decisions:
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both depth peeling and cl-tiled")
@@ -236,15 +236,15 @@ class Table1(Experiment):
         Claim("pool-enough", "The paper's 6 MB chunk pool holds every scene's tile lists",
               "chunk pool used ≤ 6 MiB on every scene", _pool),
         Claim("peeling-wins-one-volume", "A shader caster beats the tiled caster on a single volume (C1: Roessler "
-              "14–46 fps against 10–21)", f"time(depth peeling) / time(cl-tiled) ≤ ×1 on C1 ({FRAMES})",
+              "14–46 fps against 10–21)", f"time(depth peeling) / time(cl-tiled) < ×1 on C1 ({FRAMES})",
               lambda df: _peel_ratio(df, ("C1",), below=True)),
         Claim("tiled-wins-many-volumes", "From four volumes on, the tiled caster beats depth peeling (C3: 16–25 fps "
               "against 5–9)",
-              f"time(depth peeling) / time(cl-tiled) ≥ ×1 on every scene with ≥ 4 volumes both render ({FRAMES})",
+              f"time(depth peeling) / time(cl-tiled) > ×1 on every scene with ≥ 4 volumes both render ({FRAMES})",
               lambda df: _peel_ratio(df, ("C3", "C4", "C5", "C8"), below=False)),
         Claim("peeling-collapses-with-meshes", "With meshes, depth peeling collapses (C6, C7: Brecheisen 0–2 fps "
               "against the tiled caster's 7–15): every surface layer costs a geometry pass",
-              f"time(depth peeling) / time(cl-tiled) ≥ ×1 on C6 and C7, whichever both render ({FRAMES})",
+              f"time(depth peeling) / time(cl-tiled) > ×1 on C6 and C7, whichever both render ({FRAMES})",
               lambda df: _peel_ratio(df, ("C6", "C7"), below=False)),
     )
 

@@ -81,6 +81,16 @@ class Measure:
         rows = rows[numeric(rows, self.column).notna()]
         return intervals.statistic_draws(rows, self.column, self.statistic, resampler)
 
+    @property
+    def timed(self):
+        """Whether the measurement is a frame time (its claims need frames: :func:`~.intervals.timing_decision`)."""
+        return intervals.frames_column(self.column) is not None
+
+    def frames(self, df):
+        """How many timed frames the matching rows hold (:func:`~.intervals.frame_count`)."""
+        rows, _ = self._values(df)
+        return intervals.frame_count(rows[numeric(rows, self.column).notna()], self.column)
+
     def words(self, value):
         """``"RC-b 12.3 ms"``: the measurement with its value in its unit."""
         shown = value * 1e3 if self.unit == "ms" else value
@@ -123,8 +133,14 @@ class Ratio(Check):
             raise ValueError(f"{self.denominator.what} is 0")
         resampler = intervals.Resampler()
         a, b = self.numerator.draws(df, resampler), self.denominator.draws(df, resampler)
-        interval = intervals.interval_of(a / b) if a is not None and b is not None else None
-        decision = intervals.decide(top / bottom, interval, at_least=self.at_least, at_most=self.at_most)
+        draws = a / b if a is not None and b is not None else None
+        if self.numerator.timed:
+            decision = intervals.timing_decision(top / bottom, draws, {m.what: m.frames(df) for m in
+                                                                       (self.numerator, self.denominator)},
+                                                 at_least=self.at_least, at_most=self.at_most)
+        else:
+            decision = intervals.decide(top / bottom, intervals.interval_of(draws), at_least=self.at_least,
+                                        at_most=self.at_most)
         return ClaimResult.decided(with_interval(as_ratio(decision.value), decision, as_ratio), decision,
                                    f"{self.numerator.words(top)}, {self.denominator.words(bottom)}")
 
@@ -146,8 +162,13 @@ class Bound(Check):
     def __call__(self, df):
         value, name = self.measure.named(df)
         measured = self.measure.words(value).removeprefix(f"{self.measure.what} ")
-        interval = intervals.interval_of(self.measure.draws(df, intervals.Resampler()))
-        decision = intervals.decide(value, interval, at_least=self.at_least, at_most=self.at_most)
+        draws = self.measure.draws(df, intervals.Resampler())
+        if self.measure.timed:
+            decision = intervals.timing_decision(value, draws, {self.measure.what: self.measure.frames(df)},
+                                                 at_least=self.at_least, at_most=self.at_most)
+        else:
+            decision = intervals.decide(value, intervals.interval_of(draws), at_least=self.at_least,
+                                        at_most=self.at_most)
         scale = 1e3 if self.measure.unit == "ms" else 1.0
         show = lambda v: f"{format_number(v * scale)} {self.measure.unit}".strip()  # noqa: E731
         return ClaimResult.decided(with_interval(measured + (f" ({name})" if name else ""), decision, show),
@@ -203,12 +224,16 @@ class Growth(Check):
         exponent = float(np.polyfit(x, y, 1)[0])
         resampler = intervals.Resampler()
         draws = [self.measure.draws(rows[xs == value], resampler) for value, _ in points]
-        interval = None
+        slopes = None
         if all(d is not None for d in draws):
             # One slope per draw: polyfit fits every column of a (points, draws) array at once.
             slopes = np.polyfit(x, np.log(np.column_stack(draws).T), 1)[0]
-            interval = intervals.interval_of(slopes)
-        decision = intervals.decide(exponent, interval, at_least=self.at_least, at_most=self.at_most)
+        if self.measure.timed:
+            arms = {f"{self.x} {format_number(value)}": self.measure.frames(rows[xs == value]) for value, _ in points}
+            decision = intervals.timing_decision(exponent, slopes, arms, at_least=self.at_least, at_most=self.at_most)
+        else:
+            decision = intervals.decide(exponent, intervals.interval_of(slopes), at_least=self.at_least,
+                                        at_most=self.at_most)
         return ClaimResult.decided(with_interval(format_number(exponent), decision, format_number), decision,
                                    f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
                                    f"{format_number(points[-1][0])}")

@@ -25,6 +25,11 @@ DRAWS = 2000
 LEVEL = 0.95
 """Coverage of the intervals claims report."""
 
+MIN_FRAMES = 5
+"""Timed frames an arm of a timing claim needs at least: with fewer, its interval is too coarse to decide (one
+frame gives a zero-width interval, three resample to at most ten distinct medians), and the claim is
+inconclusive."""
+
 SEED = 20260125
 
 
@@ -98,6 +103,14 @@ def row_draws(rows, column, resampler):
     return out
 
 
+def frame_count(rows, column):
+    """How many timed frames of ``column`` the rows hold together (0 where ``column`` is not a frame time)."""
+    frames = frames_column(column)
+    if frames is None or frames not in rows:
+        return 0
+    return int(sum(len(values) for values in map(parse_frames, rows[frames]) if values is not None))
+
+
 def statistic_draws(rows, column, statistic, resampler):
     """``(DRAWS,)`` draws of ``statistic`` over the rows' median frames, or ``None`` (see :func:`row_draws`)."""
     per_row = row_draws(rows, column, resampler)
@@ -132,6 +145,8 @@ class Decision:
     interval: tuple | None
     holds: bool | None
     margin: float
+    why: str = ""
+    """Why a decision is inconclusive whatever its interval says (too few frames, no frames), or empty."""
 
     @property
     def inconclusive(self):
@@ -148,11 +163,20 @@ def _margin(value, at_least, at_most):
 
 
 def decide(value, interval, *, at_least=None, at_most=None):
-    """A :class:`Decision`: holds, fails or inconclusive from ``value``, its ``interval`` and the bounds."""
+    """A :class:`Decision`: holds, fails or inconclusive from ``value``, its ``interval`` and the bounds.
+
+    Raises
+    ------
+    ValueError
+        ``value`` is not a number (a missing or uncounted measurement): the claim is not measured, never a
+        verdict that a comparison with NaN would make.
+    """
     def inside(v):
         return bool((at_least is None or v >= at_least) and (at_most is None or v <= at_most))
 
     value = float(value)  # a NumPy scalar's comparisons give numpy.bool_, which `is False` misses
+    if np.isnan(value):
+        raise ValueError("the measured value is missing (NaN): a measurement it rests on was not taken")
     margin = _margin(value, at_least, at_most)
     if interval is None:
         return Decision(value, None, inside(value), margin)
@@ -164,6 +188,28 @@ def decide(value, interval, *, at_least=None, at_most=None):
     else:
         holds = None
     return Decision(value, (low, high), holds, margin)
+
+
+def timing_decision(value, draws, arms, *, at_least=None, at_most=None):
+    """A timing claim's :class:`Decision`: ``value`` with the interval of its bootstrap ``draws``, inconclusive
+    where frames cannot decide it.
+
+    ``arms`` maps each side's name to how many timed frames it rests on (:func:`frame_count`; ``None`` where the
+    caller's draws do not say). Without draws (a side kept no frames) or with fewer than :data:`MIN_FRAMES`
+    frames in an arm the decision is inconclusive, saying why: a point value or a zero-width interval would
+    decide it on nothing.
+    """
+    decision = decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
+    few = {arm: n for arm, n in (arms or {}).items() if n < MIN_FRAMES}
+    if decision.interval is None:
+        why = "no timed frames behind " + (", ".join(arm for arm, n in (arms or {}).items() if n == 0)
+                                           or "its interval")
+    elif few:
+        why = "; ".join(f"{arm}: {n} timed frame{'s' * (n != 1)}" for arm, n in few.items()) + \
+            f", fewer than {MIN_FRAMES}"
+    else:
+        return decision
+    return Decision(decision.value, decision.interval, None, decision.margin, why)
 
 
 def combine(decisions):
@@ -183,7 +229,7 @@ def combine(decisions):
         worst = min((d for d in decisions if d.holds is None), key=lambda d: d.margin)
     else:
         holds = True
-    return Decision(worst.value, worst.interval, holds, worst.margin)
+    return Decision(worst.value, worst.interval, holds, worst.margin, worst.why)
 
 
 def ratio_decision(top, bottom, *, column="time_total", statistic="median", at_least=None, at_most=None,
@@ -198,8 +244,12 @@ def ratio_decision(top, bottom, *, column="time_total", statistic="median", at_l
     value = _point(top, column, statistic) / _point(bottom, bottom_column, statistic)
     a = statistic_draws(top, column, statistic, resampler)
     b = statistic_draws(bottom, bottom_column, statistic, resampler)
-    interval = interval_of(a / b) if a is not None and b is not None else None
-    return decide(value, interval, at_least=at_least, at_most=at_most)
+    draws = a / b if a is not None and b is not None else None
+    if frames_column(column) is None:  # a count or a metric: no frames, judged on its value
+        return decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
+    return timing_decision(value, draws, {"numerator": frame_count(top, column),
+                                          "denominator": frame_count(bottom, bottom_column)},
+                           at_least=at_least, at_most=at_most)
 
 
 def _point(rows, column, statistic):

@@ -24,7 +24,7 @@ times beat nothing."""
 
 
 def with_interval(text, decision, show=as_ratio):
-    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval (shown by ``show``) where it has one."""
+    """``"×1.12 (95 % CI ×1.08–×1.17)"``: ``text`` with the decision's interval (shown by ``show``), if any."""
     words = intervals.interval_words(decision, show)
     return f"{text} ({words})" if words else text
 
@@ -87,11 +87,10 @@ def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, col
 
 
 def ratio_of_draws(top, bottom, **bounds):
-    """A :class:`~pipeline.experiments.kit.intervals.Decision` on ``top / bottom``, each a ``(value, draws)``
-    pair (``draws`` ``None`` where no frames were kept: then no interval)."""
-    interval = (intervals.interval_of(top[1] / bottom[1]) if top[1] is not None and bottom[1] is not None
-                else None)
-    return intervals.decide(top[0] / bottom[0], interval, **bounds)
+    """A :class:`~pipeline.experiments.kit.intervals.Decision` on ``top / bottom``, each a ``(value, draws)`` pair
+    of frame times (``draws`` ``None`` where no frames were kept: then the decision is inconclusive)."""
+    draws = top[1] / bottom[1] if top[1] is not None and bottom[1] is not None else None
+    return intervals.timing_decision(top[0] / bottom[0], draws, None, **bounds)
 
 
 def median_count(rows, column):

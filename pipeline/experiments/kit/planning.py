@@ -10,6 +10,7 @@ import os
 import datasets
 import renderers
 from core.errors import InputError
+from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Run
 
 REFERENCE = "reference"
@@ -29,15 +30,17 @@ CONTROLS = frozenset({"sphere", "constant_cube", "checkerboard", "fbm_control"})
 
 
 def timed_frames(profile, experiment=None):
-    """Frames of a timed comparison: at least one warm-up frame, three timed frames and the profile's ``min_time``.
+    """Frames of a timed comparison: at least one warm-up frame, :data:`~.intervals.MIN_FRAMES` timed frames and
+    the profile's ``min_time``.
 
-    An experiment's ``repeat`` setting raises the timed frames above the profile's: these frames
-    take milliseconds, and on a shared machine the median of three is at the mercy of one
-    interruption.
+    Fewer frames would leave the comparison's claims inconclusive whatever they measure
+    (:func:`~.intervals.timing_decision`). An experiment's ``repeat`` setting raises the timed frames
+    above the profile's: these frames take milliseconds, and on a shared machine the median of five is
+    at the mercy of two interruptions.
     """
     repeat = int(profile.repeat if experiment is None else profile.setting(experiment, "repeat", profile.repeat))
     min_time = float(profile.min_time if experiment is None else profile.setting(experiment, "min_time", profile.min_time))
-    return {"warmup": max(1, int(profile.warmup)), "repeat": max(3, repeat), "min_time": min_time}
+    return {"warmup": max(1, int(profile.warmup)), "repeat": max(intervals.MIN_FRAMES, repeat), "min_time": min_time}
 
 
 def usable_cores():

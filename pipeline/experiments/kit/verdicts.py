@@ -1,7 +1,10 @@
 """A claim's verdict: holds, fails, inconclusive, blocked or not measured, from the runs that did and did not happen.
 
 A timing claim whose confidence interval straddles its bound is **inconclusive**
-(:mod:`~pipeline.experiments.kit.intervals`): the frames taken cannot tell whether it holds.
+(:mod:`~pipeline.experiments.kit.intervals`): the frames taken cannot tell whether it holds. So is one
+with no frames behind it or fewer than :data:`~pipeline.experiments.kit.intervals.MIN_FRAMES` in an arm
+(:func:`~pipeline.experiments.kit.intervals.timing_decision`), and a missing value is "not measured"
+(:func:`~pipeline.experiments.kit.intervals.decide` refuses NaN): judging fails closed.
 
 A claim is checked on the successful runs of its experiment. Where runs that should have produced
 measurements did not (they failed, their backend cannot run here, their data is absent:

@@ -9,7 +9,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
@@ -235,7 +235,7 @@ def _head(df):
     for d, part in heads.groupby("dataset"):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
-        decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=1.0, centred=True)
+        decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE, centred=True)
     return all_of(decisions, extra=f"sphere varies {as_percent(s['variation'])}, "
                           + ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
                           + "; thesis: head 13 %, sphere 6 %")

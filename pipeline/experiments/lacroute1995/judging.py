@@ -61,13 +61,16 @@ def decided(value, draws, *, at_least=None, at_most=None, centred=False):
 
 
 def ratio(top, bottom, column, resampler, *, at_least=None, at_most=None, reduce="median", bottom_column=None):
-    """The ratio of ``reduce`` of ``column`` over rows ``top`` and ``bottom``, decided with its interval."""
-    a, a_draws = statistic(top, column, resampler, reduce)
-    b, b_draws = statistic(bottom, bottom_column or column, resampler, reduce)
-    if b == 0:
-        raise ValueError(f"{bottom_column or column} is 0")
-    draws = a_draws / b_draws if a_draws is not None and b_draws is not None else None
-    return decided(a / b, draws, at_least=at_least, at_most=at_most)
+    """The ratio of ``reduce`` of ``column`` over the rows ``top`` and ``bottom`` that measured it, decided with its
+    interval (the kit's :func:`~pipeline.experiments.kit.intervals.ratio_decision`: too few frames, inconclusive)."""
+    bottom_column = bottom_column or column
+    top, bottom = measured(top, column), measured(bottom, bottom_column)
+    if top.empty or bottom.empty:
+        raise ValueError(f"no run reported {column if top.empty else bottom_column}")
+    if statistic(bottom, bottom_column, resampler, reduce)[0] == 0:
+        raise ValueError(f"{bottom_column} is 0")
+    return intervals.ratio_decision(top, bottom, column=column, statistic=reduce, at_least=at_least, at_most=at_most,
+                                    resampler=resampler, bottom_column=bottom_column)
 
 
 def r2_draws(x, draws):

@@ -10,6 +10,7 @@ import pandas as pd
 
 from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, change_words, claim_takeaways, format_number,
                                             linked_table, not_measurable)
@@ -111,17 +112,17 @@ class Variants(Experiment):
         Claim("union-by-rank", "Union by rank does not make the renderer faster (thesis: 5–15 % slower)",
               "technique time ratio union by rank / path compression alone ≥ ×0.97", UNION_BY_RANK),
         Claim("mode-switch", "After a classification edit the octree mode shows an image sooner than re-encoding "
-              "the RLE volume (§4.4)", "VolPack: octree frame / (RLE classify + RLE frame) ≤ 1, technique frames",
+              "the RLE volume (§4.4)", "VolPack: octree frame / (RLE classify + RLE frame) < 1, technique frames",
               lambda df: _mode_switch(df)),
         Claim("octree-rle-build", "Building the three RLE copies from the min-max octree is faster than the brute-force "
-              "build (§4.4, E22)", "ours: (sat_build + rle_build from the octree) / (classify + rle_build) ≤ 1",
+              "build (§4.4, E22)", "ours: (sat_build + rle_build from the octree) / (classify + rle_build) < 1",
               lambda df: _octree_rle_build(df)),
         Claim("fast-classification-render", "Rendering with fast classification takes about twice the classified-RLE "
               "render (Table 5.3: ×1.8–2.5)", "technique time ratio fast classification / classified RLE in ×1.4–×3.2",
               lambda df: _octree_render(df)),
         Claim("mode-switch-ours", "With our backend too, after a classification edit fast classification shows an "
               "image sooner than re-encoding (§4.4)", "ours: (sat_build + octree frame) / (classify + rle_build + RLE "
-              "frame) ≤ 1, technique frames", lambda df: _mode_switch_ours(df)),
+              "frame) < 1, technique frames", lambda df: _mode_switch_ours(df)),
     )
 
     def paper_table(self):
@@ -226,11 +227,12 @@ def _after_edit(rows, stages, resampler):
 
 
 def _edit_race(top, top_stages, bottom, bottom_stages):
-    """Whether the ``top`` mode shows an image first: its time to an image over ``bottom``'s, ≤ 1, decided."""
+    """Whether the ``top`` mode shows an image first: its time to an image over ``bottom``'s, < 1, decided."""
     resampler = intervals.Resampler()
     a, a_draws = _after_edit(top, top_stages, resampler)
     b, b_draws = _after_edit(bottom, bottom_stages, resampler)
-    return judging.decided(a / b, None if a_draws is None or b_draws is None else a_draws / b_draws, at_most=1.0), a, b
+    draws = None if a_draws is None or b_draws is None else a_draws / b_draws
+    return judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE), a, b
 
 
 def _mode_rows(df, config):
@@ -244,7 +246,7 @@ def _octree_rle_build(df):
     brute, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree-rle")
     plain = stage_time(brute, "classify") + stage_time(brute, "rle_build")
     fast = stage_time(octree, "sat_build") + stage_time(octree, "rle_build")
-    decision = judging.decided(fast / plain, None, at_most=1.0)
+    decision = judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE)
     return ClaimResult.decided(f"{as_ratio(fast / plain)}: {format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms",
                                decision,
                                f"octree: SAT {format_number(stage_time(octree, 'sat_build') * 1e3)} ms + RLE "

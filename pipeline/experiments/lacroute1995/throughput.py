@@ -13,7 +13,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, format_number, linked_table,
                                             not_measurable)
@@ -148,7 +148,7 @@ class Throughput(Experiment):
               "(max − min)/median ≤ 25 % of the technique time over the cubes where brute force composites (α above "
               "the minimum opacity)", lambda df: _brute_flat(df)),
         Claim("crossover", "The optimised renderer beats brute force unless most voxels are visible "
-              "(crossover ≈ 80 % visible; ≈ 25 % slower at 100 %)", "technique time ratio optimised / brute force ≤ 1 "
+              "(crossover ≈ 80 % visible; ≈ 25 % slower at 100 %)", "technique time ratio optimised / brute force < 1 "
               "on every cube with ≤ 50 % of its voxels visible", lambda df: _crossover(df)),
         Claim("linear-in-runs", "At a constant visible count, time is linear in the number of runs (Fig. 5.21; "
               "400 ns per run)", "R² ≥ 0.9 per checkerboard series (technique time against voxel_runs)",
@@ -266,7 +266,7 @@ def _crossover(df):
     level, level_draws = judging.statistic(brute, TIME, resampler)
     times, draws = judging.values(rows, TIME, resampler)
     decisions = {f"{as_percent(v)} visible": judging.decided(
-        t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=1.0)
+        t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE)
         for i, (v, t) in enumerate(zip(rows.visible, times))}
     low = [d for (label, d), v in zip(decisions.items(), rows.visible) if v <= 0.5]
     if not low:

@@ -16,7 +16,7 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 
-from pipeline.experiments.kit.judging import all_of, median_count
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
@@ -104,7 +104,7 @@ def _clip_cheapest(df):
         for appearance in (a for a in swept(df, scene) if a != "clip"):
             other = appearance_rows(df, scene, appearance)
             label = f"{scene}, {appearance}"
-            decisions[label] = intervals.ratio_decision(other, clip, at_least=1.0, resampler=resampler)
+            decisions[label] = intervals.ratio_decision(other, clip, at_least=STRICTLY_ABOVE_ONE, resampler=resampler)
             inside = (count(other, REGION_COLUMNS["region1"], label),
                       count(clip, REGION_COLUMNS["region1"], f"{scene}, clip"))
             notes[label] = f"region₁ samples {format_number(inside[0])} against {format_number(inside[1])}"
@@ -145,7 +145,7 @@ def _clip_exposes(df):
 
 CLAIMS = (
     Claim("clip-cheapest", "A clipping lens is the cheapest appearance: it takes no sample inside the lens (note 004 "
-          "§4.2 E6)", f"time(transparency, iso, mip lens) / time(clip lens) ≥ ×1, every scene ({TIMES}; the "
+          "§4.2 E6)", f"time(transparency, iso, mip lens) / time(clip lens) > ×1, every scene ({TIMES}; the "
           "segments method; 95 % paired bootstrap interval wholly above ×1)", _clip_cheapest),
     Claim("iso-stops", "An isosurface lens stops each ray at its first hit: it takes fewer samples inside the lens "
           "than a transparency lens (note 004 §4.2 E6)",
