@@ -236,7 +236,8 @@ def claims_table(frame, experiments):
             verdict = judge(claim, part)
             claim_rows.append({
                 "experiment": experiment.name, "paper": experiment.paper, "claim": claim.id,
-                "statement": claim.statement, "expected": claim.expected, "measured": verdict.measured,
+                "statement": claim.statement, "target": claim.target, "paper_value": claim.paper_value,
+                "ours": claim.ours, "expected": claim.expected, "measured": verdict.measured,
                 "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
                 "interval_low": verdict.interval[0] if verdict.interval else None,
                 "interval_high": verdict.interval[1] if verdict.interval else None,
@@ -245,9 +246,12 @@ def claims_table(frame, experiments):
     return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
 
 
-CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "expected", "measured", "holds", "verdict", "detail",
-                 "interval_low", "interval_high", "margin", "disturbed_views", "software_rasterizer", "stand_in"]
-"""The columns of ``claims.csv``: ``interval_low``/``interval_high`` bound the 95 % interval of the measured value
+CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "target", "paper_value", "ours", "expected", "measured",
+                 "holds", "verdict", "detail", "interval_low", "interval_high", "margin", "disturbed_views",
+                 "software_rasterizer", "stand_in"]
+"""The columns of ``claims.csv``: ``target`` is ``paper`` (the paper's statement) or ``ours`` (our own target beside
+it, ``ours`` saying why), ``paper_value`` the paper's number the claim judges where it has one;
+``interval_low``/``interval_high`` bound the 95 % interval of the measured value
 where it rests on timed frames (in the value's unit: a ratio, seconds), ``margin`` is its relative distance
 from the bound, positive on the holding side (the worst row's, for a claim over several); the last three are
 what a failing claim's likely cause is read from (:func:`pipeline.experiments.kit.pages.claim_evidence`)."""

@@ -385,6 +385,8 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     if "holds" in claims_df:
         claims_df["holds"] = claims_df["holds"].map(_holds).astype(object)
     claims_df["verdict"] = _verdicts(claims_df)
+    for column, missing in (("target", "paper"), ("paper_value", ""), ("ours", "")):  # results from before them
+        claims_df[column] = claims_df[column].fillna(missing).astype(str) if column in claims_df else missing
     env = _jinja()
     facts = provenance(environment, runs_df, real_data)
     banner = decision.timing_banner(runs_df)

@@ -117,3 +117,18 @@ def test_the_caption_says_how_the_gl_frames_were_timed():
     assert pages.frames_caption(pd.DataFrame({"info_frames": [3]})).endswith("; timing method not recorded.")
     cl = pages.frames_caption(rows, unit="timed frames", untimed="hulls built in the warm-up frame", how="by events")
     assert cl == "median of 5 timed frames after warm-up, hulls built in the warm-up frame; by events."
+
+
+def test_every_target_of_ours_stands_beside_the_papers_own_number():
+    from pipeline.experiments import all_experiments
+
+    ours = 0
+    for experiment in all_experiments().values():
+        for claim in experiment.claims:
+            if claim.target != "ours":
+                continue
+            ours += 1
+            assert claim.paper_value, f"{experiment.name}/{claim.id}: our target needs the paper's number it departs from"
+            papers = [c for c in experiment.claims if c.target == "paper" and c.paper_value == claim.paper_value]
+            assert papers, f"{experiment.name}/{claim.id}: the paper's {claim.paper_value} is not judged on its own"
+    assert ours >= 10

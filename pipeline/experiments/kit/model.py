@@ -295,12 +295,24 @@ class Claim:
     ``check(df)`` receives the experiment's tidy results (successful rows only) and returns a
     :class:`ClaimResult`; ``holds`` is ``None`` when the data needed is missing, which the report
     shows as "not measured" rather than as a pass.
+
+    ``paper_value`` is the paper's own number the claim judges, in words (``"×3.0"``, ``"0.2–4 %"``).
+    ``ours`` marks a target of our own beside the paper's, saying why it differs (``"a software
+    rasterizer's early-z is per 4×2 block"``); the paper's number is then a claim of its own, so it is
+    always judged.
     """
 
     id: str
     statement: str
     expected: str
     check: object
+    paper_value: str = ""
+    ours: str = ""
+
+    @property
+    def target(self):
+        """``"ours"`` for our own target, ``"paper"`` for the paper's statement."""
+        return "ours" if self.ours else "paper"
 
     def evaluate(self, df):
         if df.empty:

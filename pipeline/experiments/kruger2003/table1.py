@@ -100,14 +100,19 @@ def _ert_bound(df):
                        f"bound 1 − T = {format_number(1 - threshold)} with T = {format_number(threshold)}")
 
 
-def _contributing_fragments(df):
+def _contributing_fragments(df, low=0.0, high=0.10):
+    """The median share of slicing fragments that contribute, within [low, high] on every data set; the data set
+    furthest from the band (or, all inside, the largest share) decides."""
     rows = rows_matching(df, "sbvr", config="sbvr")
     if rows.empty:
         raise ValueError("no successful slicing run")
     fraction = numeric(rows, "count_fragments_contributing") / numeric(rows, "count_fragments")
     values = fraction.groupby(text_column(rows, "scene")).median().to_dict()
-    worst = max(values, key=values.get)
-    return ClaimResult(f"{format_number(100 * values[worst])} % ({worst})", bool(values[worst] <= 0.10),
+    if not all(np.isfinite(v) for v in values.values()):
+        raise ValueError("a data set's slicing runs counted no fragments (count_fragments_contributing)")
+    outside = {s: max(low - v, v - high) for s, v in values.items()}
+    decisive = max(outside, key=outside.get)
+    return ClaimResult(f"{format_number(100 * values[decisive])} % ({decisive})", outside[decisive] <= 0,
                        ", ".join(f"{s}: {format_number(100 * v)} %" for s, v in values.items()))
 
 
@@ -120,14 +125,21 @@ CLAIMS = (
           "outside the volume and all M samples of every pass (paper: RC/SBVR fps 0.61–0.68)",
           f"time ratio SBVR / RC < 1 on every data set ({TIMES})",
           lambda df: _gain(df, "sbvr", "rc", None, high=STRICTLY_BELOW_ONE, what="SBVR / RC time ")),
+    Claim("ert-gain-opaque-paper", "Early ray termination pays most on the opaque head: RC-a 3.0× RC (paper)",
+          f"RC / RC-a ≥ 3 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 3.0), paper_value="×3.0"),
     Claim("ert-gain-opaque", "Early ray termination pays most on the opaque head (paper: RC-a 3.0× RC)",
-          f"RC / RC-a ≥ 2 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 2.0)),
+          f"RC / RC-a ≥ 2 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 2.0), paper_value="×3.0",
+          ours="the gain, not the paper's GPU's figure: a software rasterizer's passes cost differently"),
     Claim("ert-none-semi-transparent", "On the semi-transparent engine early termination gains nothing "
           "(paper: 6.3 = 6.3 fps)", f"RC / RC-a within 0.8–1.25 on the engine ({TIMES})",
           lambda df: _gain(df, "rc", "rc-a", ENGINES, 0.8, 1.25)),
+    Claim("ess-gain-paper", "Empty-space skipping adds 1.6–2.2× to early termination on every data set (paper)",
+          f"RC-a / RC-b within 1.6–2.2 on every data set ({TIMES})", lambda df: _gain(df, "rc-a", "rc-b", None, 1.6, 2.2),
+          paper_value="×1.6–2.2"),
     Claim("ess-gain", "Empty-space skipping adds to early termination on every data set (paper: RC-b "
           "1.6–2.2× RC-a)", f"RC-a / RC-b ≥ 1.1 on every data set ({TIMES})",
-          lambda df: _gain(df, "rc-a", "rc-b", None, 1.1)),
+          lambda df: _gain(df, "rc-a", "rc-b", None, 1.1), paper_value="×1.6–2.2",
+          ours="that skipping gains at all: how much depends on the empty blocks of each data set's stand-in"),
     Claim("rcb-over-rc-head", "RC-b over RC on the opaque head at least the paper's 4.9× (23.4 / 4.8 fps)",
           f"RC / RC-b ≥ {format_number(HEAD_RCB_OVER_RC)} on the head ({TIMES})",
           lambda df: _gain(df, "rc", "rc-b", HEADS, HEAD_RCB_OVER_RC)),
@@ -140,9 +152,13 @@ CLAIMS = (
           "PSNR(RC-b, RC-a) ≥ 60 dB (every data set and view)", _ess_lossless),
     Claim("ert-bound", "Early termination changes a pixel by at most what the opacity threshold leaves",
           "max |RC-a − RC| ≤ 1 − T (+ 1e-3) on every image", _ert_bound),
+    Claim("fragments-contribute-paper", "0.2–4 % of the slicing fragments contribute to the image (paper)",
+          "contributing / generated slicing fragments within 0.2–4 % on every data set (median over the views)",
+          lambda df: _contributing_fragments(df, 0.002, 0.04), paper_value="0.2–4 %"),
     Claim("fragments-contribute", "Only a small fraction of slicing fragments contributes to the image "
           "(paper: 0.2–4 %)", "contributing / generated slicing fragments ≤ 10 % on every data set (median over "
-          "the views)", _contributing_fragments),
+          "the views)", _contributing_fragments, paper_value="0.2–4 %",
+          ours="a small fraction: the share follows each stand-in's transfer function, not the paper's data"),
 )
 
 

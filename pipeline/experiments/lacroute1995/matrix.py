@@ -32,6 +32,11 @@ MATRIX_DATASETS = {"brainsmall": "volpack", "folded_brain": "volpack", "ct_skull
 CT head stand-in (bone) and the real MR head."""
 
 
+OURS = ("the kind of speed-up, not the thesis's 1995 workstation's figure: the samples saved are machine-independent, "
+        "what each saves in time depends on the CPU's caches")
+"""Why the matrix's own bounds are wider than the thesis's ranges (each range is judged as a claim of its own)."""
+
+
 class OptimisationMatrix(Experiment):
     """Fig. 5.17: samples and time with each coherence optimisation on and off."""
 
@@ -73,14 +78,24 @@ class OptimisationMatrix(Experiment):
         Claim("sample-ratios", "Sample counts relative to brute force fall as in Fig. 5.17 "
               "(brain 1 : 0.78 : 0.16 : 0.028)",
               "early termination 0.5–1, RLE 0.05–0.35, both 0.005–0.1 (every data set)", lambda df: _samples(df)),
+        Claim("early-termination-alone-paper", "Early termination alone speeds up the compositing loop ×0.97–1.1 "
+              "(thesis, Fig. 5.17)", "composite-stage speed-up over brute force within 0.97–1.1 (every data set)",
+              lambda df: _speedup(df, "early-termination", 0.97, 1.1), paper_value="×0.97–1.1"),
         Claim("early-termination-alone", "Early termination alone barely speeds up the compositing loop (thesis "
               "×0.97–1.1)", "composite-stage speed-up over brute force ≤ 2 (every data set)",
-              lambda df: _speedup(df, "early-termination", None, 2.0)),
+              lambda df: _speedup(df, "early-termination", None, 2.0), paper_value="×0.97–1.1", ours=OURS),
+        Claim("rle-alone-paper", "The RLE volume alone speeds up the compositing loop ×2.9–4.1 (thesis, Fig. 5.17)",
+              "composite-stage speed-up over brute force within 2.9–4.1 (every data set)",
+              lambda df: _speedup(df, "rle", 2.9, 4.1), paper_value="×2.9–4.1"),
         Claim("rle-alone", "The RLE volume alone speeds up the compositing loop 3–4× (thesis ×2.9–4.1)",
-              "composite-stage speed-up over brute force 2–6 (every data set)", lambda df: _speedup(df, "rle", 2.0, 6.0)),
+              "composite-stage speed-up over brute force 2–6 (every data set)", lambda df: _speedup(df, "rle", 2.0, 6.0),
+              paper_value="×2.9–4.1", ours=OURS),
+        Claim("rle-and-early-termination-paper", "RLE and early termination together speed up the compositing loop "
+              "×7.1–9.9 (thesis, Fig. 5.17)", "composite-stage speed-up over brute force within 7.1–9.9 (every data "
+              "set)", lambda df: _speedup(df, "rle+early-termination", 7.1, 9.9), paper_value="×7.1–9.9"),
         Claim("rle-and-early-termination", "RLE and early termination together speed up the compositing loop about "
               "an order of magnitude (thesis ×7.1–9.9)", "composite-stage speed-up over brute force ≥ 5 (every data set)",
-              lambda df: _speedup(df, "rle+early-termination", 5.0, None)),
+              lambda df: _speedup(df, "rle+early-termination", 5.0, None), paper_value="×7.1–9.9", ours=OURS),
     )
 
     def paper_table(self):

@@ -45,6 +45,11 @@ OCTREE_MEMORY_LIMIT = 4.0
 """Fast-classification structures per voxel of an 8-bit volume: the thesis's 4-byte raw array."""
 
 
+OURS = ("about the thesis's range: our data sets stand in for its scans at other sizes, and a modern CPU's caches "
+        "weigh the perspective warp and the octree differently")
+"""Why the projection's own bounds are wider than Table 5.3's ranges (each range is judged as a claim of its own)."""
+
+
 class Projections(Experiment):
     """Table 5.3 complete: parallel, perspective and fast classification over a set of views, and memory."""
 
@@ -109,12 +114,20 @@ class Projections(Experiment):
         return runs
 
     claims = (
-        Claim("perspective-cost", "Perspective rendering costs 2.2–2.7× the parallel projection (Table 5.3)",
+        Claim("perspective-cost-paper", "Perspective rendering costs 2.2–2.7× the parallel projection (Table 5.3)",
+              "mean-view technique time ratio perspective / parallel in 2.2–2.7 (every data set)",
+              lambda df: _ratio(df, "perspective", 2.2, 2.7), paper_value="×2.2–2.7"),
+        Claim("perspective-cost", "Perspective rendering costs about 2.2–2.7× the parallel projection (Table 5.3)",
               "mean-view technique time ratio perspective / parallel in 1.6–3.5 (every data set)",
-              lambda df: _ratio(df, "perspective", 1.6, 3.5)),
-        Claim("fast-classification-cost", "Fast classification (octree, raw volume) costs 1.8–2.5× the classified-RLE "
-              "rendering (Table 5.3)", "mean-view technique time ratio fast classification / parallel in 1.4–3.2 "
-              "(every data set)", lambda df: _ratio(df, "fast-classification", 1.4, 3.2)),
+              lambda df: _ratio(df, "perspective", 1.6, 3.5), paper_value="×2.2–2.7", ours=OURS),
+        Claim("fast-classification-cost-paper", "Fast classification (octree, raw volume) costs 1.8–2.5× the "
+              "classified-RLE rendering (Table 5.3)", "mean-view technique time ratio fast classification / parallel "
+              "in 1.8–2.5 (every data set)", lambda df: _ratio(df, "fast-classification", 1.8, 2.5),
+              paper_value="×1.8–2.5"),
+        Claim("fast-classification-cost", "Fast classification (octree, raw volume) costs about 1.8–2.5× the "
+              "classified-RLE rendering (Table 5.3)", "mean-view technique time ratio fast classification / parallel "
+              "in 1.4–3.2 (every data set)", lambda df: _ratio(df, "fast-classification", 1.4, 3.2),
+              paper_value="×1.8–2.5", ours=OURS),
         Claim("fast-classification-memory", "Fast classification needs about 4 bytes per voxel (the raw array, the "
               "octree and the table; head: 61 MB for 14.7 M voxels)",
               f"(raw_bytes + octree_bytes) / raw_bytes ≤ {OCTREE_MEMORY_LIMIT:g}, i.e. ≤ 4 B per voxel of an 8-bit "
