@@ -59,3 +59,12 @@ def test_ess_claims():
     rows = _ess_rows(0.010, {4: 0.0101, 8: 0.0099, 16: 0.0120}, spread=0.3, build_ms=9.9)
     for claim in ("hull-faster", "best-brick-8", "build-cheap"):
         assert _evaluate(claim, rows).inconclusive, claim
+
+
+def test_a_build_without_its_hull_time_is_not_measured_not_free():
+    rows = _ess_rows(0.010, {4: 0.0095, 8: 0.0088, 16: 0.0092})
+    for row in rows:
+        if row["role"] == "build" and row["brick"] == 8:
+            del row["time_hull"]  # this build reported its bricks only: it once counted as a 0 ms hull
+    result = _evaluate("build-cheap", rows)
+    assert result.holds is None and not result.inconclusive and "no time_hull" in result.detail

@@ -66,8 +66,8 @@ def _scaling_rows(one, fifty, fifty_mesh, psnr=45.0, spread=0.02):
     if fifty_mesh is not None:
         rows.append({"series": "clouds+mesh", "count": 50, **_frames(fifty_mesh, spread=spread, seed=3),
                      "count_samples": 50000})
-    return [{**r, "config": TILED, "role": "test", "psnr": psnr, "scene": f"{r['series']}.n{r['count']:02d}"}
-            for r in rows]
+    return [{**r, "config": TILED, "role": "test", "psnr": psnr, "checked": "yes",
+             "scene": f"{r['series']}.n{r['count']:02d}"} for r in rows]
 
 
 def test_scaling_claims():
@@ -79,6 +79,13 @@ def test_scaling_claims():
     assert "volume samples 50000 and 1000 (×50), so the time per sample ×0.0778" in result.detail
     rows[1]["psnr"] = 39.0  # one count below the floor is enough
     assert _evaluate("accuracy", rows).holds is False
+    # A checked count whose comparison is missing is not left out of the worst PSNR: nothing is measured.
+    rows[1]["psnr"] = float("nan")
+    missing = _evaluate("accuracy", rows)
+    assert missing.holds is None and "psnr missing in" in missing.detail
+    # A count without a reference (not checked) has no PSNR by design.
+    rows[1]["checked"] = "no"
+    assert _evaluate("accuracy", rows).holds is True
     rows = _scaling_rows(0.010, 0.06, 0.2, psnr=38.0)
     for claim in ("flat-with-mesh", "flat-volumes", "accuracy"):
         assert _evaluate(claim, rows).holds is False, claim

@@ -134,3 +134,10 @@ def test_device_sentence_and_ratios_per_device():
     assert set(groups) == {"llvmpipe (LLVM 15)", "NVIDIA H100"}
     ratio = T._ratio_table(groups["NVIDIA H100"])
     assert ratio["RC-b / RC (ours)"].iloc[0] == pytest.approx(5.0)
+
+
+def test_a_view_without_its_comparison_is_missing_not_left_out():
+    rows = _table1_rows(PAPER_LIKE)
+    rows[0]["psnr"] = float("nan")  # the worst PSNR was taken over the other views
+    result = evaluate(NAME, "accuracy", rows)
+    assert result.holds is None and "no PSNR against the reference for head.sbvr (headline)" in result.detail

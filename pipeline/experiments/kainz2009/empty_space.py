@@ -4,6 +4,7 @@ An abdomen and a skull rendered with their boxes and with hulls of 4³ to 32³ b
 accuracy against the reference, and the hull build time of a first frame.
 """
 
+import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
@@ -30,7 +31,8 @@ def _build_rows(ok):
     if rows.empty:
         return rows
     rows["brick"] = numeric(rows, "brick")
-    rows["build_ms"] = (numeric(rows, "time_bricks").fillna(0) + numeric(rows, "time_hull").fillna(0)) * 1e3
+    # A stage the build did not report leaves its build unmeasured (NaN), never 0 ms.
+    rows["build_ms"] = (numeric(rows, "time_bricks") + numeric(rows, "time_hull")) * 1e3
     return rows
 
 
@@ -112,6 +114,8 @@ def _build_cheap(df):
         frame = hulls[hulls.brick == 8]
         if frame.empty:
             raise ValueError(f"no timed 8³ hull on {row.scene}")
+        if not np.isfinite(row.build_ms):
+            raise ValueError(f"{row.scene}: the 8³ build run reported no time_bricks or no time_hull")
         build = row.build_ms / 1e3
         frames = draws(frame, TECHNIQUE, resampler)
         decisions[row.scene] = judge(build / point(frame, TECHNIQUE), None if frames is None else build / frames,

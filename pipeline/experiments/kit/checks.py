@@ -58,9 +58,14 @@ class Measure:
 
     def _values(self, df):
         rows = rows_matching(df, self.what, **self.match)
-        values = numeric(rows, self.column).dropna()
-        if values.empty:
+        values = numeric(rows, self.column)
+        if values.dropna().empty:
             raise ValueError(f"no successful run of {self.what}")
+        if values.isna().any():  # a view that measured nothing is missing, not left out of the statistic
+            missing = rows[values.isna()]
+            names = [f"{run} ({view})" if isinstance(view, str) and view else str(run)
+                     for run, view in zip(missing.get("run", missing.index), missing.get("view", [""] * len(missing)))]
+            raise ValueError(f"{self.what}: {self.column} missing in {', '.join(names)}")
         return rows, values
 
     def value(self, df):

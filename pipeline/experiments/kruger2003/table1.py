@@ -61,6 +61,10 @@ def _accuracy(df):
     psnr = numeric(tests, "psnr")
     if psnr.notna().sum() == 0:
         raise ValueError("no PSNR against the reference")
+    if psnr.isna().any():  # a view without its comparison is missing, not left out of the worst
+        missing = tests[psnr.isna()]
+        raise ValueError("no PSNR against the reference for " + ", ".join(
+            f"{r.run} ({r.view})" for r in missing.itertuples()))
     worst = tests.loc[psnr.idxmin()]
     per_method = tests.assign(psnr=psnr).groupby("config").psnr.min()
     return ClaimResult(f"{format_number(psnr.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
