@@ -10,7 +10,7 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
                                                     devices, frames_caption, peeling_missing, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, judge, ratio, timed
+from pipeline.experiments.kainz2009.ratios import FRAMES, TECHNIQUE, TOTAL, counts, judge, ratio, timed
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
@@ -101,18 +101,25 @@ def _accuracy_c1_c3(df):
 
 
 def _band(df):
-    """The slowest scene's kernel time over the fastest's, every scene of one draw at once."""
-    rows = timed(df, "cl-tiled", TECHNIQUE, config=TILED, role="test")
+    """The slowest scene's whole-frame time over the fastest's (the paper states frame rates), every scene of one
+    draw at once; the kernels' own band beside it."""
+    rows = timed(df, "cl-tiled", TOTAL, config=TILED, role="test")
     if len(rows) < 2:
         raise ValueError("fewer than two scenes rendered by cl-tiled")
-    times = dict(zip(rows.scene, numeric(rows, TECHNIQUE)))
+    times = dict(zip(rows.scene, numeric(rows, TOTAL)))
     slow, fast = max(times, key=times.get), min(times, key=times.get)
-    scenes = intervals.row_draws(rows, TECHNIQUE, intervals.Resampler())
-    decision = judge(times[slow] / times[fast], None if scenes is None else scenes.max(axis=1) / scenes.min(axis=1),
-                     at_most=BAND)
+    scenes = intervals.row_draws(rows, TOTAL, intervals.Resampler())
+    frames = {scene: intervals.frame_count(rows[rows.scene == scene], TOTAL) for scene in times}
+    decision = intervals.timing_decision(times[slow] / times[fast],
+                                         None if scenes is None else scenes.max(axis=1) / scenes.min(axis=1), frames,
+                                         at_most=BAND)
+    kernels = numeric(rows, TECHNIQUE) if TECHNIQUE in rows else None
+    kernel_band = (f"; kernels alone ×{format_number(kernels.max() / kernels.min())}"
+                   if kernels is not None and kernels.notna().all() else "")
     return ClaimResult.decided(f"{with_interval(as_ratio(decision.value), decision)}, {slow} over {fast}", decision,
-                               f"{len(times)} scenes, {format_number(times[fast] * 1e3)}–"
-                               f"{format_number(times[slow] * 1e3)} ms; volume samples {counts(rows, 'count_samples')}")
+                               f"{len(times)} scenes, whole frames {format_number(times[fast] * 1e3)}–"
+                               f"{format_number(times[slow] * 1e3)} ms{kernel_band}; volume samples "
+                               f"{counts(rows, 'count_samples')}")
 
 
 def _shares(df):
@@ -229,7 +236,7 @@ class Table1(Experiment):
               "PSNR ≥ 40 dB against the reference on C1, C2 and C3", _accuracy_c1_c3),
         Claim("narrow-band", "The tiled caster's frame time stays in a narrow band across all eight scenes "
               "(paper: 7–25 fps)", f"slowest / fastest scene ≤ {as_ratio(BAND)} (every scene cl-tiled rendered; "
-              f"{KERNELS})", _band),
+              f"{FRAMES}: the paper states frame rates)", _band, paper_value="7–25 fps"),
         Claim("pixel-kernel-dominates", "The pixel kernel takes most of the frame, the triangle kernel 2–10 % (§4.2)",
               "binning ≤ 10 % of binning + pixel kernel on every scene (OpenCL profiling: time_binning, "
               "time_pixel)", _binning_share),
