@@ -7,9 +7,11 @@ level, classification, cube set, mesh), which the timing harness measures once p
 warm, after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`).
 """
 
+import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit.judging import median_count
+from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene
@@ -32,8 +34,11 @@ the extraction happens once per transfer function, not per frame."""
 MUCH_SLOWER = 5.0
 """Φ_p's extraction "much slower" than Φ_t's: at least 5×, a quarter of the paper's 21× (210 / 10 ms)."""
 
-ONCE = ("one measurement per view (the extraction runs once per transfer function, so no timed frames give an "
-        "interval); median over the views")
+PAPER_RATIO = EXTRACTION_MS["phi_p"] / EXTRACTION_MS["phi_t"]
+"""The paper's 210 against 10 ms: ×21."""
+
+ONCE = ("one measurement per view (the extraction runs once per transfer function); median over the views, the "
+        "views resampled for the interval")
 """How the extraction times were taken, in words."""
 
 
@@ -55,17 +60,27 @@ def _scene_words(scene_name, rows):
     return f"{scene_name}: {stage('Φ_t', 't')}, {stage('Φ_p', 'p')}"
 
 
-def _phi_p_slower(df):
+def _view_ratio(rows, resampler):
+    """``(value, draws, views)``: Φ_p's median extraction time over Φ_t's across the views, with draws that resample
+    the views (each view's two stages together)."""
+    phi_t, phi_p = (numeric(rows, f"time_{stage}").to_numpy(float) for stage in ("phi_t", "phi_p"))
+    if not (np.isfinite(phi_t).all() and np.isfinite(phi_p).all() and (phi_t > 0).all()):
+        raise ValueError(f"{rows.scene.iloc[0]}: a view without its Φ_t and Φ_p extraction times")
+    picks = resampler.indices(("views", rows.scene.iloc[0]), len(rows))
+    draws = np.median(phi_p[picks], axis=1) / np.median(phi_t[picks], axis=1)
+    return float(np.median(phi_p) / np.median(phi_t)), draws, len(rows)
+
+
+def _phi_p_slower(df, bound=MUCH_SLOWER):
     scenes = _per_scene(df)
-    ratios = {}
+    resampler = intervals.Resampler()
+    decisions = {}
     for scene_name, rows in scenes.items():
-        phi_t = _stage_ms(rows, "phi_t")
-        if not phi_t > 0:
-            raise ValueError(f"{scene_name}: no Φ_t extraction time")
-        ratios[scene_name] = _stage_ms(rows, "phi_p") / phi_t
-    worst = min(ratios, key=ratios.get)
-    return ClaimResult(f"{as_ratio(ratios[worst])} ({worst})", bool(ratios[worst] >= MUCH_SLOWER),
-                       "; ".join(_scene_words(s, rows) for s, rows in scenes.items()) + f"; {ONCE}")
+        value, draws, views = _view_ratio(rows, resampler)
+        decisions[scene_name] = intervals.timing_decision(value, draws, {f"{scene_name}'s views": views},
+                                                          at_least=bound)
+    return all_of(decisions, what="Φ_p / Φ_t ",
+                  extra="; ".join(_scene_words(s, rows) for s, rows in scenes.items()) + f"; {ONCE}")
 
 
 def _interactive(df):
@@ -81,8 +96,14 @@ def _interactive(df):
 
 
 CLAIMS = (
+    Claim("phi-p-slower-paper", "Φ_p's cube set (2³ nodes) takes 21× as long to extract as Φ_t's (8³ nodes): 210 "
+          "against 10 ms (§4.2)", f"time_phi_p / time_phi_t ≥ {as_ratio(PAPER_RATIO)}, every data set",
+          lambda df: _phi_p_slower(df, PAPER_RATIO), paper_value="×21 (210 / 10 ms)"),
     Claim("phi-p-slower", "Φ_p's cube set (2³ nodes) takes much longer to extract than Φ_t's (8³ nodes) (§4.2: "
-          "210 against 10 ms)", f"time_phi_p / time_phi_t ≥ {as_ratio(MUCH_SLOWER)}, every data set", _phi_p_slower),
+          "210 against 10 ms)", f"time_phi_p / time_phi_t ≥ {as_ratio(MUCH_SLOWER)}, every data set", _phi_p_slower,
+          paper_value="×21 (210 / 10 ms)",
+          ours="much slower, as the text says: the paper's 21× may come from its shrinking node search, ours "
+               "computes each level over the whole volume"),
     Claim("interactive", "Extraction per transfer-function change is interactive (§4.2)",
           f"Φ_t and Φ_p each ≤ {format_number(EXTRACTION_MS['phi_p'])} ms at {PAPER_SIZE}³, every data set "
           "(measured at full scale only)", _interactive),
@@ -129,9 +150,10 @@ class Extraction(Experiment):
     paper = "xue2005"
     title = "Cube-set extraction per transfer-function change (E9)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit"})
+    # Five views: one extraction each, and a time claim needs five measurements in an arm.
     scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 2},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 2}}
+              "default": {"volume_size": 128, "image_size": 256, "orbit": 4},
+              "full": {"volume_size": 256, "image_size": 512, "orbit": 4}}
     description = (
         "Whenever the transfer function changes, Φ_t's cube set (8³ nodes) and Φ_p's (2³ nodes) are built "
         "again on the CPU: the paper measured 10 and 210 ms at 256³ and calls that interactive. Here each is a "
@@ -148,7 +170,7 @@ class Extraction(Experiment):
         wanted = listed(profile, self, "scenes", SCENES, known=SCENES)
         size = int(profile.setting(self, "volume_size", profile.volume_size))
         image = profile.setting(self, "image_size", profile.image_size)
-        orbit = int(profile.setting(self, "orbit", 2))
+        orbit = int(profile.setting(self, "orbit", 4))
         runs = []
         for scene_name in wanted:
             dataset, preset = TABLE1[scene_name][:2]
