@@ -316,6 +316,19 @@ def test_claims_sentence_counts_and_names_failures():
     assert takeaways.claims(claims) == ["3 of 3 measured claims hold; 1 not measured."]
 
 
+def test_a_target_of_ours_failing_beside_the_papers_number_is_one_failure():
+    claims = pd.DataFrame({"experiment": ["e"] * 3, "statement": ["paper ×3", "ours ≥ ×2", "other"],
+                           "expected": ["≥ 3", "≥ 2", "≥ 1"], "measured": ["1.5", "1.5", "0.5"],
+                           "target": ["paper", "ours", "paper"], "paper_value": ["×3", "×3", ""],
+                           "holds": [False, False, False]})
+    sentences = [str(s) for s in takeaways.claims(claims)]
+    assert sentences[0] == "0 of 3 measured claims hold; 3 fail."  # counted, each a verdict of its own
+    assert [s.split(" (")[0] for s in sentences[1:]] == ["Fails: paper ×3", "Fails: other"]
+    assert "our own looser target fails too" in sentences[1]
+    claims.loc[1, "holds"] = True  # ours holds: the paper's failure is said alone
+    assert not any("looser" in str(s) for s in takeaways.claims(claims))
+
+
 def test_order_range_and_problems():
     assert takeaways.order_range({"a": 1.31, "b": 2.04})[0].startswith("The error falls with the step at observed "
                                                                       "order 1.3–2 (a 1.3, b 2)")
