@@ -139,13 +139,9 @@ class Ratio(Check):
         resampler = intervals.Resampler()
         a, b = self.numerator.draws(df, resampler), self.denominator.draws(df, resampler)
         draws = a / b if a is not None and b is not None else None
-        if self.numerator.timed:
-            decision = intervals.timing_decision(top / bottom, draws, {m.what: m.frames(df) for m in
-                                                                       (self.numerator, self.denominator)},
-                                                 at_least=self.at_least, at_most=self.at_most)
-        else:
-            decision = intervals.decide(top / bottom, intervals.interval_of(draws), at_least=self.at_least,
-                                        at_most=self.at_most)
+        arms = ({m.what: m.frames(df) for m in (self.numerator, self.denominator)} if self.numerator.timed
+                else None)
+        decision = intervals.draws_decision(top / bottom, draws, arms, at_least=self.at_least, at_most=self.at_most)
         return ClaimResult.decided(with_interval(as_ratio(decision.value), decision, as_ratio), decision,
                                    f"{self.numerator.words(top)}, {self.denominator.words(bottom)}")
 
@@ -167,13 +163,9 @@ class Bound(Check):
     def __call__(self, df):
         value, name = self.measure.named(df)
         measured = self.measure.words(value).removeprefix(f"{self.measure.what} ")
-        draws = self.measure.draws(df, intervals.Resampler())
-        if self.measure.timed:
-            decision = intervals.timing_decision(value, draws, {self.measure.what: self.measure.frames(df)},
-                                                 at_least=self.at_least, at_most=self.at_most)
-        else:
-            decision = intervals.decide(value, intervals.interval_of(draws), at_least=self.at_least,
-                                        at_most=self.at_most)
+        arms = {self.measure.what: self.measure.frames(df)} if self.measure.timed else None
+        decision = intervals.draws_decision(value, self.measure.draws(df, intervals.Resampler()), arms,
+                                            at_least=self.at_least, at_most=self.at_most)
         scale = 1e3 if self.measure.unit == "ms" else 1.0
         show = lambda v: f"{format_number(v * scale)} {self.measure.unit}".strip()  # noqa: E731
         return ClaimResult.decided(with_interval(measured + (f" ({name})" if name else ""), decision, show),
@@ -233,12 +225,9 @@ class Growth(Check):
         if all(d is not None for d in draws):
             # One slope per draw: polyfit fits every column of a (points, draws) array at once.
             slopes = np.polyfit(x, np.log(np.column_stack(draws).T), 1)[0]
-        if self.measure.timed:
-            arms = {f"{self.x} {format_number(value)}": self.measure.frames(rows[xs == value]) for value, _ in points}
-            decision = intervals.timing_decision(exponent, slopes, arms, at_least=self.at_least, at_most=self.at_most)
-        else:
-            decision = intervals.decide(exponent, intervals.interval_of(slopes), at_least=self.at_least,
-                                        at_most=self.at_most)
+        arms = ({f"{self.x} {format_number(value)}": self.measure.frames(rows[xs == value]) for value, _ in points}
+                if self.measure.timed else None)
+        decision = intervals.draws_decision(exponent, slopes, arms, at_least=self.at_least, at_most=self.at_most)
         return ClaimResult.decided(with_interval(format_number(exponent), decision, format_number), decision,
                                    f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
                                    f"{format_number(points[-1][0])}")

@@ -194,22 +194,29 @@ def timing_decision(value, draws, arms, *, at_least=None, at_most=None):
     """A timing claim's :class:`Decision`: ``value`` with the interval of its bootstrap ``draws``, inconclusive
     where frames cannot decide it.
 
-    ``arms`` maps each side's name to how many timed frames it rests on (:func:`frame_count`; ``None`` where the
+    ``arms`` maps each side's name to how many timed frames it rests on (:func:`frame_count`; empty where the
     caller's draws do not say). Without draws (a side kept no frames) or with fewer than :data:`MIN_FRAMES`
     frames in an arm the decision is inconclusive, saying why: a point value or a zero-width interval would
     decide it on nothing.
     """
     decision = decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
-    few = {arm: n for arm, n in (arms or {}).items() if n < MIN_FRAMES}
+    few = {arm: n for arm, n in arms.items() if n < MIN_FRAMES}
     if decision.interval is None:
-        why = "no timed frames behind " + (", ".join(arm for arm, n in (arms or {}).items() if n == 0)
-                                           or "its interval")
+        why = "no timed frames behind " + (", ".join(arm for arm, n in arms.items() if n == 0) or "its interval")
     elif few:
         why = "; ".join(f"{arm}: {n} timed frame{'s' * (n != 1)}" for arm, n in few.items()) + \
             f", fewer than {MIN_FRAMES}"
     else:
         return decision
     return Decision(decision.value, decision.interval, None, decision.margin, why)
+
+
+def draws_decision(value, draws, arms, *, at_least=None, at_most=None):
+    """``value`` judged with the interval of its bootstrap ``draws``: a frame time by :func:`timing_decision`
+    (``arms``, each side's timed frames), a count or a metric (``arms`` ``None``: no frames) by :func:`decide`."""
+    if arms is None:
+        return decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
+    return timing_decision(value, draws, arms, at_least=at_least, at_most=at_most)
 
 
 def combine(decisions):
@@ -245,11 +252,9 @@ def ratio_decision(top, bottom, *, column="time_total", statistic="median", at_l
     a = statistic_draws(top, column, statistic, resampler)
     b = statistic_draws(bottom, bottom_column, statistic, resampler)
     draws = a / b if a is not None and b is not None else None
-    if frames_column(column) is None:  # a count or a metric: no frames, judged on its value
-        return decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
-    return timing_decision(value, draws, {"numerator": frame_count(top, column),
-                                          "denominator": frame_count(bottom, bottom_column)},
-                           at_least=at_least, at_most=at_most)
+    arms = (None if frames_column(column) is None
+            else {"numerator": frame_count(top, column), "denominator": frame_count(bottom, bottom_column)})
+    return draws_decision(value, draws, arms, at_least=at_least, at_most=at_most)
 
 
 def _point(rows, column, statistic):

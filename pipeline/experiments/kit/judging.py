@@ -90,7 +90,7 @@ def ratio_of_draws(top, bottom, **bounds):
     """A :class:`~pipeline.experiments.kit.intervals.Decision` on ``top / bottom``, each a ``(value, draws)`` pair
     of frame times (``draws`` ``None`` where no frames were kept: then the decision is inconclusive)."""
     draws = top[1] / bottom[1] if top[1] is not None and bottom[1] is not None else None
-    return intervals.timing_decision(top[0] / bottom[0], draws, None, **bounds)
+    return intervals.timing_decision(top[0] / bottom[0], draws, {}, **bounds)
 
 
 def median_count(rows, column):

@@ -283,8 +283,8 @@ class ClaimResult:
     def decided(cls, measured, decision, detail=""):
         """The result of a :class:`~pipeline.experiments.kit.intervals.Decision` (holds, fails or inconclusive);
         why an undecidable one is inconclusive ends the detail."""
-        why = getattr(decision, "why", "")
-        detail = f"{detail}; inconclusive: {why}" if why and detail else f"inconclusive: {why}" if why else detail
+        if decision.why:
+            detail = f"{detail}; inconclusive: {decision.why}" if detail else f"inconclusive: {decision.why}"
         return cls(measured, decision.holds, detail, decision.interval, decision.margin, decision.inconclusive)
 
 
