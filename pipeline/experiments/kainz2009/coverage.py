@@ -82,8 +82,8 @@ def _mask_speedup(df):
         raise ValueError("no triangle count timed with both methods")
     bitmask = rows[text_column(rows, "config") == "bitmask"]
     return all_of(decisions, extra=f"binning kernel (OpenCL profiling; paper: "
-                               f"{as_ratio(tables.PAPER_MASK_SPEEDUP)}); tile records "
-                               + counts(bitmask, "count_records", label="triangles"))
+                                   f"{as_ratio(tables.PAPER_MASK_SPEEDUP)}); tile records "
+                                   + counts(bitmask, "count_records", label="triangles"))
 
 
 def _watertight(df):

@@ -129,7 +129,7 @@ def _dual_ratio(df, scenes, *, dual_faster):
     if not decisions:
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both dual depth peeling and cl-tiled")
     return all_of(decisions, extra=f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}, "
-                               f"paper S1: 2.4×; {devices(pd.concat(compared))}")
+                                   f"paper S1: 2.4×; {devices(pd.concat(compared))}")
 
 
 def _crossing(depths, gaps):

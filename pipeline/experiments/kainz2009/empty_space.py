@@ -80,7 +80,7 @@ def _best_brick(df):
         fastest[name] = int(hulls.brick[numeric(hulls, TECHNIQUE).idxmin()])
         decisions[name] = ratio(others, eight, TECHNIQUE, resampler, statistic="min", at_least=1.0)
     return all_of(decisions, extra="fastest other brick size over 8³ (≥ ×1: 8³ is the fastest), "
-                    f"{KERNELS}; fastest: " + ", ".join(f"{s}: {b}³" for s, b in fastest.items()))
+                                   f"{KERNELS}; fastest: " + ", ".join(f"{s}: {b}³" for s, b in fastest.items()))
 
 
 def _hull_accuracy(df):
@@ -120,9 +120,10 @@ def _build_cheap(df):
         frames = draws(frame, TECHNIQUE, resampler)
         decisions[row.scene] = judge(build / point(frame, TECHNIQUE), None if frames is None else build / frames,
                                      at_most=1.0)
-    return all_of(decisions, extra=f"bricks + hull build (one first frame, its own run) over the median frame with the 8³ "
-                    f"hull, {KERNELS}; build " + ", ".join(f"{r.scene}: {format_number(r.build_ms)} ms"
-                                                           for r in builds.itertuples()))
+    return all_of(decisions,
+                  extra=f"bricks + hull build (one first frame, its own run) over the median frame with the 8³ "
+                        f"hull, {KERNELS}; build " + ", ".join(f"{r.scene}: {format_number(r.build_ms)} ms"
+                                                               for r in builds.itertuples()))
 
 
 class EmptySpace(Experiment):

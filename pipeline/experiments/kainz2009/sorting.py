@@ -98,8 +98,9 @@ def _sort_scenes(df):
 def _sort_small(df):
     resampler = intervals.Resampler()
     judged = {name: _sort_decision(df, name, resampler) for name in _sort_scenes(df)}
-    return all_of({name: decision for name, (decision, _) in judged.items()}, extra="sort / traversal on the pixel kernel (OpenCL profiling); "
-                    + "; ".join(detail for _, detail in judged.values()))
+    return all_of({name: decision for name, (decision, _) in judged.items()},
+                  extra="sort / traversal on the pixel kernel (OpenCL profiling); "
+                        + "; ".join(detail for _, detail in judged.values()))
 
 
 def _order_invariant(df):

@@ -142,7 +142,7 @@ def _binning_share(df):
         share_draws = None if binning is None or pixel is None else binning[:, i] / (binning[:, i] + pixel[:, i])
         decisions[row.scene] = judge(row.binning_share / 100, share_draws, at_most=0.10)
     return all_of(decisions, extra="binning / (binning + pixel kernel), OpenCL profiling; boundary triangles "
-                  + counts(rows, "count_triangles"), show=as_percent)
+                                   + counts(rows, "count_triangles"), show=as_percent)
 
 
 def _pool(df):
@@ -169,7 +169,7 @@ def _peel_ratio(df, scenes, *, below):
     if not decisions:
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both depth peeling and cl-tiled")
     return all_of(decisions, extra=f"time of depth peeling over cl-tiled's, same scene and view, {FRAMES}; "
-                               f"{devices(pd.concat(compared))}")
+                                   f"{devices(pd.concat(compared))}")
 
 
 class Table1(Experiment):

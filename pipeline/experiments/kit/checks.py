@@ -82,8 +82,7 @@ class Measure:
 
     def draws(self, df, resampler):
         """Bootstrap draws of :meth:`value` from the rows' timed frames (``None`` without frames)."""
-        rows, _ = self._values(df)
-        rows = rows[numeric(rows, self.column).notna()]
+        rows, _ = self._values(df)  # every row has a value: a row without one is refused there
         return intervals.statistic_draws(rows, self.column, self.statistic, resampler)
 
     @property
@@ -93,8 +92,7 @@ class Measure:
 
     def frames(self, df):
         """How many timed frames the matching rows hold (:func:`~.intervals.frame_count`)."""
-        rows, _ = self._values(df)
-        return intervals.frame_count(rows[numeric(rows, self.column).notna()], self.column)
+        return intervals.frame_count(self._values(df)[0], self.column)
 
     def words(self, value):
         """``"RC-b 12.3 ms"``: the measurement with its value in its unit."""

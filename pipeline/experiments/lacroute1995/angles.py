@@ -204,9 +204,9 @@ def _jump(df, column=TIME):
                                         centred=True)
                      for d, s in stats.items()}
     what = "technique time (tables, compositing, warp)" if column == TIME else "sample count (machine-independent)"
-    return all_of(decisions, extra="; ".join(f"{d}: {as_percent(s['switch'])} at a switch, {as_percent(s['other'])} "
-                                               "elsewhere" for d, s in stats.items())
-                          + f" (changes between neighbouring angles relative to the mean {what})")
+    changes = "; ".join(f"{d}: {as_percent(s['switch'])} at a switch, {as_percent(s['other'])} elsewhere"
+                        for d, s in stats.items())
+    return all_of(decisions, extra=f"{changes} (changes between neighbouring angles relative to the mean {what})")
 
 
 def _variation(df, dataset, bound):
@@ -240,9 +240,9 @@ def _head(df):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
         decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE, centred=True)
-    return all_of(decisions, extra=f"sphere varies {as_percent(s['variation'])}, "
-                          + ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
-                          + "; thesis: head 13 %, sphere 6 %")
+    varies = ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
+    return all_of(decisions,
+                  extra=f"sphere varies {as_percent(s['variation'])}, {varies}; thesis: head 13 %, sphere 6 %")
 
 
 def _title(part, dataset):

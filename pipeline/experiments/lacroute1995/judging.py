@@ -67,7 +67,7 @@ def ratio(top, bottom, column, resampler, *, at_least=None, at_most=None, reduce
     top, bottom = measured(top, column), measured(bottom, bottom_column)
     if top.empty or bottom.empty:
         raise ValueError(f"no run reported {column if top.empty else bottom_column}")
-    if statistic(bottom, bottom_column, resampler, reduce)[0] == 0:
+    if intervals.REDUCE[reduce](numeric(bottom, bottom_column).to_numpy(float)) == 0:  # its point, not its draws
         raise ValueError(f"{bottom_column} is 0")
     return intervals.ratio_decision(top, bottom, column=column, statistic=reduce, at_least=at_least, at_most=at_most,
                                     resampler=resampler, bottom_column=bottom_column)

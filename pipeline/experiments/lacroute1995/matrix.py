@@ -224,8 +224,8 @@ def _speedup(df, config, low, high):
                        f"{judging.milliseconds(rows['brute-force'], judging.TOTAL)} → "
                        f"{judging.milliseconds(rows[config], judging.TOTAL)}" for d, rows in groups.items())
     return all_of(decisions, extra=f"{counts}; thesis: brainsmall {as_ratio(1.1 / FIG_5_17['brainsmall'][config][1])}, "
-                                     f"brain {as_ratio(8.2 / FIG_5_17['brain'][config][1])} (its fixed costs were small; "
-                                     "ours, about 0.5 ms of tables, warp and Python, would hide the loop's speed-up)")
+                                   f"brain {as_ratio(8.2 / FIG_5_17['brain'][config][1])} (its fixed costs were small; "
+                                   "ours, about 0.5 ms of tables, warp and Python, would hide the loop's speed-up)")
 
 
 def _title(table):

@@ -288,7 +288,7 @@ def _task_u(df):
     if not decisions:
         raise ValueError("fewer than three task sizes swept")
     result = all_of(decisions, extra="ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
-                                       f"the Challenge; {_machine(pd.concat(read))}")
+                                     f"the Challenge; {_machine(pd.concat(read))}")
     return judging.unless_starved(result, pd.concat(read), holding_survives=False)
 
 

@@ -207,7 +207,7 @@ def _growth(df):
                 pass
         details.append(words)
     return all_of(decisions, extra="per doubling: " + "; ".join(details) + " (the samples do not depend on the "
-                          "machine; n² is ×4)")
+                                   "machine; n² is ×4)")
 
 
 def _ratio_of(a, b, column, doublings):

@@ -294,10 +294,11 @@ def _runs_linear(df):
             samples[s] = (rows.samples.min(), rows.samples.max())
     if not fits:
         raise ValueError("no checkerboard series with three block sizes")
-    return all_of({s: d for s, (_a, _b, d) in fits.items()}, extra=", ".join(f"{format_number(slope * 1e9)} ns per run ({s}; samples {format_number(lo)}–"
-                                    f"{format_number(hi)})" for (s, (slope, _b, _d)), (lo, hi) in zip(fits.items(), samples.values()))
-                          + "; thesis 400 ns. Where the samples vary, the visible count is not constant: bilinear "
-                            "footprints of small blocks reach both colours", show=judging.r2_words)
+    slopes = ", ".join(f"{format_number(slope * 1e9)} ns per run ({s}; samples {format_number(lo)}–"
+                       f"{format_number(hi)})" for (s, (slope, _b, _d)), (lo, hi) in zip(fits.items(), samples.values()))
+    return all_of({s: d for s, (_a, _b, d) in fits.items()}, show=judging.r2_words,
+                  extra=f"{slopes}; thesis 400 ns. Where the samples vary, the visible count is not constant: "
+                        "bilinear footprints of small blocks reach both colours")
 
 
 def _worst_runs(df):
@@ -355,7 +356,7 @@ def _prediction(df):
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
     return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "
-                          f"{format_number(b * 1e9)} ns/run, c = {format_number(c * 1e3)} ms", show=as_percent)
+                                   f"{format_number(b * 1e9)} ns/run, c = {format_number(c * 1e3)} ms", show=as_percent)
 
 
 def _cube_title(ok):

@@ -516,7 +516,7 @@ def _octree(df):
     decisions = {s: judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
                  for s, (octree, rle) in _pairs(df, "volpack-octree").items()}
     return all_of(decisions, extra="thesis: ×1.8 (brainsmall), ×2.3 (brain), ×2.5 (head); both VolPack's library calls "
-                                     "(vpShadeTable, then vpRenderRawVolume or vpRenderClassifiedVolume)")
+                                   "(vpShadeTable, then vpRenderRawVolume or vpRenderClassifiedVolume)")
 
 
 def _chart_title(scene_name, group):
