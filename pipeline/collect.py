@@ -235,7 +235,7 @@ def claims_table(frame, experiments):
         for claim in experiment.claims:
             verdict = judge(claim, part)
             claim_rows.append({
-                "experiment": experiment.name, "paper": experiment.paper, "claim": claim.id,
+                "experiment": experiment.name, "paper": experiment.paper, "claim": claim.id, "kind": claim.kind,
                 "statement": claim.statement, "target": claim.target, "paper_value": claim.paper_value,
                 "ours": claim.ours, "expected": claim.expected, "measured": verdict.measured,
                 "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
@@ -246,11 +246,12 @@ def claims_table(frame, experiments):
     return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
 
 
-CLAIM_COLUMNS = ["experiment", "paper", "claim", "statement", "target", "paper_value", "ours", "expected", "measured",
-                 "holds", "verdict", "detail", "interval_low", "interval_high", "margin", "disturbed_views",
+CLAIM_COLUMNS = ["experiment", "paper", "claim", "kind", "statement", "target", "paper_value", "ours", "expected",
+                 "measured", "holds", "verdict", "detail", "interval_low", "interval_high", "margin", "disturbed_views",
                  "software_rasterizer", "stand_in"]
-"""The columns of ``claims.csv``: ``target`` is ``paper`` (the paper's statement) or ``ours`` (our own target beside
-it, ``ours`` saying why), ``paper_value`` the paper's number the claim judges where it has one;
+"""The columns of ``claims.csv``: ``kind`` is what the claim measures (timing, count, accuracy or cost model:
+:data:`~pipeline.experiments.kit.model.CLAIM_KINDS`), ``target`` is ``paper`` (the paper's statement) or ``ours``
+(our own target beside it, ``ours`` saying why), ``paper_value`` the paper's number the claim judges where it has one;
 ``interval_low``/``interval_high`` bound the 95 % interval of the measured value
 where it rests on timed frames (in the value's unit: a ratio, seconds), ``margin`` is its relative distance
 from the bound, positive on the holding side (the worst row's, for a claim over several); the last three are

@@ -385,7 +385,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     if "holds" in claims_df:
         claims_df["holds"] = claims_df["holds"].map(_holds).astype(object)
     claims_df["verdict"] = _verdicts(claims_df)
-    for column, missing in (("target", "paper"), ("paper_value", ""), ("ours", "")):  # results from before them
+    for column, missing in (("kind", ""), ("target", "paper"), ("paper_value", ""), ("ours", "")):  # results from before them
         claims_df[column] = claims_df[column].fillna(missing).astype(str) if column in claims_df else missing
     env = _jinja()
     facts = provenance(environment, runs_df, real_data)
@@ -470,11 +470,27 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     index.write_text(env.get_template("index.html").render(
         **common, takeaways=index_takeaways, shown=takeaways.SHOWN, alerts=index_alerts, panels=panels, atlas=atlas,
         verdict_classes=VERDICT_CLASSES, matrix=matrix, psnr_min=takeaways.number(psnr_min), backends=backends,
-        planned=list(planned or [])))
+        planned=list(planned or []), kinds=_claims_by_kind(claims_df)))
     (report_dir / "appendix.html").write_text(env.get_template("appendix.html").render(
         **common, timing=_timing(runs_df, environment, index_ctx), real_data=real_data,
         phantoms=_phantom_summary(phantoms), harness=_harness(harness, runs_df)))
     return index
+
+
+KIND_WORDS = {"timing": "a timing", "count": "a count (machine-independent)", "accuracy": "an image's accuracy",
+              "cost model": "a cost model against the times"}
+"""The index's words for each kind of claim (``claims.csv``'s ``kind``), in the order it lists them."""
+
+
+def _claims_by_kind(claims_df):
+    """``[{"kind", "words", "claims": {verdict: count}}]``: the verdicts of each kind of claim (what it measures)."""
+    if "kind" not in claims_df:
+        return []
+    present = [kind for kind in dict.fromkeys([*KIND_WORDS, *claims_df["kind"]]) if (claims_df["kind"] == kind).any()]
+    return [{"kind": kind, "words": KIND_WORDS.get(kind, kind),
+             "claims": claims_df[claims_df["kind"] == kind]["verdict"].value_counts().reindex(
+                 list(VERDICT_CLASSES), fill_value=0).astype(int).to_dict()}
+            for kind in present if kind]
 
 
 _SECTION_INPUTS = None

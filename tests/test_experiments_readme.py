@@ -34,3 +34,4 @@ def test_the_readme_example_plans_timed_runs_together_and_judges_the_papers_numb
                           "view": "headline", "experiment": experiment.name} for c, t in (("rc", 0.02), ("rc-b", 0.01))])
     claim = experiment.claims[0]
     assert claim.evaluate(rows).holds is True and claim.paper_value == "×1.6–2.2" and claim.target == "paper"
+    assert claim.kind == "timing"  # from the check: a ratio of frame times

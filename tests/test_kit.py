@@ -152,3 +152,26 @@ def test_device_takeaways_name_the_devices_and_add_the_papers_note_for_a_cpu_ras
     (sentence,) = device_takeaways(mixed, software="only ratios count")
     assert "NVIDIA H100" in sentence and "per device" in sentence and "only ratios" not in sentence
     assert device_takeaways(rows.iloc[:0], software="x") == []
+
+
+def test_a_claim_knows_what_it_measures_from_its_check_or_declares_it():
+    from pipeline.experiments import all_experiments
+    from pipeline.experiments.kit.model import CLAIM_KINDS, Claim
+
+    times = Ratio(Measure("RC", match={"config": "rc"}), Measure("RC-b", match={"config": "rc-b"}), at_least=1.5)
+    assert Claim("faster", "RC-b is faster", times.expected, times).kind == "timing"
+    psnr = Bound(Measure("the worst image", column="psnr", statistic="min", unit="dB"), at_least=40)
+    assert Claim("accurate", "It is accurate", psnr.expected, psnr).kind == "accuracy"
+    fragments = Bound(Measure("fragments", column="count_fragments_main", unit=""), at_most=10)
+    assert Claim("few", "Few fragments", fragments.expected, fragments).kind == "count"
+    with pytest.raises(ValueError, match="measures one kind"):
+        Claim("mixed", "Mixed", "", Ratio(times.numerator, psnr.measure, at_least=1.0))
+    # A check written by hand says what it measures; a typo is refused too.
+    with pytest.raises(ValueError, match="'by-hand'.*kind=") as missing:
+        Claim("by-hand", "A statement", "a bound", lambda df: None)
+    assert "timing, count, accuracy, cost model" in str(missing.value)
+    with pytest.raises(ValueError, match="'timings' is not one of"):
+        Claim("typo", "A statement", "a bound", lambda df: None, kind="timings")
+    assert Claim("by-hand", "A statement", "a bound", lambda df: None, kind="cost model").kind == "cost model"
+    kinds = {claim.kind for experiment in all_experiments().values() for claim in experiment.claims}
+    assert kinds == set(CLAIM_KINDS)

@@ -38,10 +38,11 @@ def _all_fast(df):
     return ClaimResult(f"{times.max() * 1e3:.3g} ms", bool(times.max() < 0.01))
 
 
-RATIO = Claim("ratio", "C8 costs at most four times C1", "≤ 4", _ratio)
-ALL_FAST = Claim("fast", "every tiled frame is fast", "< 10 ms", _all_fast)
+RATIO = Claim("ratio", "C8 costs at most four times C1", "≤ 4", _ratio, kind="timing")
+ALL_FAST = Claim("fast", "every tiled frame is fast", "< 10 ms", _all_fast, kind="timing")
 PEEL_ONLY = Claim("peel", "depth peeling renders C1 under 10 ms", "< 10 ms",
-                  lambda df: ClaimResult("ok", stage_time(one_row(df, "peel", scene="C1", backend="peel")) < 0.01))
+                  lambda df: ClaimResult("ok", stage_time(one_row(df, "peel", scene="C1", backend="peel")) < 0.01),
+                  kind="timing")
 
 
 def test_every_run_there_gives_the_plain_verdict():
@@ -87,7 +88,7 @@ def test_a_column_only_the_missing_runs_report_blocks_rather_than_goes_unmeasure
     def fragments(df):
         return ClaimResult("n", bool(numeric(rows_matching(df, "tiled", backend="tiled"), "count_fragments").max() < 64))
 
-    claim = Claim("frag", "fragments stay under the cap", "< 64", fragments)
+    claim = Claim("frag", "fragments stay under the cap", "< 64", fragments, kind="count")
     rows = _runs(("C1.tiled", "tiled", "C1", "failed", "error", None, {}), ("C1.peel", "peel", "C1", "ok", "", 0.003, {}))
     assert claim.evaluate(rows[rows.status == "ok"]).holds is None  # "not measurable" on what is left
     assert judge(claim, rows).verdict == "blocked"

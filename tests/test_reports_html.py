@@ -455,3 +455,17 @@ def test_a_takeaway_keeps_its_importance_across_processes():
     sentence = takeaways.Takeaway("A claim fails.", takeaways.FAILING_CLAIM)
     copy = pickle.loads(pickle.dumps(sentence))
     assert copy == sentence and copy.importance == takeaways.FAILING_CLAIM
+
+
+def test_index_counts_the_verdicts_of_each_kind_of_claim(report):
+    claims = pd.read_csv(report.parent / "csv" / "claims.csv")
+    html = report.read_text()
+    assert "claims that measure" in html
+    for kind, words in (("count", "a count (machine-independent)"), ("accuracy", "an image&#39;s accuracy"),
+                        ("timing", "a timing")):
+        part = claims[claims.kind == kind]
+        assert not part.empty
+        held = int((part.verdict == "holds").sum())
+        assert f'<td class="text">{words}</td>\n<td class="holds">{held}</td>' in html
+    volbench = (report.parent / "volbench.html").read_text()
+    assert "<th class=\"text\">kind</th>" in volbench and '<td class="text">accuracy</td>' in volbench

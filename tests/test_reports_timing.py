@@ -140,6 +140,7 @@ class _Speed:
 
 CLAIMS = pd.DataFrame({
     "experiment": "fake-speed", "paper": "fake2024", "claim": ["fast", "faster", "count"],
+    "kind": ["timing", "timing", "count"],
     "statement": ["A beats B", "A beats C", "A samples less"], "expected": ["≥ ×1.5", "≥ ×2", "≤ ×1"],
     "measured": ["×1.62 (95 % CI ×1.55–×1.7)", "×2.1 (95 % CI ×1.8–×2.4)", "×0.5"],
     "holds": [True, None, True], "verdict": ["holds", "inconclusive", "holds"], "detail": "",
@@ -201,9 +202,9 @@ def test_the_claims_table_shows_interval_margin_and_the_inconclusive_verdict(tmp
     for statement, cells in (("A beats B", ["×1.62", "×1.55–×1.7", "+8 %", "holds"]),
                              ("A beats C", ["×2.1", "×1.8–×2.4", "+5 %", "inconclusive"]),
                              ("A samples less", ["×0.5", "—", "+50 %", "holds"])):
-        assert re.findall(r"<td[^>]*>([^<]*)</td>", rows[statement])[2:6] == cells, statement
+        assert re.findall(r"<td[^>]*>([^<]*)</td>", rows[statement])[3:7] == cells, statement
     assert '<td class="verdict inconclusive">inconclusive</td>' in page
-    papers = index[index.index('id="papers"'):]
+    papers = index[index.index('id="papers"'):index.index("claims that measure")]
     counts = re.findall(r'<td class="(holds|fails|inconclusive|blocked|unmeasured)">(\d+)</td>', papers)
     assert counts == [("holds", "2"), ("fails", "0"), ("inconclusive", "1"), ("blocked", "0"), ("unmeasured", "0")]
 

@@ -166,12 +166,12 @@ class Coverage(Experiment):
         Claim("bitshift-faster", "Coverage masks by bit shifts are faster than per-pixel edge evaluation "
               f"(paper: {tables.PAPER_MASK_SPEEDUP:g}× on a GT200)",
               "time(edge) / time(bitmask) > ×1 at every triangle count (the triangle kernel, time_binning)",
-              _mask_speedup),
+              _mask_speedup, kind="timing"),
         Claim("watertight", "Closed boundaries are covered exactly once per crossing: no missing or doubled fragment",
               "pixels with unequal front- and back-facing fragment counts = 0 in every view, both methods",
-              _watertight),
+              _watertight, kind="count"),
         Claim("same-fragments", "Both methods compute the same masks",
-              "equal fragment counts in every view and identical images", _same_fragments),
+              "equal fragment counts in every view and identical images", _same_fragments, kind="count"),
     )
 
     def paper_table(self):

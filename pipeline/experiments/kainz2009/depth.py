@@ -239,10 +239,12 @@ class Depth(Experiment):
 
     claims = (
         Claim("depths-match", "The stand-ins have the paper's depth complexities (20, 40, 81)",
-              "max depth complexity within 10 % of the paper's on S1, S2 and S3 (unbounded lists)", _depths),
+              "max depth complexity within 10 % of the paper's on S1, S2 and S3 (unbounded lists)", _depths,
+              kind="count"),
         Claim("linear-in-depth", "The tiled caster's cost grows about linearly with depth complexity: one binning "
               "pass, a coherent per-pixel insertion sort (§3.2)",
-              f"frame time over the box sweep fits a line in depth complexity, R² ≥ 0.9 ({KERNELS})", _depth_fit),
+              f"frame time over the box sweep fits a line in depth complexity, R² ≥ 0.9 ({KERNELS})", _depth_fit,
+              kind="timing"),
         Claim("accuracy", "Translucent geometry renders the reference's image (S3 capped at 63 of 81 layers)",
               TILED_ACCURATE.expected, TILED_ACCURATE),
         Claim("dual-accuracy", "Dual depth peeling renders the reference's image (every layer, no cap)",
@@ -250,14 +252,14 @@ class Depth(Experiment):
         Claim("dual-wins-shallow", "At depth complexity 20 dual depth peeling beats the tiled caster (S1: "
               "123–150 fps against 52–62, 2.4×)",
               f"time(cl-tiled) / time(dual depth peeling) > ×1 on S1 ({FRAMES})",
-              lambda df: _dual_ratio(df, ("S1",), dual_faster=True)),
+              lambda df: _dual_ratio(df, ("S1",), dual_faster=True), kind="timing"),
         Claim("tiled-wins-deep", "At depth complexity 40 and 81 the tiled caster beats dual depth peeling (S2: 18–28 "
               "fps against 14–16; S3: 31–52 against 25–46)",
               f"time(cl-tiled) / time(dual depth peeling) < ×1 on S2 and S3 ({FRAMES})",
-              lambda df: _dual_ratio(df, ("S2", "S3"), dual_faster=False)),
+              lambda df: _dual_ratio(df, ("S2", "S3"), dual_faster=False), kind="timing"),
         Claim("crossover", "The two cross between depth complexity 20 and 40", "the depth where dual depth "
               "peeling's frame time passes cl-tiled's (box sweep, interpolated between measured depths) lies in "
-              f"[20, 40] ({FRAMES})", _crossover),
+              f"[20, 40] ({FRAMES})", _crossover, kind="timing"),
     )
 
     def paper_table(self):

@@ -178,9 +178,10 @@ class Sorting(Experiment):
         Claim("sort-small", "Sorting time stays small next to ray traversal, even when every list must be "
               "reversed (§3.2)", "worst-case sort time (gather + sort back to front − front to back) / ray "
               "traversal time (pixel kernel − gather + sort, back to front) ≤ ×1 on every scene (pixel kernel, "
-              "time_pixel)", _sort_small),
+              "time_pixel)", _sort_small, kind="timing"),
         Claim("order-invariant", "The submission order changes the work, not the image",
-              "images of every order identical (max |difference| = 0) on every scene", _order_invariant),
+              "images of every order identical (max |difference| = 0) on every scene", _order_invariant,
+              kind="accuracy"),
     )
 
     def paper_table(self):

@@ -118,9 +118,9 @@ class Step(Experiment):
     claims = (
         Claim("oversampling-cheap", "Oversampling is cheap: finer steps cost no more per sample (texture-cache "
               "coherence, §3.3)", "time per added sample between the two finest steps / between the two coarsest "
-              f"≤ ×1 ({KERNELS}: the fixed cost of a frame cancels)", _per_sample),
+              f"≤ ×1 ({KERNELS}: the fixed cost of a frame cancels)", _per_sample, kind="timing"),
         Claim("error-falls", "A finer common step brings the image closer to the reference",
-              "PSNR against the reference never falls as the step shrinks", _step_error),
+              "PSNR against the reference never falls as the step shrinks", _step_error, kind="accuracy"),
     )
 
     def paper_table(self):

@@ -233,26 +233,26 @@ class Table1(Experiment):
 
     claims = (
         Claim("accuracy", "cl-tiled renders the reference's image on the volume scenes C1–C3",
-              "PSNR ≥ 40 dB against the reference on C1, C2 and C3", _accuracy_c1_c3),
+              "PSNR ≥ 40 dB against the reference on C1, C2 and C3", _accuracy_c1_c3, kind="accuracy"),
         Claim("narrow-band", "The tiled caster's frame time stays in a narrow band across all eight scenes "
               "(paper: 7–25 fps)", f"slowest / fastest scene ≤ {as_ratio(BAND)} (every scene cl-tiled rendered; "
-              f"{FRAMES}: the paper states frame rates)", _band, paper_value="7–25 fps"),
+              f"{FRAMES}: the paper states frame rates)", _band, paper_value="7–25 fps", kind="timing"),
         Claim("pixel-kernel-dominates", "The pixel kernel takes most of the frame, the triangle kernel 2–10 % (§4.2)",
               "binning ≤ 10 % of binning + pixel kernel on every scene (OpenCL profiling: time_binning, "
-              "time_pixel)", _binning_share),
+              "time_pixel)", _binning_share, kind="timing"),
         Claim("pool-enough", "The paper's 6 MB chunk pool holds every scene's tile lists",
-              "chunk pool used ≤ 6 MiB on every scene", _pool),
+              "chunk pool used ≤ 6 MiB on every scene", _pool, kind="count"),
         Claim("peeling-wins-one-volume", "A shader caster beats the tiled caster on a single volume (C1: Roessler "
               "14–46 fps against 10–21)", f"time(depth peeling) / time(cl-tiled) < ×1 on C1 ({FRAMES})",
-              lambda df: _peel_ratio(df, ("C1",), below=True)),
+              lambda df: _peel_ratio(df, ("C1",), below=True), kind="timing"),
         Claim("tiled-wins-many-volumes", "From four volumes on, the tiled caster beats depth peeling (C3: 16–25 fps "
               "against 5–9)",
               f"time(depth peeling) / time(cl-tiled) > ×1 on every scene with ≥ 4 volumes both render ({FRAMES})",
-              lambda df: _peel_ratio(df, ("C3", "C4", "C5", "C8"), below=False)),
+              lambda df: _peel_ratio(df, ("C3", "C4", "C5", "C8"), below=False), kind="timing"),
         Claim("peeling-collapses-with-meshes", "With meshes, depth peeling collapses (C6, C7: Brecheisen 0–2 fps "
               "against the tiled caster's 7–15): every surface layer costs a geometry pass",
               f"time(depth peeling) / time(cl-tiled) > ×1 on C6 and C7, whichever both render ({FRAMES})",
-              lambda df: _peel_ratio(df, ("C6", "C7"), below=False)),
+              lambda df: _peel_ratio(df, ("C6", "C7"), below=False), kind="timing"),
     )
 
     def paper_table(self):

@@ -27,6 +27,9 @@ from pipeline.experiments.kit.words import as_ratio, format_number
 STATISTICS = {"median": np.median, "min": np.min, "max": np.max, "mean": np.mean}
 """How a :class:`Measure` reduces the values of its rows."""
 
+ACCURACY_COLUMNS = ("psnr", "ssim", "flip", "max_error", "frac_over_threshold", "alpha_rmse")
+"""Prefixes of the columns that compare an image with its reference: a :class:`Measure` of one is ``accuracy``."""
+
 
 @dataclass(frozen=True)
 class Measure:
@@ -86,6 +89,13 @@ class Measure:
         return intervals.statistic_draws(rows, self.column, self.statistic, resampler)
 
     @property
+    def kind(self):
+        """What the measurement is (:data:`~pipeline.experiments.kit.model.CLAIM_KINDS`), read from its column."""
+        if self.timed:
+            return "timing"
+        return "accuracy" if self.column.startswith(ACCURACY_COLUMNS) else "count"
+
+    @property
     def timed(self):
         """Whether the measurement is a frame time (its claims need frames: :func:`~.intervals.timing_decision`)."""
         return intervals.frames_column(self.column) is not None
@@ -102,6 +112,14 @@ class Measure:
 
 class Check:
     """A claim's check: called with the successful rows, returns a :class:`ClaimResult`."""
+
+    @property
+    def kind(self):
+        """What the claim measures: its measurements' kind (a ratio of times is a timing)."""
+        kinds = {m.kind for m in vars(self).values() if isinstance(m, Measure)}
+        if len(kinds) != 1:
+            raise ValueError(f"{type(self).__name__} measures {sorted(kinds)}: a claim measures one kind")
+        return kinds.pop()
 
     @property
     def expected(self):

@@ -288,6 +288,13 @@ class ClaimResult:
         return cls(measured, decision.holds, detail, decision.interval, decision.margin, decision.inconclusive)
 
 
+CLAIM_KINDS = ("timing", "count", "accuracy", "cost model")
+"""What a claim measures: ``timing`` a time, a frame rate or their ratio (machine-dependent, judged with an
+interval over timed frames); ``count`` a number that does not depend on the machine (fragments, samples,
+passes, bytes, a statistic of a phantom); ``accuracy`` an image against its reference (PSNR, SSIM, an error);
+``cost model`` a model's prediction of the times from counts, against the measured times."""
+
+
 @dataclass(frozen=True)
 class Claim:
     """A statement from a paper (or our own expectation) checked against the results.
@@ -296,10 +303,12 @@ class Claim:
     :class:`ClaimResult`; ``holds`` is ``None`` when the data needed is missing, which the report
     shows as "not measured" rather than as a pass.
 
-    ``paper_value`` is the paper's own number the claim judges, in words (``"×3.0"``, ``"0.2–4 %"``).
-    ``ours`` marks a target of our own beside the paper's, saying why it differs (``"a software
-    rasterizer's early-z is per 4×2 block"``); the paper's number is then a claim of its own, so it is
-    always judged.
+    ``kind`` is what the claim measures (:data:`CLAIM_KINDS`): a check of the kit
+    (:mod:`~pipeline.experiments.kit.checks`) knows it from its measurement; a check written by hand
+    declares it. ``paper_value`` is the paper's own number the claim judges, in words (``"×3.0"``,
+    ``"0.2–4 %"``). ``ours`` marks a target of our own beside the paper's, saying why it differs (``"a
+    software rasterizer's early-z is per 4×2 block"``); the paper's number is then a claim of its own, so
+    it is always judged.
     """
 
     id: str
@@ -308,6 +317,14 @@ class Claim:
     check: object
     paper_value: str = ""
     ours: str = ""
+    kind: str = ""
+
+    def __post_init__(self):
+        kind = self.kind or getattr(self.check, "kind", "")
+        if kind not in CLAIM_KINDS:
+            raise ValueError(f"claim {self.id!r}: kind {kind!r} is not one of {', '.join(CLAIM_KINDS)}; a check "
+                             f"written by hand declares what it measures with Claim(..., kind=...)")
+        object.__setattr__(self, "kind", kind)
 
     @property
     def target(self):

@@ -73,7 +73,7 @@ class NoCue(Experiment):
     )
     claims = (
         Claim("overhead", "Where neither acceleration applies, the intermediate passes cost about 30 % (Sec. 3)",
-              "time RC-a / RC and RC-b / RC within ×1.1–×1.6 (10–60 % slower; whole frames)", _overhead),
+              "time RC-a / RC and RC-b / RC within ×1.1–×1.6 (10–60 % slower; whole frames)", _overhead, kind="timing"),
     )
 
     def runs(self, profile):

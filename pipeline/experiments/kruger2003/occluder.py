@@ -122,10 +122,11 @@ class Occluder(Experiment):
     )
     claims = (
         Claim("occluded-rays-culled", "Early-z drops every fragment of an occluded ray in every main pass (Sec. 1)",
-              "RC: main-pass fragments = passes × (rays − occluded rays) at every coverage", _occluded_culled),
+              "RC: main-pass fragments = passes × (rays − occluded rays) at every coverage", _occluded_culled,
+              kind="count"),
         Claim("time-proportional", "The speed-up is directly proportional to the occluded area (Sec. 1)",
               "RC main-pass time (the stage early-z culls) linear in the occluded share (R² ≥ 0.9) and ≤ 25 % "
-              "of the unoccluded time when all is hidden", lambda df: _occluder_fit(df, "rc")),
+              "of the unoccluded time when all is hidden", lambda df: _occluder_fit(df, "rc"), kind="timing"),
     )
 
     def runs(self, profile):

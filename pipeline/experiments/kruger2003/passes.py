@@ -131,14 +131,15 @@ class Passes(Experiment):
     )
     claims = (
         Claim("rc-flat", "RC draws the whole footprint in every main pass", "fragments of the last main pass ≥ 95 % "
-              "of the first", lambda df: _pass_trend(df, "rc", flat=True)),
+              "of the first", lambda df: _pass_trend(df, "rc", flat=True), kind="count"),
         Claim("rca-falls", "With early termination the fragments per main pass fall as rays end",
-              "RC-a's last main pass ≤ 50 % of its first", lambda df: _pass_trend(df, "rc-a", flat=False)),
+              "RC-a's last main pass ≤ 50 % of its first", lambda df: _pass_trend(df, "rc-a", flat=False),
+              kind="count"),
         Claim("iso-faster", "The iso-surface caster beats DVR with early termination on an opaque surface (Sec. 2.2)",
-              "time ratio DVR RC-a / iso RC-a > 1 (whole frames)", _iso_faster),
+              "time ratio DVR RC-a / iso RC-a > 1 (whole frames)", _iso_faster, kind="timing"),
         Claim("m-u-shape", "The cost over M is U-shaped: per-pass overhead at small M, wasted samples at large M "
               "(Sec. 3)", "the fastest M inside the swept range faster than both ends: time at each end / at it > 1 "
-              "(whole frames)", _m_u_shape),
+              "(whole frames)", _m_u_shape, kind="timing"),
     )
 
     def runs(self, profile):

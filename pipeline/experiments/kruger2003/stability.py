@@ -105,9 +105,10 @@ class Stability(Experiment):
     )
     claims = (
         Claim("threshold-trades-error", "A lower threshold is faster and less accurate", "on the head: time at T = 1 "
-              "/ time at the lowest T > 1 (whole frames), and PSNR at the lowest T < PSNR at T = 1", _threshold),
+              "/ time at the lowest T > 1 (whole frames), and PSNR at the lowest T < PSNR at T = 1", _threshold,
+              kind="timing"),
         Claim("blocks-lossless", "Empty-space skipping never changes the image, whatever the block size",
-              "PSNR spread over block sizes ≤ 0.1 dB (each scene)", _blocks_lossless),
+              "PSNR spread over block sizes ≤ 0.1 dB (each scene)", _blocks_lossless, kind="accuracy"),
     )
 
     def runs(self, profile):

@@ -78,18 +78,19 @@ class ViewAngles(Experiment):
     claims = (
         Claim("no-axis-switch-jump", "Time does not jump where the principal axis switches (45° + k·90°)",
               "largest change of the technique time across a switch ≤ 1.5 × the largest between other neighbouring "
-              "angles (every data set)", lambda df: _jump(df)),
+              "angles (every data set)", lambda df: _jump(df), kind="timing"),
         Claim("no-axis-switch-jump-samples", "The work (samples composited) does not jump where the principal axis "
               "switches either", "largest change across a switch ≤ 1.5 × the largest elsewhere (every data set)",
-              lambda df: _jump(df, "count_samples")),
+              lambda df: _jump(df, "count_samples"), kind="count"),
         Claim("sphere-flat-paper", "The sphere's time varies only 6 % with the view (thesis)",
               "(max − min)/mean of the technique time over the turn ≤ 6 %", lambda df: _variation(df, "sphere", 0.06),
-              paper_value="6 %"),
+              paper_value="6 %", kind="timing"),
         Claim("sphere-flat", "The sphere's time hardly depends on the view (thesis: 6 %)",
               "(max − min)/mean of the technique time over the turn ≤ 12 %", lambda df: _variation(df, "sphere", 0.12),
-              paper_value="6 %", ours="hardly: twice the thesis's 6 %, for a sphere voxelised at another size"),
+              paper_value="6 %", ours="hardly: twice the thesis's 6 %, for a sphere voxelised at another size",
+              kind="timing"),
         Claim("head-varies-more", "The head's time varies more with the view than the sphere's (thesis: 13 % against 6 %)",
-              "head variation / sphere variation of the technique time > 1", lambda df: _head(df)),
+              "head variation / sphere variation of the technique time > 1", lambda df: _head(df), kind="timing"),
     )
 
     def paper_table(self):

@@ -74,9 +74,11 @@ class PerspectiveQuality(Experiment):
     claims = (
         Claim("quality-falls-with-fov", "Quality degrades as the field of view widens and rays meet the slices at "
               "larger angles (§4.2.5)", "PSNR over the object's footprint at the widest field ≥ 1 dB below the "
-              "narrowest, and never more than 0.5 dB above the next narrower one", lambda df: _falls(df)),
+              "narrowest, and never more than 0.5 dB above the next narrower one", lambda df: _falls(df),
+              kind="accuracy"),
         Claim("narrow-fov-like-parallel", "A narrow field of view is as accurate as the parallel projection",
-              "|PSNR(narrowest field) − PSNR(parallel)| ≤ 2 dB over the object's footprint", lambda df: _like_parallel(df)),
+              "|PSNR(narrowest field) − PSNR(parallel)| ≤ 2 dB over the object's footprint", lambda df: _like_parallel(df),
+              kind="accuracy"),
     )
 
     def paper_table(self):

@@ -143,22 +143,22 @@ class ImageQuality(Experiment):
     claims = (
         Claim("smooth-0deg", "With a smooth transfer function shear-warp matches the ground-truth ray caster "
               "(post-classified, CONVENTIONS) head-on", "PSNR ≥ 35 dB at 0° (worst data set)",
-              lambda df: _smooth_head_on(df, "post")),
+              lambda df: _smooth_head_on(df, "post"), kind="accuracy"),
         Claim("smooth-0deg-pre", "With a smooth transfer function shear-warp matches a trilinear ray caster that "
               "classifies and shades voxels before interpolating, as the thesis's comparison caster does (Fig. 5.9), "
-              "head-on", "PSNR ≥ 35 dB at 0° (worst data set)", lambda df: _smooth_head_on(df, "pre")),
+              "head-on", "PSNR ≥ 35 dB at 0° (worst data set)", lambda df: _smooth_head_on(df, "pre"), kind="accuracy"),
         Claim("smooth-all-angles", "With a smooth transfer function the error against the thesis's kind of ray caster "
               "stays small at every angle (Fig. 5.9)", "PSNR falls by ≤ 3 dB from the oblique angle below 45° "
-              "(22.5°) to 45° (worst data set)", lambda df: _drop(df, "smooth", False)),
+              "(22.5°) to 45° (worst data set)", lambda df: _drop(df, "smooth", False), kind="accuracy"),
         Claim("binary-45deg-aliasing", "A binary classification aliases at 45° (Fig. 5.10a) where a smooth one "
               "barely does (5.10c), both against the thesis's kind of trilinear ray caster", "binary's PSNR loss "
               "from the oblique angle below 45° (22.5°) to 45° exceeds the smooth one's by ≥ 1 dB (every data set)",
-              lambda df: _drop(df, "binary", True)),
+              lambda df: _drop(df, "binary", True), kind="accuracy"),
         Claim("uncorrected-too-transparent", "Without opacity correction a 45° view is about 30 % too transparent "
               "(§4.1.6; 42 % along the diagonal)", "optical-depth deficit 29 % ± 7 (45°), 42 % ± 7 (diagonal)",
-              lambda df: _uncorrected(df)),
+              lambda df: _uncorrected(df), kind="accuracy"),
         Claim("corrected-agrees", "With opacity correction the cube agrees with the ray caster at every angle",
-              "optical-depth deficit within ±5 % (every view)", lambda df: _corrected(df)),
+              "optical-depth deficit within ±5 % (every view)", lambda df: _corrected(df), kind="accuracy"),
     )
 
     def paper_table(self):

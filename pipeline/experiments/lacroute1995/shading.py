@@ -106,23 +106,24 @@ class Variants(Experiment):
 
     claims = (
         Claim("lut-faster", "Lookup-table shading is several times faster than per-voxel Phong (Table 7.1: ×4.3 "
-              "total)", "technique time ratio per-voxel Phong / lookup-table shading ≥ ×2", lambda df: _lut_speed(df)),
+              "total)", "technique time ratio per-voxel Phong / lookup-table shading ≥ ×2", lambda df: _lut_speed(df),
+              kind="timing"),
         Claim("lut-accurate", "13-bit normals are enough: the table's image matches per-voxel Phong",
-              "PSNR ≥ 35 dB between them", lambda df: _lut_accuracy(df)),
+              "PSNR ≥ 35 dB between them", lambda df: _lut_accuracy(df), kind="accuracy"),
         Claim("union-by-rank", "Union by rank does not make the renderer faster (thesis: 5–15 % slower)",
               "technique time ratio union by rank / path compression alone ≥ ×0.97", UNION_BY_RANK),
         Claim("mode-switch", "After a classification edit the octree mode shows an image sooner than re-encoding "
               "the RLE volume (§4.4)", "VolPack: octree frame / (RLE classify + RLE frame) < 1, technique frames",
-              lambda df: _mode_switch(df)),
+              lambda df: _mode_switch(df), kind="timing"),
         Claim("octree-rle-build", "Building the three RLE copies from the min-max octree is faster than the brute-force "
               "build (§4.4, E22)", "ours: (sat_build + rle_build from the octree) / (classify + rle_build) < 1",
-              lambda df: _octree_rle_build(df)),
+              lambda df: _octree_rle_build(df), kind="timing"),
         Claim("fast-classification-render", "Rendering with fast classification takes about twice the classified-RLE "
               "render (Table 5.3: ×1.8–2.5)", "technique time ratio fast classification / classified RLE in ×1.4–×3.2",
-              lambda df: _octree_render(df)),
+              lambda df: _octree_render(df), kind="timing"),
         Claim("mode-switch-ours", "With our backend too, after a classification edit fast classification shows an "
               "image sooner than re-encoding (§4.4)", "ours: (sat_build + octree frame) / (classify + rle_build + RLE "
-              "frame) < 1, technique frames", lambda df: _mode_switch_ours(df)),
+              "frame) < 1, technique frames", lambda df: _mode_switch_ours(df), kind="timing"),
     )
 
     def paper_table(self):

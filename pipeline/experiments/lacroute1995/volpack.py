@@ -119,37 +119,37 @@ class VolPackComparison(Experiment):
         Claim("speed-1-worker", "On one core our shear-warp's kernels render a frame no slower than VolPack's "
               "classified-RLE library call on the same input", "technique time ratio ours / VolPack ≤ 1 (every scene: "
               "our kernels against VolPack's vpShadeTable + vpRenderClassifiedVolume)",
-              lambda df: _speed(df, "shearwarp-1")),
+              lambda df: _speed(df, "shearwarp-1"), kind="timing"),
         Claim("speed-1-worker-frame", "On one core our shear-warp renders a whole frame no slower than VolPack's "
               "classified-RLE mode, each as `volbench render` times it", "whole-frame time ratio ours / VolPack ≤ 1 "
               "(every scene: Python around our kernels against VolPack's wrapper and 8-bit image conversion)",
-              lambda df: _speed(df, "shearwarp-1", judging.TOTAL)),
+              lambda df: _speed(df, "shearwarp-1", judging.TOTAL), kind="timing"),
         Claim("speed-all-cores", "With every core our shear-warp's kernels render a frame no slower than VolPack's "
               "library call (single-threaded)", "technique time ratio ours / VolPack ≤ 1 (every scene)",
-              lambda df: _speed(df, "shearwarp-all")),
+              lambda df: _speed(df, "shearwarp-all"), kind="timing"),
         Claim("speed-all-cores-frame", "With every core our shear-warp renders a whole frame no slower than VolPack's "
               "classified-RLE mode (single-threaded)", "whole-frame time ratio ours / VolPack ≤ 1 (every scene)",
-              lambda df: _speed(df, "shearwarp-all", judging.TOTAL)),
+              lambda df: _speed(df, "shearwarp-all", judging.TOTAL), kind="timing"),
         Claim("octree-speed", "In fast-classification (octree) mode our shear-warp's kernels on one core render a "
               "frame within 1.2× of VolPack's octree mode", "technique time ratio ours / VolPack, both octree, ≤ 1.2 "
               "(every scene: our kernels with their on-the-fly classification against VolPack's vpShadeTable + "
               "vpRenderRawVolume)", lambda df: _speed(df, "shearwarp-octree-1", against="volpack-octree",
-                                                      at_most=OCTREE_BOUND)),
+                                                      at_most=OCTREE_BOUND), kind="timing"),
         Claim("parallel-speed-up", "Our shear-warp speeds up nearly linearly on the cores present (thesis: ×2.0–2.1 "
               "on 2 processors)", f"technique time ratio 1 worker / all cores ≥ {format_number(EFFICIENCY)} × the "
               f"all-cores run's workers (×{format_number(2 * EFFICIENCY)} on 2; every scene)",
-              lambda df: _parallel(df)),
+              lambda df: _parallel(df), kind="timing"),
         Claim("images-agree", "Our images agree with VolPack's (the same algorithm and classification)",
-              "PSNR ≥ 30 dB between the two (every scene)", lambda df: _agree(df)),
+              "PSNR ≥ 30 dB between the two (every scene)", lambda df: _agree(df), kind="accuracy"),
         Claim("accuracy-parity", "Our images are as close to the reference ray caster as VolPack's",
-              "our PSNR ≥ VolPack's − 1 dB (every scene)", lambda df: _parity(df)),
+              "our PSNR ≥ VolPack's − 1 dB (every scene)", lambda df: _parity(df), kind="accuracy"),
         Claim("beats-vtk-cpu", "Shear-warp outruns a ray caster: ours on one core is faster than VTK's CPU "
               "ray caster on one thread at one sample per voxel", "technique time ratio ours / VTK ≤ 1 (every scene: "
               "our kernels against vtkRenderWindow.Render)",
-              lambda df: _speed(df, "shearwarp-1", against="vtk-cpu-1", peer="VTK")),
+              lambda df: _speed(df, "shearwarp-1", against="vtk-cpu-1", peer="VTK"), kind="timing"),
         Claim("octree-vs-rle", "VolPack's fast-classification (octree) mode renders about 2× slower than its "
               "classified-RLE mode (Table 5.3: 1.8–2.5×)", "technique time ratio octree / RLE in 1.4–3.2 (every scene: "
-              "VolPack's library calls)", lambda df: _octree(df)),
+              "VolPack's library calls)", lambda df: _octree(df), kind="timing"),
     )
 
     def paper_table(self):

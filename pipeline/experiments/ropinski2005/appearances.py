@@ -146,15 +146,15 @@ def _clip_exposes(df):
 CLAIMS = (
     Claim("clip-cheapest", "A clipping lens is the cheapest appearance: it takes no sample inside the lens (note 004 "
           "§4.2 E6)", f"time(transparency, iso, mip lens) / time(clip lens) > ×1, every scene ({TIMES}; the "
-          "segments method; 95 % paired bootstrap interval wholly above ×1)", _clip_cheapest),
+          "segments method; 95 % paired bootstrap interval wholly above ×1)", _clip_cheapest, kind="timing"),
     Claim("iso-stops", "An isosurface lens stops each ray at its first hit: it takes fewer samples inside the lens "
           "than a transparency lens (note 004 §4.2 E6)",
           "region₁ samples of the isosurface lens < region₁ samples of the transparency lens, every scene "
-          "(counted, the segments method)", _iso_stops),
+          "(counted, the segments method)", _iso_stops, kind="count"),
     Claim("clip-exposes", "But a clipping lens exposes region₀: where early termination runs across the regions, "
           "rays take more samples behind a clipping lens than behind an (opaque) isosurface lens (note 004 §4.2 E6)",
           f"region₀ samples behind the clipping lens > behind the isosurface lens, every scene (counted, the "
-          f"{EXPOSURE_METHOD} method: one loop over the three segments)", _clip_exposes),
+          f"{EXPOSURE_METHOD} method: one loop over the three segments)", _clip_exposes, kind="count"),
 )
 
 

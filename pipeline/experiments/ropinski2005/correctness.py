@@ -87,12 +87,12 @@ def _seams(df):
 CLAIMS = tuple(
     Claim(f"accuracy-{scene}", f"Every lens method renders the reference's image of the {scene} "
           f"({setup.what})", f"PSNR ≥ {format_number(ACCURACY_PSNR)} dB against the reference, every lens method "
-          "and view (early termination off)", _accuracy(scene))
+          "and view (early termination off)", _accuracy(scene), kind="accuracy")
     for scene, setup in SETUPS.items()) + (
     Claim("no-seams", "A lens whose appearance is the outside one changes nothing: no seam where the regions meet, "
           "no sample counted twice or left out", f"max |image(lens, outside appearance) − image(no lens)| ≤ "
           f"{SEAM_TOLERANCE:g} on every pixel and channel, every method (and the reference), scene and view; "
-          "early termination off in both", _seams),
+          "early termination off in both", _seams, kind="accuracy"),
 )
 
 

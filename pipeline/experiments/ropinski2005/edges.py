@@ -201,12 +201,14 @@ def _hole_closed(df):
 CLAIMS = (
     Claim("no-holes", "No lens method leaves a hole, wherever the lens lies against the box and the camera (note 004 "
           "§4.2 E8)", f"no pixel whose reference alpha is ≥ {format_number(COVERED)} has a method's alpha below "
-          f"{as_percent(HOLE)} of it, every method and edge case", _no_holes),
+          f"{as_percent(HOLE)} of it, every method and edge case", _no_holes, kind="accuracy"),
     Claim("edges-accurate", "And each renders the reference's image in every edge case",
-          f"PSNR ≥ {format_number(ACCURACY_PSNR)} dB against the reference, every method and edge case", _accuracy),
+          f"PSNR ≥ {format_number(ACCURACY_PSNR)} dB against the reference, every method and edge case", _accuracy,
+          kind="accuracy"),
     Claim("hole-closed", "The paper's transition images give a lens wholly behind the box's rays no region (note 004 "
           "§2.8); the stencil method finds those rays and renders their region₀",
-          "segments-stencil: hole_rays > 0 in the fully-behind case, and no hole pixel there", _hole_closed),
+          "segments-stencil: hole_rays > 0 in the fully-behind case, and no hole pixel there", _hole_closed,
+          kind="count"),
 )
 
 

@@ -130,7 +130,7 @@ CLAIMS = (
           "least-squares slope of the overhead (100 · (t(lens) / t(no lens) − 1), %) against the rays meeting "
           f"lens ∩ box (%) > {format_number(SLOPE_BOUND)}, 95 % bootstrap interval wholly above, every swept scene, "
           f"the lens showing the outside appearance (radius {format_number(RADII[0])}–{format_number(RADII[-1])} of "
-          f"the edge; {TIMES})", _grows),
+          f"the edge; {TIMES})", _grows, kind="timing"),
 )
 
 

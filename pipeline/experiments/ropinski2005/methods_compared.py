@@ -211,22 +211,22 @@ CLAIMS = (
           "issue 24's target)",
           f"time(baseline) / time(segments) > ×1 for {', '.join(BASELINES)}, every Table 1 scene, at the "
           f"experiment's image size ({TIMES}; 95 % paired bootstrap interval wholly above ×1)",
-          _faster("no", BASELINES)),
+          _faster("no", BASELINES), kind="timing"),
     Claim("segments-faster-occluded", f"The same with an opaque plane hiding {as_percent(OCCLUDER)} of the "
           "volume's footprint, where early-z can drop the covered fragments",
           f"time(baseline) / time(segments) ≥ ×1 for {', '.join(b for b in OCCLUDED if b != PAPER_METHOD)}, every "
           f"Table 1 scene, occluder {format_number(OCCLUDER)} ({TIMES})",
-          _faster("yes", tuple(b for b in OCCLUDED if b != PAPER_METHOD))),
+          _faster("yes", tuple(b for b in OCCLUDED if b != PAPER_METHOD)), kind="timing"),
     Claim("earlyz-fragments", "Writing gl_FragDepth turns early-z off: behind the occluder frag-depth still shades "
           "every fragment, while the segments method (fragment depth never written) drops the covered ones (§1)",
           "(fragments shaded without the occluder − with it) / rays it covers: frag-depth ≤ "
           f"{format_number(DROP_TOLERANCE)}, segments ≥ {format_number(1 - DROP_TOLERANCE)} (its region₀ pass "
           "drops every covered ray), every Table 1 scene (counted, exact)",
-          _earlyz_fragments),
+          _earlyz_fragments, kind="count"),
     Claim("earlyz-time", "So the occluder saves the segments method's frames a larger share of their time than "
           "frag-depth's",
           "[time(frag-depth, occluder) / time(frag-depth, none)] / [time(segments, occluder) / time(segments, none)] "
-          f"≥ ×1, every Table 1 scene ({TIMES}; paired bootstrap interval)", _earlyz_time),
+          f"≥ ×1, every Table 1 scene ({TIMES}; paired bootstrap interval)", _earlyz_time, kind="timing"),
 )
 
 

@@ -144,16 +144,16 @@ CLAIMS = (
     Claim("front-to-back-faster", "Front to back is faster where region₁ or region₂ is opaque: the rays stop before "
           "the regions behind (note 004 §2.8, §4.2 E9; not in the paper)",
           f"time(back to front) / time(front to back) > ×1, every scene ({TIMES}; 95 % paired bootstrap interval "
-          "wholly above ×1)", _faster),
+          "wholly above ×1)", _faster, kind="timing"),
     Claim("front-to-back-samples", "Because it takes fewer samples behind the lens", "region₀ samples front to "
-          "back < back to front, every scene (counted)", _fewer_samples),
+          "back < back to front, every scene (counted)", _fewer_samples, kind="count"),
     Claim("same-image", "Both orders composite the same samples into the same image",
           f"max |front to back − back to front| ≤ {SEAM_TOLERANCE:g} on every pixel and channel, early termination "
-          "off, every scene", _same_image),
+          "off, every scene", _same_image, kind="accuracy"),
     Claim("drops-only-terminated", "With early termination on, front to back drops only what early termination "
           "drops",
           f"max |front to back − back to front| ≤ 1 − the opacity threshold ({format_number(1 - THRESHOLD)}), every "
-          "scene", _drops_only_terminated),
+          "scene", _drops_only_terminated, kind="accuracy"),
 )
 
 

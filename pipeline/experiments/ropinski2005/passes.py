@@ -63,7 +63,7 @@ CLAIMS = (
     Claim("geometry-small", "The lens's geometry passes (its faces rasterised into entry and exit images, the "
           "region transitions resolved) are a small share of the frame: the ray casting dominates (note 004 §4.2, E2)",
           f"time(lens_geometry) / time(total) ≤ {as_percent(GEOMETRY_SHARE)} on every scene (the segments method, "
-          "median frames)", _geometry),
+          "median frames)", _geometry, kind="timing"),
 )
 
 

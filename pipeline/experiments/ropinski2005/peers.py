@@ -126,7 +126,7 @@ CLAIMS = (
     Claim("peers-accuracy", "Every implementation renders its lens scenes as the reference does (issue 24's accuracy "
           "target, held to the peers as to the paper's method)",
           f"PSNR ≥ {format_number(ACCURACY_PSNR)} dB against the reference, every implementation, scene and view",
-          _accuracy),
+          _accuracy, kind="accuracy"),
 )
 
 

@@ -131,14 +131,14 @@ def _outside_unchanged(df):
 CLAIMS = (
     Claim("invariant", "The lens does not change the number of samples: each region takes the lattice points of "
           "its own section of the ray (§3)", "samples with a lens showing the outside appearance = samples without "
-          "the lens, exactly, every method, scene and view (early termination off)", _invariant),
+          "the lens, exactly, every method, scene and view (early termination off)", _invariant, kind="count"),
     Claim("regions-partition", "The three regions split a ray's samples between them, none counted twice or left "
           "out", "samples of region₀ + region₁ + region₂ = samples without the lens, exactly, every method that "
-          "counts regions (outside appearance)", _partition),
+          "counts regions (outside appearance)", _partition, kind="count"),
     Claim("outside-unchanged", "The lens's appearance changes only the work inside it: region₀ and region₂ take "
           "the same samples whatever the lens shows", "region₀ and region₂ samples with the lens's own appearance "
           "= with the outside appearance, exactly, every method that counts regions, scene and view",
-          _outside_unchanged),
+          _outside_unchanged, kind="count"),
 )
 
 

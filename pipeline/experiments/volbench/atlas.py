@@ -211,9 +211,9 @@ class Atlas(Experiment):
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
               "PSNR against the 1/8-voxel reference rises with every halving of the step (1, 1/2, 1/4 voxel)",
-              _convergence),
+              _convergence, kind="accuracy"),
         Claim("shearwarp-45", "Shear-warp's worst view is near 45°, where its principal axis switches",
-              "the lowest PSNR of shear-warp's angle sweep lies at 35° or more", _shearwarp_45),
+              "the lowest PSNR of shear-warp's angle sweep lies at 35° or more", _shearwarp_45, kind="accuracy"),
     )
 
     def axes(self, profile):

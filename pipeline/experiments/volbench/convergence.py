@@ -93,9 +93,9 @@ class ReferenceConvergence(Experiment):
 
     claims = (
         Claim("monotone", "The error falls every time the step is halved (each scene)",
-              "strictly decreasing RMSE", _monotone),
+              "strictly decreasing RMSE", _monotone, kind="accuracy"),
         Claim("order", "The error falls with the step at least linearly (observed order, worst scene)",
-              "order ≥ 1", _order),
+              "order ≥ 1", _order, kind="accuracy"),
         Claim("default-step", "At the default step (1/4 voxel) the reference is within 40 dB of the finest render",
               DEFAULT_STEP.expected, DEFAULT_STEP),
     )

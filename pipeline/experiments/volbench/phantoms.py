@@ -343,7 +343,8 @@ def _target_claims():
                                        f"± {format_number(band)}")
                 claims.append(Claim(f"{phantom}.{preset}-{stat}-vs-{stand_in.real}",
                                     f"{phantom} ({preset}): {stat} like the real {stand_in.real}'s",
-                                    f"{stand_in.real}'s value in the same box ± {RELATIVE_BAND:.0%}", check))
+                                    f"{stand_in.real}'s value in the same box ± {RELATIVE_BAND:.0%}", check,
+                                    kind="count"))
     for name in datasets.names(kind="phantom"):
         compared = STAND_INS[name].presets if name in STAND_INS else ()
         for preset, stats in datasets.get(name).targets_by_preset.items():

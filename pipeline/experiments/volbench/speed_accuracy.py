@@ -85,7 +85,7 @@ class SpeedAccuracy(Experiment):
 
     claims = (
         Claim("tradeoff", "For the reference, halving the step roughly doubles the time and lowers the error",
-              "time ratio per halving in [1.5, 2.5]; error decreasing", _tradeoff),
+              "time ratio per halving in [1.5, 2.5]; error decreasing", _tradeoff, kind="timing"),
     )
 
     overview = True

@@ -177,10 +177,10 @@ CLAIMS = (
     Claim("eq9-within-20", "Eq. 9 predicts iSBVR's speed-up from counted fragments and measured T_s, T_c within 20 % "
           "(issue 23's target; the paper validates its model on no data)",
           f"predicted δ / measured δ within ×{format_number(1 - BAND)}–×{format_number(1 + BAND)} on each of the "
-          f"four stand-ins (ESS+ERT over Basic, measured over {PASSES})", _eq9_within),
+          f"four stand-ins (ESS+ERT over Basic, measured over {PASSES})", _eq9_within, kind="cost model"),
     Claim("speedup-rises-with-complexity", "iSBVR's speed-up rises as the volume shader grows more complex (abstract)",
           f"ESS+ERT over Basic at more extra taps / at fewer > 1 for each step of the sweep (over {PASSES})",
-          _speedup_rises),
+          _speedup_rises, kind="timing"),
 )
 
 

@@ -142,12 +142,12 @@ CLAIMS = (
     Claim("tz-at-most-ts", "A fragment the early depth test discards costs no more than one through the simple "
           "shader (T_z ≈ T_s, assumed by Eqs. 3, 4 and 8)",
           f"T_z / T_s ≤ 1 (T_z: the volume shader with depth cleared to 0, T_s: the trivial shader; each {SCOPE})",
-          _culled_at_most_simple),
+          _culled_at_most_simple, kind="timing"),
     Claim("gamma-falls", "γ = T_s / T_c falls as the volume shader grows more complex (T_s is fixed for a device, "
           "T_c depends on the shader; §2)", "γ at more extra taps / γ at fewer < 1 for each step of the sweep "
-          f"({SCOPE})", _gamma_falls),
+          f"({SCOPE})", _gamma_falls, kind="timing"),
     Claim("cull-all-culls", "Depth cleared to 0 culls every slice fragment, so the T_z configuration shades none",
-          "F'_c = 0 with F > 0 (occlusion queries)", _culls_everything),
+          "F'_c = 0 with F > 0 (occlusion queries)", _culls_everything, kind="count"),
 )
 
 

@@ -102,12 +102,12 @@ def _gains_fall(df):
 CLAIMS = (
     Claim("speedup-falls", "The fuzzier the data, the less iSBVR gains (the golden lady gains least, Table 1)",
           f"ESS+ERT / Basic speed-up strictly falls from each haze to the next: its ratio to the next haze's > 1 "
-          f"({SCOPE})", _speedup_falls),
+          f"({SCOPE})", _speedup_falls, kind="timing"),
     Claim("culled-falls", "The haze leaves less to cull", "ESS+ERT's culled fraction α' = (F − F'_c)/F strictly "
-          "falls from each haze to the next (occlusion-query counts)", _culled_falls),
+          "falls from each haze to the next (occlusion-query counts)", _culled_falls, kind="count"),
     Claim("gains-fall-separately", "Both accelerations lose to the haze (note 001 E11: \"ESS and ERT gains fall as "
           "the fuzzy volume grows\")", f"ESS / Basic and ERT / Basic each lower at the largest haze than at the "
-          f"smallest: ratio > 1 ({SCOPE})", _gains_fall),
+          f"smallest: ratio > 1 ({SCOPE})", _gains_fall, kind="timing"),
 )
 
 

@@ -106,15 +106,16 @@ def _ert_lossless(df):
 CLAIMS = (
     Claim("coverage-collapses", "At 8³ Φ_p sets almost no pixels for ERT (Fig. 7: thin bone holds no whole cube)",
           f"fragments the Φ_p pass writes at {COARSEST}³ ≤ {as_percent(COLLAPSE)} of those at {PAPER_PHI_P_NODE}³ "
-          "(occlusion-query counts)", _coverage_collapses),
+          "(occlusion-query counts)", _coverage_collapses, kind="count"),
     Claim("triangles-fall", "Φ_p's triangle count falls as the node size grows (§4.2)",
-          "triangles never rise from one node size to the next and end below where they start", _triangles_fall),
+          "triangles never rise from one node size to the next and end below where they start", _triangles_fall,
+          kind="count"),
     Claim("paper-node-fastest", f"{PAPER_PHI_P_NODE}³ (the paper's choice) gives the best frame time (§4.2)",
           f"time at each other node size / at {PAPER_PHI_P_NODE}³ > 1 (whole frames, median over the views)",
-          _paper_node_fastest),
+          _paper_node_fastest, kind="timing"),
     Claim("ert-lossless", "ERT's cube sets are conservative at every node size: Basic's image",
           f"PSNR against Basic ≥ {format_number(LOSSLESS_PSNR)} dB and ≤ {100 * LOSSLESS_SHARE:g} % of pixels off by "
-          "> 1/255, every node size and view", _ert_lossless),
+          "> 1/255, every node size and view", _ert_lossless, kind="accuracy"),
 )
 
 

@@ -232,24 +232,26 @@ def _full_offsets(df):
 CLAIMS = (
     Claim("reduced-lossless", "With the cube sets ESS+ERT renders Basic's image (Fig. 4b: holes removed)",
           f"PSNR against Basic ≥ {format_number(LOSSLESS_PSNR)} dB and ≤ {as_percent(LOSSLESS_SHARE)} of pixels off "
-          "by > 1/255, every scene and view", _reduced_lossless),
+          "by > 1/255, every scene and view", _reduced_lossless, kind="accuracy"),
     Claim("coarse-visibly-wrong", "Marching cubes on the coarse max/min grids (the paper's original surfaces) cut "
           "holes by incorrect occlusion (Fig. 4a)", f"≥ {as_percent(VISIBLE_SHARE)} of pixels off by > 1/255 against "
-          "Basic, every scene and view", _coarse_wrong),
+          "Basic, every scene and view", _coarse_wrong, kind="accuracy"),
     Claim("full-triangles", "Full-resolution isosurfaces have far more triangles than the cube sets (§4)",
-          f"full-resolution / cube-set triangles (Φ_t + Φ_p) ≥ {as_ratio(FAR_ABOVE)}, every scene", _full_triangles),
+          f"full-resolution / cube-set triangles (Φ_t + Φ_p) ≥ {as_ratio(FAR_ABOVE)}, every scene", _full_triangles,
+          kind="count"),
     Claim("full-million", "A full-resolution 256³ isosurface can exceed a million triangles (§4)",
           f"the largest full-resolution surface > {format_number(FULL_RES_TRIANGLES)} triangles at {PAPER_SIZE}³ "
-          "(measured at full scale only)", _full_million),
+          "(measured at full scale only)", _full_million, kind="count"),
     Claim("cube-init-small", "With the cube sets the init passes cost little beside the volume pass (T_a ≪ T_m, "
-          "§2.6)", f"T_a / T_m (time_init / time_draw) ≤ {format_number(INIT_SHARE)}, every scene", _cube_init_small),
+          "§2.6)", f"T_a / T_m (time_init / time_draw) ≤ {format_number(INIT_SHARE)}, every scene", _cube_init_small,
+          kind="timing"),
     Claim("full-erodes-paper", "Full-resolution surfaces offset any speed-up: their rendering cost cancels the gain "
           "(§4)", f"Basic / ESS+ERT with full-resolution surfaces ≤ ×1 ({TECHNIQUE}), every scene", _full_offsets,
-          paper_value="offsets any speed-up"),
+          paper_value="offsets any speed-up", kind="timing"),
     Claim("full-erodes", "Full-resolution surfaces erode the speed-up (§4: their rendering cost cancels the gain)",
           f"time with full-resolution surfaces / with the cube sets > 1 ({TECHNIQUE}), every scene", _full_erodes,
           paper_value="offsets any speed-up",
-          ours="erodes: slower than with the cube sets, whether or not it is slower than Basic as well"),
+          ours="erodes: slower than with the cube sets, whether or not it is slower than Basic as well", kind="timing"),
 )
 
 

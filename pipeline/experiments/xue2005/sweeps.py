@@ -237,16 +237,16 @@ CLAIMS = (
     Claim("iso-dependence", "The speed-up depends strongly on the transfer function's iso-values (§3: \"data set and "
           "transfer function dependent\")",
           f"best iso pair's ESS+ERT speed-up over the worst pair's ≥ ×{STRONG:g} on each scene ({SCOPE}; the ramps "
-          "of the iso_t and iso_p sweeps)", _iso_dependence),
+          "of the iso_t and iso_p sweeps)", _iso_dependence, kind="timing"),
     Claim("no-overhead", "Where the TF has neither a zero-opacity nor an opaque region iSBVR costs nothing (§3: \"no "
           "overhead\")", f"ESS+ERT / Basic time within [{NO_OVERHEAD[0]:g}, {NO_OVERHEAD[1]:g}] on each control "
-          f"(head and aneurysm with the lifted ramp, the dense block; {SCOPE})", _no_overhead),
+          f"(head and aneurysm with the lifted ramp, the dense block; {SCOPE})", _no_overhead, kind="timing"),
     Claim("nothing-culled", "With nothing to cull, the depth passes cull nothing",
           "F'_c = F (fragments shaded = slice fragments generated, occlusion queries) on every ESS+ERT run of those "
-          "controls", _nothing_culled),
+          "controls", _nothing_culled, kind="count"),
     Claim("ert-free-without-opaque", "Where the TF never reaches opacity 1, pseudo ERT has nothing to draw and costs "
           "nothing (§3)", f"ESS+ERT / ESS time within [{NO_OVERHEAD[0]:g}, {NO_OVERHEAD[1]:g}] ({SCOPE}), no Φ_p "
-          "cube and the same F'_c, on each scene's never-opaque ramp", _ert_free),
+          "cube and the same F'_c, on each scene's never-opaque ramp", _ert_free, kind="timing"),
 )
 
 

@@ -202,28 +202,31 @@ def _culling(df):
 CLAIMS = (
     Claim("combined-speedup", "ESS+ERT over Basic is at least the paper's speed-up on every data set (paper: "
           "×2.2 golden lady to ×3.8 bonsai; a real scan against its kind's row)",
-          f"time(Basic) / time(ESS+ERT) ≥ the paper's ratio of the scene's row, every scene ({TIMES})", _combined),
+          f"time(Basic) / time(ESS+ERT) ≥ the paper's ratio of the scene's row, every scene ({TIMES})", _combined,
+          kind="timing"),
     Claim("ert-alone-paper", "Pseudo early ray termination alone gains 30–50 % (the paper's text)",
           f"time(Basic) / time(ERT) within ×1.3–×1.5 on every scene ({TIMES})",
-          lambda df: _gain(df, "ert", lambda s: (1.3, 1.5), what="Basic / ERT "), paper_value="30–50 %"),
+          lambda df: _gain(df, "ert", lambda s: (1.3, 1.5), what="Basic / ERT "), paper_value="30–50 %", kind="timing"),
     Claim("ert-alone", "Pseudo early ray termination alone gains 20–60 % (the paper's text: 30–50 %; its table "
           "1.18–1.59)", f"time(Basic) / time(ERT) within ×1.2–×1.6 on every scene ({TIMES})", _ert,
-          paper_value="30–50 %", ours="the span of the paper's own table (1.18–1.59), which its text rounds"),
+          paper_value="30–50 %", ours="the span of the paper's own table (1.18–1.59), which its text rounds",
+          kind="timing"),
     Claim("ess-alone", "Exit-based leaping with empty-ray removal alone gains ×2–×3 (the paper's \"200 %–300 %\"; "
-          "its table 1.95–2.99)", f"time(Basic) / time(ESS) within ×2–×3 on every scene ({TIMES})", _ess),
+          "its table 1.95–2.99)", f"time(Basic) / time(ESS) within ×2–×3 on every scene ({TIMES})", _ess,
+          kind="timing"),
     Claim("basic-time", "Basic's frame time does not depend on the data (the paper: 7.3 fps on all four)",
           f"slowest / fastest Basic time ≤ ×{format_number(BASIC_TOLERANCE)} across the scenes of one volume size "
-          f"({TIMES})", _basic_time),
+          f"({TIMES})", _basic_time, kind="timing"),
     Claim("lossless", "iSBVR with the reduced cube sets is lossless: ESS+ERT renders Basic's image",
           f"PSNR(ESS+ERT, Basic) ≥ {format_number(LOSSLESS_PSNR)} dB and ≤ {as_percent(LOSSLESS_SHARE)} of pixels "
-          "off by more than 1/255, every scene and view", _lossless),
+          "off by more than 1/255, every scene and view", _lossless, kind="accuracy"),
     Claim("accuracy", "Every mode renders the reference's image (same step, post-classified, same shading)",
           f"PSNR ≥ {format_number(ACCURACY_PSNR)} dB against the reference (Basic, ESS, ERT, ESS+ERT; every scene "
-          "and view)", _accuracy),
+          "and view)", _accuracy, kind="accuracy"),
     Claim("culling-suffices", "Our data leave as much to cull as the paper's speed-up needs: the fragments "
           "culled, not the device, bound what ESS+ERT can gain",
           "α' = 1 − F'_c/F of ESS+ERT ≥ 1 − 1/δ_paper on every scene (Eq. 9 with γ, φ → 0: the least culled "
-          "share that allows the paper's speed-up; median over the views)", _culling),
+          "share that allows the paper's speed-up; median over the views)", _culling, kind="count"),
 )
 
 

@@ -97,21 +97,21 @@ CLAIMS = (
     Claim("order-speedup", "iSBVR works equally well front-to-back and back-to-front (§3.5): the same speed-up "
           "over Basic in either order", f"speed-up of ESS+ERT over Basic front-to-back / back-to-front within "
           f"×{format_number(1 / ORDER_TOLERANCE)}–×{format_number(ORDER_TOLERANCE)} on every scene ({TIMES})",
-          _order_speedup),
+          _order_speedup, kind="timing"),
     Claim("order-image", "Either slice order renders the same image (§3.5)",
           f"PSNR(ESS+ERT front-to-back, ESS+ERT back-to-front) ≥ {format_number(LOSSLESS_PSNR)} dB, every scene "
-          "and view", _order_image),
+          "and view", _order_image, kind="accuracy"),
     Claim("front-culls-more", "Front-based leaping culls the front space that exit-based leaping shades (note 001 "
           "E13, the combined mode's known gap), and that space outweighs the back space it shades in turn",
           "α'(front-based) > α'(exit-based ESS): fewer fragments shaded, on every scene (occlusion queries, median "
           "over the views; both cull the rays that miss Φ_t, so the difference is front space less back space)",
-          _front_culls),
+          _front_culls, kind="count"),
     Claim("front-faster", "Front-based leaping is faster than exit-based leaping alone",
           f"time(ESS) / time(front-based) > 1 on every scene ({TIMES})",
-          lambda df: _leaping_gain(df, "ess", "front", "ESS / front-based ")),
+          lambda df: _leaping_gain(df, "ess", "front", "ESS / front-based "), kind="timing"),
     Claim("exit-combines", "Exit-based leaping is built because it combines with ERT (§3.3): ESS+ERT beats "
           "front-based leaping, which cannot", f"time(front-based) / time(ESS+ERT) > 1 on every scene ({TIMES})",
-          lambda df: _leaping_gain(df, "front", "ess+ert", "front-based / ESS+ERT ")),
+          lambda df: _leaping_gain(df, "front", "ess+ert", "front-based / ESS+ERT "), kind="timing"),
 )
 
 
