@@ -137,3 +137,34 @@ def test_a_page_shows_five_take_aways_most_important_first_and_folds_the_rest():
     assert "<summary>3 more take-aways</summary>" in folded and all(f"<li>{s}</li>" in folded for s in ("r4", "r5", "r6"))
     assert "<details>" not in _render(["a", "b", "c", "d", "e"]) and _render([]).strip() == ""
     assert takeaways.ranked(["a", Takeaway("f", FAILING_CLAIM), "a", "b"]) == ["f", "a", "b"]  # repeats said once
+
+
+def test_a_difference_gallery_shows_each_row_with_its_difference_on_the_one_scale():
+    from pipeline.experiments.kit.pages import DIFF_SCALE, difference_gallery
+
+    class Context:  # records what the gallery asks of the report
+        def __init__(self):
+            self.differences = []
+
+        def image(self, png):
+            return f"img/{png}"
+
+        def difference(self, reference, test, scale):
+            self.differences.append((reference, test, scale))
+            return None if reference is None else f"diff/{test}"
+
+    results = pd.DataFrame({"run": ["a", "b", "ref"], "view": "headline", "status": "ok", "reference": ["ref", "ref", None],
+                            "png": ["a.png", "b.png", "r.png"], "exr": ["a.exr", "b.exr", "r.exr"],
+                            "time_total": [0.012, 0.0041, 1.0], "psnr": [41.25, float("nan"), float("nan")]})
+    ctx = Context()
+    gallery = difference_gallery("Each method", results.iloc[:2], ctx, against=results, caption="right |a − ref|",
+                                 label=lambda row: f"run {row.run}")
+    assert gallery.diff_scale == DIFF_SCALE and gallery.caption == "right |a − ref|"
+    assert [(i.caption, i.image, i.difference, i.note) for i in gallery.items] == [
+        ("run a", "img/a.png", "diff/a.exr", "12 ms, PSNR 41.2 dB"), ("run b", "img/b.png", "diff/b.exr", "4.1 ms")]
+    assert ctx.differences == [("r.exr", "a.exr", DIFF_SCALE), ("r.exr", "b.exr", DIFF_SCALE)]
+    # Against a picture of one's choosing, or none: no difference, no scale.
+    only_b = difference_gallery("b against a", results.iloc[1:2], ctx, label=str, against=lambda row: "a.exr")
+    assert only_b.items[0].difference == "diff/b.exr"
+    plain = difference_gallery("Pictures", results.iloc[:1], ctx, label=lambda row: row.run, note=lambda row: "")
+    assert plain.diff_scale is None and plain.items[0].difference is None and plain.items[0].note == ""

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from datasets.registry import DATASETS
+from pipeline.experiments.kit.results import reference_exr
 from pipeline.experiments.kit.verdicts import claim_sentences
 from pipeline.experiments.kit.words import as_percent, as_ratio, format_number
 from reports import blocks
@@ -19,7 +20,7 @@ from reports.decision import device_family
 from reports.takeaways import change_words, db_words, setting_words
 
 __all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
-           "device_takeaways", "format_number", "frames_caption", "frames_counted", "frames_note", "GL_TIMING",
+           "device_takeaways", "difference_gallery", "format_number", "frame_note", "frames_caption", "frames_counted", "frames_note", "GL_TIMING",
            "gl_timing_words", "gl_devices", "linked_table", "links",
            "ms", "not_measurable", "setting_words"]
 
@@ -57,6 +58,41 @@ def linked_table(title, frame, columns, ctx, *, names=None, **options):
     table = frame[columns].rename(columns={**TIME_COLUMNS, **METRICS, **(names or {})}).reset_index(drop=True)
     table = pd.concat([table, links(frame.reset_index(drop=True), ctx)], axis=1)
     return blocks.Table(title, table, links=LINKS, **options)
+
+
+def frame_note(row, *, psnr="PSNR"):
+    """A gallery picture's note: its median frame time and, where measured, ``psnr`` (its PSNR's name) in dB."""
+    value = getattr(row, "psnr", np.nan)
+    return f"{format_number(row.time_total * 1e3)} ms" + (f", {psnr} {format_number(value)} dB" if pd.notna(value) else "")
+
+
+def difference_gallery(title, rows, ctx, *, label, caption="", against=None, note=frame_note):
+    """A gallery of ``rows``' pictures in their order, each with its difference on the one scale :data:`DIFF_SCALE`.
+
+    Parameters
+    ----------
+    title, caption : str
+        The gallery's heading and what its pictures show.
+    rows : pandas.DataFrame
+        The runs' views to show (``png``, ``exr``).
+    ctx : reports.html.ReportContext
+    label : callable
+        ``label(row)``: the words under a picture (``"head, RC-b"``).
+    against : pandas.DataFrame or callable, optional
+        What each difference is taken against: the experiment's results (each row's reference run, same
+        view: :func:`~pipeline.experiments.kit.results.reference_exr`), or ``against(row)`` giving an EXR
+        path or ``None`` (no difference beside that picture). ``None``: pictures only.
+    note : callable
+        ``note(row)``: the smaller line under a picture (default :func:`frame_note`).
+    """
+    if isinstance(against, pd.DataFrame):
+        results = against
+        against = lambda row: reference_exr(results, row)  # noqa: E731
+    gallery = blocks.Gallery(title, caption=caption, diff_scale=DIFF_SCALE if against is not None else None)
+    for row in rows.itertuples():
+        difference = ctx.difference(against(row), row.exr, DIFF_SCALE) if against is not None else None
+        gallery.items.append(blocks.GalleryItem(label(row), ctx.image(row.png), difference=difference, note=note(row)))
+    return gallery
 
 
 def frames_note(row):

@@ -10,14 +10,13 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, device_takeaways, format_number,
-                                            gl_devices, linked_table)
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery,
+                                            format_number, frames_caption, gl_devices, linked_table)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, reference_exr,
-                                              rows_matching, speed_points, text_column)
+from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, rows_matching,
+                                              speed_points, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, time_ratio
-from pipeline.experiments.kit.pages import frames_caption
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, gl_not_measurable, method_name,
                                                      method_runs, samples_note, speedup)
 from pipeline.experiments.kruger2003.tables import (HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR, PAPER_DEVICE, REAL_SCANS,
@@ -258,18 +257,6 @@ def _speed_blocks(headline, tests, ctx):
                          caption="Median frame time per view, then median, fastest and slowest view.")]
 
 
-def _gallery(headline, results, ctx):
-    """Each method's headline image beside its difference from the reference, on the one difference scale."""
-    gallery = blocks.Gallery("Headline view: each method and its difference from the reference",
-                             diff_scale=DIFF_SCALE, caption="Left the method's image, right |method − reference|.")
-    for row in headline.sort_values(["scene", "config"]).itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.scene}, {method_name(row.config)}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, {format_number(row.time_total * 1e3)} ms"))
-    return gallery
-
-
 class Table1(Experiment):
     """SBVR, RC, RC-a and RC-b on the paper's four kinds of data, and the images against the reference."""
 
@@ -338,5 +325,9 @@ class Table1(Experiment):
         if not tests.empty:
             headline = tests[tests.view == "headline"]
             out += _ratio_blocks(tests, ctx) + _speed_blocks(headline, tests, ctx)
-            out.append(_gallery(headline, results, ctx))
+            out.append(difference_gallery(
+                "Headline view: each method and its difference from the reference",
+                headline.sort_values(["scene", "config"]), ctx, against=results,
+                label=lambda row: f"{row.scene}, {method_name(row.config)}",
+                caption="Left the method's image, right |method − reference|."))
         return out + gl_not_measurable()
