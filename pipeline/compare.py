@@ -16,7 +16,10 @@ and read there: a folder can be moved or copied (``/work/baseline/smoke`` whose 
 device driver (:func:`pipeline.environment.uses_device`) within :data:`DEVICE_TOLERANCE`, and so
 their metrics within :data:`METRIC_TOLERANCE`. Claims must be the same and have the same verdicts,
 but for the claims whose judgement reads timings or scheduling-dependent values
-(:func:`varying_claims`: the timing claims).
+(:func:`varying_claims`: the timing claims). Those may change to or from inconclusive between two runs
+(listed, with the share of claims that agree: :func:`verdict_changes`), but a timing claim that holds in
+one run and fails in the other is a difference (:func:`timing_flips`): two runs of volbench must not
+disagree on a decided verdict.
 """
 
 import argparse
@@ -229,6 +232,55 @@ def read_claims(folder, *, experiments=None):
     return claims if experiments is None else claims[claims.experiment.isin(list(experiments))]
 
 
+DECIDED = ("holds", "fails")
+"""The verdicts that decide a claim; a change between them is a flip."""
+
+
+def verdict_changes(first, second):
+    """Two ``claims.csv`` tables' verdicts side by side: one row per claim of either.
+
+    Columns ``experiment``, ``claim``, ``verdict_a``, ``verdict_b``, ``measured_a``, ``measured_b`` (a claim
+    one table lacks has verdict ``"absent"``) and ``change``: ``"same"``, ``"flipped"`` (holds ↔ fails),
+    ``"to inconclusive"`` (decided in ``first``, inconclusive in ``second``), ``"from inconclusive"`` (the
+    reverse) or ``"other"`` (blocked, not measured, absent).
+    """
+    keys = ["experiment", "claim"]
+    both = first[keys + ["verdict", "measured"]].merge(second[keys + ["verdict", "measured"]], on=keys,
+                                                       suffixes=("_a", "_b"), how="outer")
+    both[["verdict_a", "verdict_b"]] = both[["verdict_a", "verdict_b"]].fillna("absent")
+
+    def change(a, b):
+        if a == b:
+            return "same"
+        if a in DECIDED and b in DECIDED:
+            return "flipped"
+        if a in DECIDED and b == "inconclusive":
+            return "to inconclusive"
+        if a == "inconclusive" and b in DECIDED:
+            return "from inconclusive"
+        return "other"
+
+    both["change"] = [change(a, b) for a, b in zip(both.verdict_a, both.verdict_b)]
+    return both
+
+
+def agreement_words(changes, *, timing=()):
+    """``"231 of 235 claims (98.3 %) have the same verdict; of the 103 that read timings, 99 (96.1 %)"``.
+
+    ``changes`` is :func:`verdict_changes`' table, ``timing`` the ``(experiment, claim)`` pairs that read
+    timings (:func:`varying_claims`)."""
+    same = changes.change == "same"
+    words = f"{int(same.sum())} of {len(changes)} claims ({_share(same)}) have the same verdict"
+    timed = [(e, c) in set(timing) for e, c in zip(changes.experiment, changes.claim)]
+    if any(timed):
+        words += f"; of the {sum(timed)} that read timings, {int(same[timed].sum())} ({_share(same[timed])})"
+    return words
+
+
+def _share(flags):
+    return f"{100 * flags.mean():.1f} %" if len(flags) else "–"
+
+
 def claim_differences(a, b, *, experiments=None):
     """How the claims of ``a`` and ``b`` differ: the same claims (experiment, id, statement, expected),
     and the same verdict for each but those whose judgement reads timings or scheduling-dependent
@@ -238,12 +290,7 @@ def claim_differences(a, b, *, experiments=None):
     text = ["statement", "expected"]
     differences = _only_in([tuple(row) for row in first[key].values], [tuple(row) for row in second[key].values],
                            "claims (experiment, claim)", a, b)
-    names = sorted(set(first.experiment) & set(second.experiment))
-    varying = set()
-    with tempfile.TemporaryDirectory(prefix="volbench-compare-") as workdir:
-        for index, folder in enumerate((a, b)):
-            varying |= varying_claims(read_runs(folder, experiments=names), _experiments(names),
-                                      workdir=Path(workdir) / str(index))
+    varying = timing_claims(a, b, experiments=experiments)
     merged = first.merge(second, on=key, suffixes=("_a", "_b"))
     for row in merged.itertuples(index=False):
         name = f"{row.experiment}/{row.claim}"
@@ -254,6 +301,29 @@ def claim_differences(a, b, *, experiments=None):
         if (row.experiment, row.claim) not in varying and row.verdict_a != row.verdict_b:
             differences.append(f"claim {name}: {row.verdict_a} in {a}, {row.verdict_b} in {b}")
     return differences
+
+
+def timing_claims(a, b, *, experiments=None):
+    """The ``(experiment, claim)`` pairs whose judgement reads timings or scheduling-dependent values in the
+    results folder ``a`` or ``b`` (:func:`varying_claims` of each, of the experiments both hold)."""
+    first, second = read_claims(a, experiments=experiments), read_claims(b, experiments=experiments)
+    names = sorted(set(first.experiment) & set(second.experiment))
+    varying = set()
+    with tempfile.TemporaryDirectory(prefix="volbench-compare-") as workdir:
+        for index, folder in enumerate((a, b)):
+            varying |= varying_claims(read_runs(folder, experiments=names), _experiments(names),
+                                      workdir=Path(workdir) / str(index))
+    return varying
+
+
+def timing_flips(a, b, *, experiments=None, timing=None):
+    """The timing claims (``timing``: :func:`timing_claims`) that hold in one folder and fail in the other,
+    one sentence each with both measurements: what two runs of volbench must never disagree on."""
+    timing = timing_claims(a, b, experiments=experiments) if timing is None else timing
+    changes = verdict_changes(read_claims(a, experiments=experiments), read_claims(b, experiments=experiments))
+    return [f"timing claim {row.experiment}/{row.claim} flipped: {row.verdict_a} in {a} ({row.measured_a}), "
+            f"{row.verdict_b} in {b} ({row.measured_b})"
+            for row in changes.itertuples() if row.change == "flipped" and (row.experiment, row.claim) in timing]
 
 
 def _experiments(names):
@@ -371,12 +441,19 @@ def phantom_differences(a, b, *, keys=None):
     return differences
 
 
-def differences(a, b):
-    """Every difference between the results folders ``a`` and ``b``: runs, images, claims, phantoms."""
-    for folder in (a, b):
+def finished_runs(*folders):
+    """Refuse (:class:`InputError`) a folder that is not a finished run's, before any comparison."""
+    for folder in folders:
         for name in ("runs.csv", "claims.csv", "volumes.csv"):
             results_file(folder, name)
-    return [*run_differences(a, b), *image_differences(a, b), *claim_differences(a, b), *phantom_differences(a, b)]
+
+
+def differences(a, b, *, timing=None):
+    """Every difference between the results folders ``a`` and ``b``: runs, images, claims (a timing claim
+    that flipped between holds and fails included: :func:`timing_flips`), phantoms."""
+    finished_runs(a, b)
+    return [*run_differences(a, b), *image_differences(a, b), *claim_differences(a, b),
+            *timing_flips(a, b, timing=timing), *phantom_differences(a, b)]
 
 
 def main(argv=None):
@@ -386,14 +463,22 @@ def main(argv=None):
     parser.add_argument("b", help="the results folder to compare it with")
     args = parser.parse_args(argv)
     try:
-        found = differences(args.a, args.b)
+        finished_runs(args.a, args.b)
+        timing = timing_claims(args.a, args.b)
+        found = differences(args.a, args.b, timing=timing)
     except InputError as exc:
         print(f"compare-results: {exc}", file=sys.stderr)
         return 2
     for difference in found:
         print(difference)
+    changes = verdict_changes(read_claims(args.a), read_claims(args.b))
+    moved = changes[changes.change.isin(["to inconclusive", "from inconclusive"])]
+    for row in moved.itertuples():
+        print(f"changed {row.change}: {row.experiment}/{row.claim}: {row.verdict_a} in {args.a} ({row.measured_a}), "
+              f"{row.verdict_b} in {args.b} ({row.measured_b})")
+    print(f"verdicts: {agreement_words(changes, timing=timing)}; {len(moved)} changed to or from inconclusive")
     print(f"{len(found)} differences" if found else
-          f"{args.a} and {args.b}: the same runs, images, claims (timing claims' verdicts aside) and phantoms")
+          f"{args.a} and {args.b}: the same runs, images, claims (no timing claim flipped) and phantoms")
     return 1 if found else 0
 
 

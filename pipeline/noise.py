@@ -5,8 +5,12 @@ two results folders: first as it is, then with ``--hog`` processes spinning on t
 stopped after). A claim's verdict may become *inconclusive* under load (its interval widens, or it rests
 on views the harness found disturbed: :func:`pipeline.experiments.kit.verdicts.rests_on_disturbed`), but
 no claim may go from holds to fails or back: that is the harness's promise that noise does not decide
-a verdict. The comparison is written to ``<prefix>-verdicts.csv``; the exit status is 1 when a claim
-flipped, 2 when a run did not finish.
+a verdict. The comparison is written to ``<prefix>-verdicts.csv``. Then (``--quiet-runs 2``, the default) a
+second quiet run: its verdicts against the first quiet run's (``<prefix>-replication.csv``) say whether two
+runs of volbench agree, with the share of claims, and of timing claims, whose verdict is the same.
+
+Exit status: 1 when a claim flipped under load, 3 when only the two quiet runs disagree on a decided
+verdict (a process-to-process spread that one run's intervals do not cover), 2 when a run did not finish.
 
     scripts/noise-check --profile default --paper lacroute1995 --paper kruger2003
     scripts/noise-check --profile smoke --experiment lacroute1995-volpack   (CI's version)
@@ -24,9 +28,11 @@ from pathlib import Path
 import pandas as pd
 
 from core.errors import InputError
+from pipeline.compare import agreement_words, verdict_changes
 
 ROOT = Path(__file__).resolve().parent.parent
-DECIDED = ("holds", "fails")
+TIMED_KINDS = ("timing", "cost model")
+"""The kinds of claim (``claims.csv``'s ``kind``) whose verdicts rest on timings."""
 
 
 def _spin(stop):
@@ -59,27 +65,12 @@ def flips(quiet, loaded):
 
     ``change`` is ``"same"``, ``"flipped"`` (holds ↔ fails: a failure of the harness), ``"inconclusive under
     load"``, ``"decided under load"`` (inconclusive quiet, holds or fails loaded: allowed, the loaded run
-    took other frames) or ``"other"`` (blocked, not measured).
+    took other frames) or ``"other"`` (blocked, not measured): :func:`pipeline.compare.verdict_changes`.
     """
-    keys = ["experiment", "claim"]
-    both = quiet[keys + ["verdict", "measured"]].merge(loaded[keys + ["verdict", "measured"]], on=keys,
-                                                       suffixes=("_quiet", "_loaded"), how="outer")
-    both[["verdict_quiet", "verdict_loaded"]] = both[["verdict_quiet", "verdict_loaded"]].fillna("absent")
-
-    def change(row):
-        a, b = row.verdict_quiet, row.verdict_loaded
-        if a == b:
-            return "same"
-        if a in DECIDED and b in DECIDED:
-            return "flipped"
-        if a in DECIDED and b == "inconclusive":
-            return "inconclusive under load"
-        if a == "inconclusive" and b in DECIDED:
-            return "decided under load"
-        return "other"
-
-    both["change"] = both.apply(change, axis=1)
-    return both
+    table = verdict_changes(quiet, loaded).rename(columns=lambda c: c.replace("_a", "_quiet").replace("_b", "_loaded"))
+    table["change"] = table.change.replace({"to inconclusive": "inconclusive under load",
+                                            "from inconclusive": "decided under load"})
+    return table
 
 
 def _volbench_run(profile, selection, results, cores):
@@ -116,13 +107,17 @@ def main(argv=None):
     parser.add_argument("--experiment", action="append", default=[], help="run this experiment")
     parser.add_argument("--hog", type=int, default=1, help="busy processes during the loaded run (default 1)")
     parser.add_argument("--cores", type=int, default=os.cpu_count() or 1, help="cores for Snakemake")
-    parser.add_argument("--prefix", default="results/noise", help="results folders <prefix>-quiet, <prefix>-loaded")
+    parser.add_argument("--prefix", default="results/noise",
+                        help="results folders <prefix>-quiet, <prefix>-loaded, <prefix>-quiet-again")
+    parser.add_argument("--quiet-runs", type=int, choices=(1, 2), default=2,
+                        help="2 (default): a second quiet run after the loaded one, its verdicts compared with the "
+                             "first's (do two quiet runs agree?)")
     args = parser.parse_args(argv)
     if args.hog < 1:
         parser.error(f"--hog {args.hog}: at least one busy process (the loaded run needs a load)")
     selection = experiments_of(args.paper, args.experiment, args.profile)
     prefix = ROOT / args.prefix if not Path(args.prefix).is_absolute() else Path(args.prefix)
-    quiet, loaded = Path(f"{prefix}-quiet"), Path(f"{prefix}-loaded")
+    quiet, loaded, again = (Path(f"{prefix}-{name}") for name in ("quiet", "loaded", "quiet-again"))
     started = time.monotonic()
     if _volbench_run(args.profile, selection, quiet, args.cores):
         print("noise-check: the quiet run did not finish", file=sys.stderr)
@@ -132,7 +127,11 @@ def main(argv=None):
     if status:
         print("noise-check: the loaded run did not finish", file=sys.stderr)
         return 2
-    table = flips(pd.read_csv(quiet / "claims.csv"), pd.read_csv(loaded / "claims.csv"))
+    if args.quiet_runs == 2 and _volbench_run(args.profile, selection, again, args.cores):
+        print("noise-check: the second quiet run did not finish", file=sys.stderr)
+        return 2
+    claims = {folder: pd.read_csv(folder / "claims.csv") for folder in (quiet, loaded, again) if folder.exists()}
+    table = flips(claims[quiet], claims[loaded])
     table = table[table.experiment.isin(selection)]
     out = Path(f"{prefix}-verdicts.csv")
     table.to_csv(out, index=False)
@@ -143,7 +142,25 @@ def main(argv=None):
     for _, row in table[table.change != "same"].iterrows():
         print(f"  {row.experiment} {row.claim}: {row.verdict_quiet} ({row.measured_quiet}) → "
               f"{row.verdict_loaded} ({row.measured_loaded}) [{row.change}]")
-    return 1 if counts.get("flipped") else 0
+    replicated = args.quiet_runs == 1 or _replication(claims[quiet], claims[again], selection,
+                                                      Path(f"{prefix}-replication.csv"))
+    if counts.get("flipped"):
+        return 1
+    return 0 if replicated else 3
+
+
+def _replication(first, second, selection, out):
+    """Print how the two quiet runs' verdicts agree (written to ``out``); ``False`` when one flipped."""
+    table = verdict_changes(first, second)
+    table = table[table.experiment.isin(selection)]
+    table.to_csv(out, index=False)
+    kinds = first.set_index(["experiment", "claim"]).get("kind", pd.Series(dtype=str))
+    timing = {key for key, kind in kinds.items() if kind in TIMED_KINDS}
+    print(f"noise-check: two quiet runs: {agreement_words(table, timing=timing)} ({out})")
+    for row in table[table.change != "same"].itertuples():
+        print(f"  {row.experiment} {row.claim}: {row.verdict_a} ({row.measured_a}) → {row.verdict_b} "
+              f"({row.measured_b}) [{row.change}]")
+    return not (table.change == "flipped").any()
 
 
 if __name__ == "__main__":

@@ -234,7 +234,9 @@ def test_the_script_prints_the_differences_and_exits_1_when_there_are_any(folder
     script = [str(ROOT / "scripts" / "compare-results")]
     same = subprocess.run([*script, str(a), str(b)], capture_output=True, text=True, timeout=120)
     assert same.returncode == 0, same.stderr
-    assert same.stdout == f"{a} and {b}: the same runs, images, claims (timing claims' verdicts aside) and phantoms\n"
+    assert same.stdout == ("verdicts: 4 of 4 claims (100.0 %) have the same verdict; of the 1 that read timings, 1 "
+                           "(100.0 %); 0 changed to or from inconclusive\n"
+                           f"{a} and {b}: the same runs, images, claims (no timing claim flipped) and phantoms\n")
     _edit_csv(b / "claims.csv", lambda frame: frame.assign(verdict=frame.verdict.where(frame.claim != "monotone", "fails")))
     assert compare.main([str(a), str(b)]) == 1
     (b / "volumes.csv").unlink()
@@ -244,3 +246,20 @@ def test_the_script_prints_the_differences_and_exits_1_when_there_are_any(folder
     assert missing.returncode == 2
     assert missing.stderr == f"compare-results: {b / 'nowhere'}: no runs.csv; give the results folder of a finished " \
                              "pipeline run (results/<profile>)\n"
+
+
+def test_a_timing_claim_that_flips_is_a_difference_and_one_that_turns_inconclusive_is_listed(folders, capsys):
+    a, b = folders
+    experiment, claim = TIMING_CLAIM
+    _edit_csv(b / "claims.csv", lambda frame: frame.assign(
+        verdict=frame.verdict.where(frame.claim != claim, "inconclusive")))
+    assert compare.claim_differences(a, b) == [] and compare.timing_flips(a, b) == []
+    assert compare.main([str(a), str(b)]) == 0
+    out = capsys.readouterr().out
+    assert f"changed to inconclusive: {experiment}/{claim}: holds in {a}" in out
+    assert "verdicts: 3 of 4 claims (75.0 %) have the same verdict; of the 1 that read timings, 0 (0.0 %); 1 changed" in out
+    _edit_csv(b / "claims.csv", lambda frame: frame.assign(verdict=frame.verdict.where(frame.claim != claim, "fails")))
+    assert compare.claim_differences(a, b) == []  # the verdicts of timing claims are timing_flips' to compare
+    [flip] = compare.timing_flips(a, b)
+    assert flip.startswith(f"timing claim {experiment}/{claim} flipped: holds in {a} (") and f"fails in {b}" in flip
+    assert compare.main([str(a), str(b)]) == 1

@@ -1,3 +1,4 @@
+import shutil
 import time
 
 import pandas as pd
@@ -43,3 +44,35 @@ def test_selection_errors_name_the_fix():
     with pytest.raises(InputError, match="--paper P or --experiment E"):
         noise.experiments_of([], [], "smoke")
     assert "lacroute1995-volpack" in noise.experiments_of(["lacroute1995"], [], "smoke")
+
+
+def test_a_second_quiet_run_reports_agreement_and_a_replication_flip_exits_3(tmp_path, monkeypatch, capsys):
+    verdicts = {"quiet": {"a": "holds", "b": "holds", "c": "fails"},
+                "loaded": {"a": "inconclusive", "b": "holds", "c": "fails"},
+                "quiet-again": {"a": "holds", "b": "fails", "c": "inconclusive"}}
+    ran = []
+
+    def run(profile, selection, results, cores):
+        ran.append(results.name)
+        results.mkdir(parents=True)
+        claims = _claims(verdicts[results.name.split("-", 1)[1]]).assign(experiment="lacroute1995-volpack")
+        claims.assign(kind=["timing", "count", "timing"]).to_csv(results / "claims.csv", index=False)
+        return 0
+
+    monkeypatch.setattr(noise, "_volbench_run", run)
+    args = ["--profile", "smoke", "--experiment", "lacroute1995-volpack", "--prefix", str(tmp_path / "n")]
+    assert noise.main(args) == 3  # only the two quiet runs disagree on b
+    assert ran == ["n-quiet", "n-loaded", "n-quiet-again"]
+    out = capsys.readouterr().out
+    assert ("two quiet runs: 1 of 3 claims (33.3 %) have the same verdict; of the 2 that read timings, 1 (50.0 %)"
+            in out)
+    assert "lacroute1995-volpack b: holds (x) → fails (x) [flipped]" in out
+    assert pd.read_csv(tmp_path / "n-replication.csv").set_index("claim").change.to_dict() == {
+        "a": "same", "b": "flipped", "c": "to inconclusive"}
+    verdicts["loaded"]["b"] = "fails"  # a flip under load is the harness's failure, whatever the quiet runs say
+    for name in ran:
+        shutil.rmtree(tmp_path / name)
+    assert noise.main(args) == 1
+    ran.clear()
+    assert noise.main([*args, "--prefix", str(tmp_path / "one"), "--quiet-runs", "1"]) == 1
+    assert ran == ["one-quiet", "one-loaded"]
