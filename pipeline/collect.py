@@ -240,19 +240,20 @@ def claims_table(frame, experiments):
                 "ours": claim.ours, "expected": claim.expected, "measured": verdict.measured,
                 "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
                 "interval_low": verdict.interval[0] if verdict.interval else None,
-                "interval_high": verdict.interval[1] if verdict.interval else None,
+                "interval_high": verdict.interval[1] if verdict.interval else None, "frames": verdict.frames,
                 "margin": verdict.margin, **claim_evidence(verdict, part),
             })
     return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
 
 
 CLAIM_COLUMNS = ["experiment", "paper", "claim", "kind", "statement", "target", "paper_value", "ours", "expected",
-                 "measured", "holds", "verdict", "detail", "interval_low", "interval_high", "margin", "disturbed_views",
-                 "software_rasterizer", "stand_in"]
+                 "measured", "holds", "verdict", "detail", "interval_low", "interval_high", "frames", "margin",
+                 "disturbed_views", "software_rasterizer", "stand_in"]
 """The columns of ``claims.csv``: ``kind`` is what the claim measures (timing, count, accuracy or cost model:
 :data:`~pipeline.experiments.kit.model.CLAIM_KINDS`), ``target`` is ``paper`` (the paper's statement) or ``ours``
 (our own target beside it, ``ours`` saying why), ``paper_value`` the paper's number the claim judges where it has one;
 ``interval_low``/``interval_high`` bound the 95 % interval of the measured value
-where it rests on timed frames (in the value's unit: a ratio, seconds), ``margin`` is its relative distance
+where it rests on timed frames (in the value's unit: a ratio, seconds), ``frames`` how many timed frames it rests
+on in its thinnest arm (every run's frames come from one process), ``margin`` is its relative distance
 from the bound, positive on the holding side (the worst row's, for a claim over several); the last three are
 what a failing claim's likely cause is read from (:func:`pipeline.experiments.kit.pages.claim_evidence`)."""

@@ -731,7 +731,8 @@ def claim_cells(claim):
     column of its own. Where it did not, the interval comes from ``interval_low``/``interval_high``
     (a ratio where the measured value is one, else in the value's unit: milliseconds where the value
     says ``ms``). ``"—"`` where the claim has no interval (it rests on counts, images, a single frame,
-    or results written before intervals existed).
+    or results written before intervals existed). ``behind`` says what a timing interval rests on: the
+    timed frames of its thinnest arm (``frames``).
     """
     measured = str(claim.get("measured") or "")
     found = _INTERVAL_WORDS.search(measured)
@@ -748,7 +749,9 @@ def claim_cells(claim):
             interval = f"{takeaways.number(low)}–{takeaways.number(high)}"
     else:
         interval = "—"
-    return {"measured": measured, "interval": interval, "margin": margin_words(claim.get("margin"))}
+    frames = claim.get("frames")
+    behind = f"{int(float(frames))} frames" if interval != "—" and _finite(frames) else ""
+    return {"measured": measured, "interval": interval, "behind": behind, "margin": margin_words(claim.get("margin"))}
 
 
 def _verdicts(claims_df):

@@ -132,3 +132,20 @@ def test_every_target_of_ours_stands_beside_the_papers_own_number():
             papers = [c for c in experiment.claims if c.target == "paper" and c.paper_value == claim.paper_value]
             assert papers, f"{experiment.name}/{claim.id}: the paper's {claim.paper_value} is not judged on its own"
     assert ours >= 10
+
+
+def test_a_timing_decision_says_how_many_frames_its_thinnest_arm_holds():
+    from pipeline.experiments.kit.model import ClaimResult
+
+    rows = pd.DataFrame([timed([2.0] * 7, group="g", config="slow", view="v"),
+                         timed([1.0] * 5, group="g", config="fast", view="v")])
+    decision = judging.time_ratio(rows, "slow", "fast", resampler=intervals.Resampler(), at_least=1.5)
+    assert decision.holds is True and decision.frames == 5
+    assert ClaimResult.decided("×2", decision).frames == 5
+    few = judging.time_ratio(rows.assign(**{"frames_total": [intervals.format_frames([2.0] * 7),
+                                                             intervals.format_frames([1.0] * 3)]}),
+                             "slow", "fast", resampler=intervals.Resampler(), at_least=1.5)
+    assert few.inconclusive and few.frames == 3 and "fewer than 5" in few.why
+    # "Every scene": the deciding (worst) one's frames.
+    assert intervals.combine([decision, few]).frames == 3
+    assert intervals.decide(2.0, None, at_least=1.5).frames is None  # a count has no frames

@@ -37,21 +37,23 @@ def test_the_claims_sentence_counts_inconclusive_claims_as_measured_and_names_th
 # ------------------------------------------------------------------------------ interval and margin
 @pytest.mark.parametrize("claim, cells", [
     # The check's own words of its interval, in a column of their own.
-    ({"measured": "×1.12 (95 % CI ×1.08–×1.17)", "interval_low": 1.08, "interval_high": 1.17, "margin": 0.12},
-     {"measured": "×1.12", "interval": "×1.08–×1.17", "margin": "+12 %"}),
+    # With the timed frames of its thinnest arm beneath it.
+    ({"measured": "×1.12 (95 % CI ×1.08–×1.17)", "interval_low": 1.08, "interval_high": 1.17, "margin": 0.12,
+      "frames": 12.0}, {"measured": "×1.12", "interval": "×1.08–×1.17", "behind": "12 frames", "margin": "+12 %"}),
     ({"measured": "12.3 ms (engine) (95 % CI 11.9–13 ms)", "interval_low": 0.0119, "interval_high": 0.013,
-      "margin": -0.023}, {"measured": "12.3 ms (engine)", "interval": "11.9–13 ms", "margin": "−2.3 %"}),
+      "margin": -0.023, "frames": 5},
+     {"measured": "12.3 ms (engine)", "interval": "11.9–13 ms", "behind": "5 frames", "margin": "−2.3 %"}),
     # A check that did not write it: from the numbers, in the measured value's unit.
     ({"measured": "×0.862", "interval_low": 0.8175, "interval_high": 1.1089, "margin": -0.569},
-     {"measured": "×0.862", "interval": "×0.818–×1.11", "margin": "−57 %"}),
+     {"measured": "×0.862", "interval": "×0.818–×1.11", "behind": "", "margin": "−57 %"}),
     ({"measured": "2.5 ms", "interval_low": 0.0024, "interval_high": 0.0026, "margin": 128.3},
-     {"measured": "2.5 ms", "interval": "2.4–2.6 ms", "margin": "+12830 %"}),
-    ({"measured": "1.97", "interval_low": 1.9, "interval_high": 2.05, "margin": 0.0},
-     {"measured": "1.97", "interval": "1.9–2.05", "margin": "+0 %"}),
+     {"measured": "2.5 ms", "interval": "2.4–2.6 ms", "behind": "", "margin": "+12830 %"}),
+    ({"measured": "1.97", "interval_low": 1.9, "interval_high": 2.05, "margin": 0.0, "frames": np.nan},
+     {"measured": "1.97", "interval": "1.9–2.05", "behind": "", "margin": "+0 %"}),
     # Counts and images have no interval; older results have neither column.
     ({"measured": "67.4 dB", "interval_low": np.nan, "interval_high": np.nan, "margin": 0.35},
-     {"measured": "67.4 dB", "interval": "—", "margin": "+35 %"}),
-    ({"measured": "×2"}, {"measured": "×2", "interval": "—", "margin": "—"}),
+     {"measured": "67.4 dB", "interval": "—", "behind": "", "margin": "+35 %"}),
+    ({"measured": "×2"}, {"measured": "×2", "interval": "—", "behind": "", "margin": "—"}),
 ])
 def test_claim_cells_show_the_interval_and_the_margin(claim, cells):
     assert claim_cells(claim) == cells

@@ -14,7 +14,7 @@ its whole interval is on the holding side of the bound, fails when the whole int
 side, and is *inconclusive* otherwise. The draws are seeded, so the same frames give the same interval.
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -147,6 +147,8 @@ class Decision:
     margin: float
     why: str = ""
     """Why a decision is inconclusive whatever its interval says (too few frames, no frames), or empty."""
+    frames: int | None = None
+    """The timed frames behind the interval in its thinnest arm (``None``: not a timing, or not counted)."""
 
     @property
     def inconclusive(self):
@@ -200,6 +202,7 @@ def timing_decision(value, draws, arms, *, at_least=None, at_most=None):
     decide it on nothing.
     """
     decision = decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
+    decision = replace(decision, frames=min(arms.values()) if arms else None)
     few = {arm: n for arm, n in arms.items() if n < MIN_FRAMES}
     if decision.interval is None:
         why = "no timed frames behind " + (", ".join(arm for arm, n in arms.items() if n == 0) or "its interval")
@@ -208,7 +211,7 @@ def timing_decision(value, draws, arms, *, at_least=None, at_most=None):
             f", fewer than {MIN_FRAMES}"
     else:
         return decision
-    return Decision(decision.value, decision.interval, None, decision.margin, why)
+    return replace(decision, holds=None, why=why)
 
 
 def draws_decision(value, draws, arms, *, at_least=None, at_most=None):
@@ -236,7 +239,7 @@ def combine(decisions):
         worst = min((d for d in decisions if d.holds is None), key=lambda d: d.margin)
     else:
         holds = True
-    return Decision(worst.value, worst.interval, holds, worst.margin, worst.why)
+    return replace(worst, holds=holds)
 
 
 def ratio_decision(top, bottom, *, column="time_total", statistic="median", at_least=None, at_most=None,

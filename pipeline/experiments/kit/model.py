@@ -269,7 +269,8 @@ class ClaimResult:
     ``inconclusive``, a timing claim whose confidence ``interval`` straddles its bound
     (:mod:`~pipeline.experiments.kit.intervals`). ``interval`` is the 95 % interval of the measured
     value (``(low, high)``, in the value's own unit) where it rests on timed frames, and ``margin`` the
-    value's relative distance from its bound, positive on the holding side.
+    value's relative distance from its bound, positive on the holding side; ``frames`` how many timed
+    frames the interval rests on in its thinnest arm.
     """
 
     measured: str
@@ -278,6 +279,7 @@ class ClaimResult:
     interval: tuple | None = None
     margin: float | None = None
     inconclusive: bool = False
+    frames: int | None = None
 
     @classmethod
     def decided(cls, measured, decision, detail=""):
@@ -285,7 +287,8 @@ class ClaimResult:
         why an undecidable one is inconclusive ends the detail."""
         if decision.why:
             detail = f"{detail}; inconclusive: {decision.why}" if detail else f"inconclusive: {decision.why}"
-        return cls(measured, decision.holds, detail, decision.interval, decision.margin, decision.inconclusive)
+        return cls(measured, decision.holds, detail, decision.interval, decision.margin, decision.inconclusive,
+                   decision.frames)
 
 
 CLAIM_KINDS = ("timing", "count", "accuracy", "cost model")

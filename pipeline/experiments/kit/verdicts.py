@@ -229,6 +229,8 @@ class Verdict:
     margin: float | None = None
     disturbed_views: int = 0
     """How many disturbed views an inconclusive verdict rests on (0: none)."""
+    frames: int | None = None
+    """The timed frames behind the interval, in its thinnest arm (:attr:`ClaimResult.frames`)."""
 
 
 DISTURBED_SPEED_UP = 10.0
@@ -312,14 +314,15 @@ def judge(claim, rows):
         views = rests_on_disturbed(claim, ok, before=result)
         if views:
             return Verdict("inconclusive", result.measured, None, f"{disturbed_detail(views)}; {result.detail}".rstrip("; "),
-                           interval=result.interval, margin=result.margin, disturbed_views=len(views))
+                           interval=result.interval, margin=result.margin, disturbed_views=len(views),
+                           frames=result.frames)
     if result.inconclusive:
         return Verdict("inconclusive", result.measured, None, result.detail, interval=result.interval,
-                       margin=result.margin)
+                       margin=result.margin, frames=result.frames)
     if result.holds is None:
         return Verdict("not measured", result.measured, None, result.detail)
     return Verdict("holds" if result.holds else "fails", result.measured, bool(result.holds), result.detail,
-                   interval=result.interval, margin=result.margin)
+                   interval=result.interval, margin=result.margin, frames=result.frames)
 
 
 VERDICT_WORDS = {"holds": "holds", "fails": "does not hold", "inconclusive": "inconclusive"}
