@@ -1,32 +1,25 @@
 """``ropinski2005-appearance`` (E6): its plan at each scale, its claims on synthetic frames and counts, its page."""
 
+from functools import partial
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from core.errors import InputError
 from pipeline import experiments
-from pipeline.experiments import Profile
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.ropinski2005.appearances import APPEARANCES, EXPOSED, ISOVALUES, appearance_entry
 from pipeline.experiments.ropinski2005.scenes import SETUPS
 from reports import blocks
 from reports.html import ReportContext
+import test_ropinski2005_table1 as shared
+from test_ropinski2005_table1 import NOISY
 
 NAME = "ropinski2005-appearance"
 
-NOISY = [1.0, 1.0, 3.0, 1.0, 3.0]
-
-
-def planned(scale, **settings):
-    profile = Profile(name="t", scale=scale, volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME],
-                      settings={NAME: settings} if settings else {})
-    return [r for r in experiments.plan(profile).values() if r.experiment == NAME]
-
-
-def evaluate(claim_id, rows):
-    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
-    return claim.evaluate(pd.DataFrame(rows))
+planned = partial(shared.planned, name=NAME)
+evaluate = partial(shared.evaluate, NAME)
 
 
 TIMES = {"clip": 0.010, "transparency": 0.013, "iso": 0.012, "mip": 0.011}
@@ -77,7 +70,8 @@ def test_plan_at_each_scale():
     assert all(r.repeat >= 3 and r.backend == "gl-raycast" for r in smoke)
     assert {r.tags["scene"] for r in planned("full")} == set(SETUPS)
     assert set(ISOVALUES) == set(SETUPS)
-    assert appearance_entry("engine", "clip") == {"mode": "clip"} and appearance_entry("skull", "mip") == {"mode": "mip"}
+    assert appearance_entry("engine", "clip") == {"mode": "clip"}
+    assert appearance_entry("skull", "mip") == {"mode": "mip"}
     two = planned("smoke", scenes=["skull"], appearances=["clip", "mip"])
     assert sorted(r.id for r in two) == ["skull.clip.fused", "skull.clip.segments", "skull.mip.segments", "skull.off"]
     with pytest.raises(InputError, match="unknown.*highlight"):

@@ -5,6 +5,7 @@ import pandas as pd
 import pytest
 
 from pipeline import experiments
+from pipeline.experiments.kit.pages import DIFF_SCALE
 from pipeline.experiments.ropinski2005 import correctness as C
 from pipeline.experiments.ropinski2005.methods import METHODS
 from pipeline.experiments.ropinski2005.scenes import SETUPS
@@ -94,7 +95,7 @@ def test_the_page(tmp_path):
     table = next(b for b in out if isinstance(b, blocks.Table) and b.title.startswith("PSNR")).frame.set_index("scene")
     assert table.loc["foot", "no lens"] == 60.0 and table.loc["foot", C.method_name("fused")] == 45.0
     galleries = [b for b in out if isinstance(b, blocks.Gallery)]
-    assert len(galleries) == 2 and all(g.diff_scale == C.DIFF_SCALE for g in galleries)
+    assert len(galleries) == 2 and all(g.diff_scale == DIFF_SCALE for g in galleries)
     assert len(galleries[0].items) == 4  # two methods on two scenes
     seams = {item.caption: item for item in galleries[1].items}
     assert seams["foot, " + C.method_name("segments")].note == "max difference 0.05 (headline)"

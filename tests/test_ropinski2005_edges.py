@@ -1,31 +1,25 @@
 """``ropinski2005-edges`` (E8): where each case puts its lens, the claims on synthetic images, the page."""
 
+from functools import partial
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from core.errors import InputError
 from pipeline import experiments
-from pipeline.experiments import Profile
 from pipeline.experiments.ropinski2005.edges import (CASES, CONFIGS, GRAZING_VIEW_HEIGHT, case_scene, coverage_holes,
                                                      grazing_size, toward_camera)
 from reports import blocks
 from reports.html import ReportContext
 from reports.imageio import write_exr
+import test_ropinski2005_table1 as shared
 
 NAME = "ropinski2005-edges"
+
+planned = partial(shared.planned, name=NAME)
+evaluate = partial(shared.evaluate, NAME)
 SIZE = 32
-
-
-def planned(scale, **settings):
-    profile = Profile(name="t", scale=scale, volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME],
-                      settings={NAME: settings} if settings else {})
-    return [r for r in experiments.plan(profile).values() if r.experiment == NAME]
-
-
-def evaluate(claim_id, rows):
-    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
-    return claim.evaluate(pd.DataFrame(rows))
 
 
 def cube(alpha=0.9, size=16):

@@ -1,31 +1,24 @@
 """``ropinski2005-size`` (E5): its plan at each scale, its claim on synthetic frames and counts, its page."""
 
+from functools import partial
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from core.errors import InputError
 from pipeline import experiments
-from pipeline.experiments import Profile
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.ropinski2005.lens_size import RADII, rank_correlation, slope_decision, sweep_points
 from reports import blocks
 from reports.html import ReportContext
+import test_ropinski2005_table1 as shared
+from test_ropinski2005_table1 import NOISY
 
 NAME = "ropinski2005-size"
 
-NOISY = [1.0, 1.0, 3.0, 1.0, 3.0]
-
-
-def planned(scale, **settings):
-    profile = Profile(name="t", scale=scale, volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME],
-                      settings={NAME: settings} if settings else {})
-    return [r for r in experiments.plan(profile).values() if r.experiment == NAME]
-
-
-def evaluate(claim_id, rows):
-    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
-    return claim.evaluate(pd.DataFrame(rows))
+planned = partial(shared.planned, name=NAME)
+evaluate = partial(shared.evaluate, NAME)
 
 
 def row(scene, run, seconds, *, group=True, **tags):

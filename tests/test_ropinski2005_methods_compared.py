@@ -1,32 +1,26 @@
 """``ropinski2005-methods`` (E4): its plan at each scale, its claims on synthetic frames and counts, its page."""
 
+from functools import partial
+
 import numpy as np
 import pandas as pd
 import pytest
 
 from core.errors import InputError
 from pipeline import experiments
-from pipeline.experiments import Profile
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.ropinski2005.methods_compared import CONFIGS, OCCLUDED, TABLE1_SCENES, TRANSPARENCY
 from reports import blocks
 from reports.html import ReportContext
+import test_ropinski2005_table1 as shared
+from test_ropinski2005_table1 import NOISY
 
 NAME = "ropinski2005-methods"
 
-NOISY = [1.0, 1.0, 3.0, 1.0, 3.0]
+planned = partial(shared.planned, name=NAME)
+evaluate = partial(shared.evaluate, NAME)
+
 """Frame factors whose resampled median is 1 or 3: unpaired, a ratio whose interval spans ×1/3–×3."""
-
-
-def planned(scale, **settings):
-    profile = Profile(name="t", scale=scale, volume_size=16, image_size=24, warmup=0, repeat=1, experiments=[NAME],
-                      settings={NAME: settings} if settings else {})
-    return [r for r in experiments.plan(profile).values() if r.experiment == NAME]
-
-
-def evaluate(claim_id, rows):
-    claim = next(c for c in experiments.get(NAME).claims if c.id == claim_id)
-    return claim.evaluate(pd.DataFrame(rows))
 
 
 def rows_of(times, *, occluded=None, shaded=None, scenes=("seismic", "foot"), image=256, noisy=(), group=True):

@@ -8,7 +8,8 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
+from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, device_note, figure, frames_caption, role_rows,
+                                                    table)
 from pipeline.experiments.kainz2009.ratios import counts, ratio, timed
 from pipeline.experiments.kainz2009.scenes import mesh, volume
 from pipeline.experiments.kit import intervals
@@ -17,7 +18,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, speed_points, text_column
-from reports import blocks, plots
+from reports import plots
 
 METHODS = ("bitmask", "edge")
 BINNING = "time_binning"
@@ -61,12 +62,6 @@ def _coverage_rows(ok):
     return rows
 
 
-def _watertight_rows(ok):
-    if "role" not in ok:
-        return pd.DataFrame()
-    return ok[ok.role == "watertight"].copy()
-
-
 def _mask_speedup(df):
     """The edge-function binning kernel over the bit-shift one at every triangle count, timed together."""
     rows = timed(df, "the coverage methods", BINNING, role="test")
@@ -87,7 +82,7 @@ def _mask_speedup(df):
 
 
 def _watertight(df):
-    rows = _watertight_rows(df)
+    rows = role_rows(df, "watertight")
     unpaired = numeric(rows, "count_unpaired_pixels") if not rows.empty else pd.Series(dtype=float)
     if unpaired.notna().sum() == 0:
         raise ValueError("no watertightness run")
@@ -98,7 +93,7 @@ def _watertight(df):
 
 
 def _same_fragments(df):
-    rows = _watertight_rows(df)
+    rows = role_rows(df, "watertight")
     if rows.empty or set(rows.config) != set(METHODS):
         raise ValueError("no watertightness runs of both methods")
     rows = rows.assign(count_fragments=numeric(rows, "count_fragments"))  # a missing counter names itself
@@ -184,17 +179,17 @@ class Coverage(Experiment):
         if not timing.empty:
             wide = timing.pivot_table(index="triangles", columns="config", values="binning_ms").reset_index()
             present = [m for m in METHODS if m in wide]
-            path, rel = ctx.plot_path("binning")
-            plots.bar_compare(wide.rename(columns={m: f"{m} (ms)" for m in present}), path, category_col="triangles",
-                              value_cols=[f"{m} (ms)" for m in present], value_label="binning kernel time (ms)",
-                              title="Binning kernel time by coverage method and triangle count")
-            out.append(blocks.Figure("Binning time by coverage method", rel,
-                                     "Binning stage (OpenCL profiling), median frame; an opaque noisy sphere filling "
-                                     "the picture. " + frames_caption(timing)))
+            out.append(figure(ctx, "binning", plots.bar_compare, wide.rename(columns={m: f"{m} (ms)" for m in present}),
+                              heading="Binning time by coverage method",
+                              caption="Binning stage (OpenCL profiling), median frame; an opaque noisy sphere filling "
+                                      "the picture. " + frames_caption(timing),
+                              category_col="triangles", value_cols=[f"{m} (ms)" for m in present],
+                              value_label="binning kernel time (ms)",
+                              title="Binning kernel time by coverage method and triangle count"))
             out.append(table("Binning time per triangle count", timing.sort_values(["triangles", "config"]),
                              ["triangles", "config", "binning kernel (ms)", "edge / bitmask", "count_triangles",
                               "count_records", "time_ms"], ctx, csv_name="coverage.csv"))
-        tight = _watertight_rows(ok)
+        tight = role_rows(ok, "watertight")
         if not tight.empty:
             out.append(table("Watertightness per view", tight.sort_values(["view", "config"]),
                              ["view", "config", "count_unpaired_pixels", "count_fragments", "count_fragments_max",

@@ -9,19 +9,19 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
-                                                    table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, judge, ratio
+from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, figure,
+                                                    frames_caption, table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, frame_ratios, judge
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, all_of, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points, text_column
-from reports import blocks, plots
+from reports import plots
 
 BOX_COUNTS = (5, 10, 15, 20, 30, 40)
 
@@ -117,19 +117,9 @@ def _depth_fit(df):
 
 def _dual_ratio(df, scenes, *, dual_faster):
     """cl-tiled's whole frame over dual depth peeling's on every scene both render."""
-    resampler = intervals.Resampler()
-    decisions, compared = {}, []
-    for name in scenes:
-        tiled, dual = (rows_matching(df, name, scene=name, role="test", config=config) for config in (TILED, DUAL))
-        tiled, dual = (part[numeric(part, TOTAL).notna()] for part in (tiled, dual))
-        if not tiled.empty and not dual.empty:
-            bound = {"at_least": STRICTLY_ABOVE_ONE} if dual_faster else {"at_most": STRICTLY_BELOW_ONE}
-            decisions[name] = ratio(tiled, dual, TOTAL, resampler, **bound)
-            compared += [tiled, dual]
-    if not decisions:
-        raise ValueError(f"no scene of {', '.join(scenes)} rendered by both dual depth peeling and cl-tiled")
-    return all_of(decisions, extra=f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}, "
-                                   f"paper S1: 2.4×; {devices(pd.concat(compared))}")
+    return frame_ratios(df, scenes, TILED, DUAL, what=f"time of cl-tiled over dual depth peeling's, same scene and "
+                                                      f"view, {FRAMES}, paper S1: 2.4×",
+                        **({"at_least": STRICTLY_ABOVE_ONE} if dual_faster else {"at_most": STRICTLY_BELOW_ONE}))
 
 
 def _crossing(depths, gaps):
@@ -275,13 +265,13 @@ class Depth(Experiment):
             rows["method"] = rows.config.map(METHOD_NAMES)
             sweep = rows[rows.part == "sweep"]
             if not sweep.empty:
-                path, rel = ctx.plot_path("sweep")
-                plots.lines(sweep, path, x="depth", y="time_ms", group="method",
-                            y_range=("time_ms_min", "time_ms_max"), title="Frame time against depth complexity",
-                            x_label="max depth complexity (boundary crossings per pixel)",
-                            y_label="median frame time (ms)", vlines=(20, 40, 63))
-                out.append(blocks.Figure("Boxes in a row", rel, "Dotted: the paper's S1 and S2 depths and the cap "
-                                         "of 63. " + frames_caption(sweep)))
+                out.append(figure(ctx, "sweep", plots.lines, sweep, heading="Boxes in a row",
+                                  caption="Dotted: the paper's S1 and S2 depths and the cap of 63. "
+                                          + frames_caption(sweep),
+                                  x="depth", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
+                                  title="Frame time against depth complexity",
+                                  x_label="max depth complexity (boundary crossings per pixel)",
+                                  y_label="median frame time (ms)", vlines=(20, 40, 63)))
             out.append(table("Every scene", rows.sort_values(["part", "depth", "method"]),
                              ["scene", "method", "depth", "count_fragments_mean", "count_triangles", "time_ms",
                               "time_ms_min", "time_ms_max", "psnr", "count_fragments_dropped", "count_layers",

@@ -9,17 +9,18 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
+from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, figure, frames_caption, role_rows, run_settings,
+                                                    table)
 from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, ratio, timed
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, screw
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, timed_frames, truth_run
+from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, read_exr, reference_exr, speed_points
-from reports import blocks, plots
+from reports import plots
 
 CAPS = (16, 32, 55, 63)
 SCENES = ("screw", "pile")
@@ -150,10 +151,7 @@ class DepthCap(Experiment):
             return []
         name = self.name
         caps = sorted(int(c) for c in profile.setting(self, "caps", list(CAPS)))
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        step = profile.setting(self, "step_factor", 0.5)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
-        frames = timed_frames(profile, self)
+        image, step, truth_step, frames = run_settings(self, profile)
         scenes = {
             "screw": scene("screw", image, meshes=(screw(int(profile.setting(self, "turns", 40))),),
                            camera={"azimuth": 0.0, "elevation": 0.0, "view_height": 1.0}),
@@ -205,38 +203,33 @@ class DepthCap(Experiment):
         rows = _cap_rows(ok)
         if not rows.empty:
             rows = speed_points(rows)
-            path, rel = ctx.plot_path("error")
-            plots.lines(rows.assign(percent=100 * rows.over_threshold), path, x="cap", y="percent", group="scene",
-                        title=_cap_title(rows), x_label="fragments kept per pixel (depth cap)",
-                        y_label="pixels off by > 5 % of the range (%)", vlines=(55, 63),
-                        guides=(("paper's bound 0.05 %", [rows.cap.min(), rows.cap.max()], [0.05, 0.05]),))
-            out.append(blocks.Figure("Error against the cap", rel, "Against cl-tiled's unbounded lists, same step; "
-                                     "dotted: the paper's 55 and 63."))
-            path, rel = ctx.plot_path("time")
-            plots.lines(rows, path, x="cap", y="time_ms", group="scene", y_range=("time_ms_min", "time_ms_max"),
-                        title="Frame time against the cap", x_label="fragments kept per pixel (depth cap)",
-                        y_label="median frame time (ms)")
-            out.append(blocks.Figure("Time against the cap", rel, "Bars from the fastest to the slowest frame. "
-                                     + frames_caption(rows)))
+            caps = {"x": "cap", "group": "scene", "x_label": "fragments kept per pixel (depth cap)"}
+            out.append(figure(ctx, "error", plots.lines, rows.assign(percent=100 * rows.over_threshold),
+                              heading="Error against the cap",
+                              caption="Against cl-tiled's unbounded lists, same step; dotted: the paper's 55 and 63.",
+                              y="percent", title=_cap_title(rows), y_label="pixels off by > 5 % of the range (%)",
+                              vlines=(55, 63),
+                              guides=(("paper's bound 0.05 %", [rows.cap.min(), rows.cap.max()], [0.05, 0.05]),),
+                              **caps))
+            out.append(figure(ctx, "time", plots.lines, rows, heading="Time against the cap",
+                              caption="Bars from the fastest to the slowest frame. " + frames_caption(rows),
+                              y="time_ms", y_range=("time_ms_min", "time_ms_max"), title="Frame time against the cap",
+                              y_label="median frame time (ms)", **caps))
             percent = rows.assign(over_threshold=100 * rows.over_threshold)
             out.append(table("Every cap", percent.sort_values(["scene", "cap"]),
                              ["scene", "cap", "over_threshold", "psnr", "time_ms", "time_ms_min", "time_ms_max",
                               "count_fragments_max", "count_fragments_dropped"], ctx, csv_name="depthcap.csv",
                              caption="PSNR against the unbounded lists; max depth complexity as kept (at most "
                                      "the cap)."))
-            gallery = blocks.Gallery("Each cap and its difference from the unbounded lists", diff_scale=DIFF_SCALE,
-                                     caption=f"Left the capped image, right |capped − unbounded|; the colour map tops "
-                                             f"out at {format_number(100 * DIFF_SCALE)} % of the range (the report's "
-                                             f"one scale); the claim counts the pixels off by more than "
-                                             f"{format_number(100 * ERROR_THRESHOLD)} %.")
-            for row in rows.sort_values(["scene", "cap"]).itertuples():
-                gallery.items.append(blocks.GalleryItem(
-                    f"{row.scene}, cap {int(row.cap)}", ctx.image(row.png),
-                    difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                    note=f"{format_number(100 * row.over_threshold)} % of pixels off by > 5 %, "
-                         f"{int(row.count_fragments_dropped)} fragments dropped"))
-            out.append(gallery)
-        unbounded = ok[ok.get("role") == "unbounded"] if "role" in ok else ok.iloc[:0]
+            out.append(difference_gallery(
+                "Each cap and its difference from the unbounded lists", rows.sort_values(["scene", "cap"]), ctx,
+                against=results, label=lambda row: f"{row.scene}, cap {int(row.cap)}",
+                caption=f"Left the capped image, right |capped − unbounded|; the colour map tops out at "
+                        f"{format_number(100 * DIFF_SCALE)} % of the range (the report's one scale); the claim "
+                        f"counts the pixels off by more than {format_number(100 * ERROR_THRESHOLD)} %.",
+                note=lambda row: f"{format_number(100 * row.over_threshold)} % of pixels off by > 5 %, "
+                                 f"{int(row.count_fragments_dropped)} fragments dropped"))
+        unbounded = role_rows(ok, "unbounded")
         if not unbounded.empty:
             out.append(table("The unbounded lists against the reference", speed_points(unbounded),
                              ["scene", "count_fragments_max", "count_fragments_mean", "psnr", "ssim", "time_ms"], ctx,

@@ -8,16 +8,17 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
+from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, figure, frames_caption, role_rows, run_settings,
+                                                    table)
 from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, draws, judge, point, ratio, timed
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, db_words, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, listed, scene, timed_frames, truth_run
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, listed, scene, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
-from reports import blocks, plots
+from reports import plots
 
 BRICKS = (4, 8, 16, 32)
 SCENES = {"torso": ("torso", "abdomen"), "skull": ("ct_skull", "bone")}
@@ -25,9 +26,7 @@ SCENES = {"torso": ("torso", "abdomen"), "skull": ("ct_skull", "bone")}
 
 
 def _build_rows(ok):
-    if "role" not in ok:
-        return pd.DataFrame()
-    rows = ok[ok.role == "build"].copy()
+    rows = role_rows(ok, "build")
     if rows.empty:
         return rows
     rows["brick"] = numeric(rows, "brick")
@@ -154,11 +153,8 @@ class EmptySpace(Experiment):
             return []
         name = self.name
         size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        image, step, truth_step, frames = run_settings(self, profile)
         bricks = [int(b) for b in profile.setting(self, "brick_sizes", list(BRICKS))]
-        step = profile.setting(self, "step_factor", 0.5)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
-        frames = timed_frames(profile, self)
         views = (dict(HEADLINE_VIEW),)
         runs = []
         for scene_name in listed(profile, self, "scenes", SCENES, SCENES):
@@ -197,19 +193,20 @@ class EmptySpace(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
+        tests = role_rows(ok)
         if not tests.empty:
             rows = speed_points(tests)
             rows["brick"] = numeric(rows, "brick")
             hulls = rows[rows.config == "hull"]
-            path, rel = ctx.plot_path("bricks")
-            plots.lines(hulls, path, x="brick", y="time_ms", group="scene", y_range=("time_ms_min", "time_ms_max"),
-                        title="Frame time against the brick size (boxes as guides)", x_label="brick edge (voxels)",
-                        y_label="median frame time (ms)", log_x=True, vlines=(8,),
-                        guides=tuple((f"{r.scene}: box boundaries", [hulls.brick.min(), hulls.brick.max()],
-                                      [r.time_ms, r.time_ms]) for r in rows[rows.config == "box"].itertuples()))
-            out.append(blocks.Figure("Hull brick size", rel, "Bars from the fastest to the slowest frame; dotted: "
-                                     "the paper's 8³. " + frames_caption(rows)))
+            out.append(figure(ctx, "bricks", plots.lines, hulls, heading="Hull brick size",
+                              caption="Bars from the fastest to the slowest frame; dotted: the paper's 8³. "
+                                      + frames_caption(rows),
+                              x="brick", y="time_ms", group="scene", y_range=("time_ms_min", "time_ms_max"),
+                              title="Frame time against the brick size (boxes as guides)",
+                              x_label="brick edge (voxels)", y_label="median frame time (ms)", log_x=True,
+                              vlines=(8,),
+                              guides=tuple((f"{r.scene}: box boundaries", [hulls.brick.min(), hulls.brick.max()],
+                                            [r.time_ms, r.time_ms]) for r in rows[rows.config == "box"].itertuples())))
             builds = _build_rows(ok)
             merged = rows.merge(builds[["scene", "brick", "build_ms"]], on=["scene", "brick"], how="left") \
                 if not builds.empty else rows

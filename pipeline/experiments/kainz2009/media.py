@@ -9,16 +9,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
+from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, run_settings, table
 from pipeline.experiments.kainz2009.ratios import counts, ratio, timed
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, speed_points, text_column
-from reports import blocks
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, scene, truth_run
+from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
 
 ROD_COUNT = 35
 RODS = "rods"
@@ -160,15 +159,12 @@ class Media(Experiment):
             return []
         name = self.name
         size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        image, step, truth_step, frames = run_settings(self, profile)
         rods = int(profile.setting(self, "rods", ROD_COUNT))
-        step = profile.setting(self, "step_factor", 0.5)
-        frames = timed_frames(profile, self)
         views = (dict(HEADLINE_VIEW), rods_view(size))
         spec = _apple_scene(size, image, rods)
         tags = {"scene": "apple", "size": size, "rods": rods}
-        truth = truth_run(name, "apple", spec, views, profile.setting(self, "truth_step_factor", 0.25), tags,
-                          config="reference")
+        truth = truth_run(name, "apple", spec, views, truth_step, tags, config="reference")
         return [truth] + [Run(name, f"apple.{media}", TILED, spec, views, options={"step_factor": step, "media": media},
                               reference=truth.id, **frames, interleave="apple",
                               tags={**tags, "role": "test", "config": media})
@@ -199,13 +195,10 @@ class Media(Experiment):
                              caption="count_medium_steps: media composited without a volume (one per segment "
                                      "analytically, one per cell part sampled); PSNR against the reference. "
                                      + frames_caption(rows)))
-            gallery = blocks.Gallery("Both variants and their difference from the reference", diff_scale=DIFF_SCALE,
-                                     caption="Left the image, right |image − reference|, each view.")
-            for row in rows.sort_values(["view", "config"]).itertuples():
-                gallery.items.append(blocks.GalleryItem(
-                    f"media {row.config}, view {row.view}", ctx.image(row.png),
-                    difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                    note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, "
-                         f"pixel kernel {format_number(row.pixel_ms)} ms"))
-            out.append(gallery)
+            out.append(difference_gallery(
+                "Both variants and their difference from the reference", rows.sort_values(["view", "config"]), ctx,
+                against=results, label=lambda row: f"media {row.config}, view {row.view}",
+                caption="Left the image, right |image − reference|, each view.",
+                note=lambda row: f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, "
+                                 f"pixel kernel {format_number(row.pixel_ms)} ms"))
         return out

@@ -1,4 +1,5 @@
-"""The methods compared (cl-tiled and its stand-in baselines) and how this paper's pages show their runs.
+"""The methods compared (cl-tiled and its stand-in baselines), the settings their runs read, and how this
+paper's pages show their runs.
 
 Depth peeling (the Roessler / Brecheisen shader casters: ``gl-peel``, boxes and translucent meshes)
 and dual depth peeling (NVIDIA's demo: ``gl-peel`` with ``peeling="dual"``, meshes only) stand in for
@@ -11,7 +12,8 @@ import pandas as pd
 
 from pipeline.experiments.kit import pages
 from pipeline.experiments.kit.pages import linked_table, not_measurable
-from pipeline.experiments.kit.planning import is_registered
+from pipeline.experiments.kit.planning import is_registered, timed_frames
+from reports import blocks
 
 PAPER_ID = "kainz2009"
 
@@ -35,6 +37,19 @@ COLUMN_NAMES = {"count_fragments_max": "max depth complexity", "count_fragments_
                 "binning_share": "binning share (%)", "pixel_share": "pixel kernel share (%)",
                 "ns_per_sample": "ns per sample"}
 """This paper's columns in words (times and metrics are named by the kit)."""
+
+
+def run_settings(experiment, profile):
+    """``(image size, step factor, the reference's step factor, timed frames)``: what ``experiment``'s runs take
+    from ``profile`` (the profile's image size, half a voxel, a quarter)."""
+    return (int(profile.setting(experiment, "image_size", profile.image_size)),
+            profile.setting(experiment, "step_factor", 0.5), profile.setting(experiment, "truth_step_factor", 0.25),
+            timed_frames(profile, experiment))
+
+
+def role_rows(ok, role="test"):
+    """The rows of ``ok`` (successful runs) of runs in ``role`` (their ``role`` tag), none where no run has one."""
+    return ok[ok.role == role].copy() if "role" in ok else ok.iloc[:0]
 
 
 def peeling_missing():
@@ -90,3 +105,11 @@ def frames_caption(frame):
 def table(title, frame, columns, ctx, **options):
     """A table of ``columns`` (named by :data:`COLUMN_NAMES` and the kit), each row linked to its run."""
     return linked_table(title, frame, columns, ctx, names=COLUMN_NAMES, **options)
+
+
+def figure(ctx, name, plot, frame, *, heading, caption, **options):
+    """``plot(frame, path, **options)`` (a chart of :mod:`reports.plots`) drawn as the page's plot ``name``, as a
+    figure with ``heading`` and ``caption``."""
+    path, rel = ctx.plot_path(name)
+    plot(frame, path, **options)
+    return blocks.Figure(heading, rel, caption)

@@ -14,7 +14,9 @@ interval straddles its bound is inconclusive. Two scopes are compared, each like
 
 import pandas as pd
 
+from pipeline.experiments.kainz2009.methods import METHOD_NAMES, TILED, devices
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.pages import format_number
 from pipeline.experiments.kit.results import numeric, rows_matching
 
@@ -51,6 +53,24 @@ def ratio(top, bottom, column, resampler, *, statistic="median", at_least=None, 
     """``top / bottom`` of ``column`` judged against the bounds with its interval (a :class:`Decision`)."""
     return intervals.ratio_decision(top, bottom, column=column, statistic=statistic, resampler=resampler,
                                     at_least=at_least, at_most=at_most)
+
+
+def frame_ratios(df, scenes, top, bottom, *, what, **bounds):
+    """``top``'s whole frame over ``bottom``'s (two configs, one of them cl-tiled) on every one of ``scenes`` both
+    render, each judged against ``bounds`` with its interval; ``what`` says the ratio in the detail, before the
+    devices the two ran on."""
+    resampler = intervals.Resampler()
+    decisions, compared = {}, []
+    for name in scenes:
+        pair = [rows_matching(df, name, scene=name, role="test", config=config) for config in (top, bottom)]
+        pair = [part[numeric(part, TOTAL).notna()] for part in pair]
+        if not any(part.empty for part in pair):
+            decisions[name] = ratio(*pair, TOTAL, resampler, **bounds)
+            compared += pair
+    if not decisions:
+        peer = METHOD_NAMES[bottom if top == TILED else top]
+        raise ValueError(f"no scene of {', '.join(scenes)} rendered by both {peer} and cl-tiled")
+    return all_of(decisions, extra=f"{what}; {devices(pd.concat(compared))}")
 
 
 def judge(value, value_draws, *, at_least=None, at_most=None):

@@ -14,7 +14,8 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    device_note, devices, frames_caption, peeling_missing, table)
+                                                    device_note, devices, figure, frames_caption, peeling_missing,
+                                                    role_rows, run_settings, table)
 from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, draws, judge, point, timed
 from pipeline.experiments.kainz2009.scenes import blob, clouds, volume
 from pipeline.experiments.kit import intervals
@@ -22,10 +23,9 @@ from pipeline.experiments.kit.checks import Bound, Measure, Ratio
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
-from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, is_registered, listed, scene, timed_frames,
-                                               truth_run)
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points
-from reports import blocks, plots
+from reports import plots
 
 COUNTS = (1, 2, 4, 8, 16, 20, 32, 50, 64)
 SERIES = {
@@ -154,12 +154,9 @@ class Scaling(Experiment):
         series = listed(profile, self, "series", SERIES, SERIES)
         small = int(profile.setting(self, "small_size", 64))
         large = int(profile.setting(self, "large_size", 256))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        image, step, truth_step, frames = run_settings(self, profile)
         triangles = int(profile.setting(self, "mesh_triangles", 30000))
-        step = profile.setting(self, "step_factor", 0.5)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
         truth_counts = {int(n) for n in profile.setting(self, "truth_counts", [1, 8, TARGET_COUNT])}
-        frames = timed_frames(profile, self)
         views = (dict(HEADLINE_VIEW),)
         runs = []
         for kind in series:
@@ -214,33 +211,30 @@ class Scaling(Experiment):
         return pd.DataFrame(tables.SCALING).assign(device=tables.PAPER_DEVICE)
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
+        tests = role_rows(ok_rows(results))
         out = [claim_takeaways(ctx, device_note(tests), _scaling_takeaways(tests))]
         if not tests.empty:
             rows = speed_points(tests)
             rows["count"] = numeric(rows, "count")
             rows["method"] = [f"{SERIES[s]} ({METHOD_NAMES[c]})" for s, c in zip(rows.series, rows.config)]
-            path, rel = ctx.plot_path("time")
-            plots.lines(rows, path, x="count", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
-                        title=_scaling_title(rows), x_label="overlapping 64³ volumes N (count)",
-                        y_label="median frame time (ms)", vlines=(TARGET_COUNT,))
-            out.append(blocks.Figure("Frame time against the number of volumes", rel,
-                                     "Bars from the fastest to the slowest frame; dotted: N = 50 (C8). "
-                                     + frames_caption(rows)))
+            counts = {"x": "count", "group": "method", "x_label": "overlapping 64³ volumes N (count)",
+                      "vlines": (TARGET_COUNT,)}
+            out.append(figure(ctx, "time", plots.lines, rows, heading="Frame time against the number of volumes",
+                              caption="Bars from the fastest to the slowest frame; dotted: N = 50 (C8). "
+                                      + frames_caption(rows),
+                              y="time_ms", y_range=("time_ms_min", "time_ms_max"), title=_scaling_title(rows),
+                              y_label="median frame time (ms)", **counts))
             base = _one_cloud_ms(rows)
             for column in ("", "_min", "_max"):
                 rows[f"relative{column}"] = rows[f"time_ms{column}"] / base
-            path, rel = ctx.plot_path("relative")
-            plots.lines(rows, path, x="count", y="relative", group="method", y_range=("relative_min", "relative_max"),
-                        title=f"Frame time over one cloud's; target ≤ {TARGET_RATIO:g}× at N = {TARGET_COUNT}",
-                        x_label="overlapping 64³ volumes N (count)",
-                        y_label="frame time / one cloud's frame time (ratio)", vlines=(TARGET_COUNT,),
-                        guides=((f"target {TARGET_RATIO:g}×", [1, max(rows["count"].max(), 2)],
-                                 [TARGET_RATIO, TARGET_RATIO]),))
-            out.append(blocks.Figure("Growth relative to one volume", rel,
-                                     "Each series over its own method's one-cloud run; bars from the fastest to "
-                                     "the slowest frame."))
+            out.append(figure(ctx, "relative", plots.lines, rows, heading="Growth relative to one volume",
+                              caption="Each series over its own method's one-cloud run; bars from the fastest to "
+                                      "the slowest frame.",
+                              y="relative", y_range=("relative_min", "relative_max"),
+                              title=f"Frame time over one cloud's; target ≤ {TARGET_RATIO:g}× at N = {TARGET_COUNT}",
+                              y_label="frame time / one cloud's frame time (ratio)",
+                              guides=((f"target {TARGET_RATIO:g}×", [1, max(rows["count"].max(), 2)],
+                                       [TARGET_RATIO, TARGET_RATIO]),), **counts))
             out.append(table("Every run", rows.sort_values(["series", "config", "count"]),
                              ["series", "config", "count", "time_ms", "time_ms_min", "time_ms_max", "psnr",
                               "count_triangles", "count_fragments_max", "count_fragments_mean",

@@ -9,16 +9,17 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
+from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, device_note, figure, frames_caption,
+                                                    run_settings, table)
 from pipeline.experiments.kainz2009.ratios import counts, draws, judge, point, timed
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, mesh
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
-from pipeline.experiments.kit.planning import accepts, listed, scene, timed_frames
+from pipeline.experiments.kit.planning import accepts, listed, scene
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, speed_points, text_column
-from reports import blocks, plots
+from reports import plots
 
 ORDERS = ("scene", "front-to-back", "back-to-front")
 SCENES = ("boxes", "coil+clouds")
@@ -150,13 +151,11 @@ class Sorting(Experiment):
         if not accepts(TILED, "triangle_order", "stop_after"):
             return []
         name = self.name
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        image, step, _truth_step, frames = run_settings(self, profile)
         small = int(profile.setting(self, "small_size", 64))
         count = int(profile.setting(self, "count", 9))
         triangles = int(profile.setting(self, "triangles", 20000))
-        step = profile.setting(self, "step_factor", 0.5)
         orders = listed(profile, self, "orders", ORDERS, ORDERS)
-        frames = timed_frames(profile, self)
         views = (dict(AXIS_VIEW),)
         runs = []
         for scene_name in listed(profile, self, "scenes", SCENES, SCENES):
@@ -198,13 +197,12 @@ class Sorting(Experiment):
             split = full[full["gather+sort (ms)"].notna()].assign(
                 time_gather_and_sort=full["gather+sort (ms)"] / 1e3, time_traversal=full["traversal (ms)"] / 1e3)
             if not split.empty:
-                path, rel = ctx.plot_path("split")
-                plots.stage_breakdown(split, path,
-                                      stage_cols=["time_binning", "time_gather_and_sort", "time_traversal"],
-                                      group_col="label", title="Binning, gather + sort and traversal per order")
-                out.append(blocks.Figure("Where the pixel kernel's time goes, sorted and reversed input", rel,
-                                         "Gather + sort: the pixel kernel stopped after sorting (same order); "
-                                         "traversal: the full pixel kernel minus that. " + frames_caption(full)))
+                out.append(figure(ctx, "split", plots.stage_breakdown, split,
+                                  heading="Where the pixel kernel's time goes, sorted and reversed input",
+                                  caption="Gather + sort: the pixel kernel stopped after sorting (same order); "
+                                          "traversal: the full pixel kernel minus that. " + frames_caption(full),
+                                  stage_cols=["time_binning", "time_gather_and_sort", "time_traversal"],
+                                  group_col="label", title="Binning, gather + sort and traversal per order"))
             out.append(table("Every order", full.sort_values(["scene", "order"]),
                              ["scene", "order", "pixel kernel (ms)", "gather+sort (ms)", "traversal (ms)",
                               "gather+sort share (%)", "count_sort_moves", "count_fragments_max",

@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
+from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, figure, frames_caption, role_rows, table
 from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, judge, timed
 from pipeline.experiments.kainz2009.scenes import clouds, volume
 from pipeline.experiments.kit import intervals
@@ -17,15 +17,16 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, is_registered, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
-from reports import blocks, plots
+from reports import plots
 
 STEPS = (2.0, 1.0, 0.5, 0.25)
 
 
 def _step_rows(ok):
-    if "role" not in ok or not (ok.role == "test").any():
+    tests = role_rows(ok)
+    if tests.empty:
         return pd.DataFrame()
-    rows = speed_points(ok[ok.role == "test"])
+    rows = speed_points(tests)
     rows["step_factor"] = numeric(rows, "step_factor")
     rows["ns_per_sample"] = rows.time_ms * 1e6 / numeric(rows, "count_samples")
     return rows.sort_values("step_factor")
@@ -131,16 +132,16 @@ class Step(Experiment):
         out = [claim_takeaways(ctx)]
         rows = _step_rows(ok)
         if not rows.empty:
-            for y, label, y_range, what in (("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"),
-                                             "time"), ("ns_per_sample", "time per volume sample (ns)", None,
-                                                       "per-sample"),
-                                            ("psnr", "PSNR against the reference (dB)", None, "psnr")):
-                path, rel = ctx.plot_path(what)
-                plots.lines(rows.assign(method="cl-tiled"), path, x="step_factor", y=y, group="method",
-                            y_range=y_range, title=f"{label[0].upper()}{label[1:]} against the step",
-                            x_label="step (voxels of the finest volume, log scale)", y_label=label, log_x=True)
-                out.append(blocks.Figure(f"{what.capitalize()} against the step", rel,
-                                         "Mixed-resolution scene, headline view. " + frames_caption(rows)))
+            out += [figure(ctx, what, plots.lines, rows.assign(method="cl-tiled"),
+                           heading=f"{what.capitalize()} against the step",
+                           caption="Mixed-resolution scene, headline view. " + frames_caption(rows),
+                           x="step_factor", y=y, group="method", y_range=y_range,
+                           title=f"{label[0].upper()}{label[1:]} against the step",
+                           x_label="step (voxels of the finest volume, log scale)", y_label=label, log_x=True)
+                    for y, label, y_range, what in (
+                        ("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"), "time"),
+                        ("ns_per_sample", "time per volume sample (ns)", None, "per-sample"),
+                        ("psnr", "PSNR against the reference (dB)", None, "psnr"))]
             out.append(table("Every step", rows.sort_values("step_factor"),
                              ["step_factor", "time_ms", "time_ms_min", "time_ms_max", "count_samples", "ns_per_sample",
                               "psnr"], ctx, csv_name="step.csv"))

@@ -9,19 +9,18 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    devices, frames_caption, peeling_missing, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, TECHNIQUE, TOTAL, counts, judge, ratio, timed
+                                                    figure, frames_caption, peeling_missing, role_rows, run_settings,
+                                                    table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, TECHNIQUE, TOTAL, counts, frame_ratios, judge, timed
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, all_of, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number
-from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, is_registered, listed, scene, timed_frames,
-                                               truth_run)
-from pipeline.experiments.kit.results import (numeric, ok_rows, reference_exr, rows_matching, speed_points,
-                                              stage_time, text_column)
-from reports import blocks, plots
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
+from reports import plots
 
 ACCURACY_SCENES = ("C1", "C2", "C3")
 
@@ -157,19 +156,9 @@ def _pool(df):
 
 def _peel_ratio(df, scenes, *, below):
     """Depth peeling's whole frame over cl-tiled's, below 1 (peeling faster) or above, on every scene both render."""
-    resampler = intervals.Resampler()
-    decisions, compared = {}, []
-    for name in scenes:
-        rows = {config: rows_matching(df, name, scene=name, role="test", config=config) for config in (PEEL, TILED)}
-        rows = {config: part[numeric(part, TOTAL).notna()] for config, part in rows.items()}
-        if not any(part.empty for part in rows.values()):
-            decisions[name] = ratio(rows[PEEL], rows[TILED], TOTAL, resampler,
-                                    **({"at_most": STRICTLY_BELOW_ONE} if below else {"at_least": STRICTLY_ABOVE_ONE}))
-            compared += rows.values()
-    if not decisions:
-        raise ValueError(f"no scene of {', '.join(scenes)} rendered by both depth peeling and cl-tiled")
-    return all_of(decisions, extra=f"time of depth peeling over cl-tiled's, same scene and view, {FRAMES}; "
-                                   f"{devices(pd.concat(compared))}")
+    return frame_ratios(df, scenes, PEEL, TILED, what=f"time of depth peeling over cl-tiled's, same scene and view, "
+                                                      f"{FRAMES}",
+                        **({"at_most": STRICTLY_BELOW_ONE} if below else {"at_least": STRICTLY_ABOVE_ONE}))
 
 
 class Table1(Experiment):
@@ -208,12 +197,9 @@ class Table1(Experiment):
         scenes = listed(profile, self, "scenes", TABLE1, TABLE1)
         sizes = [int(profile.setting(self, key, default)) for key, default in
                  (("small_size", 64), ("large_size", 256), ("scan_size", 512))]
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        image, step, truth_step, frames = run_settings(self, profile)
         triangles = int(profile.setting(self, "mesh_triangles", 30000))
         resolution = int(profile.setting(self, "vessel_resolution", 160))
-        step = profile.setting(self, "step_factor", 0.5)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
-        frames = timed_frames(profile, self)
         views = (dict(HEADLINE_VIEW),)
         runs = []
         for scene_name in scenes:
@@ -264,22 +250,19 @@ class Table1(Experiment):
                              for s, (v, p, r, b, o) in TABLE1.items()]).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
+        tests = role_rows(ok_rows(results))
         out = [claim_takeaways(ctx, _peer_takeaways(tests))]
         if not tests.empty:
             rows = speed_points(tests)
             rows["method"] = rows.config.map(METHOD_NAMES)
             rows["fps"] = 1e3 / rows.time_ms
-            path, rel = ctx.plot_path("speed-accuracy")
-            plots.speed_accuracy(rows, path, time_col="time_ms", error_col="psnr", group_col="method",
-                                 label_col="scene", title="Median frame time against PSNR, every scene",
-                                 log_y=False, log_x=True, time_range_cols=("time_ms_min", "time_ms_max"),
-                                 better="upper left",
-                                 x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
-                                 y_label="PSNR against the reference (dB)")
-            out.append(blocks.Figure("Speed against accuracy", rel, "One point per scene (labelled) and method. "
-                                     + frames_caption(rows)))
+            out.append(figure(ctx, "speed-accuracy", plots.speed_accuracy, rows, heading="Speed against accuracy",
+                              caption="One point per scene (labelled) and method. " + frames_caption(rows),
+                              time_col="time_ms", error_col="psnr", group_col="method", label_col="scene",
+                              title="Median frame time against PSNR, every scene", log_y=False, log_x=True,
+                              time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                              x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
+                              y_label="PSNR against the reference (dB)"))
             paper = pd.DataFrame([{"scene": s, "paper fps (mid)": np.mean(o)} for s, (_v, _p, _r, _b, o)
                                   in TABLE1.items()])
             merged = rows.merge(paper, on="scene", how="left")
@@ -292,22 +275,16 @@ class Table1(Experiment):
             tiled = rows[rows.config == TILED].copy()
             stages = [c for c in ("time_setup", "time_binning", "time_pixel", "time_readback") if c in tiled]
             if stages:
-                path, rel = ctx.plot_path("stages")
-                plots.stage_breakdown(tiled, path, stage_cols=stages, group_col="scene",
-                                      title=_stage_title(tiled))
-                out.append(blocks.Figure("Workload split per scene (E5)", rel,
-                                         "Median time of each cl-tiled stage per frame, OpenCL profiling events; "
-                                         "binning is the paper's triangle kernel, pixel its pixel kernel."))
+                out.append(figure(ctx, "stages", plots.stage_breakdown, tiled, heading="Workload split per scene (E5)",
+                                  caption="Median time of each cl-tiled stage per frame, OpenCL profiling events; "
+                                          "binning is the paper's triangle kernel, pixel its pixel kernel.",
+                                  stage_cols=stages, group_col="scene", title=_stage_title(tiled)))
             out.append(_memory_table(tiled, ctx))
-            gallery = blocks.Gallery("Each scene and method, and its difference from the reference (E13)",
-                                     diff_scale=DIFF_SCALE, caption="Left the method's image, right |method − "
-                                     "reference|, headline view.")
-            for row in rows.sort_values(["scene", "config"]).itertuples():
-                gallery.items.append(blocks.GalleryItem(
-                    f"{row.scene}, {row.method}", ctx.image(row.png),
-                    difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                    note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB, {format_number(row.time_ms)} ms"))
-            out.append(gallery)
+            out.append(difference_gallery("Each scene and method, and its difference from the reference (E13)",
+                                          rows.sort_values(["scene", "config"]), ctx, against=results,
+                                          label=lambda row: f"{row.scene}, {row.method}",
+                                          caption="Left the method's image, right |method − reference|, headline "
+                                                  "view."))
         return out + peeling_missing()
 
 

@@ -1,6 +1,6 @@
-"""What several of the paper's experiments share: the methods compared, their timed runs and frame times,
-the no-cue control scene, and what cannot be measured without the GL backends (judging is the kit's,
-:mod:`pipeline.experiments.kit.judging`)."""
+"""What several of the paper's experiments share: the methods compared, their settings, timed runs and frame
+times, the no-cue control scene, their pages' figures, and what cannot be measured without the GL backends
+(judging is the kit's, :mod:`pipeline.experiments.kit.judging`)."""
 
 import numpy as np
 
@@ -8,7 +8,8 @@ from pipeline.experiments.kit.judging import config_rows, median_count
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import as_ratio, not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, unregistered
-from pipeline.experiments.kit.results import stage_time
+from pipeline.experiments.kit.results import speed_points, stage_time
+from reports import blocks
 
 RAYCAST, SLICER = "gl-raycast", "gl-slicer"
 
@@ -32,6 +33,13 @@ UPLOADS = "uploads (volume, gradients, min–max grid, transfer-function tables)
 def method_name(config):
     """The paper's name of ``config`` (a key of :data:`METHODS`), for tables and figures."""
     return METHODS[config][2]
+
+
+def sizes(experiment, profile):
+    """``(volume size, image size, step factor)``: ``experiment``'s settings (the profile's sizes, half a voxel)."""
+    return (profile.setting(experiment, "volume_size", profile.volume_size),
+            profile.setting(experiment, "image_size", profile.image_size),
+            profile.setting(experiment, "step_factor", 0.5))
 
 
 def method_runs(experiment, prefix, scene_spec, views, configs, step_factor, truth, tags, frames, *, together=(),
@@ -70,6 +78,25 @@ def no_cue_control(size, image):
     """
     scene_spec = scene("no_cue", image, volumes=[phantom("fbm_control", size, preset="no_cue")], shading="none")
     return scene_spec, (FRONT_VIEW,), {"scene": "no_cue", "dataset": "fbm_control"}
+
+
+def test_rows(ok):
+    """The rows of ``ok`` (successful runs) that test a method (``role`` test), none where no run has a role."""
+    return ok[ok.role == "test"].copy() if "role" in ok else ok.iloc[:0]
+
+
+def method_points(rows):
+    """``rows`` with their frame times in milliseconds (:func:`~pipeline.experiments.kit.results.speed_points`)
+    and each method's paper name (``method``)."""
+    return speed_points(rows).assign(method=lambda frame: [method_name(c) for c in frame.config])
+
+
+def figure(ctx, name, plot, frame, *, heading, caption, **options):
+    """``plot(frame, path, **options)`` (a chart of :mod:`reports.plots`) drawn as the page's plot ``name``, as a
+    figure with ``heading`` and ``caption``."""
+    path, rel = ctx.plot_path(name)
+    plot(frame, path, **options)
+    return blocks.Figure(heading, rel, caption)
 
 
 def gl_not_measurable():

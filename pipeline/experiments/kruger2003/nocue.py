@@ -11,12 +11,12 @@ from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, linked_table
 from pipeline.experiments.kit.planning import is_registered, timed_frames, truth_run
-from pipeline.experiments.kit.results import ok_rows, speed_points
+from pipeline.experiments.kit.results import ok_rows
 from pipeline.experiments.kit.judging import all_of, time_ratio
-from pipeline.experiments.kruger2003.methods import (RAYCAST, count_ratio, gl_not_measurable, method_name, method_runs,
-                                                     no_cue_control)
+from pipeline.experiments.kruger2003.methods import (RAYCAST, count_ratio, figure, gl_not_measurable, method_name,
+                                                     method_points, method_runs, no_cue_control, sizes, test_rows)
 from pipeline.experiments.kruger2003.tables import NO_CUE
-from reports import blocks, plots
+from reports import plots
 
 STAGES = ("time_setup", "time_main", "time_intermediate", "time_readback")
 """The GL ray caster's pass types, as timed stages."""
@@ -79,9 +79,7 @@ class NoCue(Experiment):
     def runs(self, profile):
         if not is_registered(RAYCAST):
             return []
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
-        step = profile.setting(self, "step_factor", 0.5)
+        size, image, step = sizes(self, profile)
         scene_spec, views, tags = no_cue_control(size, image)
         truth_step = profile.setting(self, "truth_step_factor", 0.25)
         truth = truth_run(self.name, "no_cue", scene_spec, views, truth_step, tags)
@@ -93,19 +91,16 @@ class NoCue(Experiment):
         return pd.DataFrame(NO_CUE)
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[ok.role == "test"] if "role" in ok else ok.iloc[:0]
+        tests = test_rows(ok_rows(results))
         out = [claim_takeaways(ctx)]
         if not tests.empty:
-            timing = speed_points(tests)
-            timing["method"] = [method_name(c) for c in timing.config]
+            timing = method_points(tests)
             stages = [c for c in STAGES if c in timing]
             out.append(linked_table("Frame time per method on the control", timing,
                                     ["method", "time_ms", "time_ms_min", "time_ms_max", "psnr"] + stages, ctx,
                                     csv_name="nocue.csv", caption="Stage columns in seconds, timed on the device."))
             if stages:
-                path, rel = ctx.plot_path("nocue-stages")
-                plots.stage_breakdown(timing, path, stage_cols=stages, group_col="method",
-                                      title="Where the frame time goes on the control")
-                out.append(blocks.Figure("Time per pass type", rel, "Median time of each pass type per frame."))
+                out.append(figure(ctx, "nocue-stages", plots.stage_breakdown, timing, heading="Time per pass type",
+                                  caption="Median time of each pass type per frame.", stage_cols=stages,
+                                  group_col="method", title="Where the frame time goes on the control"))
         return out + gl_not_measurable()

@@ -10,14 +10,14 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
 from pipeline.experiments.kit.planning import accepts, timed_frames
-from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points
+from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching
 from pipeline.experiments.kit.judging import with_interval
-from pipeline.experiments.kit.pages import frames_caption
-from pipeline.experiments.kruger2003.methods import RAYCAST, UPLOADS, gl_not_measurable, method_name, no_cue_control
+from pipeline.experiments.kruger2003.methods import (RAYCAST, UPLOADS, figure, gl_not_measurable, method_points,
+                                                     no_cue_control, sizes)
 from pipeline.experiments.kruger2003.tables import OCCLUDER
-from reports import blocks, plots
+from reports import plots
 
 OCCLUDED = (0.0, 0.25, 0.5, 0.75, 1.0)
 """The plane's share of the footprint's bounding rectangle, swept."""
@@ -31,7 +31,7 @@ def _occluder_rows(ok):
     """Test rows of the occluder sweep with the measured occluded share and main-pass milliseconds."""
     if "fraction" not in ok:
         return pd.DataFrame()
-    rows = speed_points(ok[ok.fraction.notna() & (ok.get("role") == "test")])
+    rows = method_points(ok[ok.fraction.notna() & (ok.get("role") == "test")])
     if rows.empty:
         return rows
     rays = numeric(rows, "count_rays")
@@ -132,9 +132,7 @@ class Occluder(Experiment):
     def runs(self, profile):
         if not accepts(RAYCAST, "variant", "occluder"):
             return []
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
-        step = profile.setting(self, "step_factor", 0.5)
+        size, image, step = sizes(self, profile)
         fractions = [float(f) for f in profile.setting(self, "fractions", list(OCCLUDED))]
         if len(fractions) < 3 or not all(0 <= f <= 1 for f in fractions):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.fractions: need at least three "
@@ -150,21 +148,18 @@ class Occluder(Experiment):
         return pd.DataFrame(OCCLUDER)
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        rows = _occluder_rows(ok)
+        rows = _occluder_rows(ok_rows(results))
         if not rows.empty:
-            rows["method"] = [method_name(c) for c in rows.config]
-            for y, low, high, words, name in (("main_ms", "main_ms_min", "main_ms_max", "main-pass time", "main"),
-                                              ("time_ms", "time_ms_min", "time_ms_max", "frame time", "total")):
-                path, rel = ctx.plot_path(f"occluder-{name}")
-                plots.lines(rows, path, x="occluded_percent", y=y, group="method", y_range=(low, high),
-                            title=f"Median {words} against the occluded share of the footprint",
-                            x_label="rays hidden by the plane (% of the volume's rays)",
-                            y_label=f"median {words} (ms)")
-                out.append(blocks.Figure(f"{words.capitalize()} against the occluded area", rel,
-                                         "Bars from the fastest to the slowest frame; no-cue control, "
-                                         "seen straight at a face. " + frames_caption(rows, untimed=UPLOADS)))
+            for y, words, name in (("main_ms", "main-pass time", "main"), ("time_ms", "frame time", "total")):
+                out.append(figure(ctx, f"occluder-{name}", plots.lines, rows,
+                                  heading=f"{words.capitalize()} against the occluded area",
+                                  caption="Bars from the fastest to the slowest frame; no-cue control, seen straight "
+                                          "at a face. " + frames_caption(rows, untimed=UPLOADS),
+                                  x="occluded_percent", y=y, group="method", y_range=(f"{y}_min", f"{y}_max"),
+                                  title=f"Median {words} against the occluded share of the footprint",
+                                  x_label="rays hidden by the plane (% of the volume's rays)",
+                                  y_label=f"median {words} (ms)"))
             out.append(linked_table("Occluder sweep", rows, ["method", "fraction", "occluded_percent", "main_ms",
                                                               "time_ms", "time_ms_min", "time_ms_max",
                                                               "count_fragments_main"], ctx,

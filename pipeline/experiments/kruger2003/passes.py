@@ -17,9 +17,10 @@ from pipeline.experiments.kit.planning import (accepts, headline_view, is_regist
                                                truth_run)
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count
-from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, time_of
+from pipeline.experiments.kruger2003.methods import (RAYCAST, figure, gl_not_measurable, method_name, method_runs,
+                                                     sizes, time_of)
 from pipeline.experiments.kruger2003.tables import PASSES
-from reports import blocks, plots
+from reports import plots
 
 M_VALUES = (1, 2, 4, 8, 16, 32, 64)
 """Samples per main pass of the M sweep (the paper's 8 among them)."""
@@ -145,9 +146,7 @@ class Passes(Experiment):
     def runs(self, profile):
         if not is_registered(RAYCAST):
             return []
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
-        step = profile.setting(self, "step_factor", 0.5)
+        size, image, step = sizes(self, profile)
         frames = timed_frames(profile, self)
         view = (headline_view("foot"),)
         runs = []
@@ -179,23 +178,20 @@ class Passes(Experiment):
         out = [claim_takeaways(ctx)]
         curves = _pass_curves(ok)
         if not curves.empty:
-            path, rel = ctx.plot_path("fragments-per-pass")
-            plots.lines(curves, path, x="main pass", y="fragments", group="method",
-                        title="Fragments that survive the depth test, per main pass",
-                        x_label="main pass (number)", y_label="fragments drawn (count)")
-            out.append(blocks.Figure("Work per main pass (foot, headline view)", rel,
-                                     "From a samples-passed occlusion query around each main pass."))
+            out.append(figure(ctx, "fragments-per-pass", plots.lines, curves,
+                              heading="Work per main pass (foot, headline view)",
+                              caption="From a samples-passed occlusion query around each main pass.",
+                              x="main pass", y="fragments", group="method",
+                              title="Fragments that survive the depth test, per main pass",
+                              x_label="main pass (number)", y_label="fragments drawn (count)"))
         sweep = ok[ok.get("part") == "m-sweep"].copy() if "part" in ok else ok.iloc[:0]
         if not sweep.empty:
-            sweep = speed_points(sweep)
-            sweep["M"] = numeric(sweep, "m")
-            sweep["method"] = method_name("rc-b")
-            path, rel = ctx.plot_path("m-sweep")
-            plots.lines(sweep, path, x="M", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
-                        title=_m_title(sweep), x_label="samples per main pass M (count)",
-                        y_label="median frame time (ms)", log_x=True, vlines=(PAPER_M,))
-            out.append(blocks.Figure("Frame time against M", rel, "Bars from the fastest to the slowest frame; "
-                                     f"dotted: the paper's M = {PAPER_M}."))
+            sweep = speed_points(sweep).assign(M=numeric(sweep, "m"), method=method_name("rc-b"))
+            out.append(figure(ctx, "m-sweep", plots.lines, sweep, heading="Frame time against M",
+                              caption=f"Bars from the fastest to the slowest frame; dotted: the paper's M = {PAPER_M}.",
+                              x="M", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
+                              title=_m_title(sweep), x_label="samples per main pass M (count)",
+                              y_label="median frame time (ms)", log_x=True, vlines=(PAPER_M,)))
             out.append(linked_table("M sweep", sweep, ["M", "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
                                     csv_name="m_sweep.csv"))
         return out + gl_not_measurable()

@@ -11,9 +11,9 @@ from pipeline.experiments.kit.pages import change_words, claim_takeaways, format
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
-from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable
+from pipeline.experiments.kruger2003.methods import RAYCAST, figure, gl_not_measurable, sizes, test_rows
 from pipeline.experiments.kruger2003.tables import TABLE1
-from reports import blocks, plots
+from reports import plots
 
 THRESHOLDS = (0.8, 0.9, 0.95, 0.99, 1.0)
 """Early-termination thresholds T swept (the paper leaves T unspecified; 1 never ends a ray early)."""
@@ -69,16 +69,13 @@ def _blocks_lossless(df):
 
 def _sweep_blocks(rows, sweep, words, label, ctx):
     """Time and PSNR against one sweep's setting, as figures and a linked table."""
-    rows = speed_points(rows)
-    rows["setting"] = numeric(rows, "value")
-    out = []
-    for y, y_label, y_range, name in (("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"), "time"),
-                                      ("psnr", "PSNR against the reference (dB)", None, "psnr")):
-        path, rel = ctx.plot_path(f"stability-{sweep}-{name}")
-        what = "Median frame time" if name == "time" else "PSNR"
-        plots.lines(rows, path, x="setting", y=y, group="scene", y_range=y_range,
-                    title=f"{what} against {words}", x_label=label, y_label=y_label, log_x=sweep == "block")
-        out.append(blocks.Figure(f"{sweep.capitalize()} sweep: {name}", rel, "RC-b, headline view."))
+    rows = speed_points(rows).assign(setting=numeric(rows, "value"))
+    out = [figure(ctx, f"stability-{sweep}-{name}", plots.lines, rows, heading=f"{sweep.capitalize()} sweep: {name}",
+                  caption="RC-b, headline view.", x="setting", y=y, group="scene", y_range=y_range,
+                  title=f"{what} against {words}", x_label=label, y_label=y_label, log_x=sweep == "block")
+           for y, y_label, y_range, name, what in (
+               ("time_ms", "median frame time (ms)", ("time_ms_min", "time_ms_max"), "time", "Median frame time"),
+               ("psnr", "PSNR against the reference (dB)", None, "psnr", "PSNR"))]
     out.append(linked_table(f"{sweep.capitalize()} sweep", rows.rename(columns={"setting": label}),
                             ["scene", label, "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
                             csv_name=f"stability_{sweep}.csv"))
@@ -114,9 +111,7 @@ class Stability(Experiment):
     def runs(self, profile):
         if not accepts(RAYCAST, "opaque_threshold", "block_size"):
             return []
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
-        step = profile.setting(self, "step_factor", 0.5)
+        size, image, step = sizes(self, profile)
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in SCENES:
@@ -140,9 +135,8 @@ class Stability(Experiment):
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        tests = ok[ok.get("role") == "test"] if "role" in ok else ok.iloc[:0]
+        tests = test_rows(ok_rows(results))
         for sweep, words, label in SWEEPS:
             rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]
             if not rows.empty:

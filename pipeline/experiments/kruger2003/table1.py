@@ -15,10 +15,11 @@ from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_ta
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, rows_matching,
-                                              speed_points, text_column)
+                                              text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, time_ratio
-from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, gl_not_measurable, method_name,
-                                                     method_runs, samples_note, speedup)
+from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, figure, gl_not_measurable,
+                                                     method_name, method_points, method_runs, samples_note, sizes,
+                                                     speedup, test_rows)
 from pipeline.experiments.kruger2003.tables import (HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR, PAPER_DEVICE, REAL_SCANS,
                                                     TABLE1)
 from reports import blocks, plots
@@ -221,38 +222,35 @@ def _ratio_blocks(tests, ctx):
                         for device, group in tests.groupby(gl_devices(tests))], ignore_index=True)
     if ratios.empty:
         return []
-    path, rel = ctx.plot_path("table1-ratios")
-    plots.bar_compare(ratios, path, category_col="scene", value_cols=["RC-b / SBVR (paper)", "RC-b / SBVR (ours)"],
-                      value_label="speed-up of RC-b over slicing (×)", title=_bar_title(ratios))
     return [blocks.Table("Table 1 beside ours: speed-ups between methods (median over the views)", ratios,
                          csv_name="table1_ratios.csv",
                          caption="Ours: the quotient of whole-frame times, each the median over the views "
                                  "(headline and orbit) of the view's median frame, the four methods of a scene "
                                  "timed interleaved; paper: the quotient of its frame rates. Real scans share the "
                                  "paper row of their kind; the claims give each ratio's interval."),
-            blocks.Figure("RC-b over slicing, paper and ours", rel,
-                          "Bars are the paper's ratio of frame rates and ours of median frame times.")]
+            figure(ctx, "table1-ratios", plots.bar_compare, ratios, heading="RC-b over slicing, paper and ours",
+                   caption="Bars are the paper's ratio of frame rates and ours of median frame times.",
+                   category_col="scene", value_cols=["RC-b / SBVR (paper)", "RC-b / SBVR (ours)"],
+                   value_label="speed-up of RC-b over slicing (×)", title=_bar_title(ratios))]
 
 
 def _speed_blocks(headline, tests, ctx):
     """Frame times and PSNR in the headline view, speed against accuracy, and times over the orbit."""
-    timing = speed_points(headline)
-    timing["method"] = [method_name(c) for c in timing.config]
-    path, rel = ctx.plot_path("table1-speed-accuracy")
-    plots.speed_accuracy(timing, path, time_col="time_ms", error_col="psnr", group_col="scene",
-                         label_col="method", title="Median frame time against PSNR, every method and scene",
-                         log_y=False, time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                         x_label="median frame time (ms); bars: fastest to slowest frame",
-                         y_label="PSNR against the reference (dB)")
-    orbit = speed_points(tests)
-    orbit["method"] = [method_name(c) for c in orbit.config]
-    summary = orbit.groupby(["scene", "method"]).time_ms.agg(["median", "min", "max"]).reset_index().rename(
-        columns={"median": "median over views (ms)", "min": "fastest view (ms)", "max": "slowest view (ms)"})
+    timing = method_points(headline)
+    orbit = method_points(tests).groupby(["scene", "method"]).time_ms.agg(["median", "min", "max"])
+    summary = orbit.reset_index().rename(columns={"median": "median over views (ms)", "min": "fastest view (ms)",
+                                                  "max": "slowest view (ms)"})
     return [linked_table("Frame times and accuracy (headline view)", timing,
                          ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
                          csv_name="table1.csv", caption=frames_caption(timing, untimed=UPLOADS)),
-            blocks.Figure("Speed against accuracy", rel, "One series per scene, each point one method "
-                          "(labelled), headline view; higher and further left is better."),
+            figure(ctx, "table1-speed-accuracy", plots.speed_accuracy, timing, heading="Speed against accuracy",
+                   caption="One series per scene, each point one method (labelled), headline view; higher and "
+                           "further left is better.",
+                   time_col="time_ms", error_col="psnr", group_col="scene", label_col="method",
+                   title="Median frame time against PSNR, every method and scene", log_y=False,
+                   time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                   x_label="median frame time (ms); bars: fastest to slowest frame",
+                   y_label="PSNR against the reference (dB)"),
             blocks.Table("Over the orbit", summary, csv_name="table1_orbit.csv",
                          caption="Median frame time per view, then median, fastest and slowest view.")]
 
@@ -288,9 +286,7 @@ class Table1(Experiment):
         if not (is_registered(RAYCAST) or is_registered(SLICER)):
             return []
         wanted = listed(profile, self, "scenes", self.SCENES, known=TABLE1)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
-        step = profile.setting(self, "step_factor", 0.5)
+        size, image, step = sizes(self, profile)
         truth_step = profile.setting(self, "truth_step_factor", 0.25)
         orbit = int(profile.setting(self, "orbit", 4))
         frames = timed_frames(profile, self)
@@ -320,7 +316,7 @@ class Table1(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = ok[ok.role == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = test_rows(ok)
         out = [claim_takeaways(ctx, _device_takeaways(tests), _peer_takeaways(ok))]
         if not tests.empty:
             headline = tests[tests.view == "headline"]

@@ -9,14 +9,14 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, not_measurable
-from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
-                                               unregistered)
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.planning import dataset_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.reading import angle_of
 from reports import blocks, plots
 
@@ -61,8 +61,7 @@ class ViewAngles(Experiment):
         step = float(profile.setting(self, "angle_step", 10))
         if not 0 < step <= 90:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.angle_step: expected degrees in (0, 90], got {step}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = sizes(self, profile)
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:
@@ -97,21 +96,19 @@ class ViewAngles(Experiment):
         return tables.angle_variation()
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        frame = _turns(ok)
-        out = [claim_takeaways(ctx, _takeaways(ok))]
+        frame = _turns(ok_rows(results))
+        out = [claim_takeaways(ctx, _takeaways(frame))]
         if frame.empty:
             return out
         frame["time_ms"] = numeric(frame, TIME) * 1e3
         frame["time_ms_min"] = pd.to_numeric(frame.get(f"{TIME}_min"), errors="coerce") * 1e3
         frame["time_ms_max"] = pd.to_numeric(frame.get(f"{TIME}_max"), errors="coerce") * 1e3
-        for dataset, part in frame.groupby("dataset"):
-            path, rel = ctx.plot_path(f"angle-{dataset}")
-            plots.lines(part, path, x="angle", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
-                        title=_title(part, dataset), x_label="view angle about the vertical axis (degrees)",
-                        y_label="median technique time per frame (ms)", vlines=(45.0, 135.0, 225.0, 315.0))
-            out.append(blocks.Figure(f"{dataset}: time over a full turn", rel,
-                                     "Dotted: the principal-axis switches. Bars: fastest to slowest timed frame."))
+        out += [figure(ctx, f"angle-{dataset}", plots.lines, part, heading=f"{dataset}: time over a full turn",
+                       caption="Dotted: the principal-axis switches. Bars: fastest to slowest timed frame.",
+                       x="angle", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
+                       title=_title(part, dataset), x_label="view angle about the vertical axis (degrees)",
+                       y_label="median technique time per frame (ms)", vlines=(45.0, 135.0, 225.0, 315.0))
+                for dataset, part in frame.groupby("dataset")]
         summary = []
         for dataset, part in frame.groupby("dataset"):
             stats = _turn_stats(part)
@@ -125,12 +122,11 @@ class ViewAngles(Experiment):
         out.append(blocks.Table("Variation over the turn", pd.DataFrame(summary), csv_name="angles.csv",
                                 caption="Variation: (slowest − fastest view) / mean. Changes are between neighbouring "
                                         "angles, relative to the mean time."))
-        gallery = blocks.Gallery("Views at 0°, 45° and 90°")
-        for row in frame[frame.angle.isin([0.0, 45.0, 90.0])].sort_values(["dataset", "angle"]).itertuples():
-            gallery.items.append(blocks.GalleryItem(f"{row.dataset} at {row.angle:g}°", ctx.image(row.png),
-                                                    note=f"{format_number(row.time_ms)} ms"))
-        out.append(gallery)
-        return out + not_measurable(unregistered(SW))
+        out.append(difference_gallery("Views at 0°, 45° and 90°",
+                                      frame[frame.angle.isin([0.0, 45.0, 90.0])].sort_values(["dataset", "angle"]), ctx,
+                                      label=lambda row: f"{row.dataset} at {row.angle:g}°",
+                                      note=lambda row: f"{format_number(row.time_ms)} ms"))
+        return out + shearwarp_missing()
 
 
 def _turns(df):
@@ -223,7 +219,7 @@ def _variation(df, dataset, bound):
         detail += f"; samples vary {as_percent(_turn_stats(part, 'count_samples')['variation'])}"
     except (KeyError, ValueError):
         pass
-    return ClaimResult.decided(judging.percent_interval(decision), decision, detail)
+    return ClaimResult.decided(decision_words(decision, as_percent), decision, detail)
 
 
 def _head(df):
@@ -256,9 +252,9 @@ def _title(part, dataset):
             f"(largest change there {as_percent(stats['switch'])}, elsewhere {as_percent(stats['other'])})")
 
 
-def _takeaways(ok):
-    """Per data set: the frame time's range over the turn and its largest changes across and away from a switch."""
-    frame = _turns(ok)
+def _takeaways(frame):
+    """Per data set of the turns (:func:`_turns`): the frame time's range over the turn and its largest changes
+    across and away from a switch."""
     sentences = []
     for dataset, part in frame.groupby("dataset") if not frame.empty else []:
         try:

@@ -143,9 +143,3 @@ def unless_starved(result, rows, *, holding_survives):
     return ClaimResult(result.measured, None, detail + " (a verdict from a starved run is the machine's, not the "
                        "technique's)", result.interval, result.margin, inconclusive=True)
 
-
-def percent_interval(decision):
-    """``"31 % (95 % CI 29 %–33 %)"``: a share decided with its interval."""
-    words = intervals.interval_words(decision, as_percent)
-    return as_percent(decision.value) + (f" ({words})" if words else "")
-

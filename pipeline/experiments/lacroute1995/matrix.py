@@ -10,15 +10,15 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
-from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
-                                               timed_frames, unregistered)
+from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, format_number,
+                                            linked_table)
+from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.tables import FIG_5_17, THESIS
-from reports import blocks, plots
+from reports import plots
 
 MATRIX_CONFIGS = {
     # config: (options, label, thesis test of Fig. 5.17)
@@ -62,8 +62,7 @@ class OptimisationMatrix(Experiment):
         if not accepts(SW, "rle", "early_termination"):
             return []
         wanted = listed(profile, self, "datasets", self.DATASETS, known=MATRIX_DATASETS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = sizes(self, profile)
         runs = []
         for dataset in wanted:
             volume = phantom(dataset, size, preset=MATRIX_DATASETS[dataset])
@@ -127,33 +126,30 @@ class OptimisationMatrix(Experiment):
                                         "compositing loop alone, where the optimisations act (the claims' scope)."))
         points = speed_points(ok.loc[table.index]).assign(samples=table["samples"].to_numpy(float),
                                                             optimisation=table["optimisation"].to_numpy())
-        path, rel = ctx.plot_path("time-samples")
-        plots.speed_accuracy(points, path, time_col="time_ms", error_col="samples", group_col="dataset",
-                             label_col="optimisation", title=_title(table), log_x=True, log_y=True,
-                             time_range_cols=("time_ms_min", "time_ms_max"),
-                             x_label="median frame time (ms); bars: fastest to slowest frame",
-                             y_label="voxels resampled and composited per frame")
-        out.append(blocks.Figure("Frame time against samples", rel,
-                                 "One point per optimisation and data set, log–log: time follows the sample count."))
+        out.append(figure(ctx, "time-samples", plots.speed_accuracy, points, heading="Frame time against samples",
+                          caption="One point per optimisation and data set, log–log: time follows the sample count.",
+                          time_col="time_ms", error_col="samples", group_col="dataset", label_col="optimisation",
+                          title=_title(table), log_x=True, log_y=True, time_range_cols=("time_ms_min", "time_ms_max"),
+                          x_label="median frame time (ms); bars: fastest to slowest frame",
+                          y_label="voxels resampled and composited per frame"))
         bars = table.pivot_table(index="optimisation", columns="dataset", values="samples / brute force", sort=False)
         thesis = {MATRIX_CONFIGS[c][1]: s / FIG_5_17["brain"]["brute-force"][0]
                   for c, (s, _t) in FIG_5_17["brain"].items() if c in MATRIX_CONFIGS}
         bars["thesis (brain)"] = [thesis.get(i, np.nan) for i in bars.index]
         bars = bars.reset_index()
-        path, rel = ctx.plot_path("sample-ratios")
-        plots.bar_compare(bars, path, category_col="optimisation", value_cols=[c for c in bars.columns if c != "optimisation"],
+        out.append(figure(ctx, "sample-ratios", plots.bar_compare, bars,
+                          heading="Sample counts relative to brute force",
+                          caption="Hardware-independent: the thesis's brain beside each of our data sets (log scale).",
+                          category_col="optimisation", value_cols=[c for c in bars.columns if c != "optimisation"],
                           value_label="samples / brute-force samples", log_y=True,
-                          title="Sample counts relative to brute force, ours against Fig. 5.17")
-        out.append(blocks.Figure("Sample counts relative to brute force", rel,
-                                 "Hardware-independent: the thesis's brain beside each of our data sets (log scale)."))
-        gallery = blocks.Gallery("The images of each optimisation (they should be alike)",
-                                 caption="Single frames from the timed runs; early termination and the RLE skip only "
-                                         "what cannot contribute (α ≤ 0.05 voxels, pixels with α ≥ 0.95).")
-        for row in ok.loc[table.index].itertuples():
-            gallery.items.append(blocks.GalleryItem(f"{row.dataset}: {MATRIX_CONFIGS.get(row.config, (0, row.config))[1]}",
-                                                    ctx.image(row.png), note=f"{format_number(row.time_total * 1e3)} ms"))
-        out.append(gallery)
-        return out + not_measurable(unregistered(SW) + missing_options(SW, "rle", "early_termination"))
+                          title="Sample counts relative to brute force, ours against Fig. 5.17"))
+        out.append(difference_gallery(
+            "The images of each optimisation (they should be alike)", ok.loc[table.index], ctx,
+            label=lambda row: f"{row.dataset}: {MATRIX_CONFIGS.get(row.config, (0, row.config))[1]}",
+            caption="Single frames from the timed runs; early termination and the RLE skip only what cannot "
+                    "contribute (α ≤ 0.05 voxels, pixels with α ≥ 0.95).",
+            note=lambda row: f"{format_number(row.time_total * 1e3)} ms"))
+        return out + shearwarp_missing("rle", "early_termination")
 
 
 def _table(ok):

@@ -15,12 +15,11 @@ import datasets
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
-from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
-                                               timed_frames, unregistered, usable_cores)
-from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
+from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -157,12 +156,12 @@ class Parallel(Experiment):
         tasks = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.workers == frame.workers.max())]
         if tasks.task_size.nunique() > 2:
             tasks = tasks.assign(volume=[f"{int(n)}³" for n in tasks.volume_size])
-            path, rel = ctx.plot_path("task-size")
-            plots.lines(tasks, path, x="task_size", y="time_ms", group="volume", y_range=("time_ms_min", "time_ms_max"),
-                        log_x=True, title=_task_title(ok), x_label="task size (intermediate-image scanlines per task)",
-                        y_label="median frame time (ms)")
-            out.append(blocks.Figure("Frame time against the task size", rel,
-                                     f"{int(frame.workers.max())} workers, round robin with stealing."))
+            out.append(figure(ctx, "task-size", plots.lines, tasks, heading="Frame time against the task size",
+                              caption=f"{int(frame.workers.max())} workers, round robin with stealing.",
+                              x="task_size", y="time_ms", group="volume", y_range=("time_ms_min", "time_ms_max"),
+                              log_x=True, title=_task_title(ok),
+                              x_label="task size (intermediate-image scanlines per task)",
+                              y_label="median frame time (ms)"))
         # A run whose workers had fewer free cores than threads timed the machine: said on its row.
         frame["starved"] = [text if isinstance(text, str) else "" for text in frame.get("info_starved", [""] * len(frame))]
         out.append(linked_table("Every run", frame, ["volume_size", "workers", "schedule", "task_size", "study", "time_ms",
@@ -171,13 +170,12 @@ class Parallel(Experiment):
                                 caption="'Fewer free cores than workers': the machine's other work, measured over the "
                                         "run's frames, left its threads fewer cores than they needed; the claims "
                                         "that read such a run are inconclusive."))
-        missing = unregistered(SW) + missing_options(SW, "workers", "schedule", "task_size")
-        missing.append(("load imbalance in busy time (Table 6.4)", "the backend does not time inside its kernel; "
-                        "the imbalance here is of the samples each worker composited"))
+        missing = [("load imbalance in busy time (Table 6.4)", "the backend does not time inside its kernel; the "
+                    "imbalance here is of the samples each worker composited")]
         if usable_cores() < 4:
             missing.append(("speed-up beyond 2 workers and the thesis's 16–32-processor effects",
                             f"this machine has {usable_cores()} cores"))
-        return out + not_measurable(missing)
+        return out + shearwarp_missing("workers", "schedule", "task_size", more=missing)
 
 
 def _speedup_figure(speed, ok, ctx):
@@ -193,12 +191,11 @@ def _speedup_figure(speed, ok, ctx):
         speed.loc[part.index, "speed-up high"] = t1 / part.time_ms_min
     speed["volume"] = [f"{int(n)}³" for n in speed.volume_size]
     ps = np.array(sorted(speed.workers.unique()), float)
-    path, rel = ctx.plot_path("speedup")
-    plots.lines(speed, path, x="workers", y="speed-up", group="volume", y_range=("speed-up low", "speed-up high"),
-                title=_speedup_title(ok), x_label="workers (threads)", y_label="speed-up over one worker (×)",
-                guides=(("linear", ps, ps),))
-    return blocks.Figure("Speed-up against workers", rel,
-                         "Bars from the fastest and slowest timed frames; grey: linear speed-up.")
+    return figure(ctx, "speedup", plots.lines, speed, heading="Speed-up against workers",
+                  caption="Bars from the fastest and slowest timed frames; grey: linear speed-up.",
+                  x="workers", y="speed-up", group="volume", y_range=("speed-up low", "speed-up high"),
+                  title=_speedup_title(ok), x_label="workers (threads)", y_label="speed-up over one worker (×)",
+                  guides=(("linear", ps, ps),))
 
 
 def _row_imbalance(row):
@@ -207,9 +204,7 @@ def _row_imbalance(row):
 
 def _at_most_workers(df, **match):
     """``{size: rows}`` of the runs at the most workers matching ``match`` (tag: value)."""
-    rows = df[numeric(df, "workers") == numeric(df, "workers").max()]
-    for column, value in match.items():
-        rows = rows[text_column(rows, column) == str(value)]
+    rows = rows_matching(df[numeric(df, "workers") == numeric(df, "workers").max()], "", **match)
     return {int(n): part for n, part in rows.groupby(numeric(rows, "volume_size"))}
 
 

@@ -11,14 +11,15 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, format_number,
-                                            linked_table, not_measurable)
-from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, unregistered
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, text_column
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, difference_gallery,
+                                            format_number, linked_table)
+from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene
+from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
 from pipeline.experiments.lacroute1995.reading import title_or
-from reports import blocks, plots
+from reports import plots
 
 
 class PerspectiveQuality(Experiment):
@@ -56,8 +57,7 @@ class PerspectiveQuality(Experiment):
         if bad or len(fovs) < 2:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.fovs: expected two or more fields of "
                              f"view in (0, 120) degrees, got {fovs}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = sizes(self, profile)
         truth_factor = profile.setting(self, "truth_step_factor", 0.25)
         volume = phantom(dataset, size, preset=preset)
         views = (headline_view(dataset),)
@@ -90,7 +90,7 @@ class PerspectiveQuality(Experiment):
         try:
             rows = fov_rows(ok)
         except (KeyError, ValueError):
-            return out + not_measurable(unregistered(SW))
+            return out + shearwarp_missing()
         out.append(linked_table("Error against the reference by field of view", rows,
                                 ["fov", "footprint_psnr", "coverage", "psnr", "ssim", "rmse", "max_ray_angle"], ctx,
                                 names={"fov": "field of view (°, 0: parallel)",
@@ -103,28 +103,24 @@ class PerspectiveQuality(Experiment):
                                         "(the claims) and over the whole frame. The largest ray angle is "
                                         "the backend's info.max_ray_angle."))
         perspective = rows[rows.fov > 0].assign(series=rows.dataset.astype(str))
-        path, rel = ctx.plot_path("psnr-fov")
         guides = ()
         parallel = rows[rows.fov == 0]
         if not parallel.empty:
             xs = np.array([perspective.fov.min(), perspective.fov.max()])
             guides = (("parallel projection", xs, np.full(2, float(parallel.footprint_psnr.iloc[0]))),)
-        plots.lines(perspective, path, x="fov", y="footprint_psnr", group="series", title=_title(ok),
-                    x_label="vertical field of view (degrees)",
-                    y_label="PSNR against the reference over the object's footprint (dB)", guides=guides)
-        out.append(blocks.Figure("Accuracy against the field of view", rel,
-                                 "The eye comes closer as the field widens (the camera frames the volume)."))
-        gallery = blocks.Gallery("Each field of view and its difference from the reference", diff_scale=DIFF_SCALE,
-                                 caption=f"One colour scale for every difference image (absolute error "
-                                         f"{DIFF_SCALE:g} at the top).")
-        for row in rows.itertuples():
-            gallery.items.append(blocks.GalleryItem(
-                "parallel" if row.fov == 0 else f"field of view {row.fov:g}°", ctx.image(row.png),
-                difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                note=f"PSNR {format_number(row.psnr)} dB, SSIM {format_number(getattr(row, 'ssim', np.nan))}"
-                     + (f"; largest ray angle {format_number(row.max_ray_angle)}°" if np.isfinite(row.max_ray_angle) else "")))
-        out.append(gallery)
-        return out + not_measurable(unregistered(SW) + [
+        out.append(figure(ctx, "psnr-fov", plots.lines, perspective, heading="Accuracy against the field of view",
+                          caption="The eye comes closer as the field widens (the camera frames the volume).",
+                          x="fov", y="footprint_psnr", group="series", title=_title(ok),
+                          x_label="vertical field of view (degrees)",
+                          y_label="PSNR against the reference over the object's footprint (dB)", guides=guides))
+        out.append(difference_gallery(
+            "Each field of view and its difference from the reference", rows, ctx, against=results,
+            label=lambda row: "parallel" if row.fov == 0 else f"field of view {row.fov:g}°",
+            caption=f"One colour scale for every difference image (absolute error {DIFF_SCALE:g} at the top).",
+            note=lambda row: f"PSNR {format_number(row.psnr)} dB, SSIM {format_number(getattr(row, 'ssim', np.nan))}"
+                             + (f"; largest ray angle {format_number(row.max_ray_angle)}°"
+                                if np.isfinite(row.max_ray_angle) else "")))
+        return out + shearwarp_missing(more=[
             ("the visibility error of Fig. 4.12 (plates A, B before C)", "no registered data set holds thin plates "
              "before a plane, and scenes take volumes from the registry only")])
 

@@ -12,12 +12,12 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable
-from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_view, listed, missing_options, phantom,
-                                               scene, timed_frames, unregistered)
+from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.reading import angle_of
 from pipeline.experiments.lacroute1995.tables import TABLE_5_3, THESIS
 from reports import blocks, plots
@@ -94,8 +94,7 @@ class Projections(Experiment):
         if workers is not None and (not isinstance(workers, int) or workers < 1):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.workers: expected an integer ≥ 1 or null "
                              f"(all cores), got {workers!r}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = sizes(self, profile)
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:
@@ -149,7 +148,7 @@ class Projections(Experiment):
         try:
             summary = projection_summary(ok)
         except (KeyError, ValueError):
-            return out + not_measurable(unregistered(SW) + missing_options(SW, "classification"))
+            return out + shearwarp_missing("classification")
         table = summary.copy()
         for column in ("mean", "fastest", "slowest"):
             table[f"{column} (ms)"] = table.pop(column) * 1e3
@@ -163,31 +162,29 @@ class Projections(Experiment):
                                         "encoding); the thesis's memory adds images and tables."))
         bars = summary.assign(ours=summary["time / parallel"]).rename(columns={"thesis time / parallel": "thesis"})
         bars["category"] = bars.dataset + ": " + bars.config
-        path, rel = ctx.plot_path("ratios")
-        plots.bar_compare(bars[bars.config != "parallel"], path, category_col="category", value_cols=["ours", "thesis"],
-                          value_label="mean time / parallel mean time", title=_title(ok))
-        out.append(blocks.Figure("Cost relative to parallel projection", rel,
-                                 "Mean-view time of each algorithm over the parallel projection's, ours beside "
-                                 "Table 5.3's data set of the same kind."))
+        out.append(figure(ctx, "ratios", plots.bar_compare, bars[bars.config != "parallel"],
+                          heading="Cost relative to parallel projection",
+                          caption="Mean-view time of each algorithm over the parallel projection's, ours beside "
+                                  "Table 5.3's data set of the same kind.",
+                          category_col="category", value_cols=["ours", "thesis"],
+                          value_label="mean time / parallel mean time", title=_title(ok)))
         frame = speed_points(ok)
         frame["angle"] = [angle_of(v) for v in frame.view]
-        for dataset, part in frame.groupby("dataset"):
-            path, rel = ctx.plot_path(f"turn-{dataset}")
-            plots.lines(part.sort_values("angle"), path, x="angle", y="time_ms", group="config",
-                        y_range=("time_ms_min", "time_ms_max"), title=f"{dataset}: frame time over the turn",
-                        x_label="azimuth about the body axis (degrees)", y_label="median frame time (ms)")
-            out.append(blocks.Figure(f"{dataset}: time per view", rel,
-                                     "One line per algorithm; bars: fastest to slowest timed frame of each view."))
+        out += [figure(ctx, f"turn-{dataset}", plots.lines, part.sort_values("angle"),
+                       heading=f"{dataset}: time per view",
+                       caption="One line per algorithm; bars: fastest to slowest timed frame of each view.",
+                       x="angle", y="time_ms", group="config", y_range=("time_ms_min", "time_ms_max"),
+                       title=f"{dataset}: frame time over the turn", x_label="azimuth about the body axis (degrees)",
+                       y_label="median frame time (ms)")
+                for dataset, part in frame.groupby("dataset")]
         first = frame[frame.angle == frame.angle.min()]
-        gallery = blocks.Gallery("The first view of each algorithm",
-                                 caption="Parallel and fast classification render the same image (up to the "
-                                         "classification of voxels at the transfer function's edges); perspective "
-                                         "sees the volume from a finite eye.")
-        for row in first.sort_values(["dataset", "config"]).itertuples():
-            gallery.items.append(blocks.GalleryItem(f"{row.dataset}: {PROJECTION_CONFIGS.get(row.config, ('', {}, row.config))[2]}",
-                                                    ctx.image(row.png), note=f"{format_number(row.time_ms)} ms"))
-        out.append(gallery)
-        return out + not_measurable(unregistered(SW) + missing_options(SW, "classification"))
+        out.append(difference_gallery(
+            "The first view of each algorithm", first.sort_values(["dataset", "config"]), ctx,
+            label=lambda row: f"{row.dataset}: {PROJECTION_CONFIGS.get(row.config, ('', {}, row.config))[2]}",
+            caption="Parallel and fast classification render the same image (up to the classification of voxels at "
+                    "the transfer function's edges); perspective sees the volume from a finite eye.",
+            note=lambda row: f"{format_number(row.time_ms)} ms"))
+        return out + shearwarp_missing("classification")
 
 
 def projection_summary(df):

@@ -12,13 +12,14 @@ import pandas as pd
 
 import datasets
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, format_number,
-                                            linked_table, not_measurable)
-from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, missing_options,
-                                               phantom, scene, truth_run, unregistered)
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, text_column
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, db_words, difference_gallery, format_number,
+                                            linked_table)
+from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, phantom, scene,
+                                               truth_run)
+from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
 from pipeline.experiments.lacroute1995.reading import angle_of, title_or
 from reports import blocks, plots
 
@@ -107,8 +108,7 @@ class ImageQuality(Experiment):
         if not is_registered(SW):
             return []
         wanted = listed(profile, self, "datasets", self.DATASETS, known=QUALITY_TFS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = sizes(self, profile)
         angles = [float(a) for a in profile.setting(self, "angles", list(self.ANGLES))]
         truth_factor = profile.setting(self, "truth_step_factor", 0.125)
         shading = profile.setting(self, "shading", "phong")
@@ -173,7 +173,7 @@ class ImageQuality(Experiment):
         cube = ok[(ok.get("part") == "opacity") & (ok.role == "test")] if "part" in ok else ok.iloc[:0]
         if not cube.empty:
             out += _opacity_blocks(cube, results, ctx)
-        return out + not_measurable(unregistered(SW) + missing_options(SW, "opacity_correction", "min_opacity"))
+        return out + shearwarp_missing("opacity_correction", "min_opacity")
 
 
 def _classification_blocks(tests, results, ctx):
@@ -190,23 +190,20 @@ def _classification_blocks(tests, results, ctx):
                                 "and once pre-classified (voxels classified and shaded, then "
                                 "interpolated: the thesis's comparison caster, which shares shear-warp's "
                                 "classification order). Angles turn about the body axis.")]
-    path, rel = ctx.plot_path("psnr-angle")
-    plots.lines(tests, path, x="angle (°)", y="psnr", group="series", title=_chart_title(tests),
-                x_label="view angle to the volume axes (degrees)", y_label="PSNR against the reference (dB)",
-                vlines=(45.0,))
-    out.append(blocks.Figure("Accuracy against the view angle", rel,
-                             "One line per data set, classification and reference; 45° (dotted) is the "
-                             "thesis's worst case."))
-    gallery = blocks.Gallery("Binary and smooth classification at 0° and 45°", diff_scale=DIFF_SCALE,
-                             caption="Left the shear-warp image, right its difference from the reference "
-                                     "named in the title.")
-    shown = tests[tests["angle (°)"].isin([0.0, 45.0])]
-    for row in shown.sort_values(["dataset", "tf", "angle (°)", "truth"]).itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.dataset}, {row.tf}, {angle_of(row.view):g}°, vs {row.truth}-classified",
-            ctx.image(row.png), difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(row.psnr)} dB, SSIM {format_number(row.ssim)}; single untimed frame"))
-    return out + [gallery]
+    shown = tests[tests["angle (°)"].isin([0.0, 45.0])].sort_values(["dataset", "tf", "angle (°)", "truth"])
+    return out + [
+        figure(ctx, "psnr-angle", plots.lines, tests, heading="Accuracy against the view angle",
+               caption="One line per data set, classification and reference; 45° (dotted) is the thesis's worst case.",
+               x="angle (°)", y="psnr", group="series", title=_chart_title(tests),
+               x_label="view angle to the volume axes (degrees)", y_label="PSNR against the reference (dB)",
+               vlines=(45.0,)),
+        difference_gallery("Binary and smooth classification at 0° and 45°", shown, ctx, against=results,
+                           label=lambda row: f"{row.dataset}, {row.tf}, {angle_of(row.view):g}°, vs "
+                                             f"{row.truth}-classified",
+                           caption="Left the shear-warp image, right its difference from the reference named in "
+                                   "the title.",
+                           note=lambda row: f"PSNR {format_number(row.psnr)} dB, SSIM {format_number(row.ssim)}; "
+                                            "single untimed frame")]
 
 
 def _opacity_blocks(cube, results, ctx):
@@ -226,20 +223,16 @@ def _opacity_blocks(cube, results, ctx):
                          caption="'Too transparent' is 1 − τ/τ_ref, τ = −ln(1 − A) the optical depth of a "
                                  "pixel (median over pixels with reference opacity 0.05–0.95). Without "
                                  "correction the expected deficit is 1 − Δ0/Δ.", csv_name="opacity_correction.csv")
-    gallery = blocks.Gallery("The cube with and without opacity correction", diff_scale=DIFF_SCALE,
-                             caption="Alpha composited over black; right the difference from the reference.")
-    for row in cube.sort_values(["view", "correction"]).itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.view}, correction {row.correction}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB; single untimed frame"))
-    return [table, gallery]
+    return [table, difference_gallery(
+        "The cube with and without opacity correction", cube.sort_values(["view", "correction"]), ctx,
+        against=results, label=lambda row: f"{row.view}, correction {row.correction}",
+        caption="Alpha composited over black; right the difference from the reference.",
+        note=lambda row: f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB; single untimed frame")]
 
 
 def _rows(df, tf, truth="post"):
     """Shear-warp rows of classification ``tf`` measured against the ``truth`` reference (see :data:`TRUTHS`)."""
-    rows = df[(text_column(df, "part") == "classification") & (text_column(df, "role") == "test") & (text_column(df, "tf") == tf)
-              & (text_column(df, "truth") == truth)].copy()
+    rows = rows_matching(df, "", part="classification", role="test", tf=tf, truth=truth).copy()
     if rows.empty:
         raise ValueError(f"no successful shear-warp run with the {tf} classification against {TRUTHS[truth]}")
     rows["angle"] = [angle_of(v) for v in rows.view]
@@ -303,8 +296,8 @@ def _drop(df, tf, aliasing, truth="pre"):
 
 
 def _cube_deficits(df, correction):
-    rows = df[(text_column(df, "part") == "opacity") & (text_column(df, "role") == "test") & (text_column(df, "correction") == correction)]
-    truth = df[(text_column(df, "part") == "opacity") & (text_column(df, "role") == "truth")]
+    rows = rows_matching(df, "", part="opacity", role="test", correction=correction)
+    truth = rows_matching(df, "", part="opacity", role="truth")
     if rows.empty or truth.empty:
         raise ValueError(f"no successful cube run with correction {correction} and its reference")
     deficits = {}

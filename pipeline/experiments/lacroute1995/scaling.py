@@ -10,14 +10,13 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of
+from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
-from pipeline.experiments.kit.planning import (headline_view, is_registered, listed, phantom, scene, timed_frames,
-                                               unregistered)
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -117,7 +116,7 @@ class SizeScaling(Experiment):
         out.append(linked_table("Every run", speed_points(ok),
                                 ["dataset", "volume_size", "image_size", "time_ms", "time_ms_min", "time_ms_max"], ctx,
                                 csv_name="scaling.csv"))
-        return out + not_measurable(unregistered(SW))
+        return out + shearwarp_missing()
 
 
 def _growth_figure(growth, ok, ctx):
@@ -126,14 +125,14 @@ def _growth_figure(growth, ok, ctx):
     hi = float(growth.volume_size.max())
     base = float(growth[growth.volume_size == lo].time_ms.median())
     xs = np.array([lo, hi])
-    path, rel = ctx.plot_path("growth")
-    plots.lines(growth, path, x="volume_size", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
-                log_x=True, log_y=True, title=_growth_title(ok),
-                x_label="volume size (voxels along the longest side)", y_label="median frame time (ms)",
-                guides=(("∝ n² (thesis)", xs, base * (xs / lo) ** 2), ("∝ n³ (brute force)", xs, base * (xs / lo) ** 3)))
-    return blocks.Figure("Frame time against the volume size", rel,
-                         f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 through "
-                         "the smallest size. Bars: fastest to slowest timed frame.")
+    return figure(ctx, "growth", plots.lines, growth, heading="Frame time against the volume size",
+                  caption=f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 through the "
+                          "smallest size. Bars: fastest to slowest timed frame.",
+                  x="volume_size", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
+                  log_x=True, log_y=True, title=_growth_title(ok),
+                  x_label="volume size (voxels along the longest side)", y_label="median frame time (ms)",
+                  guides=(("∝ n² (thesis)", xs, base * (xs / lo) ** 2),
+                          ("∝ n³ (brute force)", xs, base * (xs / lo) ** 3)))
 
 
 def _warp_blocks(frame, ok, ctx):
@@ -142,16 +141,12 @@ def _warp_blocks(frame, ok, ctx):
     frame["warp_ms_min"] = pd.to_numeric(frame.get("time_warp_min"), errors="coerce") * 1e3
     frame["warp_ms_max"] = pd.to_numeric(frame.get("time_warp_max"), errors="coerce") * 1e3
     frame["volume"] = [f"{int(v)}³ {d}" for v, d in zip(frame.volume_size, frame.dataset)]
-    path, rel = ctx.plot_path("warp")
     image_sizes = np.array(sorted(frame.image_size.unique()), float)
     warp = frame[frame.dataset == frame.dataset.iloc[0]]
     guide = ()
     if len(image_sizes) > 1:
         ref_time = float(warp[warp.image_size == image_sizes[0]].warp_ms.median())
         guide = (("∝ pixels (thesis)", image_sizes, ref_time * (image_sizes / image_sizes[0]) ** 2),)
-    plots.lines(warp, path, x="image_size", y="warp_ms", group="volume", y_range=("warp_ms_min", "warp_ms_max"),
-                log_x=True, log_y=True, title=_warp_title(ok), x_label="image size (pixels along a side)",
-                y_label="median warp time per frame (ms)", guides=guide)
     rows = []
     for row in warp.sort_values(["volume_size", "image_size"]).itertuples():
         thesis = tables.TABLE_5_4.get(int(row.volume_size), {}).get(int(row.image_size))
@@ -159,8 +154,11 @@ def _warp_blocks(frame, ok, ctx):
                      "thesis warp (ms)": tables.TABLE_5_4["warp (ms)"].get(int(row.image_size), np.nan),
                      "share of the frame": as_percent(row.warp_ms / row.time_ms),
                      "thesis share": f"{thesis} %" if thesis is not None else ""})
-    return [blocks.Figure("Warp time against the image size", rel,
-                          "One line per volume size; the grey line grows with the pixel count."),
+    return [figure(ctx, "warp", plots.lines, warp, heading="Warp time against the image size",
+                   caption="One line per volume size; the grey line grows with the pixel count.",
+                   x="image_size", y="warp_ms", group="volume", y_range=("warp_ms_min", "warp_ms_max"), log_x=True,
+                   log_y=True, title=_warp_title(ok), x_label="image size (pixels along a side)",
+                   y_label="median warp time per frame (ms)", guides=guide),
             blocks.Table("The warp's cost beside Table 5.4", pd.DataFrame(rows), csv_name="warp.csv",
                          caption="Medians of the timed frames; thesis: MR brain prefiltered to each size.")]
 
@@ -265,7 +263,7 @@ def _warp_share(df):
     decision = judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
                                at_most=0.0, centred=True)
     return ClaimResult.decided(", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n))
-                               + f"; largest rise {judging.percent_interval(decision)}", decision,
+                               + f"; largest rise {decision_words(decision, as_percent)}", decision,
                                f"warp stage over the technique at {int(largest.i.iloc[0])}² images; thesis 48 %, 31 %, 9 %")
 
 

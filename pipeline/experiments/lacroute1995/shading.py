@@ -12,14 +12,15 @@ from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, change_words, claim_takeaways, format_number,
-                                            linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, format_number,
+                                            frame_note, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
                                               speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.planning import SW, VP
+from pipeline.experiments.lacroute1995.pages import figure
+from pipeline.experiments.lacroute1995.planning import SW, VP, sizes
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
@@ -66,8 +67,7 @@ class Variants(Experiment):
     )
 
     def runs(self, profile):
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = sizes(self, profile)
         dataset = profile.setting(self, "dataset", "ct_skull")
         preset = profile.setting(self, "preset", "skin")
         volume = phantom(dataset, size, preset=preset)
@@ -140,10 +140,10 @@ class Variants(Experiment):
         warm = frame[frame.part != "mode"]
         per_frame = [s for s in stages if warm[s].notna().any() and s not in PREPROCESSING_STAGES]
         if per_frame and not warm.empty:
-            path, rel = ctx.plot_path("stages")
-            plots.stage_breakdown(warm.assign(variant=warm.part + ": " + warm.config), path, stage_cols=per_frame,
-                                  group_col="variant", title=_lut_title(ok))
-            out.append(blocks.Figure("Per-frame time by stage", rel, "Median timed frame of each variant, by the backend's stages."))
+            out.append(figure(ctx, "stages", plots.stage_breakdown, warm.assign(variant=warm.part + ": " + warm.config),
+                              heading="Per-frame time by stage",
+                              caption="Median timed frame of each variant, by the backend's stages.",
+                              stage_cols=per_frame, group_col="variant", title=_lut_title(ok)))
         try:
             out.append(blocks.Table("The mode switch with our backend (E22)", mode_switch_table(ok),
                                     csv_name="mode_switch.csv",
@@ -156,7 +156,13 @@ class Variants(Experiment):
         out.append(_variants_table(frame, ctx))
         shading = ok[ok.part.isin(["baseline", "shading"])] if "part" in ok else ok.iloc[:0]
         if not shading.empty:
-            out.append(_shading_gallery(shading, results, ctx))
+            # The lookup-table image beside its reference, the procedural one (whose own frame has no difference).
+            out.append(difference_gallery(
+                "Lookup-table against procedural shading", shading.sort_values("config"), ctx,
+                label=lambda row: row.config,
+                caption="The lookup-table image with its difference from the procedural one.",
+                against=lambda row: reference_exr(results, row) if row.part == "baseline" else None,
+                note=lambda row: frame_note(row, psnr="PSNR against procedural")))
         return out + not_measurable(unregistered(SW, VP) + missing_options(SW, "shading", "union")
                                     + missing_options(VP, "mode"))
 
@@ -176,20 +182,6 @@ def _variants_table(frame, ctx):
                         names={"config": "variant"}, csv_name="variants.csv",
                         caption="classify / rle_build / octree are preprocessing stages, timed once after the "
                                 "cold frame (compiled); the time columns are the median timed frame.")
-
-
-def _shading_gallery(shading, results, ctx):
-    """The lookup-table image with its difference from the procedural one, and the procedural image."""
-    gallery = blocks.Gallery("Lookup-table against procedural shading", diff_scale=DIFF_SCALE,
-                             caption="The lookup-table image with its difference from the procedural one.")
-    for row in shading.sort_values("config").itertuples():
-        diff = ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE) if row.part == "baseline" else None
-        gallery.items.append(blocks.GalleryItem(
-            row.config, ctx.image(row.png), difference=diff,
-            note=f"{format_number(row.time_total * 1e3)} ms" + (f"; PSNR against procedural "
-                                                                f"{format_number(getattr(row, 'psnr', np.nan))} dB"
-                                                                if diff else "")))
-    return gallery
 
 
 def mode_switch_table(df):

@@ -13,14 +13,13 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
-from pipeline.experiments.kit.planning import (accepts, headline_view, listed, missing_options, phantom, scene,
-                                               timed_frames, unregistered)
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
+from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -179,13 +178,14 @@ class Throughput(Experiment):
         checkers = frame[frame.series.astype(str).str.startswith("checker")].copy()
         if not checkers.empty:
             checkers["line"] = checkers.series + ", " + checkers.config
-            path, rel = ctx.plot_path("checkerboards")
-            plots.lines(checkers, path, x="runs", y="time_ms", group="line", y_range=("time_ms_min", "time_ms_max"),
-                        title=_runs_title(ok), x_label="voxel runs traversed per frame (the backend's voxel_runs)",
-                        y_label="median frame time (ms)")
-            out.append(blocks.Figure("Checkerboards: time against the number of runs", rel,
-                                     "Block sizes halve from right to left... each halving doubles the runs per "
-                                     "scanline at a constant visible count; brute force beside."))
+            out.append(figure(ctx, "checkerboards", plots.lines, checkers,
+                              heading="Checkerboards: time against the number of runs",
+                              caption="Block sizes halve from right to left... each halving doubles the runs per "
+                                      "scanline at a constant visible count; brute force beside.",
+                              x="runs", y="time_ms", group="line", y_range=("time_ms_min", "time_ms_max"),
+                              title=_runs_title(ok),
+                              x_label="voxel runs traversed per frame (the backend's voxel_runs)",
+                              y_label="median frame time (ms)"))
         try:
             a, b, c, r2 = _cost_fit(ok)
             fit = pd.DataFrame([("throughput a", f"{format_number(a / 1e6)} Mvoxels/s", "0.88 Mvoxels/s"),
@@ -199,7 +199,7 @@ class Throughput(Experiment):
             pass
         out.append(linked_table("Every run", frame, ["series", "config", "alpha", "block", "samples", "runs", "time_ms",
                                                      "time_ms_min", "time_ms_max"], ctx, csv_name="throughput.csv"))
-        return out + not_measurable(unregistered(SW) + missing_options(SW, "rle", "early_termination", "min_opacity"))
+        return out + shearwarp_missing("rle", "early_termination", "min_opacity")
 
 
 def _cube_figure(cubes, ok, ctx):
@@ -207,21 +207,21 @@ def _cube_figure(cubes, ok, ctx):
     cubes["visible (millions)"] = cubes.samples / 1e6
     brute_level = cubes[cubes.config == "brute-force"]
     opt = cubes[cubes.config == "optimised"]
-    path, rel = ctx.plot_path("cubes")
     guides = ()
     if not brute_level.empty and not opt.empty:
         xs = np.array([0.0, float(opt["visible (millions)"].max())])
         guides = (("brute force (median over its runs)", xs, np.full(2, float(brute_level.time_ms.median()))),)
-    plots.lines(opt.assign(config="optimised (RLE + early termination)"), path, x="visible (millions)", y="time_ms",
-                group="config", y_range=("time_ms_min", "time_ms_max"), title=_cube_title(ok),
-                x_label="voxels composited per frame (millions)", y_label="median frame time (ms)", guides=guides)
-    return blocks.Figure("Constant-opacity cubes: time against visible voxels", rel,
-                         "Each point one opacity (visible voxels fall as the opacity rises and early "
-                         "termination cuts the rays short). Bars: fastest to slowest frame.")
+    return figure(ctx, "cubes", plots.lines, opt.assign(config="optimised (RLE + early termination)"),
+                  heading="Constant-opacity cubes: time against visible voxels",
+                  caption="Each point one opacity (visible voxels fall as the opacity rises and early termination "
+                          "cuts the rays short). Bars: fastest to slowest frame.",
+                  x="visible (millions)", y="time_ms", group="config", y_range=("time_ms_min", "time_ms_max"),
+                  title=_cube_title(ok), x_label="voxels composited per frame (millions)",
+                  y_label="median frame time (ms)", guides=guides)
 
 
 def _series(df, series, config):
-    rows = df[(text_column(df, "series") == series) & (text_column(df, "config") == config)].copy()
+    rows = rows_matching(df, "", series=series, config=config).copy()
     rows["samples"], rows["runs"] = numeric(rows, "count_samples"), numeric(rows, "count_voxel_runs")
     rows["time"] = numeric(rows, TIME)
     return rows[np.isfinite(rows.time)]
@@ -249,7 +249,7 @@ def _brute_flat(df):
     spread = lambda t, axis=None: (t.max(axis=axis) - t.min(axis=axis)) / np.median(t, axis=axis)  # noqa: E731
     decision = judging.decided(spread(times), None if draws is None else spread(draws, axis=1), at_most=0.25,
                                centred=True)
-    return ClaimResult.decided(judging.percent_interval(decision), decision,
+    return ClaimResult.decided(decision_words(decision, as_percent), decision,
                                f"{len(rows)} cubes at α " + ", ".join(format_number(a) for a in rows.alpha)
                                + f", median {judging.milliseconds(rows)} technique; samples "
                                + ", ".join(format_number(v) for v in rows.samples))

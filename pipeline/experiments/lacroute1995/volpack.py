@@ -19,6 +19,7 @@ from pipeline.experiments.kit.planning import (accepts, headline_view, is_regist
                                                scene, timed_frames, truth_run, unregistered, usable_cores)
 from pipeline.experiments.kit.results import numeric, ok_rows, pair_metrics, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
+from pipeline.experiments.lacroute1995.pages import figure
 from pipeline.experiments.lacroute1995.planning import SW, VP
 from reports import blocks, plots
 from reports.takeaways import cell_text
@@ -173,15 +174,15 @@ class VolPackComparison(Experiment):
                                             "classified-RLE image of the same view."))
         for scene_name, group in tests.groupby("scene"):
             group = group.assign(technique=[_technique(c) for c in group.config])
-            path, rel = ctx.plot_path(f"speed-{scene_name}")
-            plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="technique",
-                                 title=_chart_title(scene_name, group), log_x=True, log_y=False,
-                                 time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                                 x_label="median frame time (ms); bars: fastest to slowest frame",
-                                 y_label="PSNR against the reference (dB)")
-            out.append(blocks.Figure(f"{scene_name}: frame time against accuracy", rel,
-                                     "One point per technique; further left is faster, higher is closer to the "
-                                     "reference ray caster."))
+            out.append(figure(ctx, f"speed-{scene_name}", plots.speed_accuracy, group,
+                              heading=f"{scene_name}: frame time against accuracy",
+                              caption="One point per technique; further left is faster, higher is closer to the "
+                                      "reference ray caster.",
+                              time_col="time_ms", error_col="psnr", group_col="technique",
+                              title=_chart_title(scene_name, group), log_x=True, log_y=False,
+                              time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                              x_label="median frame time (ms); bars: fastest to slowest frame",
+                              y_label="PSNR against the reference (dB)"))
         for scene_name, group in ok.groupby("scene"):
             out.append(_gallery(scene_name, group, ctx))
         return out + not_measurable(unregistered(SW, VP) + missing_options(VP, "mode")

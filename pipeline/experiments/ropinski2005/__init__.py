@@ -22,7 +22,8 @@ lens) say what any device has to do.
 * :mod:`.peers`: ``ropinski2005-peers``: the lens in VTK (label map, cropping, clipping planes) and in
   shear-warp's pre-classification beside the paper's method, by overhead and error;
 * :mod:`.scenes`: the lens scenes (note 004 §5) and their controls; :mod:`.methods`: the lens methods as
-  ``gl-raycast`` options and what the experiments share; :mod:`.tables`: the paper's numbers.
+  ``gl-raycast`` options and what the experiments share; :mod:`.pages`: what their pages share;
+  :mod:`.tables`: the paper's numbers.
 """
 
 from pipeline.experiments.kit.model import Paper

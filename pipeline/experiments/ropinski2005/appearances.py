@@ -18,12 +18,18 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
+                                            frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       lens_coverage, lens_run, method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, SETUPS, lens_scene, lens_views, without_lens
+from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMES, counted,
+                                                       device_takeaways, lens_coverage, lens_run, lens_settings,
+                                                       method_name, raycast_not_measurable, scenes_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
+                                                     overhead_figure, run_table, samples_ratio, scene_by_scene,
+                                                     tests_of)
+from pipeline.experiments.ropinski2005.scenes import (BONE_ISOVALUE, SETUPS, lens_scene, lens_views, scene_tags,
+                                                      without_lens)
 from reports import blocks, plots
 
 APPEARANCES = {"clip": "clipping (nothing inside)", "transparency": "transparency (opacity × 0.2)",
@@ -45,8 +51,6 @@ EXPOSED = ("clip", "iso")
 """The appearances ``fused`` renders: the one that shows nothing in front of region₀ and the opaque one."""
 
 REGION_COLUMNS = {region: f"count_samples_{region}" for region in ("region2", "region1", "region0")}
-
-TIMES = "whole frames (time_total), median over the views of each view's median frame"
 
 
 def appearance_entry(scene, appearance):
@@ -70,29 +74,11 @@ def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
     return rows
 
 
-def off_rows(frame, scene):
-    rows = rows_matching(frame, scene, scene=scene, config=OFF)
-    if rows.empty:
-        raise ValueError(f"no successful lens-off run of {scene}")
-    return rows
-
-
-def scenes_of(frame):
-    return list(pd.unique(text_column(frame, "scene")))
-
-
 def swept(frame, scene):
     """The appearances ``scene`` was rendered with by the segments method, in :data:`APPEARANCES` order."""
     rows = rows_matching(frame, scene, scene=scene, config=PAPER_METHOD)
     present = set(text_column(rows, "appearance"))
     return [a for a in APPEARANCES if a in present]
-
-
-def count(rows, column, what):
-    value = median_count(rows, column)
-    if not np.isfinite(value):
-        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
-    return value
 
 
 # ------------------------------------------------------------------------------------------------- claims
@@ -105,8 +91,8 @@ def _clip_cheapest(df):
             other = appearance_rows(df, scene, appearance)
             label = f"{scene}, {appearance}"
             decisions[label] = intervals.ratio_decision(other, clip, at_least=STRICTLY_ABOVE_ONE, resampler=resampler)
-            inside = (count(other, REGION_COLUMNS["region1"], label),
-                      count(clip, REGION_COLUMNS["region1"], f"{scene}, clip"))
+            inside = (counted(other, REGION_COLUMNS["region1"], label),
+                      counted(clip, REGION_COLUMNS["region1"], f"{scene}, clip"))
             notes[label] = f"region₁ samples {format_number(inside[0])} against {format_number(inside[1])}"
     if not decisions:
         raise ValueError("no scene rendered with a clipping lens and another appearance")
@@ -117,8 +103,8 @@ def _clip_cheapest(df):
 def _iso_stops(df):
     compared, wrong = [], []
     for scene in scenes_of(df):
-        iso = count(appearance_rows(df, scene, "iso"), REGION_COLUMNS["region1"], f"{scene}, iso")
-        dvr = count(appearance_rows(df, scene, "transparency"), REGION_COLUMNS["region1"], f"{scene}, transparency")
+        iso = counted(appearance_rows(df, scene, "iso"), REGION_COLUMNS["region1"], f"{scene}, iso")
+        dvr = counted(appearance_rows(df, scene, "transparency"), REGION_COLUMNS["region1"], f"{scene}, transparency")
         compared.append((iso / dvr if dvr else np.inf, scene, iso, dvr))
         if not iso < dvr:
             wrong.append(scene)
@@ -131,8 +117,8 @@ def _iso_stops(df):
 def _clip_exposes(df):
     compared, wrong = [], []
     for scene in scenes_of(df):
-        clip = count(appearance_rows(df, scene, "clip", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, clip")
-        iso = count(appearance_rows(df, scene, "iso", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, iso")
+        clip = counted(appearance_rows(df, scene, "clip", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, clip")
+        iso = counted(appearance_rows(df, scene, "iso", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, iso")
         compared.append((clip / iso if iso else np.inf, scene, clip, iso))
         if not clip > iso:
             wrong.append(scene)
@@ -164,11 +150,9 @@ def appearance_table(tests):
     rows = []
     resampler = intervals.Resampler()
     for scene in scenes_of(tests):
-        try:
-            off = off_rows(tests, scene)
-        except ValueError:
+        off = rows_matching(tests, scene, scene=scene, config=OFF)
+        if off.empty:
             continue
-        off_samples = median_count(off, "count_samples")
         for appearance in swept(tests, scene):
             for method in (PAPER_METHOD, EXPOSURE_METHOD):
                 try:
@@ -176,15 +160,13 @@ def appearance_table(tests):
                 except ValueError:
                     continue
                 decision = intervals.ratio_decision(lens, off, resampler=resampler)
-                low, high = decision.interval or (np.nan, np.nan)
-                rows.append({"scene": scene, "appearance": appearance, "method": method,
-                             "frame (ms)": 1e3 * numeric(lens, "time_total").median(),
-                             "overhead (%)": 100 * (decision.value - 1), "95 % CI low (%)": 100 * (low - 1),
-                             "95 % CI high (%)": 100 * (high - 1),
+                rows.append({"scene": scene, "appearance": appearance, "method": method, "frame (ms)": median_ms(lens),
+                             **interval_columns(decision.value, decision.interval, "overhead (%)", ends=PERCENT_CI,
+                                                scale=lambda v: 100 * (v - 1)),
                              **{f"{words} pass (ms)": 1e3 * numeric(lens, f"time_{region}").median()
                                 if f"time_{region}" in lens else np.nan
                                 for region, words in (("region0", "region₀"), ("region1", "region₁"))},
-                             "samples lens / no lens": median_count(lens, "count_samples") / off_samples,
+                             "samples lens / no lens": samples_ratio(lens, off),
                              **{f"{region} samples": median_count(lens, column)
                                 for region, column in REGION_COLUMNS.items()},
                              "rays through the lens (%)": 100 * lens_coverage(lens)})
@@ -195,17 +177,14 @@ def _figure(table, ctx):
     paper = table[table.method == PAPER_METHOD]
     if paper.empty:
         return []
-    points = paper.assign(series=[APPEARANCES[a] for a in paper.appearance])
-    path, rel = ctx.plot_path("overhead")
-    plots.lines(points, path, x="samples lens / no lens", y="overhead (%)", group="series",
-                y_range=("95 % CI low (%)", "95 % CI high (%)"),
-                title="Each appearance's overhead against the samples it takes",
-                x_label="samples with the lens / samples without it (counted)",
-                y_label="overhead, t(lens) / t(no lens) − 1 (%)")
-    return [blocks.Figure("Overhead against samples, per appearance", rel,
-                          "One point per scene and appearance, the segments method (a line joins an appearance's "
-                          "scenes; the table names each point); bars: 95 % paired bootstrap interval (every "
-                          "appearance timed together with the lens-off frame).")]
+    return overhead_figure(
+        paper.assign(series=[APPEARANCES[a] for a in paper.appearance]), ctx, "overhead",
+        heading="Overhead against samples, per appearance", x="samples lens / no lens",
+        title="Each appearance's overhead against the samples it takes",
+        x_label="samples with the lens / samples without it (counted)",
+        caption="One point per scene and appearance, the segments method (a line joins an appearance's scenes; the "
+                "table names each point); bars: 95 % paired bootstrap interval (every appearance timed together "
+                "with the lens-off frame).")
 
 
 def _region_figure(table, ctx):
@@ -235,16 +214,12 @@ def _takeaways(table):
 
 
 def _gallery(tests, ctx):
-    gallery = blocks.Gallery("Headline view: the lens's four appearances",
-                             caption="No lens first, then the segments method's image with each appearance.")
-    headline = tests[text_column(tests, "view") == "headline"]
-    for scene in scenes_of(headline):
-        here = rows_matching(headline, scene, scene=scene)
-        for row in here[text_column(here, "config").isin([OFF, PAPER_METHOD])].itertuples():
-            label = "no lens" if row.config == OFF else APPEARANCES.get(row.appearance, row.appearance)
-            gallery.items.append(blocks.GalleryItem(f"{scene}, {label}", ctx.image(row.png),
-                                                    note=f"{format_number(row.time_total * 1e3)} ms"))
-    return gallery
+    shown = scene_by_scene(headline(tests), lambda here: here[text_column(here, "config").isin([OFF, PAPER_METHOD])])
+    return difference_gallery(
+        "Headline view: the lens's four appearances", shown, ctx,
+        label=lambda row: f"{row.scene}, "
+                          + ("no lens" if row.config == OFF else APPEARANCES.get(row.appearance, row.appearance)),
+        caption="No lens first, then the segments method's image with each appearance.")
 
 
 class Appearances(Experiment):
@@ -276,17 +251,12 @@ class Appearances(Experiment):
             return []
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
         appearances = listed(profile, self, "appearances", tuple(APPEARANCES), known=APPEARANCES)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
-        step = profile.setting(self, "step_factor", STEP)
+        size, image, orbit, step = lens_settings(profile, self)
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             views = lens_views(scene_name, orbit)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                    "role": "test"}
+            tags = scene_tags(scene_name, image_size=image, role="test")
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
             runs.append(lens_run(self.name, f"{scene_name}.{OFF}", without_lens(spec), views, OFF, frames,
                                  {**tags, "appearance": "none"}, step_factor=step, group=scene_name))
@@ -301,11 +271,9 @@ class Appearances(Experiment):
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         table = appearance_table(tests) if not tests.empty else pd.DataFrame()
-        out = [claim_takeaways(ctx, device_takeaways(tests),
-                               _takeaways(table) if not table.empty else [])]
+        out = [claim_takeaways(ctx, device_takeaways(tests), _takeaways(table) if not table.empty else [])]
         if not table.empty:
             out += _figure(table, ctx)
             out += _region_figure(table, ctx)
@@ -317,12 +285,9 @@ class Appearances(Experiment):
                                             "shows); samples counted by the caster. " + frames_caption(tests)))
         if not tests.empty:
             out.append(_gallery(tests, ctx))
-            headline = speed_points(tests[text_column(tests, "view") == "headline"])
-            headline["method"] = [method_name(c) for c in text_column(headline, "config")]
-            out.append(linked_table("Every run (headline view)", headline,
-                                    ["scene", "appearance", "method", "time_ms", "time_ms_min", "time_ms_max",
-                                     *REGION_COLUMNS.values(), "count_samples"], ctx,
-                                    names={**{c: f"{r} samples" for r, c in REGION_COLUMNS.items()},
-                                           "count_samples": "samples"}, csv_name="appearance_runs.csv"))
+            out.append(run_table(tests, ["scene", "appearance", "method", "time_ms", "time_ms_min", "time_ms_max",
+                                         *REGION_COLUMNS.values(), "count_samples"], ctx, method=method_name,
+                                 names={c: f"{r} samples" for r, c in REGION_COLUMNS.items()},
+                                 csv_name="appearance_runs.csv"))
         return out + raycast_not_measurable([PAPER_METHOD, EXPOSURE_METHOD])
 

@@ -13,12 +13,14 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import DIFF_SCALE, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, lens_run,
-                                                       method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, outside_appearance, without_lens
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP,
+                                                       lens_run, lens_settings, method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.pages import headline, psnr_note, run_table
+from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
+                                                      without_lens)
 from reports import blocks
 
 ACCURACY_PSNR = 40.0
@@ -45,14 +47,29 @@ def config_name(config):
     return "reference" if config == REFERENCE_CONFIG else method_name(config)
 
 
+def measured_rows(rows, column, missing):
+    """``rows`` that measured ``column`` (as numbers); ValueError saying ``missing`` where none did."""
+    values = numeric(rows, column)
+    if values.notna().sum() == 0:
+        raise ValueError(missing)
+    return rows.assign(**{column: values}).dropna(subset=[column])
+
+
+def worst_of(rows, column, by, *, lowest=False):
+    """``(row, per_group)``: the row of ``rows`` whose ``column`` is the largest (with ``lowest``, the smallest),
+    and that extreme per group of ``by``."""
+    groups = rows.groupby(by, sort=False)[column]
+    if lowest:
+        return rows.loc[rows[column].idxmin()], groups.min()
+    return rows.loc[rows[column].idxmax()], groups.max()
+
+
 def method_psnr(df, scene):
     """``{config: (worst PSNR dB, its view)}`` of every lens method's lens image of ``scene`` against the reference."""
-    rows = rows_matching(df, scene, scene=scene, appearance="lens", role="test")
-    values = numeric(rows, "psnr")
-    if values.notna().sum() == 0:
-        raise ValueError(f"no lens image of {scene} compared with the reference")
+    rows = measured_rows(rows_matching(df, scene, scene=scene, appearance="lens", role="test"), "psnr",
+                         f"no lens image of {scene} compared with the reference")
     out = {}
-    for config, part in rows.assign(psnr=values).dropna(subset=["psnr"]).groupby("config", sort=False):
+    for config, part in rows.groupby("config", sort=False):
         worst = part.loc[part.psnr.idxmin()]
         out[config] = (float(worst.psnr), str(worst.view))
     return out
@@ -71,13 +88,9 @@ def _accuracy(scene):
 
 
 def _seams(df):
-    rows = rows_matching(df, "the outside-appearance runs", appearance="outside")
-    errors = numeric(rows, "max_error")
-    if errors.notna().sum() == 0:
-        raise ValueError("no outside-appearance image compared with its lens-off image")
-    rows = rows.assign(max_error=errors).dropna(subset=["max_error"])
-    worst = rows.loc[rows.max_error.idxmax()]
-    per_config = rows.groupby("config", sort=False).max_error.max()
+    rows = measured_rows(rows_matching(df, "the outside-appearance runs", appearance="outside"), "max_error",
+                         "no outside-appearance image compared with its lens-off image")
+    worst, per_config = worst_of(rows, "max_error", "config")
     return ClaimResult(f"{format_number(worst.max_error)} ({worst.config}, {worst.scene}, {worst.view})",
                        bool(rows.max_error.max() <= SEAM_TOLERANCE),
                        ", ".join(f"{c}: ≤ {format_number(v)}" for c, v in per_config.items())
@@ -111,36 +124,22 @@ def psnr_table(tests):
     return pd.DataFrame(rows)
 
 
-def _gallery(tests, results, ctx):
-    """Each method's headline lens image beside its difference from the reference, and the worst seam."""
-    gallery = blocks.Gallery("Headline view: each lens method against the reference", diff_scale=DIFF_SCALE,
-                             caption="Left the method's image with the lens, right |method − reference|.")
-    lens = tests[(text_column(tests, "appearance") == "lens") & (text_column(tests, "view") == "headline")
-                 & (text_column(tests, "role") == "test")]
-    for row in lens.sort_values(["scene", "config"]).itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.scene}, {method_name(row.config)}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB"))
-    return gallery
-
-
-def _seam_gallery(tests, results, ctx):
-    """The outside-appearance image with the largest difference from no lens, per scene, and that difference."""
-    outside = tests[text_column(tests, "appearance") == "outside"]
+def _galleries(ok, results, ctx):
+    """Each method's headline lens image beside its difference from the reference, and the worst seam per scene."""
+    lens = rows_matching(headline(ok), "the lens images", appearance="lens", role="test")
+    outside = ok[text_column(ok, "appearance") == "outside"]
     outside = outside.assign(max_error=numeric(outside, "max_error")).dropna(subset=["max_error"])
-    gallery = blocks.Gallery("A lens with the outside appearance against no lens: the largest difference per scene",
-                             diff_scale=DIFF_SCALE,
-                             caption="Left the image with the lens showing the outside appearance, right |it − the "
-                                     "same method's image without the lens| (a seam would show as a bright outline "
-                                     "of the lens).")
-    for scene, part in outside.groupby("scene", sort=False):
-        row = part.loc[part.max_error.idxmax()]
-        gallery.items.append(blocks.GalleryItem(
-            f"{scene}, {config_name(row.config)}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"max difference {format_number(row.max_error)} ({row.view})"))
-    return gallery
+    worst = outside.loc[outside.groupby("scene", sort=False).max_error.idxmax()]
+    return [difference_gallery("Headline view: each lens method against the reference",
+                               lens.sort_values(["scene", "config"]), ctx, against=results, note=psnr_note,
+                               label=lambda row: f"{row.scene}, {method_name(row.config)}",
+                               caption="Left the method's image with the lens, right |method − reference|."),
+            difference_gallery("A lens with the outside appearance against no lens: the largest difference per scene",
+                               worst, ctx, against=results, label=lambda row: f"{row.scene}, {config_name(row.config)}",
+                               note=lambda row: f"max difference {format_number(row.max_error)} ({row.view})",
+                               caption="Left the image with the lens showing the outside appearance, right |it − "
+                                       "the same method's image without the lens| (a seam would show as a bright "
+                                       "outline of the lens).")]
 
 
 class Correctness(Experiment):
@@ -164,23 +163,18 @@ class Correctness(Experiment):
         "(up to 1 − T of a pixel) is kruger2003's to measure, not the lens's."
     )
     claims = CLAIMS
-    CONFIGS = tuple(config for config in METHODS if config != "segments-ftb")
-    """Every lens method; the front-to-back region order composites the same samples as back-to-front."""
 
     def runs(self, profile):
         if not is_registered(RAYCAST):
             return []
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
-        methods = listed(profile, self, "methods", self.CONFIGS, known=METHODS) if accepts(RAYCAST, *OPTIONS) else []
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
+        methods = listed(profile, self, "methods", CONFIGS, known=METHODS) if accepts(RAYCAST, *OPTIONS) else []
+        size, image, orbit, _ = lens_settings(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
             views = lens_views(scene_name, orbit)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset}
+            tags = scene_tags(scene_name)
             truth = truth_run(self.name, scene_name, spec, views, STEP, {**tags, "config": REFERENCE_CONFIG},
                               appearance="lens")
             truth_off = truth_run(self.name, scene_name, without_lens(spec), views, STEP,
@@ -217,11 +211,8 @@ class Correctness(Experiment):
                                                 f"floor is {format_number(ACCURACY_PSNR)} dB. No lens: the caster "
                                                 "without the lens against the reference without it, the error that "
                                                 "is not the lens's. Early termination off throughout."))
-            out.append(_gallery(ok, results, ctx))
-            out.append(_seam_gallery(ok, results, ctx))
-            headline = ok[text_column(ok, "view") == "headline"]
-            out.append(linked_table("Every run (headline view)", headline.assign(
-                method=[config_name(c) for c in text_column(headline, "config")]),
-                ["scene", "method", "appearance", "reference", "psnr", "ssim", "max_error"], ctx,
-                names={"reference": "compared with", "max_error": "max |difference|"}, csv_name="correctness.csv"))
+            out += _galleries(ok, results, ctx)
+            out.append(run_table(ok, ["scene", "method", "appearance", "reference", "psnr", "ssim", "max_error"], ctx,
+                                 timed=False, method=config_name, csv_name="correctness.csv",
+                                 names={"reference": "compared with", "max_error": "max |difference|"}))
         return out + raycast_not_measurable(methods)

@@ -21,13 +21,15 @@ from core.camera import Camera
 from core.errors import InputError
 from pipeline.experiments.kit.judging import median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import DIFF_SCALE, as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
+                                            linked_table)
 from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
-from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
-from pipeline.experiments.ropinski2005.methods import (METHODS, OPTIONS, RAYCAST, STEP, lens_coverage, lens_run,
-                                                       raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, LensSetup, extent, lens_entry, lens_scene
+from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION, measured_rows, worst_of
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, RAYCAST, STEP, lens_coverage, lens_run,
+                                                       lens_settings, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.pages import psnr_note, tests_of
+from pipeline.experiments.ropinski2005.scenes import SETUPS, LensSetup, extent, lens_entry, lens_scene, scene_tags
 from reports import blocks
 
 SCENE = "seismic"
@@ -35,9 +37,6 @@ SCENE = "seismic"
 
 APPEARANCE = {"mode": "dvr", "preset": "layers", "opacity_scale": 0.2}
 """A transparency lens: every region contributes, so a region missing or counted twice changes the image."""
-
-CONFIGS = tuple(config for config in METHODS if config != "segments-ftb")
-"""Every lens method (regions back to front)."""
 
 COVERED = 0.1
 """Alpha at or above which the reference covers a pixel."""
@@ -159,8 +158,7 @@ def hole_counts(frame):
 # ------------------------------------------------------------------------------------------------- claims
 def _no_holes(df):
     counts = hole_counts(df)
-    worst = counts.loc[counts.holes.idxmax()]
-    per_case = counts.groupby("case", sort=False).holes.max()
+    worst, per_case = worst_of(counts, "holes", "case")
     return ClaimResult(f"{int(worst.holes)} hole pixels of {int(worst.covered)} covered ({worst.config}, {worst.case})",
                        bool(counts.holes.max() == 0),
                        ", ".join(f"{c}: {int(h)}" for c, h in per_case.items())
@@ -169,13 +167,9 @@ def _no_holes(df):
 
 
 def _accuracy(df):
-    rows = rows_matching(df, "the lens methods' runs", role="test")
-    psnr = numeric(rows, "psnr")
-    if psnr.notna().sum() == 0:
-        raise ValueError("no lens method's image compared with the reference")
-    rows = rows.assign(psnr=psnr).dropna(subset=["psnr"])
-    worst = rows.loc[rows.psnr.idxmin()]
-    per_case = rows.groupby("case", sort=False).psnr.min()
+    rows = measured_rows(rows_matching(df, "the lens methods' runs", role="test"), "psnr",
+                         "no lens method's image compared with the reference")
+    worst, per_case = worst_of(rows, "psnr", "case", lowest=True)
     return ClaimResult(f"{format_number(worst.psnr)} dB ({worst.config}, {worst.case})",
                        bool(rows.psnr.min() >= ACCURACY_PSNR),
                        ", ".join(f"{c}: ≥ {format_number(p)} dB" for c, p in per_case.items())
@@ -228,27 +222,6 @@ def case_table(tests, counts):
     return pd.DataFrame(rows)
 
 
-def _gallery(tests, results, ctx):
-    gallery = blocks.Gallery("Every edge case: each method's image and its difference from the reference",
-                             diff_scale=DIFF_SCALE,
-                             caption="Left the method's image, right |method − reference| (a hole shows as the "
-                                     "cube's colour at full strength).")
-    for row in tests.itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.case}, {row.config}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB"))
-    return gallery
-
-
-def _truth_gallery(truths, ctx):
-    gallery = blocks.Gallery("The reference's image of each case", caption="; ".join(
-        f"{name}: {case.what}" for name, case in CASES.items()))
-    for row in truths.itertuples():
-        gallery.items.append(blocks.GalleryItem(str(row.case), ctx.image(row.png)))
-    return gallery
-
-
 class Edges(Experiment):
     """Every lens method where the lens lies partly outside, in front of, behind or around the box, or the camera."""
 
@@ -278,14 +251,11 @@ class Edges(Experiment):
             return []
         cases = listed(profile, self, "cases", tuple(CASES), known=CASES)
         methods = listed(profile, self, "methods", CONFIGS, known=CONFIGS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        setup = SETUPS[SCENE]
+        size, image, _, _ = lens_settings(profile, self)
         runs = []
         for case in cases:
             spec, view = case_scene(case, image, size=size, real_data=profile.real_data)
-            tags = {"scene": SCENE, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                    "case": case}
+            tags = scene_tags(SCENE, image_size=image, case=case)
             truth = truth_run(self.name, case, spec, (view,), STEP, tags)
             runs.append(truth)
             for method in methods:
@@ -296,7 +266,7 @@ class Edges(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(ok)
         out = [claim_takeaways(ctx)]
         if not tests.empty:
             try:
@@ -310,8 +280,14 @@ class Edges(Experiment):
                                             "in the method's image. Hole rays: rays the paper's transition images "
                                             "give no region (segments-stencil only; it renders their region₀). "
                                             "One untimed frame per run, early termination off."))
-            out.append(_truth_gallery(ok[text_column(ok, "role") == "truth"], ctx))
-            out.append(_gallery(tests, results, ctx))
+            out.append(difference_gallery("The reference's image of each case", ok[text_column(ok, "role") == "truth"],
+                                          ctx, label=lambda row: str(row.case), note=lambda row: "",
+                                          caption="; ".join(f"{name}: {case.what}" for name, case in CASES.items())))
+            out.append(difference_gallery(
+                "Every edge case: each method's image and its difference from the reference", tests, ctx,
+                against=results, label=lambda row: f"{row.case}, {row.config}", note=psnr_note,
+                caption="Left the method's image, right |method − reference| (a hole shows as the cube's colour at "
+                        "full strength)."))
             out.append(linked_table("Every run", tests, ["case", "config", "psnr", "max_error", "count_lens_rays",
                                                          "count_hole_rays"], ctx,
                                     names={"config": "method", "max_error": "max |difference|",

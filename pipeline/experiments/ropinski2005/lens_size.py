@@ -17,13 +17,18 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
+                                            frame_note, frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       lens_coverage, lens_run, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, outside_appearance, without_lens
-from reports import blocks, plots
+from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMES, device_takeaways,
+                                                       lens_coverage, lens_run, lens_settings, raycast_not_measurable,
+                                                       scenes_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
+                                                     overhead_figure, rounded_table, run_table, samples_ratio,
+                                                     scene_by_scene, tests_of)
+from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
+                                                      without_lens)
 
 RADII = (0.05, 0.1, 0.2, 0.3, 0.45, 0.6)
 """Sphere radii, fractions of the volume's longest edge (note 004 §4.2 E5: 0.05 to 0.6)."""
@@ -40,8 +45,6 @@ costs depends on the lens's appearance and on the data behind it."""
 APPEARANCES = {"outside": "the outside appearance", "own": "the scene's own appearance"}
 """What the swept lens shows: the volume's own appearance (so the lens changes only how rays are cut, the
 cost the claim is about) or the scene's lens appearance."""
-
-TIMES = "whole frames (time_total), median over the views of each view's median frame"
 
 
 # ------------------------------------------------------------------------------------------- rows
@@ -97,16 +100,11 @@ def rank_correlation(points):
     return float(frame.rank().corr().iloc[0, 1])
 
 
-def swept_scenes(frame):
-    """The scenes of ``frame``'s rows, in their order."""
-    return list(pd.unique(text_column(frame, "scene")))
-
-
 def slopes(frame, appearance):
     """``({scene: Decision}, {scene: note})``: each scene's slope with ``appearance``, and its points in words."""
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
-    for scene in swept_scenes(frame):
+    for scene in scenes_of(frame):
         points = sweep_points(frame, scene, appearance, resampler=resampler)
         decisions[scene] = slope_decision(points)
         notes[scene] = (f"coverage {format_number(points[0][1])}–{format_number(points[-1][1])} % of the rays, "
@@ -152,9 +150,9 @@ def sweep_table(tests):
     """Per scene, appearance and radius: coverage, frame time, overhead with its interval, samples per region."""
     rows = []
     resampler = intervals.Resampler()
-    for scene in swept_scenes(tests):
+    for scene in scenes_of(tests):
         here = rows_matching(tests, scene, scene=scene)
-        off_samples = median_count(here[text_column(here, "config") == OFF], "count_samples")
+        off = here[text_column(here, "config") == OFF]
         for appearance in APPEARANCES:
             try:
                 points = sweep_points(tests, scene, appearance, resampler=resampler)
@@ -163,12 +161,11 @@ def sweep_table(tests):
             mine = here[text_column(here, "appearance") == appearance]
             for radius, coverage, overhead, draws in points:
                 lens = mine[numeric(mine, "radius") == radius]
-                low, high = intervals.interval_of(draws) or (np.nan, np.nan)
                 rows.append({"scene": scene, "lens shows": appearance, "radius (edge)": radius,
-                             "rays through the lens (%)": coverage,
-                             "frame (ms)": 1e3 * numeric(lens, "time_total").median(), "overhead (%)": overhead,
-                             "95 % CI low (%)": low, "95 % CI high (%)": high,
-                             "samples lens / no lens": median_count(lens, "count_samples") / off_samples,
+                             "rays through the lens (%)": coverage, "frame (ms)": median_ms(lens),
+                             **interval_columns(overhead, intervals.interval_of(draws), "overhead (%)",
+                                                ends=PERCENT_CI),
+                             "samples lens / no lens": samples_ratio(lens, off),
                              **{f"region{i} samples": median_count(lens, f"count_samples_region{i}")
                                 for i in (2, 1, 0)}})
     return pd.DataFrame(rows)
@@ -177,36 +174,31 @@ def sweep_table(tests):
 def _figure(table, ctx):
     if table.empty:
         return []
-    series = table.assign(series=[f"{scene}, {APPEARANCES[a]}" for scene, a in zip(table.scene, table["lens shows"])])
-    path, rel = ctx.plot_path("overhead")
-    plots.lines(series, path, x="rays through the lens (%)", y="overhead (%)", group="series",
-                y_range=("95 % CI low (%)", "95 % CI high (%)"),
-                title="The lens's overhead against the rays it covers",
-                x_label="rays meeting lens ∩ box (% of the rays meeting the box)",
-                y_label="overhead, t(lens) / t(no lens) − 1 (%)",
-                guides=(("no overhead", [0.0, float(table["rays through the lens (%)"].max())], [0.0, 0.0]),))
-    return [blocks.Figure("Overhead against lens coverage", rel,
-                          "One point per radius (small to large, left to right), one line per scene and lens "
-                          "appearance; bars: 95 % paired bootstrap interval (every radius timed together with the "
-                          "lens-off frame). The claim is judged on the outside appearance.")]
+    return overhead_figure(
+        table.assign(series=[f"{scene}, {APPEARANCES[a]}" for scene, a in zip(table.scene, table["lens shows"])]),
+        ctx, "overhead", heading="Overhead against lens coverage", x="rays through the lens (%)",
+        title="The lens's overhead against the rays it covers",
+        x_label="rays meeting lens ∩ box (% of the rays meeting the box)",
+        guides=(("no overhead", [0.0, float(table["rays through the lens (%)"].max())], [0.0, 0.0]),),
+        caption="One point per radius (small to large, left to right), one line per scene and lens appearance; bars: "
+                "95 % paired bootstrap interval (every radius timed together with the lens-off frame). The claim is "
+                "judged on the outside appearance.")
 
 
 def _gallery(tests, ctx):
-    gallery = blocks.Gallery("Headline view at each radius, the lens with the scene's own appearance",
-                             caption="The lens-off image first, then each radius.")
-    headline = tests[text_column(tests, "view") == "headline"]
-    for scene in swept_scenes(headline):
-        here = rows_matching(headline, scene, scene=scene)
-        ordered = pd.concat([here[text_column(here, "config") == OFF],
-                             here[text_column(here, "appearance") == "own"].sort_values("radius")])
-        for row in ordered.itertuples():
-            label = "no lens" if row.config == OFF else f"radius {format_number(row.radius)}"
-            coverage = lens_coverage(here[here.run == row.run])
-            gallery.items.append(blocks.GalleryItem(
-                f"{scene}, {label}", ctx.image(row.png),
-                note=f"{format_number(row.time_total * 1e3)} ms"
-                     + (f", lens on {as_percent(coverage)} of the rays" if np.isfinite(coverage) else "")))
-    return gallery
+    def off_then_radii(here):
+        return pd.concat([here[text_column(here, "config") == OFF],
+                          here[text_column(here, "appearance") == "own"].sort_values("radius")])
+
+    def note(row):
+        coverage = lens_coverage(shown[shown.run == row.run])
+        return frame_note(row) + (f", lens on {as_percent(coverage)} of the rays" if np.isfinite(coverage) else "")
+
+    shown = scene_by_scene(headline(tests), off_then_radii)
+    return difference_gallery(
+        "Headline view at each radius, the lens with the scene's own appearance", shown, ctx, note=note,
+        label=lambda row: f"{row.scene}, {'no lens' if row.config == OFF else f'radius {format_number(row.radius)}'}",
+        caption="The lens-off image first, then each radius.")
 
 
 class LensSize(Experiment):
@@ -250,18 +242,14 @@ class LensSize(Experiment):
         if len(radii) < 3 or radii[0] <= 0:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.radii: expected three different radii "
                              f"> 0 (fractions of the longest edge; the slope needs three points), got {radii}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
-        step = profile.setting(self, "step_factor", STEP)
+        size, image, orbit, step = lens_settings(profile, self)
         method = profile.setting(self, "lens_method", PAPER_METHOD)
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             views = lens_views(scene_name, orbit)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                    "role": "test", "lens_mode": setup.appearance["mode"]}
+            tags = scene_tags(scene_name, image_size=image, role="test",
+                              lens_mode=SETUPS[scene_name].appearance["mode"])
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
             runs.append(lens_run(self.name, f"{scene_name}.{OFF}", without_lens(spec), views, OFF, frames,
                                  {**tags, "appearance": "none"}, step_factor=step, group=scene_name))
@@ -274,24 +262,18 @@ class LensSize(Experiment):
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         out = [claim_takeaways(ctx, device_takeaways(tests), own_takeaways(tests))]
         if not tests.empty:
             table = sweep_table(tests)
-            out += _figure(table, ctx)
-            if not table.empty:
-                out.append(blocks.Table("Overhead and samples per radius", table.round(3), csv_name="size.csv",
-                                        caption="Rays through the lens: rays meeting lens ∩ box over the rays "
-                                                "meeting the box (counted). Overhead with its 95 % paired bootstrap "
-                                                "interval. Samples with the lens over without it, and per region "
-                                                "(counted). " + frames_caption(tests)))
+            out += _figure(table, ctx) + rounded_table(
+                "Overhead and samples per radius", table, csv_name="size.csv",
+                caption="Rays through the lens: rays meeting lens ∩ box over the rays meeting the box (counted). "
+                        "Overhead with its 95 % paired bootstrap interval. Samples with the lens over without it, and "
+                        "per region (counted). " + frames_caption(tests))
             out.append(_gallery(tests, ctx))
-            headline = speed_points(tests[text_column(tests, "view") == "headline"])
-            out.append(linked_table("Every run (headline view)", headline,
-                                    ["scene", "config", "appearance", "radius", "time_ms", "time_ms_min",
-                                     "time_ms_max", "count_lens_rays", "count_rays", "count_samples"], ctx,
-                                    names={"config": "method", "appearance": "lens shows", "radius": "radius (edge)",
-                                           "count_lens_rays": "rays through the lens", "count_rays": "rays",
-                                           "count_samples": "samples"}, csv_name="size_runs.csv"))
+            out.append(run_table(tests, ["scene", "config", "appearance", "radius", "time_ms", "time_ms_min",
+                                         "time_ms_max", "count_lens_rays", "count_rays", "count_samples"], ctx,
+                                 names={"appearance": "lens shows", "radius": "radius (edge)"},
+                                 csv_name="size_runs.csv"))
         return out + raycast_not_measurable([PAPER_METHOD])

@@ -9,13 +9,15 @@ planned, its runs fail with the backend's unknown-option error and the page list
 """
 
 import numpy as np
+import pandas as pd
 
 import renderers
 from pipeline.experiments.kit import pages
+from pipeline.experiments.kit.judging import median_count
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import missing_options, unregistered
-from pipeline.experiments.kit.results import numeric
+from pipeline.experiments.kit.results import numeric, text_column
 
 RAYCAST = "gl-raycast"
 
@@ -37,6 +39,9 @@ METHODS = {
 }
 """The lens methods as ``gl-raycast`` options (note 004 §4.1; issue 24)."""
 
+CONFIGS = tuple(config for config in METHODS if config != "segments-ftb")
+"""Every lens method, region passes back to front: the front-to-back order (E9's) composites the same samples."""
+
 PAPER_METHOD = "segments"
 """The paper's method: the one Table 1's lens runs use."""
 
@@ -57,6 +62,9 @@ REGIONS = {"region2": "region₂ (in front of the lens)", "region1": "region₁ 
            "region0": "region₀ (behind and beside the lens)"}
 """The segments method's region passes, in words (note 004 §2.2)."""
 
+TIMES = "whole frames (time_total), median over the views of each view's median frame"
+"""The scope of the timing claims: the paper's frame rates are of whole frames from views it does not give."""
+
 
 def method_name(config):
     """The words for ``config`` (a key of :data:`METHODS`, or :data:`OFF`)."""
@@ -67,6 +75,13 @@ def method_options(config, *, step_factor=STEP, **extra):
     """``gl-raycast``'s options for ``config`` (a key of :data:`METHODS`, or :data:`OFF`), plus ``extra``."""
     method = {} if config == OFF else METHODS[config][0]
     return {**VARIANT, **method, "step_factor": step_factor, **extra}
+
+
+def lens_settings(profile, experiment):
+    """``(volume size, image size, orbit, step)``: what ``experiment``'s runs take from ``profile``."""
+    return (profile.setting(experiment, "volume_size", profile.volume_size),
+            int(profile.setting(experiment, "image_size", profile.image_size)),
+            int(profile.setting(experiment, "orbit", 0)), profile.setting(experiment, "step_factor", STEP))
 
 
 def lens_run(experiment, run_id, scene_spec, views, config, frames, tags, *, step_factor=STEP, group=None,
@@ -101,6 +116,19 @@ def unknown_methods(configs):
 def raycast_not_measurable(configs=()):
     """The page's note of what this machine lacks: ``gl-raycast``, its lens options, the methods ``configs`` use."""
     return not_measurable(unregistered(RAYCAST) + missing_options(RAYCAST, *OPTIONS) + unknown_methods(configs))
+
+
+def scenes_of(frame):
+    """The scenes of ``frame``'s rows, in their order."""
+    return list(pd.unique(text_column(frame, "scene")))
+
+
+def counted(rows, column, what):
+    """The median count ``column`` of ``rows``; ValueError naming ``what`` where none was counted."""
+    value = median_count(rows, column)
+    if not np.isfinite(value):
+        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
+    return value
 
 
 def lens_coverage(rows):

@@ -23,20 +23,20 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
-                                            frames_caption, linked_table)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
+                                            frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       lens_coverage, lens_run, method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views
+from pipeline.experiments.kit.results import numeric, speed_points, text_column
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMES, device_takeaways,
+                                                       lens_coverage, lens_run, lens_settings, method_name,
+                                                       raycast_not_measurable)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
+                                                     rounded_table, run_table, tests_of)
+from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags
 from reports import blocks, plots
 
 TABLE1_SCENES = tuple(name for name, setup in SETUPS.items() if setup.paper_row)
 """The scenes standing for Table 1's rows (the stand-ins and the real CT head)."""
-
-CONFIGS = ("segments", "segments-stencil", "fused", "per-sample", "per-sample-mask", "frag-depth")
-"""Every lens method, region passes back to front (the front-to-back order is E9's)."""
 
 BASELINES = ("per-sample", "per-sample-mask", "frag-depth")
 """The methods the paper argues against: a test per sample (analytic, or a 3-D mask fetch) and depth-based
@@ -56,8 +56,6 @@ engine's lens scale their table by the same)."""
 DROP_TOLERANCE = 0.01
 """Share of the covered rays by which the early-z counts may miss their bounds (the occluder's edge falls
 through pixel centres the same way in every pass, so they meet them exactly here)."""
-
-TIMES = "whole frames (time_total), median over the views of each view's median frame"
 
 
 def comparable_appearance(setup):
@@ -94,10 +92,15 @@ def _at_image(frame):
     return frame[numeric(frame, "image_size") == image], image
 
 
+def behind_and_open(frame, scene, config):
+    """The rows of ``config`` on ``scene`` with the occluder and without it."""
+    return (config_rows(occluded_rows(frame, "yes"), config, scene=scene),
+            config_rows(occluded_rows(frame, "no"), config, scene=scene))
+
+
 def shaded_share(frame, scene, config):
     """Fragments shaded with the occluder over without it (``fragments_shaded``), ``config`` on ``scene``."""
-    behind = median_count(config_rows(occluded_rows(frame, "yes"), config, scene=scene), "count_fragments_shaded")
-    open_ = median_count(config_rows(occluded_rows(frame, "no"), config, scene=scene), "count_fragments_shaded")
+    behind, open_ = (median_count(rows, "count_fragments_shaded") for rows in behind_and_open(frame, scene, config))
     if not (np.isfinite(behind) and np.isfinite(open_)) or open_ == 0:
         raise ValueError(f"{config} on {scene} counted no shaded fragments (fragments_shaded)")
     return behind / open_
@@ -105,8 +108,7 @@ def shaded_share(frame, scene, config):
 
 def covered_share(frame, scene):
     """The share of the box's rays the occluder covers: ``rays_occluded`` over the rays without it (segments)."""
-    behind = config_rows(occluded_rows(frame, "yes"), PAPER_METHOD, scene=scene)
-    open_ = config_rows(occluded_rows(frame, "no"), PAPER_METHOD, scene=scene)
+    behind, open_ = behind_and_open(frame, scene, PAPER_METHOD)
     rays = median_count(open_, "count_rays")
     occluded = median_count(behind, "count_rays_occluded")
     if not (np.isfinite(rays) and np.isfinite(occluded)) or rays == 0:
@@ -116,8 +118,7 @@ def covered_share(frame, scene):
 
 def occluder_saving(frame, scene, config, *, resampler):
     """``(value, draws)``: time with the occluder over time without it, ``config`` on ``scene`` (paired)."""
-    behind = config_rows(occluded_rows(frame, "yes"), config, scene=scene)
-    open_ = config_rows(occluded_rows(frame, "no"), config, scene=scene)
+    behind, open_ = behind_and_open(frame, scene, config)
     value = numeric(behind, "time_total").median() / numeric(open_, "time_total").median()
     a = intervals.statistic_draws(behind, "time_total", "median", resampler)
     b = intervals.statistic_draws(open_, "time_total", "median", resampler)
@@ -145,10 +146,11 @@ def _faster(occluded, baselines):
             paper = config_rows(rows, PAPER_METHOD, scene=scene)
             for baseline in baselines:
                 label = f"{scene}, {baseline}"
-                decisions[label] = time_ratio(rows, baseline, PAPER_METHOD, resampler=resampler, at_least=STRICTLY_ABOVE_ONE,
-                                              scene=scene)
+                decisions[label] = time_ratio(rows, baseline, PAPER_METHOD, resampler=resampler,
+                                              at_least=STRICTLY_ABOVE_ONE, scene=scene)
                 other = config_rows(rows, baseline, scene=scene)
-                shaded = (median_count(other, "count_fragments_shaded"), median_count(paper, "count_fragments_shaded"))
+                shaded = (median_count(other, "count_fragments_shaded"),
+                          median_count(paper, "count_fragments_shaded"))
                 if all(np.isfinite(shaded)):
                     notes[label] = f"fragments shaded {format_number(shaded[0])} against {format_number(shaded[1])}"
         extra = f"{TIMES}; every method of a scene timed together, frame against frame"
@@ -161,8 +163,7 @@ def _faster(occluded, baselines):
 def dropped_share(frame, scene, config):
     """Fragments the occluder saved ``config`` on ``scene`` (``fragments_shaded`` without it − with it), over
     the rays it covers (``rays_occluded``)."""
-    behind = config_rows(occluded_rows(frame, "yes"), config, scene=scene)
-    open_ = config_rows(occluded_rows(frame, "no"), config, scene=scene)
+    behind, open_ = behind_and_open(frame, scene, config)
     shaded = (median_count(open_, "count_fragments_shaded"), median_count(behind, "count_fragments_shaded"))
     covered = median_count(behind, "count_rays_occluded")
     if not all(np.isfinite(shaded)):
@@ -242,11 +243,10 @@ def method_table(tests):
                 chosen = config_rows(open_, config, scene=scene)
             except ValueError:
                 continue
-            row = {"scene": scene, "method": config, "frame (ms)": 1e3 * numeric(chosen, "time_total").median()}
+            row = {"scene": scene, "method": config, "frame (ms)": median_ms(chosen)}
             try:
                 decision = time_ratio(open_, config, PAPER_METHOD, resampler=resampler, scene=scene)
-                low, high = decision.interval or (np.nan, np.nan)
-                row |= {"time / segments": decision.value, "95 % CI low": low, "95 % CI high": high}
+                row |= interval_columns(decision.value, decision.interval, "time / segments")
             except ValueError:
                 pass
             row |= {"PSNR (dB)": numeric(chosen, "psnr").min() if "psnr" in chosen else np.nan,
@@ -272,10 +272,10 @@ def occluder_table(tests):
                 shaded = shaded_share(tests, scene, config)
             except (KeyError, ValueError):
                 continue
-            low, high = intervals.interval_of(draws) or (np.nan, np.nan)
             rows.append({"scene": scene, "method": config, "rays covered (%)": 100 * covered,
-                         "time with / without (%)": 100 * value, "95 % CI low (%)": 100 * low,
-                         "95 % CI high (%)": 100 * high, "fragments shaded with / without (%)": 100 * shaded})
+                         **interval_columns(value, intervals.interval_of(draws), "time with / without (%)",
+                                            ends=PERCENT_CI, scale=lambda v: 100 * v),
+                         "fragments shaded with / without (%)": 100 * shaded})
     return pd.DataFrame(rows)
 
 
@@ -336,20 +336,6 @@ def _earlyz_figure(table, ctx):
                           "the occluder saved nothing.")]
 
 
-def _gallery(tests, results, ctx):
-    gallery = blocks.Gallery("Headline view: each method's image and its difference from the reference",
-                             diff_scale=DIFF_SCALE,
-                             caption="Left the method's image (no occluder), right |method − reference|.")
-    headline = occluded_rows(tests, "no")
-    headline = headline[text_column(headline, "view") == "headline"]
-    for row in headline.itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.scene}, {row.config}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"{format_number(row.time_total * 1e3)} ms, PSNR {format_number(getattr(row, 'psnr', np.nan))} dB"))
-    return gallery
-
-
 class MethodsCompared(Experiment):
     """Segments against per-sample tests, the mask fetch, depth-based clipping and the fused loop, with an occluder."""
 
@@ -382,10 +368,7 @@ class MethodsCompared(Experiment):
             return []
         wanted = listed(profile, self, "scenes", TABLE1_SCENES, known=SETUPS)
         methods = listed(profile, self, "methods", CONFIGS, known=CONFIGS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
-        step = profile.setting(self, "step_factor", STEP)
+        size, image, orbit, step = lens_settings(profile, self)
         occluder = float(profile.setting(self, "occluder", OCCLUDER))
         frames = timed_frames(profile, self)
         runs = []
@@ -395,52 +378,47 @@ class MethodsCompared(Experiment):
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data, **lens)
             views = lens_views(scene_name, orbit)
             mode = spec["lenses"][0]["appearance"]["mode"]
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                    "lens_mode": mode}
+            tags = scene_tags(scene_name, image_size=image, lens_mode=mode)
             truth = truth_run(self.name, scene_name, spec, views, step, tags, occluded="no")
             runs.append(truth)
-            for method in methods:
-                runs.append(lens_run(self.name, f"{scene_name}.{method}", spec, views, method, frames,
-                                     {**tags, "role": "test", "occluded": "no"}, step_factor=step, group=scene_name,
-                                     reference=truth.id))
-            for method in (m for m in OCCLUDED if m in methods):
-                runs.append(lens_run(self.name, f"{scene_name}.{method}.occluded", spec, views, method, frames,
-                                     {**tags, "role": "test", "occluded": "yes", "occluder": occluder},
-                                     step_factor=step, group=scene_name, options={"occluder": occluder}))
+            runs += [lens_run(self.name, f"{scene_name}.{method}", spec, views, method, frames,
+                              {**tags, "role": "test", "occluded": "no"}, step_factor=step, group=scene_name,
+                              reference=truth.id) for method in methods]
+            runs += [lens_run(self.name, f"{scene_name}.{method}.occluded", spec, views, method, frames,
+                              {**tags, "role": "test", "occluded": "yes", "occluder": occluder}, step_factor=step,
+                              group=scene_name, options={"occluder": occluder})
+                     for method in OCCLUDED if method in methods]
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         out = [claim_takeaways(ctx, device_takeaways(tests), _other_takeaways(tests))]
         if not tests.empty:
-            table = method_table(tests)
-            if not table.empty:
-                out.append(blocks.Table("Every lens method against segments (no occluder)", table.round(3),
-                                        csv_name="methods.csv",
-                                        caption="Median frame time over the views; time / segments with its 95 % "
-                                                "paired bootstrap interval (every method of a scene timed "
-                                                "together); PSNR against the reference (worst view); samples and "
-                                                "fragment-shader invocations counted by the caster. "
-                                                + frames_caption(tests)))
+            out += rounded_table("Every lens method against segments (no occluder)", method_table(tests),
+                                 csv_name="methods.csv",
+                                 caption="Median frame time over the views; time / segments with its 95 % paired "
+                                         "bootstrap interval (every method of a scene timed together); PSNR against "
+                                         "the reference (worst view); samples and fragment-shader invocations counted "
+                                         "by the caster. " + frames_caption(tests))
             out += _speed_accuracy(tests, ctx)
             occluded = occluder_table(tests)
-            if not occluded.empty:
-                out.append(blocks.Table("Behind the occluder: what early-z saves each method", occluded.round(2),
-                                        csv_name="methods_occluder.csv",
-                                        caption="Frame time and fragment-shader invocations with the occluder over "
-                                                "without it (the same method, timed together); rays covered: "
-                                                "rays_occluded over the rays without the occluder."))
-                out += _earlyz_figure(occluded, ctx)
-            out.append(_gallery(tests, results, ctx))
-            headline = speed_points(tests[text_column(tests, "view") == "headline"])
-            out.append(linked_table("Every run (headline view)", headline,
-                                    ["scene", "config", "occluded", "time_ms", "time_ms_min", "time_ms_max", "psnr",
-                                     "count_samples", "count_fragments_shaded", "count_rays", "count_rays_occluded"],
-                                    ctx, names={"config": "method", "occluded": "occluder", "count_samples": "samples",
-                                                "count_fragments_shaded": "fragments shaded", "count_rays": "rays",
-                                                "count_rays_occluded": "rays occluded"},
-                                    csv_name="methods_runs.csv", caption=frames_caption(headline)))
+            out += rounded_table("Behind the occluder: what early-z saves each method", occluded, digits=2,
+                                 csv_name="methods_occluder.csv",
+                                 caption="Frame time and fragment-shader invocations with the occluder over without "
+                                         "it (the same method, timed together); rays covered: rays_occluded over the "
+                                         "rays without the occluder.")
+            out += _earlyz_figure(occluded, ctx)
+            out.append(difference_gallery(
+                "Headline view: each method's image and its difference from the reference",
+                headline(occluded_rows(tests, "no")), ctx, against=results,
+                label=lambda row: f"{row.scene}, {row.config}",
+                caption="Left the method's image (no occluder), right |method − reference|."))
+            out.append(run_table(tests, ["scene", "config", "occluded", "time_ms", "time_ms_min", "time_ms_max",
+                                         "psnr", "count_samples", "count_fragments_shaded", "count_rays",
+                                         "count_rays_occluded"], ctx,
+                                 names={"occluded": "occluder", "count_fragments_shaded": "fragments shaded",
+                                        "count_rays_occluded": "rays occluded"},
+                                 csv_name="methods_runs.csv", caption=frames_caption(headline(tests))))
         return out + raycast_not_measurable(CONFIGS) + _refused(tests)
 
 

@@ -17,13 +17,14 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import DIFF_SCALE, claim_takeaways, format_number, frames_caption, linked_table
+from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, speed_points, text_column
+from pipeline.experiments.kit.results import numeric, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways, lens_run,
-                                                       raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, SETUPS, lens_scene, lens_views
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMES, counted, device_takeaways,
+                                                       lens_run, lens_settings, raycast_not_measurable, scenes_of)
+from pipeline.experiments.ropinski2005.pages import headline, interval_columns, median_ms, run_table, tests_of
+from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, lens_scene, lens_views, scene_tags
 from reports import blocks
 
 FRONT_TO_BACK = "segments-ftb"
@@ -54,16 +55,15 @@ SCENES = {
 """The scenes where region₁ or region₂ is opaque: what changes in the scene's lens (:func:`~.scenes.lens_scene`'s
 keywords) and why."""
 
-TIMES = "whole frames (time_total), median over the views of each view's median frame"
-
 
 def termination_rows(frame, termination):
     """The rows with early termination ``"on"`` (:data:`THRESHOLD`) or ``"off"`` (:data:`NO_TERMINATION`)."""
     return frame[text_column(frame, "termination") == termination]
 
 
-def scenes_of(frame):
-    scenes = list(pd.unique(text_column(frame, "scene")))
+def present_scenes(frame):
+    """The scenes of ``frame``'s rows, in their order; ValueError if none."""
+    scenes = scenes_of(frame)
     if not scenes:
         raise ValueError("no successful run")
     return scenes
@@ -79,21 +79,14 @@ def order_difference(frame, termination, scene):
     return float(values.max())
 
 
-def _count(rows, column, what):
-    value = median_count(rows, column)
-    if not np.isfinite(value):
-        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
-    return value
-
-
 # ------------------------------------------------------------------------------------------------- claims
 def _faster(df):
     rows = termination_rows(df, "on")
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
-    for scene in scenes_of(rows):
-        decisions[scene] = time_ratio(rows, PAPER_METHOD, FRONT_TO_BACK, resampler=resampler, at_least=STRICTLY_ABOVE_ONE,
-                                      scene=scene)
+    for scene in present_scenes(rows):
+        decisions[scene] = time_ratio(rows, PAPER_METHOD, FRONT_TO_BACK, resampler=resampler,
+                                      at_least=STRICTLY_ABOVE_ONE, scene=scene)
         region0 = [median_count(config_rows(rows, c, scene=scene), "count_samples_region0")
                    for c in (PAPER_METHOD, FRONT_TO_BACK)]
         if all(np.isfinite(region0)):
@@ -106,9 +99,9 @@ def _faster(df):
 def _fewer_samples(df):
     rows = termination_rows(df, "on")
     compared, wrong = [], []
-    for scene in scenes_of(rows):
-        back = _count(config_rows(rows, PAPER_METHOD, scene=scene), "count_samples_region0", f"{scene} back to front")
-        front = _count(config_rows(rows, FRONT_TO_BACK, scene=scene), "count_samples_region0", f"{scene} front to back")
+    for scene in present_scenes(rows):
+        back, front = (counted(config_rows(rows, config, scene=scene), "count_samples_region0", f"{scene} {order}")
+                       for config, order in ((PAPER_METHOD, "back to front"), (FRONT_TO_BACK, "front to back")))
         compared.append((front / back if back else np.inf, scene, front, back))
         if not front < back:
             wrong.append(scene)
@@ -120,7 +113,7 @@ def _fewer_samples(df):
 
 
 def _same_image(df):
-    differences = {scene: order_difference(df, "off", scene) for scene in scenes_of(termination_rows(df, "off"))}
+    differences = {scene: order_difference(df, "off", scene) for scene in present_scenes(termination_rows(df, "off"))}
     scene = max(differences, key=differences.get)
     return ClaimResult(f"{format_number(differences[scene])} ({scene})",
                        all(v <= SEAM_TOLERANCE for v in differences.values()),
@@ -131,7 +124,7 @@ def _same_image(df):
 
 def _drops_only_terminated(df):
     bound = 1.0 - THRESHOLD
-    differences = {scene: order_difference(df, "on", scene) for scene in scenes_of(termination_rows(df, "on"))}
+    differences = {scene: order_difference(df, "on", scene) for scene in present_scenes(termination_rows(df, "on"))}
     scene = max(differences, key=differences.get)
     return ClaimResult(f"{format_number(differences[scene])} ({scene})",
                        all(v <= bound for v in differences.values()),
@@ -170,11 +163,9 @@ def order_table(tests):
                 back, front = (config_rows(part, c, scene=scene) for c in (PAPER_METHOD, FRONT_TO_BACK))
             except (KeyError, ValueError):
                 continue
-            low, high = decision.interval or (np.nan, np.nan)
-            row = {"scene": scene, "early termination": termination,
-                   "back to front (ms)": 1e3 * numeric(back, "time_total").median(),
-                   "front to back (ms)": 1e3 * numeric(front, "time_total").median(),
-                   "back / front": decision.value, "95 % CI low": low, "95 % CI high": high}
+            row = {"scene": scene, "early termination": termination, "back to front (ms)": median_ms(back),
+                   "front to back (ms)": median_ms(front),
+                   **interval_columns(decision.value, decision.interval, "back / front")}
             for region in ("region2", "region1", "region0"):
                 for name, rows_ in (("back", back), ("front", front)):
                     row[f"{region} samples, {name}"] = median_count(rows_, f"count_samples_{region}")
@@ -184,19 +175,6 @@ def order_table(tests):
                 row["max |front − back|"] = np.nan
             rows.append(row)
     return pd.DataFrame(rows)
-
-
-def _gallery(tests, results, ctx):
-    gallery = blocks.Gallery("Front to back against back to front (headline view)", diff_scale=DIFF_SCALE,
-                             caption="Left the front-to-back image, right |front to back − back to front| (early "
-                                     "termination on, then off).")
-    front = tests[(text_column(tests, "config") == FRONT_TO_BACK) & (text_column(tests, "view") == "headline")]
-    for row in front.itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.scene}, early termination {row.termination}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"max difference {format_number(getattr(row, 'max_error', np.nan))}"))
-    return gallery
 
 
 class Order(Experiment):
@@ -227,19 +205,14 @@ class Order(Experiment):
         if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
             return []
         wanted = listed(profile, self, "scenes", tuple(SCENES), known=SCENES)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
-        step = profile.setting(self, "step_factor", STEP)
+        size, image, orbit, step = lens_settings(profile, self)
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             lens, why = SCENES[scene_name]
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data, **lens)
             views = lens_views(scene_name, orbit)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                    "role": "test", "opaque": why}
+            tags = scene_tags(scene_name, image_size=image, role="test", opaque=why)
             for termination, threshold in (("on", THRESHOLD), ("off", NO_TERMINATION)):
                 suffix = "" if termination == "on" else ".all"
                 back = lens_run(self.name, f"{scene_name}.back{suffix}", spec, views, PAPER_METHOD, frames,
@@ -251,8 +224,7 @@ class Order(Experiment):
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         out = [claim_takeaways(ctx, device_takeaways(tests))]
         if not tests.empty:
             out.append(blocks.Table("Both orders, with and without early termination", order_table(tests).round(4),
@@ -261,12 +233,16 @@ class Order(Experiment):
                                             "bootstrap interval; samples per region counted by the caster; max "
                                             "|front − back| over every pixel and RGBA channel. "
                                             + frames_caption(tests)))
-            out.append(_gallery(tests, results, ctx))
-            headline = speed_points(tests[text_column(tests, "view") == "headline"])
-            out.append(linked_table("Every run (headline view)", headline,
-                                    ["scene", "config", "termination", "time_ms", "time_ms_min", "time_ms_max",
-                                     "count_samples", "count_samples_region0", "max_error"], ctx,
-                                    names={"config": "method", "termination": "early termination",
-                                           "count_samples": "samples", "count_samples_region0": "region₀ samples",
-                                           "max_error": "max |front − back|"}, csv_name="order_runs.csv"))
+            front = headline(tests)
+            out.append(difference_gallery(
+                "Front to back against back to front (headline view)",
+                front[text_column(front, "config") == FRONT_TO_BACK], ctx, against=results,
+                label=lambda row: f"{row.scene}, early termination {row.termination}",
+                note=lambda row: f"max difference {format_number(getattr(row, 'max_error', np.nan))}",
+                caption="Left the front-to-back image, right |front to back − back to front| (early termination on, "
+                        "then off)."))
+            out.append(run_table(tests, ["scene", "config", "termination", "time_ms", "time_ms_min", "time_ms_max",
+                                         "count_samples", "count_samples_region0", "max_error"], ctx,
+                                 names={"termination": "early termination", "max_error": "max |front − back|"},
+                                 csv_name="order_runs.csv"))
         return out + raycast_not_measurable([PAPER_METHOD, FRONT_TO_BACK])

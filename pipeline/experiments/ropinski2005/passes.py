@@ -15,12 +15,14 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES, STEP,
-                                                       device_takeaways, lens_coverage, lens_run, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views
+from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES,
+                                                       device_takeaways, lens_coverage, lens_run, lens_settings,
+                                                       raycast_not_measurable)
+from pipeline.experiments.ropinski2005.pages import headline, interval_columns, run_table, tests_of
+from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags
 from reports import blocks, plots
 
 GEOMETRY_SHARE = 0.10
@@ -105,9 +107,9 @@ def share_points(tests):
                 decision = stage_share(here, stage, resampler=resampler)
             except (KeyError, ValueError):
                 continue
-            low, high = decision.interval or (np.nan, np.nan)
             points.append({"stage": label, "scene": scene, "coverage": 100 * lens_coverage(here),
-                           "share": 100 * decision.value, "low": 100 * low, "high": 100 * high})
+                           **interval_columns(decision.value, decision.interval, "share", ends=("low", "high"),
+                                              scale=lambda v: 100 * v)})
     return pd.DataFrame(points)
 
 
@@ -174,36 +176,24 @@ class Passes(Experiment):
         if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
             return []
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
-        step = profile.setting(self, "step_factor", STEP)
+        size, image, orbit, step = lens_settings(profile, self)
         method = profile.setting(self, "lens_method", PAPER_METHOD)
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                    "role": "test"}
             runs.append(lens_run(self.name, f"{scene_name}.{method}", spec, lens_views(scene_name, orbit), method,
-                                 frames, tags, step_factor=step, group=GROUP))
+                                 frames, scene_tags(scene_name, image_size=image, role="test"), step_factor=step,
+                                 group=GROUP))
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         out = [claim_takeaways(ctx, device_takeaways(tests))]
         methods = sorted(set(text_column(tests, "config"))) if not tests.empty else [PAPER_METHOD]
         if not tests.empty:
-            headline = tests[text_column(tests, "view") == "headline"]
-            out += _pass_blocks(headline, ctx)
-            out.append(linked_table("Every run (headline view)", headline.assign(time_ms=headline.time_total * 1e3),
-                                    ["scene", "time_ms", "count_samples", "count_samples_region0",
-                                     "count_samples_region1", "count_samples_region2", "count_lens_rays"], ctx,
-                                    names={"count_samples": "samples", "count_samples_region0": "region₀ samples",
-                                           "count_samples_region1": "region₁ samples",
-                                           "count_samples_region2": "region₂ samples",
-                                           "count_lens_rays": "rays through the lens"},
-                                    csv_name="passes_runs.csv"))
+            out += _pass_blocks(headline(tests), ctx)
+            out.append(run_table(tests, ["scene", "time_ms", "count_samples", "count_samples_region0",
+                                         "count_samples_region1", "count_samples_region2", "count_lens_rays"], ctx,
+                                 csv_name="passes_runs.csv"))
         return out + raycast_not_measurable(methods)

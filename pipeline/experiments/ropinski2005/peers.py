@@ -21,20 +21,19 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, format_number, frames_caption,
-                                            linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
+                                            frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, measured_rows
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       lens_run)
-from pipeline.experiments.ropinski2005.scenes import lens_scene, lens_views, setup_of, without_lens
+                                                       lens_run, lens_settings)
+from pipeline.experiments.ropinski2005.pages import CI, headline, interval_columns, median_ms, psnr_note
+from pipeline.experiments.ropinski2005.scenes import lens_scene, lens_views, scene_tags, without_lens
 from reports import blocks, plots
 
 VTK = "vtk-gpu"
 SHEARWARP = "shearwarp"
-
-ACCURACY_PSNR = 40.0
-"""dB: issue 24's accuracy target for a lens image against the reference, applied to the peers too."""
 
 SCENES = ("seismic", "skull", "engine", "seismic-cutaway")
 """The scenes: three of Table 1's and Fig. 1's (the foot's iso lens has no peer: VTK's label map and
@@ -93,10 +92,8 @@ def overhead(frame, scene, config, *, resampler):
 
 def lens_psnr(frame, scene, config):
     """The worst PSNR over the views of ``config``'s lens image of ``scene`` against the reference."""
-    values = numeric(rows_matching(frame, scene, scene=scene, config=config, lens="on"), "psnr")
-    if values.notna().sum() == 0:
-        raise ValueError(f"no lens image of {config} on {scene} compared with the reference")
-    return float(values.min())
+    return float(measured_rows(rows_matching(frame, scene, scene=scene, config=config, lens="on"), "psnr",
+                               f"no lens image of {config} on {scene} compared with the reference").psnr.min())
 
 
 def psnr_cost(frame, scene, config):
@@ -141,11 +138,9 @@ def summary_table(tests):
         except (KeyError, ValueError):
             continue
         off = rows_matching(tests, scene, scene=scene, implementation=implementation(config), lens="off")
-        low, high = decision.interval or (np.nan, np.nan)
-        row = {"scene": scene, "implementation": config_words(config),
-               "ms, no lens": 1e3 * numeric(off, "time_total").median(),
-               "ms, lens": 1e3 * numeric(on, "time_total").median(),
-               "time ratio lens / no lens": decision.value, "95 % CI low": low, "95 % CI high": high,
+        row = {"scene": scene, "implementation": config_words(config), "ms, no lens": median_ms(off),
+               "ms, lens": median_ms(on),
+               **interval_columns(decision.value, decision.interval, "time ratio lens / no lens"),
                "PSNR with the lens (dB)": float(numeric(on, "psnr").min()) if "psnr" in on else np.nan,
                "PSNR without it (dB)": float(numeric(off, "psnr").min()) if "psnr" in off else np.nan}
         moved = sum(numeric(on, c).median() for c in PREPARATION if c in on and numeric(on, c).notna().any())
@@ -159,18 +154,16 @@ def _takeaways(tests):
     out = []
     resampler = intervals.Resampler()
     for config in pd.unique(text_column(tests[text_column(tests, "lens") == "on"], "config")):
-        words = []
+        words, costs = [], []
         for scene in pd.unique(text_column(tests, "scene")):
             try:
                 words.append(f"{scene} {decision_words(overhead(tests, scene, config, resampler=resampler))}")
             except (KeyError, ValueError):
-                continue
-        costs = []
-        for scene in pd.unique(text_column(tests, "scene")):
+                pass
             try:
                 costs.append(psnr_cost(tests, scene, config))
             except (KeyError, ValueError):
-                continue
+                pass
         costs = [c for c in costs if np.isfinite(c)]
         if words:
             accuracy = (f"; its PSNR against the reference changes by {signed(-max(costs))} to {signed(-min(costs))} "
@@ -192,7 +185,7 @@ def _figure(table, ctx):
     path, rel = ctx.plot_path("peers-overhead-accuracy")
     plots.speed_accuracy(table, path, time_col="time ratio lens / no lens", error_col="PSNR with the lens (dB)",
                          group_col="implementation", label_col="scene", log_x=False, log_y=False, join=False,
-                         time_range_cols=("95 % CI low", "95 % CI high"), better="upper left",
+                         time_range_cols=CI, better="upper left",
                          x_label="frame time with the lens / without it (ratio)",
                          y_label="PSNR with the lens against the reference (dB)",
                          title="What the lens costs each implementation: time and accuracy")
@@ -201,18 +194,6 @@ def _figure(table, ctx):
                          "together in the implementation's own job (bars: its 95 % bootstrap interval), against the "
                          "PSNR of the lens image against the reference. Overheads compare across implementations; "
                          "absolute times, taken in different jobs and stacks, do not.")
-
-
-def _gallery(tests, results, ctx):
-    gallery = blocks.Gallery("Headline view: each implementation's lens image against the reference",
-                             diff_scale=DIFF_SCALE, caption="Left the image with the lens, right |it − reference|.")
-    lens = tests[(text_column(tests, "lens") == "on") & (text_column(tests, "view") == "headline")]
-    for row in lens.sort_values(["scene", "config"]).itertuples():
-        gallery.items.append(blocks.GalleryItem(
-            f"{row.scene}, {config_words(row.config)}", ctx.image(row.png),
-            difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB"))
-    return gallery
 
 
 class Peers(Experiment):
@@ -244,16 +225,13 @@ class Peers(Experiment):
             return []
         wanted = listed(profile, self, "scenes", SCENES, known=SCENES)
         peers = listed(profile, self, "peers", tuple(PEERS), known=PEERS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
+        size, image, orbit, _ = lens_settings(profile, self)
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = setup_of(scene_name)
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
             views = lens_views(scene_name, orbit)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset}
+            tags = scene_tags(scene_name)
             truth = truth_run(self.name, scene_name, spec, views, STEP, {**tags, "config": "reference"})
             truth_off = truth_run(self.name, scene_name, without_lens(spec), views, STEP,
                                   {**tags, "config": "reference"}, suffix=f".{OFF}")
@@ -307,6 +285,11 @@ class Peers(Experiment):
                                     ["scene", "implementation", "lens", "view", "time_ms", "time_ms_min",
                                      "time_ms_max", "psnr"], ctx, csv_name="peers_runs.csv",
                                     caption=frames_caption(points)))
-            out.append(_gallery(tests, results, ctx))
+            lens = headline(tests)
+            out.append(difference_gallery(
+                "Headline view: each implementation's lens image against the reference",
+                lens[text_column(lens, "lens") == "on"].sort_values(["scene", "config"]), ctx, against=results,
+                label=lambda row: f"{row.scene}, {config_words(row.config)}", note=psnr_note,
+                caption="Left the image with the lens, right |it − reference|."))
         missing = unregistered(VTK, SHEARWARP)
         return out + not_measurable(missing)

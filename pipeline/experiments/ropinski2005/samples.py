@@ -14,12 +14,14 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import claim_takeaways, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STEP,
-                                                       lens_run, method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, outside_appearance, without_lens
+from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, REGIONS,
+                                                       lens_run, lens_settings, method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.pages import headline, run_table, tests_of
+from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
+                                                      without_lens)
 from reports import blocks, plots
 
 COUNTED = {"opaque_threshold": 1.0}
@@ -45,6 +47,15 @@ def _pairs(df, appearance):
     return pairs
 
 
+def _worst(wrong, words, otherwise):
+    """The largest of ``wrong``, ``(size, detail, config, scene, view)`` tuples, as ``words(size, detail)`` and where;
+    ``otherwise`` where none."""
+    if not wrong:
+        return otherwise
+    size, detail, config, scene, view = max(wrong)
+    return f"{words(size, detail)} ({config}, {scene}, {view})"
+
+
 def _count(row, column):
     value = float(getattr(row, column, np.nan))
     if not np.isfinite(value):
@@ -63,11 +74,8 @@ def _invariant(df):
     words = "; ".join(f"{c}: {len(d)} views, " + ("equal" if not any(d) else
                                                  f"differences {', '.join(format_number(x, 4) for x in d if x)}")
                       for c, d in detail.items())
-    if unequal:
-        _, difference, config, scene, view = max(unequal)
-        measured = f"{format_number(difference, 4)} samples ({config}, {scene}, {view})"
-    else:
-        measured = f"equal on {sum(map(len, detail.values()))} views"
+    measured = _worst(unequal, lambda _, difference: f"{format_number(difference, 4)} samples",
+                      f"equal on {sum(map(len, detail.values()))} views")
     return ClaimResult(measured, not unequal, words + "; early termination off (opacity threshold 1)")
 
 
@@ -90,11 +98,8 @@ def _partition(df):
             wrong.append((abs(difference), difference, config, scene, view))
     if not checked:
         raise ValueError("no outside-appearance run counted samples per region (samples_region0–2)")
-    if wrong:
-        _, difference, config, scene, view = max(wrong)
-        measured = f"regions − no lens = {format_number(difference, 4)} samples ({config}, {scene}, {view})"
-    else:
-        measured = f"equal on {len(checked)} views"
+    measured = _worst(wrong, lambda _, difference: f"regions − no lens = {format_number(difference, 4)} samples",
+                      f"equal on {len(checked)} views")
     return ClaimResult(measured, not wrong, f"methods counting regions: {', '.join(dict.fromkeys(checked))}")
 
 
@@ -120,11 +125,8 @@ def _outside_unchanged(df):
                 wrong.append((abs(own[index] - control[index]), f"region{index}", row.config, row.scene, row.view))
     if not checked:
         raise ValueError("no lens-appearance run beside an outside-appearance run, both counting regions")
-    if wrong:
-        difference, region, config, scene, view = max(wrong)
-        measured = f"{region} differs by {format_number(difference, 4)} samples ({config}, {scene}, {view})"
-    else:
-        measured = f"region₀ and region₂ equal on {checked} views"
+    measured = _worst(wrong, lambda difference, region: f"{region} differs by {format_number(difference, 4)} samples",
+                      f"region₀ and region₂ equal on {checked} views")
     return ClaimResult(measured, not wrong, "; ".join(inside))
 
 
@@ -146,10 +148,10 @@ CLAIMS = (
 def sample_table(tests):
     """Per scene and method: samples without the lens, with the outside appearance and with its own, by region."""
     rows = []
-    headline = tests[text_column(tests, "view") == "headline"]
-    off = headline[text_column(headline, "appearance") == "none"]
-    for (scene, config), part in headline[text_column(headline, "appearance") != "none"].groupby(["scene", "config"],
-                                                                                               sort=False):
+    shown = headline(tests)
+    off = shown[text_column(shown, "appearance") == "none"]
+    for (scene, config), part in shown[text_column(shown, "appearance") != "none"].groupby(["scene", "config"],
+                                                                                         sort=False):
         row = {"scene": scene, "method": method_name(config),
                "no lens": numeric(off[off.scene == scene], "count_samples").median()}
         for appearance in ("outside", "lens"):
@@ -164,8 +166,7 @@ def sample_table(tests):
 
 def _region_figure(tests, ctx):
     """Samples per region and scene with the lens's own appearance (the paper's method), as bars."""
-    own = tests[(text_column(tests, "appearance") == "lens") & (text_column(tests, "view") == "headline")
-                & (text_column(tests, "config") == PAPER_METHOD)]
+    own = rows_matching(headline(tests), "the paper's method's lens", appearance="lens", config=PAPER_METHOD)
     if own.empty or not all(column in own for column in REGION_COLUMNS):
         return []
     bars = pd.DataFrame({"scene": own.scene.to_numpy()})
@@ -199,24 +200,18 @@ class Samples(Experiment):
         "and with the lens's own appearance. Counts do not depend on the machine, so every claim is exact."
     )
     claims = CLAIMS
-    CONFIGS = tuple(config for config in METHODS if config != "segments-ftb")
-    """Every lens method; the front-to-back region order samples as back-to-front does."""
 
     def runs(self, profile):
         if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
             return []
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
-        methods = listed(profile, self, "methods", self.CONFIGS, known=METHODS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        orbit = int(profile.setting(self, "orbit", 0))
-        step = profile.setting(self, "step_factor", STEP)
+        methods = listed(profile, self, "methods", CONFIGS, known=METHODS)
+        size, image, orbit, step = lens_settings(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
             views = lens_views(scene_name, orbit)
-            tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "role": "test"}
+            tags = scene_tags(scene_name, role="test")
             # One job per scene (an interleave group of single untimed frames): a job's start costs more than
             # such a frame, and counts do not depend on what ran beside them.
             runs.append(lens_run(self.name, f"{scene_name}.{OFF}", without_lens(spec), views, OFF, UNTIMED,
@@ -229,20 +224,16 @@ class Samples(Experiment):
         return runs
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         out = [claim_takeaways(ctx)]
-        methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else list(self.CONFIGS)
+        methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else list(CONFIGS)
         if not tests.empty:
             out += _region_figure(tests, ctx)
             out.append(blocks.Table("Samples per frame (headline view)", sample_table(tests), csv_name="samples.csv",
                                     caption="Counted by the caster, early termination off: every sample of every "
                                             "ray's span. Region columns only for the methods that count regions."))
-            headline = tests[text_column(tests, "view") == "headline"]
-            out.append(linked_table("Every run (headline view)", headline.assign(
-                method=[method_name(c) for c in text_column(headline, "config")]),
-                ["scene", "method", "appearance", "count_samples", *REGION_COLUMNS, "count_lens_rays"], ctx,
-                names={"count_samples": "samples", REGION_COLUMNS[0]: "region₀", REGION_COLUMNS[1]: "region₁",
-                       REGION_COLUMNS[2]: "region₂", "count_lens_rays": "rays through the lens"},
-                csv_name="samples_runs.csv"))
+            out.append(run_table(tests, ["scene", "method", "appearance", "count_samples", *REGION_COLUMNS,
+                                         "count_lens_rays"], ctx, timed=False, method=method_name,
+                                 names={REGION_COLUMNS[0]: "region₀", REGION_COLUMNS[1]: "region₁",
+                                        REGION_COLUMNS[2]: "region₂"}, csv_name="samples_runs.csv"))
         return out + raycast_not_measurable(methods)

@@ -171,6 +171,12 @@ def setup_of(name):
     return setups[name]
 
 
+def scene_tags(name, **more):
+    """The tags of a run of lens scene ``name``: the scene, its data set and preset, then ``more``."""
+    setup = setup_of(name)
+    return {"scene": name, "dataset": setup.dataset, "preset": setup.preset, **more}
+
+
 def lens_scene(name, image, *, size, real_data=None, width=None, **lens):
     """The scene mapping of lens scene ``name``: ``image`` pixels high, phantoms of ``size`` voxels.
 

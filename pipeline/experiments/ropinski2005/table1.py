@@ -13,22 +13,20 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 
-from pipeline.experiments.kit.judging import all_of, decision_words, median_count
+from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, format_number, frames_caption,
-                                            linked_table)
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       lens_coverage, lens_run, method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, without_lens
+from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, TIMES,
+                                                       device_takeaways, lens_coverage, lens_run, method_name,
+                                                       raycast_not_measurable, scenes_of)
+from pipeline.experiments.ropinski2005.pages import (headline, interval_columns, median_ms, run_table, samples_ratio,
+                                                     tests_of)
+from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags, without_lens
 from pipeline.experiments.ropinski2005.tables import (PAPER_DEVICE, PAPER_SIZES, TABLE1, derived_table, paper_drop,
                                                       paper_fps, paper_time_ratio)
 from reports import blocks, plots
-
-TIMES = "whole frames (time_total), median over the views of each view's median frame"
-"""The scope of the overheads: the paper's frame rates are of whole frames from views it does not give."""
-
 
 # ------------------------------------------------------------------------------------------- rows and ratios
 def image_sizes(frame):
@@ -54,11 +52,6 @@ def overhead(frame, scene, image, *, resampler, at_most=None):
 def drop(ratio):
     """The fps drop ``1 − fps_lens / fps_no_lens`` of a frame-time ratio ``t_lens / t_no_lens``."""
     return 1.0 - 1.0 / ratio
-
-
-def scenes_of(frame):
-    """The scenes of ``frame``'s rows, in their order."""
-    return list(pd.unique(text_column(frame, "scene")))
 
 
 def _paper_scenes(frame):
@@ -125,7 +118,6 @@ def overhead_table(tests):
                 on, off = (lens_rows(tests, scene, image, lens) for lens in ("on", "off"))
             except (KeyError, ValueError):
                 continue
-            low, high = decision.interval or (np.nan, np.nan)
             paper_image = PAPER_SIZES[0] if position == 0 and len(sizes) > 1 else PAPER_SIZES[-1]
             row = {"scene": scene, "image (px)": image, "paper row": setup.paper_row or "not in Table 1",
                    "paper viewport (px)": paper_image if setup.paper_row else np.nan}
@@ -133,12 +125,12 @@ def overhead_table(tests):
                 row |= {"paper fps, no lens": paper_fps(setup.paper_row, paper_image, False),
                         "paper fps, lens": paper_fps(setup.paper_row, paper_image, True),
                         "paper fps drop (%)": round(100 * paper_drop(setup.paper_row, paper_image), 1)}
-            row |= {"ours ms, no lens": 1e3 * numeric(off, "time_total").median(),
-                    "ours ms, lens": 1e3 * numeric(on, "time_total").median(),
-                    "ours time ratio": decision.value, "ratio 95 % CI low": low, "ratio 95 % CI high": high,
+            row |= {"ours ms, no lens": median_ms(off), "ours ms, lens": median_ms(on),
+                    **interval_columns(decision.value, decision.interval, "ours time ratio",
+                                       ends=("ratio 95 % CI low", "ratio 95 % CI high")),
                     "ours fps drop (%)": 100 * drop(decision.value),
                     "rays through the lens (%)": 100 * lens_coverage(on),
-                    "samples lens / no lens": median_count(on, "count_samples") / median_count(off, "count_samples")}
+                    "samples lens / no lens": samples_ratio(on, off)}
             rows.append(row)
     return pd.DataFrame(rows)
 
@@ -186,9 +178,10 @@ def _gallery(tests, ctx):
     largest = image_sizes(tests)[-1]
     gallery = blocks.Gallery(f"Headline view at {largest}²: each scene with its lens and without",
                              caption="Left with the lens (the paper's method), right without it.")
-    headline = tests[(text_column(tests, "view") == "headline") & (numeric(tests, "image_size") == largest)]
-    for scene in scenes_of(headline):
-        on, off = (rows_matching(headline, scene, scene=scene, lens=lens) for lens in ("on", "off"))
+    shown = headline(tests)
+    shown = shown[numeric(shown, "image_size") == largest]
+    for scene in scenes_of(shown):
+        on, off = (rows_matching(shown, scene, scene=scene, lens=lens) for lens in ("on", "off"))
         if on.empty:
             continue
         row = on.iloc[0]
@@ -241,12 +234,10 @@ class Table1(Experiment):
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
             views = lens_views(scene_name, orbit)
             for image in sizes:
                 spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
-                tags = {"scene": scene_name, "dataset": setup.dataset, "preset": setup.preset, "image_size": image,
-                        "role": "test"}
+                tags = scene_tags(scene_name, image_size=image, role="test")
                 runs.append(lens_run(self.name, f"{scene_name}.{image}.{OFF}", without_lens(spec), views, OFF, frames,
                                      {**tags, "lens": "off"}, step_factor=step, group=scene_name))
                 runs.append(lens_run(self.name, f"{scene_name}.{image}.{method}", spec, views, method, frames,
@@ -257,8 +248,7 @@ class Table1(Experiment):
         return pd.DataFrame(derived_table()).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tests_of(results)
         out = [claim_takeaways(ctx, device_takeaways(tests), _other_takeaways(tests))]
         methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else [PAPER_METHOD]
         if not tests.empty:
@@ -275,13 +265,9 @@ class Table1(Experiment):
                             "samples: all samples taken with the lens over without it (a clip lens skips its "
                             "own)."))
                 out.append(_overhead_figure(table, ctx))
-            headline = speed_points(tests[text_column(tests, "view") == "headline"])
-            headline["method"] = [method_name(c) for c in text_column(headline, "config")]
-            out.append(linked_table("Every run (headline view)", headline,
-                                    ["scene", "image_size", "method", "time_ms", "time_ms_min", "time_ms_max",
-                                     "count_samples", "count_lens_rays", "count_rays"], ctx,
-                                    names={"image_size": "image (px)", "count_samples": "samples",
-                                           "count_lens_rays": "rays through the lens", "count_rays": "rays"},
-                                    csv_name="table1_runs.csv", caption=frames_caption(headline)))
+            out.append(run_table(tests, ["scene", "image_size", "method", "time_ms", "time_ms_min", "time_ms_max",
+                                         "count_samples", "count_lens_rays", "count_rays"], ctx, method=method_name,
+                                 names={"image_size": "image (px)"}, csv_name="table1_runs.csv",
+                                 caption=frames_caption(headline(tests))))
             out.append(_gallery(tests, ctx))
         return out + raycast_not_measurable(methods)

@@ -16,7 +16,7 @@ import pandas as pd
 import renderers
 from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, format_number, linked_table
+from pipeline.experiments.kit.pages import DIFF_SCALE, difference_gallery, format_number, linked_table
 from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
 from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, axis_reason, backend_options, points, short
@@ -375,14 +375,9 @@ def _axis_blocks(axis, rows, results, ctx, plots):
     out = [blocks.Figure(f"{axis.words.split(' (')[0].capitalize()} on {axis.scene_words}", rel,
                          f"PSNR against the reference at each point, one line per technique; grey lines at "
                          f"{PSNR_BREAKS:g} dB (breaks) and {PSNR_GOOD:g} dB (accurate).", anchor=f"atlas-{axis.key}")]
-    gallery = blocks.Gallery(f"{axis.words.split(' (')[0].capitalize()}: each technique's worst point",
-                             diff_scale=DIFF_SCALE)
-    for backend, mine in rows.groupby("backend"):
-        worst = mine.loc[mine.psnr.idxmin()]
-        gallery.items.append(blocks.GalleryItem(
-            caption=f"{backend} at {axis.point(worst.value)}", image=ctx.image(worst.png),
-            difference=ctx.difference(reference_exr(results, worst), worst.exr, DIFF_SCALE),
-            note=f"PSNR {format_number(worst.psnr)} dB" + (f", FLIP {format_number(worst.flip)}"
-                                                           if pd.notna(worst.flip) else "")))
-    out.append(gallery)
-    return out
+    worst = rows.loc[[mine.psnr.idxmin() for _, mine in rows.groupby("backend")]]
+    return out + [difference_gallery(
+        f"{axis.words.split(' (')[0].capitalize()}: each technique's worst point", worst, ctx, against=results,
+        label=lambda row: f"{row.backend} at {axis.point(row.value)}",
+        note=lambda row: f"PSNR {format_number(row.psnr)} dB" + (f", FLIP {format_number(row.flip)}"
+                                                                 if pd.notna(row.flip) else ""))]

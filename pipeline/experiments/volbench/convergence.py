@@ -9,9 +9,8 @@ import pandas as pd
 
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, METRICS, format_number, linked_table, ms
+from pipeline.experiments.kit.pages import METRICS, difference_gallery, format_number, linked_table, ms
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, voxels
-from pipeline.experiments.kit.results import reference_exr
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, takeaways
 
@@ -118,14 +117,12 @@ class ReferenceConvergence(Experiment):
                           y_label=f"RMSE against a {truth}-voxel render (intensity 0–1)")
         times = ms(ok)
         timed = pd.concat([ok, times], axis=1).sort_values(["scene", "step_factor"])
-        gallery = blocks.Gallery("Coarsest and default steps against the finest render", diff_scale=DIFF_SCALE,
-                                 caption="Left each render, right its difference from the finest render.")
-        for row in ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].sort_values(["scene", "step_factor"]).itertuples():
-            gallery.items.append(blocks.GalleryItem(
-                caption=f"{row.scene}, step {row.step_factor:g} voxel", image=ctx.image(row.png),
-                difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                note=f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} dB, "
-                     f"largest error {format_number(row.max_error)}"))
+        shown = ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].sort_values(["scene", "step_factor"])
+        gallery = difference_gallery("Coarsest and default steps against the finest render", shown, ctx,
+                                     against=results, label=lambda row: f"{row.scene}, step {row.step_factor:g} voxel",
+                                     caption="Left each render, right its difference from the finest render.",
+                                     note=lambda row: f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} "
+                                                      f"dB, largest error {format_number(row.max_error)}")
         return [blocks.Takeaways(_convergence_takeaways(ok, orders)),
                 blocks.Figure("Error against step size (log–log)", rel,
                               f"RMSE against a {truth}-voxel render, one line per scene; grey guide lines of "

@@ -18,10 +18,11 @@ import pandas as pd
 import renderers
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, METRICS, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, format_number,
+                                            linked_table)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, headline_view, listed, phantom, scene, timed_frames,
                                                truth_run)
-from pipeline.experiments.kit.results import ok_rows, reference_exr, speed_points
+from pipeline.experiments.kit.results import ok_rows, speed_points
 from reports import blocks, plots, takeaways
 
 VTK_GPU, VTK_CPU = "vtk-gpu", "vtk-cpu"
@@ -163,15 +164,10 @@ class Peers(Experiment):
                                          "One series per scene, each point one backend (labelled); higher and "
                                          "further left is better."))
             largest = timed[timed.image_size == timed.image_size.max()]
-            for scene_name, group in largest.groupby("scene"):
-                gallery = blocks.Gallery(f"{scene_name} at {int(group.image_size.iloc[0])}²: every backend and its "
-                                         "difference from the reference", diff_scale=DIFF_SCALE)
-                for row in group.sort_values("time_total").itertuples():
-                    gallery.items.append(blocks.GalleryItem(
-                        row.technique, ctx.image(row.png),
-                        difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                        note=f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} dB"))
-                out.append(gallery)
+            out += [difference_gallery(f"{scene_name} at {int(group.image_size.iloc[0])}²: every backend and its "
+                                       "difference from the reference", group.sort_values("time_total"), ctx,
+                                       against=results, label=lambda row: row.technique)
+                    for scene_name, group in largest.groupby("scene")]
         matched = _matched_rows(ok)
         if not matched.empty:
             out.append(blocks.Table("Matched scenes: VTK against the reference at the same step", matched[

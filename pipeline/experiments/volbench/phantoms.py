@@ -13,7 +13,7 @@ import datasets
 from datasets.stats import BOX_STATISTICS, in_box
 from pipeline.experiments.kit.checks import Band, Measure
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import format_number, frames_note, linked_table
+from pipeline.experiments.kit.pages import difference_gallery, format_number, frames_note, linked_table
 from pipeline.experiments.kit import planning
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, UNTIMED, UPRIGHT, scene
 from reports import blocks
@@ -181,22 +181,20 @@ class PhantomGallery(Experiment):
                     extra=((f"real scan {stand_in.real}", ctx.image(real_row.png)),),
                     note=f"{_statistics_rows(compared, phantom, preset)} {datasets.get(phantom).description} "
                          f"Real: {real_spec.description} Both: {frames_note(row)}."))
-        gallery = blocks.Gallery("Every reference render (headline view)",
-                                 caption="Each a single untimed frame (no warm-up): pictures to judge, not timings. "
-                                         "Click an image for full size.")
-        for row in ok.itertuples():
-            if row.run in paired:
-                continue
-            spec = datasets.get(row.dataset)
-            what = (f"Phantom: {spec.description}" if spec.kind == "phantom"
-                    else f"Real scan ({spec.modality}): {spec.description}")
-            gallery.items.append(blocks.GalleryItem(
-                caption=f"{row.dataset} — {row.preset}", image=ctx.image(row.png),
-                note=f"{what} {frames_note(row).capitalize()}."))
         if pairs.items:
             out.append(pairs)
-        out.append(gallery)
-        return out
+        return out + [difference_gallery("Every reference render (headline view)", ok[~ok.run.isin(paired)], ctx,
+                                         label=lambda row: f"{row.dataset} — {row.preset}", note=_render_note,
+                                         caption="Each a single untimed frame (no warm-up): pictures to judge, not "
+                                                 "timings. Click an image for full size.")]
+
+
+def _render_note(row):
+    """What a reference render shows, in words: the data set (a phantom or a real scan) and how it was timed."""
+    spec = datasets.get(row.dataset)
+    what = (f"Phantom: {spec.description}" if spec.kind == "phantom"
+            else f"Real scan ({spec.modality}): {spec.description}")
+    return f"{what} {frames_note(row).capitalize()}."
 
 
 def _statistics_row(df, name, preset):

@@ -9,9 +9,10 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, METRICS, as_ratio, format_number, linked_table, ms, setting_words
+from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, format_number, linked_table, ms,
+                                            setting_words)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed
-from pipeline.experiments.kit.results import reference_exr, speed_points
+from pipeline.experiments.kit.results import speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, decision, takeaways
 
@@ -132,15 +133,11 @@ class SpeedAccuracy(Experiment):
                                 csv_name="speed_accuracy.csv",
                                 caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
                                         "Each row links to its run's JSON record and EXR image."))
-        for scene, group in ok.groupby("scene"):
-            gallery = blocks.Gallery(f"{scene}: every setting against the reference", diff_scale=DIFF_SCALE)
-            for row in group.sort_values("time_total").itertuples():
-                gallery.items.append(blocks.GalleryItem(
-                    caption=row.technique, image=ctx.image(row.png),
-                    difference=ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE),
-                    note=f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} dB, "
-                         f"largest error {format_number(row.max_error)}"))
-            out.append(gallery)
+        out += [difference_gallery(f"{scene}: every setting against the reference", group.sort_values("time_total"),
+                                   ctx, against=results, label=lambda row: row.technique,
+                                   note=lambda row: f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} "
+                                                    f"dB, largest error {format_number(row.max_error)}")
+                for scene, group in ok.groupby("scene")]
         unavailable = [{"backend": info.name, "reason": info.reason} for info in renderers.available() if not info.available]
         if unavailable:
             out.append(blocks.Table("Backends that cannot run here", pd.DataFrame(unavailable)))

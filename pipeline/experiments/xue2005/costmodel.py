@@ -24,7 +24,7 @@ T_z ≈ T_s) pays off only above the culling rate γ / (1 − γ) and never beat
 draws a few surface fragments instead, so its ceiling is 1 / γ.
 
 Every function takes numbers or NumPy arrays (broadcast together, e.g. bootstrap draws of the times)
-and returns a float for scalar inputs, an array otherwise.
+and returns a float for scalar inputs, an array otherwise (``numpy.ndarray``).
 """
 
 import numpy as np
@@ -70,6 +70,11 @@ def _gamma(gamma):
     return _values(gamma, "gamma", "a shader time ratio T_s / T_c (γ)", positive=True)
 
 
+def _alpha_gamma(alpha, gamma):
+    """``(α, γ)`` checked: α a culling rate in [0, 1], γ > 0."""
+    return _fraction(alpha, "alpha", "a culling rate (α)"), _gamma(gamma)
+
+
 def _out(array):
     """A float for a scalar result, the array otherwise."""
     return float(array) if np.ndim(array) == 0 else array
@@ -101,10 +106,6 @@ def shader_ratio(t_simple, t_complex):
     ----------
     t_simple, t_complex : float or array_like
         T_s and T_c, times per fragment (> 0; any one unit).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     t_simple = _values(t_simple, "t_simple", "a time per fragment (T_s)", positive=True)
     t_complex = _values(t_complex, "t_complex", "a time per fragment (T_c)", positive=True)
@@ -120,10 +121,6 @@ def surface_share(fragments, surface_t, surface_p):
         F (> 0).
     surface_t, surface_p : float or array_like
         F_t and F_p, the fragments of Φ_t's back faces and Φ_p's front faces (>= 0).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     fragments = _values(fragments, "fragments", "a fragment count (F)", positive=True)
     surface_t = _values(surface_t, "surface_t", "a fragment count (F_t)")
@@ -163,10 +160,6 @@ def two_pass_speedup(*, fragments, setup, shaded, t_simple, t_culled, t_complex)
     """Eq. 2: δ = F·T_c / T_2pass, the speed-up over one pass shading every fragment.
 
     Parameters are those of :func:`two_pass_time`; ``t_complex`` must be > 0.
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     _values(t_complex, "t_complex", "a time per fragment (T_c)", positive=True)
     time = two_pass_time(fragments=fragments, setup=setup, shaded=shaded, t_simple=t_simple, t_culled=t_culled,
@@ -183,10 +176,6 @@ def per_slice_time(*, fragments, shaded, t_simple, t_complex):
         F (> 0) and F_c (0 <= F_c <= F).
     t_simple, t_complex : float or array_like
         T_s and T_c, times per fragment (>= 0).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     return two_pass_time(fragments=fragments, setup=fragments, shaded=shaded, t_simple=t_simple, t_culled=t_simple,
                          t_complex=t_complex)
@@ -196,10 +185,6 @@ def per_slice_speedup(*, fragments, shaded, t_simple, t_complex):
     """Eq. 4: δ = F·T_c / (F·T_s + (F − F_c)·T_s + F_c·T_c).
 
     Parameters are those of :func:`per_slice_time`; ``t_complex`` must be > 0.
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     return two_pass_speedup(fragments=fragments, setup=fragments, shaded=shaded, t_simple=t_simple,
                             t_culled=t_simple, t_complex=t_complex)
@@ -214,32 +199,21 @@ def normalised_speedup(alpha, gamma):
         α in [0, 1].
     gamma : float or array_like
         γ > 0.
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
-    alpha = _fraction(alpha, "alpha", "a culling rate (α)")
-    gamma = _gamma(gamma)
+    alpha, gamma = _alpha_gamma(alpha, gamma)
     return _out(1.0 / (alpha * gamma + 1.0 - alpha + gamma))
 
 
 def pays_off(alpha, gamma):
     """Eq. 6: whether per-slice two-pass rendering beats one pass, (1 − γ)(α + 1) > 1 (that is, δ > 1).
 
-    Parameters
-    ----------
-    alpha : float or array_like
-        α in [0, 1].
-    gamma : float or array_like
-        γ > 0.
+    Parameters are those of :func:`normalised_speedup`.
 
     Returns
     -------
     bool or numpy.ndarray of bool
     """
-    alpha = _fraction(alpha, "alpha", "a culling rate (α)")
-    gamma = _gamma(gamma)
+    alpha, gamma = _alpha_gamma(alpha, gamma)
     result = (1.0 - gamma) * (alpha + 1.0) > 1.0
     return bool(result) if np.ndim(result) == 0 else result
 
@@ -254,10 +228,6 @@ def break_even_culling(gamma):
     ----------
     gamma : float or array_like
         γ > 0.
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     gamma = _gamma(gamma)
     with np.errstate(divide="ignore"):
@@ -267,14 +237,7 @@ def break_even_culling(gamma):
 def per_slice_ceiling(gamma):
     """The most per-slice two-pass rendering can gain, Eq. 5 as α → 1: 1 / (2γ).
 
-    Parameters
-    ----------
-    gamma : float or array_like
-        γ > 0.
-
-    Returns
-    -------
-    float or numpy.ndarray
+    Parameters are those of :func:`break_even_culling`.
     """
     return _out(1.0 / (2.0 * _gamma(gamma)))
 
@@ -289,10 +252,6 @@ def isbvr_init_time(*, surface_t, surface_p, t_simple):
         F_t and F_p (>= 0).
     t_simple : float or array_like
         T_s, time per fragment (>= 0).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     surface_t = _values(surface_t, "surface_t", "a fragment count (F_t)")
     surface_p = _values(surface_p, "surface_p", "a fragment count (F_p)")
@@ -309,10 +268,6 @@ def isbvr_volume_time(*, fragments, shaded, t_simple, t_complex):
         F (> 0) and F'_c (0 <= F'_c <= F).
     t_simple, t_complex : float or array_like
         T_s and T_c, times per fragment (>= 0).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     return two_pass_time(fragments=fragments, setup=0.0, shaded=shaded, t_simple=t_simple, t_culled=t_simple,
                          t_complex=t_complex)
@@ -333,10 +288,6 @@ def isbvr_speedup(*, fragments, surface_t, surface_p, shaded, t_simple, t_comple
         T_s, time per fragment of the simple shader (>= 0).
     t_complex : float or array_like
         T_c, time per fragment of the volume shader (> 0).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     _values(t_complex, "t_complex", "a time per fragment (T_c)", positive=True)
     init = isbvr_init_time(surface_t=surface_t, surface_p=surface_p, t_simple=t_simple)
@@ -355,10 +306,6 @@ def isbvr_normalised_speedup(alpha, phi, gamma):
         φ = (F_t + F_p) / F (>= 0).
     gamma : float or array_like
         γ = T_s / T_c (> 0).
-
-    Returns
-    -------
-    float or numpy.ndarray
     """
     alpha = _fraction(alpha, "alpha", "a culling rate (α')")
     phi = _values(phi, "phi", "a share of init fragments (φ)")
@@ -369,14 +316,7 @@ def isbvr_normalised_speedup(alpha, phi, gamma):
 def isbvr_ceiling(gamma):
     """The most iSBVR can gain, Eq. 9 as α' → 1 and φ → 0: 1 / γ (twice the per-slice ceiling).
 
-    Parameters
-    ----------
-    gamma : float or array_like
-        γ > 0.
-
-    Returns
-    -------
-    float or numpy.ndarray
+    Parameters are those of :func:`break_even_culling`.
     """
     return _out(1.0 / _gamma(gamma))
 

@@ -16,13 +16,14 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table, not_measurable
-from pipeline.experiments.kit.planning import (dataset_view, headline_view, listed, missing_options, phantom, scene,
-                                               timed_frames, unregistered)
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
+from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.earlyz import can_plan, isbvr_run, per_fragment, select
-from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, mode_name
+from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, ratio_pair, select
+from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, mode_name, stand_in
+from pipeline.experiments.xue2005.pages import runs_table, unless_missing
+from pipeline.experiments.xue2005.sweeps import interval_columns
 from pipeline.experiments.xue2005.tables import IMPLIED_CULLING, IMPLIED_GAMMAS, TABLE1, paper_speedup
 from reports import blocks, plots
 
@@ -31,9 +32,6 @@ STAND_INS = ("aneurysm", "head", "golden_lady", "bonsai")
 
 SWEEP_SCENE = "head"
 """The stand-in of the shader-complexity sweep: the most opaque, so the most culled fragments to gain from."""
-
-EXTRA_TAPS = (0, 4, 16)
-"""Extra volume-texture fetches per fragment of the sweep (0: the volume shader as it is)."""
 
 BAND = 0.2
 """The issue's target: predicted δ within 20 % of the measured δ, |predicted / measured − 1| ≤ 0.2."""
@@ -47,7 +45,7 @@ COUNTS = {"fragments": "count_fragments_generated", "shaded": "count_fragments",
 
 
 # ------------------------------------------------------------------------------------------ measurement
-def _summed(rows, column, resampler):
+def summed(rows, column, resampler):
     """``(value, draws)``: each view's median ``column`` (bootstrap draws from its frames) summed over the views."""
     draws = intervals.row_draws(rows, column, resampler)
     return float(numeric(rows, column).sum()), None if draws is None else draws.sum(axis=1)
@@ -58,22 +56,39 @@ def with_passes(rows):
     rows = rows.copy()
     if "frames_init" in rows and "frames_draw" in rows:
         frames = zip(map(intervals.parse_frames, rows.frames_init), map(intervals.parse_frames, rows.frames_draw))
-        summed = [a + b if a is not None and b is not None and len(a) == len(b) else None for a, b in frames]
-        if all(s is not None for s in summed):
-            rows["frames_passes"] = [intervals.format_frames(s) for s in summed]
-            rows["time_passes"] = [float(np.median(s)) for s in summed]
+        passes = [a + b if a is not None and b is not None and len(a) == len(b) else None for a, b in frames]
+        if all(p is not None for p in passes):
+            rows["frames_passes"] = [intervals.format_frames(p) for p in passes]
+            rows["time_passes"] = [float(np.median(p)) for p in passes]
             return rows
     rows["time_passes"] = numeric(rows, "time_init") + numeric(rows, "time_draw")
     return rows
 
 
-def _per_view(rows, views):
-    return rows[text_column(rows, "view").isin(views)].sort_values("view")
+def shared_views(frames, what):
+    """Each of ``frames`` in the views they all have, by view, with its passes' times (:func:`with_passes`);
+    ValueError naming ``what`` where they share none."""
+    views = set.intersection(*(set(text_column(rows, "view")) for rows in frames))
+    if not views:
+        raise ValueError(f"{what} share no view")
+    return [with_passes(rows[text_column(rows, "view").isin(views)].sort_values("view")) for rows in frames]
 
 
-def _ratio(top, bottom):
-    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair."""
-    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
+def timed_model(simple, basic, tested, model, resampler):
+    """A cost model's speed-up of ``tested`` over ``basic`` beside the measured one, from rows of the same views.
+
+    ``model(simple, basic)`` is the model's speed-up from the trivial shader's and Basic's draw time of each view
+    (arrays: the views last). Returns the ``(value, draws)`` pairs ``predicted``, ``measured`` (:data:`PASSES`),
+    ``whole`` (whole frames), ``t_simple`` and ``t_complex`` (per fragment, :func:`~.earlyz.per_fragment`).
+    """
+    simple_draws = intervals.row_draws(simple, "time_draw", resampler)
+    basic_draws = intervals.row_draws(basic, "time_draw", resampler)
+    point = model(numeric(simple, "time_draw").to_numpy(float), numeric(basic, "time_draw").to_numpy(float))
+    return {"predicted": (float(point), None if simple_draws is None or basic_draws is None
+                          else model(simple_draws, basic_draws)),
+            "t_simple": per_fragment(simple, resampler), "t_complex": per_fragment(basic, resampler),
+            "measured": ratio_pair(summed(basic, "time_passes", resampler), summed(tested, "time_passes", resampler)),
+            "whole": ratio_pair(summed(basic, "time_total", resampler), summed(tested, "time_total", resampler))}
 
 
 def scene_model(df, scene_name, taps, resampler):
@@ -89,10 +104,8 @@ def scene_model(df, scene_name, taps, resampler):
     for name, rows in (("Basic", basic), ("ESS+ERT", isbvr), ("trivial-shader", simple)):
         if rows.empty:
             raise ValueError(f"{scene_name}, {taps} extra taps: no successful {name} run")
-    views = sorted(set(basic.view) & set(isbvr.view) & set(simple.view))
-    if not views:
-        raise ValueError(f"{scene_name}: Basic, ESS+ERT and the trivial shader share no view")
-    basic, isbvr, simple = (with_passes(_per_view(rows, views)) for rows in (basic, isbvr, simple))
+    basic, isbvr, simple = shared_views((basic, isbvr, simple),
+                                        f"{scene_name}: Basic, ESS+ERT and the trivial shader")
     counts = {name: numeric(isbvr, column).to_numpy(float) for name, column in COUNTS.items()}
     fragments = counts["fragments"]
     if not (fragments > 0).all():
@@ -107,19 +120,14 @@ def scene_model(df, scene_name, taps, resampler):
                                               t_complex=t_complex))
         return np.sum(basic_draw, axis=-1) / np.sum(time, axis=-1)
 
-    point = eq9(numeric(simple, "time_draw").to_numpy(float), numeric(basic, "time_draw").to_numpy(float))
-    simple_draws = intervals.row_draws(simple, "time_draw", resampler)
-    basic_draws = intervals.row_draws(basic, "time_draw", resampler)
-    predicted = (float(point), None if simple_draws is None or basic_draws is None else eq9(simple_draws, basic_draws))
-    t_simple, t_complex = per_fragment(simple, resampler), per_fragment(basic, resampler)
+    timed = timed_model(simple, basic, isbvr, eq9, resampler)
+    t_simple, t_complex = timed["t_simple"][0], timed["t_complex"][0]
     total = {name: float(values.sum()) for name, values in counts.items()}
-    return {"scene": scene_name, "taps": taps, "views": len(views), **total,
+    return {"scene": scene_name, "taps": taps, "views": len(basic), **total,
             "alpha": costmodel.culling_rate(total["fragments"], total["shaded"]),
             "phi": costmodel.surface_share(total["fragments"], total["surface_t"], total["surface_p"]),
-            "gamma": costmodel.shader_ratio(t_simple[0], t_complex[0]), "t_simple": t_simple[0],
-            "t_complex": t_complex[0], "predicted": predicted,
-            "measured": _ratio(_summed(basic, "time_passes", resampler), _summed(isbvr, "time_passes", resampler)),
-            "whole": _ratio(_summed(basic, "time_total", resampler), _summed(isbvr, "time_total", resampler)),
+            "gamma": costmodel.shader_ratio(t_simple, t_complex), "t_simple": t_simple, "t_complex": t_complex,
+            "predicted": timed["predicted"], "measured": timed["measured"], "whole": timed["whole"],
             "psnr": float(numeric(isbvr, "psnr").min()) if "psnr" in isbvr else np.nan}
 
 
@@ -166,11 +174,12 @@ def _speedup_rises(df):
     resampler = intervals.Resampler()
     scene_name, taps = _sweep(df)
     models = {k: scene_model(df, scene_name, k, resampler) for k in taps}
-    decisions = {f"{a} → {b} taps": ratio_of_draws(models[b]["measured"], models[a]["measured"], at_least=STRICTLY_ABOVE_ONE)
-                 for a, b in zip(taps, taps[1:])}
+    decisions = {f"{a} → {b} taps": ratio_of_draws(models[b]["measured"], models[a]["measured"],
+                                                   at_least=STRICTLY_ABOVE_ONE) for a, b in zip(taps, taps[1:])}
     detail = ", ".join(f"{k} taps: ×{format_number(m['measured'][0])} (γ {format_number(m['gamma'])}, Eq. 9 "
                        f"×{format_number(m['predicted'][0])})" for k, m in models.items())
-    return all_of(decisions, what="speed-up ", extra=f"{scene_name}, ESS+ERT over Basic: {detail}; over {PASSES}, interleaved")
+    return all_of(decisions, what="speed-up ",
+                  extra=f"{scene_name}, ESS+ERT over Basic: {detail}; over {PASSES}, interleaved")
 
 
 CLAIMS = (
@@ -185,9 +194,13 @@ CLAIMS = (
 
 
 # ------------------------------------------------------------------------------------------------- page
-def _interval_columns(pair):
-    low, high = intervals.interval_of(pair[1]) or (np.nan, np.nan)
-    return pair[0], low, high
+def stacked(table, series):
+    """``table`` once per ``(label, name)`` of ``series`` (a label, or one a row), for a chart of ``value`` with
+    its interval ``low`` to ``high``: the columns ``"<name> δ"``, ``"<name> low"``, ``"<name> high"``
+    (:func:`~.sweeps.interval_columns`; no interval where the table has none)."""
+    return pd.concat([table.assign(series=label, value=table[f"{name} δ"], low=table.get(f"{name} low", np.nan),
+                                   high=table.get(f"{name} high", np.nan)) for label, name in series],
+                     ignore_index=True)
 
 
 def _model_rows(ok):
@@ -203,15 +216,13 @@ def _model_rows(ok):
     out = []
     for scene_name, taps in wanted:
         m = scene_model(ok, scene_name, taps, resampler)
-        predicted, predicted_low, predicted_high = _interval_columns(m["predicted"])
-        measured, low, high = _interval_columns(m["measured"])
         row = {"scene": scene_name, "swept": scene_name == swept, "paper row": TABLE1[scene_name][2],
                "extra taps": taps, "views": m["views"],
                "F": m["fragments"], "F'_c": m["shaded"], "F_t": m["surface_t"], "F_p": m["surface_p"],
                "α'": m["alpha"], "φ": m["phi"], "γ": m["gamma"], "T_s (ns)": 1e9 * m["t_simple"],
-               "T_c (ns)": 1e9 * m["t_complex"], "predicted δ": predicted, "predicted low": predicted_low,
-               "predicted high": predicted_high, "measured δ": measured, "measured low": low, "measured high": high,
-               "predicted / measured": predicted / measured, "measured δ, whole frames": m["whole"][0],
+               "T_c (ns)": 1e9 * m["t_complex"], **interval_columns("predicted", m["predicted"]),
+               **interval_columns("measured", m["measured"]),
+               "predicted / measured": m["predicted"][0] / m["measured"][0], "whole frames δ": m["whole"][0],
                "paper δ": paper_speedup(scene_name, "ess+ert"), "PSNR vs Basic (dB)": m["psnr"]}
         row.update({f"paper's implied α' (γ = {g:g})": value
                     for g, value in zip(IMPLIED_GAMMAS, IMPLIED_CULLING[scene_name])})
@@ -254,12 +265,8 @@ def _chart(table, ctx):
 
 
 def _sweep_chart(sweep, ctx):
-    long = pd.concat([sweep.assign(series="measured (init + volume passes)", value=sweep["measured δ"],
-                                   low=sweep["measured low"], high=sweep["measured high"]),
-                      sweep.assign(series="predicted by Eq. 9", value=sweep["predicted δ"],
-                                   low=sweep["predicted low"], high=sweep["predicted high"]),
-                      sweep.assign(series="measured, whole frames", value=sweep["measured δ, whole frames"],
-                                   low=np.nan, high=np.nan)], ignore_index=True)
+    long = stacked(sweep, [("measured (init + volume passes)", "measured"), ("predicted by Eq. 9", "predicted"),
+                           ("measured, whole frames", "whole frames")])
     path, rel = ctx.plot_path("sweep")
     plots.lines(long, path, x="extra taps", y="value", group="series", y_range=("low", "high"),
                 title=f"ESS+ERT over Basic from {as_ratio(sweep['measured δ'].iloc[0])} to "
@@ -277,23 +284,10 @@ RUN_COLUMNS = {"scene": "scene", "mode": "mode", "extra_taps": "extra taps", "vi
 """The columns of the page's run table and their names."""
 
 
-def _runs_table(ok, ctx):
-    runs = ok.assign(mode=[mode_name(c) if c in MODES else "trivial shader" for c in ok.config],
-                     init_ms=numeric(ok, "time_init") * 1e3, draw_ms=numeric(ok, "time_draw") * 1e3,
-                     time_ms=numeric(ok, "time_total") * 1e3)
-    return linked_table("Runs", runs, list(RUN_COLUMNS), ctx, names=RUN_COLUMNS)
-
-
-TABLE_COLUMNS = ("scene", "extra taps", "F", "F'_c", "F_t", "F_p", "α'", "φ", "γ", "T_s (ns)", "T_c (ns)",
-                 "predicted δ", "measured δ", "measured low", "measured high", "predicted / measured",
-                 "measured δ, whole frames", "paper δ", f"paper's implied α' (γ = {IMPLIED_GAMMAS[0]:g})",
-                 "PSNR vs Basic (dB)")
-"""The columns of the page's table of Eq. 9 per stand-in."""
-
 SHOWN = {"scene": "scene", "extra taps": "extra taps", "α'": "α'", "φ": "φ", "γ": "γ", "T_s (ns)": "T_s (ns)",
          "T_c (ns)": "T_c (ns)", "predicted δ": "Eq. 9 δ", "measured δ": "measured δ (95 % CI)",
          "predicted / measured": "Eq. 9 / measured",
-         "measured δ, whole frames": "whole frames δ", "paper δ": "paper δ",
+         "whole frames δ": "whole frames δ", "paper δ": "paper δ",
          f"paper's implied α' (γ = {IMPLIED_GAMMAS[0]:g})": "paper's α' (γ = 0)", "F": "F (M)", "F'_c": "F'_c (M)",
          "F_t": "F_t (k)", "F_p": "F_p (k)"}
 """The page's columns (the CSV keeps every column): counts in millions or thousands and the interval beside its
@@ -360,11 +354,10 @@ class CostModelCheck(Experiment):
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in scenes:
-            dataset, preset = TABLE1[scene_name][:2]
-            spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
+            spec, tags = stand_in(scene_name, size, image)
+            dataset = tags["dataset"]
             views = [headline_view(dataset)] + [
                 dataset_view(dataset, f"orbit{i}", 30.0 + 360.0 * i / count, 20.0) for i in range(1, count)]
-            tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
             runs.append(isbvr_run(self.name, f"{scene_name}.simple", spec, views, {"zinit": "none", "shader": "simple"},
                                   frames, {**tags, "config": "simple", "extra_taps": 0}, group=scene_name))
             for k in (taps if scene_name == sweep_scene else [0]):
@@ -384,15 +377,12 @@ class CostModelCheck(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        try:
-            table = _model_rows(ok)
-        except (KeyError, ValueError):
-            table = pd.DataFrame()
+        table = unless_missing(_model_rows, ok, empty=pd.DataFrame())
         out = [claim_takeaways(ctx, [] if table.empty else _culling_takeaways(table))]
         if not table.empty:
             stand_ins = table[table["extra taps"] == 0]
-            out.append(blocks.Table("Eq. 9 per stand-in, beside the paper", _shown(stand_ins).drop(columns="extra taps"),
-                                    csv_name="costmodel.csv",
+            out.append(blocks.Table("Eq. 9 per stand-in, beside the paper",
+                                    _shown(stand_ins).drop(columns="extra taps"), csv_name="costmodel.csv",
                                     caption="Counts from occlusion queries summed over the views; T_s and T_c are the "
                                             "trivial shader's and Basic's draw time over F (so T_c averages Basic's "
                                             "fragments, empty ones included); measured δ is Basic over ESS+ERT, "
@@ -406,5 +396,6 @@ class CostModelCheck(Experiment):
                                         caption="The same quantities per complexity on one stand-in."))
                 out.append(_sweep_chart(sweep, ctx))
         if not ok.empty:
-            out.append(_runs_table(ok, ctx))
-        return out + not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS, "count_fragments"))
+            modes = [mode_name(c) if c in MODES else "trivial shader" for c in ok.config]
+            out.append(runs_table(ok.assign(mode=modes), ctx, RUN_COLUMNS))
+        return out + isbvr_not_measurable("count_fragments")

@@ -14,13 +14,15 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, format_number, linked_table, not_measurable
-from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, timed_frames, unregistered
+from pipeline.experiments.kit.pages import claim_takeaways, format_number
+from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, with_interval
-from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP
+from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP, isbvr_not_measurable
+from pipeline.experiments.xue2005.pages import runs_table, unless_missing
+from pipeline.experiments.xue2005.sweeps import interval_or_nan
 from pipeline.experiments.xue2005.tables import EARLYZ_STATEMENTS
 from reports import blocks, plots
 
@@ -49,6 +51,7 @@ CONFIGS = {
 SCOPE = "the volume pass's draw time over the slices' fragments F, summed over the views"
 """What a time per fragment is, in words."""
 
+
 # ------------------------------------------------------------------------------------- shared measurement
 def isbvr_run(experiment, run_id, scene_spec, views, options, frames, tags, *, group, reference=None):
     """A timed ``gl-isbvr`` run of ``options`` with slices one voxel apart and fragments counted, in ``group``."""
@@ -57,9 +60,9 @@ def isbvr_run(experiment, run_id, scene_spec, views, options, frames, tags, *, g
                tags=tags, interleave=group)
 
 
-def can_plan():
-    """Whether ``gl-isbvr`` is here with every option these experiments set."""
-    return accepts(ISBVR, *OPTIONS, "count_fragments")
+def can_plan(*options):
+    """Whether ``gl-isbvr`` is here with every option these experiments set, and ``options``."""
+    return accepts(ISBVR, *OPTIONS, "count_fragments", *options)
 
 
 def per_fragment(rows, resampler):
@@ -77,6 +80,11 @@ def per_fragment(rows, resampler):
     value = float(numeric(rows, "time_draw").sum()) / total
     draws = intervals.row_draws(rows, "time_draw", resampler)
     return value, None if draws is None else draws.sum(axis=1) / total
+
+
+def ratio_pair(top, bottom):
+    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair."""
+    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
 
 
 def ns(seconds):
@@ -122,12 +130,11 @@ def _gamma_falls(df):
     simple = per_fragment(_config_rows(df, "simple"), resampler)
     taps = _taps(df)
     complex_ = {k: per_fragment(_config_rows(df, "volume", k), resampler) for k in taps}
-    gammas = {k: (simple[0] / t[0], None if simple[1] is None or t[1] is None else simple[1] / t[1])
-              for k, t in complex_.items()}
+    gammas = {k: ratio_pair(simple, t) for k, t in complex_.items()}
     decisions = {f"{a} → {b} taps": ratio_of_draws(gammas[b], gammas[a], at_most=STRICTLY_BELOW_ONE)
                  for a, b in zip(taps, taps[1:])}
-    return all_of(decisions, what="γ ", extra=", ".join(f"{k} taps: γ {format_number(gammas[k][0])}, T_c {ns(complex_[k][0])}"
-                                                        for k in taps) + f"; T_s {ns(simple[0])} ({SCOPE}; interleaved)")
+    steps = ", ".join(f"{k} taps: γ {format_number(gammas[k][0])}, T_c {ns(complex_[k][0])}" for k in taps)
+    return all_of(decisions, what="γ ", extra=steps + f"; T_s {ns(simple[0])} ({SCOPE}; interleaved)")
 
 
 def _culls_everything(df):
@@ -170,7 +177,7 @@ def _quantities(ok):
     for symbol, config, taps in entries:
         rows = _config_rows(ok, config, taps)
         value = per_fragment(rows, resampler)
-        low, high = intervals.interval_of(value[1]) or (np.nan, np.nan)
+        low, high = interval_or_nan(value[1])
         gamma = ratio_of_draws(simple, value) if symbol == "T_c" else None
         gamma_low, gamma_high = (gamma and gamma.interval) or (np.nan, np.nan)
         out.append({"quantity": symbol, "configuration": CONFIGS[config][1], "extra taps": taps or 0,
@@ -232,6 +239,10 @@ Z_ONLY = ("the z-only pass against the same pass with colour on (the paper: up t
                   "and off")
 """What the backend offers no configuration for (the paper's double-speed z)."""
 
+RUN_COLUMNS = {"config": "config", "extra_taps": "extra taps", "view": "view", "draw_ms": "volume pass (ms)",
+               "count_fragments_generated": "F", "count_fragments": "F'_c"}
+"""The columns of the page's run table and their names."""
+
 
 class EarlyZ(Experiment):
     """The early-z micro-benchmark: T_s, T_z and T_c per fragment, and γ against the shader's complexity."""
@@ -285,10 +296,7 @@ class EarlyZ(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        try:
-            table = _quantities(ok)
-        except (KeyError, ValueError):
-            table = pd.DataFrame()
+        table = unless_missing(_quantities, ok, empty=pd.DataFrame())
         out = [claim_takeaways(ctx, [] if table.empty else _model_takeaways(table))]
         if not table.empty:
             out.append(blocks.Table("T_s, T_z and T_c per fragment", table, csv_name="earlyz.csv",
@@ -297,10 +305,5 @@ class EarlyZ(Experiment):
                                             "fastest and slowest: the fastest and slowest frame."))
             out += _figures(table, ctx)
         if not ok.empty:
-            runs = ok.assign(draw_ms=numeric(ok, "time_draw") * 1e3)
-            out.append(linked_table("Runs", runs, ["config", "extra_taps", "view", "draw_ms",
-                                                   "count_fragments_generated", "count_fragments"], ctx,
-                                    names={"draw_ms": "volume pass (ms)", "count_fragments_generated": "F",
-                                           "count_fragments": "F'_c", "extra_taps": "extra taps"}))
-        return out + not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS, "count_fragments")
-                                    + [Z_ONLY])
+            out.append(runs_table(ok, ctx, RUN_COLUMNS))
+        return out + isbvr_not_measurable("count_fragments", also=[Z_ONLY])

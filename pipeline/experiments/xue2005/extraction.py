@@ -14,10 +14,12 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
-from pipeline.experiments.kit.planning import accepts, listed, phantom, scene
+from pipeline.experiments.kit.planning import accepts, listed
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
-from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable
-from pipeline.experiments.xue2005.surfaces import orbit_views, scenes_of
+from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, orbit_views,
+                                                  stand_in)
+from pipeline.experiments.xue2005.pages import tagged
+from pipeline.experiments.xue2005.surfaces import scenes_of
 from pipeline.experiments.xue2005.tables import EXTRACTION_MS, PAPER_SIZE, REAL_SCANS, TABLE1
 from reports import blocks, plots
 
@@ -173,12 +175,10 @@ class Extraction(Experiment):
         orbit = int(profile.setting(self, "orbit", 4))
         runs = []
         for scene_name in wanted:
-            dataset, preset = TABLE1[scene_name][:2]
-            spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
-            runs.append(Run(self.name, f"{scene_name}.{CONFIG}", ISBVR, spec, orbit_views(dataset, orbit),
+            spec, tags = stand_in(scene_name, size, image)
+            runs.append(Run(self.name, f"{scene_name}.{CONFIG}", ISBVR, spec, orbit_views(tags["dataset"], orbit),
                             options={**MODES[CONFIG][0], "surfaces": "reduced", "step_factor": STEP}, **FRAMES,
-                            tags={"scene": scene_name, "dataset": dataset, "preset": preset, "size": size,
-                                  "config": CONFIG}))
+                            tags={**tags, "size": size, "config": CONFIG}))
         return runs
 
     def paper_table(self):
@@ -188,7 +188,7 @@ class Extraction(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        rows = ok[ok.backend == ISBVR] if "backend" in ok else ok.iloc[:0]
+        rows = tagged(ok, backend=ISBVR)
         out = [claim_takeaways(ctx)]
         if not rows.empty and "time_phi_t" in rows:
             summary = _summary(rows)

@@ -6,19 +6,19 @@ haze around the figure, from none to nearly the whole box, under the ``isbvr`` p
 Basic, ESS, ERT and ESS+ERT of one haze are one interleave group.
 """
 
-import numpy as np
 import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
+                                            frame_note, linked_table)
 from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
-from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs
-from pipeline.experiments.xue2005.sweeps import interval_or_nan, ratio_of, speedup
+from pipeline.experiments.kit.results import numeric, ok_rows
+from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs, short_name
+from pipeline.experiments.xue2005.pages import tagged, unless_missing
+from pipeline.experiments.xue2005.sweeps import SCOPE, interval_or_nan, mode_counts, ratio_of, speedup
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
 from reports import blocks, plots
 
@@ -36,17 +36,6 @@ CONFIGS = ("basic", "ess", "ert", "ess+ert")
 
 GAINS = ("ess", "ert", "ess+ert")
 """The modes whose speed-up over Basic the page follows."""
-
-"""The bound of "falls": the earlier speed-up over the later one strictly above 1 (interval bounds are inclusive)."""
-
-SCOPE = "whole frames (time_total), median over the views"
-"""What every speed claim of this module compares."""
-
-
-def short_name(config):
-    """``"ESS"``: a mode's name without its explanation, for legends and labels."""
-    return mode_name(config).split(" (")[0]
-
 
 def _groups(df):
     """``[(haze, rows)]`` of the sweep, by increasing haze; ValueError with fewer than two hazes."""
@@ -125,15 +114,8 @@ def summary(ok):
                 continue
             low, high = interval_or_nan(draws)
             first = tested.iloc[0]
-            generated = median_count(tested, "count_fragments_generated")
             rows.append({"haze": haze, "config": config, "mode": mode_name(config), "speedup": value, "low": low,
-                         "high": high, "alpha": culled_fraction(tested), "F": generated,
-                         "F_c": median_count(tested, "count_fragments"),
-                         "phi": (median_count(tested, "count_surface_fragments_t")
-                                 + median_count(tested, "count_surface_fragments_p")) / generated,
-                         "cubes_t": median_count(tested, "count_cubes_t"),
-                         "cubes_p": median_count(tested, "count_cubes_p"),
-                         "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan,
+                         "high": high, **mode_counts(tested),
                          "paper": as_ratio(paper_speedup(SCENE, config)) if haze == PAPER_HAZE else "",
                          "record": first.get("record"), "exr": first.get("exr")})
     return pd.DataFrame(rows)
@@ -166,19 +148,12 @@ def _figure(table, ctx):
 
 def _gallery(ok, results, ctx):
     """Basic and ESS+ERT per haze (headline view), ESS+ERT's difference from Basic on the one scale."""
-    gallery = blocks.Gallery("Headline view per haze: Basic, and ESS+ERT with its difference from Basic",
-                             diff_scale=DIFF_SCALE, caption="Right of ESS+ERT: |ESS+ERT − Basic|.")
-    rows = ok[(ok.view == "headline") & ok.config.isin(("basic", "ess+ert"))].copy()
-    rows["haze"] = numeric(rows, "haze")
-    for row in rows.sort_values(["haze", "config"]).itertuples():
-        difference = None if row.config == "basic" else ctx.difference(reference_exr(results, row), row.exr,
-                                                                       DIFF_SCALE)
-        psnr = getattr(row, "psnr", np.nan)
-        gallery.items.append(blocks.GalleryItem(
-            f"haze {row.haze:g}, {mode_name(row.config)}", ctx.image(row.png), difference=difference,
-            note=f"{format_number(row.time_total * 1e3)} ms" + (f", PSNR vs Basic {format_number(psnr)} dB"
-                                                                if pd.notna(psnr) else "")))
-    return gallery
+    rows = ok[(ok.view == "headline") & ok.config.isin(("basic", "ess+ert"))].assign(haze=numeric(ok, "haze"))
+    return difference_gallery(
+        "Headline view per haze: Basic, and ESS+ERT with its difference from Basic",
+        rows.sort_values(["haze", "config"]), ctx, against=results, caption="Right of ESS+ERT: |ESS+ERT − Basic|.",
+        label=lambda row: f"haze {row.haze:g}, {mode_name(row.config)}",
+        note=lambda row: frame_note(row, psnr="PSNR vs Basic"))
 
 
 TABLE_CAPTION = (
@@ -238,10 +213,7 @@ class Fuzziness(Experiment):
     def report(self, results, ctx):
         ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        try:
-            table = summary(rows_matching(ok, "the haze sweep", scene=SCENE))
-        except (KeyError, ValueError):
-            table = pd.DataFrame()
+        table = unless_missing(summary, tagged(ok, scene=SCENE), empty=pd.DataFrame())
         if not table.empty:
             out.append(_figure(table, ctx))
             out.append(linked_table("Speed-ups and culled fractions per haze", table, list(COLUMNS), ctx,

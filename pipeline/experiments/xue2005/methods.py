@@ -1,13 +1,15 @@
-"""What the paper's experiments share: the depth-init modes as ``gl-isbvr`` options, their runs, the culled
-fraction from their counts and the page note for what this machine cannot measure."""
+"""What the paper's experiments share: the depth-init modes as ``gl-isbvr`` options, Table 1's scenes and views,
+their runs, the culled fraction from their counts and the page note for what this machine cannot measure."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import not_measurable
-from pipeline.experiments.kit.planning import accepts, missing_options, unregistered
+from pipeline.experiments.kit.planning import (accepts, dataset_view, headline_view, missing_options, phantom, scene,
+                                               unregistered)
 from pipeline.experiments.kit.results import numeric
+from pipeline.experiments.xue2005.tables import TABLE1
 
 ISBVR, SLICER, RAYCAST, VTK = "gl-isbvr", "gl-slicer", "gl-raycast", "vtk-gpu"
 
@@ -33,6 +35,27 @@ def mode_name(config):
     return MODES[config][1]
 
 
+def short_name(config):
+    """``"ESS"``: a mode's name without its explanation, for legends and labels."""
+    return mode_name(config).split(" (")[0]
+
+
+def stand_in(scene_name, size, image):
+    """``(scene, tags)``: :data:`~.tables.TABLE1`'s ``scene_name`` (a phantom at ``size``, a real scan as scanned)
+    in an ``image``-pixel picture, and the tags naming its scene, data set and preset."""
+    dataset, preset = TABLE1[scene_name][:2]
+    tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
+    return scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)]), tags
+
+
+def orbit_views(dataset, orbit, *, repeat_headline=False):
+    """The headline view and ``orbit`` more around the data set at 20° elevation (the headline's azimuth left out
+    unless ``repeat_headline``)."""
+    return (headline_view(dataset),) + tuple(
+        dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
+        if repeat_headline or a != 30.0)
+
+
 def mode_runs(experiment, prefix, scene_spec, views, configs, frames, tags, *, options=None, group=None,
               reference=None):
     """Timed ``gl-isbvr`` runs of ``configs`` (keys of :data:`MODES`) on one scene, timed together.
@@ -49,9 +72,10 @@ def mode_runs(experiment, prefix, scene_spec, views, configs, frames, tags, *, o
             for config in configs]
 
 
-def isbvr_not_measurable():
-    """The page's note of what this machine lacks for the paper (the backend or its options)."""
-    return not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS))
+def isbvr_not_measurable(*options, also=()):
+    """The page's note of what this machine lacks for the paper (the backend or its options, :data:`OPTIONS` and
+    ``options``), and ``also``: more ``(what, why)`` pairs."""
+    return not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS, *options) + list(also))
 
 
 def culled_fraction(rows):
@@ -64,4 +88,3 @@ def culled_fraction(rows):
         raise ValueError(f"runs {', '.join(map(str, pd.unique(rows.run)))} counted no fragments "
                          "(gl-isbvr's count_fragments option)")
     return value
-

@@ -7,20 +7,20 @@ triangles and the fragments it culls. Here ERT alone (``zinit`` ``ert``) runs at
 head stand-in (its thin skull), timed together with Basic, whose image each is compared with.
 """
 
-import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             linked_table)
-from pipeline.experiments.kit.planning import listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
-from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs
+from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
+from pipeline.experiments.xue2005.pages import tagged
 from pipeline.experiments.xue2005.surfaces import (LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence, image_errors,
-                                                   lossless_result, orbit_views)
-from pipeline.experiments.xue2005.tables import PAPER_PHI_P_NODE, PHI_P_NODES, STATEMENTS, TABLE1
+                                                   lossless_result, off_percent)
+from pipeline.experiments.xue2005.tables import PAPER_PHI_P_NODE, PHI_P_NODES, STATEMENTS, statements
 from reports import blocks, plots
 
 SCENE = "head"
@@ -130,7 +130,7 @@ COLUMNS = {"node_size": "node size (voxels)", "count_cubes_p": "Φ_p cubes",
 
 
 def _page_rows(ok):
-    rows = ok[(ok.backend == ISBVR) & (ok.get("config") == "ert")].copy() if "config" in ok else ok.iloc[:0]
+    rows = tagged(ok, backend=ISBVR, config="ert")
     if rows.empty:
         return rows
     rows["node_size"] = numeric(rows, NODE)
@@ -138,11 +138,7 @@ def _page_rows(ok):
     rows["init_ms"] = numeric(rows, "time_init") * 1e3
     for suffix in ("", "_min", "_max"):
         rows[f"frame_ms{suffix}"] = pd.to_numeric(rows.get(f"time_total{suffix}"), errors="coerce") * 1e3
-    try:
-        off = image_errors(ok, "ERT", config="ert").set_index(["run", "view"]).off
-    except (KeyError, ValueError):
-        off = pd.Series(dtype=float)
-    rows["off_percent"] = [100 * off.get((r, v), np.nan) for r, v in zip(rows.run, rows.view)]
+    rows["off_percent"] = off_percent(rows, ok, "ERT", config="ert")
     return rows.sort_values(["view", "node_size"])
 
 
@@ -189,17 +185,12 @@ def _time_chart(rows, basic, ctx):
                          f"to its slowest frame; dotted: the paper's {PAPER_PHI_P_NODE}³; grey: Basic. Timed together.")
 
 
-def _gallery(rows, ok, ctx):
-    first = rows[rows.view == rows.view.iloc[0]]
-    gallery = blocks.Gallery("ERT at each node size and its difference from Basic (first view)",
-                             diff_scale=DIFF_SCALE, caption="Left the image, right |image − Basic|.")
-    for row in first.itertuples():
-        basic = ok[(ok.run == row.reference) & (ok.view == row.view)]
-        difference = ctx.difference(basic.exr.iloc[0], row.exr, DIFF_SCALE) if not basic.empty else None
-        gallery.items.append(blocks.GalleryItem(
-            f"ERT, Φ_p at {int(row.node_size)}³", ctx.image(row.png), difference=difference,
-            note=f"{format_number(row.off_percent)} % off, {format_number(row.frame_ms)} ms"))
-    return gallery
+def _gallery(rows, results, ctx):
+    return difference_gallery(
+        "ERT at each node size and its difference from Basic (first view)", rows[rows.view == rows.view.iloc[0]],
+        ctx, against=results, label=lambda row: f"ERT, Φ_p at {int(row.node_size)}³",
+        caption="Left the image, right |image − Basic|.",
+        note=lambda row: f"{format_number(row.off_percent)} % off, {format_number(row.frame_ms)} ms")
 
 
 class Octree(Experiment):
@@ -223,15 +214,14 @@ class Octree(Experiment):
     claims = CLAIMS
 
     def runs(self, profile):
-        dataset, preset = TABLE1[SCENE][:2]
         size = int(profile.setting(self, "volume_size", profile.volume_size))
         image = profile.setting(self, "image_size", profile.image_size)
         orbit = int(profile.setting(self, "orbit", 1))
         nodes = listed(profile, self, "nodes", PHI_P_NODES, known=PHI_P_NODES)
         frames = timed_frames(profile, self)
-        spec = scene(SCENE, image, volumes=[phantom(dataset, size, preset=preset)])
-        views = orbit_views(dataset, orbit)
-        tags = {"scene": SCENE, "dataset": dataset, "preset": preset, "size": size}
+        spec, tags = stand_in(SCENE, size, image)
+        views = orbit_views(tags["dataset"], orbit)
+        tags["size"] = size
         runs = mode_runs(self.name, SCENE, spec, views, ["basic"], frames, tags, group=SCENE)
         for node in nodes:
             runs += mode_runs(self.name, f"{SCENE}.n{node}", spec, views, ["ert"], frames, tags,
@@ -239,14 +229,12 @@ class Octree(Experiment):
         return runs
 
     def paper_table(self):
-        return pd.DataFrame([s for s in STATEMENTS if "Fig. 7" in s["source"]]
-                            + [{"claim": f"{PAPER_PHI_P_NODE}³ chosen as the trade-off between triangles and ERT",
-                                "source": "§4.2", "paper's own table": "no numbers"}])
+        return pd.DataFrame([s for s in STATEMENTS if "Fig. 7" in s["source"]] + statements(
+            (f"{PAPER_PHI_P_NODE}³ chosen as the trade-off between triangles and ERT", "§4.2", "no numbers")))
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = ok[ok.backend == ISBVR] if "backend" in ok else ok.iloc[:0]
-        out = [claim_takeaways(ctx, device_sentence(tests))]
+        out = [claim_takeaways(ctx, device_sentence(tagged(ok, backend=ISBVR)))]
         rows = _page_rows(ok)
         if not rows.empty:
             basic = rows_matching(ok, "Basic", config="basic")
@@ -255,5 +243,5 @@ class Octree(Experiment):
                                  names=COLUMNS, csv_name="octree.csv",
                                  caption="Every view; counts from occlusion queries, times: the view's median "
                                          "frame (whole frame) and init passes."),
-                    _gallery(rows, ok, ctx)]
+                    _gallery(rows, results, ctx)]
         return out + isbvr_not_measurable()

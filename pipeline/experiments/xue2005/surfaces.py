@@ -6,8 +6,8 @@ cube sets (``surfaces`` ``reduced``) the culling is conservative and the image i
 cubes on the coarse block maxima and minima (``coarse``, the paper's "original" surfaces) the surfaces
 cut visible material away (Fig. 4a); with marching cubes at full resolution (``full``) the init passes
 draw hundreds of thousands of triangles (the paper: over a million at 256³), which is why the paper
-contours at a coarse octree level. Also the helpers :mod:`.octree` shares: the views, each image against
-Basic's, and the lossless test.
+contours at a coarse octree level. Also the helpers :mod:`.octree` shares: each image against Basic's, and the
+lossless test (:mod:`.table1`'s bounds).
 """
 
 import numpy as np
@@ -16,20 +16,16 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             linked_table)
-from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, text_column
-from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs
-from pipeline.experiments.xue2005.tables import FULL_RES_TRIANGLES, PAPER_SIZE, STATEMENTS, TABLE1
+from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
+from pipeline.experiments.xue2005.pages import tagged, unless_missing
+from pipeline.experiments.xue2005.table1 import LOSSLESS_PIXEL, LOSSLESS_PSNR, LOSSLESS_SHARE
+from pipeline.experiments.xue2005.tables import FULL_RES_TRIANGLES, PAPER_SIZE, STATEMENTS, TABLE1, statements
 from reports import blocks, plots
 from reports.metrics import fraction_over, max_error, psnr
-
-OFF = 1.0 / 255.0
-"""A pixel is off when a channel differs from Basic's by more than one 8-bit level."""
-
-LOSSLESS_PSNR, LOSSLESS_SHARE = 50.0, 0.001
-"""Lossless against Basic (issue 23): at least 50 dB and at most 0.1 % of the pixels off."""
 
 VISIBLE_SHARE = 0.01
 """Visibly wrong: at least 1 % of the pixels off, ten times what lossless allows."""
@@ -39,8 +35,6 @@ FAR_ABOVE = 10.0
 
 INIT_SHARE = 0.1
 """Cube sets keep T_a ≪ T_m: the init passes at most a tenth of the volume pass."""
-
-"""The bound of "strictly slower": the intervals' bounds are inclusive, and equal times erode nothing."""
 
 VARIANTS = {
     # variant: (gl-isbvr config of methods.MODES, surfaces option, name in tables and figures)
@@ -59,19 +53,11 @@ TECHNIQUE = "slices + init passes + volume pass (time_technique)"
 
 
 # ---------------------------------------------------------------------------------------- shared helpers
-def orbit_views(dataset, orbit):
-    """The headline view and ``orbit`` more around the data set at 20° elevation (the headline's azimuth
-    left out)."""
-    return (headline_view(dataset),) + tuple(
-        dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
-        if a != 30.0)
-
-
 def image_errors(df, what, **match):
     """Each image of the rows matching ``match`` against its reference run's (Basic), view by view.
 
     Returns a frame of ``scene``, ``view``, ``run``, ``psnr`` (dB), ``off`` (share of pixels with a
-    channel off by more than :data:`OFF`) and ``max_error``; ValueError naming ``what`` when no row
+    channel off by more than :data:`~.table1.LOSSLESS_PIXEL`) and ``max_error``; ValueError naming ``what`` when no row
     matches, or naming the run whose reference image is missing.
     """
     rows = rows_matching(df, what, **match)
@@ -85,7 +71,7 @@ def image_errors(df, what, **match):
             raise ValueError(f"run {row['run']}, view {row['view']}: its reference {row['reference']!r} did not render")
         basic, image = read_exr(reference["exr"].iloc[0]), read_exr(row["exr"])
         out.append({"scene": row.get("scene", ""), "view": row["view"], "run": row["run"],
-                    "psnr": float(psnr(basic, image)), "off": fraction_over(basic, image, threshold=OFF),
+                    "psnr": float(psnr(basic, image)), "off": fraction_over(basic, image, threshold=LOSSLESS_PIXEL),
                     "max_error": max_error(basic, image)})
     return pd.DataFrame(out)
 
@@ -104,6 +90,12 @@ def lossless_result(errors):
                        f"worst of {len(errors)} images; largest error {format_number(errors.max_error.max())}")
 
 
+def off_percent(rows, df, what, **match):
+    """Each of ``rows``' pixels off against Basic in % (:func:`image_errors` of the rows of ``df`` matching
+    ``match``; NaN where it has none)."""
+    errors = unless_missing(image_errors, df, what, empty=None, **match)
+    off = errors.set_index(["run", "view"]).off if errors is not None else pd.Series(dtype=float)
+    return [100 * off.get((r, v), np.nan) for r, v in zip(rows.run, rows.view)]
 
 
 def scenes_of(df):
@@ -112,7 +104,6 @@ def scenes_of(df):
     if not scenes:
         raise ValueError("no successful run")
     return scenes
-
 
 
 def device_sentence(rows):
@@ -196,9 +187,10 @@ def _cube_init_small(df):
                        "same frames")
 
 
-def _speedup(df, variant, scene_name, resampler):
+def _speedup(df, variant, scene_name, resampler, **bounds):
+    """Basic over ``variant`` on one scene: :data:`TECHNIQUE`, median over the views, judged against ``bounds``."""
     return intervals.ratio_decision(_variant(df, "basic", scene=scene_name), _variant(df, variant, scene=scene_name),
-                                    column="time_technique", resampler=resampler)
+                                    column="time_technique", resampler=resampler, **bounds)
 
 
 def _full_erodes(df):
@@ -222,9 +214,7 @@ def _full_erodes(df):
 def _full_offsets(df):
     """Basic over ESS+ERT with full-resolution surfaces at most ×1: their cost leaves no speed-up (§4)."""
     resampler = intervals.Resampler()
-    decisions = {s: intervals.ratio_decision(_variant(df, "basic", scene=s), _variant(df, "full", scene=s),
-                                             column="time_technique", at_most=1.0, resampler=resampler)
-                 for s in scenes_of(df)}
+    decisions = {s: _speedup(df, "full", s, resampler, at_most=1.0) for s in scenes_of(df)}
     return all_of(decisions, show=as_ratio, what="Basic / ESS+ERT with full-resolution surfaces ",
                   extra=f"Times: {TECHNIQUE}, median over the views, timed together")
 
@@ -265,7 +255,7 @@ COLUMNS = {"variant_name": "surfaces", "triangles_t": "Φ_t triangles", "triangl
 """The page table's columns and their names."""
 
 
-def _page_rows(tests, errors):
+def _page_rows(tests):
     rows = tests.copy()
     rows["variant_name"] = [VARIANTS[v][2] for v in rows.variant]
     rows["triangles_t"] = numeric(rows, "count_surface_triangles_t")
@@ -274,17 +264,9 @@ def _page_rows(tests, errors):
     for column, stage in (("init_ms", "init"), ("draw_ms", "draw"), ("technique_ms", "technique")):
         rows[column] = numeric(rows, f"time_{stage}") * 1e3
     rows["ta_tm"] = rows.init_ms / rows.draw_ms
-    off = errors.set_index(["run", "view"]).off if not errors.empty else pd.Series(dtype=float)
-    rows["off_percent"] = [100 * off.get((r, v), np.nan) for r, v in zip(rows.run, rows.view)]
+    rows["off_percent"] = off_percent(rows, tests, "ESS+ERT", config="ess+ert")
     rows["order"] = rows.variant.map({v: i for i, v in enumerate(VARIANTS)})
     return rows.sort_values(["scene", "view", "order"], kind="stable")
-
-
-def _errors(tests):
-    try:
-        return image_errors(tests, "ESS+ERT", config="ess+ert")
-    except (KeyError, ValueError):
-        return pd.DataFrame(columns=["run", "view", "off", "psnr"])
 
 
 def _triangle_takeaways(tests):
@@ -305,18 +287,14 @@ def _triangle_takeaways(tests):
     return sentences
 
 
-def _gallery(rows, ctx):
-    gallery = blocks.Gallery("Each surface kind and its difference from Basic (first view)", diff_scale=DIFF_SCALE,
-                             caption="Left the image, right |image − Basic| on the report's one difference scale; "
-                                     "the coarse surfaces' holes show as bright regions (the paper's Fig. 4a).")
-    basics = {r.scene: r.exr for r in rows[rows.variant == "basic"].itertuples()}
-    for row in rows.itertuples():
-        difference = None if row.variant == "basic" else ctx.difference(basics.get(row.scene), row.exr, DIFF_SCALE)
-        note = (f"{format_number(row.off_percent)} % off, PSNR {format_number(getattr(row, 'psnr', np.nan))} dB"
-                if row.variant != "basic" else f"{format_number(row.technique_ms)} ms")
-        gallery.items.append(blocks.GalleryItem(f"{row.scene}, {row.variant_name}", ctx.image(row.png),
-                                                difference=difference, note=note))
-    return gallery
+def _gallery(rows, results, ctx):
+    return difference_gallery(
+        "Each surface kind and its difference from Basic (first view)", rows, ctx, against=results,
+        label=lambda row: f"{row.scene}, {row.variant_name}",
+        caption="Left the image, right |image − Basic| on the report's one difference scale; the coarse surfaces' "
+                "holes show as bright regions (the paper's Fig. 4a).",
+        note=lambda row: (f"{format_number(row.off_percent)} % off, PSNR {format_number(getattr(row, 'psnr', np.nan))} "
+                          "dB" if row.variant != "basic" else f"{format_number(row.technique_ms)} ms"))
 
 
 def _time_chart(rows, ctx):
@@ -362,10 +340,9 @@ class Surfaces(Experiment):
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            dataset, preset = TABLE1[scene_name][:2]
-            spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
-            views = orbit_views(dataset, orbit)
-            tags = {"scene": scene_name, "dataset": dataset, "preset": preset, "size": size}
+            spec, tags = stand_in(scene_name, size, image)
+            views = orbit_views(tags["dataset"], orbit)
+            tags["size"] = size
             basic = f"{scene_name}.basic"
             for variant, (config, surfaces, _name) in VARIANTS.items():
                 prefix = scene_name if surfaces is None else f"{scene_name}.{variant}"
@@ -376,18 +353,17 @@ class Surfaces(Experiment):
 
     def paper_table(self):
         rows = [s for s in STATEMENTS if "Fig. 4" in s["source"] or "million" in s["claim"]]
-        return pd.DataFrame(rows + [{"claim": "the init passes' time must stay well below the volume pass's, or the "
-                                              "gain is lost", "source": "§2.6, §4", "paper's own table": "no timing"}])
+        return pd.DataFrame(rows + statements(("the init passes' time must stay well below the volume pass's, or the "
+                                               "gain is lost", "§2.6, §4", "no timing")))
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = ok[ok.backend == ISBVR] if "backend" in ok else ok.iloc[:0]
+        tests = tagged(ok, backend=ISBVR)
         out = [claim_takeaways(ctx, device_sentence(tests),
                                _triangle_takeaways(tests) if "variant" in tests else [])]
         if not tests.empty and "variant" in tests:
-            rows = _page_rows(tests, _errors(tests))
-            first = rows[rows.view == rows.view.iloc[0]]
-            out.append(_gallery(first, ctx))
+            rows = _page_rows(tests)
+            out.append(_gallery(rows[rows.view == rows.view.iloc[0]], results, ctx))
             out.append(linked_table("Surfaces, triangles, fragments and times", rows,
                                     ["scene", "view", "variant_name", *list(COLUMNS)[1:], "psnr"], ctx,
                                     names=COLUMNS, csv_name="surfaces.csv",

@@ -10,7 +10,7 @@ pseudo ERT has nothing to cull), and the dense block of note 001 §5 (smooth fBm
 faint opacity). Each transfer function's modes are one interleave group.
 
 Also the helpers :mod:`.fuzziness` shares: speed-ups with bootstrap draws, ratios of speed-ups from different
-groups, culled fractions.
+groups, a mode's counts.
 """
 
 import numpy as np
@@ -22,9 +22,9 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, config_rows, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
-from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
-from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs
+from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs, orbit_views
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1, paper_speedup
 from reports import blocks, plots
 
@@ -137,8 +137,22 @@ def interval_or_nan(draws):
     return interval if interval is not None else (np.nan, np.nan)
 
 
+def interval_columns(name, pair, *, value=None):
+    """``{value: v, "<name> low": low, "<name> high": high}`` of a ``(v, draws)`` pair (:func:`interval_or_nan`);
+    ``value`` defaults to ``"<name> δ"``."""
+    low, high = interval_or_nan(pair[1])
+    return {value or f"{name} δ": pair[0], f"{name} low": low, f"{name} high": high}
 
 
+def mode_counts(tested):
+    """One mode's counts, medians over its views (occlusion queries): α', φ = (F_t + F_p) / F, F, F'_c and the cube
+    sets' cubes; and its worst PSNR against Basic."""
+    generated = median_count(tested, "count_fragments_generated")
+    surfaces = median_count(tested, "count_surface_fragments_t") + median_count(tested, "count_surface_fragments_p")
+    return {"alpha": culled_fraction(tested), "phi": surfaces / generated, "F": generated,
+            "F_c": median_count(tested, "count_fragments"), "cubes_t": median_count(tested, "count_cubes_t"),
+            "cubes_p": median_count(tested, "count_cubes_p"),
+            "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan}
 
 
 def groups_of(frame, **match):
@@ -190,8 +204,9 @@ def _nothing_to_cull(df):
 def _no_overhead(df):
     resampler = intervals.Resampler()
     low, high = NO_OVERHEAD
-    decisions = {label: intervals.ratio_decision(config_rows(rows, "ess+ert", what=label), config_rows(rows, "basic", what=label),
-                                                 at_least=low, at_most=high, resampler=resampler)
+    decisions = {label: intervals.ratio_decision(config_rows(rows, "ess+ert", what=label),
+                                                 config_rows(rows, "basic", what=label), at_least=low, at_most=high,
+                                                 resampler=resampler)
                  for label, rows in _nothing_to_cull(df).items()}
     return all_of(decisions, what="ESS+ERT / Basic time ", extra=SCOPE)
 
@@ -266,16 +281,10 @@ def summary(ok):
             continue
         low, high = interval_or_nan(draws)
         first = tested.iloc[0]
-        generated = median_count(tested, "count_fragments_generated")
-        surfaces = median_count(tested, "count_surface_fragments_t") + median_count(tested, "count_surface_fragments_p")
         rows.append({**{k: first.get(k) for k in ("scene", "kind", "tf", "iso_t", "iso_p", "record", "exr")},
-                     "group": name, "speedup": value, "low": low, "high": high,
-                     "alpha": culled_fraction(tested), "phi": surfaces / generated,
-                     "cubes_t": median_count(tested, "count_cubes_t"), "cubes_p": median_count(tested, "count_cubes_p"),
+                     "group": name, "speedup": value, "low": low, "high": high, **mode_counts(tested),
                      "triangles_t": median_count(tested, "count_surface_triangles_t"),
-                     "triangles_p": median_count(tested, "count_surface_triangles_p"),
-                     "F": generated, "F_c": median_count(tested, "count_fragments"),
-                     "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan})
+                     "triangles_p": median_count(tested, "count_surface_triangles_p")})
     return pd.DataFrame(rows)
 
 
@@ -361,9 +370,7 @@ class TransferSweep(Experiment):
         runs = []
         for scene_name in wanted:
             dataset = TABLE1[scene_name][0]
-            views = (headline_view(dataset),) + tuple(
-                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
-                if a != 30.0)
+            views = orbit_views(dataset, orbit)
             paper_t, paper_p = (float(v) for v in PAPER_ISO[scene_name])
             tfs = [(_tf_label(t, p), "ramp", t, p, ramp_points(dataset, t, p), ("basic", "ess+ert"))
                    for t, p in sweep_pairs(scene_name, iso_t, iso_p)]

@@ -17,14 +17,15 @@ import pandas as pd
 from pipeline.experiments.kit import intervals, pages
 from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, claim_takeaways, format_number,
-                                            linked_table)
-from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, headline_view, listed, phantom, scene,
-                                               timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, 
-                                              speed_points, text_column)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
+                                            frame_note, linked_table)
+from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, timed_frames, truth_run
+from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, speed_points,
+                                              text_column)
 from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, RAYCAST, SLICER, STEP, VTK, culled_fraction,
-                                                  isbvr_not_measurable, mode_name, mode_runs)
+                                                  isbvr_not_measurable, mode_name, mode_runs, orbit_views, short_name,
+                                                  stand_in)
+from pipeline.experiments.xue2005.pages import by_scene, tagged, silent_without_runs
 from pipeline.experiments.xue2005.tables import MODES_IN_TABLE, PAPER_DEVICE, REAL_SCANS, TABLE1, paper_speedup
 from reports import blocks, plots
 from reports.metrics import fraction_over, psnr
@@ -59,9 +60,6 @@ TIMES = "whole frames (time_total), median over the views"
 def scenes_of(frame, config):
     """The scenes ``config`` rendered successfully, in the order of the rows."""
     return list(pd.unique(text_column(config_rows(frame, config), "scene")))
-
-
-
 
 
 def ideal_speedup(alpha):
@@ -239,56 +237,50 @@ def device_takeaways(tests):
         "fractions α' (machine-independent) say what any device could gain"))
 
 
+@silent_without_runs
 def _culling_takeaways(tests):
     """What share of the gain its culled fragments allow ESS+ERT realised here (free culling: 1/(1 − α'))."""
-    try:
-        shares = {s: time_ratio(tests, "basic", "ess+ert", resampler=intervals.Resampler(), scene=s).value
-                  / ideal_speedup(culled_fraction(config_rows(tests, "ess+ert", scene=s)))
-                  for s in scenes_of(tests, "ess+ert")}
-    except (KeyError, ValueError):
-        return []
+    shares = {s: time_ratio(tests, "basic", "ess+ert", resampler=intervals.Resampler(), scene=s).value
+              / ideal_speedup(culled_fraction(config_rows(tests, "ess+ert", scene=s)))
+              for s in scenes_of(tests, "ess+ert")}
     low, high = min(shares, key=shares.get), max(shares, key=shares.get)
     return [f"Culled fragments are not free here: ESS+ERT's measured speed-up is {as_percent(shares[low])} "
             f"({low}) to {as_percent(shares[high])} ({high}) of 1/(1 − α'), the speed-up its culled share would "
             "give at no cost per culled fragment and no init passes."]
 
 
+@silent_without_runs
 def _slicer_takeaways(ok):
     """Basic against gl-slicer, the plain slicer it must be (headline view)."""
-    try:
-        values = pair_psnr(image_pairs(ok, "basic", "slicer"))
-    except (KeyError, ValueError):
-        return []
+    values = pair_psnr(image_pairs(ok, "basic", "slicer"))
     worst = min(values, key=lambda k: values[k][0])
     return [f"Basic is plain slicing: against gl-slicer at the same step its image has PSNR "
             f"{format_number(values[worst][0])} dB at worst ({worst[0]}, {worst[1]}; ∞: identical)."]
 
 
+def _peer_words(ok, slow, fast):
+    """``time(slow) / time(fast)`` on every scene ``slow`` rendered, in words with their intervals."""
+    resampler = intervals.Resampler()
+    decisions = {s: time_ratio(ok, slow, fast, resampler=resampler, scene=s) for s in scenes_of(ok, slow)}
+    return ", ".join(f"{s} {decision_words(d)}" for s, d in decisions.items())
+
+
+@silent_without_runs
 def _raycast_takeaways(ok):
     """ESS+ERT against the GPU ray caster with early termination and empty-space skipping (no claim: the paper
     names ray casting as the alternative, it does not time it)."""
-    resampler = intervals.Resampler()
-    try:
-        decisions = {s: time_ratio(ok, "rc-b", "ess+ert", resampler=resampler, scene=s) for s in scenes_of(ok, "rc-b")}
-        accuracy = numeric(config_rows(ok, "rc-b"), "psnr")
-    except (KeyError, ValueError):
-        return []
-    words = ", ".join(f"{s} {decision_words(d)}" for s, d in decisions.items())
+    words, accuracy = _peer_words(ok, "rc-b", "ess+ert"), numeric(config_rows(ok, "rc-b"), "psnr")
     return [f"Against the ray caster with early termination and empty-space skipping (gl-raycast rc-b, the "
             f"alternative the paper names in §3.4, at the same step, timed with the modes): time(RC-b) / "
             f"time(ESS+ERT) {words}; RC-b's PSNR against the reference ≥ {format_number(accuracy.min())} dB."]
 
 
+@silent_without_runs
 def _vtk_takeaways(ok):
     """VTK's depth pass against VTK without it, timed together: its speed-up and what it costs in accuracy (no
     claim: a peer)."""
-    resampler = intervals.Resampler()
-    try:
-        decisions = {s: time_ratio(ok, "vtk", "vtk-depth", resampler=resampler, scene=s) for s in scenes_of(ok, "vtk")}
-        plain, passed = (numeric(config_rows(ok, config), "psnr") for config in ("vtk", "vtk-depth"))
-    except (KeyError, ValueError):
-        return []
-    words = ", ".join(f"{s} {decision_words(d)}" for s, d in decisions.items())
+    words = _peer_words(ok, "vtk", "vtk-depth")
+    plain, passed = (numeric(config_rows(ok, config), "psnr") for config in ("vtk", "vtk-depth"))
     return [f"VTK's GPU ray caster with its depth pass (rays start at a contour at Φ_t, the nearest thing to iSBVR "
             f"users have) against VTK without it: time(VTK) / time(VTK with the depth pass) {words}; PSNR against "
             f"the reference ≥ {format_number(passed.min())} dB with the pass, ≥ {format_number(plain.min())} dB "
@@ -302,7 +294,7 @@ def _ratio_table(tests):
         here = tests[tests.scene == scene_name]
         row = {"scene": scene_name, "paper row": TABLE1[scene_name][2]}
         for config in MODES_IN_TABLE[1:]:
-            label = mode_name(config).split(" (")[0]
+            label = short_name(config)
             row[f"{label} (paper)"] = round(paper_speedup(scene_name, config), 2)
             for scope, column in (("ours", "time_total"), ("ours, technique", "time_technique")):
                 try:
@@ -387,23 +379,14 @@ def _speed_blocks(headline, ctx):
 
 def _gallery(headline, results, ctx):
     """Each mode's headline image: Basic beside its difference from the reference, the others from Basic."""
-    gallery = blocks.Gallery("Headline view: each mode, Basic against the reference and the others against Basic",
-                             diff_scale=DIFF_SCALE,
-                             caption="Left the mode's image, right |Basic − reference| for Basic and |mode − Basic| "
-                                     "for the others.")
-    for scene_name, rows in headline.groupby("scene", sort=False):
-        basic = rows[rows.config == "basic"]
-        for row in rows.sort_values("config").itertuples():
-            if row.config == "basic":
-                against, what = reference_exr(results, row), "reference"
-            else:
-                against, what = (basic.exr.iloc[0] if not basic.empty else None), "Basic"
-            gallery.items.append(blocks.GalleryItem(
-                f"{scene_name}, {mode_name(row.config)}", ctx.image(row.png),
-                difference=ctx.difference(against, row.exr, DIFF_SCALE),
-                note=f"against {what}; PSNR to the reference {format_number(getattr(row, 'psnr', np.nan))} dB, "
-                     f"{format_number(row.time_total * 1e3)} ms"))
-    return gallery
+    basics = {row.scene: row.exr for row in headline[headline.config == "basic"].itertuples()}
+    return difference_gallery(
+        "Headline view: each mode, Basic against the reference and the others against Basic",
+        by_scene(headline, "config"), ctx, label=lambda row: f"{row.scene}, {mode_name(row.config)}",
+        caption="Left the mode's image, right |Basic − reference| for Basic and |mode − Basic| for the others.",
+        against=lambda row: reference_exr(results, row) if row.config == "basic" else basics.get(row.scene),
+        note=lambda row: f"against {'reference' if row.config == 'basic' else 'Basic'}; "
+                         + frame_note(row, psnr="PSNR to the reference"))
 
 
 class Table1(Experiment):
@@ -445,19 +428,16 @@ class Table1(Experiment):
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            dataset, preset = TABLE1[scene_name][:2]
-            volume = phantom(dataset, size, preset=preset)
-            scene_spec = scene(scene_name, image, volumes=[volume])
-            views = (headline_view(dataset),) + tuple(
-                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1))
-            grid = f"{size}³" if "size" in volume else f"{dataset} as scanned"
-            tags = {"scene": scene_name, "dataset": dataset, "preset": preset, "grid": grid}
+            scene_spec, tags = stand_in(scene_name, size, image)
+            dataset, volume = tags["dataset"], scene_spec["volumes"][0]
+            views = orbit_views(dataset, orbit, repeat_headline=True)
+            tags["grid"] = f"{size}³" if "size" in volume else f"{dataset} as scanned"
             truth = truth_run(self.name, scene_name, scene_spec, views, truth_step, tags)
             runs.append(truth)
             runs += mode_runs(self.name, scene_name, scene_spec, views, MODES_IN_TABLE, frames,
                               {**tags, "role": "test"}, reference=truth.id)
             if accepts(RAYCAST, "variant", "step_factor"):
-                # The modern alternative the paper acknowledges (§3.4 item 10), timed with the modes, frame against frame.
+                # The modern alternative the paper acknowledges (§3.4 item 10), interleaved with the modes.
                 runs.append(Run(self.name, f"{scene_name}.rc-b", RAYCAST, scene_spec, views,
                                 options={"variant": "rc-b", "step_factor": STEP}, reference=truth.id, **frames,
                                 tags={**tags, "role": "peer", "config": "rc-b"}, interleave=scene_name))
@@ -493,7 +473,7 @@ class Table1(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tagged(ok, role="test")
         out = [claim_takeaways(ctx, device_takeaways(tests), _culling_takeaways(tests),
                                _slicer_takeaways(ok), _raycast_takeaways(ok), _vtk_takeaways(ok))]
         if not tests.empty:

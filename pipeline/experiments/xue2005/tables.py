@@ -30,24 +30,28 @@ def paper_speedup(scene, mode):
 EXTRACTION_MS = {"phi_t": 10.0, "phi_p": 210.0}
 """Cube-set extraction per transfer-function change (§4.2/§5: 8³ nodes for Φ_t, 2³ for Φ_p; CPU not stated)."""
 
-STATEMENTS = [
-    {"claim": "two to four times speed-up over straightforward SBVR", "source": "abstract, §5",
-     "paper's own table": "2.23–3.81× (mean 3.19×)"},
-    {"claim": "ERT alone: a speed-up from 30 % to 50 %", "source": "§3.1",
-     "paper's own table": "1.18–1.59× (the golden lady, bonsai and aneurism below 30 %)"},
-    {"claim": "empty-ray removal with exit-based space leaping: 200 %–300 %", "source": "§3.4",
-     "paper's own table": "ESS 1.95–2.99×"},
-    {"claim": "no overhead where the TF has no zero-opacity and no opaque region", "source": "§3",
-     "paper's own table": "not measured in the paper"},
-    {"claim": "works equally well front-to-back and back-to-front", "source": "§3.5",
-     "paper's own table": "not measured in the paper"},
-    {"claim": "Φ_p shrinks drastically with the node size; at 8³ almost no ERT pixels", "source": "§4.2, Fig. 7",
-     "paper's own table": "images only"},
-    {"claim": "coarse marching-cubes surfaces cut holes; the cube sets remove them", "source": "§4.1, Fig. 4",
-     "paper's own table": "images only"},
-    {"claim": "a full-resolution 256³ isosurface can exceed a million triangles", "source": "§4",
-     "paper's own table": "no timing"},
-]
+CLAIM_COLUMNS = ("claim", "source", "paper's own table")
+"""The columns of the paper's claims beyond Table 1 (:data:`STATEMENTS`)."""
+
+MODEL_COLUMNS = ("statement", "source", "paper's number")
+"""The columns of the paper's statements of its cost model (:data:`EARLYZ_STATEMENTS`, :data:`TWOPASS_STATEMENTS`)."""
+
+
+def statements(*rows, columns=CLAIM_COLUMNS):
+    """The paper's statements as rows of a paper table: each of ``rows`` a tuple of ``columns``."""
+    return [dict(zip(columns, row)) for row in rows]
+
+
+STATEMENTS = statements(
+    ("two to four times speed-up over straightforward SBVR", "abstract, §5", "2.23–3.81× (mean 3.19×)"),
+    ("ERT alone: a speed-up from 30 % to 50 %", "§3.1",
+     "1.18–1.59× (the golden lady, bonsai and aneurism below 30 %)"),
+    ("empty-ray removal with exit-based space leaping: 200 %–300 %", "§3.4", "ESS 1.95–2.99×"),
+    ("no overhead where the TF has no zero-opacity and no opaque region", "§3", "not measured in the paper"),
+    ("works equally well front-to-back and back-to-front", "§3.5", "not measured in the paper"),
+    ("Φ_p shrinks drastically with the node size; at 8³ almost no ERT pixels", "§4.2, Fig. 7", "images only"),
+    ("coarse marching-cubes surfaces cut holes; the cube sets remove them", "§4.1, Fig. 4", "images only"),
+    ("a full-resolution 256³ isosurface can exceed a million triangles", "§4", "no timing"))
 """What the paper states beyond Table 1, with what its own table shows (note 001 §3.2)."""
 
 PAPER_SIZE = 256
@@ -75,35 +79,28 @@ IMPLIED_CULLING = {
 IMPLIED_GAMMAS = (0.0, 0.1)
 """The shader ratios γ of :data:`IMPLIED_CULLING`'s two columns."""
 
-EARLYZ_STATEMENTS = [
-    {"statement": "T_z ≈ T_s: a fragment culled by early z costs about as much as one through the simple shader",
-     "source": "§2, Eqs. 3–4 (assumed)", "paper's number": "none measured"},
-    {"statement": "T_s is fixed for a given GPU; T_c depends on the shader", "source": "§2",
-     "paper's number": "none measured"},
-    {"statement": "γ = 0.2 needs a culling rate above 25 % to break even", "source": "§2, Eq. 6",
-     "paper's number": "example"},
-    {"statement": "a z-only pass with colour writes off can run twice as fast (double-speed z)", "source": "§2",
-     "paper's number": "up to 2×"},
-]
+EARLYZ_STATEMENTS = statements(
+    ("T_z ≈ T_s: a fragment culled by early z costs about as much as one through the simple shader",
+     "§2, Eqs. 3–4 (assumed)", "none measured"),
+    ("T_s is fixed for a given GPU; T_c depends on the shader", "§2", "none measured"),
+    ("γ = 0.2 needs a culling rate above 25 % to break even", "§2, Eq. 6", "example"),
+    ("a z-only pass with colour writes off can run twice as fast (double-speed z)", "§2", "up to 2×"),
+    columns=MODEL_COLUMNS)
 """What the paper says of T_s, T_z, T_c and γ (note 001 §2.2): statements and an example, no measurement."""
 
-LEAPING_STATEMENTS = [
-    {"claim": "front-based leaping: Φ_t's front faces, then GREATER in the volume pass; it cannot be combined with "
-              "ERT, which needs LESS, hence exit-based leaping", "source": "§3.2–3.3",
-     "paper's own table": "not measured in the paper"},
-    {"claim": "exit-based leaping still shades the slices in front of Φ_t; a dual z-buffer \"depth band test\" "
-              "would cull both sides", "source": "§3.4, §6", "paper's own table": "not measured in the paper"},
-]
+LEAPING_STATEMENTS = statements(
+    ("front-based leaping: Φ_t's front faces, then GREATER in the volume pass; it cannot be combined with ERT, which "
+     "needs LESS, hence exit-based leaping", "§3.2–3.3", "not measured in the paper"),
+    ("exit-based leaping still shades the slices in front of Φ_t; a dual z-buffer \"depth band test\" would cull "
+     "both sides", "§3.4, §6", "not measured in the paper"))
 """What the paper says of front-based against exit-based leaping (note 001 §2.4, §3.4 item 2)."""
 
-TWOPASS_STATEMENTS = [
-    {"statement": "per-slice two-pass rendering: each slice drawn twice, a simple shader setting depth where the "
-                  "opacity buffer is opaque, then the complex shader with early z; F_s = F and T_z ≈ T_s",
-     "source": "§2, Eqs. 3–4", "paper's number": "model only"},
-    {"statement": "δ = 1 / (αγ + 1 − α + γ)", "source": "§2, Eq. 5", "paper's number": "model only"},
-    {"statement": "two-pass rendering pays off when (1 − γ)(α + 1) > 1: γ = 0.2 needs α > 25 %",
-     "source": "§2, Eq. 6", "paper's number": "example"},
-    {"statement": "at most 1/(2γ) as α → 1 (γ = 0.2: ×2.5); iSBVR's few surface fragments (φ ≪ 1) lift the bound "
-                  "to 1/γ", "source": "Eqs. 5 and 9 (note 001 §2.2, §2.6, derived)", "paper's number": "not stated"},
-]
+TWOPASS_STATEMENTS = statements(
+    ("per-slice two-pass rendering: each slice drawn twice, a simple shader setting depth where the opacity buffer is "
+     "opaque, then the complex shader with early z; F_s = F and T_z ≈ T_s", "§2, Eqs. 3–4", "model only"),
+    ("δ = 1 / (αγ + 1 − α + γ)", "§2, Eq. 5", "model only"),
+    ("two-pass rendering pays off when (1 − γ)(α + 1) > 1: γ = 0.2 needs α > 25 %", "§2, Eq. 6", "example"),
+    ("at most 1/(2γ) as α → 1 (γ = 0.2: ×2.5); iSBVR's few surface fragments (φ ≪ 1) lift the bound to 1/γ",
+     "Eqs. 5 and 9 (note 001 §2.2, §2.6, derived)", "not stated"),
+    columns=MODEL_COLUMNS)
 """What the paper says of the generic per-slice two-pass renderer (note 001 §2.2): a model, no measurement."""

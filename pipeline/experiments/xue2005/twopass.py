@@ -24,15 +24,17 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number,
-                                            linked_table, not_measurable)
-from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, timed_frames, unregistered
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, text_column
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
+                                            linked_table)
+from pipeline.experiments.kit.planning import phantom, scene, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.costmodel_check import BAND, with_passes
-from pipeline.experiments.xue2005.earlyz import DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, isbvr_run, ns, per_fragment
-from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS
-from pipeline.experiments.xue2005.sweeps import groups_of, interval_or_nan
+from pipeline.experiments.xue2005.costmodel_check import BAND, shared_views, stacked, summed, timed_model
+from pipeline.experiments.xue2005.earlyz import (DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, can_plan, isbvr_run, ns,
+                                                 ratio_pair)
+from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable
+from pipeline.experiments.xue2005.pages import runs_table, unless_missing
+from pipeline.experiments.xue2005.sweeps import groups_of, interval_columns
 from pipeline.experiments.xue2005.tables import TWOPASS_STATEMENTS
 from reports import blocks, plots
 
@@ -106,29 +108,7 @@ def constant_tf(opacity):
             "name": f"constant-{opacity:.4g}"}
 
 
-def can_plan():
-    """Whether ``gl-isbvr`` is here with every option this experiment sets."""
-    return accepts(ISBVR, *OPTIONS, "count_fragments", "opaque_threshold")
-
-
 # ------------------------------------------------------------------------------------------ measurement
-def _pair_sum(rows, column, resampler):
-    """``(value, draws)`` of ``column`` summed over the rows (the views), draws from the frames."""
-    draws = intervals.row_draws(rows, column, resampler)
-    return float(numeric(rows, column).sum()), None if draws is None else draws.sum(axis=1)
-
-
-def _ratio(top, bottom):
-    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
-
-
-def _views(*frames):
-    views = set.intersection(*(set(text_column(rows, "view")) for rows in frames))
-    if not views:
-        raise ValueError("the runs of a point share no view")
-    return [with_passes(rows[text_column(rows, "view").isin(views)].sort_values("view")) for rows in frames]
-
-
 def point_model(group, resampler):
     """Eq. 5 and the measured speed-up of slice-ert over Basic at one (opacity, taps) point: one interleave group.
 
@@ -139,7 +119,8 @@ def point_model(group, resampler):
     break-even α and which side of it (``"loss"``, ``"gain"`` or ``None`` inside :data:`MARGIN`) Eq. 6 puts
     the point; ESS+ERT's α', φ and speed-up where the group has it.
     """
-    simple, basic, two = _views(*(config_rows(group, c) for c in ("simple", "basic", "slice-ert")))
+    simple, basic, two = shared_views([config_rows(group, c) for c in ("simple", "basic", "slice-ert")],
+                                      "the runs of a point")
     fragments = numeric(two, "count_fragments_generated").to_numpy(float)
     shaded = numeric(two, "count_fragments").to_numpy(float)
     if not (fragments > 0).all():
@@ -150,13 +131,8 @@ def point_model(group, resampler):
                                         t_complex=basic_draw / fragments)
         return np.sum(basic_draw, axis=-1) / np.sum(time, axis=-1)
 
-    simple_draws = intervals.row_draws(simple, "time_draw", resampler)
-    basic_draws = intervals.row_draws(basic, "time_draw", resampler)
-    predicted = (float(eq4(numeric(simple, "time_draw").to_numpy(float), numeric(basic, "time_draw").to_numpy(float))),
-                 None if simple_draws is None or basic_draws is None else eq4(simple_draws, basic_draws))
-    t_simple, t_complex = per_fragment(simple, resampler), per_fragment(basic, resampler)
-    gamma = _ratio(t_simple, t_complex)
-    measured = _ratio(_pair_sum(basic, "time_passes", resampler), _pair_sum(two, "time_passes", resampler))
+    timed = timed_model(simple, basic, two, eq4, resampler)
+    gamma, measured = ratio_pair(timed["t_simple"], timed["t_complex"]), timed["measured"]
     alpha = costmodel.culling_rate(fragments.sum(), shaded.sum())
     break_even = float(costmodel.break_even_culling(gamma[0]))
     side = "loss" if alpha < break_even - MARGIN else "gain" if alpha > break_even + MARGIN else None
@@ -164,23 +140,22 @@ def point_model(group, resampler):
     out = {"group": str(first.interleave), "kind": str(first.kind), "opacity": float(first.opacity),
            "taps": int(float(first.extra_taps)), "views": len(two), "F": float(fragments.sum()),
            "F_c": float(shaded.sum()), "depth_writes": float(numeric(two, "count_init_fragments").sum()),
-           "alpha": alpha, "gamma": gamma, "t_simple": t_simple[0], "t_complex": t_complex[0],
-           "t_first": float(numeric(two, "time_init").sum() / fragments.sum()), "predicted": predicted,
-           "measured": measured, "whole": _ratio(_pair_sum(basic, "time_total", resampler),
-                                                 _pair_sum(two, "time_total", resampler)),
+           "alpha": alpha, "gamma": gamma, "t_simple": timed["t_simple"][0], "t_complex": timed["t_complex"][0],
+           "t_first": float(numeric(two, "time_init").sum() / fragments.sum()), "predicted": timed["predicted"],
+           "measured": measured, "whole": timed["whole"],
            "ceiling_share": (measured[0] * 2 * gamma[0],
                              None if measured[1] is None or gamma[1] is None else measured[1] * 2 * gamma[1]),
            "break_even": break_even, "side": side, "pays_off": bool(costmodel.pays_off(alpha, gamma[0])),
            "psnr": float(numeric(two, "psnr").min()) if "psnr" in two else np.nan,
            "timing": first.get("info_timing"), "record": first.get("record"), "exr": first.get("exr")}
     if "ess+ert" in set(text_column(group, "config")):
-        basic, isbvr = _views(basic, config_rows(group, "ess+ert"))
+        basic, isbvr = shared_views([basic, config_rows(group, "ess+ert")], "the runs of a point")
         generated = median_count(isbvr, "count_fragments_generated")
         out["isbvr"] = {"alpha": costmodel.culling_rate(generated, median_count(isbvr, "count_fragments")),
                         "phi": costmodel.surface_share(generated, median_count(isbvr, "count_surface_fragments_t"),
                                                        median_count(isbvr, "count_surface_fragments_p")),
-                        "measured": _ratio(_pair_sum(basic, "time_passes", resampler),
-                                           _pair_sum(isbvr, "time_passes", resampler))}
+                        "measured": ratio_pair(summed(basic, "time_passes", resampler),
+                                               summed(isbvr, "time_passes", resampler))}
     return out
 
 
@@ -260,23 +235,16 @@ CLAIMS = (
 
 # ------------------------------------------------------------------------------------------------- page
 def _table(models):
-    rows = []
-    for m in models:
-        predicted_low, predicted_high = interval_or_nan(m["predicted"][1])
-        low, high = interval_or_nan(m["measured"][1])
-        gamma_low, gamma_high = interval_or_nan(m["gamma"][1])
-        rows.append({"point": m["group"], "extra taps": m["taps"], "opacity": m["opacity"], "F": m["F"],
-                     "F'_c": m["F_c"], "α": m["alpha"], "depth writes": m["depth_writes"],
-                     "T_s (ns)": 1e9 * m["t_simple"], "T_c (ns)": 1e9 * m["t_complex"],
-                     "first pass (ns / F)": 1e9 * m["t_first"], "γ": m["gamma"][0], "γ low": gamma_low,
-                     "γ high": gamma_high, "break-even α": m["break_even"],
-                     "Eq. 6": "gain" if m["pays_off"] else "loss", "judged as": m["side"] or "within margin",
-                     "Eq. 5 δ": m["predicted"][0], "Eq. 5 low": predicted_low, "Eq. 5 high": predicted_high,
-                     "measured δ": m["measured"][0], "measured low": low, "measured high": high,
-                     "Eq. 5 / measured": m["predicted"][0] / m["measured"][0], "1/(2γ)": 0.5 / m["gamma"][0],
-                     "measured / 1/(2γ)": m["ceiling_share"][0], "whole frames δ": m["whole"][0],
-                     "PSNR vs Basic (dB)": m["psnr"], "record": m["record"], "exr": m["exr"]})
-    return pd.DataFrame(rows)
+    return pd.DataFrame([
+        {"point": m["group"], "extra taps": m["taps"], "opacity": m["opacity"], "F": m["F"], "F'_c": m["F_c"],
+         "α": m["alpha"], "depth writes": m["depth_writes"], "T_s (ns)": 1e9 * m["t_simple"],
+         "T_c (ns)": 1e9 * m["t_complex"], "first pass (ns / F)": 1e9 * m["t_first"],
+         **interval_columns("γ", m["gamma"], value="γ"), "break-even α": m["break_even"],
+         "Eq. 6": "gain" if m["pays_off"] else "loss", "judged as": m["side"] or "within margin",
+         **interval_columns("Eq. 5", m["predicted"]), **interval_columns("measured", m["measured"]),
+         "Eq. 5 / measured": m["predicted"][0] / m["measured"][0], "1/(2γ)": 0.5 / m["gamma"][0],
+         "measured / 1/(2γ)": m["ceiling_share"][0], "whole frames δ": m["whole"][0],
+         "PSNR vs Basic (dB)": m["psnr"], "record": m["record"], "exr": m["exr"]} for m in models])
 
 
 def _takeaways(models):
@@ -328,10 +296,7 @@ def _takeaways(models):
 def _chart(table, ctx):
     gammas = table.groupby("extra taps")["γ"].median()
     series = [f"{k} taps (γ {format_number(gammas[k])})" for k in table["extra taps"]]
-    long = pd.concat([table.assign(series=[f"measured, {s}" for s in series], value=table["measured δ"],
-                                   low=table["measured low"], high=table["measured high"]),
-                      table.assign(series=[f"Eq. 5, {s}" for s in series], value=table["Eq. 5 δ"],
-                                   low=table["Eq. 5 low"], high=table["Eq. 5 high"])], ignore_index=True)
+    long = stacked(table, [([f"{name}, {s}" for s in series], name) for name in ("measured", "Eq. 5")])
     ratios = table["Eq. 5 / measured"]
     path, rel = ctx.plot_path("speedup")
     plots.lines(long, path, x="α", y="value", group="series", y_range=("low", "high"),
@@ -362,21 +327,15 @@ def _contrast_table(models):
 def _gallery(ok, results, ctx):
     """Basic once and slice-ert at each opacity (fewest extra taps), with its difference from Basic."""
     taps = numeric(ok, "extra_taps")
-    rows = ok[(taps == taps.min()) & ok.config.isin(("basic", "slice-ert"))].copy()
-    rows["opacity"] = numeric(rows, "opacity")
+    rows = ok[(taps == taps.min()) & ok.config.isin(("basic", "slice-ert"))].assign(opacity=numeric(ok, "opacity"))
     basic = rows[rows.config == "basic"].sort_values("opacity").head(1)
-    gallery = blocks.Gallery("slice-ert at each opacity and its difference from Basic", diff_scale=DIFF_SCALE,
-                             caption=f"Right of each slice-ert image: |slice-ert − Basic|; its error is at most "
-                                     f"1 − opaque_threshold = {format_number(1 - THRESHOLD)} where a pixel is cut.")
-    for row in pd.concat([basic, rows[rows.config == "slice-ert"].sort_values("opacity")]).itertuples():
-        difference = None if row.config == "basic" else ctx.difference(reference_exr(results, row), row.exr,
-                                                                       DIFF_SCALE)
-        psnr = getattr(row, "psnr", np.nan)
-        gallery.items.append(blocks.GalleryItem(
-            f"opacity {format_number(row.opacity)}, {CONFIGS[row.config][1]}", ctx.image(row.png),
-            difference=difference, note=f"{format_number(row.time_total * 1e3)} ms"
-            + (f", PSNR vs Basic {format_number(psnr)} dB" if pd.notna(psnr) else "")))
-    return gallery
+    return difference_gallery(
+        "slice-ert at each opacity and its difference from Basic",
+        pd.concat([basic, rows[rows.config == "slice-ert"].sort_values("opacity")]), ctx, against=results,
+        caption=f"Right of each slice-ert image: |slice-ert − Basic|; its error is at most 1 − opaque_threshold = "
+                f"{format_number(1 - THRESHOLD)} where a pixel is cut.",
+        label=lambda row: f"opacity {format_number(row.opacity)}, {CONFIGS[row.config][1]}",
+        note=lambda row: frame_note(row, psnr="PSNR vs Basic"))
 
 
 TABLE_COLUMNS = ("point", "extra taps", "opacity", "F", "F'_c", "α", "depth writes", "T_s (ns)", "T_c (ns)",
@@ -420,7 +379,7 @@ class TwoPass(Experiment):
     claims = CLAIMS
 
     def runs(self, profile):
-        if not can_plan():
+        if not can_plan("opaque_threshold"):
             return []
         size = int(profile.setting(self, "volume_size", profile.volume_size))
         image = int(profile.setting(self, "image_size", profile.image_size))
@@ -460,10 +419,7 @@ class TwoPass(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        try:
-            models = point_models(ok)
-        except (KeyError, ValueError):
-            models = []
+        models = unless_missing(point_models, ok, empty=[])
         out = [claim_takeaways(ctx, _takeaways(models) if models else [])]
         if models:
             table = _table(models)
@@ -485,8 +441,5 @@ class TwoPass(Experiment):
                                                 "passes; ceilings from the point's γ."))
             out.append(_gallery(ok, results, ctx))
         if not ok.empty:
-            runs = ok.assign(init_ms=numeric(ok, "time_init") * 1e3, draw_ms=numeric(ok, "time_draw") * 1e3,
-                             time_ms=numeric(ok, "time_total") * 1e3)
-            out.append(linked_table("Runs", runs, list(RUN_COLUMNS), ctx, names=RUN_COLUMNS))
-        return out + not_measurable(unregistered(ISBVR) + missing_options(ISBVR, *OPTIONS, "count_fragments",
-                                                                          "opaque_threshold"))
+            out.append(runs_table(ok, ctx, RUN_COLUMNS))
+        return out + isbvr_not_measurable("count_fragments", "opaque_threshold")

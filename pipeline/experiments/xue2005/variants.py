@@ -14,13 +14,12 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, format_number, linked_table,
-                                            not_measurable)
-from pipeline.experiments.kit.planning import (accepts, dataset_view, headline_view, listed, phantom, scene,
-                                               timed_frames)
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number, linked_table
+from pipeline.experiments.kit.planning import accepts, listed, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
 from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, isbvr_not_measurable, mode_name,
-                                                  mode_runs)
+                                                  mode_runs, orbit_views, stand_in)
+from pipeline.experiments.xue2005.pages import by_scene, tagged
 from pipeline.experiments.xue2005.table1 import (LOSSLESS_PSNR, TIMES, culling_note, device_takeaways, image_pairs,
                                                  pair_psnr, scenes_of, view_count)
 from pipeline.experiments.xue2005.tables import LEAPING_STATEMENTS, STATEMENTS, TABLE1
@@ -162,26 +161,23 @@ def _blocks(tests, ctx):
                          names={"count_fragments": "F'c", "count_fragments_generated": "F"})]
 
 
+def _against(row):
+    """``(config, name)`` of the image a headline run is compared with: the same mode back to front for a run front to
+    back, Basic back to front for the others."""
+    return (row.config, mode_name(row.config)) if row.order == FRONT else ("basic", "Basic")
+
+
 def _gallery(tests, ctx):
     """Headline images: ESS+ERT front to back against back to front, the leaping modes against Basic."""
-    gallery = blocks.Gallery("Headline view: the orders against each other, the leaping modes against Basic",
-                             diff_scale=DIFF_SCALE,
-                             caption="Left the run's image, right its difference from the image named.")
     headline = tests[tests.view == "headline"]
-    for scene_name, rows in headline.groupby("scene", sort=False):
-        def exr(config, order):
-            match = rows[(rows.config == config) & (rows.order == order)]
-            return match.exr.iloc[0] if not match.empty else None
-
-        for row in rows.itertuples():
-            if row.config == "basic" and row.order == BACK:
-                continue
-            against, what = ((exr(row.config, BACK), f"{mode_name(row.config)}, {BACK}") if row.order == FRONT
-                             else (exr("basic", BACK), f"Basic, {BACK}"))
-            gallery.items.append(blocks.GalleryItem(
-                f"{scene_name}, {_mode_label(row)}", ctx.image(row.png),
-                difference=ctx.difference(against, row.exr, DIFF_SCALE), note=f"against {what}"))
-    return gallery
+    exrs = {(row.scene, row.config, row.order): row.exr for row in headline.itertuples()}
+    return difference_gallery(
+        "Headline view: the orders against each other, the leaping modes against Basic",
+        by_scene(headline[(headline.config != "basic") | (headline.order != BACK)]), ctx,
+        label=lambda row: f"{row.scene}, {_mode_label(row)}",
+        caption="Left the run's image, right its difference from the image named.",
+        against=lambda row: exrs.get((row.scene, _against(row)[0], BACK)),
+        note=lambda row: f"against {_against(row)[1]}, {BACK}")
 
 
 class Variants(Experiment):
@@ -217,11 +213,9 @@ class Variants(Experiment):
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            dataset, preset = TABLE1[scene_name][:2]
-            scene_spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
-            views = (headline_view(dataset),) + tuple(
-                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1))
-            tags = {"scene": scene_name, "dataset": dataset, "preset": preset, "role": "test"}
+            scene_spec, tags = stand_in(scene_name, size, image)
+            views = orbit_views(tags["dataset"], orbit, repeat_headline=True)
+            tags["role"] = "test"
             runs += mode_runs(self.name, scene_name, scene_spec, views, ORDER_CONFIGS + LEAPING_CONFIGS, frames,
                               {**tags, "order": BACK}, options={"order": BACK}, group=scene_name)
             runs += mode_runs(self.name, f"{scene_name}.f2b", scene_spec, views, ORDER_CONFIGS, frames,
@@ -234,7 +228,7 @@ class Variants(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+        tests = tagged(ok, role="test")
         out = [claim_takeaways(ctx, device_takeaways(tests))]
         if not tests.empty:
             out += _blocks(tests, ctx)
@@ -243,4 +237,4 @@ class Variants(Experiment):
                  "not built: it needs two depth tests per fragment, the dual z-buffer the paper only wishes for "
                  "(§3.4); GL_DEPTH_BOUNDS_TEST_EXT tests the stored depth, not the fragment's, and an entry-depth "
                  "texture read in the shader is a branch, not an early depth test")]
-        return out + isbvr_not_measurable() + not_measurable(band)
+        return out + isbvr_not_measurable(also=band)
