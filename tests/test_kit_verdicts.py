@@ -38,11 +38,13 @@ def _all_fast(df):
     return ClaimResult(f"{times.max() * 1e3:.3g} ms", bool(times.max() < 0.01))
 
 
-RATIO = Claim("ratio", "C8 costs at most four times C1", "≤ 4", _ratio, kind="timing")
-ALL_FAST = Claim("fast", "every tiled frame is fast", "< 10 ms", _all_fast, kind="timing")
+# Declared counts: these claims test which runs a verdict reads. Their numbers are times, and a timing decided
+# on point values alone is inconclusive (test_a_timing_claim_decided_without_an_interval_is_inconclusive).
+RATIO = Claim("ratio", "C8 costs at most four times C1", "≤ 4", _ratio, kind="count")
+ALL_FAST = Claim("fast", "every tiled frame is fast", "< 10 ms", _all_fast, kind="count")
 PEEL_ONLY = Claim("peel", "depth peeling renders C1 under 10 ms", "< 10 ms",
                   lambda df: ClaimResult("ok", stage_time(one_row(df, "peel", scene="C1", backend="peel")) < 0.01),
-                  kind="timing")
+                  kind="count")
 
 
 def test_every_run_there_gives_the_plain_verdict():
@@ -163,3 +165,17 @@ def test_a_verdict_that_rests_on_a_disturbed_view_is_inconclusive():
     other = _runs(_timed("C1.tiled", 0.002, info_disturbed=""), _timed("C8.tiled", 0.005, info_disturbed=""),
                   _timed("C9.tiled", 0.001, **disturbed))
     assert judge(SPEED_UP, other).verdict == "holds"
+
+
+def test_a_timing_claim_decided_without_an_interval_is_inconclusive():
+    rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {}), ("C8.tiled", "tiled", "C8", "ok", "", 0.0145, {}))
+    timing = Claim("ratio", "C8 costs at most four times C1", "≤ 4", _ratio, kind="timing")
+    verdict = judge(timing, rows)
+    assert verdict.verdict == "inconclusive" and verdict.measured == "×7.25"
+    assert verdict.detail.endswith("inconclusive: a timing decided without an interval (no bootstrap over timed "
+                                   "frames behind it)")
+    assert judge(RATIO, rows).verdict == "fails"  # a count needs no interval
+    decided = Claim("speed-up", "C1 is faster", "≥ ×2", Ratio(Measure("C8", match={"scene": "C8"}),
+                                                            Measure("C1", match={"scene": "C1"}), at_least=2.0))
+    timed = rows.assign(frames_total=[format_frames([0.002] * 5), format_frames([0.0145] * 5)], interleave="g")
+    assert judge(decided, timed).verdict == "holds"  # with its interval

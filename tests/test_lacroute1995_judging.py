@@ -4,6 +4,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from pipeline.experiments.kit import judging as kit_judging
 from pipeline.experiments.kit.intervals import Resampler
 from pipeline.experiments.kit.model import ClaimResult
 from pipeline.experiments.kit.results import MissingColumn
@@ -19,15 +20,15 @@ def _rows(*medians, spread=0.0, run="r", **extra):
 
 
 def test_ratio_takes_its_interval_from_the_frames():
-    decision = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, spread=0.1, run="s"), judging.TECHNIQUE, Resampler(),
+    decision = kit_judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, spread=0.1, run="s"), judging.TECHNIQUE, Resampler(),
                              at_least=1.5)
     assert decision.value == pytest.approx(2.0) and decision.holds is True
     assert decision.interval[0] < 2.0 < decision.interval[1]
-    close = judging.ratio(_rows(1.05, spread=0.3), _rows(1.0, spread=0.3, run="s"), judging.TECHNIQUE, Resampler(),
+    close = kit_judging.ratio(_rows(1.05, spread=0.3), _rows(1.0, spread=0.3, run="s"), judging.TECHNIQUE, Resampler(),
                           at_most=1.0)
     assert close.holds is None and close.inconclusive
     with pytest.raises(MissingColumn):
-        judging.ratio(_rows(1.0), _rows(1.0), judging.COMPOSITE, Resampler())
+        kit_judging.ratio(_rows(1.0), _rows(1.0), judging.COMPOSITE, Resampler())
 
 
 def test_runs_timed_together_are_paired_round_by_round():
@@ -40,29 +41,30 @@ def test_runs_timed_together_are_paired_round_by_round():
         return pd.DataFrame([{"experiment": "e", "run": "a" if values is a else "b", "view": "v", "interleave": group,
                               **values}])
 
-    paired = judging.ratio(rows(a, "g"), rows(b, "g"), judging.TECHNIQUE, Resampler())
-    alone = judging.ratio(rows(a, ""), rows(b, ""), judging.TECHNIQUE, Resampler())
+    paired = kit_judging.ratio(rows(a, "g"), rows(b, "g"), judging.TECHNIQUE, Resampler())
+    alone = kit_judging.ratio(rows(a, ""), rows(b, ""), judging.TECHNIQUE, Resampler())
     assert paired.interval == pytest.approx((2.0, 2.0), rel=1e-4)
     assert alone.interval[1] - alone.interval[0] > 1.0
 
 
 def test_centred_draws_sit_about_the_value():
     draws = np.linspace(0.3, 0.5, 101)  # extremes of noisy medians: every draw above the value 0.1
-    assert judging.decided(0.1, draws, at_most=0.12).holds is False
-    centred = judging.decided(0.1, draws, at_most=0.12, centred=True)
+    assert kit_judging.decided(0.1, draws, at_most=0.12).holds is False
+    centred = kit_judging.decided(0.1, draws, at_most=0.12, centred=True)
     assert centred.interval[0] < 0.1 < centred.interval[1] and centred.inconclusive
 
 
-def test_r2_draws_fit_every_draw():
+def test_r_squared_fits_every_draw():
     x = np.array([1.0, 2.0, 3.0, 4.0])
     draws = np.vstack([2 * x + 1, [1.0, 3.0, 2.0, 4.0]])
-    assert judging.r2_draws(x, draws) == pytest.approx([1.0, 0.64])
-    assert judging.r2_draws(x, None) is None
+    assert kit_judging.r_squared(x, draws) == pytest.approx([1.0, 0.64])
+    assert kit_judging.r_squared(x, np.full((1, 4), 3.0)) == pytest.approx([1.0])  # a constant: fitted exactly
+    assert kit_judging.r_squared(x, None) is None
 
 
 def test_labelled_names_each_scene_with_its_interval():
-    one = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, run="s"), judging.TECHNIQUE, Resampler(), at_least=1.5)
-    other = judging.decided(1.2, None, at_least=1.5)
+    one = kit_judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, run="s"), judging.TECHNIQUE, Resampler(), at_least=1.5)
+    other = kit_judging.decided(1.2, None, at_least=1.5)
     words = judging.labelled({"head": one, "brain": other})
     assert words.startswith("×2 (head; 95 % CI ×") and words.endswith(", ×1.2 (brain)")
 

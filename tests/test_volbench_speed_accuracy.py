@@ -7,17 +7,27 @@ import pytest
 from core.errors import InputError
 from pipeline import experiments
 from pipeline.experiments import Profile
+from pipeline.experiments.kit.intervals import format_frames
 from pipeline.experiments.volbench.speed_accuracy import SPEED_ACCURACY_SCENES, SpeedAccuracy, _tradeoff
 
 
+def _sweep(times, errors, *, frames=5, spread=0.02):
+    """The reference's sweep on one scene, its steps timed together (``frames`` each, ``spread`` about the median)."""
+    return pd.DataFrame([{"scene": "s", "backend": "reference", "role": "sweep", "setting": f"step_factor={f}",
+                          "time_total": t, "rmse": e, "interleave": "s.reference", "view": "headline",
+                          "experiment": "volbench-speed-accuracy",
+                          "frames_total": format_frames(t * (1 + spread * np.linspace(-1, 1, frames)))}
+                         for f, t, e in zip((1.0, 0.5, 0.25), times, errors)])
+
+
 def test_tradeoff_claim_needs_doubling_times():
-    rows = [{"scene": "s", "backend": "reference", "role": "sweep", "setting": f"step_factor={f}",
-             "time_total": t, "rmse": e} for f, t, e in ((1.0, 1.0, 0.1), (0.5, 2.0, 0.05), (0.25, 4.1, 0.02))]
-    assert _tradeoff(pd.DataFrame(rows)).holds
-    rows[1]["time_total"], rows[2]["time_total"] = 1.1, 1.2  # overhead-bound: the step barely matters
-    assert not _tradeoff(pd.DataFrame(rows)).holds
-    rows[1]["time_total"], rows[2]["time_total"], rows[2]["rmse"] = 2.0, 4.0, 0.06  # error went up
-    assert not _tradeoff(pd.DataFrame(rows)).holds
+    doubling = _tradeoff(_sweep((1.0, 2.0, 4.1), (0.1, 0.05, 0.02)))
+    assert doubling.holds and doubling.interval is not None and doubling.frames == 5
+    assert _tradeoff(_sweep((1.0, 1.1, 1.2), (0.1, 0.05, 0.02))).holds is False  # overhead-bound: the step barely matters
+    assert _tradeoff(_sweep((1.0, 2.0, 4.0), (0.1, 0.05, 0.06))).holds is False  # error went up
+    # Decided by its frames: too few, or none, leave it inconclusive.
+    assert _tradeoff(_sweep((1.0, 2.0, 4.1), (0.1, 0.05, 0.02), frames=3)).inconclusive
+    assert _tradeoff(_sweep((1.0, 2.0, 4.1), (0.1, 0.05, 0.02)).drop(columns="frames_total")).inconclusive
 
 
 def test_claims_without_data_are_not_measured():
@@ -37,3 +47,13 @@ def test_speed_accuracy_runs_only_the_scenes_a_profile_names():
         planned(["teapot"])
     assert planned(scale="smoke") == set(SpeedAccuracy.scales["smoke"]["scenes"]) != set(SPEED_ACCURACY_SCENES)
     assert planned(scale="default") == set(SPEED_ACCURACY_SCENES)
+
+
+def test_the_references_sweep_is_timed_together_with_five_frames_at_least():
+    profile = Profile.load("config/default.yaml")
+    runs = [run for run in experiments.plan(Profile(**{**profile.__dict__, "experiments": ["volbench-speed-accuracy"]})
+                                            ).values() if run.tags.get("role") == "sweep"]
+    sweep = [run for run in runs if run.backend == "reference"]
+    assert {run.interleave for run in sweep} == {f"{scene}.reference" for scene in SPEED_ACCURACY_SCENES}
+    assert all(run.repeat >= 5 for run in sweep)
+    assert all(not run.interleave for run in runs if run.backend != "reference")  # the others: a job each

@@ -9,16 +9,17 @@ import dataclasses
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, figure,
-                                                    frames_caption, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, frame_ratios, judge
+from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
+                                                    table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, counts, frame_ratios
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, with_interval
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, decided, r_squared,
+                                             with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable
+from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points, text_column
 from reports import plots
@@ -97,18 +98,12 @@ def _sweep(df, config, column):
     return rows.sort_values("depth")
 
 
-def _r2(x, y):
-    """R² of the least-squares line through ``(x, y[i])`` for every row ``y[i]`` (the squared correlation)."""
-    xc, yc = x - x.mean(), y - y.mean(axis=-1, keepdims=True)
-    return (yc @ xc) ** 2 / ((yc ** 2).sum(axis=-1) * (xc ** 2).sum())
-
-
 def _depth_fit(df):
     rows = _sweep(df, TILED, TECHNIQUE)
     depth = rows.depth.to_numpy(float)
     slope, _intercept, r2 = fit_line(depth, numeric(rows, TECHNIQUE) * 1e3)
     points = intervals.row_draws(rows, TECHNIQUE, intervals.Resampler())
-    decision = judge(r2, None if points is None else _r2(depth, points), at_least=0.9)
+    decision = decided(r2, r_squared(depth, points), at_least=0.9)
     return ClaimResult.decided(with_interval(f"R² {format_number(r2)}", decision, format_number), decision,
                                f"{format_number(slope)} ms per layer over {len(rows)} depths "
                                f"({int(depth.min())}–{int(depth.max())}), {KERNELS}; fragments per frame "

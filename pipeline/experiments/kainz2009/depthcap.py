@@ -9,17 +9,18 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, figure, frames_caption, role_rows, run_settings,
-                                                    table)
-from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, ratio, timed
+from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, run_settings, table
+from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, timed
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, screw
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, ratio, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run
-from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, read_exr, reference_exr, speed_points
+from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, role_rows,
+                                              speed_points)
 from reports import plots
 
 CAPS = (16, 32, 55, 63)

@@ -8,16 +8,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, figure, frames_caption, role_rows, run_settings,
-                                                    table)
-from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, draws, judge, point, ratio, timed
+from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, run_settings, table
+from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, draws, point, timed
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decided, ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, db_words, format_number
+from pipeline.experiments.kit.pages import claim_takeaways, db_words, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, listed, scene, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, rows_matching, speed_points, text_column
 from reports import plots
 
 BRICKS = (4, 8, 16, 32)
@@ -117,7 +116,7 @@ def _build_cheap(df):
             raise ValueError(f"{row.scene}: the 8³ build run reported no time_bricks or no time_hull")
         build = row.build_ms / 1e3
         frames = draws(frame, TECHNIQUE, resampler)
-        decisions[row.scene] = judge(build / point(frame, TECHNIQUE), None if frames is None else build / frames,
+        decisions[row.scene] = decided(build / point(frame, TECHNIQUE), None if frames is None else build / frames,
                                      at_most=1.0)
     return all_of(decisions,
                   extra=f"bricks + hull build (one first frame, its own run) over the median frame with the 8³ "

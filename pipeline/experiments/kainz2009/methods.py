@@ -13,7 +13,6 @@ import pandas as pd
 from pipeline.experiments.kit import pages
 from pipeline.experiments.kit.pages import linked_table, not_measurable
 from pipeline.experiments.kit.planning import is_registered, timed_frames
-from reports import blocks
 
 PAPER_ID = "kainz2009"
 
@@ -45,11 +44,6 @@ def run_settings(experiment, profile):
     return (int(profile.setting(experiment, "image_size", profile.image_size)),
             profile.setting(experiment, "step_factor", 0.5), profile.setting(experiment, "truth_step_factor", 0.25),
             timed_frames(profile, experiment))
-
-
-def role_rows(ok, role="test"):
-    """The rows of ``ok`` (successful runs) of runs in ``role`` (their ``role`` tag), none where no run has one."""
-    return ok[ok.role == role].copy() if "role" in ok else ok.iloc[:0]
 
 
 def peeling_missing():
@@ -106,10 +100,3 @@ def table(title, frame, columns, ctx, **options):
     """A table of ``columns`` (named by :data:`COLUMN_NAMES` and the kit), each row linked to its run."""
     return linked_table(title, frame, columns, ctx, names=COLUMN_NAMES, **options)
 
-
-def figure(ctx, name, plot, frame, *, heading, caption, **options):
-    """``plot(frame, path, **options)`` (a chart of :mod:`reports.plots`) drawn as the page's plot ``name``, as a
-    figure with ``heading`` and ``caption``."""
-    path, rel = ctx.plot_path(name)
-    plot(frame, path, **options)
-    return blocks.Figure(heading, rel, caption)

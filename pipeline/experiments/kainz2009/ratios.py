@@ -16,7 +16,7 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import METHOD_NAMES, TILED, devices
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of
+from pipeline.experiments.kit.judging import all_of, ratio
 from pipeline.experiments.kit.pages import format_number
 from pipeline.experiments.kit.results import numeric, rows_matching
 
@@ -49,12 +49,6 @@ def draws(rows, column, resampler, statistic="median"):
     return intervals.statistic_draws(rows, column, statistic, resampler)
 
 
-def ratio(top, bottom, column, resampler, *, statistic="median", at_least=None, at_most=None):
-    """``top / bottom`` of ``column`` judged against the bounds with its interval (a :class:`Decision`)."""
-    return intervals.ratio_decision(top, bottom, column=column, statistic=statistic, resampler=resampler,
-                                    at_least=at_least, at_most=at_most)
-
-
 def frame_ratios(df, scenes, top, bottom, *, what, **bounds):
     """``top``'s whole frame over ``bottom``'s (two configs, one of them cl-tiled) on every one of ``scenes`` both
     render, each judged against ``bounds`` with its interval; ``what`` says the ratio in the detail, before the
@@ -71,11 +65,6 @@ def frame_ratios(df, scenes, top, bottom, *, what, **bounds):
         peer = METHOD_NAMES[bottom if top == TILED else top]
         raise ValueError(f"no scene of {', '.join(scenes)} rendered by both {peer} and cl-tiled")
     return all_of(decisions, extra=f"{what}; {devices(pd.concat(compared))}")
-
-
-def judge(value, value_draws, *, at_least=None, at_most=None):
-    """A :class:`~pipeline.experiments.kit.intervals.Decision` of ``value`` with the interval of its draws."""
-    return intervals.decide(value, intervals.interval_of(value_draws), at_least=at_least, at_most=at_most)
 
 
 def counts(rows, column, label="scene"):

@@ -14,17 +14,17 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    device_note, devices, figure, frames_caption, peeling_missing,
-                                                    role_rows, run_settings, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, draws, judge, point, timed
+                                                    device_note, devices, frames_caption, peeling_missing, run_settings,
+                                                    table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, draws, point, timed
 from pipeline.experiments.kainz2009.scenes import blob, clouds, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure, Ratio
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decided, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
-from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points
+from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, role_rows, rows_matching, speed_points
 from reports import plots
 
 COUNTS = (1, 2, 4, 8, 16, 20, 32, 50, 64)
@@ -107,7 +107,7 @@ def _peeling_growth(df):
         top, bottom = draws(many, TOTAL, resampler), draws(one, TOTAL, resampler)
         growth_draws[config] = None if top is None or bottom is None else top / bottom
     both = not any(d is None for d in growth_draws.values())
-    decision = judge(growth[PEEL] / growth[TILED], growth_draws[PEEL] / growth_draws[TILED] if both else None,
+    decision = decided(growth[PEEL] / growth[TILED], growth_draws[PEEL] / growth_draws[TILED] if both else None,
                      at_least=STRICTLY_ABOVE_ONE)
     measured = f"peeling {as_ratio(growth[PEEL])}, cl-tiled {as_ratio(growth[TILED])} at N = {int(n)}"
     return ClaimResult.decided(with_interval(f"{measured}: {as_ratio(decision.value)}", decision), decision,

@@ -9,14 +9,13 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import (PAPER_ID, TILED, device_note, figure, frames_caption,
-                                                    run_settings, table)
-from pipeline.experiments.kainz2009.ratios import counts, draws, judge, point, timed
+from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, run_settings, table
+from pipeline.experiments.kainz2009.ratios import counts, draws, point, timed
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, mesh
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of
+from pipeline.experiments.kit.judging import all_of, decided
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import accepts, listed, scene
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, speed_points, text_column
 from reports import plots
@@ -82,7 +81,7 @@ def _sort_decision(df, name, resampler):
     sort, traversal = split({key: point(part, PIXEL) for key, part in parts.items()})
     part_draws = {key: draws(part, PIXEL, resampler) for key, part in parts.items()}
     complete = not any(d is None for d in part_draws.values())
-    decision = judge(sort / traversal, np.divide(*split(part_draws)) if complete else None, at_most=1.0)
+    decision = decided(sort / traversal, np.divide(*split(part_draws)) if complete else None, at_most=1.0)
     full = pd.concat([parts["front-to-back", "full"], parts["back-to-front", "full"]])
     return decision, (f"{name}: worst-case sort {format_number(sort * 1e3)} ms, traversal "
                       f"{format_number(traversal * 1e3)} ms, sort moves "

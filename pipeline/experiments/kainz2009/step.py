@@ -8,15 +8,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, figure, frames_caption, role_rows, table
-from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, judge, timed
+from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
+from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, timed
 from pipeline.experiments.kainz2009.scenes import clouds, volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import with_interval
+from pipeline.experiments.kit.judging import decided, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, is_registered, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
+from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, speed_points
 from reports import plots
 
 STEPS = (2.0, 1.0, 0.5, 0.25)
@@ -53,7 +53,7 @@ def _per_sample(df):
     if per_row is not None:
         per_draw = _marginal(rows, per_row)
         ratio_draws = per_draw[:, -1] / per_draw[:, 0]
-    decision = judge(marginal[-1] / marginal[0], ratio_draws, at_most=1.0)
+    decision = decided(marginal[-1] / marginal[0], ratio_draws, at_most=1.0)
     steps = [format_number(f) for f in rows.step_factor]
     return ClaimResult.decided(
         f"{with_interval(as_ratio(decision.value), decision)}: {format_number(marginal[-1] * 1e9)} ns per added "

@@ -9,17 +9,18 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    figure, frames_caption, peeling_missing, role_rows, run_settings,
-                                                    table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, TECHNIQUE, TOTAL, counts, frame_ratios, judge, timed
+                                                    frames_caption, peeling_missing, run_settings, table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, TECHNIQUE, TOTAL, counts, frame_ratios, timed
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, all_of, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, all_of, decided, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
+from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
+                                              text_column)
 from reports import plots
 
 ACCURACY_SCENES = ("C1", "C2", "C3")
@@ -139,7 +140,7 @@ def _binning_share(df):
     decisions = {}
     for i, row in enumerate(rows.itertuples()):
         share_draws = None if binning is None or pixel is None else binning[:, i] / (binning[:, i] + pixel[:, i])
-        decisions[row.scene] = judge(row.binning_share / 100, share_draws, at_most=0.10)
+        decisions[row.scene] = decided(row.binning_share / 100, share_draws, at_most=0.10)
     return all_of(decisions, extra="binning / (binning + pixel kernel), OpenCL profiling; boundary triangles "
                                    + counts(rows, "count_triangles"), show=as_percent)
 

@@ -4,7 +4,8 @@ A claim's check reads the experiment's successful rows and returns a
 :class:`~pipeline.experiments.kit.model.ClaimResult`. What the papers' checks share is here, with one
 rule each: the rows of one configuration (:func:`config_rows`), the ratio of two configurations' frame
 times with its bootstrap interval (:func:`time_ratio`, :func:`ratio_of_draws`), a machine-independent
-count over the views (:func:`median_count`), a value with its interval in words (:func:`with_interval`)
+count over the views (:func:`median_count`), a value decided with the interval of its draws (:func:`decided`,
+:func:`ratio`, :func:`r_squared` of a fitted line), a value with its interval in words (:func:`with_interval`)
 and several labelled decisions that must all hold (:func:`all_of`), phrased one way on every page:
 ``measured`` is the deciding (worst) label's value and interval, named; the detail lists every label.
 
@@ -91,6 +92,62 @@ def ratio_of_draws(top, bottom, **bounds):
     of frame times (``draws`` ``None`` where no frames were kept: then the decision is inconclusive)."""
     draws = top[1] / bottom[1] if top[1] is not None and bottom[1] is not None else None
     return intervals.timing_decision(top[0] / bottom[0], draws, {}, **bounds)
+
+
+def decided(value, draws, *, frames=None, at_least=None, at_most=None, centred=False):
+    """A :class:`~pipeline.experiments.kit.intervals.Decision` of ``value`` with the interval of its bootstrap ``draws``.
+
+    Parameters
+    ----------
+    value : float
+    draws : numpy.ndarray or None
+        The value's bootstrap draws (``None``: no frames were kept; a timing is then inconclusive).
+    frames : dict, optional
+        ``{arm: timed frames}`` where ``value`` is computed from frame times (:func:`~.intervals.frame_count`):
+        too few in an arm leaves it inconclusive (:func:`~.intervals.timing_decision`). ``None``: a count or a
+        metric, judged by its interval or, without one, its value.
+    centred : bool
+        Shift the draws by their bias (their mean less ``value``) first. A statistic of extremes (the largest
+        change over a turn, a spread from slowest to fastest) gathers every draw's noise on one side, so its
+        percentile interval sits above the value, even wholly above it.
+    """
+    if centred and draws is not None:
+        finite = np.asarray(draws, float)[np.isfinite(draws)]
+        draws = draws - (finite.mean() - value) if finite.size and np.isfinite(value) else draws
+    return intervals.draws_decision(float(value), draws, frames, at_least=at_least, at_most=at_most)
+
+
+def ratio(top, bottom, column, resampler, *, at_least=None, at_most=None, statistic="median", bottom_column=None):
+    """The ratio of ``statistic`` of ``column`` over the rows ``top`` and ``bottom`` that measured it, decided with
+    its interval (:func:`~pipeline.experiments.kit.intervals.ratio_decision`: too few frames, inconclusive).
+
+    Raises
+    ------
+    ValueError
+        Either side measured nothing, or the denominator's value is 0: the claim is not measurable.
+    """
+    bottom_column = bottom_column or column
+    top, bottom = top[numeric(top, column).notna()], bottom[numeric(bottom, bottom_column).notna()]
+    if top.empty or bottom.empty:
+        raise ValueError(f"no run reported {column if top.empty else bottom_column}")
+    if intervals.REDUCE[statistic](numeric(bottom, bottom_column).to_numpy(float)) == 0:  # its point, not its draws
+        raise ValueError(f"{bottom_column} is 0")
+    return intervals.ratio_decision(top, bottom, column=column, statistic=statistic, at_least=at_least,
+                                    at_most=at_most, resampler=resampler, bottom_column=bottom_column)
+
+
+def r_squared(x, draws):
+    """R² of the least-squares line through ``x`` and each bootstrap draw (the rows of ``draws``), or ``None``.
+
+    A draw that does not vary is fitted exactly (R² 1), as :func:`~.results.fit_line` fits a constant.
+    """
+    if draws is None:
+        return None
+    x = np.asarray(x, float)
+    xc, yc = x - x.mean(), draws - draws.mean(axis=1, keepdims=True)
+    total = (yc ** 2).sum(axis=1)
+    explained = (yc @ xc) ** 2 / (xc ** 2).sum()
+    return np.where(total > 0, explained / np.where(total > 0, total, 1.0), 1.0)
 
 
 def median_count(rows, column):

@@ -20,7 +20,7 @@ from reports.decision import device_family
 from reports.takeaways import change_words, db_words, setting_words
 
 __all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
-           "device_takeaways", "difference_gallery", "format_number", "frame_note", "frames_caption", "frames_counted", "frames_note", "GL_TIMING",
+           "device_takeaways", "difference_gallery", "figure", "format_number", "frame_note", "frames_caption", "frames_counted", "frames_note", "GL_TIMING",
            "gl_timing_words", "gl_devices", "linked_table", "links",
            "ms", "not_measurable", "setting_words"]
 
@@ -58,6 +58,14 @@ def linked_table(title, frame, columns, ctx, *, names=None, **options):
     table = frame[columns].rename(columns={**TIME_COLUMNS, **METRICS, **(names or {})}).reset_index(drop=True)
     table = pd.concat([table, links(frame.reset_index(drop=True), ctx)], axis=1)
     return blocks.Table(title, table, links=LINKS, **options)
+
+
+def figure(ctx, name, plot, frame, *, heading, caption, **options):
+    """``plot(frame, path, **options)`` (a chart of :mod:`reports.plots`) drawn as the page's plot ``name``, as a
+    figure with ``heading`` and ``caption``."""
+    path, rel = ctx.plot_path(name)
+    plot(frame, path, **options)
+    return blocks.Figure(heading, rel, caption)
 
 
 def frame_note(row, *, psnr="PSNR"):

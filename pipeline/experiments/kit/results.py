@@ -102,6 +102,11 @@ def read_exr(path):
     return _read(path, Path(path).stat().st_mtime_ns)
 
 
+def role_rows(ok, role="test"):
+    """The rows of ``ok`` (successful runs) of runs in ``role`` (their ``role`` tag), none where no run has one."""
+    return ok[text_column(ok, "role") == role].copy() if "role" in ok else ok.iloc[:0]
+
+
 def reference_exr(results, row):
     """The EXR of ``row``'s reference run, same view (``None`` if it did not render)."""
     match = results[(results.run == row.reference) & (results.view == row.view) & (results.status == "ok")]

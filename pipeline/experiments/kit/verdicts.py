@@ -23,7 +23,7 @@ decides, for the take-away sentences an experiment computes with its checks, whe
 be said (:func:`depends_on_missing`).
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 import pandas as pd
@@ -297,14 +297,28 @@ def disturbed_detail(views):
             f"machine was disturbed ({named}: {views[0][2]})")
 
 
+def unless_without_interval(claim, result):
+    """``result``, or inconclusive where ``claim`` is a timing that ``result`` decides on point values alone.
+
+    A time measured once, or a verdict read from the order of a few medians, says nothing of how the next
+    run's frames fall: without an interval a timing claim cannot hold or fail.
+    """
+    if claim.kind != "timing" or result.holds is None or result.interval is not None:
+        return result
+    why = "inconclusive: a timing decided without an interval (no bootstrap over timed frames behind it)"
+    return replace(result, holds=None, inconclusive=True,
+                   detail=f"{result.detail}; {why}" if result.detail else why)
+
+
 def judge(claim, rows):
     """The :class:`Verdict` of ``claim`` on an experiment's ``rows`` (every run, successful or not).
 
     A claim that would hold or fail differently had its disturbed views been quiet
-    (:func:`rests_on_disturbed`) is inconclusive: a busy machine must not decide it.
+    (:func:`rests_on_disturbed`) is inconclusive: a busy machine must not decide it. So is a timing claim
+    whose check decided it without an interval (:func:`unless_without_interval`).
     """
     ok = rows[rows.status == "ok"] if not rows.empty else rows
-    result = claim.evaluate(ok)
+    result = unless_without_interval(claim, claim.evaluate(ok))
     # The raw check: Claim.evaluate turns a missing column into "not measurable", which would hide
     # the column a stand-in must supply.
     missing = depends_on_missing(claim.check, rows) if not rows.empty else []

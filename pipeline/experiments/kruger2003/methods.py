@@ -9,7 +9,6 @@ from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import as_ratio, not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, unregistered
 from pipeline.experiments.kit.results import speed_points, stage_time
-from reports import blocks
 
 RAYCAST, SLICER = "gl-raycast", "gl-slicer"
 
@@ -80,23 +79,10 @@ def no_cue_control(size, image):
     return scene_spec, (FRONT_VIEW,), {"scene": "no_cue", "dataset": "fbm_control"}
 
 
-def test_rows(ok):
-    """The rows of ``ok`` (successful runs) that test a method (``role`` test), none where no run has a role."""
-    return ok[ok.role == "test"].copy() if "role" in ok else ok.iloc[:0]
-
-
 def method_points(rows):
     """``rows`` with their frame times in milliseconds (:func:`~pipeline.experiments.kit.results.speed_points`)
     and each method's paper name (``method``)."""
     return speed_points(rows).assign(method=lambda frame: [method_name(c) for c in frame.config])
-
-
-def figure(ctx, name, plot, frame, *, heading, caption, **options):
-    """``plot(frame, path, **options)`` (a chart of :mod:`reports.plots`) drawn as the page's plot ``name``, as a
-    figure with ``heading`` and ``caption``."""
-    path, rel = ctx.plot_path(name)
-    plot(frame, path, **options)
-    return blocks.Figure(heading, rel, caption)
 
 
 def gl_not_measurable():

@@ -10,12 +10,13 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption, linked_table
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, figure, format_number, frames_caption,
+                                            linked_table)
 from pipeline.experiments.kit.planning import accepts, timed_frames
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching
-from pipeline.experiments.kit.judging import with_interval
-from pipeline.experiments.kruger2003.methods import (RAYCAST, UPLOADS, figure, gl_not_measurable, method_points,
-                                                     no_cue_control, sizes)
+from pipeline.experiments.kit.judging import decided, r_squared, with_interval
+from pipeline.experiments.kruger2003.methods import (RAYCAST, UPLOADS, gl_not_measurable, method_points, no_cue_control,
+                                                     sizes)
 from pipeline.experiments.kruger2003.tables import OCCLUDER
 from reports import plots
 
@@ -57,14 +58,6 @@ def _occluded_culled(df):
                        f"{len(rows)} coverages, up to {format_number(rows.occluded_percent.max())} % of the rays hidden")
 
 
-def _r_squared(x, y):
-    """R² of the least-squares line against ``x`` through each row of ``y`` (bootstrap draws × points)."""
-    slope, intercept = np.polyfit(x, y.T, 1)
-    residual = y - (slope[:, None] * x + intercept[:, None])
-    total = ((y - y.mean(axis=1, keepdims=True)) ** 2).sum(axis=1)
-    return np.where(total > 0, 1.0 - (residual ** 2).sum(axis=1) / np.where(total > 0, total, 1.0), 1.0)
-
-
 def _occluder_fit(df, config):
     """R² of main-pass time against the occluded share (≥ 0.9) and the time left when all is hidden (≤ 25 %).
 
@@ -80,10 +73,8 @@ def _occluder_fit(df, config):
     # float(): decide() on a numpy scalar gives a numpy.bool_, which combine()'s `is False` would miss.
     left = float(full.main_ms / none.main_ms)
     draws = intervals.row_draws(rows, "time_main", intervals.Resampler())
-    fit = intervals.decide(r2, None if draws is None else intervals.interval_of(
-        _r_squared(rows.occluded_percent.to_numpy(float), draws)), at_least=0.9)
-    rest = intervals.decide(left, None if draws is None else intervals.interval_of(draws[:, -1] / draws[:, 0]),
-                            at_most=0.25)
+    fit = decided(r2, r_squared(rows.occluded_percent.to_numpy(float), draws), at_least=0.9)
+    rest = decided(left, None if draws is None else draws[:, -1] / draws[:, 0], at_most=0.25)
     decision = intervals.combine([fit, rest])
     measured = (f"R² {with_interval(format_number(r2), fit, format_number)}; "
                 f"{with_interval(as_percent(left), rest, as_percent)} of the main-pass time left at "

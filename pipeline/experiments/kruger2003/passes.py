@@ -12,13 +12,12 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count
-from pipeline.experiments.kruger2003.methods import (RAYCAST, figure, gl_not_measurable, method_name, method_runs,
-                                                     sizes, time_of)
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, sizes, time_of
 from pipeline.experiments.kruger2003.tables import PASSES
 from reports import plots
 

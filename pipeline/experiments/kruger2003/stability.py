@@ -7,11 +7,12 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import change_words, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import change_words, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, stage_time, text_column
+from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
+                                              text_column)
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
-from pipeline.experiments.kruger2003.methods import RAYCAST, figure, gl_not_measurable, sizes, test_rows
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, sizes
 from pipeline.experiments.kruger2003.tables import TABLE1
 from reports import plots
 
@@ -136,7 +137,7 @@ class Stability(Experiment):
 
     def report(self, results, ctx):
         out = [claim_takeaways(ctx)]
-        tests = test_rows(ok_rows(results))
+        tests = role_rows(ok_rows(results))
         for sweep, words, label in SWEEPS:
             rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]
             if not rows.empty:

@@ -10,16 +10,15 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery,
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery, figure,
                                             format_number, frames_caption, gl_devices, linked_table)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, rows_matching,
-                                              text_column)
+from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, role_rows,
+                                              rows_matching, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, time_ratio
-from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, figure, gl_not_measurable,
-                                                     method_name, method_points, method_runs, samples_note, sizes,
-                                                     speedup, test_rows)
+from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, gl_not_measurable, method_name,
+                                                     method_points, method_runs, samples_note, sizes, speedup)
 from pipeline.experiments.kruger2003.tables import (HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR, PAPER_DEVICE, REAL_SCANS,
                                                     TABLE1)
 from reports import blocks, plots
@@ -316,7 +315,7 @@ class Table1(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = test_rows(ok)
+        tests = role_rows(ok)
         out = [claim_takeaways(ctx, _device_takeaways(tests), _peer_takeaways(ok))]
         if not tests.empty:
             headline = tests[tests.view == "headline"]

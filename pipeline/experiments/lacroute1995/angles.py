@@ -8,14 +8,14 @@ import numpy as np
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, figure, format_number
 from pipeline.experiments.kit.planning import dataset_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.reading import angle_of
 from reports import blocks, plots
@@ -196,7 +196,7 @@ def _jump(df, column=TIME):
     resampler = intervals.Resampler()
     stats = {d: _turn_stats(p, column, resampler) for d, p in frame.groupby("dataset")}
     with np.errstate(divide="ignore", invalid="ignore"):  # nothing changes away from a switch: an infinite ratio
-        decisions = {d: judging.decided(np.float64(s["switch"]) / s["other"],
+        decisions = {d: kit_judging.decided(np.float64(s["switch"]) / s["other"],
                                         None if s["draws"] is None else s["draws"][1] / s["draws"][2], at_most=1.5,
                                         centred=True)
                      for d, s in stats.items()}
@@ -212,7 +212,7 @@ def _variation(df, dataset, bound):
     if part.empty:
         raise ValueError(f"no successful turn of {dataset}")
     stats = _turn_stats(part, TIME, intervals.Resampler())
-    decision = judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0], at_most=bound,
+    decision = kit_judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0], at_most=bound,
                                centred=True)
     detail = f"thesis: 6 %; {judging.SCOPES[TIME]}"
     try:
@@ -236,7 +236,7 @@ def _head(df):
     for d, part in heads.groupby("dataset"):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
-        decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE, centred=True)
+        decisions[d] = kit_judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE, centred=True)
     varies = ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
     return all_of(decisions,
                   extra=f"sphere varies {as_percent(s['variation'])}, {varies}; thesis: head 13 %, sphere 6 %")

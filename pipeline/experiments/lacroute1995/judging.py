@@ -12,9 +12,8 @@ load over its frames) measured the machine rather than the technique: :func:`unl
 verdicts such a run could have decided inconclusive, and says why.
 """
 
-import numpy as np
-
 from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit.judging import decided, r_squared
 from pipeline.experiments.kit.model import ClaimResult
 from pipeline.experiments.kit.pages import as_percent, as_ratio, format_number
 from pipeline.experiments.kit.results import fit_line, numeric
@@ -47,49 +46,12 @@ def statistic(rows, column, resampler, reduce="median"):
     return float(function(point)), (None if draws is None else function(draws, axis=1))
 
 
-def decided(value, draws, *, at_least=None, at_most=None, centred=False):
-    """A :class:`~pipeline.experiments.kit.intervals.Decision` of ``value`` with the interval of its ``draws``.
-
-    ``centred``: the draws are shifted by their bias (their mean less ``value``) first. A statistic of
-    extremes (the largest change over a turn, a spread from slowest to fastest) gathers every draw's
-    noise on one side, so its percentile interval sits above the value, even wholly above it.
-    """
-    if centred and draws is not None:
-        finite = np.asarray(draws, float)[np.isfinite(draws)]
-        draws = draws - (finite.mean() - value) if finite.size and np.isfinite(value) else draws
-    return intervals.decide(float(value), intervals.interval_of(draws), at_least=at_least, at_most=at_most)
-
-
-def ratio(top, bottom, column, resampler, *, at_least=None, at_most=None, reduce="median", bottom_column=None):
-    """The ratio of ``reduce`` of ``column`` over the rows ``top`` and ``bottom`` that measured it, decided with its
-    interval (the kit's :func:`~pipeline.experiments.kit.intervals.ratio_decision`: too few frames, inconclusive)."""
-    bottom_column = bottom_column or column
-    top, bottom = measured(top, column), measured(bottom, bottom_column)
-    if top.empty or bottom.empty:
-        raise ValueError(f"no run reported {column if top.empty else bottom_column}")
-    if intervals.REDUCE[reduce](numeric(bottom, bottom_column).to_numpy(float)) == 0:  # its point, not its draws
-        raise ValueError(f"{bottom_column} is 0")
-    return intervals.ratio_decision(top, bottom, column=column, statistic=reduce, at_least=at_least, at_most=at_most,
-                                    resampler=resampler, bottom_column=bottom_column)
-
-
-def r2_draws(x, draws):
-    """R² of a least-squares line through ``x`` and each bootstrap draw (the rows of ``draws``), or ``None``."""
-    if draws is None:
-        return None
-    y = draws.T
-    slope, intercept = np.polyfit(x, y, 1)
-    residual = y - (np.outer(x, slope) + intercept)
-    total = np.sum((y - y.mean(axis=0)) ** 2, axis=0)
-    return 1.0 - np.sum(residual ** 2, axis=0) / np.where(total > 0, total, np.nan)
-
-
 def line(rows, x, column, resampler, *, at_least):
     """``(slope, intercept, Decision on R²)`` of a least-squares line of ``column`` against the rows' column ``x``."""
     ys, draws = values(rows, column, resampler)
     rows = measured(rows, column)
     slope, intercept, r2 = fit_line(rows[x], ys)
-    return slope, intercept, decided(r2, r2_draws(rows[x].to_numpy(float), draws), at_least=at_least)
+    return slope, intercept, decided(r2, r_squared(rows[x].to_numpy(float), draws), at_least=at_least)
 
 
 def r2_words(value):

@@ -7,15 +7,15 @@ and the CT head stand-in; the sample counts do not depend on the machine.
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
+                                            format_number, linked_table)
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.tables import FIG_5_17, THESIS
 from reports import plots
@@ -216,7 +216,7 @@ def _speedup(df, config, low, high):
     """Brute force's compositing time over ``config``'s, the runs of a data set timed together; samples beside."""
     resampler = intervals.Resampler()
     groups = _groups(df)
-    decisions = {d: judging.ratio(rows["brute-force"], rows[config], judging.COMPOSITE, resampler, at_least=low,
+    decisions = {d: kit_judging.ratio(rows["brute-force"], rows[config], judging.COMPOSITE, resampler, at_least=low,
                                   at_most=high) for d, rows in groups.items()}
     counts = "; ".join(f"{d}: samples ×{format_number(_samples_of(rows['brute-force']) / _samples_of(rows[config]))} "
                        f"fewer, composite {judging.milliseconds(rows['brute-force'], judging.COMPOSITE)} → "

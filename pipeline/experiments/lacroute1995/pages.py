@@ -3,15 +3,6 @@
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import missing_options, unregistered
 from pipeline.experiments.lacroute1995.planning import SW
-from reports import blocks
-
-
-def figure(ctx, name, plot, frame, *, heading, caption, **options):
-    """``plot(frame, path, **options)`` (a chart of :mod:`reports.plots`) drawn as the page's plot ``name``, as a
-    figure with ``heading`` and ``caption``."""
-    path, rel = ctx.plot_path(name)
-    plot(frame, path, **options)
-    return blocks.Figure(heading, rel, caption)
 
 
 def shearwarp_missing(*options, more=()):

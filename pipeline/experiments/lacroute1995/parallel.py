@@ -12,14 +12,14 @@ import numpy as np
 import pandas as pd
 
 import datasets
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -226,7 +226,7 @@ def _speedup(df):
         t1, one_draws = judging.statistic(one, TIME, resampler)
         tp, most_draws = judging.statistic(most, TIME, resampler)
         draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
-        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = judging.decided(t1 / tp / p, draws,
+        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = kit_judging.decided(t1 / tp / p, draws,
                                                                                           at_least=0.7)
         parallel.append(most)
     if not decisions:
@@ -244,10 +244,10 @@ def _schedule_order(df):
             continue
         for s in SCHEDULES:
             if s != "contiguous":
-                decisions[f"{n}³ contiguous / {s}"] = judging.ratio(runs["contiguous"], runs[s], TIME, resampler,
+                decisions[f"{n}³ contiguous / {s}"] = kit_judging.ratio(runs["contiguous"], runs[s], TIME, resampler,
                                                                      at_least=1.0)
             if s != DEFAULT_SCHEDULE:
-                decisions[f"{n}³ {DEFAULT_SCHEDULE} / {s}"] = judging.ratio(runs[DEFAULT_SCHEDULE], runs[s], TIME,
+                decisions[f"{n}³ {DEFAULT_SCHEDULE} / {s}"] = kit_judging.ratio(runs[DEFAULT_SCHEDULE], runs[s], TIME,
                                                                            resampler, at_most=1.05)
         times = {s: float(numeric(r, TIME).median()) for s, r in runs.items()}
         measured.append(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in
@@ -279,7 +279,7 @@ def _task_u(df):
         if all(d is not None for d in draws):
             draws = np.column_stack(draws)
             draw = np.minimum(draws[:, 0], draws[:, -1]) / draws[:, 1:-1].min(axis=1)
-        decisions[f"{n}³, fastest interior {best} scanlines"] = judging.decided(value, draw, at_least=1.0)
+        decisions[f"{n}³, fastest interior {best} scanlines"] = kit_judging.decided(value, draw, at_least=1.0)
         read.append(part)
     if not decisions:
         raise ValueError("fewer than three task sizes swept")

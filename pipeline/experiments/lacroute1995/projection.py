@@ -9,14 +9,14 @@ import numpy as np
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number
+from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.reading import angle_of
 from pipeline.experiments.lacroute1995.tables import TABLE_5_3, THESIS
@@ -227,7 +227,7 @@ def _ratio(df, config, low, high):
         mine, parallel = (part[text_column(part, "config") == c] for c in (config, "parallel"))
         if mine.empty or parallel.empty:
             continue
-        decisions[dataset] = judging.ratio(mine, parallel, TIME, resampler, at_least=low, at_most=high, reduce="mean")
+        decisions[dataset] = kit_judging.ratio(mine, parallel, TIME, resampler, at_least=low, at_most=high, statistic="mean")
         thesis = TABLE_5_3.get(str(part["thesis_dataset"].iloc[0]) if "thesis_dataset" in part else "", {})
         times = numeric(mine, TIME)
         details.append(f"{dataset}: {format_number(times.mean() * 1e3)} ms mean over {len(times)} views "

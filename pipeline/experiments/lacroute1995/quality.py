@@ -12,13 +12,13 @@ import pandas as pd
 
 import datasets
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, db_words, difference_gallery, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, db_words, difference_gallery, figure,
+                                            format_number, linked_table)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, phantom, scene,
                                                truth_run)
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
 from pipeline.experiments.lacroute1995.reading import angle_of, title_or
 from reports import blocks, plots

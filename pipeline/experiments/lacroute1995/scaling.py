@@ -9,14 +9,14 @@ import math
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -198,7 +198,7 @@ def _growth(df):
     decisions, details = {}, []
     for dataset, (a, b, doublings, n, m) in _growth_pairs(df).items():
         value, draws = _per_doubling(a, b, doublings, judging.COMPOSITE, resampler)
-        decisions[dataset] = judging.decided(value, draws, at_least=2.8, at_most=5.66)
+        decisions[dataset] = kit_judging.decided(value, draws, at_least=2.8, at_most=5.66)
         words = f"{dataset} {n}³ → {m}³: samples {as_ratio(_ratio_of(a, b, 'count_samples', doublings))}"
         for column, name in ((judging.TECHNIQUE, "technique"), (judging.TOTAL, "whole frame")):
             try:
@@ -244,7 +244,7 @@ def _warp_growth(df):
         raise ValueError("fewer than two image sizes at the smallest volume")
     a, b = smallest.iloc[[-2]], smallest.iloc[[-1]]
     value, draws = _per_doubling(a, b, math.log2(b.i.iloc[0] / a.i.iloc[0]), "time_warp", intervals.Resampler())
-    decision = judging.decided(value, draws, at_least=2.5, at_most=5.5)
+    decision = kit_judging.decided(value, draws, at_least=2.5, at_most=5.5)
     return ClaimResult.decided(judging.labelled({f"{int(a.i.iloc[0])}² → {int(b.i.iloc[0])}²": decision}), decision,
                                ", ".join(f"{int(r.i)}²: {format_number(r.warp * 1e3)} ms" for r in smallest.itertuples())
                                + " warp stage per frame; thesis ×3.4, ×3.8")
@@ -260,7 +260,7 @@ def _warp_share(df):
     technique, technique_draws = judging.values(largest, judging.TECHNIQUE, resampler)
     shares = warp / technique
     draws = None if warp_draws is None or technique_draws is None else warp_draws / technique_draws
-    decision = judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
+    decision = kit_judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
                                at_most=0.0, centred=True)
     return ClaimResult.decided(", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n))
                                + f"; largest rise {decision_words(decision, as_percent)}", decision,

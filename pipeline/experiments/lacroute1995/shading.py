@@ -9,17 +9,16 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.checks import Measure, Ratio
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, format_number,
-                                            frame_note, linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
+                                            format_number, frame_note, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
                                               speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.pages import figure
 from pipeline.experiments.lacroute1995.planning import SW, VP, sizes
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -225,7 +224,7 @@ def _edit_race(top, top_stages, bottom, bottom_stages):
     a, a_draws = _after_edit(top, top_stages, resampler)
     b, b_draws = _after_edit(bottom, bottom_stages, resampler)
     draws = None if a_draws is None or b_draws is None else a_draws / b_draws
-    return judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE), a, b
+    return kit_judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE), a, b
 
 
 def _mode_rows(df, config):
@@ -239,7 +238,7 @@ def _octree_rle_build(df):
     brute, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree-rle")
     plain = stage_time(brute, "classify") + stage_time(brute, "rle_build")
     fast = stage_time(octree, "sat_build") + stage_time(octree, "rle_build")
-    decision = judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE)
+    decision = kit_judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE)
     return ClaimResult.decided(f"{as_ratio(fast / plain)}: {format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms",
                                decision,
                                f"octree: SAT {format_number(stage_time(octree, 'sat_build') * 1e3)} ms + RLE "

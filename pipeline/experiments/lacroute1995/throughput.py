@@ -12,14 +12,14 @@ import numpy as np
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.pages import figure, shearwarp_missing
+from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -247,7 +247,7 @@ def _brute_flat(df):
         raise ValueError("fewer than two brute-force cubes that composite")
     times, draws = judging.values(rows, TIME, intervals.Resampler())
     spread = lambda t, axis=None: (t.max(axis=axis) - t.min(axis=axis)) / np.median(t, axis=axis)  # noqa: E731
-    decision = judging.decided(spread(times), None if draws is None else spread(draws, axis=1), at_most=0.25,
+    decision = kit_judging.decided(spread(times), None if draws is None else spread(draws, axis=1), at_most=0.25,
                                centred=True)
     return ClaimResult.decided(decision_words(decision, as_percent), decision,
                                f"{len(rows)} cubes at α " + ", ".join(format_number(a) for a in rows.alpha)
@@ -266,7 +266,7 @@ def _crossover(df):
     resampler = intervals.Resampler()
     level, level_draws = judging.statistic(brute, TIME, resampler)
     times, draws = judging.values(rows, TIME, resampler)
-    decisions = {f"{as_percent(v)} visible": judging.decided(
+    decisions = {f"{as_percent(v)} visible": kit_judging.decided(
         t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE)
         for i, (v, t) in enumerate(zip(rows.visible, times))}
     low = [d for (label, d), v in zip(decisions.items(), rows.visible) if v <= 0.5]
@@ -311,7 +311,7 @@ def _worst_runs(df):
         match = brute[numeric(brute, "block") == smallest]
         if opt.empty or match.empty:
             continue
-        ratios[s] = judging.ratio(opt[numeric(opt, "block") == smallest], match, TIME, resampler, at_most=1.3)
+        ratios[s] = kit_judging.ratio(opt[numeric(opt, "block") == smallest], match, TIME, resampler, at_most=1.3)
     if not ratios:
         raise ValueError("no checkerboard with both renderers at its smallest block")
     # The all-visible series is the thesis's worst case: the lowest opacity.
@@ -353,7 +353,7 @@ def _prediction(df):
         error_draws = None
         if coefficients is not None and draws is not None:
             error_draws = (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1
-        decisions[row["dataset"]] = judging.decided(predicted / measured - 1, error_draws, at_least=-0.25, at_most=0.25)
+        decisions[row["dataset"]] = kit_judging.decided(predicted / measured - 1, error_draws, at_least=-0.25, at_most=0.25)
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
     return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "

@@ -10,16 +10,15 @@ import numpy as np
 import pandas as pd
 
 import renderers
-from pipeline.experiments.kit import intervals
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, format_number,
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, figure, format_number,
                                             linked_table, not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, listed, missing_options, phantom,
                                                scene, timed_frames, truth_run, unregistered, usable_cores)
 from pipeline.experiments.kit.results import numeric, ok_rows, pair_metrics, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import judging, tables
-from pipeline.experiments.lacroute1995.pages import figure
 from pipeline.experiments.lacroute1995.planning import SW, VP
 from reports import blocks, plots
 from reports.takeaways import cell_text
@@ -397,7 +396,7 @@ def _speed(df, config, column=judging.TECHNIQUE, *, against="volpack-rle", peer=
     """Our ``column`` time over the other's, every scene; the detail gives both scopes on both sides."""
     resampler = intervals.Resampler()
     pairs = _pairs(df, config, against)
-    decisions = {s: judging.ratio(ours, other, column, resampler, at_most=at_most) for s, (ours, other) in pairs.items()}
+    decisions = {s: kit_judging.ratio(ours, other, column, resampler, at_most=at_most) for s, (ours, other) in pairs.items()}
     detail = f"judged on the {judging.SCOPES[column]}; " + "; ".join(
         f"{s}: technique ours {judging.milliseconds(o)}, {peer} {judging.milliseconds(v)}; whole frame "
         f"ours {judging.milliseconds(o, judging.TOTAL)}, {peer} {judging.milliseconds(v, judging.TOTAL)}"
@@ -480,7 +479,7 @@ def _parallel(df):
             return ClaimResult("not measurable", None, f"{s}: the all-cores run had {int(workers)} worker: a speed-up "
                                "cannot be measured on a 1-core machine")
         bound = EFFICIENCY * workers
-        decisions[f"{s}, {int(workers)} workers"] = judging.ratio(one, most, judging.TECHNIQUE, resampler,
+        decisions[f"{s}, {int(workers)} workers"] = kit_judging.ratio(one, most, judging.TECHNIQUE, resampler,
                                                                   at_least=bound)
         words.append(f"{s}: bound {as_ratio(bound)}; technique 1 worker {judging.milliseconds(one)}, all cores "
                      f"{judging.milliseconds(most)}; whole frame 1 worker {judging.milliseconds(one, judging.TOTAL)}, "
@@ -514,7 +513,7 @@ def _parity(df):
 
 def _octree(df):
     resampler = intervals.Resampler()
-    decisions = {s: judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
+    decisions = {s: kit_judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
                  for s, (octree, rle) in _pairs(df, "volpack-octree").items()}
     return all_of(decisions, extra="thesis: ×1.8 (brainsmall), ×2.3 (brain), ×2.5 (head); both VolPack's library calls "
                                    "(vpShadeTable, then vpRenderRawVolume or vpRenderClassifiedVolume)")

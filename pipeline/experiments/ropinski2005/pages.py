@@ -6,7 +6,7 @@ import pandas as pd
 
 from pipeline.experiments.kit.judging import median_count
 from pipeline.experiments.kit.pages import format_number, linked_table
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import scenes_of
 from reports import blocks, plots
 
@@ -24,8 +24,7 @@ RUN_COLUMNS = {"config": "method", "count_samples": "samples", "count_samples_re
 
 def tests_of(results):
     """The runs of ``results`` that succeeded and whose ``role`` is "test"."""
-    ok = ok_rows(results)
-    return ok[text_column(ok, "role") == "test"].copy() if "role" in ok else ok.iloc[:0]
+    return role_rows(ok_rows(results))
 
 
 def headline(frame):

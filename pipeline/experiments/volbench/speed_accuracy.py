@@ -8,10 +8,11 @@ import numpy as np
 import pandas as pd
 
 import renderers
+from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, format_number, linked_table, ms,
                                             setting_words)
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, timed_frames
 from pipeline.experiments.kit.results import speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, decision, takeaways
@@ -30,20 +31,31 @@ material, maximum intensity projection, iso-surface). The mode is the kind's whe
 
 
 def _tradeoff(df):
+    """The reference's time ratio per halving of the step (median over scenes and halvings, with the interval of
+    the frames its sweep took together), and its error falling at every halving."""
     rows = df[(df.backend == "reference") & (df.role == "sweep")].copy()
     rows["step_factor"] = rows.setting.str.extract(r"step_factor=([0-9.e-]+)")[0].astype(float)
-    ratios, monotone = [], True
-    for _, group in rows.groupby("scene"):
+    resampler = intervals.Resampler()
+    ratios, draws, frames, monotone = [], [], {}, True
+    for scene_name, group in rows.groupby("scene"):
         group = group.sort_values("step_factor", ascending=False)
         times = group.time_total.to_numpy()
         ratios.extend(times[1:] / times[:-1])
+        per_run = intervals.row_draws(group, "time_total", resampler)  # the sweep's runs, paired round by round
+        draws.append(None if per_run is None else per_run[:, 1:] / per_run[:, :-1])
+        frames.update({f"{scene_name} at step {format_number(row.step_factor)}":
+                       intervals.frame_count(group.loc[[index]], "time_total") for index, row in group.iterrows()})
         monotone &= bool((np.diff(group.rmse.to_numpy()) < 0).all())
     if not ratios:
         raise ValueError("no reference sweep")
-    median_ratio = float(np.median(ratios))
-    holds = 1.5 <= median_ratio <= 2.5 and monotone
-    return ClaimResult(f"{as_ratio(median_ratio)} per halving", holds,
-                       f"ratios {', '.join(format_number(r) for r in ratios)}; error decreasing: {monotone}")
+    value = float(np.median(ratios))
+    draws = None if any(d is None for d in draws) else np.median(np.hstack(draws), axis=1)
+    decision = kit_judging.decided(value, draws, frames=frames, at_least=1.5, at_most=2.5)
+    detail = f"ratios {', '.join(format_number(r) for r in ratios)}; error decreasing: {monotone}"
+    measured = kit_judging.with_interval(f"{as_ratio(value)} per halving", decision)
+    if not monotone:  # the error's order is no timing: it fails the claim whatever the times say
+        return ClaimResult(measured, False, detail, decision.interval, decision.margin, frames=decision.frames)
+    return ClaimResult.decided(measured, decision, detail)
 
 
 class SpeedAccuracy(Experiment):
@@ -77,9 +89,11 @@ class SpeedAccuracy(Experiment):
                     sweep = sweep[:1]  # one run, skipped with the backend's reason, says why it is absent
                 for index, options in enumerate(sweep):
                     setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
+                    # The reference's sweep is a claim's (its time per halving): its steps are timed together.
+                    timing = (dict(**timed_frames(profile, self), interleave=f"{scene_name}.reference")
+                              if backend == "reference" else dict(warmup=profile.warmup, repeat=profile.repeat))
                     runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
-                                    (HEADLINE_VIEW,), options=dict(options), reference=truth.id,
-                                    warmup=profile.warmup, repeat=profile.repeat,
+                                    (HEADLINE_VIEW,), options=dict(options), reference=truth.id, **timing,
                                     tags={"scene": scene_name, "setting": setting, "role": "sweep",
                                           "kind": kind}))
         return runs
