@@ -13,6 +13,8 @@ Also the helpers :mod:`.fuzziness` shares: speed-ups with bootstrap draws, ratio
 groups, a mode's counts.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
@@ -244,7 +246,7 @@ def _ert_free(df):
     result = all_of(decisions, what="ESS+ERT / ESS time ", extra=SCOPE + "; " + (
         "; ".join(broken) if broken else "no Φ_p cube, no Φ_p fragment, the same F'_c as ESS on every scene"))
     if broken:  # a Φ_p where the TF has no opaque value fails whatever the frames say
-        return ClaimResult(result.measured, False, result.detail, result.interval, result.margin)
+        return replace(result, holds=False, inconclusive=False)
     return result
 
 
