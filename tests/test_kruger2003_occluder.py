@@ -3,6 +3,7 @@
 import pytest
 
 from pipeline import experiments
+from pipeline.experiments.kit.intervals import format_frames
 from pipeline.experiments.kruger2003.occluder import OCCLUDED
 from test_kruger2003_methods import NOISY, evaluate, small_profile, timed, with_gl_backends
 
@@ -14,7 +15,8 @@ def _occluder_rows(main_ms, fractions=(0.0, 0.5, 1.0), rays=1000, passes=10):
     for fraction, ms in zip(fractions, main_ms):
         occluded = round(fraction * rays)
         rows.append({"role": "test", "config": "rc", "fraction": fraction, "time_total": ms * 1.2e-3,
-                     "time_main": ms * 1e-3, "count_rays": rays, "count_rays_occluded": occluded,
+                     "time_main": ms * 1e-3, "frames_main": format_frames([ms * 1e-3] * 5), "interleave": "sweep",
+                     "view": "headline", "count_rays": rays, "count_rays_occluded": occluded,
                      "count_passes_main": passes, "count_fragments_main": passes * (rays - occluded)})
     return rows
 

@@ -46,8 +46,12 @@ def test_angle_claims():
     assert evaluate(NAME, "head-varies-more", _turn(head) + _turn(smooth, "ct_skull")).holds is False
     # the backend's own axis choice takes precedence over the 45° rule
     reported = ["x" if a < 180 else "z" for a in ANGLES]
-    result = evaluate(NAME, "no-axis-switch-jump", _turn(np.where(ANGLES < 180, 1.3, 1.0), axes=reported))
-    assert result.holds is False and "26.1 % at a switch" in result.detail
+    ripple = 1 + 0.002 * np.cos(np.radians(8 * ANGLES))  # some change away from the switch: a finite ratio
+    result = evaluate(NAME, "no-axis-switch-jump", _turn(np.where(ANGLES < 180, 1.3, 1.0) * ripple, axes=reported))
+    assert result.holds is False and "26.3 % at a switch" in result.detail
+    # Nothing changes away from it: an infinite ratio in every draw has no interval, so it is not decided.
+    flat = evaluate(NAME, "no-axis-switch-jump", _turn(np.where(ANGLES < 180, 1.3, 1.0), axes=reported))
+    assert flat.inconclusive and flat.measured.startswith("×∞") and "no finite interval" in flat.detail
 
 
 def test_the_technique_decides_with_intervals():

@@ -69,15 +69,18 @@ def _mode_rows(octree_rle=(0.004, 0.01), octree_frame=0.02, spread=0.0):
 
 def test_our_mode_switch_claims():
     rows = _mode_rows()
-    for claim in ("octree-rle-build", "fast-classification-render", "mode-switch-ours"):
+    for claim in ("fast-classification-render", "mode-switch-ours"):
         assert evaluate(NAME, claim, rows).holds is True, claim
+    # Each build stage is timed once: no interval, so however clear the times, the claim is not decided.
     result = evaluate(NAME, "octree-rle-build", rows)
     assert result.measured.startswith("×0.467: 14 ms vs 30 ms") and result.interval is None
+    assert result.inconclusive and "no timed frames behind its interval" in result.detail
     assert "samples ×2 of the RLE's" in evaluate(NAME, "fast-classification-render", rows).detail
     # The octree build takes longer than classify + encode; the octree frame is 6× the RLE frame.
     rows = _mode_rows(octree_rle=(0.025, 0.01), octree_frame=0.06)
-    for claim in ("octree-rle-build", "fast-classification-render", "mode-switch-ours"):
+    for claim in ("fast-classification-render", "mode-switch-ours"):
         assert evaluate(NAME, claim, rows).holds is False, claim
+    assert evaluate(NAME, "octree-rle-build", rows).inconclusive
     # 0.004 + 0.06 = 64 ms after an edit against 40 ms for the RLE: the switch does not pay.
     assert evaluate(NAME, "octree-rle-build", rows[:1] + rows[2:]).holds is None  # no octree-built RLE run
     # 4 + 36 ms against 40 ms, frames ±40 %: too close to call.

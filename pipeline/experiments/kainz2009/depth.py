@@ -102,8 +102,9 @@ def _depth_fit(df):
     rows = _sweep(df, TILED, TECHNIQUE)
     depth = rows.depth.to_numpy(float)
     slope, _intercept, r2 = fit_line(depth, numeric(rows, TECHNIQUE) * 1e3)
-    points = intervals.row_draws(rows, TECHNIQUE, intervals.Resampler())
-    decision = decided(r2, r_squared(depth, points), at_least=0.9)
+    resampler = intervals.Resampler()
+    points = intervals.row_draws(rows, TECHNIQUE, resampler)
+    decision = decided(r2, r_squared(depth, points), at_least=0.9, frames=resampler.arms())
     return ClaimResult.decided(with_interval(f"R² {format_number(r2)}", decision, format_number), decision,
                                f"{format_number(slope)} ms per layer over {len(rows)} depths "
                                f"({int(depth.min())}–{int(depth.max())}), {KERNELS}; fragments per frame "

@@ -117,7 +117,7 @@ def _build_cheap(df):
         build = row.build_ms / 1e3
         frames = draws(frame, TECHNIQUE, resampler)
         decisions[row.scene] = decided(build / point(frame, TECHNIQUE), None if frames is None else build / frames,
-                                     at_most=1.0)
+                                     at_most=1.0, frames=resampler.arms())
     return all_of(decisions,
                   extra=f"bricks + hull build (one first frame, its own run) over the median frame with the 8³ "
                         f"hull, {KERNELS}; build " + ", ".join(f"{r.scene}: {format_number(r.build_ms)} ms"

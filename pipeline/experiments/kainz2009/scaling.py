@@ -108,7 +108,7 @@ def _peeling_growth(df):
         growth_draws[config] = None if top is None or bottom is None else top / bottom
     both = not any(d is None for d in growth_draws.values())
     decision = decided(growth[PEEL] / growth[TILED], growth_draws[PEEL] / growth_draws[TILED] if both else None,
-                     at_least=STRICTLY_ABOVE_ONE)
+                       at_least=STRICTLY_ABOVE_ONE, frames=resampler.arms())
     measured = f"peeling {as_ratio(growth[PEEL])}, cl-tiled {as_ratio(growth[TILED])} at N = {int(n)}"
     return ClaimResult.decided(with_interval(f"{measured}: {as_ratio(decision.value)}", decision), decision,
                                f"time at N = {int(n)} over time at N = 1, clouds alone, {FRAMES}; peeling's growth "

@@ -81,7 +81,8 @@ def _sort_decision(df, name, resampler):
     sort, traversal = split({key: point(part, PIXEL) for key, part in parts.items()})
     part_draws = {key: draws(part, PIXEL, resampler) for key, part in parts.items()}
     complete = not any(d is None for d in part_draws.values())
-    decision = decided(sort / traversal, np.divide(*split(part_draws)) if complete else None, at_most=1.0)
+    decision = decided(sort / traversal, np.divide(*split(part_draws)) if complete else None, at_most=1.0,
+                       frames=resampler.arms())
     full = pd.concat([parts["front-to-back", "full"], parts["back-to-front", "full"]])
     return decision, (f"{name}: worst-case sort {format_number(sort * 1e3)} ms, traversal "
                       f"{format_number(traversal * 1e3)} ms, sort moves "

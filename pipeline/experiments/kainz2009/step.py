@@ -48,12 +48,13 @@ def _per_sample(df):
     if not (numeric(rows, "count_samples").diff().dropna() > 0).all():
         raise ValueError("a finer step took no more samples")
     marginal = _marginal(rows, numeric(rows, TECHNIQUE).to_numpy())
-    per_row = intervals.row_draws(rows, TECHNIQUE, intervals.Resampler())
+    resampler = intervals.Resampler()
+    per_row = intervals.row_draws(rows, TECHNIQUE, resampler)
     ratio_draws = None
     if per_row is not None:
         per_draw = _marginal(rows, per_row)
         ratio_draws = per_draw[:, -1] / per_draw[:, 0]
-    decision = decided(marginal[-1] / marginal[0], ratio_draws, at_most=1.0)
+    decision = decided(marginal[-1] / marginal[0], ratio_draws, at_most=1.0, frames=resampler.arms())
     steps = [format_number(f) for f in rows.step_factor]
     return ClaimResult.decided(
         f"{with_interval(as_ratio(decision.value), decision)}: {format_number(marginal[-1] * 1e9)} ns per added "

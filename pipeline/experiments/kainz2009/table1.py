@@ -140,7 +140,8 @@ def _binning_share(df):
     decisions = {}
     for i, row in enumerate(rows.itertuples()):
         share_draws = None if binning is None or pixel is None else binning[:, i] / (binning[:, i] + pixel[:, i])
-        decisions[row.scene] = decided(row.binning_share / 100, share_draws, at_most=0.10)
+        decisions[row.scene] = decided(row.binning_share / 100, share_draws, at_most=0.10,
+                                       frames=resampler.arms())
     return all_of(decisions, extra="binning / (binning + pixel kernel), OpenCL profiling; boundary triangles "
                                    + counts(rows, "count_triangles"), show=as_percent)
 

@@ -67,12 +67,20 @@ class Resampler:
         self.draws = draws
         self._rng = np.random.default_rng(seed)
         self._cache = {}
+        self.fewest = None
+        """The fewest frames of any row resampled so far (``None``: none was)."""
 
     def indices(self, key, n):
+        self.fewest = n if self.fewest is None else min(self.fewest, n)
         key = (key, n)
         if key not in self._cache:
             self._cache[key] = self._rng.integers(0, n, size=(self.draws, n))
         return self._cache[key]
+
+    def arms(self):
+        """``{"its thinnest run": frames}`` for :func:`timing_decision` (empty where nothing was resampled): what
+        a value drawn with this resampler rests on, where its check does not name its arms."""
+        return {"its thinnest run": self.fewest} if self.fewest is not None else {}
 
 
 def _row_key(row, position):
@@ -204,7 +212,9 @@ def timing_decision(value, draws, arms, *, at_least=None, at_most=None):
     decision = decide(value, interval_of(draws), at_least=at_least, at_most=at_most)
     decision = replace(decision, frames=min(arms.values()) if arms else None)
     few = {arm: n for arm, n in arms.items() if n < MIN_FRAMES}
-    if decision.interval is None:
+    if decision.interval is None and draws is not None and not any(n == 0 for n in arms.values()):
+        why = "its draws give no finite interval (a zero denominator in every draw)"
+    elif decision.interval is None:
         why = "no timed frames behind " + (", ".join(arm for arm, n in arms.items() if n == 0) or "its interval")
     elif few:
         why = "; ".join(f"{arm}: {n} timed frame{'s' * (n != 1)}" for arm, n in few.items()) + \

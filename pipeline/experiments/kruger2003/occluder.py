@@ -72,9 +72,10 @@ def _occluder_fit(df, config):
         raise ValueError(f"{config}: no main-pass time without the occluder")
     # float(): decide() on a numpy scalar gives a numpy.bool_, which combine()'s `is False` would miss.
     left = float(full.main_ms / none.main_ms)
-    draws = intervals.row_draws(rows, "time_main", intervals.Resampler())
-    fit = decided(r2, r_squared(rows.occluded_percent.to_numpy(float), draws), at_least=0.9)
-    rest = decided(left, None if draws is None else draws[:, -1] / draws[:, 0], at_most=0.25)
+    resampler = intervals.Resampler()
+    draws = intervals.row_draws(rows, "time_main", resampler)
+    fit = decided(r2, r_squared(rows.occluded_percent.to_numpy(float), draws), at_least=0.9, frames=resampler.arms())
+    rest = decided(left, None if draws is None else draws[:, -1] / draws[:, 0], at_most=0.25, frames=resampler.arms())
     decision = intervals.combine([fit, rest])
     measured = (f"R² {with_interval(format_number(r2), fit, format_number)}; "
                 f"{with_interval(as_percent(left), rest, as_percent)} of the main-pass time left at "

@@ -198,7 +198,7 @@ def _jump(df, column=TIME):
     with np.errstate(divide="ignore", invalid="ignore"):  # nothing changes away from a switch: an infinite ratio
         decisions = {d: kit_judging.decided(np.float64(s["switch"]) / s["other"],
                                         None if s["draws"] is None else s["draws"][1] / s["draws"][2], at_most=1.5,
-                                        centred=True)
+                                        centred=True, frames=resampler.arms() if column == TIME else None)
                      for d, s in stats.items()}
     what = "technique time (tables, compositing, warp)" if column == TIME else "sample count (machine-independent)"
     changes = "; ".join(f"{d}: {as_percent(s['switch'])} at a switch, {as_percent(s['other'])} elsewhere"
@@ -211,9 +211,10 @@ def _variation(df, dataset, bound):
     part = frame[frame.dataset == dataset] if not frame.empty else frame
     if part.empty:
         raise ValueError(f"no successful turn of {dataset}")
-    stats = _turn_stats(part, TIME, intervals.Resampler())
-    decision = kit_judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0], at_most=bound,
-                               centred=True)
+    resampler = intervals.Resampler()
+    stats = _turn_stats(part, TIME, resampler)
+    decision = kit_judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],
+                                   at_most=bound, centred=True, frames=resampler.arms())
     detail = f"thesis: 6 %; {judging.SCOPES[TIME]}"
     try:
         detail += f"; samples vary {as_percent(_turn_stats(part, 'count_samples')['variation'])}"
@@ -236,7 +237,8 @@ def _head(df):
     for d, part in heads.groupby("dataset"):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
-        decisions[d] = kit_judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE, centred=True)
+        decisions[d] = kit_judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE,
+                                           centred=True, frames=resampler.arms())
     varies = ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
     return all_of(decisions,
                   extra=f"sphere varies {as_percent(s['variation'])}, {varies}; thesis: head 13 %, sphere 6 %")

@@ -51,7 +51,8 @@ def line(rows, x, column, resampler, *, at_least):
     ys, draws = values(rows, column, resampler)
     rows = measured(rows, column)
     slope, intercept, r2 = fit_line(rows[x], ys)
-    return slope, intercept, decided(r2, r_squared(rows[x].to_numpy(float), draws), at_least=at_least)
+    return slope, intercept, decided(r2, r_squared(rows[x].to_numpy(float), draws), at_least=at_least,
+                                     frames=resampler.arms())
 
 
 def r2_words(value):

@@ -226,8 +226,8 @@ def _speedup(df):
         t1, one_draws = judging.statistic(one, TIME, resampler)
         tp, most_draws = judging.statistic(most, TIME, resampler)
         draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
-        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = kit_judging.decided(t1 / tp / p, draws,
-                                                                                          at_least=0.7)
+        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = kit_judging.decided(
+            t1 / tp / p, draws, at_least=0.7, frames=resampler.arms())
         parallel.append(most)
     if not decisions:
         raise ValueError("no size rendered with one worker and with more")
@@ -279,7 +279,8 @@ def _task_u(df):
         if all(d is not None for d in draws):
             draws = np.column_stack(draws)
             draw = np.minimum(draws[:, 0], draws[:, -1]) / draws[:, 1:-1].min(axis=1)
-        decisions[f"{n}³, fastest interior {best} scanlines"] = kit_judging.decided(value, draw, at_least=1.0)
+        decisions[f"{n}³, fastest interior {best} scanlines"] = kit_judging.decided(value, draw, at_least=1.0,
+                                                                                              frames=resampler.arms())
         read.append(part)
     if not decisions:
         raise ValueError("fewer than three task sizes swept")

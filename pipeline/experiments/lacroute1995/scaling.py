@@ -198,7 +198,7 @@ def _growth(df):
     decisions, details = {}, []
     for dataset, (a, b, doublings, n, m) in _growth_pairs(df).items():
         value, draws = _per_doubling(a, b, doublings, judging.COMPOSITE, resampler)
-        decisions[dataset] = kit_judging.decided(value, draws, at_least=2.8, at_most=5.66)
+        decisions[dataset] = kit_judging.decided(value, draws, at_least=2.8, at_most=5.66, frames=resampler.arms())
         words = f"{dataset} {n}³ → {m}³: samples {as_ratio(_ratio_of(a, b, 'count_samples', doublings))}"
         for column, name in ((judging.TECHNIQUE, "technique"), (judging.TOTAL, "whole frame")):
             try:
@@ -243,8 +243,9 @@ def _warp_growth(df):
     if len(smallest) < 2:
         raise ValueError("fewer than two image sizes at the smallest volume")
     a, b = smallest.iloc[[-2]], smallest.iloc[[-1]]
-    value, draws = _per_doubling(a, b, math.log2(b.i.iloc[0] / a.i.iloc[0]), "time_warp", intervals.Resampler())
-    decision = kit_judging.decided(value, draws, at_least=2.5, at_most=5.5)
+    resampler = intervals.Resampler()
+    value, draws = _per_doubling(a, b, math.log2(b.i.iloc[0] / a.i.iloc[0]), "time_warp", resampler)
+    decision = kit_judging.decided(value, draws, at_least=2.5, at_most=5.5, frames=resampler.arms())
     return ClaimResult.decided(judging.labelled({f"{int(a.i.iloc[0])}² → {int(b.i.iloc[0])}²": decision}), decision,
                                ", ".join(f"{int(r.i)}²: {format_number(r.warp * 1e3)} ms" for r in smallest.itertuples())
                                + " warp stage per frame; thesis ×3.4, ×3.8")
@@ -261,7 +262,7 @@ def _warp_share(df):
     shares = warp / technique
     draws = None if warp_draws is None or technique_draws is None else warp_draws / technique_draws
     decision = kit_judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
-                               at_most=0.0, centred=True)
+                                   at_most=0.0, centred=True, frames=resampler.arms())
     return ClaimResult.decided(", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n))
                                + f"; largest rise {decision_words(decision, as_percent)}", decision,
                                f"warp stage over the technique at {int(largest.i.iloc[0])}² images; thesis 48 %, 31 %, 9 %")

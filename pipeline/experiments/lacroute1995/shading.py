@@ -224,7 +224,7 @@ def _edit_race(top, top_stages, bottom, bottom_stages):
     a, a_draws = _after_edit(top, top_stages, resampler)
     b, b_draws = _after_edit(bottom, bottom_stages, resampler)
     draws = None if a_draws is None or b_draws is None else a_draws / b_draws
-    return kit_judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE), a, b
+    return kit_judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a, b
 
 
 def _mode_rows(df, config):
@@ -238,7 +238,7 @@ def _octree_rle_build(df):
     brute, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree-rle")
     plain = stage_time(brute, "classify") + stage_time(brute, "rle_build")
     fast = stage_time(octree, "sat_build") + stage_time(octree, "rle_build")
-    decision = kit_judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE)
+    decision = kit_judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE, frames={})  # timed once
     return ClaimResult.decided(f"{as_ratio(fast / plain)}: {format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms",
                                decision,
                                f"octree: SAT {format_number(stage_time(octree, 'sat_build') * 1e3)} ms + RLE "

@@ -245,10 +245,11 @@ def _brute_flat(df):
     rows = _brute(df)
     if len(rows) < 2:
         raise ValueError("fewer than two brute-force cubes that composite")
-    times, draws = judging.values(rows, TIME, intervals.Resampler())
+    resampler = intervals.Resampler()
+    times, draws = judging.values(rows, TIME, resampler)
     spread = lambda t, axis=None: (t.max(axis=axis) - t.min(axis=axis)) / np.median(t, axis=axis)  # noqa: E731
     decision = kit_judging.decided(spread(times), None if draws is None else spread(draws, axis=1), at_most=0.25,
-                               centred=True)
+                                   centred=True, frames=resampler.arms())
     return ClaimResult.decided(decision_words(decision, as_percent), decision,
                                f"{len(rows)} cubes at α " + ", ".join(format_number(a) for a in rows.alpha)
                                + f", median {judging.milliseconds(rows)} technique; samples "
@@ -267,7 +268,8 @@ def _crossover(df):
     level, level_draws = judging.statistic(brute, TIME, resampler)
     times, draws = judging.values(rows, TIME, resampler)
     decisions = {f"{as_percent(v)} visible": kit_judging.decided(
-        t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE)
+        t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE,
+        frames=resampler.arms())
         for i, (v, t) in enumerate(zip(rows.visible, times))}
     low = [d for (label, d), v in zip(decisions.items(), rows.visible) if v <= 0.5]
     if not low:
@@ -353,7 +355,8 @@ def _prediction(df):
         error_draws = None
         if coefficients is not None and draws is not None:
             error_draws = (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1
-        decisions[row["dataset"]] = kit_judging.decided(predicted / measured - 1, error_draws, at_least=-0.25, at_most=0.25)
+        decisions[row["dataset"]] = kit_judging.decided(predicted / measured - 1, error_draws, at_least=-0.25,
+                                                        at_most=0.25, frames=resampler.arms())
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
     return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "
