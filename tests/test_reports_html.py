@@ -471,4 +471,4 @@ def test_index_counts_the_verdicts_of_each_kind_of_claim(report):
         held = int((part.verdict == "holds").sum())
         assert f'<td class="text">{words}</td>\n<td class="holds">{held}</td>' in html
     volbench = (report.parent / "volbench.html").read_text()
-    assert "<th class=\"text\">kind</th>" in volbench and '<td class="text">accuracy</td>' in volbench
+    assert "<th class=\"text\">kind</th>" in volbench and '<td class="text kind">accuracy</td>' in volbench
