@@ -12,9 +12,10 @@ load over its frames) measured the machine rather than the technique: :func:`unl
 verdicts such a run could have decided inconclusive, and says why.
 """
 
+from dataclasses import replace
+
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import decided, r_squared
-from pipeline.experiments.kit.model import ClaimResult
 from pipeline.experiments.kit.pages import as_percent, as_ratio, format_number
 from pipeline.experiments.kit.results import fit_line, numeric
 
@@ -102,7 +103,7 @@ def unless_starved(result, rows, *, holding_survives):
         return result
     detail = f"{result.detail}; starved: {why}"
     if result.holds is None or (result.holds and holding_survives):
-        return ClaimResult(result.measured, result.holds, detail, result.interval, result.margin, result.inconclusive)
-    return ClaimResult(result.measured, None, detail + " (a verdict from a starved run is the machine's, not the "
-                       "technique's)", result.interval, result.margin, inconclusive=True)
+        return replace(result, detail=detail)
+    return replace(result, holds=None, inconclusive=True,
+                   detail=detail + " (a verdict from a starved run is the machine's, not the technique's)")
 

@@ -5,11 +5,13 @@ rank (§4.1.3), and what a classification edit costs before the next image in Vo
 backend's modes (§4.4): the harness times each preprocessing stage once, compiled, after the cold frame.
 """
 
+from dataclasses import replace
+
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
@@ -264,10 +266,9 @@ def _mode_switch_ours(df):
 
 def _lut_speed(df):
     result = LUT_SPEED(df)
-    return ClaimResult(result.measured, result.holds, result.detail + " (technique). Per-voxel Phong here is inlined, "
-                       "compiled floating point, a few nanoseconds a sample on a current CPU; the thesis's procedural "
-                       "shader called functions per voxel on a 1995 one", result.interval, result.margin,
-                       result.inconclusive)
+    return replace(result, detail=result.detail + " (technique). Per-voxel Phong here is inlined, compiled floating "
+                   "point, a few nanoseconds a sample on a current CPU; the thesis's procedural shader called "
+                   "functions per voxel on a 1995 one")
 
 
 def _octree_render(df):
@@ -276,8 +277,7 @@ def _octree_render(df):
     counts = (f"; samples ×{format_number(float(octree['count_samples']) / float(rle['count_samples']))} of the RLE's "
               f"(thesis ×2.06), {format_number(float(octree.get('count_classified_on_the_fly', np.nan)))} voxels "
               "classified on the fly per frame" if "count_samples" in octree and "count_samples" in rle else "")
-    return ClaimResult(result.measured, result.holds, result.detail + counts, result.interval, result.margin,
-                       result.inconclusive)
+    return replace(result, detail=result.detail + counts)
 
 
 def _lut_accuracy(df):
