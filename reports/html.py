@@ -477,7 +477,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     return index
 
 
-KIND_WORDS = {"timing": "a timing", "count": "a count (machine-independent)", "accuracy": "an image's accuracy",
+KIND_WORDS = {"timing": "a timing", "count": "a count", "accuracy": "an image's accuracy",
               "cost model": "a cost model against the times"}
 """The index's words for each kind of claim (``claims.csv``'s ``kind``), in the order it lists them."""
 
