@@ -281,16 +281,16 @@ def _share(flags):
     return f"{100 * flags.mean():.1f} %" if len(flags) else "–"
 
 
-def claim_differences(a, b, *, experiments=None):
+def claim_differences(a, b, *, experiments=None, timing=None):
     """How the claims of ``a`` and ``b`` differ: the same claims (experiment, id, statement, expected),
     and the same verdict for each but those whose judgement reads timings or scheduling-dependent
-    values in either folder (:func:`varying_claims`)."""
+    values in either folder (``timing``: :func:`timing_claims`, computed here when not given)."""
     first, second = read_claims(a, experiments=experiments), read_claims(b, experiments=experiments)
     key = ["experiment", "claim"]
     text = ["statement", "expected"]
     differences = _only_in([tuple(row) for row in first[key].values], [tuple(row) for row in second[key].values],
                            "claims (experiment, claim)", a, b)
-    varying = timing_claims(a, b, experiments=experiments)
+    varying = timing_claims(a, b, experiments=experiments) if timing is None else timing
     merged = first.merge(second, on=key, suffixes=("_a", "_b"))
     for row in merged.itertuples(index=False):
         name = f"{row.experiment}/{row.claim}"
@@ -452,7 +452,9 @@ def differences(a, b, *, timing=None):
     """Every difference between the results folders ``a`` and ``b``: runs, images, claims (a timing claim
     that flipped between holds and fails included: :func:`timing_flips`), phantoms."""
     finished_runs(a, b)
-    return [*run_differences(a, b), *image_differences(a, b), *claim_differences(a, b),
+    # Which claims read timings is found by judging every claim again on changed values: once, for both uses.
+    timing = timing_claims(a, b) if timing is None else timing
+    return [*run_differences(a, b), *image_differences(a, b), *claim_differences(a, b, timing=timing),
             *timing_flips(a, b, timing=timing), *phantom_differences(a, b)]
 
 
@@ -463,7 +465,7 @@ def main(argv=None):
     parser.add_argument("b", help="the results folder to compare it with")
     args = parser.parse_args(argv)
     try:
-        finished_runs(args.a, args.b)
+        finished_runs(args.a, args.b)  # before the timing claims are judged, which reads the folders
         timing = timing_claims(args.a, args.b)
         found = differences(args.a, args.b, timing=timing)
     except InputError as exc:

@@ -67,7 +67,9 @@ def flips(quiet, loaded):
     load"``, ``"decided under load"`` (inconclusive quiet, holds or fails loaded: allowed, the loaded run
     took other frames) or ``"other"`` (blocked, not measured): :func:`pipeline.compare.verdict_changes`.
     """
-    table = verdict_changes(quiet, loaded).rename(columns=lambda c: c.replace("_a", "_quiet").replace("_b", "_loaded"))
+    table = verdict_changes(quiet, loaded).rename(columns={
+        "verdict_a": "verdict_quiet", "measured_a": "measured_quiet",
+        "verdict_b": "verdict_loaded", "measured_b": "measured_loaded"})
     table["change"] = table.change.replace({"to inconclusive": "inconclusive under load",
                                             "from inconclusive": "decided under load"})
     return table

@@ -385,7 +385,8 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     if "holds" in claims_df:
         claims_df["holds"] = claims_df["holds"].map(_holds).astype(object)
     claims_df["verdict"] = _verdicts(claims_df)
-    for column, missing in (("kind", ""), ("target", "paper"), ("paper_value", ""), ("ours", "")):  # results from before them
+    # Results written before these columns existed.
+    for column, missing in (("kind", ""), ("target", "paper"), ("paper_value", ""), ("ours", "")):
         claims_df[column] = claims_df[column].fillna(missing).astype(str) if column in claims_df else missing
     env = _jinja()
     facts = provenance(environment, runs_df, real_data)
@@ -486,11 +487,11 @@ def _claims_by_kind(claims_df):
     """``[{"kind", "words", "claims": {verdict: count}}]``: the verdicts of each kind of claim (what it measures)."""
     if "kind" not in claims_df:
         return []
-    present = [kind for kind in dict.fromkeys([*KIND_WORDS, *claims_df["kind"]]) if (claims_df["kind"] == kind).any()]
-    return [{"kind": kind, "words": KIND_WORDS.get(kind, kind),
-             "claims": claims_df[claims_df["kind"] == kind]["verdict"].value_counts().reindex(
-                 list(VERDICT_CLASSES), fill_value=0).astype(int).to_dict()}
-            for kind in present if kind]
+    counts = claims_df[claims_df["kind"] != ""].groupby("kind")["verdict"].value_counts().unstack(fill_value=0)
+    counts = counts.reindex(columns=list(VERDICT_CLASSES), fill_value=0)
+    order = [kind for kind in dict.fromkeys([*KIND_WORDS, *counts.index]) if kind in counts.index]
+    return [{"kind": kind, "words": KIND_WORDS.get(kind, kind), "claims": counts.loc[kind].astype(int).to_dict()}
+            for kind in order]
 
 
 _SECTION_INPUTS = None
@@ -751,7 +752,8 @@ def claim_cells(claim):
         interval = "—"
     frames = claim.get("frames")
     behind = f"{int(float(frames))} frames" if interval != "—" and _finite(frames) else ""
-    return {"measured": measured, "interval": interval, "behind": behind, "margin": margin_words(claim.get("margin"))}
+    return {"measured": measured, "interval": interval, "behind": behind,
+            "margin": margin_words(claim.get("margin"))}
 
 
 def _verdicts(claims_df):

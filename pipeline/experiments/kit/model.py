@@ -294,8 +294,9 @@ class ClaimResult:
 CLAIM_KINDS = ("timing", "count", "accuracy", "cost model")
 """What a claim measures: ``timing`` a time, a frame rate or their ratio (machine-dependent, judged with an
 interval over timed frames); ``count`` a number the code counts (fragments, samples, passes, bytes, a statistic
-of a phantom), which does not depend on the machine but where a parallel run's scheduling shares out its work; ``accuracy`` an image against its reference (PSNR, SSIM, an error);
-``cost model`` a model's prediction of the times from counts, against the measured times."""
+of a phantom), which does not depend on the machine but where a parallel run's scheduling shares out its work;
+``accuracy`` an image against its reference (PSNR, SSIM, an error); ``cost model`` a model's prediction of the
+times from counts, against the measured times."""
 
 
 @dataclass(frozen=True)

@@ -20,8 +20,8 @@ from reports.decision import device_family
 from reports.takeaways import change_words, db_words, setting_words
 
 __all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
-           "device_takeaways", "difference_gallery", "figure", "format_number", "frame_note", "frames_caption", "frames_counted", "frames_note", "GL_TIMING",
-           "gl_timing_words", "gl_devices", "linked_table", "links",
+           "device_takeaways", "difference_gallery", "figure", "format_number", "frame_note", "frames_caption",
+           "frames_counted", "frames_note", "GL_TIMING", "gl_timing_words", "gl_devices", "linked_table", "links",
            "ms", "not_measurable", "setting_words"]
 
 DIFF_SCALE = 0.1
@@ -71,7 +71,8 @@ def figure(ctx, name, plot, frame, *, heading, caption, **options):
 def frame_note(row, *, psnr="PSNR"):
     """A gallery picture's note: its median frame time and, where measured, ``psnr`` (its PSNR's name) in dB."""
     value = getattr(row, "psnr", np.nan)
-    return f"{format_number(row.time_total * 1e3)} ms" + (f", {psnr} {format_number(value)} dB" if pd.notna(value) else "")
+    shown = f", {psnr} {format_number(value)} dB" if pd.notna(value) else ""
+    return f"{format_number(row.time_total * 1e3)} ms{shown}"
 
 
 def difference_gallery(title, rows, ctx, *, label, caption="", against=None, note=frame_note):
@@ -99,7 +100,8 @@ def difference_gallery(title, rows, ctx, *, label, caption="", against=None, not
     gallery = blocks.Gallery(title, caption=caption, diff_scale=DIFF_SCALE if against is not None else None)
     for row in rows.itertuples():
         difference = ctx.difference(against(row), row.exr, DIFF_SCALE) if against is not None else None
-        gallery.items.append(blocks.GalleryItem(label(row), ctx.image(row.png), difference=difference, note=note(row)))
+        gallery.items.append(blocks.GalleryItem(label(row), ctx.image(row.png), difference=difference,
+                                                note=note(row)))
     return gallery
 
 
