@@ -20,7 +20,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.environment import node_name
-from pipeline.experiments.kit.intervals import format_frames
+from pipeline.experiments.kit.intervals import format_frames, format_processes
 from pipeline.experiments.kit.results import compact
 from pipeline.records import metrics_record_path
 from reports.metrics import METRIC_KEYS
@@ -60,7 +60,7 @@ def rows_for(record_path, *, results_dir):
                **{f"time_{k}_max": v for k, v in view["timings_max"].items()},
                **_flatten("count_", view["counters"]),
                **_flatten("info_", {k: v for k, v in view["info"].items() if not isinstance(v, (dict, list))}),
-               **{f"frames_{stage}": format_frames(values) for stage, values in (view.get("frames") or {}).items()},
+               **_frames_cells(view),
                **{f"load_{k.removeprefix('load_')}": v for k, v in (view["info"].get("load") or {}).items()
                   if k in ("foreign_cores", "job_foreign_cores", "steal_share", "waited_share", "load_average",
                            "orchestrator_cores")},
@@ -72,6 +72,35 @@ def rows_for(record_path, *, results_dir):
             row["metrics_reason"] = metrics["reason"]
         rows.append(row)
     return rows
+
+
+def _frames_cells(view):
+    """``{frames_<stage>: text}`` of a view: every timed frame, each process's apart
+    (:data:`~pipeline.experiments.kit.intervals.PROCESS_SEPARATOR`); ``processes``, how many timed it (``None``
+    for a view not timed: one untimed frame); and for a view of several, how its total time varied between
+    them and within them (:func:`process_spreads`)."""
+    processes = view.get("processes")
+    if not processes:
+        timed = bool(view.get("frames")) and not view.get("info", {}).get("untimed")
+        return {**{f"frames_{stage}": format_frames(values) for stage, values in (view.get("frames") or {}).items()},
+                "processes": 1 if timed else None}
+    stages = dict.fromkeys(stage for process in processes for stage in process["frames"])
+    return {**{f"frames_{stage}": format_processes([process["frames"].get(stage, []) for process in processes])
+               for stage in stages}, "processes": len(processes),
+            **process_spreads([process["frames"].get("total") or [] for process in processes])}
+
+
+def process_spreads(per_process):
+    """``{"spread_between", "spread_within"}`` of a view's total frame time in several processes (empty where a
+    process has none): the range of the processes' medians over their mean, and the median over the processes
+    of their frames' interquartile range over their median. The appendix sets one beside the other per backend:
+    a between-process spread above the within-process one is what an interval over one process's frames misses.
+    """
+    if len(per_process) < 2 or any(len(frames) == 0 for frames in per_process):
+        return {}
+    medians = np.array([np.median(frames) for frames in per_process])
+    within = [np.subtract(*np.percentile(frames, [75, 25])) / np.median(frames) for frames in per_process]
+    return {"spread_between": float(np.ptp(medians) / medians.mean()), "spread_within": float(np.median(within))}
 
 
 def _rerun_words(rerun):
@@ -241,19 +270,20 @@ def claims_table(frame, experiments):
                 "holds": verdict.holds, "verdict": verdict.verdict, "detail": verdict.detail,
                 "interval_low": verdict.interval[0] if verdict.interval else None,
                 "interval_high": verdict.interval[1] if verdict.interval else None, "frames": verdict.frames,
-                "margin": verdict.margin, **claim_evidence(verdict, part),
+                "processes": verdict.processes, "margin": verdict.margin, **claim_evidence(verdict, part),
             })
     return pd.DataFrame(claim_rows, columns=CLAIM_COLUMNS)
 
 
 CLAIM_COLUMNS = ["experiment", "paper", "claim", "kind", "statement", "target", "paper_value", "ours", "expected",
-                 "measured", "holds", "verdict", "detail", "interval_low", "interval_high", "frames", "margin",
-                 "disturbed_views", "software_rasterizer", "stand_in"]
+                 "measured", "holds", "verdict", "detail", "interval_low", "interval_high", "frames", "processes",
+                 "margin", "disturbed_views", "software_rasterizer", "stand_in"]
 """The columns of ``claims.csv``: ``kind`` is what the claim measures (timing, count, accuracy or cost model:
 :data:`~pipeline.experiments.kit.model.CLAIM_KINDS`), ``target`` is ``paper`` (the paper's statement) or ``ours``
 (our own target beside it, ``ours`` saying why), ``paper_value`` the paper's number the claim judges where it has one;
 ``interval_low``/``interval_high`` bound the 95 % interval of the measured value
 where it rests on timed frames (in the value's unit: a ratio, seconds), ``frames`` how many timed frames it rests
-on in its thinnest arm (every run's frames come from one process), ``margin`` is its relative distance
+on in its thinnest arm, ``processes`` in how many processes they were timed (the fewest of the experiment's
+timed runs; with one, the interval cannot show the spread between two runs), ``margin`` is its relative distance
 from the bound, positive on the holding side (the worst row's, for a claim over several); the last three are
 what a failing claim's likely cause is read from (:func:`pipeline.experiments.kit.pages.claim_evidence`)."""

@@ -7,6 +7,7 @@ backends or the image libraries.
 
 import json
 import multiprocessing
+import os
 import time
 import traceback
 
@@ -42,16 +43,18 @@ def execute_limited(run, *, profile, device_environment=None, start_method="spaw
                                     start_method=start_method)[0]
 
 
-def execute_together_limited(runs, *, profile, device_environment=None, start_method="spawn"):
+def execute_together_limited(runs, *, profile, device_environment=None, start_method="spawn", own_process=False):
     """The runs of one interleave group (:func:`pipeline.rendering.execute_together`) under the time limit.
 
     As :func:`execute_limited`, with the limit times the number of runs for the whole group; a group
     killed at its limit, or whose process died, records every run it had not finished as failed.
+    Without a limit the runs render in this process, unless ``own_process`` (a replicate: each one's
+    process is its own).
     """
     if start_method not in START_METHODS:
         raise InputError(f"start_method {start_method!r}: use one of {', '.join(START_METHODS)}")
     limit = profile.render_time_limit
-    if limit is None:
+    if limit is None and not own_process:
         return execute_in_process(runs, profile=profile, device_environment=device_environment,
                                   harness={"process": "job"})
     paths = [run_record_path(profile.results, run.experiment, run.id) for run in runs]
@@ -63,7 +66,7 @@ def execute_together_limited(runs, *, profile, device_environment=None, start_me
                             args=(runs, profile, device_environment, dict(renderers.BACKENDS)))
     started = time.monotonic()
     child.start()
-    child.join(limit * len(runs))
+    child.join(None if limit is None else limit * len(runs))
     killed = child.is_alive()
     if killed:
         child.kill()
@@ -102,7 +105,8 @@ def record_unfinished(runs, *, profile, device_environment, killed, exitcode, st
 def _execute_child(runs, profile, device_environment, backends):
     """Body of :func:`execute_together_limited`'s child: the parent's registry, then the rendering."""
     renderers.BACKENDS.update(backends)
-    execute_in_process(runs, profile=profile, device_environment=device_environment, harness={"process": "job"})
+    execute_in_process(runs, profile=profile, device_environment=device_environment,
+                       harness={"process": "job", "pid": os.getpid()})
 
 
 def execute_in_process(runs, *, profile, device_environment=None, harness=None):

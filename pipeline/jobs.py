@@ -40,36 +40,93 @@ def render(args):
 
     Where ``volbench run`` runs a render service on this machine (:mod:`pipeline.workers`), a warm
     worker renders the runs and this job only waits; else the job renders them in a child process of
-    its own under the profile's time limit. Either way a run that failed is named on the output
-    (Snakemake's log); a run that rendered or was skipped, as planned, says nothing.
+    its own under the profile's time limit. A timed run of ``replicates`` > 1 is rendered that many times,
+    each time in a process that has not rendered it before, its group's order reversed every other time,
+    and its record keeps every process's frames (:func:`pipeline.records.merge_processes`). Either way a
+    run that failed is named on the output (Snakemake's log); a run that rendered or was skipped, as
+    planned, says nothing.
     """
     from pipeline import workers
 
-    address = workers.service_address()
-    outcomes = None
-    if address is not None:
-        try:
-            outcomes = workers.request_render(address, runs=args.run, profile=args.profile,
-                                              device_env=args.device_env, threads=args.threads)
-        except workers.ServiceUnavailable as exc:
-            print(f"volbench: {exc}; this job renders in a process of its own", file=sys.stderr)
-    if outcomes is None:
-        from pipeline import disturbance
-        from pipeline.execution import execute_together_limited
-        from pipeline.experiments import Run
-
-        runs = Run.list_from_json(args.run)
-        device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
-        device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
-        disturbance.watch(disturbance.orchestrator_pids())
-        # This process has only parsed its arguments: a forked child needs no fresh interpreter.
-        records = execute_together_limited(runs, profile=parse_profile(args.profile), device_environment=device_env,
-                                           start_method="fork")
-        outcomes = [{"key": run.key, "status": record["status"], "reason": record["reason"]}
-                    for run, record in zip(runs, records)]
+    runs = json.loads(args.run)
+    runs = runs if isinstance(runs, list) else [runs]
+    replicates = max(int(run.get("replicates", 1)) for run in runs)
+    attempts, used = [], []
+    for replicate in range(replicates):
+        # Alternate the arms' order between processes: the first arm of a round is not always the same one.
+        ordered = runs if replicate % 2 == 0 else runs[::-1]
+        outcomes = _render_once(args, json.dumps(ordered), workers, avoid=used, own_process=replicates > 1)
+        if replicates > 1:
+            attempts.append(_read_records(args.profile, runs))
+            used += [(record.get("harness") or {}).get("pid") for record in attempts[-1].values() if record]
+        if any(outcome["status"] == "failed" for outcome in outcomes):
+            break
+    if replicates > 1:
+        outcomes = _merge_attempts(args.profile, runs, attempts, replicates)
     for outcome in outcomes:
         if outcome["status"] == "failed":
             print(f"{outcome['key']}: failed: {(outcome['reason'].splitlines() or [''])[0]}".rstrip())
+
+
+def _render_once(args, runs_json, workers, *, avoid, own_process):
+    """Render the runs of ``runs_json`` once: by the render service where one answers (in a worker none of
+    whose process ids is in ``avoid``), else in a child process of this job's (always one where
+    ``own_process``). Their outcomes."""
+    address = workers.service_address()
+    if address is not None:
+        try:
+            return workers.request_render(address, runs=runs_json, profile=args.profile, device_env=args.device_env,
+                                          threads=args.threads, avoid=avoid)
+        except workers.ServiceUnavailable as exc:
+            print(f"volbench: {exc}; this job renders in a process of its own", file=sys.stderr)
+    from pipeline import disturbance
+    from pipeline.execution import execute_together_limited
+    from pipeline.experiments import Run
+
+    runs = Run.list_from_json(runs_json)
+    device_env = json.loads(Path(args.device_env).read_text()) if args.device_env else {}
+    device_env = {k: v for k, v in device_env.items() if k.startswith(("gl_", "cl_"))}
+    disturbance.watch(disturbance.orchestrator_pids())
+    # This process has only parsed its arguments: a forked child needs no fresh interpreter.
+    records = execute_together_limited(runs, profile=parse_profile(args.profile), device_environment=device_env,
+                                       start_method="fork", own_process=own_process)
+    return [{"key": run.key, "status": record["status"], "reason": record["reason"]}
+            for run, record in zip(runs, records)]
+
+
+def _record_path(profile_json, run):
+    from pipeline.records import run_record_path
+
+    return run_record_path(json.loads(profile_json)["results"], run["experiment"], run["id"])
+
+
+def _read_records(profile_json, runs):
+    """``{run id: record}`` of the runs as their last process left them (``None`` where it wrote none)."""
+    out = {}
+    for run in runs:
+        path = _record_path(profile_json, run)
+        out[run["id"]] = json.loads(path.read_text()) if path.is_file() else None
+    return out
+
+
+def _merge_attempts(profile_json, runs, attempts, replicates):
+    """Write each run's record merged over its processes' (:func:`pipeline.records.merge_processes`); the outcomes."""
+    from pipeline.records import merge_processes, write_json
+
+    outcomes = []
+    for run in runs:
+        records = [attempt[run["id"]] for attempt in attempts if attempt.get(run["id"]) is not None]
+        key = f"{run['experiment']}/{run['id']}"
+        if not records:
+            outcomes.append({"key": key, "status": "failed", "reason": "no process wrote its record"})
+            continue
+        record = merge_processes(records, planned=replicates)
+        if record["status"] == "ok" and len(records) < len(attempts):  # a process died before writing it
+            record.update(status="failed", cause="error",
+                          reason=f"{len(attempts) - len(records)} of its processes wrote no record")
+        write_json(_record_path(profile_json, run), record)
+        outcomes.append({"key": key, "status": record["status"], "reason": record["reason"]})
+    return outcomes
 
 
 def evaluate(args):

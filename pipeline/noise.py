@@ -29,10 +29,9 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.compare import agreement_words, verdict_changes
+from pipeline.experiments.kit.verdicts import TIMED_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
-TIMED_KINDS = ("timing", "cost model")
-"""The kinds of claim (``claims.csv``'s ``kind``) whose verdicts rest on timings."""
 
 
 def _spin(stop):

@@ -95,3 +95,62 @@ def image_damage(record):
             if stat.st_mtime_ns != recorded.get("mtime_ns") and image_digest(path)["sha256"] != recorded.get("sha256"):
                 return f"view {view['view']!r}: its {kind.upper()} {path} does not match its SHA-256"
     return ""
+
+
+SUMMED_INFO = ("cold_seconds", "untimed_seconds", "timed_seconds", "rerun_seconds", "frames")
+"""A view's ``info`` entries that add up over the processes that timed it (the harness's account)."""
+
+
+def merge_processes(attempts, *, planned=None):
+    """The record of a run timed in several processes (:attr:`~pipeline.experiments.kit.model.Run.replicates`).
+
+    ``attempts`` are the records each process wrote, in order, of ``planned`` processes (default: as many).
+    A run that one process could not render is that process's record (a failure names the process).
+    Otherwise the last process's record (its images are the ones on disk) with, per view, ``processes``:
+    each process's frames, times, process id and disturbance; ``timings`` the mean over the processes of
+    their medians (the time a table shows, :func:`pipeline.experiments.kit.intervals.process_time`),
+    ``timings_min``/``_max`` the extremes of all frames, the harness's seconds summed and ``disturbed``
+    naming each process that was.
+    """
+    import copy
+    import statistics
+
+    count = planned or len(attempts)
+    for number, attempt in enumerate(attempts, 1):
+        if attempt["status"] != "ok":
+            record = copy.deepcopy(attempt)
+            if record["status"] == "failed":
+                record["reason"] = f"process {number} of {count}: {record['reason']}"
+            return record
+    merged = copy.deepcopy(attempts[-1])
+    pids = [(attempt.get("harness") or {}).get("pid") for attempt in attempts]
+    for view in merged["views"]:
+        each = [next(v for v in attempt["views"] if v["view"] == view["view"]) for attempt in attempts]
+        view["processes"] = [
+            {"pid": pid, "frames": v["frames"], "timings": v["timings"], "timings_min": v["timings_min"],
+             "timings_max": v["timings_max"], "disturbed": v["info"].get("disturbed") or "", "rerun": v.get("rerun")}
+            for pid, v in zip(pids, each)]
+        stages = dict.fromkeys(stage for v in each for stage in v["timings"])
+        view["timings"] = {stage: statistics.fmean(statistics.median(v["frames"][stage]) if v["frames"].get(stage)
+                                                   else v["timings"][stage] for v in each if stage in v["timings"])
+                           for stage in stages}
+        view["timings_min"] = {stage: min(v["timings_min"][stage] for v in each if stage in v["timings_min"])
+                               for stage in view["timings_min"]}
+        view["timings_max"] = {stage: max(v["timings_max"][stage] for v in each if stage in v["timings_max"])
+                               for stage in view["timings_max"]}
+        view["frames"] = {stage: [t for v in each for t in v["frames"].get(stage, [])] for stage in view["frames"]}
+        for key in SUMMED_INFO:
+            values = [v["info"][key] for v in each if isinstance(v["info"].get(key), (int, float))]
+            if values:
+                view["info"][key] = sum(values)
+        disturbed = [f"process {number}: {v['info']['disturbed']}" for number, v in enumerate(each, 1)
+                     if v["info"].get("disturbed")]
+        view["info"]["disturbed"] = "; ".join(disturbed)
+        reruns = [v.get("rerun") for v in each if v.get("rerun")]
+        view["rerun"] = reruns[-1] if reruns else None
+    harnesses = [attempt.get("harness") or {} for attempt in attempts]
+    merged["harness"] = {**harnesses[-1], "processes": count, "pids": pids,
+                         "seconds": sum(h.get("seconds") or 0.0 for h in harnesses),
+                         "new": any(h.get("new") for h in harnesses),
+                         "startup": sum(h.get("startup") or 0.0 for h in harnesses if h.get("new"))}
+    return merged

@@ -121,15 +121,17 @@ def _ask(address, request):
     return reply
 
 
-def request_render(address, *, runs, profile, device_env, threads):
+def request_render(address, *, runs, profile, device_env, threads, avoid=()):
     """Have the service at ``address`` render ``runs``; return its outcomes ``[{"key", "status", "reason"}]``.
 
     ``runs`` and ``profile`` are the JSON texts of the render job's command line, ``device_env``
     the path of the workflow's device probe (or ``None``) and ``threads`` the cores Snakemake gave
-    the job. Raises :class:`ServiceUnavailable` where nothing answers at ``address``.
+    the job. ``avoid``: process ids of workers that must not render them (those that timed the same runs
+    before: each replicate is a process of its own). Raises :class:`ServiceUnavailable` where nothing
+    answers at ``address``.
     """
     return _ask(address, {"runs": runs, "profile": profile, "device_env": device_env, "threads": threads,
-                          "watch": [os.getpid(), os.getppid()]})["outcomes"]
+                          "watch": [os.getpid(), os.getppid()], "avoid": [pid for pid in avoid if pid]})["outcomes"]
 
 
 def request_step(address, argv):
@@ -311,17 +313,19 @@ class RenderService:
             except OSError:  # the job was stopped meanwhile
                 pass
 
-    def _take(self, backends):
-        """An idle worker for ``backends``, or a new one: ``(worker, new)``.
+    def _take(self, backends, avoid=()):
+        """An idle worker for ``backends`` whose process id is not in ``avoid``, or a new one: ``(worker, new)``.
 
         The idle worker that has loaded the most of ``backends`` is taken, the most recently used among
         equals: one that has them all renders at once, another imports what it lacks on its first run
         of it. So a pipeline on two cores keeps about as many workers as it runs untimed jobs side by
-        side, each with every backend's compiled kernels.
+        side, each with every backend's compiled kernels (and, with replicates, about one more per process
+        a timed run takes).
         """
         with self._lock:
-            if self._idle:
-                worker = max(self._idle, key=lambda w: (len(set(backends) & w.loaded), w.last_used))
+            allowed = [w for w in self._idle if w.process.pid not in set(avoid)]
+            if allowed:
+                worker = max(allowed, key=lambda w: (len(set(backends) & w.loaded), w.last_used))
                 self._idle.remove(worker)
                 self._busy.add(worker)
                 worker.loaded |= set(backends)
@@ -385,7 +389,7 @@ class RenderService:
         for run in runs:  # an old record must not pass for this attempt's
             run_record_path(profile.results, run.experiment, run.id).unlink(missing_ok=True)
         backends = tuple(sorted({run.backend for run in runs}))
-        worker, new = self._take(backends)
+        worker, new = self._take(backends, avoid=request.get("avoid", ()))
         limit = profile.render_time_limit
         started = worker.spawned if new else time.monotonic()
         deadline = None if limit is None else started + limit * len(runs)

@@ -41,16 +41,20 @@ def technique_rows(frame):
     """One row per run compared with a reference: technique, data set, time (s), PSNR, SSIM, FLIP.
 
     ``frame`` is tidy results (one row per run and view); views are reduced to the median time
-    and metrics, the fastest frame's minimum and the slowest frame's maximum.
+    and metrics, the fastest frame's minimum and the slowest frame's maximum. ``timed_with`` names the
+    job that timed the run (its interleave group, or the run alone): two runs' times compare like with
+    like only within one; ``disturbed`` says whether any of its views was timed on a disturbed machine.
     """
     needed = {"status", "reference", "time_total", "psnr"}
     if frame.empty or not needed <= set(frame.columns):
         return pd.DataFrame(columns=["technique", "backend", "setting", "dataset", "time_total", "time_min",
-                                     "time_max", "psnr", "ssim", "flip", "record", "exr", "run", "experiment", "kind"])
+                                     "time_max", "psnr", "ssim", "flip", "record", "exr", "run", "experiment", "kind",
+                                     "timed_with", "disturbed"])
     rows = frame[(frame.status == "ok") & frame.reference.notna()].copy()
     rows["setting"] = rows["setting"].fillna("") if "setting" in rows else ""
     rows["dataset"] = rows["scene"] if "scene" in rows else rows.get("dataset", "")
-    for column in ("time_total_min", "time_total_max", "ssim", "flip", "record", "exr", "kind"):
+    for column in ("time_total_min", "time_total_max", "ssim", "flip", "record", "exr", "kind", "interleave",
+                   "info_disturbed"):
         if column not in rows:
             rows[column] = np.nan
     out = []
@@ -64,6 +68,9 @@ def technique_rows(frame):
             "ssim": float(group.ssim.median()), "flip": float(group.flip.median()),
             "record": first.record, "exr": first.exr, "run": run, "experiment": experiment,
             "kind": first.kind if pd.notna(first.kind) else first.dataset,
+            "timed_with": f"{experiment}/{first.interleave}" if isinstance(first.interleave, str) and first.interleave
+            else f"{experiment}/{run}",
+            "disturbed": bool(group.info_disturbed.fillna("").astype(str).str.strip().ne("").any()),
         })
     return pd.DataFrame(out)
 
@@ -174,7 +181,8 @@ def panel(overview, runs, *, psnr_min=takeaways.PSNR_GOOD, failures=None, stated
     list of dict
         One per scene: ``scene``, ``kind`` (words), ``points`` (every technique's settings with a
         ``front`` flag) and ``table`` (one row per technique: ``backend``, ``setting``, ``ms``,
-        ``range``, ``psnr``, ``accurate``, ``fails_when``, ``status``, ``run``, ``record``).
+        ``range``, ``psnr``, ``accurate``, ``fails_when``, ``status``, ``run``, ``record``, ``timed_with``,
+        ``disturbed``).
     """
     failures = dict(failures or {})
     out = []
@@ -199,7 +207,8 @@ def panel(overview, runs, *, psnr_min=takeaways.PSNR_GOOD, failures=None, stated
                 "psnr": takeaways.number(chosen.psnr), "accurate": not accurate.empty,
                 "time": float(chosen.time_total), "fails_when": failures.get(backend, "not in the atlas"),
                 "status": "" if not accurate.empty else f"no setting reaches {takeaways.number(psnr_min)} dB",
-                "run": chosen.run, "record": chosen.record,
+                "run": chosen.run, "record": chosen.record, "timed_with": chosen.get("timed_with"),
+                "disturbed": bool(chosen.get("disturbed", False)),
             })
         table.sort(key=lambda r: (not r["accurate"], r["time"]))
         table.extend(_absent(runs, scene, set(rows.backend), failures, stated_above))

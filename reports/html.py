@@ -577,7 +577,9 @@ def _claims_summary(claims_df):
 
 
 def _decision_sentences(panels, psnr_min):
-    """Per scene of the decision panel: the fastest technique that reaches ``psnr_min``, and by how much."""
+    """Per scene of the decision panel: the fastest technique that reaches ``psnr_min``, and by how much where the
+    two fastest were timed together on a quiet machine (else the ranking is said without a ratio: times of
+    separate jobs, or disturbed ones, do not compare like with like)."""
     sentences = []
     for item in panels:
         accurate = [r for r in item["table"] if r["accurate"]]
@@ -590,8 +592,15 @@ def _decision_sentences(panels, psnr_min):
                     f"≥ {takeaways.number(psnr_min)} dB ({best['setting']}, {best['ms']} ms, {best['psnr']} dB)")
         if len(accurate) > 1:
             runner = accurate[1]
-            sentence += (f", {takeaways.change_words(best['time'] / runner['time'])} than the next, "
-                         f"{runner['backend']} ({runner['ms']} ms)")
+            if best.get("timed_with") and best.get("timed_with") == runner.get("timed_with") \
+                    and not (best.get("disturbed") or runner.get("disturbed")):
+                sentence += (f", {takeaways.change_words(best['time'] / runner['time'])} than the next, "
+                             f"{runner['backend']} ({runner['ms']} ms), timed together")
+            else:
+                why = ("timed while the machine was disturbed" if best.get("disturbed") or runner.get("disturbed")
+                       else "timed in a separate job")
+                sentence += (f"; the next, {runner['backend']} ({runner['ms']} ms), was {why}, so no ratio between "
+                             "them is claimed")
         sentences.append(sentence + ".")
     return sentences
 
@@ -617,13 +626,37 @@ def _timing(runs_df, environment, ctx):
     elif float(min_time) > 0:
         budget += f" and they took at least {takeaways.number(min_time)} s"
     budget += " (the profile's repeat and min_time; a timed comparison may ask for more)"
+    replicates = profile.get("replicates", 1)
+    if _finite(replicates) and int(replicates) > 1:
+        budget += (f", shared among the {int(replicates)} processes that time each timed run one after another "
+                   "(the profile's replicates), each with its own cold frame and warm-up and at least three timed "
+                   "frames")
     disturbances = outcomes.timing_disturbances(runs_df)
     if disturbances:
         for group in disturbances["disturbed"] + disturbances["starved"]:
             shown = group["runs"][:PROBLEM_RUNS_SHOWN]
             group["shown"] = [(run, ctx.file(record)) for run, record in zip(shown, group["records"])]
             group["more"] = len(group["runs"]) - len(shown)
-    return {"budget": budget, "disturbances": disturbances}
+    return {"budget": budget, "disturbances": disturbances, "replicates": int(replicates) if _finite(replicates) else 1,
+            "spread": _process_spread(runs_df)}
+
+
+def _process_spread(runs_df):
+    """``[{"backend", "views", "between", "within", "ratio"}]``: per backend, how much a view's total time varied
+    between the processes that timed it and within one (runs.csv's ``spread_between``, ``spread_within``: the
+    medians over its views), widest first; empty where no view was timed in several processes."""
+    if runs_df is None or "spread_between" not in runs_df:
+        return []
+    rows = runs_df.assign(between=pd.to_numeric(runs_df["spread_between"], errors="coerce"),
+                          within=pd.to_numeric(runs_df.get("spread_within"), errors="coerce"))
+    rows = rows.dropna(subset=["between"])
+    out = []
+    for backend, group in rows.groupby("backend"):
+        between, within = float(group["between"].median()), float(group["within"].median())
+        out.append({"backend": backend, "views": len(group), "between": f"{100 * between:.1f} %",
+                    "within": f"{100 * within:.1f} %", "ratio": f"×{between / within:.1f}" if within > 0 else "–",
+                    "order": between})
+    return sorted(out, key=lambda row: -row["order"])
 
 
 def _seconds(value):
@@ -750,8 +783,13 @@ def claim_cells(claim):
             interval = f"{takeaways.number(low)}–{takeaways.number(high)}"
     else:
         interval = "—"
-    frames = claim.get("frames")
-    behind = f"{int(float(frames))} frames" if interval != "—" and _finite(frames) else ""
+    frames, processes = claim.get("frames"), claim.get("processes")
+    behind = ""
+    if interval != "—" and _finite(frames):
+        behind = f"{int(float(frames))} frames"
+        if _finite(processes):
+            count = int(float(processes))
+            behind = f"{count} process{'es' * (count != 1)}, {behind}"
     return {"measured": measured, "interval": interval, "behind": behind,
             "margin": margin_words(claim.get("margin"))}
 

@@ -29,7 +29,7 @@ def test_the_readme_example_plans_timed_runs_together_and_judges_the_papers_numb
     experiment = _example()
     runs = experiment().runs(Profile.load(README.parents[2] / "config" / "default.yaml"))
     assert [r.id for r in runs] == ["head.rc", "head.rc-b"] and {r.interleave for r in runs} == {"head"}
-    assert all(r.repeat >= 5 for r in runs)
+    assert all(r.repeat * r.replicates >= 5 and r.replicates == 2 for r in runs)
     rows = pd.DataFrame([{"config": c, "time_total": t, "frames_total": format_frames([t] * 5), "interleave": "head",
                           "view": "headline", "experiment": experiment.name} for c, t in (("rc", 0.02), ("rc-b", 0.01))])
     claim = experiment.claims[0]

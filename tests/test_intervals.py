@@ -64,7 +64,7 @@ def test_decide_two_sided(interval, holds, margin):
 
 def test_without_an_interval_the_point_decides_and_a_zero_bound_has_an_absolute_margin():
     assert decide(1.2, None, at_least=1.5).holds is False
-    assert decide(1.8, None, at_least=1.5) == intervals.Decision(1.8, None, True, pytest.approx(0.2))
+    assert decide(1.8, None, at_least=1.5) == intervals.Decision(1.8, None, True, pytest.approx(0.2), bound=1.5)
     assert decide(0.25, None, at_least=0).margin == 0.25
     assert decide(0.25, None, at_most=0).margin == -0.25
 
@@ -184,3 +184,50 @@ def test_a_missing_value_is_not_a_verdict():
     for value in (np.nan, float("nan")):
         with pytest.raises(ValueError, match="missing"):
             decide(value, None, at_most=1.0)  # it compared False with the bound: "fails"
+
+
+# ------------------------------------------------------------------------------------- processes
+def _process_rows(*runs):
+    """Tidy rows ``(run, interleave, [frames of each process])``, timed as collect writes a replicated run."""
+    return pd.DataFrame([{"experiment": "e", "run": run, "view": "front", "interleave": group,
+                          "time_total": intervals.process_time(processes),
+                          "frames_total": intervals.format_processes(processes)}
+                         for run, group, processes in runs])
+
+
+def test_processes_survive_their_text_and_a_run_time_is_the_mean_of_their_medians():
+    processes = [np.array([0.001, 0.002, 0.003]), np.array([0.004, 0.005, 0.009])]
+    text = intervals.format_processes(processes)
+    assert text == "0.001 0.002 0.003 | 0.004 0.005 0.009"
+    assert [list(p) for p in intervals.parse_processes(text)] == [list(p) for p in processes]
+    assert list(parse_frames(text)) == [0.001, 0.002, 0.003, 0.004, 0.005, 0.009]
+    assert intervals.process_time(processes) == pytest.approx((0.002 + 0.005) / 2)
+    rows = _process_rows(("a", "", processes), ("b", "", [processes[0]]))
+    assert intervals.process_count(rows) == 1 and intervals.process_count(rows[rows.run == "a"]) == 2
+    assert frame_count(rows, "time_total") == 9
+
+
+def test_the_interval_covers_the_spread_between_processes_not_only_their_frames():
+    """Two processes of one run whose frames agree within themselves but not with each other (as the bonsai's
+    ESS+ERT ratio did: ×2.23 in one run, ×1.96 in the next): the interval must span both."""
+    first, second = 0.0020 * QUIET[:10], 0.0024 * QUIET[10:20]
+    other = 0.001 * QUIET[20:30]
+    one = _process_rows(("slow", "", [first]), ("fast", "", [other]))
+    both = _process_rows(("slow", "", [first, second]), ("fast", "", [other, other[::-1]]))
+    narrow = ratio_decision(one[one.run == "slow"], one[one.run == "fast"], at_least=1.0)
+    wide = ratio_decision(both[both.run == "slow"], both[both.run == "fast"], at_least=1.0)
+    assert wide.value == pytest.approx(2.2, rel=0.03)
+    assert wide.interval[0] < 2.05 and wide.interval[1] > 2.35  # about each process's own ratio
+    assert (wide.interval[1] - wide.interval[0]) > 3 * (narrow.interval[1] - narrow.interval[0])
+
+
+def test_runs_timed_together_share_their_processes_so_a_slow_process_cancels():
+    """A and B timed together in two processes, the second twice as slow for both: paired by process (and by
+    round within one), their ratio stays narrow; timed apart, the process's slowness widens it."""
+    a, b = 0.002 * QUIET[:10], 0.001 * QUIET[10:20]
+    together = _process_rows(("A", "g", [a, 2 * a[::-1]]), ("B", "g", [b, 2 * b[::-1]]))
+    apart = together.assign(interleave=["", ""])
+    paired, _ = _width(together)
+    unpaired, _ = _width(apart)
+    assert _width(together)[1].value == pytest.approx(2.0, rel=0.03)
+    assert paired < unpaired / 5

@@ -12,9 +12,18 @@ from pipeline.scene_io import rotation_matrix
 
 def test_profile_frames_raise_the_floor_only():
     profile = Profile(name="t", warmup=2, repeat=7)
-    assert C.timed_frames(profile) == {"warmup": 2, "repeat": 7, "min_time": 0.0}
+    assert C.timed_frames(profile) == {"warmup": 2, "repeat": 7, "min_time": 0.0, "replicates": 1}
     # Five timed frames at least: fewer leave a timing claim inconclusive (intervals.MIN_FRAMES).
-    assert C.timed_frames(Profile(name="t", warmup=0, repeat=1)) == {"warmup": 1, "repeat": 5, "min_time": 0.0}
+    assert C.timed_frames(Profile(name="t", warmup=0, repeat=1)) == {"warmup": 1, "repeat": 5, "min_time": 0.0,
+                                                                      "replicates": 1}
+
+
+def test_replicates_share_the_frames_budget_with_three_frames_each_at_least():
+    """Each process takes its share of the arm's frames and min_time, and at least PROCESS_FRAMES frames."""
+    two = C.timed_frames(Profile(name="t", warmup=1, repeat=3, min_time=0.2, replicates=2))
+    assert two == {"warmup": 1, "repeat": 3, "min_time": 0.1, "replicates": 2}
+    assert C.timed_frames(Profile(name="t", repeat=12, replicates=3))["repeat"] == 4
+    assert C.timed_frames(Profile(name="t", repeat=1, replicates=5))["repeat"] == 3
 
 
 # --------------------------------------------------------------------------------------- views

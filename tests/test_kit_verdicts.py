@@ -179,3 +179,23 @@ def test_a_timing_claim_decided_without_an_interval_is_inconclusive():
                                                             Measure("C1", match={"scene": "C1"}), at_least=2.0))
     timed = rows.assign(frames_total=[format_frames([0.002] * 5), format_frames([0.0145] * 5)], interleave="g")
     assert judge(decided, timed).verdict == "holds"  # with its interval
+
+
+def test_an_inconclusive_timing_says_about_how_many_processes_would_decide_it():
+    """As pyperf says how many runs a benchmark needs: the half-width towards the bound shrinks as 1/√processes."""
+    from pipeline.experiments.kit.intervals import decide, processes_to_decide
+
+    def straddling(value, interval):
+        return Claim("c", "A beats B", "≥ ×2", lambda df: ClaimResult.decided(
+            f"×{value}", decide(value, interval, at_least=2.0)), kind="timing")
+
+    rows = _runs(_timed("C1.tiled", 0.002, processes=2), _timed("C8.tiled", 0.004, processes=2))
+    verdict = judge(straddling(2.1, (1.9, 2.3)), rows)
+    # (0.2 / 0.1)² × 2 processes = 8
+    assert verdict.verdict == "inconclusive" and verdict.processes == 2
+    assert verdict.detail == ("its interval straddles the bound: about 8 processes per arm (here 2) would decide it "
+                              "at the spread measured")
+    assert "too near it" in judge(straddling(2.001, (1.9, 2.1)), rows).detail
+    assert processes_to_decide(2.0, (1.9, 2.1), 2.0, 3) is None  # on the bound: nothing decides it
+    assert processes_to_decide(1.95, (1.9, 2.05), 2.0, 3) == 12  # below the bound: the upper half-width counts
+    assert processes_to_decide(2.1, None, 2.0, 3) is None

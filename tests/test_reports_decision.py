@@ -43,6 +43,33 @@ def test_the_panel_picks_each_techniques_fastest_accurate_setting_and_leaves_the
                                                                  "step_factor=0.25"}
 
 
+def test_a_ratio_to_the_next_technique_is_said_only_for_two_timed_together_on_a_quiet_machine():
+    """Times of separate jobs, or disturbed ones, rank the techniques but give no ratio (issue 35)."""
+    from reports.html import _decision_sentences
+
+    points = [("gl-raycast", "step_factor=0.5", 10, 44), ("cl-tiled", "step_factor=0.5", 25, 45)]
+
+    def sentence(timed_with, disturbed=(False, False)):
+        rows = _rows(points).assign(timed_with=timed_with, disturbed=list(disturbed))
+        return _decision_sentences(decision.panel(rows, None, psnr_min=40), 40)[0]
+
+    assert sentence(["e/race", "e/race"]).endswith("×2.5 faster than the next, cl-tiled (25 ms), timed together.")
+    apart = sentence(["e/gl", "e/cl"])
+    assert "×" not in apart and apart.endswith("the next, cl-tiled (25 ms), was timed in a separate job, so no ratio "
+                                               "between them is claimed.")
+    assert "was timed while the machine was disturbed" in sentence(["e/race", "e/race"], (False, True))
+
+
+def test_technique_rows_name_the_job_that_timed_each_run_and_whether_it_was_disturbed():
+    frame = pd.DataFrame({"experiment": "e", "run": ["a", "a", "b"], "view": ["v1", "v2", "v1"], "status": "ok",
+                          "reference": "truth", "backend": ["gl-raycast", "gl-raycast", "cl-tiled"],
+                          "time_total": [0.01, 0.012, 0.02], "psnr": 45.0, "interleave": ["g", "g", ""],
+                          "info_disturbed": ["", "other work used 0.8 cores", np.nan]})
+    rows = decision.technique_rows(frame).set_index("run")
+    assert rows.timed_with.to_dict() == {"a": "e/g", "b": "e/b"}
+    assert rows.disturbed.to_dict() == {"a": True, "b": False}
+
+
 def test_a_technique_that_made_no_frame_is_listed_with_its_reason_not_dropped():
     rows = _rows([("gl-raycast", "default", 8, 45)], scene="skull-mip", kind="mip")
     runs = pd.DataFrame([

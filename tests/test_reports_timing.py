@@ -40,6 +40,13 @@ def test_the_claims_sentence_counts_inconclusive_claims_as_measured_and_names_th
     # With the timed frames of its thinnest arm beneath it.
     ({"measured": "×1.12 (95 % CI ×1.08–×1.17)", "interval_low": 1.08, "interval_high": 1.17, "margin": 0.12,
       "frames": 12.0}, {"measured": "×1.12", "interval": "×1.08–×1.17", "behind": "12 frames", "margin": "+12 %"}),
+    # With the processes that timed them.
+    ({"measured": "×1.12", "interval_low": 1.08, "interval_high": 1.17, "margin": 0.12, "frames": 6.0,
+      "processes": 2.0}, {"measured": "×1.12", "interval": "×1.08–×1.17", "behind": "2 processes, 6 frames",
+                          "margin": "+12 %"}),
+    ({"measured": "×1.12", "interval_low": 1.08, "interval_high": 1.17, "margin": 0.12, "frames": 5,
+      "processes": 1}, {"measured": "×1.12", "interval": "×1.08–×1.17", "behind": "1 process, 5 frames",
+                        "margin": "+12 %"}),
     ({"measured": "12.3 ms (engine) (95 % CI 11.9–13 ms)", "interval_low": 0.0119, "interval_high": 0.013,
       "margin": -0.023, "frames": 5},
      {"measured": "12.3 ms (engine)", "interval": "11.9–13 ms", "behind": "5 frames", "margin": "−2.3 %"}),
@@ -186,6 +193,21 @@ def test_pages_list_disturbed_and_starved_runs_and_say_so_on_the_paper_page(tmp_
     notice = page[page.index('class="disturbed"'):page.index('class="takeaways"')]
     assert ("3 of the 5 timed views on this page were disturbed while timed and 1 parallel run had fewer free cores "
             "than workers") in notice and 'href="appendix.html#disturbances"' in notice
+
+
+def test_the_appendix_sets_the_spread_between_processes_beside_the_spread_within_one_per_backend(tmp_path):
+    runs = _rows(spread_between=[0.10, 0.30, np.nan, 0.02, 0.04], spread_within=[0.01, 0.03, np.nan, 0.02, 0.02],
+                 backend=["shearwarp", "shearwarp", "shearwarp", "gl-raycast", "gl-raycast"])
+    two = {"profile": json.dumps({"repeat": 3, "min_time": 0.15, "warmup": 1, "replicates": 2})}
+    appendix = " ".join(_appendix(tmp_path, runs, environment=two).split())
+    section = appendix[appendix.index('id="processes"'):appendix.index('id="disturbances"')]
+    cells = re.findall(r"<tr><td>(.*?)</td><td>(\d+)</td><td>(.*?)</td><td>(.*?)</td><td>(.*?)</td></tr>", section)
+    assert cells == [("shearwarp", "2", "20.0 %", "2.0 %", "×10.0"), ("gl-raycast", "2", "3.0 %", "2.0 %", "×1.5")]
+    assert "shared among the 2 processes that time each timed run" in appendix
+    assert "Each timed run is timed in 2 processes" in appendix and "its intervals cover that" not in appendix
+    one = " ".join(_appendix(tmp_path, _rows()).split())
+    assert 'id="processes"' not in one
+    assert "(the profile's <code>replicates</code> is 1): its intervals cover that process" in one
 
 
 def test_quiet_pages_have_no_listing_and_no_notice(tmp_path):

@@ -55,5 +55,5 @@ def test_the_references_sweep_is_timed_together_with_five_frames_at_least():
                                             ).values() if run.tags.get("role") == "sweep"]
     sweep = [run for run in runs if run.backend == "reference"]
     assert {run.interleave for run in sweep} == {f"{scene}.reference" for scene in SPEED_ACCURACY_SCENES}
-    assert all(run.repeat >= 5 for run in sweep)
+    assert all(run.repeat * run.replicates >= 5 and run.replicates == profile.replicates for run in sweep)
     assert all(not run.interleave for run in runs if run.backend != "reference")  # the others: a job each

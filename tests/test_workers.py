@@ -192,3 +192,72 @@ def test_a_real_worker_runs_job_steps_and_says_how_they_ended(tmp_path, monkeypa
             jobs.main(["tabulate", "--profile", "{", "--experiment", "x"])
         assert failed.value.code == 1 and "JSONDecodeError" in capsys.readouterr().out
         assert service.started == 1  # one warm worker ran every step
+
+
+def test_a_request_that_avoids_a_workers_process_gets_another(service, tmp_path):
+    """A replicate is timed in a process that has not timed its runs before."""
+    profile = _profile(tmp_path)
+    first, = _request(service, profile, _run("a"))
+    body = json.dumps(_run("a").as_dict())
+    again, = workers.request_render(service.socket_path, runs=body, profile=json.dumps(dataclasses.asdict(profile)),
+                                    device_env=None, threads=1, avoid=[_worker_pid(first)])
+    assert _worker_pid(again) != _worker_pid(first) and service.started == 2
+    third, = _request(service, profile, _run("b"))  # without a process to avoid: the warm one most recently used
+    assert _worker_pid(third) == _worker_pid(again)
+
+
+def _replicated_group(tmp_path):
+    profile = Profile(name="t", volume_size=12, results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
+                      render_time_limit=120)
+    runs = [Run("volbench-phantoms", name, "reference", SCENE, ({"view": "front"},), options={"step_factor": step},
+                warmup=1, repeat=3, interleave="g", replicates=2) for name, step in (("fine", 0.5), ("coarse", 1.0))]
+    arguments = ["render", "--run", json.dumps([run.as_dict() for run in runs]),
+                 "--profile", json.dumps(dataclasses.asdict(profile)), "--threads", "1"]
+    return profile, runs, arguments
+
+
+def _assert_two_processes_each(profile, runs, job_pid):
+    for run in runs:
+        record = json.loads(run_record_path(profile.results, run.experiment, run.id).read_text())
+        assert record["status"] == "ok", record["reason"]
+        processes = record["views"][0]["processes"]
+        assert len(processes) == 2 and len({p["pid"] for p in processes}) == 2
+        assert job_pid not in record["harness"]["pids"]
+        assert all(len(p["frames"]["total"]) >= 3 for p in processes)
+
+
+def test_a_replicated_group_is_timed_once_in_each_of_two_workers_in_alternating_order(tmp_path, monkeypatch):
+    """replicates=2: the job has the service render the group twice, in two workers, reversing its order the
+    second time, and each run's record keeps both processes' frames."""
+    import socket
+
+    from pipeline import jobs
+
+    profile, runs, arguments = _replicated_group(tmp_path)
+    orders = []
+    execute = jobs._render_once
+
+    def spy(args, runs_json, *rest, **kwargs):
+        orders.append([run["id"] for run in json.loads(runs_json)])
+        return execute(args, runs_json, *rest, **kwargs)
+
+    monkeypatch.setattr(jobs, "_render_once", spy)
+    with workers.RenderService(cores=1, root=os.getcwd(), log_dir=tmp_path / "logs") as service:
+        monkeypatch.setenv(workers.SERVICE_VARIABLE, f"{socket.gethostname()}:{service.socket_path}")
+        jobs.main(arguments)
+        assert service.started == 2
+    assert orders == [["fine", "coarse"], ["coarse", "fine"]]
+    _assert_two_processes_each(profile, runs, os.getpid())
+
+
+def test_a_replicated_group_without_a_service_is_timed_in_a_child_process_per_replicate(tmp_path):
+    """Where no service answers (a cluster node), the job forks a child per replicate. Run as a job is, in a
+    process of its own: a fork of this test process, whose Numba threads have started, is not a job's."""
+    import subprocess
+
+    profile, runs, arguments = _replicated_group(tmp_path)
+    env = {key: value for key, value in os.environ.items() if key != workers.SERVICE_VARIABLE}
+    job = subprocess.run([sys.executable, "-m", "pipeline.jobs", *arguments], env=env, capture_output=True, text=True,
+                         timeout=300)
+    assert job.returncode == 0, job.stderr
+    _assert_two_processes_each(profile, runs, None)

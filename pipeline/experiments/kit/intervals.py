@@ -1,13 +1,21 @@
 """Confidence intervals of timing claims, and the third verdict: a claim whose interval straddles its bound.
 
-A run's time in the tables is the median of its timed frames; the frames themselves are kept
-(``frames_<stage>``: the seconds of every timed frame, space-separated, in the order they were taken).
+A run is timed in one or more processes (the profile's ``replicates``), each with its own warm-up and
+frames: the process is the unit of replication, as in pyperf, since frames within one process share
+what another does not (memory layout, compiled code, driver state, cache and clock history). A run's
+time in the tables is the mean over its processes of each one's median frame; the frames themselves are
+kept (``frames_<stage>``: the seconds of every timed frame, space-separated in the order they were
+taken, one process after another separated by `` | ``).
+
 A claim that rests on times gets an interval by the percentile bootstrap, as pyperf and hyperfine
-summarise a benchmark by its distribution rather than one number: each draw resamples every run's
-frames with replacement, recomputes each run's median, the claim's statistic over the runs it reads
-and then its value (a ratio, a share, a slope). Runs timed together in one job, interleaved round by
-round (:attr:`~pipeline.experiments.kit.model.Run.interleave`), are resampled *by round*: the frames
-of one round of A and B are drawn together, so a disturbance that slowed both cancels in their ratio.
+summarise a benchmark by its distribution rather than one number, drawn in two stages: each draw
+resamples the processes with replacement, then each process's frames, recomputes each run's time, the
+claim's statistic over the runs it reads and then its value (a ratio, a share, a slope). Runs timed
+together in one job (:attr:`~pipeline.experiments.kit.model.Run.interleave`) share their processes and
+are resampled *by process and by round*: the same processes of A and B are drawn, and within one the
+frames of one round of A and B together, so what slowed both (a process, a disturbance) cancels in
+their ratio. With one process per run the interval covers its frames only, not the spread between two
+runs of volbench, and the claims table says so.
 
 The verdict follows hyperfine's and asv's rule for "significantly different": a claim holds only when
 its whole interval is on the holding side of the bound, fails when the whole interval is on the other
@@ -30,6 +38,12 @@ MIN_FRAMES = 5
 frame gives a zero-width interval, three resample to at most ten distinct medians), and the claim is
 inconclusive."""
 
+PROCESS_FRAMES = 3
+"""Timed frames each process of a replicated run takes at least: its median must be one of its frames'."""
+
+PROCESS_SEPARATOR = " | "
+"""Between two processes' frames in a ``frames_<stage>`` cell."""
+
 SEED = 20260125
 
 
@@ -43,24 +57,40 @@ def frames_column(column):
     return "frames_" + column.removeprefix("time_")
 
 
-def parse_frames(text):
-    """The seconds of a ``frames_<stage>`` cell (``None`` for an empty cell)."""
+def parse_processes(text):
+    """The seconds of a ``frames_<stage>`` cell, one array per process (``None`` for an empty cell)."""
     if not isinstance(text, str) or not text.strip():
         return None
-    return np.array(text.split(), dtype=float)
+    return [np.array(part.split(), dtype=float) for part in text.split(PROCESS_SEPARATOR.strip())]
+
+
+def parse_frames(text):
+    """The seconds of a ``frames_<stage>`` cell, every process's frames together (``None`` for an empty cell)."""
+    processes = parse_processes(text)
+    return None if processes is None else np.concatenate(processes)
 
 
 def format_frames(values):
-    """``frames_<stage>``'s text: every frame's seconds to 6 significant digits."""
+    """``frames_<stage>``'s text for one process: every frame's seconds to 6 significant digits."""
     return " ".join(f"{v:.6g}" for v in values)
+
+
+def format_processes(per_process):
+    """``frames_<stage>``'s text for several processes' frames (:data:`PROCESS_SEPARATOR` between them)."""
+    return PROCESS_SEPARATOR.join(format_frames(values) for values in per_process)
+
+
+def process_time(per_process, reduce=np.median):
+    """A run's time from its processes' frames: the mean of each process's ``reduce`` (median) frame."""
+    return float(np.mean([reduce(values) for values in per_process]))
 
 
 class Resampler:
     """Seeded bootstrap indices shared by runs timed together.
 
-    ``indices(key, n)`` gives the ``(DRAWS, n)`` resample of ``n`` frames; rows with the same key (the
-    same interleave group and view) and the same number of frames get the same indices, so their
-    frames are drawn round by round.
+    ``indices(key, n)`` gives the ``(DRAWS, n)`` resample of ``n`` frames (or processes); rows with the
+    same key (the same interleave group, view and process) and the same number of frames get the same
+    indices, so their processes and, within one, their frames are drawn together round by round.
     """
 
     def __init__(self, draws=DRAWS, seed=SEED):
@@ -69,13 +99,19 @@ class Resampler:
         self._cache = {}
         self.fewest = None
         """The fewest frames of any row resampled so far (``None``: none was)."""
+        self.fewest_processes = None
+        """The fewest processes of any row resampled so far (``None``: none was)."""
 
     def indices(self, key, n):
-        self.fewest = n if self.fewest is None else min(self.fewest, n)
         key = (key, n)
         if key not in self._cache:
             self._cache[key] = self._rng.integers(0, n, size=(self.draws, n))
         return self._cache[key]
+
+    def saw(self, frames, processes):
+        """Note a row resampled: its ``frames`` in all and its ``processes``."""
+        self.fewest = frames if self.fewest is None else min(self.fewest, frames)
+        self.fewest_processes = processes if self.fewest_processes is None else min(self.fewest_processes, processes)
 
     def arms(self):
         """``{"its thinnest run": frames}`` for :func:`timing_decision` (empty where nothing was resampled): what
@@ -94,20 +130,29 @@ REDUCE = {"median": np.median, "min": np.min, "max": np.max, "mean": np.mean}
 
 
 def row_draws(rows, column, resampler):
-    """``(DRAWS, len(rows))``: each row's median ``column`` frame in every draw, or ``None``.
+    """``(DRAWS, len(rows))``: each row's time (:func:`process_time`) of ``column`` in every draw, or ``None``.
 
-    ``None`` where any row has no frames for the column (a count, a metric, results written before
-    frames were kept): such a claim is judged on its point value alone.
+    Each draw resamples a row's processes, then each process's frames (the first stage is skipped for a row
+    of one process). ``None`` where any row has no frames for the column (a count, a metric, results
+    written before frames were kept): such a claim is judged on its point value alone.
     """
     frames = frames_column(column)
     if frames is None or frames not in rows or rows.empty:
         return None
     out = np.empty((resampler.draws, len(rows)))
     for i, (index, row) in enumerate(rows.iterrows()):
-        values = parse_frames(row[frames])
-        if values is None or len(values) == 0:
+        processes = parse_processes(row[frames])
+        if processes is None or any(len(values) == 0 for values in processes):
             return None
-        out[:, i] = np.median(values[resampler.indices(_row_key(row, index), len(values))], axis=1)
+        key = _row_key(row, index)
+        resampler.saw(sum(map(len, processes)), len(processes))
+        medians = np.stack([np.median(values[resampler.indices(key if p == 0 else (key, p), len(values))], axis=1)
+                            for p, values in enumerate(processes)])
+        if len(processes) == 1:
+            out[:, i] = medians[0]
+        else:
+            drawn = resampler.indices(("processes", key), len(processes)).T  # (processes, DRAWS)
+            out[:, i] = medians[drawn, np.arange(resampler.draws)].mean(axis=0)
     return out
 
 
@@ -117,6 +162,15 @@ def frame_count(rows, column):
     if frames is None or frames not in rows:
         return 0
     return int(sum(len(values) for values in map(parse_frames, rows[frames]) if values is not None))
+
+
+def process_count(rows, column="time_total"):
+    """The fewest processes that timed any of the rows' ``column`` (``None`` where none has its frames)."""
+    frames = frames_column(column)
+    if frames is None or frames not in rows:
+        return None
+    counts = [len(processes) for processes in map(parse_processes, rows[frames]) if processes is not None]
+    return min(counts) if counts else None
 
 
 def statistic_draws(rows, column, statistic, resampler):
@@ -157,6 +211,8 @@ class Decision:
     """Why a decision is inconclusive whatever its interval says (too few frames, no frames), or empty."""
     frames: int | None = None
     """The timed frames behind the interval in its thinnest arm (``None``: not a timing, or not counted)."""
+    bound: float | None = None
+    """The bound the decision turned on: the one its interval straddles, else the nearer one."""
 
     @property
     def inconclusive(self):
@@ -188,8 +244,10 @@ def decide(value, interval, *, at_least=None, at_most=None):
     if np.isnan(value):
         raise ValueError("the measured value is missing (NaN): a measurement it rests on was not taken")
     margin = _margin(value, at_least, at_most)
+    bounds = [bound for bound in (at_least, at_most) if bound is not None]
+    nearest = min(bounds, key=lambda bound: abs(value - bound)) if bounds else None
     if interval is None:
-        return Decision(value, None, inside(value), margin)
+        return Decision(value, None, inside(value), margin, bound=nearest)
     low, high = interval
     if inside(low) and inside(high):
         holds = True
@@ -197,7 +255,22 @@ def decide(value, interval, *, at_least=None, at_most=None):
         holds = False
     else:
         holds = None
-    return Decision(value, (low, high), holds, margin)
+    straddled = [bound for bound in bounds if low <= bound <= high]
+    return Decision(value, (low, high), holds, margin, bound=straddled[0] if straddled else nearest)
+
+
+def processes_to_decide(value, interval, bound, processes):
+    """About how many processes per arm would decide a value whose ``interval`` straddles ``bound``, as pyperf
+    says how many more runs a benchmark needs: the interval's half-width towards the bound shrinks as one over
+    the square root of the processes, and must fall below the value's distance from the bound. ``None`` where
+    it cannot say (no interval or bound, the value on the bound).
+    """
+    if interval is None or bound is None or not processes or not np.isfinite(value) or value == bound:
+        return None
+    low, high = interval
+    half = (value - low) if bound < value else (high - value)
+    needed = processes * (half / abs(value - bound)) ** 2
+    return int(np.ceil(needed)) if np.isfinite(needed) else None
 
 
 def timing_decision(value, draws, arms, *, at_least=None, at_most=None):

@@ -78,6 +78,11 @@ class Profile:
         Seconds one render job (every view and frame of one run) may take; past it the job is
         killed and the run recorded as failed, so one bad job cannot stall the pipeline.
         ``None`` (``null`` in a profile file, where it must be set): no limit.
+    replicates : int
+        Processes that time each timed run (or interleave group), one after another, each with its own
+        warm-up and frames: the process is the unit of replication, and a claim's interval is drawn over
+        processes, then frames (:mod:`~pipeline.experiments.kit.intervals`). 1 (the default): one
+        process, an interval that cannot show the spread between two runs, and says so.
     """
 
     name: str
@@ -93,6 +98,7 @@ class Profile:
     cache: str = ".cache/volumes"
     render_time_limit: float | None = None
     min_time: float = 0.0
+    replicates: int = 1
 
     def __post_init__(self):
         if not isinstance(self.name, str) or not self.name:
@@ -106,6 +112,7 @@ class Profile:
         check_positive_int(self.image_size, name=f"{where} image_size (pixels)")
         check_positive_int(self.warmup, name=f"{where} warmup (untimed frames)", minimum=0)
         check_positive_int(self.repeat, name=f"{where} repeat (timed frames)")
+        check_positive_int(self.replicates, name=f"{where} replicates (processes per timed run)")
         if isinstance(self.min_time, (bool, str)):
             raise InputError(f"{where} min_time: expected seconds (a number >= 0), got {self.min_time!r}")
         check_scalar(self.min_time, name=f"{where} min_time (seconds of timed frames per view)", low=0)
@@ -204,6 +211,10 @@ class Run:
         them takes its ratio round by round, with an interval. The runs of a group share their frames:
         all timed, or all one untimed frame (then the job renders them in turn, one job start for many
         pictures).
+    replicates : int
+        Processes that time the run one after another (the profile's ``replicates`` for a timed run, 1
+        for an untimed one): its job renders it, or its interleave group, once in each, the group's
+        order reversed every other process, and its record keeps each process's frames.
     """
 
     experiment: str
@@ -219,6 +230,7 @@ class Run:
     statistics: dict | None = None
     min_time: float = 0.0
     interleave: str | None = None
+    replicates: int = 1
 
     def __post_init__(self):
         if not RUN_ID.match(self.id):
@@ -226,6 +238,10 @@ class Run:
         if self.interleave is not None and not RUN_ID.match(str(self.interleave)):
             raise InputError(f"run {self.id!r} interleave {self.interleave!r}: use letters, digits and . _ + - only")
         check_scalar(self.min_time, name=f"run {self.id!r} min_time (seconds of timed frames)", low=0)
+        check_positive_int(self.replicates, name=f"run {self.id!r} replicates (processes that time it)")
+        if self.replicates > 1 and not self.timed:
+            raise InputError(f"run {self.id!r}: replicates={self.replicates} for an untimed run (one untimed frame); "
+                             "only timed runs are rendered in several processes")
         names = [v.get("view") for v in self.views]
         if not names or None in names or len(set(names)) != len(names):
             raise InputError(f"run {self.id!r}: every view needs a unique 'view' name, got {names}")
@@ -270,7 +286,8 @@ class ClaimResult:
     (:mod:`~pipeline.experiments.kit.intervals`). ``interval`` is the 95 % interval of the measured
     value (``(low, high)``, in the value's own unit) where it rests on timed frames, and ``margin`` the
     value's relative distance from its bound, positive on the holding side; ``frames`` how many timed
-    frames the interval rests on in its thinnest arm.
+    frames the interval rests on in its thinnest arm; ``value`` and ``bound`` the deciding value and the bound
+    it was judged against, where a :class:`~pipeline.experiments.kit.intervals.Decision` made it.
     """
 
     measured: str
@@ -280,6 +297,8 @@ class ClaimResult:
     margin: float | None = None
     inconclusive: bool = False
     frames: int | None = None
+    value: float | None = None
+    bound: float | None = None
 
     @classmethod
     def decided(cls, measured, decision, detail=""):
@@ -288,7 +307,7 @@ class ClaimResult:
         if decision.why:
             detail = f"{detail}; inconclusive: {decision.why}" if detail else f"inconclusive: {decision.why}"
         return cls(measured, decision.holds, detail, decision.interval, decision.margin, decision.inconclusive,
-                   decision.frames)
+                   decision.frames, decision.value, decision.bound)
 
 
 CLAIM_KINDS = ("timing", "count", "accuracy", "cost model")

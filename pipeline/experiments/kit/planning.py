@@ -30,17 +30,24 @@ CONTROLS = frozenset({"sphere", "constant_cube", "checkerboard", "fbm_control"})
 
 
 def timed_frames(profile, experiment=None):
-    """Frames of a timed comparison: at least one warm-up frame, :data:`~.intervals.MIN_FRAMES` timed frames and
-    the profile's ``min_time``.
+    """Frames and processes of a timed comparison: the profile's ``replicates`` processes, each with at least one
+    warm-up frame and its share of the arm's frames budget.
 
-    Fewer frames would leave the comparison's claims inconclusive whatever they measure
-    (:func:`~.intervals.timing_decision`). An experiment's ``repeat`` setting raises the timed frames
-    above the profile's: these frames take milliseconds, and on a shared machine the median of five is
-    at the mercy of two interruptions.
+    An arm's budget is :data:`~.intervals.MIN_FRAMES` timed frames at least (fewer would leave the comparison's
+    claims inconclusive whatever they measure: :func:`~.intervals.timing_decision`) and the profile's
+    ``min_time``; an experiment's ``repeat`` setting raises the frames above the profile's (these frames take
+    milliseconds, and on a shared machine the median of five is at the mercy of two interruptions). The
+    budget is shared among the processes, each taking at least :data:`~.intervals.PROCESS_FRAMES`: replicates
+    spread the frames over processes, whose spread the intervals then show, and add each process's start,
+    warm-up and cold frame rather than multiplying the frames.
     """
     repeat = int(profile.repeat if experiment is None else profile.setting(experiment, "repeat", profile.repeat))
     min_time = float(profile.min_time if experiment is None else profile.setting(experiment, "min_time", profile.min_time))
-    return {"warmup": max(1, int(profile.warmup)), "repeat": max(intervals.MIN_FRAMES, repeat), "min_time": min_time}
+    processes = int(profile.replicates)
+    per_process = max(intervals.PROCESS_FRAMES if processes > 1 else 1,
+                      math.ceil(max(intervals.MIN_FRAMES, repeat) / processes))
+    return {"warmup": max(1, int(profile.warmup)), "repeat": per_process, "min_time": min_time / processes,
+            "replicates": processes}
 
 
 def usable_cores():

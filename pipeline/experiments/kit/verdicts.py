@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 
 from core.outcomes import CAUSE_WORDS, INCOMPLETE_CAUSES, cause_of
+from pipeline.experiments.kit.intervals import processes_to_decide
 from pipeline.experiments.kit.results import MissingColumn
 from reports.metrics import METRIC_KEYS
 from reports.takeaways import cell_text
@@ -231,6 +232,21 @@ class Verdict:
     """How many disturbed views an inconclusive verdict rests on (0: none)."""
     frames: int | None = None
     """The timed frames behind the interval, in its thinnest arm (:attr:`ClaimResult.frames`)."""
+    processes: int | None = None
+    """The processes behind the interval: the fewest that timed any of the experiment's timed runs (``None``:
+    no timed frames behind it)."""
+
+
+TIMED_KINDS = ("timing", "cost model")
+"""The kinds of claim (:data:`~pipeline.experiments.kit.model.CLAIM_KINDS`) whose intervals rest on timed frames."""
+
+
+def fewest_processes(ok):
+    """The fewest processes that timed any successful timed row of an experiment (``None``: none is timed)."""
+    if "processes" not in ok:
+        return None
+    counts = pd.to_numeric(ok["processes"], errors="coerce").dropna()
+    return int(counts.min()) if not counts.empty else None
 
 
 DISTURBED_SPEED_UP = 10.0
@@ -260,7 +276,8 @@ def _sped_up(ok, index, factors):
             frame.loc[index, column] = pd.to_numeric(frame.loc[index, column], errors="coerce") / factors
         elif column.startswith("frames_"):
             frame.loc[index, column] = [
-                " ".join(f"{float(v) / factor:.6g}" for v in text.split()) if isinstance(text, str) else text
+                " ".join(v if v == "|" else f"{float(v) / factor:.6g}" for v in text.split())
+                if isinstance(text, str) else text
                 for text, factor in zip(frame.loc[index, column], factors)]
     return frame
 
@@ -324,19 +341,39 @@ def judge(claim, rows):
     missing = depends_on_missing(claim.check, rows) if not rows.empty else []
     if missing:
         return Verdict("blocked", "", None, blocked_detail(missing), tuple(missing))
+    processes = fewest_processes(ok) if result.interval is not None and claim.kind in TIMED_KINDS else None
     if result.holds is not None and not ok.empty:
         views = rests_on_disturbed(claim, ok, before=result)
         if views:
             return Verdict("inconclusive", result.measured, None, f"{disturbed_detail(views)}; {result.detail}".rstrip("; "),
                            interval=result.interval, margin=result.margin, disturbed_views=len(views),
-                           frames=result.frames)
+                           frames=result.frames, processes=processes)
     if result.inconclusive:
-        return Verdict("inconclusive", result.measured, None, result.detail, interval=result.interval,
-                       margin=result.margin, frames=result.frames)
+        return Verdict("inconclusive", result.measured, None, _with_processes_needed(result, processes),
+                       interval=result.interval, margin=result.margin, frames=result.frames, processes=processes)
     if result.holds is None:
         return Verdict("not measured", result.measured, None, result.detail)
     return Verdict("holds" if result.holds else "fails", result.measured, bool(result.holds), result.detail,
-                   interval=result.interval, margin=result.margin, frames=result.frames)
+                   interval=result.interval, margin=result.margin, frames=result.frames, processes=processes)
+
+
+def _with_processes_needed(result, processes):
+    """An inconclusive result's detail, ending with about how many processes per arm would decide it where its
+    interval straddles the bound (:func:`~pipeline.experiments.kit.intervals.processes_to_decide`)."""
+    if "inconclusive:" in result.detail:  # undecidable whatever the processes: too few frames, no interval
+        return result.detail
+    needed = processes_to_decide(result.value, result.interval, result.bound, processes)
+    if needed is None or needed <= processes:
+        return result.detail
+    words = (f"its interval straddles the bound: about {needed} processes per arm (here {processes}) would decide it "
+             "at the spread measured" if needed <= MORE_PROCESSES_SAID else
+             f"its interval straddles the bound, and the value is too near it for more than {MORE_PROCESSES_SAID} "
+             "processes per arm to decide it at the spread measured")
+    return f"{result.detail}; {words}" if result.detail else words
+
+
+MORE_PROCESSES_SAID = 100
+"""Processes per arm above which "about N would decide it" is not worth saying: the value sits on its bound."""
 
 
 VERDICT_WORDS = {"holds": "holds", "fails": "does not hold", "inconclusive": "inconclusive"}
