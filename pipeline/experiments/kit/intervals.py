@@ -99,8 +99,6 @@ class Resampler:
         self._cache = {}
         self.fewest = None
         """The fewest frames of any row resampled so far (``None``: none was)."""
-        self.fewest_processes = None
-        """The fewest processes of any row resampled so far (``None``: none was)."""
 
     def indices(self, key, n):
         key = (key, n)
@@ -108,10 +106,9 @@ class Resampler:
             self._cache[key] = self._rng.integers(0, n, size=(self.draws, n))
         return self._cache[key]
 
-    def saw(self, frames, processes):
-        """Note a row resampled: its ``frames`` in all and its ``processes``."""
+    def saw(self, frames):
+        """Note a row resampled with ``frames`` timed frames in all (over its processes)."""
         self.fewest = frames if self.fewest is None else min(self.fewest, frames)
-        self.fewest_processes = processes if self.fewest_processes is None else min(self.fewest_processes, processes)
 
     def arms(self):
         """``{"its thinnest run": frames}`` for :func:`timing_decision` (empty where nothing was resampled): what
@@ -145,7 +142,7 @@ def row_draws(rows, column, resampler):
         if processes is None or any(len(values) == 0 for values in processes):
             return None
         key = _row_key(row, index)
-        resampler.saw(sum(map(len, processes)), len(processes))
+        resampler.saw(sum(map(len, processes)))
         medians = np.stack([np.median(values[resampler.indices(key if p == 0 else (key, p), len(values))], axis=1)
                             for p, values in enumerate(processes)])
         if len(processes) == 1:
@@ -162,15 +159,6 @@ def frame_count(rows, column):
     if frames is None or frames not in rows:
         return 0
     return int(sum(len(values) for values in map(parse_frames, rows[frames]) if values is not None))
-
-
-def process_count(rows, column="time_total"):
-    """The fewest processes that timed any of the rows' ``column`` (``None`` where none has its frames)."""
-    frames = frames_column(column)
-    if frames is None or frames not in rows:
-        return None
-    counts = [len(processes) for processes in map(parse_processes, rows[frames]) if processes is not None]
-    return min(counts) if counts else None
 
 
 def statistic_draws(rows, column, statistic, resampler):

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 
 from core.outcomes import CAUSE_WORDS, INCOMPLETE_CAUSES, cause_of
-from pipeline.experiments.kit.intervals import processes_to_decide
+from pipeline.experiments.kit.intervals import format_processes, parse_processes, processes_to_decide
 from pipeline.experiments.kit.results import MissingColumn
 from reports.metrics import METRIC_KEYS
 from reports.takeaways import cell_text
@@ -276,8 +276,8 @@ def _sped_up(ok, index, factors):
             frame.loc[index, column] = pd.to_numeric(frame.loc[index, column], errors="coerce") / factors
         elif column.startswith("frames_"):
             frame.loc[index, column] = [
-                " ".join(v if v == "|" else f"{float(v) / factor:.6g}" for v in text.split())
-                if isinstance(text, str) else text
+                format_processes([frames / factor for frames in parse_processes(text)])
+                if isinstance(text, str) and text.strip() else text
                 for text, factor in zip(frame.loc[index, column], factors)]
     return frame
 
