@@ -43,7 +43,7 @@ sys.path.insert(0, workflow.basedir)
 import datasets
 from pipeline import digests, progress
 from pipeline.environment import uses_device
-from pipeline.experiments import Profile, plan, selected
+from pipeline.experiments import Profile, plan, selected, stack_parts
 from pipeline.scene_io import phantom_requests
 
 import yaml
@@ -198,6 +198,8 @@ rule environment:
 # Runs of one experiment with the same `interleave` name are one job, made by a rule of their own
 # (explicit outputs: Snakemake prefers it to `render`'s pattern): their frames alternate view by view,
 # so a claim comparing them takes its ratio under the same conditions (pipeline.timing.measure_together).
+# A group whose backends render through different OpenGL stacks goes to its job as its parts, each timed
+# in processes of its own (pipeline.experiments.stack_parts).
 INTERLEAVED = {}
 for _run in RUNS.values():
     if _run.interleave:
@@ -216,6 +218,8 @@ if workflow.is_main_process:
 # its SLURM job was never submitted: the workflow waited for it. The runs are in the rule's outputs.
 for _index, ((_experiment, _group), _members) in enumerate(INTERLEAVED.items()):
     _name = f"render_together_{_index}"
+    _parts = [[member.as_dict() for member in part] for part in stack_parts(_members)]
+    _runs_json = json.dumps(_parts[0] if len(_parts) == 1 else _parts)
     rule:
         name: _name
         input:
@@ -226,7 +230,7 @@ for _index, ((_experiment, _group), _members) in enumerate(INTERLEAVED.items()):
             [record(member) for member in _members],
         group: RUN_GROUP.format(experiment=_experiment)
         params:
-            runs=json.dumps([member.as_dict() for member in _members]),
+            runs=_runs_json,
             spec_hash=[member.spec_hash() for member in _members],
             code=sorted({BACKEND_CODE[member.backend] for member in _members}),
         threads: render_threads(_members)

@@ -42,7 +42,10 @@ def render(args):
     worker renders the runs and this job only waits; else the job renders them in a child process of
     its own under the profile's time limit. A timed run of ``replicates`` > 1 is rendered that many times,
     each time in a process that has not rendered it before, its group's order reversed every other time,
-    and its record keeps every process's frames (:func:`pipeline.records.merge_processes`). Either way a
+    and its record keeps every process's frames (:func:`pipeline.records.merge_processes`). A group whose
+    backends render through different OpenGL stacks comes as its parts (``--run`` a list of lists,
+    :func:`pipeline.experiments.stack_parts`): each part is timed in processes of its own, one part after
+    the other in each replicate, never in a process another part used in that replicate. Either way a
     run that failed is named on the output (Snakemake's log); a run that rendered or was skipped, as
     planned, says nothing.
     """
@@ -50,19 +53,29 @@ def render(args):
 
     runs = json.loads(args.run)
     runs = runs if isinstance(runs, list) else [runs]
-    replicates = max(int(run.get("replicates", 1)) for run in runs)
-    attempts, used = [], []
+    parts = runs if runs and isinstance(runs[0], list) else [runs]
+    everything = [run for part in parts for run in part]
+    replicates = max(int(run.get("replicates", 1)) for run in everything)
+    separate = replicates > 1 or len(parts) > 1
+    attempts, used = [], {index: [] for index in range(len(parts))}
     for replicate in range(replicates):
-        # Alternate the arms' order between processes: the first arm of a round is not always the same one.
-        ordered = runs if replicate % 2 == 0 else runs[::-1]
-        outcomes = _render_once(args, json.dumps(ordered), workers, avoid=used, own_process=replicates > 1)
+        # Alternate the order between processes: the first arm of a round (or part) is not always the same one.
+        order = range(len(parts)) if replicate % 2 == 0 else reversed(range(len(parts)))
+        outcomes, here = [], []
+        for index in order:
+            part = parts[index] if replicate % 2 == 0 else parts[index][::-1]
+            outcomes += _render_once(args, json.dumps(part), workers, avoid=used[index] + here, own_process=separate)
+            if separate:
+                pids = [(record.get("harness") or {}).get("pid")
+                        for record in _read_records(args.profile, part).values() if record]
+                used[index] += pids
+                here += pids
         if replicates > 1:
-            attempts.append(_read_records(args.profile, runs))
-            used += [(record.get("harness") or {}).get("pid") for record in attempts[-1].values() if record]
+            attempts.append(_read_records(args.profile, everything))
         if any(outcome["status"] == "failed" for outcome in outcomes):
             break
     if replicates > 1:
-        outcomes = _merge_attempts(args.profile, runs, attempts, replicates)
+        outcomes = _merge_attempts(args.profile, everything, attempts, replicates)
     for outcome in outcomes:
         if outcome["status"] == "failed":
             print(f"{outcome['key']}: failed: {(outcome['reason'].splitlines() or [''])[0]}".rstrip())

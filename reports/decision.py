@@ -70,7 +70,7 @@ def technique_rows(frame):
             "kind": first.kind if pd.notna(first.kind) else first.dataset,
             "timed_with": f"{experiment}/{first.interleave}" if isinstance(first.interleave, str) and first.interleave
             else f"{experiment}/{run}",
-            "disturbed": bool(group.info_disturbed.fillna("").astype(str).str.strip().ne("").any()),
+            "disturbed": bool(group.info_disturbed.map(lambda text: isinstance(text, str) and bool(text.strip())).any()),
         })
     return pd.DataFrame(out)
 

@@ -460,7 +460,7 @@ def build_report(runs_df, claims_df, experiments, *, results_dir, environment, b
     index_alerts += [f"{summary['title']}: not reproduced on this machine ({summary['technique']} made no frame)."
                      for summary in summaries if summary["reproduced"] is False]
     index_takeaways = takeaways.ranked(
-        _decision_sentences(panels, psnr_min)
+        _decision_sentences(panels, psnr_min, _rankings(claims_df, experiments))
         + _claims_summary(claims_df)
         + _backend_sentences(backend_runs, planned or [], silent)
         + takeaways.problems(outcomes.problem_groups(runs[~runs.backend.isin(silent)]))
@@ -564,6 +564,15 @@ def _decision_panels(overview, runs, failures, ctx, psnr_min, silent):
     return panels
 
 
+def _rankings(claims_df, experiments):
+    """``{scene: row}``: the ranking claims (``ranking-<scene>``) of the overview experiments, as claims.csv rows."""
+    overview = {e.name for e in experiments if getattr(e, "overview", False)}
+    if claims_df.empty or not {"experiment", "claim"} <= set(claims_df.columns):
+        return {}
+    rows = claims_df[claims_df.experiment.isin(overview) & claims_df.claim.astype(str).str.startswith("ranking-")]
+    return {row["claim"].removeprefix("ranking-"): row for row in rows.to_dict("records")}
+
+
 def _claims_summary(claims_df):
     """The index's word on the claims: their count, and the failing ones by likely cause (each paper's page
     lists its own failing claims; the index does not repeat them)."""
@@ -576,10 +585,17 @@ def _claims_summary(claims_df):
     return sentences
 
 
-def _decision_sentences(panels, psnr_min):
-    """Per scene of the decision panel: the fastest technique that reaches ``psnr_min``, and by how much where the
-    two fastest were timed together on a quiet machine (else the ranking is said without a ratio: times of
-    separate jobs, or disturbed ones, do not compare like with like)."""
+def _decision_sentences(panels, psnr_min, rankings=None):
+    """Per scene of the decision panel: the fastest technique that reaches ``psnr_min``, and how it compares with
+    the next one.
+
+    ``rankings`` maps a scene to its ranking claim's row of claims.csv (an overview experiment's claim
+    ``ranking-<scene>``: the next's time over the fastest's, timed together, with its interval). A ratio is said
+    only from that claim, as "faster" where its interval excludes ×1 and as a tie where it does not; without one
+    (times of separate jobs, fewer frames than an interval needs), or where either technique was timed on a
+    disturbed machine, the ranking is said without a ratio.
+    """
+    rankings = rankings or {}
     sentences = []
     for item in panels:
         accurate = [r for r in item["table"] if r["accurate"]]
@@ -591,18 +607,31 @@ def _decision_sentences(panels, psnr_min):
         sentence = (f"{item['kind'].capitalize()} ({item['scene']}): {best['backend']} is the fastest at "
                     f"≥ {takeaways.number(psnr_min)} dB ({best['setting']}, {best['ms']} ms, {best['psnr']} dB)")
         if len(accurate) > 1:
-            runner = accurate[1]
-            if best.get("timed_with") and best.get("timed_with") == runner.get("timed_with") \
-                    and not (best.get("disturbed") or runner.get("disturbed")):
-                sentence += (f", {takeaways.change_words(best['time'] / runner['time'])} than the next, "
-                             f"{runner['backend']} ({runner['ms']} ms), timed together")
-            else:
-                why = ("timed while the machine was disturbed" if best.get("disturbed") or runner.get("disturbed")
-                       else "timed in a separate job")
-                sentence += (f"; the next, {runner['backend']} ({runner['ms']} ms), was {why}, so no ratio between "
-                             "them is claimed")
+            sentence += _next_words(best, accurate[1], rankings.get(item["scene"]))
         sentences.append(sentence + ".")
     return sentences
+
+
+def _next_words(best, runner, ranking):
+    """How ``best`` compares with ``runner``, the next technique at the bar, from their ranking claim's row."""
+    named = f"the next, {runner['backend']} ({runner['ms']} ms)"
+    if best.get("disturbed") or runner.get("disturbed"):
+        return f"; {named}, was timed while the machine was disturbed, so no ratio between them is claimed"
+    verdict = (ranking or {}).get("verdict")
+    measured = str((ranking or {}).get("measured", ""))
+    about_them = measured.startswith(f"{runner['backend']} (") and f"/ {best['backend']} (" in measured
+    if verdict not in ("holds", "inconclusive") or not about_them or not (
+            _finite(ranking.get("interval_low")) and _finite(ranking.get("interval_high"))):
+        why = ("timed in a separate job" if best.get("timed_with") != runner.get("timed_with")
+               else "timed with too few frames for an interval")
+        return f"; {named}, was {why}, so no ratio between them is claimed"
+    interval = (f"95 % CI ×{takeaways.number(float(ranking['interval_low']))}–"
+                f"×{takeaways.number(float(ranking['interval_high']))}")
+    ratio = runner["time"] / best["time"]
+    if verdict == "holds":
+        return f", {takeaways.change_words(1 / ratio)} than {named}, timed together ({interval})"
+    return (f"; it ties with {named}, timed together: the next takes ×{takeaways.number(ratio)} its time, "
+            f"but the interval reaches ×1 ({interval})")
 
 
 def _timing(runs_df, environment, ctx):

@@ -104,17 +104,15 @@ def test_every_profile_value_is_checked_and_the_error_names_key_and_value(key, v
         Profile.from_mapping({**_default_profile(), key: value})
 
 
-def test_an_interleave_group_may_not_mix_opengl_stacks(monkeypatch):
-    """vtk-gpu and a moderngl backend in one job rendered every image of both empty: refused before any work."""
-    def runs(profile):
-        return [Run("volbench-phantoms", name, backend, {"volumes": []}, ({"view": "v"},), interleave="g")
-                for name, backend in (("a", "gl-slicer"), ("b", backend_b))]
+def test_an_interleave_group_of_two_opengl_stacks_is_timed_in_a_part_per_stack():
+    """vtk-gpu and a moderngl backend in one process rendered every image of both empty: a group of both is
+    planned, and its job gets it as parts, one per stack, the runs of no stack with the larger part."""
+    def run(name, backend):
+        return Run("volbench-phantoms", name, backend, {"volumes": []}, ({"view": "v"},), interleave="g")
 
-    monkeypatch.setattr(experiments.get("volbench-phantoms").__class__, "runs", lambda self, profile: runs(profile))
-    profile = Profile(name="t", experiments=["volbench-phantoms"])
-    backend_b = "vtk-gpu"
-    with pytest.raises(InputError, match="interleave group 'g' mixes backends of different OpenGL stacks "
-                                         r"\(gl-slicer: moderngl, vtk-gpu: vtk\)"):
-        experiments.plan(profile)
-    backend_b = "gl-raycast"
-    assert set(experiments.plan(profile)) == {"volbench-phantoms/a", "volbench-phantoms/b"}
+    slicer, vtk, raycast, cpu = run("a", "gl-slicer"), run("b", "vtk-gpu"), run("c", "gl-raycast"), run("d", "shearwarp")
+    parts = experiments.stack_parts([slicer, vtk, raycast, cpu])
+    assert [[r.id for r in part] for part in parts] == [["a", "c", "d"], ["b"]]
+    assert [[r.id for r in part] for part in experiments.stack_parts([vtk, cpu, slicer])] == [["b", "d"], ["a"]]
+    assert experiments.stack_parts([slicer, raycast]) == [[slicer, raycast]]
+    assert experiments.stack_parts([cpu]) == [[cpu]]

@@ -230,3 +230,16 @@ def test_runs_timed_together_share_their_processes_so_a_slow_process_cancels():
     unpaired, _ = _width(apart)
     assert _width(together)[1].value == pytest.approx(2.0, rel=0.03)
     assert paired < unpaired / 5
+
+
+def test_runs_of_one_group_timed_in_different_processes_are_drawn_apart():
+    """A group of two OpenGL stacks is timed in a process per stack (pipeline.experiments.stack_parts): rows of one
+    group whose processes differ are not paired, as runs of separate jobs are not; rows of the same processes are."""
+    a, b = 0.002 * QUIET[:10], 0.001 * QUIET[10:20]
+    together = _process_rows(("A", "g", [a, 2 * a[::-1]]), ("B", "g", [b, 2 * b[::-1]]))
+    same = together.assign(harness_pids=["[11, 12]", "[11, 12]"])
+    parts = together.assign(harness_pids=["[11, 12]", "[13, 14]"])
+    assert _width(same)[0] == pytest.approx(_width(together)[0])
+    assert _width(parts)[0] == pytest.approx(_width(together.assign(interleave=["", ""]))[0])
+    one_process = together.assign(harness_pid=[11, 13], harness_pids=[np.nan, np.nan])
+    assert _width(one_process)[0] == pytest.approx(_width(parts)[0])

@@ -43,21 +43,31 @@ def test_the_panel_picks_each_techniques_fastest_accurate_setting_and_leaves_the
                                                                  "step_factor=0.25"}
 
 
-def test_a_ratio_to_the_next_technique_is_said_only_for_two_timed_together_on_a_quiet_machine():
-    """Times of separate jobs, or disturbed ones, rank the techniques but give no ratio (issue 35)."""
+def test_a_ratio_to_the_next_technique_is_said_only_from_its_ranking_claim_on_a_quiet_machine():
+    """The index says "faster than the next" from the ranking claim's interval: a tie where it reaches ×1, no ratio
+    without one (separate jobs, too few frames) or where either time was disturbed (issue 35)."""
     from reports.html import _decision_sentences
 
     points = [("gl-raycast", "step_factor=0.5", 10, 44), ("cl-tiled", "step_factor=0.5", 25, 45)]
+    measured = "cl-tiled (step 0.5 voxel) / gl-raycast (step 0.5 voxel): ×2.5"
 
-    def sentence(timed_with, disturbed=(False, False)):
-        rows = _rows(points).assign(timed_with=timed_with, disturbed=list(disturbed))
-        return _decision_sentences(decision.panel(rows, None, psnr_min=40), 40)[0]
+    def sentence(timed_with=("e/race", "e/race"), disturbed=(False, False), verdict="holds", low=2.3, high=2.7,
+                 about=measured):
+        rows = _rows(points).assign(timed_with=list(timed_with), disturbed=list(disturbed))
+        ranking = {"skull-bone": {"verdict": verdict, "measured": about, "interval_low": low, "interval_high": high}}
+        return _decision_sentences(decision.panel(rows, None, psnr_min=40), 40, ranking)[0]
 
-    assert sentence(["e/race", "e/race"]).endswith("×2.5 faster than the next, cl-tiled (25 ms), timed together.")
-    apart = sentence(["e/gl", "e/cl"])
+    assert sentence().endswith("×2.5 faster than the next, cl-tiled (25 ms), timed together (95 % CI ×2.3–×2.7).")
+    tie = sentence(verdict="inconclusive", low=0.97, high=3.1)
+    assert "ties with the next, cl-tiled (25 ms)" in tie and "faster" not in tie and tie.endswith("(95 % CI ×0.97–×3.1).")
+    apart = sentence(("e/gl", "e/cl"), verdict="not measured", low=np.nan, high=np.nan)
     assert "×" not in apart and apart.endswith("the next, cl-tiled (25 ms), was timed in a separate job, so no ratio "
                                                "between them is claimed.")
-    assert "was timed while the machine was disturbed" in sentence(["e/race", "e/race"], (False, True))
+    assert "was timed while the machine was disturbed" in sentence(disturbed=(False, True))
+    # A claim about two other techniques (an older run's) gives no ratio here; nor does no claim at all.
+    assert "no ratio" in sentence(about="vtk-cpu (step 1 voxel) / shearwarp (default): ×2.5")
+    rows = _rows(points).assign(timed_with="e/race", disturbed=False)
+    assert "no ratio" in _decision_sentences(decision.panel(rows, None, psnr_min=40), 40)[0]
 
 
 def test_technique_rows_name_the_job_that_timed_each_run_and_whether_it_was_disturbed():

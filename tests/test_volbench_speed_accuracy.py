@@ -4,17 +4,20 @@ import numpy as np
 import pandas as pd
 import pytest
 
+import renderers
 from core.errors import InputError
 from pipeline import experiments
 from pipeline.experiments import Profile
 from pipeline.experiments.kit.intervals import format_frames
-from pipeline.experiments.volbench.speed_accuracy import SPEED_ACCURACY_SCENES, SpeedAccuracy, _tradeoff
+from pipeline.experiments.volbench.speed_accuracy import (SCENE_KINDS, SPEED_ACCURACY_SCENES, SpeedAccuracy,
+                                                      _tradeoff)
 
 
-def _sweep(times, errors, *, frames=5, spread=0.02):
+def _sweep(times, errors, *, frames=5, spread=0.02, scene="s", kind="opaque"):
     """The reference's sweep on one scene, its steps timed together (``frames`` each, ``spread`` about the median)."""
-    return pd.DataFrame([{"scene": "s", "backend": "reference", "role": "sweep", "setting": f"step_factor={f}",
-                          "time_total": t, "rmse": e, "interleave": "s.reference", "view": "headline",
+    return pd.DataFrame([{"scene": scene, "kind": kind, "backend": "reference", "role": "sweep",
+                          "setting": f"step_factor={f}",
+                          "time_total": t, "rmse": e, "interleave": f"{scene}.reference", "view": "headline",
                           "experiment": "volbench-speed-accuracy",
                           "frames_total": format_frames(t * (1 + spread * np.linspace(-1, 1, frames)))}
                          for f, t, e in zip((1.0, 0.5, 0.25), times, errors)])
@@ -28,6 +31,16 @@ def test_tradeoff_claim_needs_doubling_times():
     # Decided by its frames: too few, or none, leave it inconclusive.
     assert _tradeoff(_sweep((1.0, 2.0, 4.1), (0.1, 0.05, 0.02), frames=3)).inconclusive
     assert _tradeoff(_sweep((1.0, 2.0, 4.1), (0.1, 0.05, 0.02)).drop(columns="frames_total")).inconclusive
+
+
+def test_the_tradeoff_reads_the_scenes_the_reference_integrates_not_its_exact_mip_and_iso():
+    """The reference's MIP and iso-surface solve each cell exactly: their time does not follow the step, and their
+    error is 0 at every step. Those scenes are no evidence either way."""
+    doubling = _sweep((1.0, 2.0, 4.1), (0.1, 0.05, 0.02))
+    exact = _sweep((1.0, 1.0, 1.0), (0.0, 0.0, 0.0), scene="m", kind="mip")
+    both = _tradeoff(pd.concat([doubling, exact, _sweep((1.0, 1.0, 1.0), (0.0, 0.0, 0.0), scene="i", kind="iso")]))
+    assert both.holds and both.value == pytest.approx(_tradeoff(doubling).value)
+    assert SpeedAccuracy.claims[0].evaluate(exact).holds is None  # nothing left to judge: not measured
 
 
 def test_claims_without_data_are_not_measured():
@@ -49,11 +62,57 @@ def test_speed_accuracy_runs_only_the_scenes_a_profile_names():
     assert planned(scale="default") == set(SPEED_ACCURACY_SCENES)
 
 
-def test_the_references_sweep_is_timed_together_with_five_frames_at_least():
+def test_every_setting_the_panel_ranks_is_timed_together_per_scene_with_five_frames_at_least():
+    """The contenders' settings on a scene are one interleave group (the ranking claims), the reference's steps
+    another (the trade-off claim), each timed in the profile's processes; a backend that lacks the scene's mode
+    has one untimed run, skipped."""
     profile = Profile.load("config/default.yaml")
     runs = [run for run in experiments.plan(Profile(**{**profile.__dict__, "experiments": ["volbench-speed-accuracy"]})
                                             ).values() if run.tags.get("role") == "sweep"]
-    sweep = [run for run in runs if run.backend == "reference"]
-    assert {run.interleave for run in sweep} == {f"{scene}.reference" for scene in SPEED_ACCURACY_SCENES}
-    assert all(run.repeat * run.replicates >= 5 and run.replicates == profile.replicates for run in sweep)
-    assert all(not run.interleave for run in runs if run.backend != "reference")  # the others: a job each
+    for run in runs:
+        mode = "dvr" if SCENE_KINDS[run.tags["scene"]] not in ("mip", "iso") else SCENE_KINDS[run.tags["scene"]]
+        if mode not in renderers.backend_class(run.backend).capabilities.modes:
+            assert run.interleave is None and run.replicates == 1
+            continue
+        group = "reference" if run.backend == "reference" else "contenders"
+        assert run.interleave == f"{run.tags['scene']}.{group}"
+        assert run.repeat * run.replicates >= 5 and run.replicates == profile.replicates
+    contenders = [run for run in runs if run.interleave == "skull-bone.contenders"]
+    assert {"vtk-gpu", "gl-raycast", "cl-tiled", "shearwarp"} <= {run.backend for run in contenders}
+
+
+def _ranked(points, *, groups=None, frames=6, spread=0.02):
+    """Sweep rows of scene ``skull-bone`` from ``[(backend, ms, dB)]``, timed together in one process (or in the
+    named ``groups``)."""
+    groups = groups or ["skull-bone.contenders"] * len(points)
+    rows = []
+    for index, ((backend, ms, psnr), group) in enumerate(zip(points, groups)):
+        times = ms / 1e3 * (1 + spread * np.sin(np.arange(frames) + 2 * index))
+        rows.append({"experiment": "volbench-speed-accuracy", "run": f"skull-bone.{backend}.0", "view": "headline",
+                     "scene": "skull-bone", "kind": "opaque", "backend": backend, "role": "sweep",
+                     "setting": "step_factor=1.0", "status": "ok", "reference": "skull-bone.truth",
+                     "time_total": float(np.median(times)), "psnr": psnr, "interleave": group,
+                     "frames_total": format_frames(times)})
+    return pd.DataFrame(rows)
+
+
+def _ranking_claim(scene="skull-bone"):
+    return next(claim for claim in SpeedAccuracy.claims if claim.id == f"ranking-{scene}")
+
+
+def test_the_ranking_claim_holds_where_the_fastest_is_clearly_faster_than_the_next_and_ties_otherwise():
+    claim = _ranking_claim()
+    clear = claim.evaluate(_ranked([("gl-raycast", 10, 44), ("cl-tiled", 25, 45), ("shearwarp", 1, 30)]))
+    assert clear.holds is True and clear.value == pytest.approx(2.5, rel=0.01) and clear.interval[0] > 1
+    assert clear.measured.startswith("cl-tiled (step 1 voxel) / gl-raycast (step 1 voxel): ×2.4")
+    tie = claim.evaluate(_ranked([("gl-raycast", 10, 44), ("cl-tiled", 10.05, 45)], spread=0.2))
+    assert tie.holds is None and tie.inconclusive and tie.interval[0] < 1 < tie.interval[1]
+
+
+def test_a_ranking_with_nothing_to_compare_is_not_measured():
+    claim = _ranking_claim()
+    alone = claim.evaluate(_ranked([("gl-raycast", 10, 44), ("cl-tiled", 25, 35)]))
+    assert alone.holds is None and not alone.inconclusive and "1 technique(s) reach 40 dB" in alone.detail
+    apart = claim.evaluate(_ranked([("gl-raycast", 10, 44), ("cl-tiled", 25, 45)], groups=["a", "b"]))
+    assert apart.holds is None and "timed in separate jobs" in apart.detail
+    assert _ranking_claim("foot-iso").evaluate(_ranked([("gl-raycast", 10, 44), ("cl-tiled", 25, 45)])).holds is None

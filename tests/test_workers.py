@@ -250,6 +250,34 @@ def test_a_replicated_group_is_timed_once_in_each_of_two_workers_in_alternating_
     _assert_two_processes_each(profile, runs, os.getpid())
 
 
+def test_a_group_in_parts_times_each_part_in_processes_of_its_own_in_alternating_order(tmp_path, monkeypatch):
+    """A group of two OpenGL stacks comes as parts: in each replicate each part is rendered in a worker the other
+    part did not use in that replicate, nor it before, the parts' order reversed the second time."""
+    import socket
+
+    from pipeline import jobs
+
+    profile, runs, arguments = _replicated_group(tmp_path)
+    arguments[2] = json.dumps([[run.as_dict()] for run in runs])  # the parts: one run each
+    orders = []
+    execute = jobs._render_once
+
+    def spy(args, runs_json, *rest, **kwargs):
+        orders.append(([run["id"] for run in json.loads(runs_json)], tuple(kwargs["avoid"])))
+        return execute(args, runs_json, *rest, **kwargs)
+
+    monkeypatch.setattr(jobs, "_render_once", spy)
+    with workers.RenderService(cores=1, root=os.getcwd(), log_dir=tmp_path / "logs") as service:
+        monkeypatch.setenv(workers.SERVICE_VARIABLE, f"{socket.gethostname()}:{service.socket_path}")
+        jobs.main(arguments)
+        assert service.started == 2  # the two workers swap parts in the second replicate
+    assert [ids for ids, _ in orders] == [["fine"], ["coarse"], ["coarse"], ["fine"]]
+    assert len(orders[0][1]) == 0 and len(orders[1][1]) == 1 and len(orders[2][1]) == 1 and len(orders[3][1]) == 2
+    _assert_two_processes_each(profile, runs, os.getpid())
+    fine, coarse = (json.loads(run_record_path(profile.results, run.experiment, run.id).read_text()) for run in runs)
+    assert fine["harness"]["pids"] == coarse["harness"]["pids"][::-1]  # never in one process at once
+
+
 def test_a_replicated_group_without_a_service_is_timed_in_a_child_process_per_replicate(tmp_path):
     """Where no service answers (a cluster node), the job forks a child per replicate. Run as a job is, in a
     process of its own: a fork of this test process, whose Numba threads have started, is not a job's."""

@@ -76,19 +76,31 @@ def plan(profile):
             if run.key in runs:
                 raise InputError(f"experiment {experiment.name}: duplicate run id {run.id!r}")
             runs[run.key] = run
-    groups = {}
     for run in runs.values():
         if run.reference is not None and f"{run.experiment}/{run.reference}" not in runs:
             raise InputError(f"run {run.key}: reference run {run.reference!r} is not planned")
-        if run.interleave is not None:
-            groups.setdefault((run.experiment, run.interleave), []).append(run)
-    for (experiment, group), members in groups.items():
-        stacks = {member.backend: graphics_stack(member.backend) for member in members}
-        if len(set(stacks.values()) - {None}) > 1:
-            raise InputError(f"experiment {experiment}: interleave group {group!r} mixes backends of different OpenGL "
-                             f"stacks ({', '.join(f'{b}: {s}' for b, s in stacks.items() if s)}); in one process "
-                             "their contexts rendered every image empty: time them in separate groups")
     return runs
+
+
+def stack_parts(members):
+    """The runs of one interleave group as the parts its job times in processes of their own: one part per OpenGL
+    stack its backends render through (:func:`graphics_stack`), in the order the group names them; the runs of no
+    stack join the part of most runs, so that the most pairs alternate round by round.
+
+    Two stacks' contexts in one process rendered every image of both empty (vtk-gpu beside a moderngl backend,
+    measured on llvmpipe), so their frames cannot alternate round by round; the job alternates their processes
+    instead (:func:`pipeline.jobs.render`), and their intervals pair runs by process only where they shared one
+    (:func:`pipeline.experiments.kit.intervals.row_draws`). A group of one stack is one part.
+    """
+    parts = {}
+    for run in members:
+        parts.setdefault(graphics_stack(run.backend), []).append(run)
+    stackless = parts.pop(None, [])
+    if not parts:
+        return [stackless]
+    largest = max(parts, key=lambda stack: len(parts[stack]))
+    parts[largest] = [run for run in members if run in stackless or run in parts[largest]]
+    return list(parts.values())
 
 
 def graphics_stack(backend):

@@ -117,10 +117,23 @@ class Resampler:
 
 
 def _row_key(row, position):
+    """Rows with one key are drawn together: the runs of one interleave group and view timed in the same processes
+    (a group whose backends render through two OpenGL stacks is timed in a process per stack,
+    :func:`pipeline.experiments.stack_parts`: those rows are drawn apart, as separate runs are)."""
     group = row.get("interleave") if hasattr(row, "get") else None
     if isinstance(group, str) and group:
-        return ("group", row.get("experiment"), group, row.get("view"))
+        return ("group", row.get("experiment"), group, row.get("view"), _processes(row))
     return ("run", row.get("run"), row.get("view"), position)
+
+
+def _processes(row):
+    """The processes that timed a row, as recorded (``harness_pids`` of a replicated run, else ``harness_pid``;
+    ``None`` for rows that do not say)."""
+    for column in ("harness_pids", "harness_pid"):
+        value = row.get(column)
+        if isinstance(value, (list, tuple)) or (value is not None and not pd.isna(value)):
+            return str(list(value) if isinstance(value, (list, tuple)) else value)
+    return None
 
 
 REDUCE = {"median": np.median, "min": np.min, "max": np.max, "mean": np.mean}

@@ -210,7 +210,9 @@ class Run:
         frames alternating view by view (:func:`pipeline.timing.measure_together`): a claim comparing
         them takes its ratio round by round, with an interval. The runs of a group share their frames:
         all timed, or all one untimed frame (then the job renders them in turn, one job start for many
-        pictures).
+        pictures). A group whose backends render through different OpenGL stacks is timed in a process
+        per stack, one after the other (:func:`pipeline.experiments.stack_parts`): its runs of different
+        stacks are compared by process, not round by round.
     replicates : int
         Processes that time the run one after another (the profile's ``replicates`` for a timed run, 1
         for an untimed one): its job renders it, or its interleave group, once in each, the group's

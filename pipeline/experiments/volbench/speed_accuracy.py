@@ -4,6 +4,8 @@ Each backend's ``quality_sweep`` renders the same scenes; the error is measured 
 at 1/16 voxel. The index's techniques × data sets table is built from these runs (``overview``).
 """
 
+import functools
+
 import numpy as np
 import pandas as pd
 
@@ -29,11 +31,15 @@ SCENE_KINDS = {"skull-bone": "opaque", "engine-semi": "semi-transparent", "skull
 """Scene → its kind: the index's decision panel has one chart per kind (opaque surfaces, semi-transparent
 material, maximum intensity projection, iso-surface). The mode is the kind's where it names one."""
 
+EXACT_KINDS = ("mip", "iso")
+"""Scene kinds the reference renders exactly at any step (it solves each cell: :mod:`renderers.reference.raycast`),
+so its step sweep there trades nothing: the trade-off claim reads the other scenes."""
+
 
 def _tradeoff(df):
     """The reference's time ratio per halving of the step (median over scenes and halvings, with the interval of
     the frames its sweep took together), and its error falling at every halving."""
-    rows = df[(df.backend == "reference") & (df.role == "sweep")].copy()
+    rows = df[(df.backend == "reference") & (df.role == "sweep") & ~df["kind"].isin(EXACT_KINDS)].copy()
     rows["step_factor"] = rows.setting.str.extract(r"step_factor=([0-9.e-]+)")[0].astype(float)
     resampler = intervals.Resampler()
     ratios, draws, frames, monotone = [], [], {}, True
@@ -58,6 +64,47 @@ def _tradeoff(df):
     return ClaimResult.decided(measured, decision, detail)
 
 
+def _ranking(df, *, scene):
+    """On ``scene``, the decision panel's fastest technique at the accuracy bar against the next one: the next's time
+    over the fastest's, with the interval of their frames timed together (paired by process and round).
+
+    The order is read from these same times, so the ratio is never below ×1; what the interval tells is whether
+    the order is resolved or the two tie. Fewer than two techniques at the bar, or two timed in separate jobs,
+    leave nothing to judge.
+    """
+    sweep = df[(df.role == "sweep") & (df.scene == scene)]
+    panels = decision.panel(decision.technique_rows(sweep), None)
+    if not panels:
+        raise ValueError(f"no technique rendered {scene}")
+    accurate = [row for row in panels[0]["table"] if row["accurate"]]
+    if len(accurate) < 2:
+        raise ValueError(f"{len(accurate)} technique(s) reach {takeaways.PSNR_GOOD:g} dB on {scene}: nothing to rank")
+    best, runner = accurate[:2]
+    if best["timed_with"] != runner["timed_with"]:
+        raise ValueError(f"{best['backend']} and {runner['backend']} were timed in separate jobs "
+                         f"({best['timed_with']}, {runner['timed_with']}): their times do not compare")
+    decided = kit_judging.ratio(sweep[sweep.run == runner["run"]], sweep[sweep.run == best["run"]], "time_total",
+                                intervals.Resampler(), at_least=kit_judging.STRICTLY_ABOVE_ONE)
+    names = f"{runner['backend']} ({runner['setting']}) / {best['backend']} ({best['setting']})"
+    detail = (f"{best['backend']} {best['ms']} ms at {best['psnr']} dB, {runner['backend']} {runner['ms']} ms at "
+              f"{runner['psnr']} dB")
+    return ClaimResult.decided(kit_judging.with_interval(f"{names}: {as_ratio(decided.value)}", decided), decided,
+                               detail)
+
+
+def _ranking_claim(scene):
+    kind = decision.KIND_WORDS[SCENE_KINDS[scene]]
+    return Claim(f"ranking-{scene}", f"The index's ranking on {scene} ({kind}): the fastest technique at "
+                                     f"≥ {takeaways.PSNR_GOOD:g} dB PSNR is faster than the next, the two timed together",
+                 "the next's time / the fastest's > ×1 with its whole interval; an interval that reaches ×1 is a tie",
+                 functools.partial(_ranking, scene=scene), kind="timing")
+
+
+def _timed_with(scene_name, backend):
+    """The interleave group of ``backend``'s settings on ``scene_name``."""
+    return f"{scene_name}.reference" if backend == "reference" else f"{scene_name}.contenders"
+
+
 class SpeedAccuracy(Experiment):
     """Every registered backend over its quality settings: time against error."""
 
@@ -68,8 +115,10 @@ class SpeedAccuracy(Experiment):
     description = (
         "Each registered backend renders the same scenes over its own quality settings (its "
         "``quality_sweep``: step size, and later slice count, thresholds, ...). Error is measured "
-        "against the reference at 1/16 voxel, time is the median frame after warm-up. Backends "
-        "that cannot run here are listed with the reason."
+        "against the reference at 1/16 voxel, time is the median frame after warm-up. Every "
+        "technique's settings on a scene are timed together, interleaved round by round in each of "
+        "the profile's replicate processes, so the index's ranking compares like with like and its "
+        "ratios have intervals. Backends that cannot run here are listed with the reason."
     )
     TRUTH_FACTOR = 1 / 16
 
@@ -89,9 +138,12 @@ class SpeedAccuracy(Experiment):
                     sweep = sweep[:1]  # one run, skipped with the backend's reason, says why it is absent
                 for index, options in enumerate(sweep):
                     setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
-                    # The reference's sweep is a claim's (its time per halving): its steps are timed together.
-                    timing = (dict(**timed_frames(profile, self), interleave=f"{scene_name}.reference")
-                              if backend == "reference" else dict(warmup=profile.warmup, repeat=profile.repeat))
+                    # Whatever the panel ranks is timed together, interleaved in every replicate process: the
+                    # contenders' settings on a scene (the ranking claims), and apart from them the reference's
+                    # steps (the trade-off claim). A backend that lacks the scene's mode has one run, skipped.
+                    timing = (dict(**timed_frames(profile, self), interleave=_timed_with(scene_name, backend))
+                              if mode in backend_class.capabilities.modes
+                              else dict(warmup=profile.warmup, repeat=profile.repeat))
                     runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
                                     (HEADLINE_VIEW,), options=dict(options), reference=truth.id, **timing,
                                     tags={"scene": scene_name, "setting": setting, "role": "sweep",
@@ -99,8 +151,10 @@ class SpeedAccuracy(Experiment):
         return runs
 
     claims = (
-        Claim("tradeoff", "For the reference, halving the step roughly doubles the time and lowers the error",
+        Claim("tradeoff", "For the reference's ray integration (its MIP and iso-surfaces are exact at any step), "
+                          "halving the step roughly doubles the time and lowers the error",
               "time ratio per halving in [1.5, 2.5]; error decreasing", _tradeoff, kind="timing"),
+        *(_ranking_claim(scene) for scene in SPEED_ACCURACY_SCENES),
     )
 
     overview = True
