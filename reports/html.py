@@ -564,6 +564,15 @@ def _decision_panels(overview, runs, failures, ctx, psnr_min, silent):
     return panels
 
 
+def _ratio_end(value):
+    """An interval's end as a ratio, with the digits it takes not to read as ×1 when it is not 1."""
+    value = float(value)
+    digits = 3
+    while digits < 6 and value != 1 and float(takeaways.number(value, digits)) == 1:
+        digits += 1
+    return takeaways.number(value, digits)
+
+
 def _rankings(claims_df, experiments):
     """``{scene: row}``: the ranking claims (``ranking-<scene>``) of the overview experiments, as claims.csv rows."""
     overview = {e.name for e in experiments if getattr(e, "overview", False)}
@@ -625,11 +634,10 @@ def _next_words(best, runner, ranking):
         why = ("timed in a separate job" if best.get("timed_with") != runner.get("timed_with")
                else "timed with too few frames for an interval")
         return f"; {named}, was {why}, so no ratio between them is claimed"
-    interval = (f"95 % CI ×{takeaways.number(float(ranking['interval_low']))}–"
-                f"×{takeaways.number(float(ranking['interval_high']))}")
+    interval = f"95 % CI ×{_ratio_end(ranking['interval_low'])}–×{_ratio_end(ranking['interval_high'])}"
     ratio = runner["time"] / best["time"]
     if verdict == "holds":
-        return f", {takeaways.change_words(1 / ratio)} than {named}, timed together ({interval})"
+        return f", ×{takeaways.number(ratio)} faster than {named}, timed together ({interval})"
     return (f"; it ties with {named}, timed together: the next takes ×{takeaways.number(ratio)} its time, "
             f"but the interval reaches ×1 ({interval})")
 

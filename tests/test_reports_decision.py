@@ -58,6 +58,7 @@ def test_a_ratio_to_the_next_technique_is_said_only_from_its_ranking_claim_on_a_
         return _decision_sentences(decision.panel(rows, None, psnr_min=40), 40, ranking)[0]
 
     assert sentence().endswith("×2.5 faster than the next, cl-tiled (25 ms), timed together (95 % CI ×2.3–×2.7).")
+    assert sentence(low=1.003).endswith("(95 % CI ×1.003–×2.7).")  # an end near ×1 does not read as ×1
     tie = sentence(verdict="inconclusive", low=0.97, high=3.1)
     assert "ties with the next, cl-tiled (25 ms)" in tie and "faster" not in tie and tie.endswith("(95 % CI ×0.97–×3.1).")
     apart = sentence(("e/gl", "e/cl"), verdict="not measured", low=np.nan, high=np.nan)

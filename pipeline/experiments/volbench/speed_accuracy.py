@@ -182,8 +182,7 @@ class SpeedAccuracy(Experiment):
                                      "markers; higher and further left is better. Bars span the fastest and slowest "
                                      "timed frame. The reference's own sweep is its convergence study, not drawn here; "
                                      "every setting is in the table below."))
-        stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
-                  and not c.endswith(("_min", "_max"))]
+        stages = _frame_stages(ok)
         if stages:
             # One bar per backend: its first quality setting (the run id's last part is the setting's index),
             # median over the scenes it rendered; every setting's stages are in the table below.
@@ -206,9 +205,12 @@ class SpeedAccuracy(Experiment):
                                    note=lambda row: f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} "
                                                     f"dB, largest error {format_number(row.max_error)}")
                 for scene, group in ok.groupby("scene")]
-        unavailable = [{"backend": info.name, "reason": info.reason} for info in renderers.available() if not info.available]
-        if unavailable:
-            out.append(blocks.Table("Backends that cannot run here", pd.DataFrame(unavailable)))
+        # From the runs' records, not a probe of the machine that builds the report (which may be another, and
+        # whose probe of VTK's offscreen context crashed a report process holding a moderngl context).
+        unavailable = results[results.get("cause", pd.Series("", index=results.index)) == "unavailable"]
+        if not unavailable.empty:
+            out.append(blocks.Table("Backends that could not run on the machine that rendered",
+                                    unavailable.drop_duplicates("backend")[["backend", "reason"]]))
         return out
 
 
@@ -219,6 +221,17 @@ def _speed_title(scene, group, psnr_min=takeaways.PSNR_GOOD):
         return f"{scene}: no setting reaches {psnr_min:g} dB (best {format_number(group.psnr.max())} dB)"
     best = accurate.loc[accurate.time_ms.idxmin()]
     return f"{scene}: {psnr_min:g} dB at {format_number(best.time_ms)} ms with {best.technique}"
+
+
+NOT_FRAME_STAGES = ("time_total", "time_ms", "time_first_frame", "time_technique")
+"""Time columns that are no stage of a frame: the frame itself, the cold first frame (compilation, first uploads),
+and ``technique``, the sum of the stages that are the technique (stacked, it would count them twice)."""
+
+
+def _frame_stages(ok):
+    """The stage columns of ``ok`` a frame's time is split into."""
+    return [c for c in ok.columns if c.startswith("time_") and c not in NOT_FRAME_STAGES
+            and not c.endswith(("_min", "_max"))]
 
 
 def _stage_shares(ok, stages):
@@ -235,8 +248,7 @@ def _stage_title(ok, stages):
 
 
 def _stage_takeaways(ok):
-    stages = [c for c in ok.columns if c.startswith("time_") and c not in ("time_total", "time_ms")
-              and not c.endswith(("_min", "_max"))]
+    stages = _frame_stages(ok)
     shares = _stage_shares(ok, stages) if stages else pd.Series(dtype=float)
     if shares.empty:
         return []
