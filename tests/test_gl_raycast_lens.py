@@ -107,6 +107,23 @@ def test_the_other_gl_backends_still_refuse_lenses(backend):
 
 
 @needs_gl
+def test_a_lens_scene_renders_with_the_default_options_in_the_single_pass_variant_and_says_so():
+    """The default variant (rc-b) renders no lens: asked for nothing, a lens scene gets single-pass, the record names
+    the choice, and the image is single-pass's; the next scene without a lens is rc-b's again."""
+    scene = scene_of(Lens(appearance=CLIP, **SHAPES["sphere"]))
+    default = renderers.get("gl-raycast").render(scene)
+    chosen = renderers.get("gl-raycast", variant="single-pass").render(scene)
+    assert default.info["variant"] == "single-pass" and "default variant rc-b renders no lens" in \
+        default.info["variant_chosen"]
+    assert "variant_chosen" not in chosen.info
+    np.testing.assert_array_equal(default.image, chosen.image)
+    caster = renderers.get("gl-raycast")
+    caster.render(scene)
+    plain = caster.render(scene_of())
+    assert plain.info["variant"] == "rc-b" and "variant_chosen" not in plain.info
+
+
+@needs_gl
 @pytest.mark.parametrize("variant", ["rc", "rc-a", "rc-b"])
 def test_a_multi_pass_variant_refuses_a_lens_naming_itself_and_what_is_to_come(variant):
     with pytest.raises(UnsupportedFeatureError, match=f"variant '{variant}'.*not cut at a lens.*single-pass"):

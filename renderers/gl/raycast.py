@@ -88,8 +88,9 @@ lens interval per ray, one loop over the three segments), ``per-sample`` (an ins
 sample), ``per-sample-mask`` (a 3-D mask fetch per sample), ``frag-depth`` (per-sample depth
 comparison, writing ``gl_FragDepth``). The samples stay on the no-lens lattice, so a lens with
 the outside appearance changes nothing. ``mip`` and ``iso`` lenses need ``segments`` or ``fused``.
-The multi-pass variants refuse lenses (:class:`~core.errors.UnsupportedFeatureError`) before any
-work. Lens frames add the stages ``lens_geometry``, ``region0``–``region2`` (or ``main``), the
+A lens scene rendered with the default options gets the ``single-pass`` variant, and its record says so
+(``info["variant_chosen"]``); a multi-pass variant asked for by name refuses a lens
+(:class:`~core.errors.UnsupportedFeatureError`) before any work. Lens frames add the stages ``lens_geometry``, ``region0``–``region2`` (or ``main``), the
 preparation ``lens_mask`` (``per-sample-mask``) and the counters ``samples_region0``–``2``,
 ``lens_rays`` (rays whose lens segment inside the box is not empty; not for the per-sample
 methods, which never compute it) and ``fragments_shaded`` (volume-pass shader invocations: with
@@ -458,9 +459,10 @@ class GLRaycastRenderer(GLRenderer):
             "gradient_opacity": "gradient-magnitude opacity modulation is not in the shaders (the paper classifies "
                                 "by scalar only)",
             "meshes": "no polygon pass (added with the Kainz 2009 issue)",
-            "lenses": "one lens, single-pass variant only (every lens method's passes loop from an entry to an "
-                      "exit; the multi-pass variants' M samples per pass are not cut at a lens); mip and iso lenses "
-                      "with lens_method segments or fused only (they need the lens segment whole)",
+            "lenses": "one lens, in the single-pass variant, which a lens scene gets unless it asks for a variant "
+                      "(every lens method's passes loop from an entry to an exit; the multi-pass variants' M samples "
+                      "per pass are not cut at a lens, so they refuse one); mip and iso lenses with lens_method "
+                      "segments or fused only (they need the lens segment whole)",
         },
     )
     option_table = (
@@ -502,6 +504,7 @@ class GLRaycastRenderer(GLRenderer):
     def __init__(self, **options):
         super().__init__(**options)
         lenses.check_region_order(self.region_order, self.lens_method, self.occluder)
+        self._variant_given = "variant" in options
         self._ray_key = None
         self._ray_max = 0.0
         self._lens_key = None
@@ -515,14 +518,14 @@ class GLRaycastRenderer(GLRenderer):
         voxels per axis) after its apron filter's copies of the volume (four float32 arrays).
         """
         super().check(scene)
+        variant = self._variant(scene)
         if scene.lenses:
-            lenses.check_lens(self.name, self.variant, scene.lenses[0], self.variant == "single-pass",
-                              self.lens_method)
-        elif self.occluder > 0 and self.variant not in MULTI_PASS:
+            lenses.check_lens(self.name, variant, scene.lenses[0], variant == "single-pass", self.lens_method)
+        elif self.occluder > 0 and variant not in MULTI_PASS:
             raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
                              f"use a multi-pass variant ({', '.join(MULTI_PASS)}) or a lens scene, not "
-                             f"{self.variant!r} without a lens")
-        if self.variant != "rc-b" or scene.mode == "mip":
+                             f"{variant!r} without a lens")
+        if variant != "rc-b" or scene.mode == "mip":
             return
         volume = scene.volumes[0].volume
         shape = "×".join(map(str, volume.shape_xyz))
@@ -538,20 +541,27 @@ class GLRaycastRenderer(GLRenderer):
 
     # -----------------------------------------------------------------------------------------
 
-    def _programs(self, ctx, mode, phong, lens=None):
-        """The programs of this variant for ``mode``, shading and ``lens`` (compiled once per process)."""
+    def _variant(self, scene):
+        """The variant that renders ``scene``: the one asked for; where none was and the default (a multi-pass
+        variant) cannot render the scene's lens, ``single-pass``, which the record says (``variant_chosen``)."""
+        if scene.lenses and not self._variant_given and self.variant in MULTI_PASS:
+            return "single-pass"
+        return self.variant
+
+    def _programs(self, ctx, variant, mode, phong, lens=None):
+        """The programs of ``variant`` for ``mode``, shading and ``lens`` (compiled once per process)."""
         if lens is not None:
             programs = lens_passes.programs(ctx, lens, self.lens_method, phong=phong, sampling=SAMPLING,
                                             front_to_back=self.region_order == "front-to-back")
         else:
-            main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if self.variant in MULTI_PASS else
+            main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if variant in MULTI_PASS else
                                         SINGLE_PASS_FRAGMENT, phong=phong, mode=mode)
             programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
-        if self.variant in MULTI_PASS:
+        if variant in MULTI_PASS:
             programs["entry"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(ENTRY_FRAGMENT))
             programs["direction"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(DIRECTION_FRAGMENT))
-        if self.variant in ("rc-a", "rc-b"):
-            skip = self.variant == "rc-b" and mode != "mip"
+        if variant in ("rc-a", "rc-b"):
+            skip = variant == "rc-b" and mode != "mip"
             source = glsl.fragment_source(INTERMEDIATE_FRAGMENT, mode=mode, defines=["SKIP_EMPTY"] if skip else [])
             programs["intermediate"] = context.program(ctx, glsl.CUBE_VERTEX, source)
         if mode == "mip":
@@ -609,7 +619,8 @@ class GLRaycastRenderer(GLRenderer):
             raise InputError("gl-raycast option occluder: an opaque plane does not stop a maximum-intensity "
                              "projection; use occluder=0 in mip mode")
         phong = scene.shading.model == "phong" and mode != "mip"
-        skip = self.variant == "rc-b" and mode != "mip"
+        variant = self._variant(scene)
+        skip = variant == "rc-b" and mode != "mip"
         ctx, prep = self._begin_frame(scene)
         cache = self._cache
         scalars = cache.scalars(instance.volume, prep)
@@ -627,7 +638,7 @@ class GLRaycastRenderer(GLRenderer):
             textures["u_lens_tf"] = cache.transfer_function(self._lens_table(lens, instance), prep)
         if lens is not None and self.lens_method == "per-sample-mask":
             textures["u_lens_mask"] = cache.lens_mask(instance, lens, prep)
-        programs = self._programs(ctx, mode, phong, lens)
+        programs = self._programs(ctx, variant, mode, phong, lens)
 
         start = time.perf_counter()
         view = make_view(scene, self.step_factor)
@@ -673,13 +684,13 @@ class GLRaycastRenderer(GLRenderer):
         if lens is not None:
             passes_main, passes_intermediate, counter = 1, 0, None
             output, lens_counts = self._lens_frame(ctx, timer, programs, targets, scene, view, lens)
-        elif self.variant == "single-pass":
+        elif variant == "single-pass":
             passes_main, passes_intermediate = 1, 0
             counter = self._single_pass(ctx, timer, programs, targets)
         else:
             counter = None
             passes_main = -(-cells // self.samples_per_pass)
-            passes_intermediate = max(passes_main - 1, 0) if self.variant != "rc" else 0
+            passes_intermediate = max(passes_main - 1, 0) if variant != "rc" else 0
             self._multi_pass(ctx, timer, programs, targets, mode, passes_main, passes_intermediate)
         if lens is None:
             output = targets["res"]
@@ -714,7 +725,7 @@ class GLRaycastRenderer(GLRenderer):
             "rays": int(rays),
             "fragments_main": int(sum(main_counts)),
             "fragments_intermediate": int(sum(fragments.get("intermediate", []))),
-            "fragments_culled": int(passes_main * rays - sum(main_counts)) if self.variant in MULTI_PASS else 0,
+            "fragments_culled": int(passes_main * rays - sum(main_counts)) if variant in MULTI_PASS else 0,
             "passes_main": passes_main,
             "passes_intermediate": passes_intermediate,
             "samples": samples,
@@ -733,7 +744,7 @@ class GLRaycastRenderer(GLRenderer):
             counters.update({f"fragments_{stage}": int(sum(fragments.get(stage, []))) for stage in stages
                              if stage.startswith("region")})
         info = {
-            "variant": self.variant,
+            "variant": variant,
             "step": step,
             "step_factor": self.step_factor,
             "samples_per_pass": self.samples_per_pass,
@@ -745,6 +756,9 @@ class GLRaycastRenderer(GLRenderer):
             "empty_space_skipping": skip,
             "shading_applied": phong,
         }
+        if variant != self.variant:
+            info["variant_chosen"] = (f"{variant}: the default variant {self.variant} renders no lens (its M samples "
+                                      "per pass are not cut at one)")
         if lens is not None:
             info["lens"] = f"{lens.shape} {lens.appearance.mode}"
             info["lens_method"] = self.lens_method
