@@ -22,6 +22,7 @@ TIMING_CLAIM = ("volbench-speed-accuracy", "tradeoff")
 RANKING_CLAIMS = {("volbench-speed-accuracy", f"ranking-{scene}")
                   for scene in ("skull-bone", "engine-semi", "skull-mip", "foot-iso")}
 """The index's ranking per scene: each reads the contenders' timings."""
+EXACT_ISO_CLAIM = ("volbench-speed-accuracy", "exact-iso-beats-oversampling")
 
 
 @pytest.fixture(scope="module")
@@ -170,7 +171,8 @@ def test_the_claims_are_the_same_with_the_same_verdicts_but_for_timing_claims(fo
 def test_timing_claims_are_found_by_their_judgement_on_other_timings(original, tmp_path):
     frame = compare.read_runs(original)
     experiments = [get(name) for name in EXPERIMENTS]
-    assert compare.varying_claims(frame, experiments, workdir=tmp_path) == {TIMING_CLAIM, *RANKING_CLAIMS}
+    assert compare.varying_claims(frame, experiments, workdir=tmp_path) == {TIMING_CLAIM, EXACT_ISO_CLAIM,
+                                                                            *RANKING_CLAIMS}
 
 
 def test_claims_judged_with_the_values_of_another_run(folders, tmp_path):
@@ -237,7 +239,7 @@ def test_the_script_prints_the_differences_and_exits_1_when_there_are_any(folder
     script = [str(ROOT / "scripts" / "compare-results")]
     same = subprocess.run([*script, str(a), str(b)], capture_output=True, text=True, timeout=120)
     assert same.returncode == 0, same.stderr
-    assert same.stdout == ("verdicts: 8 of 8 claims (100.0 %) have the same verdict; of the 5 that read timings, 5 "
+    assert same.stdout == ("verdicts: 9 of 9 claims (100.0 %) have the same verdict; of the 6 that read timings, 6 "
                            "(100.0 %); 0 changed to or from inconclusive\n"
                            f"{a} and {b}: the same runs, images, claims (no timing claim flipped) and phantoms\n")
     _edit_csv(b / "claims.csv", lambda frame: frame.assign(verdict=frame.verdict.where(frame.claim != "monotone", "fails")))
@@ -260,7 +262,7 @@ def test_a_timing_claim_that_flips_is_a_difference_and_one_that_turns_inconclusi
     assert compare.main([str(a), str(b)]) == 0
     out = capsys.readouterr().out
     assert f"changed to inconclusive: {experiment}/{claim}: holds in {a}" in out
-    assert "verdicts: 7 of 8 claims (87.5 %) have the same verdict; of the 5 that read timings, 4 (80.0 %); 1 changed" in out
+    assert "verdicts: 8 of 9 claims (88.9 %) have the same verdict; of the 6 that read timings, 5 (83.3 %); 1 changed" in out
     _edit_csv(b / "claims.csv", lambda frame: frame.assign(verdict=frame.verdict.where(frame.claim != claim, "fails")))
     assert compare.claim_differences(a, b) == []  # the verdicts of timing claims are timing_flips' to compare
     [flip] = compare.timing_flips(a, b)

@@ -74,12 +74,16 @@ def test_registered_with_its_options_and_sweep():
     backend = GLRaycastRenderer(variant="rc-a", samples_per_pass=4)
     assert backend.options["variant"] == "rc-a" and backend.options["samples_per_pass"] == 4
     assert backend.options["opaque_threshold"] == 0.95 and backend.options["block_size"] == 8
-    sweep = GLRaycastRenderer.quality_sweep
+    sweep = GLRaycastRenderer.quality_sweep_for("dvr")
     steps = [s["step_factor"] for s in sweep if "step_factor" in s]
     assert len(steps) >= 2 and steps == sorted(steps, reverse=True)
-    # Every speed–accuracy option of the caster appears, each once.
+    # Every speed–accuracy option of the caster appears, each once; the iso hit's only where it changes something.
     swept = {name for options in sweep for name in options}
     assert swept == {"step_factor", "opaque_threshold", "samples_per_pass", "block_size"} and len(sweep) <= 8
+    iso = GLRaycastRenderer.quality_sweep_for("iso")
+    assert iso[:len(sweep)] == sweep and {name for options in iso for name in options} - swept == {"iso_hit",
+                                                                                                   "iso_refine"}
+    sweep = iso
     for options in sweep:
         GLRaycastRenderer(**options)
 

@@ -46,10 +46,12 @@ EXPECTED_OPTIONS = {
                  "effective_threads": VTK_THREADS},
                 [{"step_factor": 1.0}, {"step_factor": 0.5}, {}]),
     "gl-raycast": ({"variant": "rc-b", "step_factor": 0.5, "samples_per_pass": 8, "opaque_threshold": 0.95,
-                    "block_size": 8, "min_opacity": 0.0, "iso_refine": 6, "occluder": 0.0, "lens_method": "segments",
-                    "region_order": "back-to-front", "timing": "auto", "effective_step": None, "effective_timing": None},
+                    "block_size": 8, "min_opacity": 0.0, "iso_hit": "sampled", "iso_refine": 6, "occluder": 0.0,
+                    "lens_method": "segments", "region_order": "back-to-front", "timing": "auto",
+                    "effective_step": None, "effective_timing": None},
                    [{"step_factor": 1.0}, {}, {"step_factor": 0.25}, {"opaque_threshold": 0.8},
-                    {"opaque_threshold": 1.0}, {"samples_per_pass": 2}, {"samples_per_pass": 32}, {"block_size": 16}]),
+                    {"opaque_threshold": 1.0}, {"samples_per_pass": 2}, {"samples_per_pass": 32}, {"block_size": 16},
+                    {"iso_refine": 0}, {"iso_hit": "exact", "step_factor": 1.0}, {"iso_hit": "exact"}]),
     "gl-slicer": ({"step_factor": 0.5, "order": "back-to-front", "count_contributing": True, "timing": "auto",
                    "effective_step": None, "effective_timing": None},
                   [{"step_factor": 1.0}, {}, {"step_factor": 0.25}]),
@@ -242,6 +244,17 @@ def test_the_table_makes_constructor_attributes_record_and_docs():
     with pytest.raises(InputError, match=r"^backend 'toy': unknown options lvl, tracing; valid options: level, mode, "
                                          r"trace, render$"):
         Toy(lvl=1, tracing=True)
+
+
+def test_a_sweep_setting_of_another_modes_option_is_left_out_of_that_modes_sweep():
+    class Swept(Toy):
+        option_table = (*Toy.option_table, Option("iso_only", int, 0, "Iso-surfaces only.", low=0,
+                                                  modes=frozenset({"iso"})))
+        quality_sweep = ({"level": 1}, {"level": 1, "iso_only": 2}, {"iso_only": 3})
+
+    assert Swept.quality_sweep_for("dvr") == ({"level": 1},)
+    assert Swept.quality_sweep_for("iso") == Swept.quality_sweep
+    assert Toy.quality_sweep_for("mip") == ({},)
 
 
 def test_a_docstring_without_sections_gets_the_parameters_at_the_end():

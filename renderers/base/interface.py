@@ -148,12 +148,21 @@ class Renderer(abc.ABC):
     graphics_stack = None
     """The OpenGL stack the backend renders through in its process (``"moderngl"``, ``"vtk"``), or ``None``.
     Two stacks in one process do not mix: a job timing vtk-gpu beside a moderngl backend rendered every
-    image of both empty (llvmpipe, measured), so the pipeline refuses an interleave group that mixes them."""
+    image of both empty (llvmpipe, measured), so an interleave group that mixes them is timed in a process per
+    stack (:func:`pipeline.experiments.stack_parts`)."""
 
     scheduling_dependent = ()
     """Names of counters and info entries whose values follow how threads or work-items were
     scheduled, not only the scene and options: they may differ from run to run (and between a
     loaded and an idle machine) where the image does not. Comparisons of two runs leave them out."""
+
+    @classmethod
+    def quality_sweep_for(cls, mode):
+        """The settings of :attr:`quality_sweep` that change something in ``mode``: a setting that varies an option
+        of other modes only (:attr:`Option.modes <renderers.base.options.Option.modes>`) would repeat another."""
+        modes = {option.name: option.modes for option in cls.option_table}
+        return tuple(setting for setting in cls.quality_sweep
+                     if all(modes.get(name) is None or mode in modes[name] for name in setting))
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)

@@ -50,6 +50,9 @@ class Option:
         The backend attribute that holds the value where it cannot be ``name`` (a method has it).
     recorded : bool
         Whether the ``options`` record (every result's, runs.csv's ``option_*`` columns) has it.
+    modes : frozenset of str, optional
+        The render modes in which the option changes anything (``None``: every mode). A quality-sweep setting that
+        varies an option of other modes only repeats another (:meth:`renderers.base.Renderer.quality_sweep_for`).
     """
 
     name: str
@@ -64,6 +67,7 @@ class Option:
     check: Callable | None = None
     attribute: str | None = None
     recorded: bool = True
+    modes: frozenset | None = None
 
     @property
     def holder(self):

@@ -35,7 +35,11 @@ Modes
   of the segment. A crossing is a change of ``s < isovalue`` from its state at the box entry (the
   reference's definition). The hit is then refined by ``iso_refine`` bisection steps inside its
   cell (the paper takes the sample itself), shaded once (gradient texture, Blinn–Phong) and
-  written with opacity 1, which ends the ray at the next intermediate pass.
+  written with opacity 1, which ends the ray at the next intermediate pass. A crossing that lies
+  between two samples (a sheet or vessel thinner than a step) is missed. With ``iso_hit='exact'``
+  each pass instead walks every lattice cell of its segment and resolves the first crossing on
+  the trilinear interpolant, as the reference does (:mod:`renderers.gl.isocells`): nothing is
+  stepped over, and the step only sets how many passes a ray takes.
 * ``mip``: passes keep the largest sampled scalar (cell samples plus both ends of the ray) with
   ``GL_MAX`` blending; a resolve pass classifies it (no correction, no shading, as the reference).
   Only ray exits end rays early: a block of transparent voxels can still hold the maximum, so
@@ -117,16 +121,17 @@ import time
 
 import numpy as np
 
-from core.errors import InputError
+from core.errors import InputError, UnsupportedFeatureError
 from core.resources import check_memory
 from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.gl import context, emptyspace, glsl
 from renderers.gl import lens as lenses
-from renderers.gl import lens_passes, stencil
+from renderers.gl import isocells, lens_passes, stencil
 from renderers.gl.base import TIMING, GLRenderer, set_uniforms
 from renderers.gl.view import SLIVER, make_view, ray_lengths
 
 VARIANTS = ("rc", "rc-a", "rc-b", "single-pass")
+ISO_HITS = ("sampled", "exact")
 MULTI_PASS = ("rc", "rc-a", "rc-b")
 
 # Texture units, fixed for every program of the backend.
@@ -216,6 +221,15 @@ bool crossed(vec3 start, vec3 dir, float t, bool below) {
     return (scalar_at(start + t * dir) < u_iso) != below;
 }
 
+// The surface at p: the transfer function's colour at the isovalue, shaded; opacity 1.
+vec4 iso_shade(vec3 p, vec3 ray_dir) {
+    vec3 rgb = classify(u_iso).rgb;
+#ifdef PHONG
+    rgb = shade(rgb, p, ray_dir);
+#endif
+    return vec4(rgb, 1.0);
+}
+
 // The surface inside [lo, hi] (lo not crossed, hi crossed), refined and shaded; opacity 1.
 vec4 iso_hit(vec3 start, vec3 dir, float lo, float hi, bool below, vec3 ray_dir) {
     for (int j = 0; j < u_refine; j++) {
@@ -226,12 +240,11 @@ vec4 iso_hit(vec3 start, vec3 dir, float lo, float hi, bool below, vec3 ray_dir)
             lo = mid;
         }
     }
-    vec3 rgb = classify(u_iso).rgb;
-#ifdef PHONG
-    rgb = shade(rgb, start + 0.5 * (lo + hi) * dir, ray_dir);
-#endif
-    return vec4(rgb, 1.0);
+    return iso_shade(start + 0.5 * (lo + hi) * dir, ray_dir);
 }
+#ifdef ISO_EXACT
+""" + isocells.CELL_WALK + """
+#endif
 #endif
 """
 
@@ -271,6 +284,17 @@ void main() {
         best = max(best, scalar_at(start + dir.a * dir.xyz));   // the exit face
     }
     o_color = vec4(best, 1.0, 0.0, 0.0);            // GL_MAX blending
+#elif defined(ISO_EXACT)
+    // Every cell of this pass's segment resolved: its first crossing, wherever it lies between samples.
+    float a = float(u_first) * u_step;
+    o_color = vec4(0.0);
+    if (a < dir.a) {
+        float t = iso_first_crossing(start, dir.xyz, a, min(a + float(u_samples) * u_step, dir.a),
+                                     scalar_exact(start) < u_iso);
+        if (t < ISO_FAR) {
+            o_color = iso_shade(start + t * dir.xyz, ray_dir);
+        }
+    }
 #else
     bool below = scalar_at(start) < u_iso;
     int hit = -1;
@@ -405,6 +429,11 @@ void main() {
         taken++;
     }
     o_color = vec4(best, len > 0.0 ? 1.0 : 0.0, 0.0, 0.0);
+#elif defined(ISO_EXACT)
+    iso_cells = 0;
+    float t = len > 0.0 ? iso_first_crossing(start, d, 0.0, len, scalar_exact(start) < u_iso) : ISO_FAR;
+    taken = uint(iso_cells);
+    o_color = t < ISO_FAR ? iso_shade(start + t * d, ray_dir) : vec4(0.0);
 #else
     bool below = scalar_at(start) < u_iso;
     o_color = vec4(0.0);
@@ -477,8 +506,15 @@ class GLRaycastRenderer(GLRenderer):
         Option("block_size", int, 8, "Edge of the min–max grid's blocks in voxels (paper: 8; ``rc-b``).", low=1),
         Option("min_opacity", float, 0.0, "Transfer-function opacities at or below it count as empty for skipping "
                "(``rc-b``); the paper's 0 makes skipping exact.", low=0, high=1, high_open=True),
-        Option("iso_refine", int, 6, "Bisection steps refining an iso hit inside its cell (0: the sample itself, as "
-               "the paper); more than 24 refine below float32 resolution.", low=0, high=24),
+        Option("iso_hit", str, "sampled", "How an iso-surface ray finds its hit: ``sampled``, the paper's test of "
+               "``s < isovalue`` at the cell ends, refined by ``iso_refine`` (a crossing between two samples is "
+               "missed); ``exact``, every lattice cell the ray crosses resolved on the trilinear interpolant, as the "
+               "reference (:mod:`renderers.gl.isocells`; the step then only sets the passes, and a single-pass "
+               "frame's ``samples`` counts the cell segments walked). Not with a lens yet.",
+               choices=ISO_HITS, modes=frozenset({"iso"})),
+        Option("iso_refine", int, 6, "Bisection steps refining a sampled iso hit inside its cell (0: the sample "
+               "itself, as the paper); more than 24 refine below float32 resolution.", low=0, high=24,
+               modes=frozenset({"iso"})),
         Option("occluder", float, 0.0, "Fraction of the box's screen footprint, from the left, hidden behind an "
                "opaque plane drawn before the main passes (the paper's early-z demonstration; 0: none). The "
                "covered pixels show the plane's grey, so images compare with the reference only at 0.",
@@ -496,10 +532,13 @@ class GLRaycastRenderer(GLRenderer):
     )
     quality_sweep = (tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
                      + ({"opaque_threshold": 0.8}, {"opaque_threshold": 1.0}, {"samples_per_pass": 2},
-                        {"samples_per_pass": 32}, {"block_size": 16}))
+                        {"samples_per_pass": 32}, {"block_size": 16})
+                     + ({"iso_refine": 0}, {"iso_hit": "exact", "step_factor": 1.0}, {"iso_hit": "exact"}))
     """Step sizes from coarse to fine for the default variant (``rc-b``), then at the default step each
     other option that trades speed for error or overhead: the early-termination threshold (0.8 drops
-    up to 20 % of a ray's light, 1 none), the samples per pass M and the block size."""
+    up to 20 % of a ray's light, 1 none), the samples per pass M and the block size; on iso-surfaces also
+    the paper's unrefined hit and the exact one (at step 1 and at the default step, which then only sets
+    the passes)."""
 
     def __init__(self, **options):
         super().__init__(**options)
@@ -521,6 +560,10 @@ class GLRaycastRenderer(GLRenderer):
         variant = self._variant(scene)
         if scene.lenses:
             lenses.check_lens(self.name, variant, scene.lenses[0], variant == "single-pass", self.lens_method)
+            if self.iso_hit == "exact" and "iso" in (scene.mode, scene.lenses[0].appearance.mode):
+                raise UnsupportedFeatureError(self.name, "iso_hit='exact' with a lens",
+                                              "the lens passes find iso hits by sampling; the cell walk is not in "
+                                              "them yet: use iso_hit='sampled'")
         elif self.occluder > 0 and variant not in MULTI_PASS:
             raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
                              f"use a multi-pass variant ({', '.join(MULTI_PASS)}) or a lens scene, not "
@@ -554,8 +597,9 @@ class GLRaycastRenderer(GLRenderer):
             programs = lens_passes.programs(ctx, lens, self.lens_method, phong=phong, sampling=SAMPLING,
                                             front_to_back=self.region_order == "front-to-back")
         else:
+            exact = ["ISO_EXACT"] if mode == "iso" and self.iso_hit == "exact" else []
             main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if variant in MULTI_PASS else
-                                        SINGLE_PASS_FRAGMENT, phong=phong, mode=mode)
+                                        SINGLE_PASS_FRAGMENT, phong=phong, mode=mode, defines=exact)
             programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
         if variant in MULTI_PASS:
             programs["entry"] = context.program(ctx, glsl.CUBE_VERTEX, glsl.fragment_source(ENTRY_FRAGMENT))
@@ -756,6 +800,8 @@ class GLRaycastRenderer(GLRenderer):
             "empty_space_skipping": skip,
             "shading_applied": phong,
         }
+        if mode == "iso":
+            info["iso_hit"] = self.iso_hit
         if variant != self.variant:
             info["variant_chosen"] = (f"{variant}: the default variant {self.variant} renders no lens (its M samples "
                                       "per pass are not cut at one)")
