@@ -10,12 +10,13 @@ piece whose end changes state holds the crossing, which is bisected to float32's
 (Marmitt et al. 2004 solve the cubic the same way after a min–max test of the cell). The corners are fetched
 (``texelFetch``) and blended in float32: the texture unit's trilinear filter weights have 8 fractional bits on
 most GPUs, too coarse for a crossing within 1e-4 voxel. A cell whose range does not reach across the isovalue
-costs its eight fetches and no more.
+costs its eight fetches and no more. The hit's normal is the reference's gradient (central differences one voxel
+apart of the same trilinear field), blended the same way, not the half-float gradient texture.
 
 :data:`CELL_WALK` defines ``iso_first_crossing(start, dir, t_lo, t_hi, below)`` (``ISO_FAR`` where there is
 no crossing), ``scalar_exact(p)`` (the ray's entry state, blended as the walk blends) and the counter
-``iso_cells`` (cell segments walked). It needs :data:`renderers.gl.glsl.COMMON` (``u_volume``,
-``u_value_map``) and the uniform ``u_iso``.
+``iso_cells`` (cell segments walked) and ``gradient_exact(p)``. It needs :data:`renderers.gl.glsl.COMMON`
+(``u_volume``, ``u_value_map``, ``u_extent``) and the uniform ``u_iso``.
 """
 
 CELL_WALK = """
@@ -194,5 +195,16 @@ float scalar_exact(vec3 p) {
                           corner_value(ivec3(i0.x, i0.y, i1.z)), corner_value(ivec3(i1.x, i0.y, i1.z)),
                           corner_value(ivec3(i0.x, i1.y, i1.z)), corner_value(ivec3(i1.x, i1.y, i1.z)));
     return iso_blend(k, f);
+}
+
+// The field's gradient at p as the reference defines it (central differences one voxel apart of the trilinear
+// field, clamp-to-edge, over the spacing), from fetched corners: the hit's normal.
+vec3 gradient_exact(vec3 p) {
+    vec3 n = vec3(textureSize(u_volume, 0));
+    vec3 e = 1.0 / n;
+    vec3 spacing = u_extent / n;
+    return vec3(scalar_exact(p + vec3(e.x, 0.0, 0.0)) - scalar_exact(p - vec3(e.x, 0.0, 0.0)),
+                scalar_exact(p + vec3(0.0, e.y, 0.0)) - scalar_exact(p - vec3(0.0, e.y, 0.0)),
+                scalar_exact(p + vec3(0.0, 0.0, e.z)) - scalar_exact(p - vec3(0.0, 0.0, e.z))) / (2.0 * spacing);
 }
 """

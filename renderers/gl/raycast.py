@@ -216,6 +216,9 @@ void composite_sample(vec3 start, vec3 dir, float t, float ratio, vec3 ray_dir, 
 #ifdef MODE_ISO
 uniform float u_iso;
 uniform int u_refine;
+#ifdef ISO_EXACT
+""" + isocells.CELL_WALK + """
+#endif
 
 bool crossed(vec3 start, vec3 dir, float t, bool below) {
     return (scalar_at(start + t * dir) < u_iso) != below;
@@ -224,7 +227,9 @@ bool crossed(vec3 start, vec3 dir, float t, bool below) {
 // The surface at p: the transfer function's colour at the isovalue, shaded; opacity 1.
 vec4 iso_shade(vec3 p, vec3 ray_dir) {
     vec3 rgb = classify(u_iso).rgb;
-#ifdef PHONG
+#if defined(PHONG) && defined(ISO_EXACT)
+    rgb = blinn_phong(rgb, u_normal_matrix * gradient_exact(p), ray_dir);
+#elif defined(PHONG)
     rgb = shade(rgb, p, ray_dir);
 #endif
     return vec4(rgb, 1.0);
@@ -242,9 +247,6 @@ vec4 iso_hit(vec3 start, vec3 dir, float lo, float hi, bool below, vec3 ray_dir)
     }
     return iso_shade(start + 0.5 * (lo + hi) * dir, ray_dir);
 }
-#ifdef ISO_EXACT
-""" + isocells.CELL_WALK + """
-#endif
 #endif
 """
 
@@ -670,7 +672,7 @@ class GLRaycastRenderer(GLRenderer):
         scalars = cache.scalars(instance.volume, prep)
         textures = {"u_volume": scalars.texture,
                     "u_tf": cache.transfer_function(instance.transfer_function, prep)}
-        if phong:
+        if phong and not (mode == "iso" and self.iso_hit == "exact"):  # the exact hit computes its own normal
             textures["u_gradient"] = cache.gradients(instance.volume, prep)
         block_count = (1, 1, 1)
         if skip:
