@@ -92,13 +92,19 @@ def reference_crossings(volume, base, slope, iso):
                      for b, s in zip(base, slope)])
 
 
+def random_rays(seed, shape, count=512):
+    """``(volume, base, slope)``: a random volume of ``shape`` (z, y, x) and ``count`` random rays through and
+    around it, in its lattice coordinates."""
+    rng = np.random.default_rng(seed)
+    volume = rng.uniform(0.0, 1.0, shape)
+    base = rng.uniform(-0.5, np.array(shape[::-1]) - 0.5, (count, 3))
+    return volume, base, rng.normal(0.0, 2.5, (count, 3))
+
+
 @needs_gl
 def test_the_crossing_is_the_references_within_a_ten_thousandth_of_a_voxel_on_random_cells():
-    rng = np.random.default_rng(7)
-    volume = rng.uniform(0.0, 1.0, (5, 4, 6))
-    count = 512
-    base = rng.uniform(-0.5, [5.5, 3.5, 4.5], (count, 3))
-    slope = rng.normal(0.0, 2.5, (count, 3))
+    volume, base, slope = random_rays(7, (5, 4, 6))
+    count = len(base)
     gl, cells, _ = gl_crossings(volume, base, slope, 0.5)
     ref = reference_crossings(volume, base, slope, 0.5)
     both = np.isfinite(ref) & np.isfinite(gl)
@@ -113,11 +119,8 @@ def test_the_crossing_is_the_references_within_a_ten_thousandth_of_a_voxel_on_ra
 def test_the_normal_at_the_hit_is_the_references_within_half_a_degree():
     """The reference's normal: central differences one voxel apart of the trilinear field at its hit. Where the
     gradient is nearly zero (a saddle) its direction is undefined, so hits with |∇s| < 0.05 per voxel are left out."""
-    rng = np.random.default_rng(11)
-    volume = rng.uniform(0.0, 1.0, (6, 5, 7))
-    count = 512
-    base = rng.uniform(-0.5, [6.5, 4.5, 5.5], (count, 3))
-    slope = rng.normal(0.0, 2.5, (count, 3))
+    volume, base, slope = random_rays(11, (6, 5, 7))
+    count = len(base)
     gl, _, normal = gl_crossings(volume, base, slope, 0.5)
     ref = reference_crossings(volume, base, slope, 0.5)
     nz, ny, nx = volume.shape
