@@ -143,7 +143,8 @@ class SpeedAccuracy(Experiment):
         "against the reference at 1/16 voxel, time is the median frame after warm-up. Every "
         "technique's settings on a scene are timed together, interleaved round by round in each of "
         "the profile's replicate processes, so the index's ranking compares like with like and its "
-        "ratios have intervals. Backends that cannot run here are listed with the reason."
+        "ratios have intervals. A backend that could not run, or lacks a scene's mode, is listed below "
+        "with the reason its runs recorded."
     )
     TRUTH_FACTOR = 1 / 16
 
@@ -235,12 +236,6 @@ class SpeedAccuracy(Experiment):
                                    note=lambda row: f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} "
                                                     f"dB, largest error {format_number(row.max_error)}")
                 for scene, group in ok.groupby("scene")]
-        # From the runs' records, not a probe of the machine that builds the report (which may be another, and
-        # whose probe of VTK's offscreen context crashed a report process holding a moderngl context).
-        unavailable = results[results.get("cause", pd.Series("", index=results.index)) == "unavailable"]
-        if not unavailable.empty:
-            out.append(blocks.Table("Backends that could not run on the machine that rendered",
-                                    unavailable.drop_duplicates("backend")[["backend", "reason"]]))
         return out
 
 
