@@ -61,17 +61,18 @@ def render(args):
     for replicate in range(replicates):
         # Alternate the order between processes: the first arm of a round (or part) is not always the same one.
         order = range(len(parts)) if replicate % 2 == 0 else reversed(range(len(parts)))
-        outcomes, here = [], []
+        outcomes, here, attempt = [], [], {}
         for index in order:
             part = parts[index] if replicate % 2 == 0 else parts[index][::-1]
             outcomes += _render_once(args, json.dumps(part), workers, avoid=used[index] + here, own_process=separate)
             if separate:
-                pids = [(record.get("harness") or {}).get("pid")
-                        for record in _read_records(args.profile, part).values() if record]
+                records = _read_records(args.profile, part)
+                attempt.update(records)
+                pids = [(record.get("harness") or {}).get("pid") for record in records.values() if record]
                 used[index] += pids
                 here += pids
         if replicates > 1:
-            attempts.append(_read_records(args.profile, everything))
+            attempts.append(attempt)
         if any(outcome["status"] == "failed" for outcome in outcomes):
             break
     if replicates > 1:
