@@ -14,8 +14,8 @@ costs its eight fetches and no more. The hit's normal is the reference's gradien
 apart of the same trilinear field), blended the same way, not the half-float gradient texture.
 
 :data:`CELL_WALK` defines ``iso_first_crossing(start, dir, t_lo, t_hi, below)`` (``ISO_FAR`` where there is
-no crossing), ``scalar_exact(p)`` (the ray's entry state, blended as the walk blends) and the counter
-``iso_cells`` (cell segments walked) and ``gradient_exact(p)``. It needs :data:`renderers.gl.glsl.COMMON`
+no crossing), ``scalar_exact(p)`` (the ray's entry state, blended as the walk blends), ``gradient_exact(p)`` (the hit's normal)
+and the counter ``iso_cells`` (cell segments walked). It needs :data:`renderers.gl.glsl.COMMON`
 (``u_volume``, ``u_value_map``, ``u_extent``) and the uniform ``u_iso``.
 """
 
@@ -26,6 +26,14 @@ int iso_cells;                   // cell segments walked by this invocation (the
 
 float corner_value(ivec3 c) {
     return texelFetch(u_volume, c, 0).r * u_value_map.x + u_value_map.y;
+}
+
+// The eight corners of the cell from voxel i0 to voxel i1 (equal on a clamped axis), x fastest.
+float[8] cell_corners(ivec3 i0, ivec3 i1) {
+    return float[8](corner_value(ivec3(i0.x, i0.y, i0.z)), corner_value(ivec3(i1.x, i0.y, i0.z)),
+                    corner_value(ivec3(i0.x, i1.y, i0.z)), corner_value(ivec3(i1.x, i1.y, i0.z)),
+                    corner_value(ivec3(i0.x, i0.y, i1.z)), corner_value(ivec3(i1.x, i0.y, i1.z)),
+                    corner_value(ivec3(i0.x, i1.y, i1.z)), corner_value(ivec3(i1.x, i1.y, i1.z)));
 }
 
 int iso_region(float u, float slope, int n) {
@@ -136,10 +144,7 @@ float iso_first_crossing(vec3 start, vec3 dir, float t_lo, float t_hi, bool belo
         for (int a = 0; a < 3; a++) {
             iso_axis(c[a], n[a], base[a], slope[a], t0, t1, entered[a], leaving[a], i0[a], i1[a], f0[a], f1[a]);
         }
-        float k[8] = float[8](corner_value(ivec3(i0.x, i0.y, i0.z)), corner_value(ivec3(i1.x, i0.y, i0.z)),
-                              corner_value(ivec3(i0.x, i1.y, i0.z)), corner_value(ivec3(i1.x, i1.y, i0.z)),
-                              corner_value(ivec3(i0.x, i0.y, i1.z)), corner_value(ivec3(i1.x, i0.y, i1.z)),
-                              corner_value(ivec3(i0.x, i1.y, i1.z)), corner_value(ivec3(i1.x, i1.y, i1.z)));
+        float k[8] = cell_corners(i0, i1);
         iso_cells += 1;
         float top = max(max(max(k[0], k[1]), max(k[2], k[3])), max(max(k[4], k[5]), max(k[6], k[7])));
         float bottom = min(min(min(k[0], k[1]), min(k[2], k[3])), min(min(k[4], k[5]), min(k[6], k[7])));
@@ -190,11 +195,7 @@ float scalar_exact(vec3 p) {
     i0 = max(i0, ivec3(0));
     ivec3 i1 = min(i0 + 1, n - 1);
     vec3 f = u - vec3(i0);
-    float k[8] = float[8](corner_value(ivec3(i0.x, i0.y, i0.z)), corner_value(ivec3(i1.x, i0.y, i0.z)),
-                          corner_value(ivec3(i0.x, i1.y, i0.z)), corner_value(ivec3(i1.x, i1.y, i0.z)),
-                          corner_value(ivec3(i0.x, i0.y, i1.z)), corner_value(ivec3(i1.x, i0.y, i1.z)),
-                          corner_value(ivec3(i0.x, i1.y, i1.z)), corner_value(ivec3(i1.x, i1.y, i1.z)));
-    return iso_blend(k, f);
+    return iso_blend(cell_corners(i0, i1), f);
 }
 
 // The field's gradient at p as the reference defines it (central differences one voxel apart of the trilinear

@@ -593,13 +593,17 @@ class GLRaycastRenderer(GLRenderer):
             return "single-pass"
         return self.variant
 
+    def _exact_iso(self, mode):
+        """Whether frames of ``mode`` find the iso hit by the cell walk (:mod:`renderers.gl.isocells`)."""
+        return mode == "iso" and self.iso_hit == "exact"
+
     def _programs(self, ctx, variant, mode, phong, lens=None):
         """The programs of ``variant`` for ``mode``, shading and ``lens`` (compiled once per process)."""
         if lens is not None:
             programs = lens_passes.programs(ctx, lens, self.lens_method, phong=phong, sampling=SAMPLING,
                                             front_to_back=self.region_order == "front-to-back")
         else:
-            exact = ["ISO_EXACT"] if mode == "iso" and self.iso_hit == "exact" else []
+            exact = ["ISO_EXACT"] if self._exact_iso(mode) else []
             main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if variant in MULTI_PASS else
                                         SINGLE_PASS_FRAGMENT, phong=phong, mode=mode, defines=exact)
             programs = {"main": context.program(ctx, glsl.CUBE_VERTEX, main)}
@@ -672,7 +676,7 @@ class GLRaycastRenderer(GLRenderer):
         scalars = cache.scalars(instance.volume, prep)
         textures = {"u_volume": scalars.texture,
                     "u_tf": cache.transfer_function(instance.transfer_function, prep)}
-        if phong and not (mode == "iso" and self.iso_hit == "exact"):  # the exact hit computes its own normal
+        if phong and not self._exact_iso(mode):  # the exact hit computes its own normal
             textures["u_gradient"] = cache.gradients(instance.volume, prep)
         block_count = (1, 1, 1)
         if skip:
