@@ -392,9 +392,8 @@ def test_uploads_and_hulls_are_built_once_per_volume_and_classification():
 @needs_cl
 def test_unsupported_mode_and_views_are_refused_before_work(tiled):
     volume = blob()
-    assert "iso" not in ClTiledRenderer.capabilities.modes
-    with pytest.raises(UnsupportedFeatureError, match="iso.*not implemented"):
-        tiled().render(Scene((VolumeInstance(volume, SMOOTH, isovalue=0.5),), mode="iso", width=16, height=16))
+    with pytest.raises(InputError, match="iso mode needs an isovalue"):
+        tiled().render(Scene((VolumeInstance(volume, SMOOTH),), mode="iso", width=16, height=16))
     # An orthographic view whose box projects past the integer edge functions' range.
     far = Scene((VolumeInstance(volume, SMOOTH),), camera=Camera(view_height=1e-4), width=16, height=16)
     with pytest.raises(UnsupportedFeatureError, match="projects beyond"):

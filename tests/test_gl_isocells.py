@@ -5,18 +5,14 @@ thinner than a step) in whole frames."""
 import numpy as np
 import pytest
 
-from core.camera import Camera
 from core.errors import InputError
-from core.scene import Scene, Shading, VolumeInstance
-from core.transfer import TransferFunction
-from core.volume import Volume
 from renderers.base.interface import Renderer
 from renderers.gl import context, glsl, isocells
 from renderers.gl.base import SCREEN_TRIANGLE
 from renderers.gl.raycast import GLRaycastRenderer
-from renderers.reference import raycast as reference_walk
 from renderers.reference.renderer import ReferenceRenderer
 from reports.metrics import psnr
+from iso_shapes import normal_angles, random_rays, reference_crossings, sheet, thin_scene, tube
 from test_gl_raycast import blob, scene_of
 
 GL_OK, GL_REASON = context.probe()
@@ -85,22 +81,6 @@ def gl_crossings(volume, base, slope, iso):
     return np.where(t >= 1e38, np.inf, t), result[:, 1].astype(int), normal
 
 
-def reference_crossings(volume, base, slope, iso):
-    nz, ny, nx = volume.shape
-    flat = np.ascontiguousarray(volume, dtype=float).ravel()
-    return np.array([reference_walk._walk_volume(flat, 0, nx, ny, nz, *b, *s, 0.0, 1.0, True, iso, 1e-13, np.inf)[1]
-                     for b, s in zip(base, slope)])
-
-
-def random_rays(seed, shape, count=512):
-    """``(volume, base, slope)``: a random volume of ``shape`` (z, y, x) and ``count`` random rays through and
-    around it, in its lattice coordinates."""
-    rng = np.random.default_rng(seed)
-    volume = rng.uniform(0.0, 1.0, shape)
-    base = rng.uniform(-0.5, np.array(shape[::-1]) - 0.5, (count, 3))
-    return volume, base, rng.normal(0.0, 2.5, (count, 3))
-
-
 @needs_gl
 def test_the_crossing_is_the_references_within_a_ten_thousandth_of_a_voxel_on_random_cells():
     volume, base, slope = random_rays(7, (5, 4, 6))
@@ -123,15 +103,7 @@ def test_the_normal_at_the_hit_is_the_references_within_half_a_degree():
     count = len(base)
     gl, _, normal = gl_crossings(volume, base, slope, 0.5)
     ref = reference_crossings(volume, base, slope, 0.5)
-    nz, ny, nx = volume.shape
-    flat = np.ascontiguousarray(volume, dtype=float).ravel()
-    angles = []
-    for i in np.flatnonzero(np.isfinite(ref) & np.isfinite(gl)):
-        u, v, w = base[i] + ref[i] * slope[i]
-        expected = np.array(reference_walk._gradient(flat, 0, nx, ny, nz, u, v, w, 1.0, 1.0, 1.0))
-        if np.linalg.norm(expected) >= 0.05:
-            cosine = normal[i] @ expected / (np.linalg.norm(normal[i]) * np.linalg.norm(expected))
-            angles.append(np.degrees(np.arccos(np.clip(cosine, -1.0, 1.0))))
+    angles = normal_angles(volume, base + ref[:, None] * slope, normal, np.isfinite(ref) & np.isfinite(gl))
     assert len(angles) > count // 3
     assert max(angles) < 0.5
 
@@ -152,43 +124,18 @@ def test_a_crossing_between_two_samples_is_found_where_sampling_misses_it():
 
 
 # ------------------------------------------------------------------------------------- whole frames
-ISO = TransferFunction.from_points([(0, 0.9, 0.6, 0.3, 1), (1, 0.9, 0.6, 0.3, 1)], name="iso-colour")
-
-
-def _scene(data, *, azimuth=37.0, elevation=23.0, size=48):
-    return Scene((VolumeInstance(Volume(data.astype(np.float32), name="thin"), ISO, isovalue=0.5),),
-                 camera=Camera(azimuth=azimuth, elevation=elevation), width=size, height=size,
-                 shading=Shading(model="none"), mode="iso")
-
-
-def _sheet(n=24):
-    """A one-voxel-thick sheet: one slab of voxels at 0.6 in a volume of 0, so the trilinear field reaches the
-    isovalue 0.5 within 1/6 voxel of the slab's centre (a surface a third of a voxel thick)."""
-    data = np.zeros((n, n, n))
-    data[:, :, n // 2] = 0.6
-    return data
-
-
-def _tube(n=24, radius=0.6):
-    """A tube along z thinner than a step: 1 on an axis line off the lattice, 0 at ``2 · radius`` from it, so
-    above the isovalue 0.5 in a band a few tenths of a voxel across."""
-    z, y, x = np.meshgrid(*(np.arange(n, dtype=float),) * 3, indexing="ij")
-    r = np.hypot(x - n / 2 - 0.3, y - n / 2 + 0.2)
-    return np.clip(1.0 - r / (2 * radius), 0.0, 1.0)
-
-
 def _coverage(renderer, scene):
     return renderer.render(scene).image[..., 3] > 0.5
 
 
 @needs_gl
-@pytest.mark.parametrize("make, camera", [(_sheet, {}), (_tube, {"elevation": 80.0, "size": 64})],
+@pytest.mark.parametrize("make, camera", [(sheet, {}), (tube, {"elevation": 80.0, "size": 64})],
                          ids=["one-voxel sheet", "tube thinner than a step"])
 @pytest.mark.parametrize("variant", ["single-pass", "rc", "rc-b"])
 def test_thin_features_are_hit_where_the_exact_reference_hits_them(make, camera, variant):
     """Measured (llvmpipe): the exact hit covers the reference's pixels exactly; sampling at step 1 misses 125 of
     the sheet's 416 and 16 of the tube's 27 at 48²."""
-    scene = _scene(make(), **camera)
+    scene = thin_scene(make(), **camera)
     truth = _coverage(ReferenceRenderer(), scene)
     exact = _coverage(GLRaycastRenderer(variant=variant, iso_hit="exact", step_factor=1.0), scene)
     sampled = _coverage(GLRaycastRenderer(variant=variant, step_factor=1.0), scene)
@@ -202,7 +149,7 @@ def test_the_exact_hit_option_is_declared_refused_with_a_lens_and_recorded():
     assert isinstance(GLRaycastRenderer(iso_hit="exact"), Renderer)
     with pytest.raises(InputError, match="iso_hit"):
         GLRaycastRenderer(iso_hit="analytic")
-    result = GLRaycastRenderer(variant="single-pass", iso_hit="exact").render(_scene(_sheet()))
+    result = GLRaycastRenderer(variant="single-pass", iso_hit="exact").render(thin_scene(sheet()))
     assert result.info["iso_hit"] == "exact" and result.counters["samples"] > 0
 
 

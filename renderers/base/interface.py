@@ -159,10 +159,12 @@ class Renderer(abc.ABC):
     @classmethod
     def quality_sweep_for(cls, mode):
         """The settings of :attr:`quality_sweep` that change something in ``mode``: a setting that varies an option
-        of other modes only (:attr:`Option.modes <renderers.base.options.Option.modes>`) would repeat another."""
+        of other modes only (:attr:`Option.modes <renderers.base.options.Option.modes>`) would repeat another. Where no
+        setting changes anything in ``mode`` (an exact method has no step), the defaults ``({},)`` are the one setting."""
         modes = {option.name: option.modes for option in cls.option_table}
-        return tuple(setting for setting in cls.quality_sweep
+        kept = tuple(setting for setting in cls.quality_sweep
                      if all(modes.get(name) is None or mode in modes[name] for name in setting))
+        return kept or ({},)
 
     def __init_subclass__(cls, **kwargs):
         super().__init_subclass__(**kwargs)
@@ -193,13 +195,19 @@ class Renderer(abc.ABC):
         return {}
 
     def check(self, scene):
-        """Raise :class:`UnsupportedFeatureError` if ``scene`` needs a missing feature."""
+        """Raise :class:`UnsupportedFeatureError` if ``scene`` needs a missing feature, and
+        :class:`InputError` if an ``iso`` scene has a volume without an isovalue."""
         if not isinstance(scene, Scene):
             raise InputError(f"render: expected a Scene, got {type(scene).__name__}")
         missing = self.capabilities.missing(scene)
         if missing:
             feature, reason = missing[0]
             raise UnsupportedFeatureError(self.name, feature, reason)
+        if scene.mode == "iso":
+            for instance in scene.volumes:
+                if instance.isovalue is None:
+                    raise InputError(f"volume instance {instance.name!r}: iso mode needs an isovalue; "
+                                     "set VolumeInstance.isovalue")
 
     def render(self, scene):
         """Render ``scene`` once and return a :class:`RenderResult`."""

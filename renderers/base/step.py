@@ -6,7 +6,7 @@ from renderers.base.options import Option
 WORLD_STEP_DOC = "World step as a fraction of the smallest world-space voxel edge."
 
 
-def step_factor_option(default, doc=WORLD_STEP_DOC, *, limited_precision=True):
+def step_factor_option(default, doc=WORLD_STEP_DOC, *, limited_precision=True, modes=None):
     """The ``step_factor`` option: a step in units of the smallest voxel edge, > 0.
 
     Parameters
@@ -19,12 +19,14 @@ def step_factor_option(default, doc=WORLD_STEP_DOC, *, limited_precision=True):
         The backend composites in float32 (or fixed point), so steps finer than
         :data:`core.validation.LIMITED_PRECISION_MIN_STEP_FACTOR` are refused
         (:func:`core.validation.check_step_factor`); ``False`` for float64 compositing.
+    modes : frozenset of str, optional
+        The render modes that sample at the step (``None``: every mode; see :class:`renderers.base.Option`).
     """
     if limited_precision:
         doc = (f"{doc} Finer than {LIMITED_PRECISION_MIN_STEP_FACTOR:.3g} is refused: float32 (or "
                "fixed-point) compositing rounds faint samples to nothing.")
     return Option("step_factor", float, default, doc, low=0, low_open=True,
-                  check=check_step_factor if limited_precision else None)
+                  check=check_step_factor if limited_precision else None, modes=modes)
 
 
 def world_step(scene, step_factor):

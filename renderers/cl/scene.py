@@ -24,7 +24,7 @@ OBJECT_DTYPE = np.dtype([
     ("to_world", np.float32, (3, 4)),   # object point → world point (rows)
     ("gradient", np.float32, (3, 4)),   # A^-T diag(1/2s): voxel differences → world gradient
     ("spacing", np.float32, 4),         # sx, sy, sz, reference step Δ0
-    ("params", np.float32, 4),          # det(A) sign, gradient-opacity scale Δ0/(√3/2), 0, 0
+    ("params", np.float32, 4),          # det(A) sign, gradient-opacity scale Δ0/(√3/2), isovalue (NaN: none), 0
     ("dims", np.int32, 4),
     ("slot", np.int32, 4),
     ("tables", np.int32, 4),            # TF offset, size, gradient table offset, size (0: none)
@@ -195,7 +195,8 @@ def object_records(scene, slots, tf_offsets, gradient_offsets):
         record["gradient"] = gradient
         reference = instance.reference_step
         record["spacing"] = (*spacing, reference)
-        record["params"] = (np.sign(np.linalg.det(transform[:3, :3])), reference / MAX_GRADIENT, 0, 0)
+        isovalue = np.nan if instance.isovalue is None else instance.isovalue
+        record["params"] = (np.sign(np.linalg.det(transform[:3, :3])), reference / MAX_GRADIENT, isovalue, 0)
         record["dims"] = (*instance.volume.shape_xyz, 0)
         record["slot"] = (*slot, 0)
         gradient_opacity = instance.gradient_opacity

@@ -64,7 +64,24 @@ The raw scalar is compared, not its opacity, so the maximum may lie in voxels th
 leaves out: every volume is bounded by its box in this mode. No early termination but at a
 maximum of 1, the top of the range, which no later sample can replace (counted in
 ``early_terminations``); ``opaque_threshold`` does not apply. Meshes, boundaries and CSG are
-``dvr`` only (:class:`core.scene.Scene` refuses them in ``mip``, for every backend).
+``dvr`` only (:class:`core.scene.Scene` refuses them in ``mip`` and ``iso``, for every backend).
+
+**Iso-surfaces** (``mode="iso"``; the reference's definition, exact, ``kernels/iso.cl``): no samples
+and no step. In each segment every contributing volume's span is walked through the cells of its
+voxel lattice (a 3-D DDA, the clamp-to-edge half voxels included, as
+:func:`renderers.reference.raycast._walk_volume` walks them); a cell whose eight corners reach across
+the volume's isovalue from the ray's state is solved: the trilinear field along the segment is a
+cubic, cut at the roots of its derivative into monotone pieces, and the crossing bisected in the
+first piece that changes state, to float32's resolution of the segment (Marmitt et al. 2004). So no
+crossing can fall between two samples: a one-voxel sheet or a vessel thinner than any step is hit.
+A crossing is a change of ``s < isovalue`` from the state where the ray entered that volume (kept
+per volume across segments, so a surface is seen from inside as well); the nearest crossing of
+all volumes wins (the lower instance on a tie), in its transfer function's colour at its
+isovalue, shaded with the reference's normal (central differences one voxel apart of the same
+field) and opaque. Every volume is bounded by its box in this mode (the state at the box entry
+decides what a crossing is). Counters: ``samples`` are the cell segments walked,
+``iso_cells_solved`` those solved, ``crossings`` the pixels with a hit; ``early_terminations``
+stays 0 (a hit ends the ray, and is counted as a crossing).
 
 **A perspective eye inside volumes or meshes.** The parity walk of a perspective ray starts with
 the objects that hold the eye (:func:`renderers.cl.scene.eye_inside`: a point-in-box test per
@@ -144,8 +161,15 @@ chunk it took unused. The image does not change (fragments are ordered by depth 
 COVERAGE = ("bitmask", "edge")
 STOP_AFTER = ("composite", "sort")
 STATS = 8
-"""Per-pixel counters the pixel kernel writes (a ``uint8``): kept, dropped, samples, terminated,
-sort moves, medium steps and two unused."""
+"""Per-pixel counters the pixel kernel writes (a ``uint8``): kept, dropped, samples (``iso``: cells
+walked), terminated, sort moves, medium steps, and in ``iso`` the cells solved and the crossing found."""
+BLENDING = {
+    "dvr": "sum of premultiplied samples and media, opacity clamped to 1 (Kainz et al. 2009); surfaces composited at "
+           "their depth",
+    "mip": "the largest scalar of all volumes, classified by its volume's transfer function",
+    "iso": "the nearest first crossing of any volume's iso-surface, exact, in its transfer function's colour at its "
+           "isovalue, opaque",
+}
 
 
 def _atlas_defines(dtype):
@@ -192,7 +216,7 @@ class ClTiledRenderer(Renderer):
                    "surfaces, homogeneous media and CSG")
     capabilities = Capabilities(
         projections=frozenset({"orthographic", "perspective"}),
-        modes=frozenset({"dvr", "mip"}),
+        modes=frozenset({"dvr", "mip", "iso"}),
         shading=frozenset({"none", "phong"}),
         max_volumes=64,
         gradient_opacity=True,
@@ -203,7 +227,6 @@ class ClTiledRenderer(Renderer):
         homogeneous_media=True,
         camera_inside_volume=True,
         reasons={
-            "modes": "the segment walk composites (dvr) or keeps the maximum (mip); iso is not implemented",
             "max_volumes": "the active-object set is one 64-bit mask",
             "lenses": "a lens would be the volume twice under CSG boundaries (box minus lens with the outside "
                       "appearance, lens ∩ box with the inside one); not built: boundaries are polygon meshes, so a "
@@ -212,7 +235,8 @@ class ClTiledRenderer(Renderer):
         },
     )
     option_table = (
-        step_factor_option(0.5),
+        step_factor_option(0.5, "World step as a fraction of the smallest world-space voxel edge (``iso`` has none: "
+                           "it walks the voxel lattice's cells).", modes=frozenset({"dvr", "mip"})),
         Option("depth_cap", int, 63, "Fragments kept per pixel in local memory (paper: 63); the farthest are "
                "dropped.", low=1),
         Option("fragments", str, "local", "``local``: the paper's capped lists in local memory. ``global``: "
@@ -220,13 +244,14 @@ class ClTiledRenderer(Renderer):
                "apply).", choices=FRAGMENT_STORES),
         Option("opaque_threshold", float, 0.99, "Early ray termination when the accumulated opacity exceeds it (1 "
                "never stops a ray). 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel. "
-               "``mip`` does not composite, so it does not apply there.", low=0, high=1, low_open=True),
+               "``mip`` and ``iso`` do not composite, so it does not apply there.", low=0, high=1, low_open=True,
+               modes=frozenset({"dvr"})),
         Option("empty_space", str, "hull", "Boundaries: tight hulls around the non-empty bricks (paper) or the "
-               "volumes' boxes. Volumes that are CSG operands, that hold a perspective eye, or in ``mip`` always "
-               "use their boxes.", choices=EMPTY_SPACE),
-        Option("brick_size", int, 8, "Brick edge in voxels for the hulls (paper: 8).", low=1),
+               "volumes' boxes. Volumes that are CSG operands or hold a perspective eye use their boxes, and so does "
+               "every volume in ``mip`` and ``iso``.", choices=EMPTY_SPACE, modes=frozenset({"dvr"})),
+        Option("brick_size", int, 8, "Brick edge in voxels for the hulls (paper: 8).", low=1, modes=frozenset({"dvr"})),
         Option("min_opacity", float, 0.0, "Transfer-function opacities at or below it count as empty for the hulls "
-               "(paper: 0, exact).", low=0, high=1, high_open=True),
+               "(paper: 0, exact).", low=0, high=1, high_open=True, modes=frozenset({"dvr"})),
         Option("triangle_order", str, "scene", "The order the triangles are submitted to binning: as the scene "
                "lists them, or sorted by the view depth of their centroid (E7's best and worst case for the "
                "insertion sort).", choices=TRIANGLE_ORDERS),
@@ -297,7 +322,7 @@ class ClTiledRenderer(Renderer):
 
     # -----------------------------------------------------------------------------------------
 
-    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity, csg, mip, homogeneous):
+    def _programs(self, entry, atlas_dtype, fragments, phong, gradient_opacity, csg, mode, homogeneous):
         """``(binning, hull, pixel)`` kernels by name for this frame's variant, built once per process."""
         atlas_defines = _atlas_defines(atlas_dtype)
         binning_defines = ["-DEDGE_COVERAGE"] if self.coverage_method == "edge" else []
@@ -319,9 +344,9 @@ class ClTiledRenderer(Renderer):
             defines.append("-DSAMPLED_MEDIA")
         if self.stop_after == "sort":
             defines.append("-DSORT_ONLY")
-        if mip:
-            defines.append("-DMIP")
-        pixel = context.kernels(entry, context.kernel_source("common.cl", "pixel.cl"), defines)
+        if mode != "dvr":
+            defines.append(f"-D{mode.upper()}")
+        pixel = context.kernels(entry, context.kernel_source("common.cl", "iso.cl", "pixel.cl"), defines)
         return binning, hull, pixel
 
     def _buffer(self, name, nbytes):
@@ -363,23 +388,24 @@ class ClTiledRenderer(Renderer):
                              f"{scene.name!r} has no volume; use media='analytic'")
         entry = self._device()
         queue = entry.queue
-        mip = scene.mode == "mip"
-        # mip classifies one value per ray: no shading and no gradient opacity (the reference).
-        phong = scene.shading.model == "phong" and not mip
-        gradient_opacity = not mip and any(instance.gradient_opacity is not None for instance in scene.volumes)
+        mode = scene.mode
+        # mip classifies one value per ray: no shading; mip and iso have no gradient opacity (the reference).
+        phong = scene.shading.model == "phong" and mode != "mip"
+        gradient_opacity = mode == "dvr" and any(instance.gradient_opacity is not None for instance in scene.volumes)
         leaves = scene_arrays.leaves(scene)
 
         volumes, volume_index = scene_arrays.distinct_volumes(scene)
         atlas = self._cache.atlas(volumes, stages) if volumes else None
         binning, hull_kernels, pixel = self._programs(entry, atlas.dtype if atlas else np.dtype(np.uint8), fragments,
-                                                      phong, gradient_opacity, bool(scene.csg), mip, homogeneous)
+                                                      phong, gradient_opacity, bool(scene.csg), mode, homogeneous)
         # Boxes where a hull would be wrong: a CSG operand's inside is its box (∩ boundary) wherever
-        # its data is transparent too; mip's maximum may lie in transparent voxels; and an eye
-        # inside a box is inside that object (eye_inside tests boxes, not hulls).
+        # its data is transparent too; mip's maximum may lie in transparent voxels, and an iso
+        # crossing is relative to the state where the ray enters the box; and an eye inside a box
+        # is inside that object (eye_inside tests boxes, not hulls).
         boxed = {name for tree in scene.csg for name in tree.leaves()}
         if scene.camera.projection == "perspective":
             boxed.update(scene.camera_inside_volume())
-        brick = self.brick_size if self.empty_space == "hull" and not mip else None
+        brick = self.brick_size if self.empty_space == "hull" and mode == "dvr" else None
         hulls = [self._cache.hull(hull_kernels, atlas, instance, None if instance.name in boxed else brick,
                                   self.min_opacity, stages)
                  for instance in scene.volumes]
@@ -562,7 +588,7 @@ class ClTiledRenderer(Renderer):
         seconds = stages.seconds()
         total_time = time.perf_counter() - start
 
-        self._last_step = step
+        self._last_step = None if scene.mode == "iso" else step
         kept = per_pixel[:, 0]
         hit = kept > 0
         records = np.minimum(records_per_tile, CHUNK * MAX_CHUNKS)
@@ -591,8 +617,12 @@ class ClTiledRenderer(Renderer):
         }
         if unpaired is not None:
             counters["unpaired_pixels"] = unpaired
+        if scene.mode == "iso":
+            counters["iso_cells_solved"] = int(per_pixel[:, 6].sum(dtype=np.int64))
+            counters["crossings"] = int(per_pixel[:, 7].sum())
+        iso = scene.mode == "iso"
         info = {
-            "step": step,
+            "step": None if iso else step,
             "step_factor": self.step_factor,
             "fragments": self.fragments,
             "depth_cap": self.depth_cap if self.fragments == "local" else None,
@@ -610,10 +640,7 @@ class ClTiledRenderer(Renderer):
             "atlas_shape_xyz": list(atlas.layout.shape_xyz) if atlas else None,
             "atlas_dtype": str(atlas.dtype) if atlas else None,
             "atlas_bytes": atlas.nbytes if atlas else 0,
-            "blending": ("the largest scalar of all volumes, classified by its volume's transfer function" if
-                         scene.mode == "mip" else
-                         "sum of premultiplied samples and media, opacity clamped to 1 (Kainz et al. 2009); surfaces "
-                         "composited at their depth"),
+            "blending": BLENDING[scene.mode],
             "rasterisation": "homogeneous" if binned.homogeneous else "integer",
             "eye_inside": int(binned.eye_inside),
             "shading_applied": binned.phong,

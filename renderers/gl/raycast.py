@@ -662,9 +662,6 @@ class GLRaycastRenderer(GLRenderer):
 
         instance = scene.volumes[0]
         mode = scene.mode
-        if mode == "iso" and instance.isovalue is None:
-            raise InputError(f"volume instance {instance.name!r}: iso mode needs an isovalue; "
-                             "set VolumeInstance.isovalue")
         if mode == "mip" and self.occluder > 0:
             raise InputError("gl-raycast option occluder: an opaque plane does not stop a maximum-intensity "
                              "projection; use occluder=0 in mip mode")

@@ -334,12 +334,6 @@ class ReferenceRenderer(Renderer):
             raise InputError(f"reference option classification='pre' cannot render scene {scene.name!r}'s lens: a "
                              "lens classifies each sample by where it lies, after interpolation; use "
                              "classification='post'")
-        if scene.mode == "iso":
-            for instance in scene.volumes:
-                if instance.isovalue is None:
-                    raise InputError(
-                        f"volume instance {instance.name!r}: iso mode needs an isovalue; set VolumeInstance.isovalue"
-                    )
 
     def _pack_volumes(self, volumes):
         """Concatenated normalised scalars and offsets, cached for the last set of volumes."""

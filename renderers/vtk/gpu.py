@@ -132,7 +132,7 @@ camera and light updates included, setup excluded). Counters: ``pixels``, ``voxe
 
 import numpy as np
 
-from core.errors import InputError, UnsupportedFeatureError
+from core.errors import UnsupportedFeatureError
 from core.scene import VolumeInstance
 from renderers.base import Capabilities, Option, RenderResult, step_factor_option, world_step
 from renderers.vtk import common
@@ -417,11 +417,6 @@ class VtkGpuRenderer(common.VtkRenderer):
         return prop
 
     def _render(self, scene):
-        if scene.mode == "iso":
-            for instance in scene.volumes:
-                if instance.isovalue is None:
-                    raise InputError(f"volume instance {instance.name!r}: iso mode needs an isovalue; "
-                                     "set VolumeInstance.isovalue")
         headlight = common.is_headlight(scene.shading)
         orthographic = scene.camera.projection == "orthographic"
         pipeline, image, timings = self._frame(scene, headlight=headlight,

@@ -14,7 +14,7 @@ typedef struct {
     float4 to_world[3];   // object point -> world point (rows of the object->world transform)
     float4 gradient[3];   // rows of A^-T diag(1/2s): voxel differences -> world-space gradient
     float4 spacing;       // sx, sy, sz, reference step (object units)
-    float4 params;        // x: sign of det(A) (mirroring), y: gradient-opacity scale, z, w: 0
+    float4 params;        // x: sign of det(A) (mirroring), y: gradient-opacity scale, z: isovalue (NaN: none), w: 0
     int4 dims;            // nx, ny, nz, 0
     int4 slot;            // atlas slot origin ox, oy, oz, 0
     int4 tables;          // transfer-function offset, size; gradient-opacity table offset, size (0: none)

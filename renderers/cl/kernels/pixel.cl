@@ -16,6 +16,7 @@
 //   SORT_ONLY             stop after gathering and sorting the fragments (the ablation that times
 //                         them, E7): the image stays transparent, the counters are written
 //   MIP                   keep the largest scalar along the ray instead of compositing (mip_segment)
+//   ISO                   the first crossing of any volume's iso-surface, exact (iso_segment, iso.cl)
 //
 // The objects around the ray origin: an orthographic ray starts on the image plane, and the
 // crossings behind it (depth < 0) toggle their objects; a perspective ray starts at the eye, whose
@@ -530,6 +531,12 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
     float best = -INFINITY;              // the largest scalar so far, and its object (-1: none)
     int best_object = -1;
 #endif
+#ifdef ISO
+    ulong iso_known = 0UL, iso_below = 0UL;  // volumes the ray has entered, and their state (iso_segment)
+    int hit_object = -1;
+    float hit_t = 0.0f;
+    uint solved = 0;
+#endif
     int terminated = 0;
     ulong roots;
     ulong contributing = leaf_state(inside, leaf_bits, tree_leaves, boundary_volume, leaf_count, boundary_count,
@@ -558,9 +565,13 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
                     anchor = t0;
                     anchored = true;
                 }
-#ifdef MIP
+#if defined(MIP)
                 terminated = mip_segment(t0, t1, volumes, anchor, step, origin, direction, objects, atlas, atlas_dims,
                                          &best, &best_object, &samples);
+#elif defined(ISO)
+                hit_t = iso_segment(t0, t1, volumes, origin, direction, objects, atlas, atlas_dims, &iso_known,
+                                    &iso_below, &hit_object, &samples, &solved);
+                terminated = hit_object >= 0;
 #else
                 terminated = composite_segment(t0, t1, volumes, media_of(contributing & medium_leaves, materials),
                                                anchor, step, threshold, origin, direction, objects, atlas,
@@ -604,6 +615,30 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
         float4 c = mix(transfer[o->tables.x + i0], transfer[o->tables.x + i0 + 1], w);
         color = (float4)(c.w * c.xyz, c.w);
     }
+#endif
+#ifdef ISO
+    if (hit_object >= 0) {
+        // Its transfer function's colour at the isovalue, shaded at the hit, opaque (the reference).
+        __constant Object* o = &objects[hit_object];
+        int i0;
+        float w;
+        table_position(o->params.z, o->tables.y, &i0, &w);
+        float3 rgb = mix(transfer[o->tables.x + i0], transfer[o->tables.x + i0 + 1], w).xyz;
+#ifdef PHONG
+        float4 hp = (float4)(origin + hit_t * direction, 1.0f);
+        float3 u = (float3)(dot(o->to_voxel[0], hp), dot(o->to_voxel[1], hp), dot(o->to_voxel[2], hp));
+        float3 diff = voxel_differences(atlas, atlas_dims, o->slot, o->dims, u);
+        float3 normal = (float3)(dot(o->gradient[0].xyz, diff), dot(o->gradient[1].xyz, diff),
+                                 dot(o->gradient[2].xyz, diff));
+        rgb = blinn_phong(rgb, normal, light_dir, half_vector, has_half, phong);
+#endif
+        color = (float4)(rgb, 1.0f);
+    }
+    // Slot 3 counts early terminations; a hit is a crossing found (slot 7), not one.
+    stats[row * width + col] = (uint8)((uint)n, dropped, samples, 0u, moves, medium_steps, solved,
+                                       (uint)(hit_object >= 0));
+    image[row * width + col] = color;
+    return;
 #endif
     image[row * width + col] = color;
     stats[row * width + col] = (uint8)((uint)n, dropped, samples, (uint)terminated, moves, medium_steps, 0u, 0u);
