@@ -80,7 +80,8 @@ Implementation gaps of the paper, decided here (note 000 §2.3)
    which an opaque plane does not stop.
 8. **Shader work per pass.** As in the paper, every main pass computes all ``M`` samples of every
    fragment that passes the depth test (samples past the ray's end add nothing), so the
-   ``samples`` counter is ``M ×`` the fragments of the main passes.
+   ``samples`` counter is ``M ×`` the fragments of the main passes (with ``iso_hit='exact'``: the
+   cell segments the passes walked, counted in the shader).
 
 Lenses (Ropinski et al. 2005)
 -----------------------------
@@ -252,6 +253,11 @@ vec4 iso_hit(vec3 start, vec3 dir, float lo, float hi, bool below, vec3 ray_dir)
 
 MAIN_FRAGMENT = """
 layout(early_fragment_tests) in;
+#ifdef ISO_EXACT
+layout(std430, binding = 0) buffer Counters {
+    uint cells_walked;           // the cell segments the passes walked (the frame's samples)
+};
+#endif
 uniform sampler2D u_start;
 uniform sampler2D u_dir;
 uniform int u_first;             // first cell of this pass
@@ -290,6 +296,7 @@ void main() {
     // Every cell of this pass's segment resolved: its first crossing, wherever it lies between samples.
     float a = float(u_first) * u_step;
     o_color = vec4(0.0);
+    iso_cells = 0;
     if (a < dir.a) {
         float t = iso_first_crossing(start, dir.xyz, a, min(a + float(u_samples) * u_step, dir.a),
                                      scalar_exact(start) < u_iso);
@@ -297,6 +304,7 @@ void main() {
             o_color = iso_shade(start + t * dir.xyz, ray_dir);
         }
     }
+    atomicAdd(cells_walked, uint(iso_cells));
 #else
     bool below = scalar_at(start) < u_iso;
     int hit = -1;
@@ -511,8 +519,8 @@ class GLRaycastRenderer(GLRenderer):
         Option("iso_hit", str, "sampled", "How an iso-surface ray finds its hit: ``sampled``, the paper's test of "
                "``s < isovalue`` at the cell ends, refined by ``iso_refine`` (a crossing between two samples is "
                "missed); ``exact``, every lattice cell the ray crosses resolved on the trilinear interpolant, as the "
-               "reference (:mod:`renderers.gl.isocells`; the step then only sets the passes, and a single-pass "
-               "frame's ``samples`` counts the cell segments walked). Not with a lens yet.",
+               "reference (:mod:`renderers.gl.isocells`; the step then only sets the passes, and a frame's ``samples`` "
+               "counts the cell segments walked). Not with a lens yet.",
                choices=ISO_HITS, modes=frozenset({"iso"})),
         Option("iso_refine", int, 6, "Bisection steps refining a sampled iso hit inside its cell (0: the sample "
                "itself, as the paper); more than 24 refine below float32 resolution.", low=0, high=24,
@@ -735,10 +743,11 @@ class GLRaycastRenderer(GLRenderer):
             passes_main, passes_intermediate = 1, 0
             counter = self._single_pass(ctx, timer, programs, targets)
         else:
-            counter = None
             passes_main = -(-cells // self.samples_per_pass)
             passes_intermediate = max(passes_main - 1, 0) if variant != "rc" else 0
+            counter = self._counter() if self._exact_iso(mode) else None
             self._multi_pass(ctx, timer, programs, targets, mode, passes_main, passes_intermediate)
+            ctx.memory_barrier()
         if lens is None:
             output = targets["res"]
         if mode == "mip":
@@ -926,12 +935,17 @@ class GLRaycastRenderer(GLRenderer):
         ctx.memory_barrier()
         return output, lens_passes.counters(counter)
 
+    def _counter(self):
+        """The shaders' sample counter (storage buffer 0), set to 0."""
+        counter = self._buffer("samples", np.zeros(1, np.float32))  # one uint 0
+        counter.bind_to_storage_buffer(0)
+        return counter
+
     def _single_pass(self, ctx, timer, programs, targets):
         """One loop-with-break draw of the back faces; returns the buffer counting its samples."""
         import moderngl
 
-        counter = self._buffer("samples", np.zeros(1, np.float32))  # one uint 0
-        counter.bind_to_storage_buffer(0)
+        counter = self._counter()
         targets["main_fbo"].clear(0.0, 0.0, 0.0, 0.0)
         ctx.enable_only(moderngl.CULL_FACE)
         ctx.cull_face = "front"
