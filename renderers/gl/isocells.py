@@ -16,10 +16,14 @@ apart of the same trilinear field), blended the same way, not the half-float gra
 :data:`CELL_WALK` defines ``iso_first_crossing(start, dir, t_lo, t_hi, below)`` (``ISO_FAR`` where there is
 no crossing), ``scalar_exact(p)`` (the ray's entry state, blended as the walk blends), ``gradient_exact(p)`` (the hit's normal)
 and the counter ``iso_cells`` (cell segments walked). It needs :data:`renderers.gl.glsl.COMMON`
-(``u_volume``, ``u_value_map``, ``u_extent``) and the uniform ``u_iso``.
+(``u_volume``, ``u_value_map``, ``u_extent``) and the isovalue ``ISO_VALUE`` (the uniform ``u_iso`` unless a
+program defines another, as the lens's ``u_lens_iso``).
 """
 
 CELL_WALK = """
+#ifndef ISO_VALUE
+#define ISO_VALUE u_iso         // the isovalue the walk crosses (a lens defines its own)
+#endif
 const float ISO_FAR = 3.0e38;
 const int ISO_BISECTIONS = 24;   // halvings of a monotone piece: float32's resolution of a segment
 int iso_cells;                   // cell segments walked by this invocation (the counter)
@@ -120,7 +124,7 @@ int iso_stationary(float k[8], vec3 x0, vec3 d, out float r0, out float r1) {
     return count;
 }
 
-// The first crossing on [t_lo, t_hi] of `s < u_iso` relative to `below` (ISO_FAR: none); ray p = start + t dir in
+// The first crossing on [t_lo, t_hi] of `s < ISO_VALUE` relative to `below` (ISO_FAR: none); ray p = start + t dir in
 // texture coordinates.
 float iso_first_crossing(vec3 start, vec3 dir, float t_lo, float t_hi, bool below) {
     ivec3 n = textureSize(u_volume, 0);
@@ -148,8 +152,8 @@ float iso_first_crossing(vec3 start, vec3 dir, float t_lo, float t_hi, bool belo
         iso_cells += 1;
         float top = max(max(max(k[0], k[1]), max(k[2], k[3])), max(max(k[4], k[5]), max(k[6], k[7])));
         float bottom = min(min(min(k[0], k[1]), min(k[2], k[3])), min(min(k[4], k[5]), min(k[6], k[7])));
-        if (below ? !(top < u_iso) : bottom < u_iso) {   // the cell's range reaches across the isovalue
-            if ((iso_blend(k, f0) < u_iso) != below) {
+        if (below ? !(top < ISO_VALUE) : bottom < ISO_VALUE) {   // the cell's range reaches across the isovalue
+            if ((iso_blend(k, f0) < ISO_VALUE) != below) {
                 return t0;
             }
             vec3 d = f1 - f0;
@@ -158,10 +162,10 @@ float iso_first_crossing(vec3 start, vec3 dir, float t_lo, float t_hi, bool belo
             float lo = 0.0;
             for (int j = 0; j <= count; j++) {
                 float hi = j == count ? 1.0 : (j == 0 ? r0 : r1);
-                if ((iso_blend(k, f0 + d * hi) < u_iso) != below) {
+                if ((iso_blend(k, f0 + d * hi) < ISO_VALUE) != below) {
                     for (int b = 0; b < ISO_BISECTIONS; b++) {
                         float mid = 0.5 * (lo + hi);
-                        if ((iso_blend(k, f0 + d * mid) < u_iso) == below) {
+                        if ((iso_blend(k, f0 + d * mid) < ISO_VALUE) == below) {
                             lo = mid;
                         } else {
                             hi = mid;

@@ -50,6 +50,7 @@ import functools
 import numpy as np
 
 from core.errors import InputError, UnsupportedFeatureError
+from renderers.gl import isocells
 from renderers.gl.view import cube_triangles
 
 LENS_METHODS = ("segments", "segments-stencil", "fused", "per-sample", "per-sample-mask", "frag-depth")
@@ -172,6 +173,11 @@ vec4 classify_lens(float s) {
     return mix(texelFetch(u_lens_tf, ivec2(i0, 0), 0), texelFetch(u_lens_tf, ivec2(i0 + 1, 0), 0), x - float(i0));
 }
 
+#ifdef ISO_EXACT
+#define ISO_VALUE u_lens_iso
+""" + isocells.CELL_WALK + """
+#endif
+
 // Blend one classified sample at texture point `p` into `acc` (front to back, premultiplied).
 void composite_classified(vec4 c, vec3 p, float ratio, vec3 ray_dir, inout vec4 acc) {
     float alpha = ratio > 0.0 ? correct_opacity(c.a, ratio) : 0.0;
@@ -217,7 +223,7 @@ void march(int first, int last, bool inside, vec3 start, vec3 d, float len, floa
 // A mip or iso lens's one contribution on its segment [lo, hi] (relative to the box entry): mip the
 // largest of the segment's lattice samples and both ends, classified without opacity correction;
 // iso the first change of s < iso from the segment's start, on the step grid from lo, refined by
-// bisection, shaded, opaque (a = 0: no crossing).
+// bisection (ISO_EXACT: the exact first crossing of the cell walk), shaded, opaque (a = 0: no crossing).
 vec4 lens_segment(int first, int last, float lo, float hi, vec3 start, vec3 d, float len, vec3 ray_dir,
                   inout uint taken) {
 #ifdef LENS_MIP
@@ -229,6 +235,19 @@ vec4 lens_segment(int first, int last, float lo, float hi, vec3 start, vec3 d, f
     taken += uint(last - first + 2);
     vec4 c = classify_lens(best);
     return vec4(c.rgb * c.a, c.a);
+#elif defined(ISO_EXACT)
+    // Every lattice cell of the segment resolved (renderers/gl/isocells.py), from the state at its start.
+    iso_cells = 0;
+    float t = iso_first_crossing(start, d, lo, hi, scalar_exact(start + lo * d) < u_lens_iso);
+    taken += uint(iso_cells);
+    if (t >= ISO_FAR) {
+        return vec4(0.0);
+    }
+    vec3 rgb = classify_lens(u_lens_iso).rgb;
+#ifdef PHONG
+    rgb = blinn_phong(rgb, u_normal_matrix * gradient_exact(start + t * d), ray_dir);
+#endif
+    return vec4(rgb, 1.0);
 #else
     bool below = scalar_at(start + lo * d) < u_lens_iso;
     float a = lo;
@@ -444,11 +463,14 @@ COUNTERS = ("samples", "samples_region0", "samples_region1", "samples_region2", 
 """The storage buffer's uints, in order."""
 
 
-def defines(lens, method, *, outside=False, front_to_back=False):
+def defines(lens, method, *, outside=False, front_to_back=False, exact_iso=False):
     """The preprocessor names of the lens volume pass for ``lens`` and ``method``; ``outside``: the segment
     methods' pass for region₀ and region₂, which never classifies with the lens (one program for every
-    appearance, so those passes cost the same whatever the lens shows)."""
+    appearance, so those passes cost the same whatever the lens shows); ``exact_iso``: an iso lens finds its
+    crossing by the cell walk (:mod:`renderers.gl.isocells`)."""
     names = [f"LENS_{lens.appearance.mode.upper()}", f"NO_HIT {NO_HIT:g}"]
+    if exact_iso and lens.appearance.mode == "iso" and not outside:
+        names.append("ISO_EXACT")
     if method in SEGMENT_METHODS:
         names += ["LENS_REGION", "LENS_IMAGES"]
         if method == "segments-stencil":

@@ -15,13 +15,14 @@ from renderers.gl import context, glsl, stencil
 from renderers.gl import lens as lenses
 
 
-def programs(ctx, lens, method, *, front_to_back, phong, sampling):
-    """The lens frame's programs: ``volume``, for the image methods ``geometry``, and the stencil sequence's."""
+def programs(ctx, lens, method, *, front_to_back, phong, sampling, exact_iso=False):
+    """The lens frame's programs: ``volume``, for the image methods ``geometry``, and the stencil sequence's
+    (``exact_iso``: an iso lens's crossing by the cell walk)."""
     def volume(outside):
         source = glsl.fragment_source(sampling, lenses.LENS_GLSL, lenses.INSIDE_GLSL, lenses.MARCH_GLSL,
                                       lenses.VOLUME_FRAGMENT, phong=phong, mode="dvr",
                                       defines=lenses.defines(lens, method, outside=outside,
-                                                             front_to_back=front_to_back))
+                                                             front_to_back=front_to_back, exact_iso=exact_iso))
         return context.program(ctx, glsl.CUBE_VERTEX, source)
 
     result = {"volume": volume(False)}

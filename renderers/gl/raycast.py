@@ -122,7 +122,7 @@ import time
 
 import numpy as np
 
-from core.errors import InputError, UnsupportedFeatureError
+from core.errors import InputError
 from core.resources import check_memory
 from renderers.base import Capabilities, Option, RenderResult, step_factor_option
 from renderers.gl import context, emptyspace, glsl
@@ -520,7 +520,7 @@ class GLRaycastRenderer(GLRenderer):
                "``s < isovalue`` at the cell ends, refined by ``iso_refine`` (a crossing between two samples is "
                "missed); ``exact``, every lattice cell the ray crosses resolved on the trilinear interpolant, as the "
                "reference (:mod:`renderers.gl.isocells`; the step then only sets the passes, and a frame's ``samples`` "
-               "counts the cell segments walked). Not with a lens yet.",
+               "counts the cell segments walked); an iso lens's crossing too.",
                choices=ISO_HITS, modes=frozenset({"iso"})),
         Option("iso_refine", int, 6, "Bisection steps refining a sampled iso hit inside its cell (0: the sample "
                "itself, as the paper); more than 24 refine below float32 resolution.", low=0, high=24,
@@ -570,10 +570,6 @@ class GLRaycastRenderer(GLRenderer):
         variant = self._variant(scene)
         if scene.lenses:
             lenses.check_lens(self.name, variant, scene.lenses[0], variant == "single-pass", self.lens_method)
-            if self.iso_hit == "exact" and "iso" in (scene.mode, scene.lenses[0].appearance.mode):
-                raise UnsupportedFeatureError(self.name, "iso_hit='exact' with a lens",
-                                              "the lens passes find iso hits by sampling; the cell walk is not in "
-                                              "them yet: use iso_hit='sampled'")
         elif self.occluder > 0 and variant not in MULTI_PASS:
             raise InputError(f"gl-raycast option occluder: the occluder demonstration needs early-z between passes; "
                              f"use a multi-pass variant ({', '.join(MULTI_PASS)}) or a lens scene, not "
@@ -609,7 +605,8 @@ class GLRaycastRenderer(GLRenderer):
         """The programs of ``variant`` for ``mode``, shading and ``lens`` (compiled once per process)."""
         if lens is not None:
             programs = lens_passes.programs(ctx, lens, self.lens_method, phong=phong, sampling=SAMPLING,
-                                            front_to_back=self.region_order == "front-to-back")
+                                            front_to_back=self.region_order == "front-to-back",
+                                            exact_iso=self.iso_hit == "exact")
         else:
             exact = ["ISO_EXACT"] if self._exact_iso(mode) else []
             main = glsl.fragment_source(SAMPLING, MAIN_FRAGMENT if variant in MULTI_PASS else
