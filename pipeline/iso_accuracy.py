@@ -11,8 +11,6 @@ from the reference's (a missed or extra surface). It is the check for scans held
 import argparse
 import sys
 
-import numpy as np
-
 import datasets
 import renderers
 from core.camera import Camera
