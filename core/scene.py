@@ -38,7 +38,13 @@ instance, every crossing). So the cut face that a ``difference`` leaves is drawn
 of the subtracted instance if it has one, and not at all if it has none (the paper's toggle of
 "including the boundary in the operation"). Along the ray everything is composited front to back
 in depth order: the material between the previous crossing and a surface, then the surface, then
-what lies behind it. Meshes and CSG are ``dvr`` only: ``mip`` and ``iso`` are defined on volumes.
+what lies behind it.
+
+In ``iso`` a volume contributes no samples but its iso-surface: the first place in its contributing
+intervals where ``s < isovalue`` differs from its state where the ray entered its box, opaque. So a
+boundary or CSG cut through the inside of a surface shows the cut face (a cap), as a ``dvr`` cut
+through opaque material does; surfaces and media in front of it composite as in ``dvr``. ``mip`` is
+defined on volumes only: meshes, boundaries and CSG are refused there.
 """
 
 from dataclasses import dataclass, field, replace
@@ -232,7 +238,7 @@ class Scene:
     shading : Shading, optional
     name : str, optional
     meshes : sequence of MeshInstance, optional
-        Closed meshes with surface materials and/or homogeneous interiors (``dvr`` only).
+        Closed meshes with surface materials and/or homogeneous interiors (``dvr`` and ``iso``).
     csg : sequence of CsgNode, optional
         CSG trees; each leaf names exactly one instance of the scene, and an instance is a leaf
         of at most one tree. Instances in no tree stand alone.
@@ -274,9 +280,9 @@ class Scene:
             raise InputError(f"scene {self.name!r}: camera must be a Camera")
         if not isinstance(self.shading, Shading):
             raise InputError(f"scene {self.name!r}: shading must be a Shading")
-        if self.has_geometry() and self.mode != "dvr":
-            raise InputError(f"scene {self.name!r}: meshes, volume boundaries and CSG render in mode 'dvr' only "
-                             f"(mip and iso are defined on volumes), got mode {self.mode!r}")
+        if self.has_geometry() and self.mode == "mip":
+            raise InputError(f"scene {self.name!r}: meshes, volume boundaries and CSG render in modes 'dvr' and "
+                             "'iso' (a maximum intensity projection is defined on volumes), got mode 'mip'")
         self._check_lenses()
         with np.errstate(over="ignore", invalid="ignore"):  # overflow is refused just below
             center, radius = self.bounding_sphere()

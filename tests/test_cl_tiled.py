@@ -621,8 +621,8 @@ def test_geometry_capabilities_and_refusals(tiled, cube):
     volumes = tuple(VolumeInstance(tiny, SMOOTH, name=f"v{i}") for i in range(64))
     with pytest.raises(UnsupportedFeatureError, match="65 objects.*64 \\+ 1 \\+ 0"):
         tiled().check(Scene(volumes, meshes=instances[:1], width=8, height=8))
-    # Meshes are dvr only in every backend: the scene itself refuses them in mip (core.scene).
-    with pytest.raises(InputError, match="mode 'dvr' only"):
+    # Meshes are dvr and iso only in every backend: the scene itself refuses them in mip (core.scene).
+    with pytest.raises(InputError, match="modes 'dvr' and 'iso'"):
         Scene((VolumeInstance(tiny, SMOOTH),), meshes=(MeshInstance(cube),), mode="mip")
 
 

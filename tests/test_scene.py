@@ -155,7 +155,7 @@ def test_geometry_features_and_bounds_include_meshes():
     (lambda v, m: CsgNode("xor", ["v", "c"]), "csg operation"),
     (lambda v, m: CsgNode("union", ["v"]), "at least two"),
     (lambda v, m: CsgNode("union", "vc"), "children must be a list"),
-    (lambda v, m: Scene(volumes=[v], meshes=[m], mode="iso"), "mode 'dvr' only"),
+    (lambda v, m: Scene(volumes=[v], meshes=[m], mode="mip"), "modes 'dvr' and 'iso'.*got mode 'mip'"),
     (lambda v, m: VolumeInstance(make_volume(), TF, boundary="box"), "boundary must be a Mesh"),
 ])
 def test_bad_geometry_inputs(make, match):

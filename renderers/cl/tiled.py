@@ -64,7 +64,7 @@ The raw scalar is compared, not its opacity, so the maximum may lie in voxels th
 leaves out: every volume is bounded by its box in this mode. No early termination but at a
 maximum of 1, the top of the range, which no later sample can replace (counted in
 ``early_terminations``); ``opaque_threshold`` does not apply. Meshes, boundaries and CSG are
-``dvr`` only (:class:`core.scene.Scene` refuses them in ``mip`` and ``iso``, for every backend).
+``dvr`` and ``iso`` only (:class:`core.scene.Scene` refuses them in ``mip``, for every backend).
 
 **Iso-surfaces** (``mode="iso"``; the reference's definition, exact, ``kernels/iso.cl``): no samples
 and no step. In each segment every contributing volume's span is walked through the cells of its
@@ -78,8 +78,10 @@ A crossing is a change of ``s < isovalue`` from the state where the ray entered 
 per volume across segments, so a surface is seen from inside as well); the nearest crossing of
 all volumes wins (the lower instance on a tie), in its transfer function's colour at its
 isovalue, shaded with the reference's normal (central differences one voxel apart of the same
-field) and opaque. Every volume is bounded by its box in this mode (the state at the box entry
-decides what a crossing is). Counters: ``samples`` are the cell segments walked,
+field) and opaque. Every volume is bounded by its box in this mode: its state is taken where the
+ray enters its box (``iso_entry_states`` in ``kernels/iso.cl``), so where a boundary or CSG opens a volume inside its
+surface the cut face is the hit (a cap), as the reference draws it; surfaces and media in front of
+the hit composite as in ``dvr``. Counters: ``samples`` are the cell segments walked,
 ``iso_cells_solved`` those solved, ``crossings`` the pixels with a hit; ``early_terminations``
 stays 0 (a hit ends the ray, and is counted as a crossing).
 

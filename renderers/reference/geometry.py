@@ -41,8 +41,8 @@ import math
 import numpy as np
 from numba import njit, prange
 
-from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, is_ray, stop_requested,
-                                         volume_sample, volume_spans)
+from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, is_ray, iso_colour,
+                                         iso_first_crossing, stop_requested, volume_sample, volume_spans)
 
 _JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
@@ -238,7 +238,7 @@ def _composite(cr, cg, cb, ca, sr, sg, sb, sa):
 @njit(parallel=True, **_JIT)
 def render(origins, directions,
            data, offsets, dims, spacing, world_to_object, nmat, tf, tf_size, gtab, gtab_size, ref_step, pre,
-           step, min_overlap, phong, shading, light,
+           step, min_overlap, phong, shading, light, iso_mode, isovalue, tolerance,
            verts, faces, face_normals, obj_w2o, obj_nmat, obj_lo, obj_hi, obj_faces, obj_leaf,
            leaf_box, leaf_obj, leaf_surface, leaf_has_surface, leaf_medium, leaf_has_medium, leaf_node, leaf_root,
            node_op, node_leaf, node_parent, node_first, node_children, node_child_start, node_child_count,
@@ -247,8 +247,12 @@ def render(origins, directions,
 
     ``image`` gets premultiplied RGBA and ``depth`` the ray parameter of the first contribution
     (a surface or the nearest sample of the first contributing piece), NaN where none. Per row:
-    rays that meet any box or mesh, volume samples, fragments (crossings at ``t >= 0``, volume
-    boxes excluded) and the largest fragment count of one ray (its depth complexity). A non-zero
+    rays that meet any box or mesh, volume samples (``iso_mode``: lattice-cell segments walked),
+    fragments (crossings at ``t >= 0``, volume boxes excluded) and the largest fragment count of one
+    ray (its depth complexity). With ``iso_mode`` a volume contributes no samples but the first
+    crossing of its surface inside its contributing intervals (:func:`raycast.iso_first_crossing`,
+    its state taken where the ray enters its box), the nearest of all volumes, opaque, composited
+    in depth order with the surfaces and media in front of it. A non-zero
     ``stop[0]`` ends the kernel before the next pixel (Ctrl-C, as :func:`raycast.render`).
     """
     height, width = origins.shape[0], origins.shape[1]
@@ -362,6 +366,24 @@ def render(origins, directions,
                         open_at[leaf] = -1.0
                 g = end
 
+            # Iso: each volume's first crossing inside its intervals (in depth order), the nearest of all a cut.
+            iso_t = np.inf
+            iso_vol = -1
+            if iso_mode:
+                for vol in range(nvol):
+                    for j in range(n_iv):
+                        if iv_leaf[j] != vol or iv_lo[j] >= iso_t or iv_hi[j] - iv_lo[j] <= min_overlap:
+                            continue
+                        t, walked = iso_first_crossing(data, offsets, dims, isovalue, base, slope, vol, t_in[vol],
+                                                       iv_lo[j], iv_hi[j], tolerance, iso_t)
+                        samples += walked
+                        if t < iso_t:
+                            iso_t = t
+                            iso_vol = vol
+                            break
+                if iso_vol >= 0:
+                    cut_t, cut_obj, cut_tri = _append(cut_t, cut_obj, cut_tri, n_cut, iso_t, -2, iso_vol)
+                    n_cut += 1
             # Medium intervals cut the ray like surfaces, so each piece is inside a medium or not.
             for j in range(n_iv):
                 if leaf_has_medium[iv_leaf[j]]:
@@ -375,7 +397,7 @@ def render(origins, directions,
             k_hi = np.empty(n_iv, np.int64)
             count = 0
             for j in range(n_iv):
-                if iv_leaf[j] < nvol:
+                if iv_leaf[j] < nvol and not iso_mode:
                     k_lo[j], k_hi[j] = _cell_range(t_first, step, iv_lo[j], iv_hi[j], min_overlap)
                     count = max(count, k_hi[j] + 1)
 
@@ -450,9 +472,19 @@ def render(origins, directions,
                         if np.isnan(t_hit):
                             t_hit = nearest
                         cr, cg, cb, ca = _composite(cr, cg, cb, ca, sr, sg, sb, sa)
+                surface_hit = False
                 while c < n_cut and cut_t[cut_order[c]] == p1:
                     obj = cut_obj[cut_order[c]]
                     c += 1
+                    if obj == -2:  # the iso-surface: opaque, nothing behind it counts
+                        r, g_, b = iso_colour(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong,
+                                              shading, light, half, has_half, base, slope, cut_tri[cut_order[c - 1]],
+                                              p1)
+                        if np.isnan(t_hit):
+                            t_hit = p1
+                        cr, cg, cb, ca = _composite(cr, cg, cb, ca, r, g_, b, 1.0)
+                        surface_hit = True
+                        break
                     if obj < 0:
                         continue
                     leaf = obj_leaf[obj]
@@ -466,6 +498,8 @@ def render(origins, directions,
                     if alpha > 0.0 and np.isnan(t_hit):
                         t_hit = p1
                     cr, cg, cb, ca = _composite(cr, cg, cb, ca, alpha * r, alpha * g_, alpha * b, alpha)
+                if surface_hit:
+                    break
                 if cell >= 0 and p1 == b_k:
                     k += 1
                 p0 = p1

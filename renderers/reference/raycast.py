@@ -444,7 +444,8 @@ def _stationary_points(c000, c100, c010, c110, c001, c101, c011, c111, x0, dx, y
 
 
 @njit(**_JIT)
-def _walk_volume(data, off, nx, ny, nz, bx, by, bz, sx, sy, sz, t_in, t_out, iso_mode, iso, tolerance, t_stop):
+def _walk_volume(data, off, nx, ny, nz, bx, by, bz, sx, sy, sz, t_in, t_out, iso_mode, iso, tolerance, t_stop,
+                 entry_below=-1):
     """Walk one ray through one volume's lattice cells on ``[t_in, t_out]``: ``(value, t, segments)``.
 
     A 3-D DDA over the regions of :func:`_region` (interior cells and the clamp-to-edge borders)
@@ -459,7 +460,8 @@ def _walk_volume(data, off, nx, ny, nz, bx, by, bz, sx, sy, sz, t_in, t_out, iso
     maximum is passed over (the field in a cell never exceeds its largest corner).
 
     ``iso``: ``t`` is the first crossing (``inf`` if none): the first place where
-    :func:`_below` differs from its value at ``t_in``. Each segment is cut at the stationary
+    :func:`_below` differs from its value at ``t_in`` (or from ``entry_below``, 0 or 1, where the
+    state was taken elsewhere: a volume clipped by geometry keeps its box entry's). Each segment is cut at the stationary
     points into monotone pieces; in the first piece whose end has the other state, the crossing
     is bracketed and bisected until the bracket is at most ``tolerance`` of the segment. The walk
     stops at ``t_stop`` (a nearer hit of another volume). ``value`` is unused (0).
@@ -527,7 +529,8 @@ def _walk_volume(data, off, nx, ny, nz, bx, by, bz, sx, sy, sz, t_in, t_out, iso
                     best_t = t1
         else:
             if segments == 1:
-                below = _below(_blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0, fy0, fz0), iso)
+                below = (_below(_blend(c000, c100, c010, c110, c001, c101, c011, c111, fx0, fy0, fz0), iso)
+                         if entry_below < 0 else entry_below == 1)
             if below:
                 top = max(max(max(c000, c100), max(c010, c110)), max(max(c001, c101), max(c011, c111)))
                 possible = not _below(top, iso)
@@ -648,7 +651,16 @@ def _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, s
             hit_vol = vol
     if hit_vol < 0:
         return 0.0, 0.0, 0.0, 0.0, np.nan, samples
-    vol = hit_vol
+    r, g, b = iso_colour(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, shading, light, half,
+                         has_half, base, slope, hit_vol, hit_t)
+    return r, g, b, 1.0, hit_t, samples
+
+
+@njit(**_JIT)
+def iso_colour(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, shading, light, half, has_half, base,
+               slope, vol, t):
+    """The surface of volume ``vol`` hit at ``t``: its transfer function's colour at its isovalue, shaded with the
+    gradient there (opacity 1)."""
     size = tf_size[vol]
     iso = isovalue[vol]
     r = _tf_channel(tf, vol, size, iso, 0)
@@ -656,10 +668,25 @@ def _iso_ray(data, offsets, dims, spacing, tf, tf_size, isovalue, nmat, phong, s
     b = _tf_channel(tf, vol, size, iso, 2)
     if phong:
         gx, gy, gz = _gradient(data, offsets[vol], dims[vol, 0], dims[vol, 1], dims[vol, 2],
-                               base[vol, 0] + hit_t * slope[vol, 0], base[vol, 1] + hit_t * slope[vol, 1],
-                               base[vol, 2] + hit_t * slope[vol, 2], spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
+                               base[vol, 0] + t * slope[vol, 0], base[vol, 1] + t * slope[vol, 1],
+                               base[vol, 2] + t * slope[vol, 2], spacing[vol, 0], spacing[vol, 1], spacing[vol, 2])
         r, g, b = _blinn_phong(r, g, b, gx, gy, gz, nmat, vol, light, half, has_half, shading)
-    return r, g, b, 1.0, hit_t, samples
+    return r, g, b
+
+
+@njit(**_JIT)
+def iso_first_crossing(data, offsets, dims, isovalue, base, slope, vol, t_entry, lo, hi, tolerance, t_stop):
+    """The first crossing of volume ``vol``'s surface on ``[lo, hi]``, from its state at ``t_entry`` (where the ray
+    entered its box): ``(t or inf, lattice-cell segments walked)``. A crossing at ``lo`` itself is where geometry
+    opens the volume inside its surface: the cut face is drawn (a cap)."""
+    nx, ny, nz = dims[vol, 0], dims[vol, 1], dims[vol, 2]
+    iso = isovalue[vol]
+    entry = _trilinear(data, offsets[vol], nx, ny, nz, base[vol, 0] + t_entry * slope[vol, 0],
+                       base[vol, 1] + t_entry * slope[vol, 1], base[vol, 2] + t_entry * slope[vol, 2])
+    _, t, n = _walk_volume(data, offsets[vol], nx, ny, nz, base[vol, 0], base[vol, 1], base[vol, 2], slope[vol, 0],
+                           slope[vol, 1], slope[vol, 2], lo, hi, True, iso, tolerance, t_stop,
+                           1 if _below(entry, iso) else 0)
+    return t, n
 
 
 @njit(**_JIT)

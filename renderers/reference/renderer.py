@@ -50,8 +50,11 @@ Choices where the conventions leave room
   walked with the active-object set and the CSG forest; volumes are sampled only where they
   contribute, on the cells above (a volume no geometry cuts gets the same samples bit for bit),
   the cells cut at visible surfaces and medium ends; translucent surfaces are composited at
-  their depth and homogeneous media analytically (``dvr`` only). A scene without them takes
-  the volume-only kernel unchanged.
+  their depth and homogeneous media analytically. In ``iso`` a volume contributes its first
+  crossing inside the intervals where it contributes, from its state at its box entry (so a cut
+  through the inside of its surface shows the cut face), found by the same cell walk, opaque,
+  behind whatever surfaces and media lie in front. A scene without them takes the volume-only
+  kernel unchanged.
 * **Lenses** (Ropinski et al. 2005; semantics in :mod:`core.lens`). A lens scene (one volume,
   ``dvr``) goes through :func:`.raycast.render_lens`: per ray the lens's interval on the whole
   line, from the sphere's quadratic or from clipping the ray against the half-spaces of the
@@ -397,8 +400,9 @@ class ReferenceRenderer(Renderer):
 
     def _geometry_arguments(self, scene, volume_arguments):
         """The geometry kernel's inputs: :func:`geometry.render`'s order, outputs excluded."""
-        (_, row_order, origins, directions, data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size,
-         gtab, gtab_size, ref_step, _, step, min_overlap, phong, parameters, light, _, pre) = volume_arguments
+        (mode, row_order, origins, directions, data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size,
+         gtab, gtab_size, ref_step, isovalue, step, min_overlap, phong, parameters, light, tolerance,
+         pre) = volume_arguments
         nvol = len(scene.volumes)
         # Surface objects: every mesh instance, then every volume boundary; each is a leaf's mesh.
         placed = [(m.mesh, m.transform, nvol + i) for i, m in enumerate(scene.meshes)]
@@ -441,7 +445,7 @@ class ReferenceRenderer(Renderer):
         forest = geometry_forest(scene)
         return (origins, directions, data, offsets, dims, spacing, world_to_object, normal_matrix, tf, tf_size, gtab,
                 gtab_size, ref_step, pre, step, min_overlap, phong, parameters, light,
-                verts, faces, face_normals, np.ascontiguousarray(inverse[:, :3, :]),
+                mode == self._raycast.MODE_CODES["iso"], isovalue, tolerance, verts, faces, face_normals, np.ascontiguousarray(inverse[:, :3, :]),
                 np.ascontiguousarray(np.transpose(inverse[:, :3, :3], (0, 2, 1))), lo - pad, hi + pad, obj_faces,
                 obj_leaf, leaf_box, leaf_obj, leaf_surface, leaf_has_surface, leaf_medium, leaf_has_medium,
                 *forest, row_order)

@@ -14,9 +14,9 @@
 #define ISO_FAR INFINITY
 #define ISO_BISECTIONS 24            // halvings of a monotone piece: float32's resolution of a segment
 
-float iso_load(__global const ATLAS_T* atlas, int4 atlas_dims, int4 slot, int x, int y, int z) {
-    return (float)atlas[((long)(slot.z + z) * atlas_dims.y + slot.y + y) * atlas_dims.x + slot.x + x] * ATLAS_SCALE;
-}
+// Sampling (pixel.cl, which follows this file).
+float load(__global const ATLAS_T* atlas, int4 atlas_dims, int x, int y, int z);
+float trilinear(__global const ATLAS_T* atlas, int4 atlas_dims, int4 slot, int4 dims, float3 u);
 
 // Lattice region of voxel coordinate u on an axis of n voxels, for a ray moving by `slope` (_region).
 int iso_region(float u, float slope, int n) {
@@ -137,14 +137,14 @@ float iso_walk(float t_lo, float t_hi, __constant Object* o, float3 origin, floa
             leaving[a] = !last && tc[a] == t_next;
             iso_axis(c[a], n[a], base[a], slope[a], t0, t1, entered[a], leaving[a], &i0[a], &i1[a], &f0[a], &f1[a]);
         }
-        float k[8] = {iso_load(atlas, atlas_dims, o->slot, i0[0], i0[1], i0[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i1[0], i0[1], i0[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i0[0], i1[1], i0[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i1[0], i1[1], i0[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i0[0], i0[1], i1[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i1[0], i0[1], i1[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i0[0], i1[1], i1[2]),
-                      iso_load(atlas, atlas_dims, o->slot, i1[0], i1[1], i1[2])};
+        float k[8] = {load(atlas, atlas_dims, o->slot.x + i0[0], o->slot.y + i0[1], o->slot.z + i0[2]),
+                      load(atlas, atlas_dims, o->slot.x + i1[0], o->slot.y + i0[1], o->slot.z + i0[2]),
+                      load(atlas, atlas_dims, o->slot.x + i0[0], o->slot.y + i1[1], o->slot.z + i0[2]),
+                      load(atlas, atlas_dims, o->slot.x + i1[0], o->slot.y + i1[1], o->slot.z + i0[2]),
+                      load(atlas, atlas_dims, o->slot.x + i0[0], o->slot.y + i0[1], o->slot.z + i1[2]),
+                      load(atlas, atlas_dims, o->slot.x + i1[0], o->slot.y + i0[1], o->slot.z + i1[2]),
+                      load(atlas, atlas_dims, o->slot.x + i0[0], o->slot.y + i1[1], o->slot.z + i1[2]),
+                      load(atlas, atlas_dims, o->slot.x + i1[0], o->slot.y + i1[1], o->slot.z + i1[2])};
         float3 start = (float3)(f0[0], f0[1], f0[2]);
         (*cells)++;
         if (*state < 0) {
@@ -193,22 +193,36 @@ float iso_walk(float t_lo, float t_hi, __constant Object* o, float3 origin, floa
     return ISO_FAR;
 }
 
+// The states of the volumes `entered` (object bits) where the ray enters their boxes at t: their
+// bits of `below` set to `s < isovalue` there (the reference takes a crossing relative to it).
+ulong iso_entry_states(ulong entered, float t, float3 origin, float3 direction, __constant Object* objects,
+                       __global const ATLAS_T* atlas, int4 atlas_dims, ulong below) {
+    float4 hp = (float4)(origin + t * direction, 1.0f);
+    for (ulong pending = entered; pending;) {
+        ulong lowest = pending & (~pending + 1UL);
+        pending ^= lowest;
+        __constant Object* o = &objects[63 - (int)clz(lowest)];
+        float3 u = (float3)(dot(o->to_voxel[0], hp), dot(o->to_voxel[1], hp), dot(o->to_voxel[2], hp));
+        below = trilinear(atlas, atlas_dims, o->slot, o->dims, u) < o->params.z ? (below | lowest) : (below & ~lowest);
+    }
+    return below;
+}
+
 // The first crossing on [t0, t1] of any volume of `volumes` (object bits): the nearest, the lower
 // object on a tie (the reference's order); *hit_object is set and the crossing returned, or ISO_FAR.
-// Each volume's state lives in two masks: *known (the ray has entered it) and *below (its state).
+// Each volume's state is its bit of `below` (iso_entry_states). A crossing at t0 itself is where a
+// boundary or CSG opens the volume inside its surface: the cut face (a cap), as the reference draws it.
 float iso_segment(float t0, float t1, ulong volumes, float3 origin, float3 direction, __constant Object* objects,
-                  __global const ATLAS_T* atlas, int4 atlas_dims, ulong* known, ulong* below, int* hit_object,
-                  uint* cells, uint* solved) {
+                  __global const ATLAS_T* atlas, int4 atlas_dims, ulong below, int* hit_object, uint* cells,
+                  uint* solved) {
     float nearest = ISO_FAR;
     for (ulong pending = volumes; pending;) {
         ulong lowest = pending & (~pending + 1UL);
         pending ^= lowest;
         int obj = 63 - (int)clz(lowest);
-        int state = (*known & lowest) ? (int)((*below & lowest) != 0UL) : -1;
+        int state = (below & lowest) != 0UL;
         float t = iso_walk(t0, fmin(t1, nearest), &objects[obj], origin, direction, atlas, atlas_dims, &state, cells,
                            solved);
-        *known |= lowest;
-        *below = state ? (*below | lowest) : (*below & ~lowest);
         if (t < nearest) {
             nearest = t;
             *hit_object = obj;

@@ -532,7 +532,8 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
     int best_object = -1;
 #endif
 #ifdef ISO
-    ulong iso_known = 0UL, iso_below = 0UL;  // volumes the ray has entered, and their state (iso_segment)
+    ulong iso_below = iso_entry_states(inside & volume_leaves, 0.0f, origin, direction, objects, atlas, atlas_dims,
+                                       0UL);   // each volume's state where the ray entered its box (iso_segment)
     int hit_object = -1;
     float hit_t = 0.0f;
     uint solved = 0;
@@ -569,9 +570,19 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
                 terminated = mip_segment(t0, t1, volumes, anchor, step, origin, direction, objects, atlas, atlas_dims,
                                          &best, &best_object, &samples);
 #elif defined(ISO)
-                hit_t = iso_segment(t0, t1, volumes, origin, direction, objects, atlas, atlas_dims, &iso_known,
-                                    &iso_below, &hit_object, &samples, &solved);
-                terminated = hit_object >= 0;
+                // The surface's first crossing in this segment, then the media in front of it.
+                float end = t1;
+                if (volumes) {
+                    hit_t = iso_segment(t0, t1, volumes, origin, direction, objects, atlas, atlas_dims, iso_below,
+                                        &hit_object, &samples, &solved);
+                    end = hit_object >= 0 ? hit_t : t1;
+                }
+                float4 media = media_of(contributing & medium_leaves, materials);
+                if (media.w > 0.0f && end > t0) {
+                    medium_steps++;
+                    color += (1.0f - color.w) * media_sample(media, end - t0);
+                }
+                terminated = hit_object >= 0 || color.w > threshold;
 #else
                 terminated = composite_segment(t0, t1, volumes, media_of(contributing & medium_leaves, materials),
                                                anchor, step, threshold, origin, direction, objects, atlas,
@@ -600,6 +611,10 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
             anchor = t1;                 // the first entry into a volume's box or hull
             anchored = true;
         }
+#ifdef ISO
+        iso_below = iso_entry_states(after & ~inside & volume_leaves, t1, origin, direction, objects, atlas, atlas_dims,
+                                     iso_below);
+#endif
         inside = after;
         contributing = contributing_after;
         roots = roots_after;
@@ -632,7 +647,7 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
                                  dot(o->gradient[2].xyz, diff));
         rgb = blinn_phong(rgb, normal, light_dir, half_vector, has_half, phong);
 #endif
-        color = (float4)(rgb, 1.0f);
+        color += (1.0f - color.w) * (float4)(rgb, 1.0f);
     }
     // Slot 3 counts early terminations; a hit is a crossing found (slot 7), not one.
     stats[row * width + col] = (uint8)((uint)n, dropped, samples, 0u, moves, medium_steps, solved,
