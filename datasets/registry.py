@@ -15,7 +15,7 @@ from dataclasses import dataclass, field
 from typing import Callable
 
 from datasets import presets as P
-from datasets.phantoms import bonsai, clouds, controls, engine, foot, geology, heads, torso, vessels
+from datasets.phantoms import bonsai, clouds, controls, engine, foot, geology, heads, torso, tubes, vessels
 from core.errors import InputError
 from core.papers import PAPERS
 from core.resources import check_memory, largest_fitting
@@ -147,6 +147,7 @@ TERRACOTTA = (0.8, 0.4, 0.25)
 BRAIN = (0.92, 0.82, 0.78)
 LIVER = (0.6, 0.25, 0.2)
 KIDNEY = (0.9, 0.6, 0.35)
+COPPER = (0.85, 0.5, 0.3)
 
 
 def _skin_and_bone(bone_low, bone_high, *, band=(25, 40, 65, 85), scale=255.0, alpha=0.35, name="skin"):
@@ -278,6 +279,17 @@ def _phantoms():
                  {"opaque": P.opaque(60, 140, P.BONE_COLOR, name="opaque"),
                   "binary": P.step(100, P.BONE_COLOR, name="binary")},
                  "opaque"),
+        _phantom("tube", tubes.tube,
+                 f"Parallel straight tubes along z, `radius` voxels ({tubes.MIN_RADIUS:g} to {tubes.MAX_RADIUS:g}), "
+                 f"{tubes.TUBE_SPACING} voxels apart in a row along x through the box's centre voxel: a linear "
+                 "radial ramp whose trilinear iso-surface at 0.5 is a "
+                 "tube of that radius however thin. The stability atlas's thin features: where a sampled "
+                 "iso-surface hit steps over a tube.",
+                 [],
+                 {"iso": P.points([(117, COPPER, 0.0), (138, COPPER, 1.0)], name="iso", isovalue=127.5,
+                                  description="iso-surface at 0.5 (raw 127.5), the tube's radius; in dvr an "
+                                              "opaque ramp over 117–138 about it")},
+                 "iso", size=64),
         _phantom("constant_cube", controls.constant_cube,
                  "Every voxel equal to `value`; with the identity preset α = value/255 (note 003 Fig. 5.19).",
                  ["lacroute1995"],

@@ -129,3 +129,43 @@ def test_small_stand_ins_keep_the_real_scans_box_statistics(phantom):
     theirs = in_box(statistics(small_real, datasets.preset(real_name, preset)), (mine["nx"], mine["ny"], mine["nz"]))
     for stat in ("nontransparent_fraction", "empty_block_fraction"):
         assert mine[stat] == pytest.approx(theirs[stat], rel=0.4, abs=0.01), stat
+
+
+@pytest.mark.parametrize("radius", [4.0, 1.0, 0.5, 0.25])
+def test_tube_iso_surface_has_its_radius_however_thin(radius):
+    """The reference's walk of the trilinear field, out from the middle tube's axis along x and y, crosses the
+    isovalue 0.5 within 0.01 voxel of the radius; along z the tube runs on, ending in a cap inside the box."""
+    from iso_shapes import reference_crossings
+
+    volume = datasets.load("tube", size=32, cache_dir=False, radius=radius)
+    assert volume.data.dtype == np.uint8 and volume.data.shape == (32, 32, 32)
+    iso = datasets.preset("tube").effective_isovalue
+    assert iso == 0.5
+    axis = np.array([16.0, 16.0, 16.0])  # x, y, z: the middle tube's axis passes through this voxel centre
+    slopes = np.array([[6.0, 0, 0], [-6.0, 0, 0], [0, 6.0, 0], [0, -6.0, 0], [0, 0, 15.0]])
+    hits = reference_crossings(volume.normalized(np.float64), np.tile(axis, (5, 1)), slopes, iso)
+    assert hits[:4] * 6 == pytest.approx([radius] * 4, abs=0.01)
+    assert 15 * hits[4] == pytest.approx(31 - 5 - 16 + radius, abs=0.01)  # the axis ends 5 voxels before the last slice
+
+
+def test_tube_row_keeps_its_tubes_apart_inside_the_box():
+    from datasets.phantoms.tubes import TUBE_SPACING, tube_axes
+
+    assert tube_axes(24) == [12] and tube_axes(48) == [14, 24, 34] and len(tube_axes(128)) == 11
+    data = datasets.load("tube", size=48, cache_dir=False, radius=4.0).data
+    row = data[24, 24]  # along x through the axes
+    assert [x for x in range(48) if row[x] == 255 and (x - 14) % TUBE_SPACING == 0] == [14, 24, 34]
+    assert row[[19, 29]].tolist() == [0, 0]  # the ramps (zero from R + 1 = 5 voxels out) do not meet
+    assert not data[0].any() and not data[-1].any() and not data[:, :, 0].any() and not data[:, :, -1].any()
+
+
+def test_tube_is_deterministic_cached_and_checks_its_radius(tmp_path):
+    first = datasets.load("tube", size=24, cache_dir=tmp_path, radius=0.5)
+    again = datasets.load("tube", size=24, cache_dir=tmp_path, radius=0.5)
+    assert (first.meta["cache"]["hit"], again.meta["cache"]["hit"]) == (False, True)
+    assert first.content_hash() == again.content_hash() == datasets.load("tube", size=24, seed=5, cache_dir=False,
+                                                                         radius=0.5).content_hash()
+    assert datasets.cache_key("tube", size=24, radius=0.5) != datasets.cache_key("tube", size=24, radius=0.25)
+    for bad in (0, 0.01, 4.5, True, "1"):
+        with pytest.raises(InputError, match="tube radius: expected voxels from 0.05"):
+            datasets.load("tube", size=16, cache_dir=False, radius=bad)

@@ -8,9 +8,10 @@ import renderers
 from core.errors import InputError
 from pipeline.experiments import Profile
 from pipeline.experiments.volbench import atlas as atlas_module
-from pipeline.experiments.volbench.atlas import (PSNR_BREAKS, Atlas, atlas_rows, failure_phrases, heat_cells,
-                                                 left_out, threshold)
-from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY
+from pipeline.experiments.volbench.atlas import (EXACT_ISO, PRE_CLASSIFIED, PSNR_BREAKS, TECHNIQUES, Atlas,
+                                                 atlas_rows, failure_phrases, heat_cells, left_out, technique_rows,
+                                                 threshold)
+from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, points
 from reports import blocks
 from reports.html import ReportContext
 from reports.imageio import write_exr, write_png
@@ -18,8 +19,18 @@ from reports.imageio import write_exr, write_png
 BACKENDS = [b for b in renderers.names() if b != "reference"]
 
 
+ISO_BACKENDS = {"cl-tiled", "gl-raycast", "vtk-gpu"}
+"""The backends with an iso mode besides the reference."""
+
+
 def _runs(scale):
     return Atlas().runs(Profile.load(f"config/{scale}.yaml"))
+
+
+def _technique(run):
+    """The run's technique: a TECHNIQUES label when it ran with that entry's backend and options, else its backend."""
+    return next((label for label, t in TECHNIQUES.items()
+                 if run.backend == t.backend and t.options.items() <= run.options.items()), run.backend)
 
 
 @pytest.mark.parametrize("scale", ["smoke", "default", "full"])
@@ -45,7 +56,8 @@ def test_each_axis_renders_one_scene_per_point_for_every_backend(scale):
         truth = truths[run.reference]
         assert run.scene == truth.scene and run.views == truth.views, run.id  # the same data, camera and TF
         assert (run.warmup, run.repeat) == (0, 1)
-        own = "reference-pre" if run.options.get("classification") == "pre" else run.backend
+        technique = _technique(run)
+        own = TECHNIQUES[technique].slug if technique in TECHNIQUES else run.backend
         assert run.interleave == f"{run.tags['axis']}.{'truth' if own == 'reference' else own}"
     for axis in AXES:
         scenes = {r.scene["name"] for r in runs if r.tags["axis"] == axis.key}
@@ -75,13 +87,14 @@ def test_run_counts_follow_the_axes():
         backends = sum((b, axis.key) not in reasons for b in BACKENDS)
         scenes = 1 if axis.option or axis.view_key else values
         expected += scenes + backends * (values if axis.option or not axis.view_key else 1)
-        if axis.key in atlas_module.PRE_CLASSIFIED_AXES:
-            expected += scenes  # the pre-classified reference, one run per point
+        extra = sum(axis.key in t.axes for t in TECHNIQUES.values())
+        expected += extra * scenes * (values if axis.option else 1)  # each extra technique, one run per point
     expected += len(atlas_module.CONVERGENCE_STEPS)
     assert len(runs) == expected
     pre = [r for r in runs if r.options.get("classification") == "pre"]
     assert {r.tags["axis"] for r in pre} == {"tf"} and all(r.backend == "reference" for r in pre)
     assert all(r.options["step_factor"] == atlas_module.TRUTH_STEP for r in pre)  # only the order differs
+    assert [r.id for r in pre] == ["tf.0.reference-pre", "tf.1.reference-pre"]  # the ids it always had
     assert sum(r.tags["role"] == "convergence" for r in runs) == len(atlas_module.CONVERGENCE_STEPS)
 
 
@@ -91,7 +104,12 @@ def test_reasons_name_what_is_missing():
     assert reasons[("volpack", "fov")].startswith("projections 'perspective': VolPack")
     assert ("gl-raycast", "lens") not in reasons  # it renders lenses with its single-pass variant
     assert ("vtk-gpu", "volumes") not in reasons and ("gl-raycast", "volumes") in reasons
-    assert (atlas_module.PRE_CLASSIFIED, "tf") not in reasons and (atlas_module.PRE_CLASSIFIED, "step") in reasons
+    assert (PRE_CLASSIFIED, "tf") not in reasons and (PRE_CLASSIFIED, "step") in reasons
+    assert reasons[(EXACT_ISO, "step")] == TECHNIQUES[EXACT_ISO].elsewhere
+    # A backend without iso-surfaces is left out of the iso axes for that, not for a step it lacks.
+    for backend in set(BACKENDS) - ISO_BACKENDS:
+        for key in ("iso-step", "thin"):
+            assert reasons[(backend, key)].startswith("modes 'iso': "), (backend, key)
 
 
 def test_axes_setting_is_checked():
@@ -206,7 +224,7 @@ def test_report_on_synthetic_rows(tmp_path):
     assert any("breaks once min opacity ≥ 0.01" in s for s in out[0].sentences)
     heat = out[1]
     assert isinstance(heat, blocks.HeatMap) and heat.thresholds == (30.0, 40.0)
-    assert heat.rows == [*BACKENDS, atlas_module.PRE_CLASSIFIED] and heat.columns == [axis.words for axis in AXES]
+    assert heat.rows == technique_rows() and heat.columns == [axis.words for axis in AXES]
     figures = [b for b in out if isinstance(b, blocks.Figure)]
     assert {f.anchor for f in figures} == {"atlas-min_opacity", "atlas-angle", "atlas-step"}
     assert all((report_dir / f.path).is_file() for f in figures)
@@ -224,3 +242,72 @@ def test_sphere_shell_keeps_a_layer_of_the_given_thickness():
     assert thin[12, 12, 12] == thick[12, 12, 12] == 0 < solid[12, 12, 12]  # hollow
     with pytest.raises(InputError, match="sphere shell"):
         datasets.load("sphere", size=16, cache_dir=False, shell=-1)
+
+
+@pytest.mark.parametrize("scale", ["smoke", "default", "full"])
+def test_iso_axes_run_the_iso_backends_and_the_exact_hit_beside_the_sampled_one(scale):
+    runs = [r for r in _runs(scale) if r.tags["axis"] in ("iso-step", "thin")]
+    assert all(r.scene["mode"] == "iso" for r in runs)
+    for key in ("iso-step", "thin"):
+        tests = [r for r in runs if r.tags["axis"] == key and r.tags["role"] == "test"]
+        assert {_technique(r) for r in tests} == ISO_BACKENDS | {EXACT_ISO}, key
+        assert all(r.options == {"iso_hit": "exact", **({"step_factor": r.tags["value"]} if key == "iso-step" else {})}
+                   for r in tests if _technique(r) == EXACT_ISO)
+        assert all("iso_hit" not in r.options for r in tests if _technique(r) != EXACT_ISO)  # sampled: the default
+    steps = [r for r in runs if r.tags["axis"] == "iso-step" and r.tags["role"] == "test"]
+    assert {r.options["step_factor"] for r in steps} == set(AXIS_BY_KEY["iso-step"].values[scale])
+    thin = [r for r in runs if r.tags["axis"] == "thin" and r.tags["role"] == "truth"]
+    assert [r.scene["volumes"][0]["params"]["radius"] for r in thin] == AXIS_BY_KEY["thin"].values[scale]
+    assert all(r.scene["volumes"][0]["dataset"] == "tube" for r in thin)
+
+
+def test_no_technique_fixes_an_option_its_axes_sweep():
+    for label, technique in TECHNIQUES.items():
+        assert all(AXIS_BY_KEY[key].option not in technique.options for key in technique.axes), label
+
+
+def test_thin_axis_sees_the_tubes_obliquely_and_magnified():
+    from core.camera import Camera
+    from datasets.phantoms.tubes import TUBE_SPACING
+
+    for value, spec, (view,) in points(AXIS_BY_KEY["thin"], [4.0, 0.25], size=48, image=64):
+        camera = Camera(**{k: v for k, v in view.items() if k != "view"})
+        sight = camera._offset_direction()
+        assert 0.2 < abs(sight[2]) < 0.5  # neither along the tubes (z) nor square to them
+        up = np.asarray(camera.up) / np.linalg.norm(camera.up)
+        assert 0.9 < up[2] < 0.99  # rolled: the tubes slant across the pixel rows
+        assert spec["camera"]["view_height"] == 3 * TUBE_SPACING  # the three tubes' slabs, not the whole box
+
+
+def test_thin_axis_threshold_reads_in_voxels():
+    rows = pd.DataFrame({"value": [4.0, 2.0, 1.0, 0.5, 0.25], "psnr": [45.0, 41.0, 36.0, 24.0, 19.0]})
+    assert threshold(rows, AXIS_BY_KEY["thin"])["words"] == "tube radius ≤ 0.5 voxels"
+    assert threshold(rows.assign(value=[2.0, 1.0, 0.5, 1.5, 0.375]).iloc[:2], AXIS_BY_KEY["thin"]) is None
+
+
+def test_results_rows_are_named_by_technique():
+    rows = [_row("gl-raycast", "thin", 0.25, 20.0), _row("gl-raycast", "thin", 0.25, 120.0, option_iso_hit="exact"),
+            _row("reference", "tf", 1.0, 35.0, option_classification="pre", option_step_factor=0.125)]
+    assert atlas_rows(pd.DataFrame(rows)).backend.tolist() == ["gl-raycast", EXACT_ISO, PRE_CLASSIFIED]
+    assert technique_rows().index(EXACT_ISO) == technique_rows().index("gl-raycast") + 1
+    assert technique_rows()[-1] == PRE_CLASSIFIED
+
+
+def test_exact_iso_hit_sees_the_thinnest_tube_that_sampling_steps_over(tmp_path):
+    """The thin axis's R = 1/4 scene at 24³ and 32² (the tube covers 5 % of the pixels): measured 130 dB for the exact
+    hit and 18 dB for the sampled hit at step 1, which misses most of the tube's pixels."""
+    from renderers.gl import context
+    from pipeline.scene_io import build_scene
+    from reports.metrics import psnr
+
+    ok, why = context.probe()
+    if not ok:
+        pytest.skip(f"no OpenGL 4.3 context through EGL here: {why}")
+    ((_, spec, (view,)),) = points(AXIS_BY_KEY["thin"], [0.25], size=24, image=32)
+    scene = build_scene(spec, cache_dir=tmp_path).with_camera(**{k: v for k, v in view.items() if k != "view"})
+    truth = renderers.get("reference", step_factor=atlas_module.TRUTH_STEP).render(scene).image
+    assert (truth[..., 3] > 0).mean() > 0.03  # the tubes cover a share of the picture
+    exact = renderers.get("gl-raycast", iso_hit="exact").render(scene).image
+    sampled = renderers.get("gl-raycast", step_factor=1.0).render(scene).image
+    assert psnr(truth, exact) >= 40.0
+    assert psnr(truth, sampled) <= 25.0

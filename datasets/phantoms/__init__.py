@@ -6,6 +6,7 @@
 * :mod:`.controls`: ``sphere``, ``constant_cube``, ``checkerboard``, ``fbm_control``
 * :mod:`.clouds`: ``smoke_cloud``, ``golden_lady``
 * :mod:`.geology`: ``seismic``; :mod:`.bonsai`: ``bonsai_like``
+* :mod:`.tubes`: ``tube``, the thin-feature control of iso-surfaces
 
 They are registered, with presets and targets, in :mod:`datasets.registry`; load them through
 :func:`datasets.load`, which caches them.

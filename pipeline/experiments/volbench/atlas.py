@@ -4,7 +4,8 @@ Each axis of :mod:`.atlas_axes` sweeps one thing on one scene shared by every ba
 one untimed frame compared with the reference at a fine step. The page opens with each technique's
 failure threshold (30 dB PSNR: it "breaks"; 40 dB: accurate), then a technique × axis heat map of the
 worst PSNR, each cell linked to its axis's sweep chart and its worst difference image; a backend that
-lacks an axis's feature or option shows why in its cell.
+lacks an axis's feature or option shows why in its cell. Besides every backend at its defaults, a few
+:data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
 """
 
 import dataclasses
@@ -32,14 +33,75 @@ TRUTH_STEP = 1 / 8
 CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
 """The reference's own steps on the step axis: its error must fall as the step shrinks."""
 
+
+@dataclasses.dataclass(frozen=True)
+class Technique:
+    """A backend with options of its own, a row of the atlas beside the backends at their defaults.
+
+    Parameters
+    ----------
+    backend : str
+    options : dict
+        What makes it this technique: its runs add them to the axis's options (none of them is an option its
+        axes sweep), and its rows in the results are the backend's runs with these options.
+    axes : tuple of str
+        The keys of the axes it runs on.
+    elsewhere : str
+        Why it is not on the other axes (its heat-map cells there).
+    slug : str
+        Its part of run ids and interleave groups.
+    """
+
+    backend: str
+    options: dict
+    axes: tuple
+    elsewhere: str
+    slug: str
+
+
 PRE_CLASSIFIED = "reference, pre-classified"
 """The reference classifying voxels before interpolating them (shear-warp's and VolPack's order), as a
 technique of its own: on the TF axis it separates what pre-classification costs from what the
 shear-warp factorization does."""
 
-PRE_CLASSIFIED_AXES = ("tf",)
-"""The axes the pre-classified reference is swept on: the order of classification matters where the
-transfer function is sharp."""
+EXACT_ISO = "gl-raycast, exact iso hit"
+"""gl-raycast walking every lattice cell of a ray for its first iso-surface crossing (the reference's walk) instead
+of testing samples a step apart: on the iso axes, beside gl-raycast's sampled hit, what the hit test costs."""
+
+TECHNIQUES = {
+    PRE_CLASSIFIED: Technique(REFERENCE, {"classification": "pre", "step_factor": TRUTH_STEP}, ("tf",),
+                              "swept on the TF axis only, where the order of classification matters",
+                              "reference-pre"),
+    EXACT_ISO: Technique("gl-raycast", {"iso_hit": "exact"}, ("iso-step", "thin"),
+                         "on the iso axes only: the exact hit changes iso-surfaces alone", "gl-raycast-exact"),
+}
+"""The extra rows, by label: backends with other options, each on the axes where those options matter."""
+
+
+def technique_rows():
+    """The heat map's rows: every backend but the reference, each followed by its :data:`TECHNIQUES`, then the
+    reference's."""
+    rows = []
+    for backend in renderers.names():
+        if backend != REFERENCE:
+            rows += [backend, *(label for label, technique in TECHNIQUES.items() if technique.backend == backend)]
+    return rows + [label for label, technique in TECHNIQUES.items() if technique.backend == REFERENCE]
+
+
+def techniques(frame):
+    """Each row's technique: the label of the :data:`TECHNIQUES` entry whose backend and options it ran with
+    (``option_<name>`` columns), else its backend."""
+    labels = frame.backend.copy()
+    for label, technique in TECHNIQUES.items():
+        mine = frame.backend == technique.backend
+        for name, value in technique.options.items():
+            column = frame.get(f"option_{name}", pd.Series(np.nan, frame.index))
+            if isinstance(value, str):
+                mine &= column.astype(str) == value
+            else:
+                mine &= pd.to_numeric(column, errors="coerce") == value
+        labels[mine] = label
+    return labels
 
 
 def _values(frame):
@@ -50,13 +112,13 @@ def _values(frame):
 
 
 def atlas_rows(results):
-    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; the reference's test runs
-    (pre-classified) are named :data:`PRE_CLASSIFIED`."""
+    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; ``backend`` names the technique
+    (a :data:`TECHNIQUES` label for their runs)."""
     ok = ok_rows(results)
     if ok.empty or "role" not in ok:
         return ok.iloc[:0].assign(value=[], psnr=[], flip=[])
     tests = ok[ok.role == "test"].copy()
-    tests["backend"] = tests.backend.where(tests.backend != REFERENCE, PRE_CLASSIFIED)
+    tests["backend"] = techniques(tests)
     tests["value"] = _values(tests)
     tests["psnr"] = numeric(tests, "psnr") if "psnr" in tests else np.nan
     tests["flip"] = pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan
@@ -206,7 +268,13 @@ class Atlas(Experiment):
         "every scene: the min-opacity axis shows that, with the default in its sweep; every other axis runs "
         "them at min opacity 0, so that its column shows its own stress. On the TF axis the reference also "
         "runs pre-classified (voxels classified, then interpolated: shear-warp's order) at the truth's step, a "
-        "row of its own: what the order of classification costs, apart from the shear-warp factorization."
+        "row of its own: what the order of classification costs, apart from the shear-warp factorization. Two "
+        "axes render iso-surfaces, so only the backends with an iso mode run on them: the step sweep on the "
+        "engine's casting (its binary preset's isovalue), and the thin-feature axis, parallel tubes whose "
+        "radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however thin), where "
+        "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with its "
+        "exact iso hit (every lattice cell a ray crosses solved, as the reference does), a row of its own "
+        "beside its sampled hit."
     )
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
@@ -244,21 +312,20 @@ class Atlas(Experiment):
                 truth = dataclasses.replace(truth_run(self.name, prefix, spec, views, TRUTH_STEP, tags),
                                             interleave=f"{key}.truth")
                 runs.append(truth)
-                for backend in renderers.names():
-                    if backend == REFERENCE or (backend, key) in reasons:
-                        continue
-                    base = backend_options(axis, backend)
-                    sweep = [(v, {axis.option: v}) for v in values] if axis.option else [(value, {})]
-                    for number, (point, options) in enumerate(sweep):
+                sweep = [(v, {axis.option: v}) for v in values] if axis.option else [(value, {})]
+                # (backend, fixed options, name in ids and interleave groups, numbered): every backend at its
+                # defaults, then the extra techniques, numbered only along a swept option so that a technique's
+                # one run per point keeps the id it always had.
+                players = [(backend, backend_options(axis, backend), backend, True) for backend in renderers.names()
+                           if backend != REFERENCE and (backend, key) not in reasons]
+                players += [(t.backend, {**backend_options(axis, t.backend), **t.options}, t.slug, bool(axis.option))
+                            for label, t in TECHNIQUES.items() if (label, key) not in reasons]
+                for backend, fixed, name, numbered in players:
+                    for number, (point, swept) in enumerate(sweep):
                         run_tags = {**tags, "role": "test", **({"value": point} if point is not None else {})}
-                        runs.append(Run(self.name, f"{prefix}.{backend}.{number}", backend, spec, views,
-                                        options={**base, **options}, reference=truth.id, **UNTIMED,
-                                        interleave=f"{key}.{backend}", tags=run_tags))
-                if key in PRE_CLASSIFIED_AXES:
-                    runs.append(Run(self.name, f"{prefix}.reference-pre", REFERENCE, spec, views,
-                                    options={"classification": "pre", "step_factor": TRUTH_STEP},
-                                    reference=truth.id, **UNTIMED, interleave=f"{key}.reference-pre",
-                                    tags={**tags, "role": "test"}))
+                        runs.append(Run(self.name, f"{prefix}.{name}" + (f".{number}" if numbered else ""), backend,
+                                        spec, views, options={**fixed, **swept}, reference=truth.id, **UNTIMED,
+                                        interleave=f"{key}.{name}", tags=run_tags))
                 if key == "step":
                     runs += [Run(self.name, f"{prefix}.reference.{number}", REFERENCE, spec, views,
                                  options={"step_factor": step}, reference=truth.id, **UNTIMED,
@@ -280,7 +347,7 @@ class Atlas(Experiment):
         from reports import plots  # matplotlib: only when the report is built
 
         tests = atlas_rows(results)
-        backends = [b for b in renderers.names() if b != REFERENCE] + [PRE_CLASSIFIED]
+        backends = technique_rows()
         reasons = left_out()
         out = [blocks.Takeaways(_takeaways(tests))]
         cells = heat_cells(tests, backends, reasons, unrendered=_unrendered(results),
@@ -309,7 +376,8 @@ class Atlas(Experiment):
 
 @functools.lru_cache(maxsize=1)
 def left_out():
-    """``{(backend, axis key): reason}`` for every backend left out of an axis, at any scale.
+    """``{(technique, axis key): reason}`` for every backend or :data:`TECHNIQUES` row left out of an axis, at
+    any scale.
 
     Judged on every value of every scale at once (what a backend lacks is a feature or an option,
     not a size), so the plan and the report agree whatever profile made the results.
@@ -322,17 +390,20 @@ def left_out():
             why = "" if backend == REFERENCE else axis_reason(axis, backend, planned)
             if why:
                 reasons[(backend, axis.key)] = why
-        if axis.key not in PRE_CLASSIFIED_AXES:
-            reasons[(PRE_CLASSIFIED, axis.key)] = "swept on the TF axis only, where the order of classification matters"
+        for label, technique in TECHNIQUES.items():
+            why = axis_reason(axis, technique.backend, planned) if axis.key in technique.axes else technique.elsewhere
+            if why:
+                reasons[(label, axis.key)] = why
     return reasons
 
 
 def _unrendered(results):
-    """``{(backend, axis key): reason}`` of the first run of each that made no frame."""
+    """``{(technique, axis key): reason}`` of the first run of each that made no frame."""
     if "status" not in results or "axis" not in results:
         return {}
     missed = results[(results.status != "ok") & results.axis.notna()]
-    return {(row.backend, row.axis): short(str(row.reason)) for row in missed.itertuples()}
+    return {(technique, row.axis): short(str(row.reason)) for technique, row in zip(techniques(missed),
+                                                                                    missed.itertuples())}
 
 
 def _takeaways(tests):
@@ -360,6 +431,18 @@ def _takeaways(tests):
     return out[:5]
 
 
+def _breaking_points(axis, rows):
+    """One sentence: where each technique on ``axis`` falls below 30 dB (its :func:`threshold`), or that none does."""
+    found = {backend: threshold(mine, axis) for backend, mine in rows.groupby("backend")}
+    broken = [f"{backend} once {hit['words']} ({format_number(hit['psnr'])} dB)"
+              for backend, hit in found.items() if hit]
+    held = [backend for backend, hit in found.items() if not hit]
+    if not broken:
+        return f"No technique falls below {PSNR_BREAKS:g} dB here."
+    return (f"Below {PSNR_BREAKS:g} dB: " + "; ".join(broken) + "."
+            + (f" Never below it: {'; '.join(held)}." if held else ""))
+
+
 def _axis_blocks(axis, rows, results, ctx, plots):
     """One axis: its sweep chart (anchored for the heat map) and a gallery of each backend's worst point."""
     path, rel = ctx.plot_path(axis.key)
@@ -371,10 +454,11 @@ def _axis_blocks(axis, rows, results, ctx, plots):
              f"fall below {PSNR_BREAKS:g} dB")
     plots.lines(rows.sort_values("value"), path, x="value", y="psnr", group="backend", title=title,
                 x_label=axis.words, y_label="PSNR against the reference (dB)", guides=guides,
-                log_x=axis.key in ("step", "min_opacity") and low > 0)
+                log_x=axis.log_x and low > 0)
     out = [blocks.Figure(f"{axis.words.split(' (')[0].capitalize()} on {axis.scene_words}", rel,
                          f"PSNR against the reference at each point, one line per technique; grey lines at "
-                         f"{PSNR_BREAKS:g} dB (breaks) and {PSNR_GOOD:g} dB (accurate).", anchor=f"atlas-{axis.key}")]
+                         f"{PSNR_BREAKS:g} dB (breaks) and {PSNR_GOOD:g} dB (accurate). {_breaking_points(axis, rows)}",
+                         anchor=f"atlas-{axis.key}")]
     worst = rows.loc[[mine.psnr.idxmin() for _, mine in rows.groupby("backend")]]
     return out + [difference_gallery(
         f"{axis.words.split(' (')[0].capitalize()}: each technique's worst point", worst, ctx, against=results,

@@ -2,15 +2,19 @@
 
 An :class:`Axis` sweeps one thing on one scene definition shared by every backend (same data, camera
 and transfer function): a backend option (``option``), the camera over views of one run (``view_key``),
-or the scene itself (a scene, and a ground truth, per point). :func:`axis_reason` says why a backend
+or the scene itself (a scene, and a ground truth, per point). Most axes render the semi-transparent
+engine; the iso axes render iso-surfaces (the engine's casting at its binary preset's isovalue, thin
+tubes), which backends without an iso mode cannot. :func:`axis_reason` says why a backend
 is left out of an axis before any run is planned: the capability's reason (:class:`renderers.base.
 interface.Capabilities`) or the option it lacks.
 """
 
+import math
 from dataclasses import dataclass
 from types import SimpleNamespace
 
 import renderers
+from datasets.phantoms.tubes import TUBE_SPACING, tube_axes
 from pipeline.experiments.kit.planning import dataset_view, phantom, scene
 
 BASE = ("engine", "semi")
@@ -47,6 +51,12 @@ class Axis:
         The camera field swept over the views of one run (``"azimuth"``, ``"fov_y"``).
     backend_options : dict
         ``{backend: options}`` a backend needs to render this axis at all (gl-raycast's lenses).
+    dataset : (str, str)
+        The data set and preset of the axis's scene (an option axis's, the thin axis's tubes).
+    mode : {"dvr", "iso"}
+        The scene's rendering mode: an ``iso`` axis leaves out the backends without iso-surfaces.
+    log_x : bool
+        Whether its chart spaces the values logarithmically (a sweep that halves them).
     """
 
     key: str
@@ -59,6 +69,9 @@ class Axis:
     option_reason: str = ""
     view_key: str | None = None
     backend_options: dict = None
+    dataset: tuple = BASE
+    mode: str = "dvr"
+    log_x: bool = False
 
     def point(self, value):
         """A value with its unit, as sentences write it."""
@@ -70,10 +83,12 @@ class Axis:
         return f"{self.words.split(' (')[0]} {'≥' if self.harsher == 'up' else '≤'} {self.point(value)}"
 
 
+STEPS = {"smoke": [1.0, 0.5], "default": [2.0, 1.0, 0.5, 0.25], "full": [2.0, 1.0, 0.5, 0.25, 0.125]}
+"""The step sweeps (voxels), on the engine and on an iso-surface."""
+
 AXES = (
-    Axis("step", "step size (voxels)", " voxels", "the semi-transparent engine",
-         {"smoke": [1.0, 0.5], "default": [2.0, 1.0, 0.5, 0.25], "full": [2.0, 1.0, 0.5, 0.25, 0.125]},
-         option="step_factor", option_reason="samples once per slice, so it has no step size"),
+    Axis("step", "step size (voxels)", " voxels", "the semi-transparent engine", STEPS,
+         option="step_factor", option_reason="samples once per slice, so it has no step size", log_x=True),
     Axis("angle", "view angle (°)", "°", "the semi-transparent engine",
          {"smoke": [0.0, 25.0, 45.0], "default": [float(a) for a in range(0, 50, 5)],
           "full": [float(a) for a in range(0, 46, 3)]},
@@ -84,7 +99,7 @@ AXES = (
     Axis("min_opacity", "min opacity", "", "the semi-transparent engine",
          {"smoke": [0.0, 0.05], "default": [0.0, 0.005, 0.01, 0.02, 0.05],
           "full": [0.0, 0.002, 0.005, 0.01, 0.02, 0.05, 0.1]},
-         option="min_opacity", option_reason="composites every sample"),
+         option="min_opacity", option_reason="composites every sample", log_x=True),
     Axis("termination", "termination threshold (opacity)", "", "the semi-transparent engine",
          {"smoke": [0.9, 1.0], "default": [0.8, 0.9, 0.95, 0.99, 1.0], "full": [0.7, 0.8, 0.9, 0.95, 0.99, 1.0]},
          harsher="down", option="opaque_threshold", option_reason="its early termination is fixed or absent"),
@@ -107,6 +122,13 @@ AXES = (
     Axis("lens", "lens radius (box fractions)", " of the box", "the semi-transparent engine, spherical lens",
          {"smoke": [0.25], "default": [0.15, 0.25, 0.35], "full": [0.1, 0.15, 0.2, 0.25, 0.3, 0.35]},
          backend_options={"gl-raycast": {"variant": "single-pass"}}),
+    Axis("iso-step", "iso-surface step size (voxels)", " voxels", "the engine's casting", STEPS,
+         option="step_factor", option_reason="samples once per slice, so it has no step size",
+         dataset=("engine", "binary"), mode="iso", log_x=True),
+    Axis("thin", "tube radius (voxels)", " voxels", "parallel tubes",
+         {"smoke": [2.0, 0.5], "default": [4.0, 2.0, 1.0, 0.5, 0.25],
+          "full": [4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5, 0.375, 0.25]},
+         harsher="down", dataset=("tube", "iso"), mode="iso", log_x=True),
 )
 """Every axis, in the heat map's column order."""
 
@@ -133,6 +155,12 @@ IVORY = (0.95, 0.92, 0.85)
 ANGLE_ELEVATION = 0.0
 """The angle sweep turns about the body axis at eye level, so 45° is exactly between two principal axes."""
 
+TUBES_VIEW = (15.0, 20.0, 20.0)
+"""The thin axis's azimuth and elevation about the upright tubes and its roll (°): 15° off broadside, the tubes
+(``TUBE_SPACING`` apart) stay apart in the picture up to radius 4; rolled, they cross the pixel rows at a slant,
+so that each row meets a tube at another sub-pixel offset (upright, a whole column of pixels hits or misses
+together and one column moves the PSNR by decibels)."""
+
 
 def ramp(width, center=RAMP_CENTER, color=IVORY):
     """A transfer function rising from α 0 to 1 over ``width`` raw values about ``center`` (1: a step)."""
@@ -151,6 +179,22 @@ def engine_extent(size):
 def headline(dataset="engine"):
     """The view every non-view axis uses: 30° yaw, 20° pitch of the upright data set."""
     return dataset_view(dataset, "atlas", 30.0, 20.0)
+
+
+def tubes_window(size):
+    """The thin axis's picture height in voxels: the tubes' slabs, ``TUBE_SPACING`` each, so that a tube thinner
+    than a voxel still covers a share of the pixels."""
+    return float(len(tube_axes(size)) * TUBE_SPACING)
+
+
+def tubes_view(dataset):
+    """The thin axis's view of ``dataset`` (upright along z, as the tubes are): :data:`TUBES_VIEW`."""
+    azimuth, elevation, roll = TUBES_VIEW
+    view = dataset_view(dataset, "atlas", azimuth, elevation)
+    # Rolled about the line of sight: the upright view's up (z) leans towards its right, (cos a, sin a, 0).
+    a, r = math.radians(azimuth), math.radians(roll)
+    view["up"] = [round(math.sin(r) * math.cos(a), 6), round(math.sin(r) * math.sin(a), 6), round(math.cos(r), 6)]
+    return view
 
 
 def clouds(count, size):
@@ -176,7 +220,9 @@ def points(axis, scale_values, *, size, image):
     engine = [phantom(BASE[0], size, preset=BASE[1])]
     name = f"atlas-{axis.key}"
     if axis.option:
-        return [(None, scene(name, image, volumes=engine), (headline(),))]
+        dataset, preset = axis.dataset
+        spec = scene(name, image, volumes=[phantom(dataset, size, preset=preset)], mode=axis.mode)
+        return [(None, spec, (headline(dataset),))]
     if axis.view_key == "azimuth":
         views = tuple(dataset_view(BASE[0], f"at{v:g}", v, ANGLE_ELEVATION) for v in scale_values)
         return [(None, scene(name, image, volumes=engine), views)]
@@ -199,6 +245,12 @@ def points(axis, scale_values, *, size, image):
         elif axis.key == "volumes":
             spec = scene(label, image, volumes=clouds(int(value), size), camera={"view_height": 1.5 * size})
             out.append((value, spec, (headline("smoke_cloud"),)))
+            continue
+        elif axis.key == "thin":
+            dataset, preset = axis.dataset
+            volumes = [phantom(dataset, size, preset=preset, params={"radius": value})]
+            spec = scene(label, image, volumes=volumes, mode=axis.mode, camera={"view_height": tubes_window(size)})
+            out.append((value, spec, (tubes_view(dataset),)))
             continue
         elif axis.key == "inside":
             spec = scene(label, image, volumes=engine,
@@ -247,12 +299,9 @@ def option_names(backend):
 def axis_reason(axis, backend, planned):
     """Why ``backend`` is left out of ``axis`` (short, for its heat-map cell), or ``""`` when it takes part.
 
-    ``planned`` are the axis's ``(value, scene, views)`` points; every one must be renderable.
+    ``planned`` are the axis's ``(value, scene, views)`` points; every one must be renderable. A missing
+    feature comes first: a backend without iso-surfaces has no step to sweep on an iso axis either.
     """
-    if axis.option:
-        names = option_names(backend)
-        if names is not None and axis.option not in names:
-            return f"no {axis.option} option: {axis.option_reason}"
     capabilities = renderers.backend_class(backend).capabilities
     for _, spec, views in planned:
         for view in views:
@@ -260,6 +309,10 @@ def axis_reason(axis, backend, planned):
             if missing:
                 feature, reason = missing[0]
                 return f"{feature}: {short(reason)}"
+    if axis.option:
+        names = option_names(backend)
+        if names is not None and axis.option not in names:
+            return f"no {axis.option} option: {axis.option_reason}"
     return ""
 
 
