@@ -274,7 +274,8 @@ class Atlas(Experiment):
         "radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however thin), where "
         "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with its "
         "exact iso hit (every lattice cell a ray crosses solved, as the reference does), a row of its own "
-        "beside its sampled hit."
+        "beside its sampled hit. A third iso axis overlaps 1 to 7 smoke clouds, each with its own surface: the "
+        "nearest first crossing of any of them, which only the multi-volume casters render."
     )
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",

@@ -83,6 +83,9 @@ class Axis:
         return f"{self.words.split(' (')[0]} {'≥' if self.harsher == 'up' else '≤'} {self.point(value)}"
 
 
+CLOUD_ISOVALUE = 0.3
+"""The iso axis of overlapping clouds: each cloud's surface (its 90th percentile of scalars at 48³)."""
+
 STEPS = {"smoke": [1.0, 0.5], "default": [2.0, 1.0, 0.5, 0.25], "full": [2.0, 1.0, 0.5, 0.25, 0.125]}
 """The step sweeps (voxels), on the engine and on an iso-surface."""
 
@@ -129,6 +132,9 @@ AXES = (
          {"smoke": [2.0, 0.5], "default": [4.0, 2.0, 1.0, 0.5, 0.25],
           "full": [4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5, 0.375, 0.25]},
          harsher="down", dataset=("tube", "iso"), mode="iso", log_x=True),
+    Axis("iso-volumes", "overlapping iso-surfaces (volumes)", " volumes",
+         f"overlapping smoke clouds, each its surface at {CLOUD_ISOVALUE:g}",
+         {"smoke": [1.0, 2.0], "default": [1.0, 2.0, 4.0], "full": [1.0, 2.0, 4.0, 7.0]}, mode="iso"),
 )
 """Every axis, in the heat map's column order."""
 
@@ -197,12 +203,13 @@ def tubes_view(dataset):
     return view
 
 
-def clouds(count, size):
-    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge along x and y."""
+def clouds(count, size, **extra):
+    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge along x and y;
+    ``extra`` keys go into every entry (an ``isovalue``)."""
     entries = []
     for i in range(count):
-        extra = {"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
-        entries.append(phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **extra))
+        placed = {"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
+        entries.append(phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **placed, **extra))
     return entries
 
 
@@ -244,6 +251,11 @@ def points(axis, scale_values, *, size, image):
             spec = scene(label, image, volumes=[phantom(BASE[0], int(value), preset=BASE[1])])
         elif axis.key == "volumes":
             spec = scene(label, image, volumes=clouds(int(value), size), camera={"view_height": 1.5 * size})
+            out.append((value, spec, (headline("smoke_cloud"),)))
+            continue
+        elif axis.key == "iso-volumes":
+            spec = scene(label, image, volumes=clouds(int(value), size, isovalue=CLOUD_ISOVALUE), mode=axis.mode,
+                         camera={"view_height": 1.5 * size})
             out.append((value, spec, (headline("smoke_cloud"),)))
             continue
         elif axis.key == "thin":
