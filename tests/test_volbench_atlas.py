@@ -222,9 +222,12 @@ def test_report_on_synthetic_rows(tmp_path):
     out = Atlas().report(pd.DataFrame(rows), ctx)
     assert isinstance(out[0], blocks.Takeaways) and 2 <= len(out[0].sentences) <= 5
     assert any("breaks once min opacity ≥ 0.01" in s for s in out[0].sentences)
-    heat = out[1]
+    heat, iso = out[1], out[2]
     assert isinstance(heat, blocks.HeatMap) and heat.thresholds == (30.0, 40.0)
-    assert heat.rows == technique_rows() and heat.columns == [axis.words for axis in AXES]
+    assert heat.rows == technique_rows() and heat.columns == [axis.words for axis in AXES if axis.mode == "dvr"]
+    # The iso axes in a map of their own, with the techniques that render iso-surfaces.
+    assert isinstance(iso, blocks.HeatMap) and iso.columns == [axis.words for axis in AXES if axis.mode == "iso"]
+    assert set(iso.rows) == ISO_BACKENDS | {EXACT_ISO} and "without an iso-surface mode: shearwarp" in iso.caption
     figures = [b for b in out if isinstance(b, blocks.Figure)]
     assert {f.anchor for f in figures} == {"atlas-min_opacity", "atlas-angle", "atlas-step"}
     assert all((report_dir / f.path).is_file() for f in figures)

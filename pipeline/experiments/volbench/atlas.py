@@ -200,8 +200,8 @@ def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
     return out
 
 
-def heat_cells(tests, backends, reasons, *, unrendered=None, difference=None):
-    """The heat map's cells: ``{(backend, axis words): HeatCell}``.
+def heat_cells(tests, backends, reasons, *, unrendered=None, difference=None, axes=AXES):
+    """The heat map's cells over ``axes``: ``{(backend, axis words): HeatCell}``.
 
     ``reasons`` maps ``(backend, axis key)`` to why the backend was left out of that axis,
     ``unrendered`` to why its planned runs made no frame (skipped or failed);
@@ -209,7 +209,7 @@ def heat_cells(tests, backends, reasons, *, unrendered=None, difference=None):
     """
     cells = {}
     for backend in backends:
-        for axis in AXES:
+        for axis in axes:
             why = reasons.get((backend, axis.key), "")
             rows = tests[(tests.backend == backend) & (tests.axis == axis.key)]
             if why or rows.empty:
@@ -351,15 +351,15 @@ class Atlas(Experiment):
         backends = technique_rows()
         reasons = left_out()
         out = [blocks.Takeaways(_takeaways(tests))]
-        cells = heat_cells(tests, backends, reasons, unrendered=_unrendered(results),
-                           difference=lambda row: ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE))
-        out.append(blocks.HeatMap(
-            "Worst PSNR of each technique on each axis", backends, [axis.words for axis in AXES], cells,
-            caption=f"Each cell: the lowest PSNR against the reference over that axis's sweep, with the worst FLIP "
-                    f"and where; red below {PSNR_BREAKS:g} dB (breaks), amber to {PSNR_GOOD:g} dB, green above "
-                    "(accurate). A cell links to its sweep chart and shows the worst point's difference image "
-                    f"(absolute error, full colour at {DIFF_SCALE:g}). Grey: the technique lacks the axis, and why.",
-            thresholds=(PSNR_BREAKS, PSNR_GOOD)))
+        caption = (f"Each cell: the lowest PSNR against the reference over that axis's sweep, with the worst FLIP and "
+                   f"where; red below {PSNR_BREAKS:g} dB (breaks), amber to {PSNR_GOOD:g} dB, green above (accurate). "
+                   "A cell links to its sweep chart and shows the worst point's difference image (absolute error, full "
+                   f"colour at {DIFF_SCALE:g}). Grey: the technique lacks the axis, and why.")
+        for title, axes, rows, more in _heat_maps(backends, reasons):
+            cells = heat_cells(tests, rows, reasons, unrendered=_unrendered(results), axes=axes,
+                               difference=lambda row: ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE))
+            out.append(blocks.HeatMap(title, rows, [axis.words for axis in axes], cells, caption=caption + more,
+                                      thresholds=(PSNR_BREAKS, PSNR_GOOD)))
         for axis in AXES:
             rows = tests[tests.axis == axis.key] if "axis" in tests else tests.iloc[:0]
             if rows.empty:
@@ -373,6 +373,23 @@ class Atlas(Experiment):
                                     csv_name="atlas.csv",
                                     caption="One untimed frame per point; each row links to its run record and EXR."))
         return out
+
+
+def _heat_maps(backends, reasons):
+    """``[(title, axes, rows, caption addition)]``: the volume-rendering axes with every technique, then the
+    iso-surface axes with the techniques that render iso-surfaces (those without are named once)."""
+    volume = [axis for axis in AXES if axis.mode != "iso"]
+    iso = [axis for axis in AXES if axis.mode == "iso"]
+    maps = [("Worst PSNR of each technique on each axis", volume, backends, "")]
+    if iso:
+        lacking = [b for b in backends if b not in TECHNIQUES
+                   and all(reasons.get((b, axis.key), "").startswith("modes 'iso'") for axis in iso)]
+        elsewhere = [b for b in backends if b in TECHNIQUES and all((b, axis.key) in reasons for axis in iso)]
+        rows = [b for b in backends if b not in lacking + elsewhere]
+        more = "".join([f" Not on these axes, without an iso-surface mode: {', '.join(lacking)}." if lacking else "",
+                        *(f" {b}: {TECHNIQUES[b].elsewhere}." for b in elsewhere)])
+        maps.append(("Worst PSNR on the iso-surface axes", iso, rows, more))
+    return maps
 
 
 @functools.lru_cache(maxsize=1)
