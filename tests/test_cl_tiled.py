@@ -387,6 +387,24 @@ def test_uploads_and_hulls_are_built_once_per_volume_and_classification():
     assert counters["records"] > 0 and counters["pool_chunks_used"] >= 1 and counters["records_dropped"] == 0
     assert 0 < counters["fragments_mean"] <= counters["fragments_max"]
     assert set(first.timings) >= {"binning", "pixel", "hull", "upload", "total"}
+    assert not {"upload", "bricks", "hull"} & set(renderer.render(scene).timings)  # nothing built: not a stage
+
+
+@needs_cl
+def test_the_timing_harness_times_the_preprocessing_once_beside_the_frames():
+    """cl-tiled caches its atlas, brick ranges and hulls: every timed view builds them in a preprocessing frame of
+    its own, so a claim can set a hull's build against the frames of the same process (kainz2009 build-cheap)."""
+    from pipeline import timing
+
+    renderer = renderers.get("cl-tiled")
+    scene = Scene((VolumeInstance(blob(seed=5), SMOOTH),), width=24, height=24)
+    assert renderer.caches_preprocessing
+    result = timing.measure(renderer, scene, warmup=1, repeat=3)
+    assert result.info["preprocessing_frame"] in ("own", "cold")
+    assert result.timings["hull"] > 0 and result.timings["bricks"] > 0 and result.timings["upload"] > 0
+    assert "hull" not in result.frames and len(result.frames["pixel"]) >= 3  # once, not per timed frame
+    renderer.drop_caches()
+    assert renderer.render(scene).info["built"] == ["bricks", "hull", "upload"]
 
 
 @needs_cl

@@ -46,6 +46,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from core.errors import BackendUnavailableError, InputError
+from renderers.base import compilation
 
 DEVICE_VARIABLE = "VOLBENCH_CL_DEVICE"
 """Environment variable naming the OpenCL device when the backend's ``device`` option is unset."""
@@ -343,4 +344,5 @@ def kernels(entry, source, options=()):
         program = cl.Program(entry.context, source).build(options=list(options))
         built = {kernel.function_name: kernel for kernel in program.all_kernels()}
         entry.programs[key] = built
+        compilation.record()  # the timing harness's cold frame compiled (renderers.base.compilation)
     return built

@@ -95,6 +95,10 @@ class DeviceCache:
         self.device = device
         self._entries = {}
 
+    def clear(self):
+        """Forget every atlas, brick range, hull and mesh, so that the next frame builds them again."""
+        self._entries = {}
+
     def _get(self, kind, key, capacity, build):
         entries = self._entries.setdefault(kind, [])
         for index, (cached_key, value) in enumerate(entries):
