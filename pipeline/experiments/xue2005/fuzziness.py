@@ -3,7 +3,8 @@
 The paper's fuzzy golden lady gains least (Table 1: ESS 1.95×, ERT 1.18×, ESS+ERT 2.23×) because of its "large
 fuzzy area". Here the stand-in's ``haze`` (:func:`datasets.phantoms.clouds.golden_lady`) scales the low-density
 haze around the figure, from none to nearly the whole box, under the ``isbvr`` preset (iso_t 30, iso_p 190).
-Basic, ESS, ERT and ESS+ERT of one haze are one interleave group.
+Basic, ESS, ERT and ESS+ERT of every haze are one interleave group: the claims compare one haze's speed-up with
+another's, so all of them are timed together, round by round in the same processes.
 """
 
 import pandas as pd
@@ -179,7 +180,8 @@ class Fuzziness(Experiment):
         "1.95×, ERT 1.18×, ESS+ERT 2.23×): a haze just above iso_t fills the Φ_t envelope, so few rays are empty "
         "and the exit from Φ_t lies far back. Here the stand-in's haze grows from none (the figure alone) through "
         "the registered golden lady (haze 1) to nearly the whole box, under the paper's ramp (iso_t 30, iso_p "
-        "190). The four modes of one haze are timed interleaved, frame against frame; the culled fraction α' = "
+        "190). The four modes of every haze are timed interleaved, frame against frame, so one haze's speed-up is "
+        "compared with another's from the same processes; the culled fraction α' = "
         "(F − F'_c)/F comes from occlusion queries and is the same on every machine."
     )
     claims = CLAIMS
@@ -199,8 +201,8 @@ class Fuzziness(Experiment):
             prefix = f"{SCENE}.h{haze:g}"
             spec = scene(SCENE, image, volumes=[phantom(dataset, size, preset=preset, params={"haze": haze})])
             tags = {"scene": SCENE, "dataset": dataset, "preset": preset, "haze": haze}
-            runs += mode_runs(self.name, prefix, spec, views, ("basic",), frames, tags, group=prefix)
-            runs += mode_runs(self.name, prefix, spec, views, CONFIGS[1:], frames, tags, group=prefix,
+            runs += mode_runs(self.name, prefix, spec, views, ("basic",), frames, tags, group=SCENE)
+            runs += mode_runs(self.name, prefix, spec, views, CONFIGS[1:], frames, tags, group=SCENE,
                               reference=f"{prefix}.basic")
         return runs
 
