@@ -199,11 +199,15 @@ def test_every_variant_counts_the_cells_its_exact_passes_walk():
     hit or not), rc-a 22,828 (early termination), rc-b 13,301 (empty blocks skipped too), against M × fragments
     of 82,512 / 28,608 / 16,720 had the passes sampled."""
     scene = thin_scene(sheet())
+    truth = _coverage(ReferenceRenderer(), scene).sum()
     walked = {}
     for variant in ("single-pass", "rc", "rc-a", "rc-b"):
         counters = GLRaycastRenderer(variant=variant, iso_hit="exact").render(scene).counters
         walked[variant] = counters["samples"]
         if variant != "single-pass":
             assert counters["samples"] != counters["fragments_main"] * 8
+        assert abs(counters["crossings"] - truth) <= 2 and 0 < counters["iso_cells_solved"] < counters["samples"]
+    sampled = GLRaycastRenderer(step_factor=1.0).render(scene).counters
+    assert sampled["crossings"] < truth - 10 and "iso_cells_solved" not in sampled
     assert 0 < walked["rc-b"] < walked["rc-a"] < walked["rc"]
     assert walked["single-pass"] < walked["rc"]

@@ -15,7 +15,8 @@ apart of the same trilinear field), blended the same way, not the half-float gra
 
 :data:`CELL_WALK` defines ``iso_first_crossing(start, dir, t_lo, t_hi, below)`` (``ISO_FAR`` where there is
 no crossing), ``scalar_exact(p)`` (the ray's entry state, blended as the walk blends), ``gradient_exact(p)`` (the hit's normal)
-and the counter ``iso_cells`` (cell segments walked). It needs :data:`renderers.gl.glsl.COMMON`
+and the counters ``iso_cells`` (cell segments walked) and ``iso_solved`` (those whose range reaches across the
+isovalue, solved). It needs :data:`renderers.gl.glsl.COMMON`
 (``u_volume``, ``u_value_map``, ``u_extent``) and the isovalue ``ISO_VALUE`` (the uniform ``u_iso`` unless a
 program defines another, as the lens's ``u_lens_iso``).
 """
@@ -27,6 +28,7 @@ CELL_WALK = """
 const float ISO_FAR = 3.0e38;
 const int ISO_BISECTIONS = 24;   // halvings of a monotone piece: float32's resolution of a segment
 int iso_cells;                   // cell segments walked by this invocation (the counter)
+int iso_solved;                  // of those, the cells whose range reaches across the isovalue: solved
 
 float corner_value(ivec3 c) {
     return texelFetch(u_volume, c, 0).r * u_value_map.x + u_value_map.y;
@@ -153,6 +155,7 @@ float iso_first_crossing(vec3 start, vec3 dir, float t_lo, float t_hi, bool belo
         float top = max(max(max(k[0], k[1]), max(k[2], k[3])), max(max(k[4], k[5]), max(k[6], k[7])));
         float bottom = min(min(min(k[0], k[1]), min(k[2], k[3])), min(min(k[4], k[5]), min(k[6], k[7])));
         if (below ? !(top < ISO_VALUE) : bottom < ISO_VALUE) {   // the cell's range reaches across the isovalue
+            iso_solved += 1;
             if ((iso_blend(k, f0) < ISO_VALUE) != below) {
                 return t0;
             }

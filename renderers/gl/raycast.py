@@ -113,7 +113,9 @@ Counters: ``rays`` (pixels whose ray meets the box), ``fragments_main`` (fragmen
 depth test in the main passes, from ``GL_SAMPLES_PASSED``), ``fragments_intermediate``,
 ``fragments_culled`` (main-pass fragments dropped by early-z), ``passes_main``,
 ``passes_intermediate``, ``samples`` and, with an occluder, ``rays_occluded`` (its stage:
-``occluder``). ``info["fragments_per_main_pass"]`` lists the main
+``occluder``); in ``iso`` also ``crossings`` (the pixels whose ray found the surface) and, with
+``iso_hit='exact'``, ``iso_cells_solved`` (the cells whose range reaches across the isovalue,
+solved; ``samples`` are the cells walked). ``info["fragments_per_main_pass"]`` lists the main
 passes' counts.
 """
 
@@ -256,6 +258,7 @@ layout(early_fragment_tests) in;
 #ifdef ISO_EXACT
 layout(std430, binding = 0) buffer Counters {
     uint cells_walked;           // the cell segments the passes walked (the frame's samples)
+    uint cells_solved;           // of those, the cells solved (their range reaches across the isovalue)
 };
 #endif
 uniform sampler2D u_start;
@@ -297,6 +300,7 @@ void main() {
     float a = float(u_first) * u_step;
     o_color = vec4(0.0);
     iso_cells = 0;
+    iso_solved = 0;
     if (a < dir.a) {
         float t = iso_first_crossing(start, dir.xyz, a, min(a + float(u_samples) * u_step, dir.a),
                                      scalar_exact(start) < u_iso);
@@ -305,6 +309,7 @@ void main() {
         }
     }
     atomicAdd(cells_walked, uint(iso_cells));
+    atomicAdd(cells_solved, uint(iso_solved));
 #else
     bool below = scalar_at(start) < u_iso;
     int hit = -1;
@@ -407,6 +412,7 @@ void main() {
 SINGLE_PASS_FRAGMENT = """
 layout(std430, binding = 0) buffer Counters {
     uint samples_taken;
+    uint cells_solved;           // exact iso: the cells whose range reaches across the isovalue
 };
 uniform float u_threshold;
 out vec4 o_color;
@@ -441,8 +447,10 @@ void main() {
     o_color = vec4(best, len > 0.0 ? 1.0 : 0.0, 0.0, 0.0);
 #elif defined(ISO_EXACT)
     iso_cells = 0;
+    iso_solved = 0;
     float t = len > 0.0 ? iso_first_crossing(start, d, 0.0, len, scalar_exact(start) < u_iso) : ISO_FAR;
     taken = uint(iso_cells);
+    atomicAdd(cells_solved, uint(iso_solved));
     o_color = t < ISO_FAR ? iso_shade(start + t * d, ray_dir) : vec4(0.0);
 #else
     bool below = scalar_at(start) < u_iso;
@@ -765,7 +773,7 @@ class GLRaycastRenderer(GLRenderer):
         elif counter is None:
             samples = sum(main_counts) * self.samples_per_pass  # every main-pass fragment takes M samples
         else:
-            samples = int(np.frombuffer(counter.read(4), dtype=np.uint32)[0])
+            samples, solved = (int(v) for v in np.frombuffer(counter.read(8), dtype=np.uint32))
         self._last_step = step
         stages = ("setup", "main", "intermediate", "resolve")
         if lens is not None:
@@ -785,6 +793,10 @@ class GLRaycastRenderer(GLRenderer):
         }
         if self.occluder > 0:
             counters["rays_occluded"] = int(sum(fragments.get("occluder", [])))
+        if mode == "iso":
+            counters["crossings"] = int(np.count_nonzero(image[..., 3] > 0.5))  # a hit is opaque, a miss empty
+            if counter is not None:
+                counters["iso_cells_solved"] = solved
         if lens is not None:
             if self.lens_method not in lenses.INTERVAL_METHODS:
                 del lens_counts["lens_rays"]  # a per-sample test never knows a ray's lens segment
@@ -934,7 +946,7 @@ class GLRaycastRenderer(GLRenderer):
 
     def _counter(self):
         """The shaders' sample counter (storage buffer 0), set to 0."""
-        counter = self._buffer("samples", np.zeros(1, np.float32))  # one uint 0
+        counter = self._buffer("samples", np.zeros(2, np.float32))  # two uint 0: samples, cells solved
         counter.bind_to_storage_buffer(0)
         return counter
 
