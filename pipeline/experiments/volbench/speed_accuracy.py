@@ -116,13 +116,23 @@ def _exact_beats_oversampling(df):
                                 at_least=kit_judging.STRICTLY_ABOVE_ONE)
     psnr_exact, psnr_sampled = float(exact.psnr.median()), float(sampled.psnr.median())
     detail = (f"exact at step 1: {format_number(float(exact.time_total.median()) * 1e3)} ms, PSNR "
-              f"{format_number(psnr_exact)} dB; sampled at step ¼: {format_number(float(sampled.time_total.median()) * 1e3)}"
-              f" ms, PSNR {format_number(psnr_sampled)} dB")
+              f"{format_number(psnr_exact)} dB{_work(exact, 'cells walked')}; sampled at step ¼: "
+              f"{format_number(float(sampled.time_total.median()) * 1e3)} ms, PSNR {format_number(psnr_sampled)} dB"
+              f"{_work(sampled, 'samples')}")
     measured = kit_judging.with_interval(f"{as_ratio(decided.value)} faster", decided)
     if not psnr_exact >= psnr_sampled:  # less accurate: no speed makes up for it
         return ClaimResult(measured, False, detail + "; the exact hit is less accurate", decided.interval,
                            decided.margin, frames=decided.frames)
     return ClaimResult.decided(measured, decided, detail)
+
+
+def _work(rows, samples):
+    """``", 3.5e+05 cells walked, 1.7e+04 cells solved, 988 crossings"``: the counts of a run that do not depend on the
+    machine (those it reported)."""
+    words = (("count_samples", samples), ("count_iso_cells_solved", "cells solved"), ("count_crossings", "crossings"))
+    found = [f"{format_number(float(rows[column].iloc[0]))} {label}" for column, label in words
+             if column in rows and pd.notna(rows[column].iloc[0])]
+    return ", " + ", ".join(found) if found else ""
 
 
 def _timed_with(scene_name, backend):
