@@ -20,9 +20,9 @@ from core.transfer import TransferFunction
 from reports.metrics import psnr
 
 TECHNIQUES = (
+    ("gl-raycast", {"iso_hit": "sampled", "step_factor": 1.0}),
+    ("gl-raycast", {"iso_hit": "sampled", "step_factor": 0.5}),
     ("gl-raycast", {"step_factor": 1.0}),
-    ("gl-raycast", {"step_factor": 0.5}),
-    ("gl-raycast", {"iso_hit": "exact", "step_factor": 1.0}),
     ("cl-tiled", {}),
     ("vtk-gpu", {"step_factor": 1.0}),
     ("vtk-gpu", {"step_factor": 0.5}),

@@ -142,7 +142,7 @@ def test_thin_features_are_hit_where_the_exact_reference_hits_them(make, camera,
     scene = thin_scene(make(), **camera)
     truth = _coverage(ReferenceRenderer(), scene)
     exact = _coverage(GLRaycastRenderer(variant=variant, iso_hit="exact", step_factor=1.0), scene)
-    sampled = _coverage(GLRaycastRenderer(variant=variant, step_factor=1.0), scene)
+    sampled = _coverage(GLRaycastRenderer(variant=variant, iso_hit="sampled", step_factor=1.0), scene)
     assert truth.sum() > 20
     assert (exact != truth).sum() <= 2  # grazing rays: float32 against float64
     assert (sampled != truth).sum() > 10 * max((exact != truth).sum(), 1)  # what the samples step over
@@ -176,7 +176,7 @@ def test_an_iso_lens_hits_thin_features_inside_it_exactly(make, camera, method):
                     volumes=(replace(instance, transfer_function=CLEAR, isovalue=None),))
     truth = _coverage(ReferenceRenderer(), scene)
     exact = _coverage(GLRaycastRenderer(lens_method=method, iso_hit="exact", step_factor=1.0), scene)
-    sampled = _coverage(GLRaycastRenderer(lens_method=method, step_factor=1.0), scene)
+    sampled = _coverage(GLRaycastRenderer(lens_method=method, iso_hit="sampled", step_factor=1.0), scene)
     assert truth.sum() > 20
     assert (exact != truth).sum() <= 2
     assert (sampled != truth).sum() > 10 * max((exact != truth).sum(), 1)
@@ -207,7 +207,7 @@ def test_every_variant_counts_the_cells_its_exact_passes_walk():
         if variant != "single-pass":
             assert counters["samples"] != counters["fragments_main"] * 8
         assert abs(counters["crossings"] - truth) <= 2 and 0 < counters["iso_cells_solved"] < counters["samples"]
-    sampled = GLRaycastRenderer(step_factor=1.0).render(scene).counters
+    sampled = GLRaycastRenderer(iso_hit="sampled", step_factor=1.0).render(scene).counters
     assert sampled["crossings"] < truth - 10 and "iso_cells_solved" not in sampled
     assert 0 < walked["rc-b"] < walked["rc-a"] < walked["rc"]
     assert walked["single-pass"] < walked["rc"]

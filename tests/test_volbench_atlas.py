@@ -8,7 +8,7 @@ import renderers
 from core.errors import InputError
 from pipeline.experiments import Profile
 from pipeline.experiments.volbench import atlas as atlas_module
-from pipeline.experiments.volbench.atlas import (EXACT_ISO, PRE_CLASSIFIED, PSNR_BREAKS, TECHNIQUES, Atlas,
+from pipeline.experiments.volbench.atlas import (SAMPLED_ISO, PRE_CLASSIFIED, PSNR_BREAKS, TECHNIQUES, Atlas,
                                                  atlas_rows, failure_phrases, heat_cells, left_out, technique_rows,
                                                  threshold)
 from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, CLOUD_ISOVALUE, points
@@ -105,7 +105,7 @@ def test_reasons_name_what_is_missing():
     assert ("gl-raycast", "lens") not in reasons  # it renders lenses with its single-pass variant
     assert ("vtk-gpu", "volumes") not in reasons and ("gl-raycast", "volumes") in reasons
     assert (PRE_CLASSIFIED, "tf") not in reasons and (PRE_CLASSIFIED, "step") in reasons
-    assert reasons[(EXACT_ISO, "step")] == TECHNIQUES[EXACT_ISO].elsewhere
+    assert reasons[(SAMPLED_ISO, "step")] == TECHNIQUES[SAMPLED_ISO].elsewhere
     # A backend without iso-surfaces is left out of the iso axes for that, not for a step it lacks.
     for backend in set(BACKENDS) - ISO_BACKENDS:
         for key in ("iso-step", "thin"):
@@ -227,7 +227,7 @@ def test_report_on_synthetic_rows(tmp_path):
     assert heat.rows == technique_rows() and heat.columns == [axis.words for axis in AXES if axis.mode == "dvr"]
     # The iso axes in a map of their own, with the techniques that render iso-surfaces.
     assert isinstance(iso, blocks.HeatMap) and iso.columns == [axis.words for axis in AXES if axis.mode == "iso"]
-    assert set(iso.rows) == ISO_BACKENDS | {EXACT_ISO} and "without an iso-surface mode: shearwarp" in iso.caption
+    assert set(iso.rows) == ISO_BACKENDS | {SAMPLED_ISO} and "without an iso-surface mode: shearwarp" in iso.caption
     figures = [b for b in out if isinstance(b, blocks.Figure)]
     assert {f.anchor for f in figures} == {"atlas-min_opacity", "atlas-angle", "atlas-step"}
     assert all((report_dir / f.path).is_file() for f in figures)
@@ -248,15 +248,15 @@ def test_sphere_shell_keeps_a_layer_of_the_given_thickness():
 
 
 @pytest.mark.parametrize("scale", ["smoke", "default", "full"])
-def test_iso_axes_run_the_iso_backends_and_the_exact_hit_beside_the_sampled_one(scale):
+def test_iso_axes_run_the_iso_backends_and_the_sampled_hit_beside_the_exact_one(scale):
     runs = [r for r in _runs(scale) if r.tags["axis"] in ("iso-step", "thin")]
     assert all(r.scene["mode"] == "iso" for r in runs)
     for key in ("iso-step", "thin"):
         tests = [r for r in runs if r.tags["axis"] == key and r.tags["role"] == "test"]
-        assert {_technique(r) for r in tests} == ISO_BACKENDS | {EXACT_ISO}, key
-        assert all(r.options == {"iso_hit": "exact", **({"step_factor": r.tags["value"]} if key == "iso-step" else {})}
-                   for r in tests if _technique(r) == EXACT_ISO)
-        assert all("iso_hit" not in r.options for r in tests if _technique(r) != EXACT_ISO)  # sampled: the default
+        assert {_technique(r) for r in tests} == ISO_BACKENDS | {SAMPLED_ISO}, key
+        assert all(r.options == {"iso_hit": "sampled", **({"step_factor": r.tags["value"]} if key == "iso-step" else {})}
+                   for r in tests if _technique(r) == SAMPLED_ISO)
+        assert all("iso_hit" not in r.options for r in tests if _technique(r) != SAMPLED_ISO)  # exact: the default
     steps = [r for r in runs if r.tags["axis"] == "iso-step" and r.tags["role"] == "test"]
     assert {r.options["step_factor"] for r in steps} == set(AXIS_BY_KEY["iso-step"].values[scale])
     thin = [r for r in runs if r.tags["axis"] == "thin" and r.tags["role"] == "truth"]
@@ -289,10 +289,10 @@ def test_thin_axis_threshold_reads_in_voxels():
 
 
 def test_results_rows_are_named_by_technique():
-    rows = [_row("gl-raycast", "thin", 0.25, 20.0), _row("gl-raycast", "thin", 0.25, 120.0, option_iso_hit="exact"),
+    rows = [_row("gl-raycast", "thin", 0.25, 120.0), _row("gl-raycast", "thin", 0.25, 20.0, option_iso_hit="sampled"),
             _row("reference", "tf", 1.0, 35.0, option_classification="pre", option_step_factor=0.125)]
-    assert atlas_rows(pd.DataFrame(rows)).backend.tolist() == ["gl-raycast", EXACT_ISO, PRE_CLASSIFIED]
-    assert technique_rows().index(EXACT_ISO) == technique_rows().index("gl-raycast") + 1
+    assert atlas_rows(pd.DataFrame(rows)).backend.tolist() == ["gl-raycast", SAMPLED_ISO, PRE_CLASSIFIED]
+    assert technique_rows().index(SAMPLED_ISO) == technique_rows().index("gl-raycast") + 1
     assert technique_rows()[-1] == PRE_CLASSIFIED
 
 
@@ -310,8 +310,8 @@ def test_exact_iso_hit_sees_the_thinnest_tube_that_sampling_steps_over(tmp_path)
     scene = build_scene(spec, cache_dir=tmp_path).with_camera(**{k: v for k, v in view.items() if k != "view"})
     truth = renderers.get("reference", step_factor=atlas_module.TRUTH_STEP).render(scene).image
     assert (truth[..., 3] > 0).mean() > 0.03  # the tubes cover a share of the picture
-    exact = renderers.get("gl-raycast", iso_hit="exact").render(scene).image
-    sampled = renderers.get("gl-raycast", step_factor=1.0).render(scene).image
+    exact = renderers.get("gl-raycast").render(scene).image
+    sampled = renderers.get("gl-raycast", iso_hit="sampled", step_factor=1.0).render(scene).image
     assert psnr(truth, exact) >= 40.0
     assert psnr(truth, sampled) <= 25.0
 
@@ -322,7 +322,7 @@ def test_overlapping_iso_surfaces_run_where_several_volumes_render_iso():
     # vtk-gpu refuses several volumes outside dvr when it checks a scene (its capabilities cannot say so): its runs
     # are planned and recorded as skipped with that reason, which its heat-map cell shows.
     assert {_technique(r) for r in runs if r.tags["role"] == "test"} == {"cl-tiled", "vtk-gpu"}
-    assert reasons[("gl-raycast", "iso-volumes")].startswith("2 volumes: ") and reasons[(EXACT_ISO, "iso-volumes")]
+    assert reasons[("gl-raycast", "iso-volumes")].startswith("2 volumes: ") and reasons[(SAMPLED_ISO, "iso-volumes")]
     truths = [r for r in runs if r.tags["role"] == "truth"]
     assert [len(r.scene["volumes"]) for r in truths] == [1, 2, 4]
     assert all(v["isovalue"] == CLOUD_ISOVALUE for r in truths for v in r.scene["volumes"])

@@ -30,16 +30,17 @@ shading are the shared GLSL of :mod:`renderers.gl.glsl`.
 Modes
 -----
 * ``dvr``: front-to-back emission–absorption, premultiplied.
-* ``iso`` (the paper's Sec. 2.2): within each main pass the ``M`` samples, at the cell ends
-  ``min((k + 1)Δ, L)``, are visited back to front and the last crossing kept — the nearest one
-  of the segment. A crossing is a change of ``s < isovalue`` from its state at the box entry (the
-  reference's definition). The hit is then refined by ``iso_refine`` bisection steps inside its
-  cell (the paper takes the sample itself), shaded once (gradient texture, Blinn–Phong) and
-  written with opacity 1, which ends the ray at the next intermediate pass. A crossing that lies
-  between two samples (a sheet or vessel thinner than a step) is missed. With ``iso_hit='exact'``
-  each pass instead walks every lattice cell of its segment and resolves the first crossing on
-  the trilinear interpolant, as the reference does (:mod:`renderers.gl.isocells`): nothing is
-  stepped over, and the step only sets how many passes a ray takes.
+* ``iso``: a crossing is a change of ``s < isovalue`` from its state at the box entry (the
+  reference's definition); the hit is shaded (Blinn–Phong) and written with opacity 1, which ends
+  the ray at the next intermediate pass. By default (``iso_hit='exact'``) each pass walks every
+  lattice cell of its segment and resolves the first crossing on the trilinear interpolant, as the
+  reference does (:mod:`renderers.gl.isocells`): nothing is stepped over, and the step only sets
+  how many passes a ray takes. ``iso_hit='sampled'`` is the paper's caster (Sec. 2.2): within
+  each main pass the ``M`` samples, at the cell ends ``min((k + 1)Δ, L)``, are visited back to
+  front and the last crossing kept — the nearest one of the segment — then refined by
+  ``iso_refine`` bisection steps inside its cell (the paper takes the sample itself) and shaded
+  with the gradient texture; a crossing that lies between two samples (a sheet or vessel thinner
+  than a step) is missed.
 * ``mip``: passes keep the largest sampled scalar (cell samples plus both ends of the ray) with
   ``GL_MAX`` blending; a resolve pass classifies it (no correction, no shading, as the reference).
   Only ray exits end rays early: a block of transparent voxels can still hold the maximum, so
@@ -524,14 +525,15 @@ class GLRaycastRenderer(GLRenderer):
         Option("block_size", int, 8, "Edge of the min–max grid's blocks in voxels (paper: 8; ``rc-b``).", low=1),
         Option("min_opacity", float, 0.0, "Transfer-function opacities at or below it count as empty for skipping "
                "(``rc-b``); the paper's 0 makes skipping exact.", low=0, high=1, high_open=True),
-        Option("iso_hit", str, "sampled", "How an iso-surface ray finds its hit: ``sampled``, the paper's test of "
-               "``s < isovalue`` at the cell ends, refined by ``iso_refine`` (a crossing between two samples is "
-               "missed); ``exact``, every lattice cell the ray crosses resolved on the trilinear interpolant, as the "
-               "reference (:mod:`renderers.gl.isocells`; the step then only sets the passes, and a frame's ``samples`` "
-               "counts the cell segments walked); an iso lens's crossing too.",
+        Option("iso_hit", str, "exact", "How an iso-surface ray finds its hit: ``exact``, every lattice cell the ray "
+               "crosses resolved on the trilinear interpolant, as the reference (:mod:`renderers.gl.isocells`; the "
+               "step then only sets the passes, and a frame's ``samples`` counts the cell segments walked), an iso "
+               "lens's crossing too; ``sampled``, the paper's test of ``s < isovalue`` at the cell ends, refined by "
+               "``iso_refine`` (a crossing between two samples is missed).",
                choices=ISO_HITS, modes=frozenset({"iso"})),
-        Option("iso_refine", int, 6, "Bisection steps refining a sampled iso hit inside its cell (0: the sample "
-               "itself, as the paper); more than 24 refine below float32 resolution.", low=0, high=24,
+        Option("iso_refine", int, 6, "Bisection steps refining a sampled iso hit (``iso_hit='sampled'``) inside its "
+               "cell (0: the sample itself, as the paper); more than 24 refine below float32 resolution.", low=0,
+               high=24,
                modes=frozenset({"iso"})),
         Option("occluder", float, 0.0, "Fraction of the box's screen footprint, from the left, hidden behind an "
                "opaque plane drawn before the main passes (the paper's early-z demonstration; 0: none). The "
@@ -551,12 +553,13 @@ class GLRaycastRenderer(GLRenderer):
     quality_sweep = (tuple({"step_factor": factor} for factor in (1.0, 0.5, 0.25))
                      + ({"opaque_threshold": 0.8}, {"opaque_threshold": 1.0}, {"samples_per_pass": 2},
                         {"samples_per_pass": 32}, {"block_size": 16})
-                     + ({"iso_refine": 0}, {"iso_hit": "exact", "step_factor": 1.0}, {"iso_hit": "exact"}))
+                     + tuple({"iso_hit": "sampled", "step_factor": factor} for factor in (1.0, 0.5, 0.25))
+                     + ({"iso_hit": "sampled", "iso_refine": 0},))
     """Step sizes from coarse to fine for the default variant (``rc-b``), then at the default step each
     other option that trades speed for error or overhead: the early-termination threshold (0.8 drops
-    up to 20 % of a ray's light, 1 none), the samples per pass M and the block size; on iso-surfaces also
-    the paper's unrefined hit and the exact one (at step 1 and at the default step, which then only sets
-    the passes)."""
+    up to 20 % of a ray's light, 1 none), the samples per pass M and the block size; on iso-surfaces
+    (exact by default, where the step only sets the passes) also the paper's sampled hit at each step,
+    and unrefined."""
 
     def __init__(self, **options):
         super().__init__(**options)

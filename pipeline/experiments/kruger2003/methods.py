@@ -42,16 +42,18 @@ def sizes(experiment, profile):
 
 
 def method_runs(experiment, prefix, scene_spec, views, configs, step_factor, truth, tags, frames, *, together=(),
-                group=None):
+                group=None, extra=None):
     """Timed runs of ``configs`` (keys of :data:`METHODS`) on one scene, checked against ``truth``.
 
     The runs of the configs in ``together`` (those a claim compares) are timed in one interleave group,
-    ``group`` (default ``prefix``), frame against frame. A method whose backend does not take its
-    options here is left out; the page says why (:func:`gl_not_measurable`).
+    ``group`` (default ``prefix``), frame against frame. ``extra`` options join every config's (the
+    paper's sampled iso hit). A method whose backend does not take its options here is left out; the
+    page says why (:func:`gl_not_measurable`).
     """
     runs = []
     for config in configs:
         backend, options, _name = METHODS[config]
+        options = {**options, **(extra or {})}
         if not accepts(backend, *options, "step_factor"):
             continue
         runs.append(Run(experiment, f"{prefix}.{config}", backend, scene_spec, views,

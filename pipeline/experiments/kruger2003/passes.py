@@ -159,8 +159,10 @@ class Passes(Experiment):
         iso = scene("foot-iso", image, volumes=[phantom("foot", size, preset="iso")], mode="iso")
         iso_truth = truth_run(self.name, "foot-iso", iso, view, 0.25, {**tags, "part": "iso"})
         runs.append(iso_truth)
+        # The paper's iso-surface caster tests s < isovalue at its samples (gl-raycast's iso_hit="sampled").
         runs += method_runs(self.name, "foot-iso", iso, view, ("rc-a",), step, iso_truth.id,
-                            {**tags, "part": "iso", "mode": "iso"}, frames, together=("rc-a",), group="iso")
+                            {**tags, "part": "iso", "mode": "iso"}, frames, together=("rc-a",), group="iso",
+                            extra={"iso_hit": "sampled"})
         if accepts(RAYCAST, "samples_per_pass"):
             for m in profile.setting(self, "m_values", list(M_VALUES)):
                 runs.append(Run(self.name, f"foot.m{int(m)}", RAYCAST, dvr, view,

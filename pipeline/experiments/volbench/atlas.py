@@ -64,16 +64,17 @@ PRE_CLASSIFIED = "reference, pre-classified"
 technique of its own: on the TF axis it separates what pre-classification costs from what the
 shear-warp factorization does."""
 
-EXACT_ISO = "gl-raycast, exact iso hit"
-"""gl-raycast walking every lattice cell of a ray for its first iso-surface crossing (the reference's walk) instead
-of testing samples a step apart: on the iso axes, beside gl-raycast's sampled hit, what the hit test costs."""
+SAMPLED_ISO = "gl-raycast, sampled iso hit"
+"""gl-raycast testing ``s < isovalue`` at samples a step apart (the paper's caster, refined by bisection) instead of
+walking every lattice cell of a ray for its first crossing (its default, the reference's walk): on the iso axes,
+beside the exact hit, where sampling steps over a surface."""
 
 TECHNIQUES = {
     PRE_CLASSIFIED: Technique(REFERENCE, {"classification": "pre", "step_factor": TRUTH_STEP}, ("tf",),
                               "swept on the TF axis only, where the order of classification matters",
                               "reference-pre"),
-    EXACT_ISO: Technique("gl-raycast", {"iso_hit": "exact"}, ("iso-step", "thin"),
-                         "on the iso axes only: the exact hit changes iso-surfaces alone", "gl-raycast-exact"),
+    SAMPLED_ISO: Technique("gl-raycast", {"iso_hit": "sampled"}, ("iso-step", "thin"),
+                           "on the iso axes only: the sampled hit changes iso-surfaces alone", "gl-raycast-sampled"),
 }
 """The extra rows, by label: backends with other options, each on the axes where those options matter."""
 
@@ -272,9 +273,9 @@ class Atlas(Experiment):
         "axes render iso-surfaces, so only the backends with an iso mode run on them: the step sweep on the "
         "engine's casting (its binary preset's isovalue), and the thin-feature axis, parallel tubes whose "
         "radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however thin), where "
-        "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with its "
-        "exact iso hit (every lattice cell a ray crosses solved, as the reference does), a row of its own "
-        "beside its sampled hit. A third iso axis overlaps 1 to 7 smoke clouds, each with its own surface: the "
+        "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with the "
+        "paper's sampled iso hit, a row of its own beside its default exact hit (every lattice cell a ray "
+        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its own surface: the "
         "nearest first crossing of any of them, which only the multi-volume casters render."
     )
     claims = (
