@@ -71,3 +71,13 @@ def test_the_paper_is_reproduced_by_its_experiments():
                                             "correctness", "edges", "order", "peers")]
 
     assert "ropinski2005" not in {row["paper"] for row in planned(renderers.names(), experiments.papers().values())}
+
+
+def test_an_iso_lens_finds_its_surface_as_the_paper_does():
+    lens = {"shape": "sphere", "center": [0, 0, 0], "radius": 4.0, "appearance": {"mode": "iso", "isovalue": 0.5}}
+    spec = {"name": "s", "volumes": [], "lenses": [lens]}
+    run = M.lens_run("e", "r", spec, ({"view": "v"},), "segments", {}, {})
+    assert run.options["iso_hit"] == "sampled"  # gl-raycast's default is exact: the paper's caster samples
+    dvr = M.lens_run("e", "r", {**spec, "lenses": [{**lens, "appearance": {"mode": "dvr"}}]}, ({"view": "v"},),
+                     "segments", {}, {})
+    assert "iso_hit" not in dvr.options

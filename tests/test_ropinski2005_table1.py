@@ -76,7 +76,9 @@ def test_plan_at_each_scale():
             assert run.options == {"variant": "single-pass", "step_factor": 0.5}
         else:
             assert run.id == f"{scene}.{image}.segments" and len(run.scene["lenses"]) == 1
-            assert run.options == {"variant": "single-pass", "lens_method": "segments", "step_factor": 0.5}
+            iso = run.scene["lenses"][0]["appearance"]["mode"] == "iso"  # the paper's sampled hit, named
+            assert run.options == {"variant": "single-pass", "lens_method": "segments", "step_factor": 0.5,
+                                   **({"iso_hit": "sampled"} if iso else {})}
     assert len(smoke) == 4 * len(SETUPS)
     default = planned("default")
     assert {r.tags["image_size"] for r in default} == {256, 512} and {len(r.views) for r in default} == {1}

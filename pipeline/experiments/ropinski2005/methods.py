@@ -51,7 +51,7 @@ OFF = "off"
 STEP = 0.5
 """Samples half a voxel apart (the caster's default; the paper gives no step, note 004 §2.11)."""
 
-OPTIONS = ("variant", "lens_method", "region_order", "step_factor", "opaque_threshold")
+OPTIONS = ("variant", "lens_method", "region_order", "step_factor", "opaque_threshold", "iso_hit")
 """The ``gl-raycast`` options these experiments set."""
 
 STAGES = ("setup", "lens_geometry", "region0", "region1", "region2", "main", "readback")
@@ -90,10 +90,14 @@ def lens_run(experiment, run_id, scene_spec, views, config, frames, tags, *, ste
 
     ``frames`` are the run's warm-up, repeat and min_time (``UNTIMED`` or ``timed_frames``); ``group``
     its interleave group (runs compared by a timing claim are timed together); ``options`` more
-    backend options (``opaque_threshold``). The tags get ``config``.
+    backend options (``opaque_threshold``). The tags get ``config``. An iso lens finds its surface as
+    the paper's caster does, at the samples (``iso_hit="sampled"``; gl-raycast's default walks every
+    cell exactly, issue 36).
     """
+    iso_lens = any(lens.get("appearance", {}).get("mode") == "iso" for lens in scene_spec.get("lenses", ()))
+    options = {**(options or {}), **({"iso_hit": "sampled"} if iso_lens else {})}
     return Run(experiment, run_id, RAYCAST, scene_spec, tuple(views),
-               options=method_options(config, step_factor=step_factor, **(options or {})), reference=reference,
+               options=method_options(config, step_factor=step_factor, **options), reference=reference,
                **frames, tags={**tags, "config": config}, interleave=group)
 
 
