@@ -92,7 +92,9 @@ def frames_caption(frame):
     devices = _tiled_devices(frame)
     where = f"; cl-tiled on {', '.join(devices)}" if devices else ""
     return pages.frames_caption(frame, unit="timed frames",
-                                untimed="uploads and hull builds happen in the warm-up frame (cached on the device)",
+                                untimed="uploads, brick ranges and hulls are built once per view, in a "
+                                        "preprocessing frame of their own, and timed as stages apart (cached on "
+                                        "the device)",
                                 how=f"stage times from OpenCL profiling events, the total by wall clock{where}")
 
 
