@@ -83,7 +83,8 @@ ray enters its box (``iso_entry_states`` in ``kernels/iso.cl``), so where a boun
 surface the cut face is the hit (a cap), as the reference draws it; surfaces and media in front of
 the hit composite as in ``dvr``. Counters: ``samples`` are the cell segments walked,
 ``iso_cells_solved`` those solved, ``crossings`` the pixels with a hit; ``early_terminations``
-stays 0 (a hit ends the ray, and is counted as a crossing).
+counts only the rays that surfaces and media in front of the surface made opaque (a hit ends the
+ray too, and is counted as a crossing).
 
 **A perspective eye inside volumes or meshes.** The parity walk of a perspective ray starts with
 the objects that hold the eye (:func:`renderers.cl.scene.eye_inside`: a point-in-box test per

@@ -472,7 +472,7 @@ def render(origins, directions,
                         if np.isnan(t_hit):
                             t_hit = nearest
                         cr, cg, cb, ca = _composite(cr, cg, cb, ca, sr, sg, sb, sa)
-                surface_hit = False
+                iso_surface = False
                 while c < n_cut and cut_t[cut_order[c]] == p1:
                     obj = cut_obj[cut_order[c]]
                     c += 1
@@ -483,7 +483,7 @@ def render(origins, directions,
                         if np.isnan(t_hit):
                             t_hit = p1
                         cr, cg, cb, ca = _composite(cr, cg, cb, ca, r, g_, b, 1.0)
-                        surface_hit = True
+                        iso_surface = True
                         break
                     if obj < 0:
                         continue
@@ -498,7 +498,7 @@ def render(origins, directions,
                     if alpha > 0.0 and np.isnan(t_hit):
                         t_hit = p1
                     cr, cg, cb, ca = _composite(cr, cg, cb, ca, alpha * r, alpha * g_, alpha * b, alpha)
-                if surface_hit:
+                if iso_surface:
                     break
                 if cell >= 0 and p1 == b_k:
                     k += 1

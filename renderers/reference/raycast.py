@@ -461,10 +461,11 @@ def _walk_volume(data, off, nx, ny, nz, bx, by, bz, sx, sy, sz, t_in, t_out, iso
 
     ``iso``: ``t`` is the first crossing (``inf`` if none): the first place where
     :func:`_below` differs from its value at ``t_in`` (or from ``entry_below``, 0 or 1, where the
-    state was taken elsewhere: a volume clipped by geometry keeps its box entry's). Each segment is cut at the stationary
-    points into monotone pieces; in the first piece whose end has the other state, the crossing
-    is bracketed and bisected until the bracket is at most ``tolerance`` of the segment. The walk
-    stops at ``t_stop`` (a nearer hit of another volume). ``value`` is unused (0).
+    state was taken elsewhere: a volume clipped by geometry keeps its box entry's). Each segment
+    is cut at the stationary points into monotone pieces; in the first piece whose end has the
+    other state, the crossing is bracketed and bisected until the bracket is at most ``tolerance``
+    of the segment. The walk stops at ``t_stop`` (a nearer hit of another volume). ``value`` is
+    unused (0).
     """
     t0 = t_in
     cx = _region(bx + t0 * sx, sx, nx)

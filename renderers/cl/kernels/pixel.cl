@@ -649,9 +649,9 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
 #endif
         color += (1.0f - color.w) * (float4)(rgb, 1.0f);
     }
-    // Slot 3 counts early terminations; a hit is a crossing found (slot 7), not one.
-    stats[row * width + col] = (uint8)((uint)n, dropped, samples, 0u, moves, medium_steps, solved,
-                                       (uint)(hit_object >= 0));
+    // Slot 3 counts the rays surfaces and media in front stopped; a hit is a crossing found (slot 7).
+    stats[row * width + col] = (uint8)((uint)n, dropped, samples, (uint)(terminated && hit_object < 0), moves,
+                                       medium_steps, solved, (uint)(hit_object >= 0));
     image[row * width + col] = color;
     return;
 #endif
