@@ -79,9 +79,9 @@ per volume across segments, so a surface is seen from inside as well); the neare
 all volumes wins (the lower instance on a tie), in its transfer function's colour at its
 isovalue, shaded with the reference's normal (central differences one voxel apart of the same
 field) and opaque. Every volume is bounded by its box in this mode: its state is taken where the
-ray enters its box (``iso_entry_states`` in ``kernels/iso.cl``), so where a boundary or CSG opens a volume inside its
-surface the cut face is the hit (a cap), as the reference draws it; surfaces and media in front of
-the hit composite as in ``dvr``. Counters: ``samples`` are the cell segments walked,
+ray enters its box (``iso_entry_states`` in ``kernels/iso.cl``), so where a boundary or CSG opens
+a volume inside its surface the cut face is the hit (a cap), as the reference draws it; surfaces
+and media in front of the hit composite as in ``dvr``. Counters: ``samples`` are the cell segments walked,
 ``iso_cells_solved`` those solved, ``crossings`` the pixels with a hit; ``early_terminations``
 counts only the rays that surfaces and media in front of the surface made opaque (a hit ends the
 ray too, and is counted as a crossing).
@@ -101,7 +101,8 @@ behind it, wherever the eye is.
 Timings (seconds, OpenCL profiling events): ``upload`` (atlas, first use of a set of volumes),
 ``bricks`` (brick ranges, first use of a volume and brick size), ``hull`` (hull build, first use
 of a classification), these three only in a frame that built them (the preprocessing, which
-:meth:`drop_caches` forgets: the timing harness times it once per view), ``setup`` (the frame's triangle list, object table and cleared tile lists),
+:meth:`drop_caches` forgets: the timing harness times it once per view), ``setup`` (the frame's
+triangle list, object table and cleared tile lists),
 ``binning``, ``count`` (global lists only), ``pixel``, ``readback``; ``total`` is the wall clock of
 the frame. Counters: ``rays``, ``rays_hit`` (pixels with a fragment), ``triangles``, ``records``
 (tile records), ``records_per_tile_max``, ``records_per_tile_mean`` (over tiles with records),
@@ -250,8 +251,8 @@ class ClTiledRenderer(Renderer):
                "apply).", choices=FRAGMENT_STORES),
         Option("opaque_threshold", float, 0.99, "Early ray termination when the accumulated opacity exceeds it (1 "
                "never stops a ray). 0.99: the paper gives no value, and this bounds the error to 1 % of a pixel. "
-               "``mip`` and ``iso`` do not composite, so it does not apply there.", low=0, high=1, low_open=True,
-               modes=frozenset({"dvr"})),
+               "``mip`` does not composite, so it does not apply there; in ``iso`` it applies to the surfaces and "
+               "media in front of the iso-surface.", low=0, high=1, low_open=True, modes=frozenset({"dvr", "iso"})),
         Option("empty_space", str, "hull", "Boundaries: tight hulls around the non-empty bricks (paper) or the "
                "volumes' boxes. Volumes that are CSG operands or hold a perspective eye use their boxes, and so does "
                "every volume in ``mip`` and ``iso``.", choices=EMPTY_SPACE, modes=frozenset({"dvr"})),

@@ -275,8 +275,8 @@ class Atlas(Experiment):
         "radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however thin), where "
         "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with the "
         "paper's sampled iso hit, a row of its own beside its default exact hit (every lattice cell a ray "
-        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its own surface: the "
-        "nearest first crossing of any of them, which only the multi-volume casters render."
+        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its "
+        "own surface: the nearest first crossing of any of them, which only the multi-volume casters render."
     )
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
@@ -383,9 +383,10 @@ def _heat_maps(backends, reasons):
     iso = [axis for axis in AXES if axis.mode == "iso"]
     maps = [("Worst PSNR of each technique on each axis", volume, backends, "")]
     if iso:
-        lacking = [b for b in backends if b not in TECHNIQUES
-                   and all(reasons.get((b, axis.key), "").startswith("modes 'iso'") for axis in iso)]
-        elsewhere = [b for b in backends if b in TECHNIQUES and all((b, axis.key) in reasons for axis in iso)]
+        keys = {axis.key for axis in iso}
+        lacking = [b for b in backends
+                   if b not in TECHNIQUES and "iso" not in renderers.backend_class(b).capabilities.modes]
+        elsewhere = [b for b in backends if b in TECHNIQUES and not keys & set(TECHNIQUES[b].axes)]
         rows = [b for b in backends if b not in lacking + elsewhere]
         more = "".join([f" Not on these axes, without an iso-surface mode: {', '.join(lacking)}." if lacking else "",
                         *(f" {b}: {TECHNIQUES[b].elsewhere}." for b in elsewhere)])

@@ -89,9 +89,12 @@ CLOUD_ISOVALUE = 0.3
 STEPS = {"smoke": [1.0, 0.5], "default": [2.0, 1.0, 0.5, 0.25], "full": [2.0, 1.0, 0.5, 0.25, 0.125]}
 """The step sweeps (voxels), on the engine and on an iso-surface."""
 
+NO_STEP = "samples once per slice, so it has no step size"
+"""Why a backend without ``step_factor`` is not on the step axes."""
+
 AXES = (
     Axis("step", "step size (voxels)", " voxels", "the semi-transparent engine", STEPS,
-         option="step_factor", option_reason="samples once per slice, so it has no step size", log_x=True),
+         option="step_factor", option_reason=NO_STEP, log_x=True),
     Axis("angle", "view angle (°)", "°", "the semi-transparent engine",
          {"smoke": [0.0, 25.0, 45.0], "default": [float(a) for a in range(0, 50, 5)],
           "full": [float(a) for a in range(0, 46, 3)]},
@@ -126,8 +129,7 @@ AXES = (
          {"smoke": [0.25], "default": [0.15, 0.25, 0.35], "full": [0.1, 0.15, 0.2, 0.25, 0.3, 0.35]},
          backend_options={"gl-raycast": {"variant": "single-pass"}}),
     Axis("iso-step", "iso-surface step size (voxels)", " voxels", "the engine's casting", STEPS,
-         option="step_factor", option_reason="samples once per slice, so it has no step size",
-         dataset=("engine", "binary"), mode="iso", log_x=True),
+         option="step_factor", option_reason=NO_STEP, dataset=("engine", "binary"), mode="iso", log_x=True),
     Axis("thin", "tube radius (voxels)", " voxels", "parallel tubes",
          {"smoke": [2.0, 0.5], "default": [4.0, 2.0, 1.0, 0.5, 0.25],
           "full": [4.0, 3.0, 2.0, 1.5, 1.0, 0.75, 0.5, 0.375, 0.25]},

@@ -649,12 +649,11 @@ void cast_tiles(__global const uint* tile_count, __global const uint* tile_chunk
 #endif
         color += (1.0f - color.w) * (float4)(rgb, 1.0f);
     }
-    // Slot 3 counts the rays surfaces and media in front stopped; a hit is a crossing found (slot 7).
-    stats[row * width + col] = (uint8)((uint)n, dropped, samples, (uint)(terminated && hit_object < 0), moves,
-                                       medium_steps, solved, (uint)(hit_object >= 0));
-    image[row * width + col] = color;
-    return;
+    // Early terminations are the rays surfaces and media in front stopped; a hit is a crossing found.
+    uint stopped = terminated && hit_object < 0, iso_solved = solved, crossing = hit_object >= 0;
+#else
+    uint stopped = terminated, iso_solved = 0u, crossing = 0u;
 #endif
     image[row * width + col] = color;
-    stats[row * width + col] = (uint8)((uint)n, dropped, samples, (uint)terminated, moves, medium_steps, 0u, 0u);
+    stats[row * width + col] = (uint8)((uint)n, dropped, samples, stopped, moves, medium_steps, iso_solved, crossing);
 }
