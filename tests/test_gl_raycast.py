@@ -430,7 +430,10 @@ def test_timings_counters_and_info_are_stable(volume):
 
 
 @needs_gl
-def test_uploads_are_cached_and_a_new_transfer_function_rebuilds_the_ct_table(volume):
+def test_uploads_are_cached_and_a_new_transfer_function_rebuilds_the_ct_table(volume, monkeypatch):
+    from renderers.gl import resources
+
+    monkeypatch.setattr(resources, "_derived", type(resources._derived)())  # what other tests derived from it
     backend = GLRaycastRenderer(variant="rc-b")
     scene = scene_of(volume, shading="phong", size=32)
     first = backend.render(scene)
