@@ -29,27 +29,26 @@ _ROUNDING = 1e-4
 """Slack, in levels, added before quantising block ranges outwards (float32 rounding is ~1e-5 levels)."""
 
 
-def _apron_filter(field, reduce):
-    """``reduce`` (np.minimum / np.maximum) over each voxel and its 26 neighbours (clamped edges)."""
-    out = field
-    for axis in range(3):
-        n = out.shape[axis]
-        if n == 1:
-            continue
-        lower = np.take(out, np.r_[0, np.arange(n - 1)], axis=axis)
-        upper = np.take(out, np.r_[np.arange(1, n), n - 1], axis=axis)
-        out = reduce(reduce(out, lower), upper)
-    return out
-
-
 def _block_reduce(field, block_size, reduce):
-    """``reduce`` over disjoint ``block_size³`` blocks (edge blocks are partial)."""
-    nz, ny, nx = field.shape
-    counts = [-(-n // block_size) for n in (nz, ny, nx)]
-    pad = [(0, c * block_size - n) for c, n in zip(counts, (nz, ny, nx))]
-    padded = np.pad(field, pad, mode="edge")
-    blocks = padded.reshape(counts[0], block_size, counts[1], block_size, counts[2], block_size)
-    return reduce.reduce(reduce.reduce(reduce.reduce(blocks, axis=5), axis=3), axis=1)
+    """``reduce`` over each ``block_size³`` block's voxels and its one-voxel apron (edge blocks partial).
+
+    A box is the product of its three ranges, so the reduction goes an axis at a time, each pass
+    shrinking that axis to its block count: per axis, a block's voxels ``bB … (b + 1)B − 1`` and the
+    voxels either side of them, clamped to the volume.
+    """
+    out = field
+    for axis in range(3):  # the outermost first: reducing over it combines whole contiguous slabs
+        n = out.shape[axis]
+        count = -(-n // block_size)
+        if count * block_size != n:
+            out = np.pad(out, [(0, count * block_size - n) if a == axis else (0, 0) for a in range(3)], mode="edge")
+        shape = out.shape
+        inner = reduce.reduce(out.reshape(shape[:axis] + (count, block_size) + shape[axis + 1:]), axis=axis + 1)
+        starts = np.arange(count) * block_size
+        before = np.take(out, np.maximum(starts - 1, 0), axis=axis)
+        after = np.take(out, np.minimum(starts + block_size, n - 1), axis=axis)
+        out = reduce(reduce(inner, before), after)
+    return out
 
 
 def block_minmax(normalised, block_size):
@@ -68,8 +67,8 @@ def block_minmax(normalised, block_size):
         ``(bz, by, bx, 2)`` uint8: quantised minimum (rounded down) and maximum (rounded up),
         ``b = ceil(n / block_size)`` per axis.
     """
-    low = _block_reduce(_apron_filter(normalised, np.minimum), block_size, np.minimum)
-    high = _block_reduce(_apron_filter(normalised, np.maximum), block_size, np.maximum)
+    low = _block_reduce(normalised, block_size, np.minimum)
+    high = _block_reduce(normalised, block_size, np.maximum)
     top = LEVELS - 1
     qmin = np.clip(np.floor(low.astype(np.float64) * top - _ROUNDING), 0, top)
     qmax = np.clip(np.ceil(high.astype(np.float64) * top + _ROUNDING), 0, top)
