@@ -62,6 +62,17 @@ def test_the_cache_drops_the_least_recently_used_beyond_its_bytes(monkeypatch):
     assert too_large.shape == (300,) and ("large", volume().content_hash(), ()) not in resources._derived
 
 
+def test_a_machine_with_little_memory_keeps_less(monkeypatch):
+    import core.resources
+
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 50 * 800)  # 2 % of it: 800 bytes, one array
+    for seed in range(3):
+        resources.derived(volume(seed), "kind", (), lambda: np.zeros(100))
+    assert len(resources._derived) == 1
+    monkeypatch.setattr(core.resources, "memory_limit", lambda: 2 ** 50)
+    assert resources.derived_capacity() == resources.DERIVED_CACHE_BYTES
+
+
 @needs_gl
 def test_the_next_renderer_on_a_reloaded_volume_builds_no_gradients_and_renders_the_same_image():
     def scene():

@@ -53,7 +53,18 @@ _FORMATS = {np.dtype(np.uint8): ("f1", 255.0, "R8"), np.dtype(np.uint16): ("nu2"
 
 
 DERIVED_CACHE_BYTES = 512 * 2**20
-"""Bytes of derived arrays (:func:`derived`) a process keeps, least recently used out first."""
+"""Bytes of derived arrays (:func:`derived`) a process keeps at most, least recently used out first."""
+
+DERIVED_CACHE_SHARE = 0.02
+"""Share of the machine's memory those arrays may take in one process: a pipeline keeps up to eight idle
+workers (:data:`pipeline.workers.MAX_IDLE_WORKERS`), so on a small machine each keeps less."""
+
+
+def derived_capacity():
+    """Bytes :func:`derived` keeps: :data:`DERIVED_CACHE_BYTES`, or less on a machine with little memory."""
+    from core.resources import memory_limit
+
+    return min(DERIVED_CACHE_BYTES, int(DERIVED_CACHE_SHARE * memory_limit()))
 
 _derived = OrderedDict()  # (kind, content, params) -> array
 _content_keys = weakref.WeakKeyDictionary()  # Volume -> its content hash, computed once per object
@@ -88,7 +99,7 @@ def derived(volume, kind, params, build):
     Returns
     -------
     numpy.ndarray
-        Read-only; arrays over :data:`DERIVED_CACHE_BYTES` are built every time and not kept.
+        Read-only; an array larger than :func:`derived_capacity` is built every time and not kept.
     """
     key = (kind, _content_key(volume), tuple(params))
     with _derived_lock:
@@ -97,10 +108,11 @@ def derived(volume, kind, params, build):
             return _derived[key]
     array = np.asarray(build())
     array.flags.writeable = False
-    if array.nbytes <= DERIVED_CACHE_BYTES:
+    capacity = derived_capacity()
+    if array.nbytes <= capacity:
         with _derived_lock:
             _derived[key] = array
-            while sum(a.nbytes for a in _derived.values()) > DERIVED_CACHE_BYTES:
+            while sum(a.nbytes for a in _derived.values()) > capacity:
                 _derived.popitem(last=False)
     return array
 
