@@ -66,6 +66,7 @@ def derived_capacity():
 
     return min(DERIVED_CACHE_BYTES, int(DERIVED_CACHE_SHARE * memory_limit()))
 
+
 _derived = OrderedDict()  # (kind, content, params) -> array
 _content_keys = weakref.WeakKeyDictionary()  # Volume -> its content hash, computed once per object
 _derived_lock = threading.Lock()
