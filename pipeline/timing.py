@@ -15,7 +15,10 @@ A timing is a distribution, not a number. For one view of one run (or several ru
 3. renders **warm-up frames** until the frame time settles (two consecutive frames within
    :data:`SETTLED` of each other), at least ``warmup`` and at most :data:`MAX_WARMUP` (or
    :data:`MAX_WARMUP_TIME` seconds); the frame that agrees with the one before is the first timed
-   frame, so a view whose time settles at once costs one warm-up frame, not two. Runs timed together
+   frame, so a view whose time settles at once costs one warm-up frame, not two. A cold or
+   preprocessing frame that compiled nothing counts as a warm-up frame (its wall time, uploads and
+   preprocessing included, is what the next frame must agree with): in a warm worker, a view whose
+   first frame was already a warm frame costs no warm-up frame of its own. Runs timed together
    warm up in rounds once each has had ``warmup`` frames: an arm has settled once one of its frames
    agrees with its frame before (or its warm-up is capped), and the round in which the last arm
    settles is their first timed round;
@@ -102,23 +105,34 @@ class _Arm:
         return result, wall
 
     def prepare(self, warmup, bar):
-        """The cold frame, the preprocessing frame where it compiled, the first ``max(warmup, 1)`` warm-up frames."""
+        """The cold frame, the preprocessing frame where it compiled, then warm-up frames until ``max(warmup, 1)``
+        untimed frames that compiled nothing have been rendered (the cold frame among them where it compiled nothing)."""
         caches = self.renderer.caches_preprocessing
         if caches:
             self.renderer.drop_caches()  # a view after the first builds its preprocessing again too
-        compiled = compilation.count()
+        before = compilation.count()
         result, self.first_frame = self.render()
         bar.update()
+        compiled = compilation.count() != before
+        last = max(_total(result, self.first_frame), self.first_frame)
         if caches:
-            self.compiled = compilation.count() != compiled
+            self.compiled = compiled
             if self.compiled:
                 self.renderer.drop_caches()
                 result, wall = self.render()
                 self.untimed_seconds += wall
+                last = max(_total(result, wall), wall)
+                compiled = False  # the preprocessing frame runs the code the cold frame compiled
                 bar.update()
             self.preprocessing = dict(result.timings)
+        # An untimed frame that compiled nothing is a warm-up frame in all but name: the next frame is timed if
+        # it agrees with it. Its wall time where longer than its total (preprocessing, uploads and all) is the
+        # reference, so a frame that did more than render never passes for a warm one. In a warm worker a next
+        # view or replicate so costs a frame fewer; after a cold frame that compiled, warm-up frames settle it.
+        if not compiled:
+            self.previous = last
         self.warm_started = time.perf_counter()
-        for _ in range(max(warmup, 1)):
+        for _ in range(max(warmup, 1) - (not compiled)):
             result, wall = self.render()
             if self.agrees(result, wall):
                 self.settled = True
@@ -214,7 +228,8 @@ def measure(renderer, scene, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX
     renderer : renderers.base.Renderer
     scene : core.scene.Scene
     warmup : int
-        Warm-up frames at least, after the cold frame (more until the frame time settles).
+        Untimed frames at least before the timed ones (more until the frame time settles): warm-up frames,
+        and the cold or preprocessing frame where it compiled nothing.
         ``warmup=0`` with ``repeat=1`` and no ``min_time``: one untimed frame only.
     repeat : int
         Timed frames at least.

@@ -5,7 +5,7 @@ import jinja2
 import pandas as pd
 import pytest
 
-from pipeline.experiments.kit.pages import change_words, claim_evidence, db_words, setting_words
+from pipeline.experiments.kit.pages import change_words, claim_evidence, db_words, frames_note, setting_words
 from pipeline.experiments.kit.verdicts import Verdict, disturbed_detail
 from reports import html, takeaways
 from reports.takeaways import FAILING_CLAIM, Takeaway, likely_cause, rst_inline
@@ -25,6 +25,14 @@ def test_change_words_take_other_words_and_refuse_a_ratio_that_is_no_ratio():
     for bad in (0.0, -0.5, float("nan"), float("inf")):
         with pytest.raises(ValueError, match="change_words: the ratio must be a positive finite number"):
             change_words(bad)
+
+
+@pytest.mark.parametrize("frames, warmup, words", [
+    (1, 0, "single untimed frame"), (6, 2, "median of 6 frames after 2 warm-up"),
+    (6, 0, "median of 6 frames after the first frame"), (float("nan"), float("nan"), "")])
+def test_frames_note_says_how_a_run_was_timed(frames, warmup, words):
+    # warmup 0 with timed frames: the first frame compiled nothing and the next agreed with it (pipeline.timing).
+    assert frames_note(pd.Series({"info_frames": frames, "info_warmup": warmup})) == words
 
 
 def test_db_words_put_the_sign_in_the_word():

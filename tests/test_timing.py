@@ -1,3 +1,5 @@
+import time
+
 import numpy as np
 import pytest
 
@@ -58,6 +60,34 @@ def test_the_cold_frame_is_its_own_stage_and_never_timed():
     assert result.info["frames"] == 3 and result.info["warmup"] == 1 and result.info["settled"]
 
 
+def test_a_cold_frame_that_compiled_nothing_is_the_warm_up_where_the_next_frame_agrees_with_it():
+    # A warm worker's next view: its first frame is already a warm frame, and the next one is timed.
+    renderer = Scripted([3.0, 3.1, 2.0, 10.0])
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.frames["total"] == [3.1, 2.0, 10.0] and renderer.calls == 1 + 3
+    assert result.info["warmup"] == 0 and result.info["settled"]
+    # Where it compiled, a warm-up frame of its own follows, and the settling starts from that one.
+    compiled = Scripted([3.0, 3.0, 3.0, 2.0, 10.0], compiles=1)
+    result = measure(compiled, scene=None, warmup=1, repeat=3)
+    assert result.frames["total"] == [3.0, 2.0, 10.0] and compiled.calls == 1 + 1 + 3 and result.info["warmup"] == 1
+    # A profile asking for more warm-up frames gets them, the cold frame counted among them.
+    more = Scripted([3.0] * 8)
+    assert measure(more, scene=None, warmup=3, repeat=3).info["warmup"] == 2 and more.calls == 1 + 2 + 3
+
+
+def test_a_cold_frame_that_did_more_than_render_is_not_taken_for_a_warm_one():
+    # Its wall time (uploads, preprocessing) is the reference where its reported total leaves them out.
+    class Slow(Scripted):
+        def _render(self, scene):
+            if self.calls == 0:
+                time.sleep(0.05)
+            return super()._render(scene)
+
+    renderer = Slow([0.001, 0.001, 0.001, 0.001, 0.001, 0.001])
+    result = measure(renderer, scene=None, warmup=1, repeat=3)
+    assert result.info["warmup"] == 1 and renderer.calls == 1 + 1 + 3
+
+
 def test_only_the_last_timed_frames_image_is_kept():
     # Every earlier frame's image is released as the next one arrives: kept alive, each new frame
     # would fault in fresh pages and the harness's cost would be timed as the backend's.
@@ -93,12 +123,14 @@ def test_a_warm_up_that_never_settles_ends_at_its_cap():
 
 def test_runs_timed_together_warm_up_in_rounds_until_every_one_agrees_with_its_frame_before():
     log = []
-    # a settles at once; b's frames fall 4, 2, 1, 1: rounds 1 and 2 are warm-up for both.
+    # Cold frames of 9 (compiling nothing, they count as warm-up); a settles in round 2; b's frames fall 4, 2, 1, 1:
+    # rounds 1 to 3 are warm-up for both.
     a, b = Scripted([9.0, 1.0], log=log, label="a"), Scripted([9.0, 4.0, 2.0, 1.0], log=log, label="b")
     results = measure_together([(a, None), (b, None)], warmup=1, repeat=3)
-    assert [r.info["warmup"] for r in results] == [3, 3]  # the prepared frame and two rounds
+    assert [r.info["warmup"] for r in results] == [3, 3]
     assert results[0].frames["total"] == [1.0] * 3 and results[1].frames["total"] == [1.0] * 3
-    assert log[4:] == ["a", "b", "b", "a", "a", "b", "b", "a", "a", "b"]  # the order alternates from the first round
+    # The order alternates from the first round.
+    assert log[2:] == ["a", "b", "b", "a", "a", "b", "b", "a", "a", "b", "b", "a"]
 
 
 def test_the_budget_adds_frames_until_min_time(monkeypatch):
@@ -114,14 +146,15 @@ def test_preprocessing_that_compiled_is_timed_again_in_a_frame_of_its_own():
     result = measure(renderer, scene=None, warmup=1, repeat=3)
     assert result.timings["classify"] == 7.0 and "classify" not in result.frames
     assert result.info["preprocessing_frame"] == "own"
-    assert renderer.calls == 1 + 1 + 1 + 3  # cold, preprocessing, one warm-up frame, three timed
+    # Cold, preprocessing (compiling nothing: the first timed frame agrees with it), three timed.
+    assert renderer.calls == 1 + 1 + 3 and result.info["warmup"] == 0
 
 
 def test_the_cold_frame_is_the_preprocessing_frame_where_nothing_compiled():
     renderer = Scripted([1.0], caches=True)
     result = measure(renderer, scene=None, warmup=1, repeat=3)
     assert result.timings["classify"] == 7.0 and result.info["preprocessing_frame"] == "cold"
-    assert renderer.calls == 1 + 1 + 3
+    assert renderer.calls == 1 + 3  # the cold frame compiled nothing and the next agrees with it: it is timed
     # A next view of the same renderer (its caches warm) builds its preprocessing in its cold frame too.
     again = measure(renderer, scene=None, warmup=1, repeat=3)
     assert again.timings["classify"] == 7.0 and again.info["preprocessing_frame"] == "cold"

@@ -111,6 +111,8 @@ def frames_note(row):
     if frames == 1 and warmup == 0:
         return "single untimed frame"
     if pd.notna(frames):
+        if warmup == 0:  # the first frame compiled nothing and the next agreed with it (pipeline.timing)
+            return f"median of {int(frames)} frames after the first frame"
         return f"median of {int(frames)} frames after {int(warmup) if pd.notna(warmup) else '?'} warm-up"
     return ""
 

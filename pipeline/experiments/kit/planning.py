@@ -31,7 +31,7 @@ CONTROLS = frozenset({"sphere", "constant_cube", "checkerboard", "fbm_control"})
 
 def timed_frames(profile, experiment=None):
     """Frames and processes of a timed comparison: the profile's ``replicates`` processes, each with at least one
-    warm-up frame and its share of the arm's frames budget.
+    untimed frame that compiled nothing (:mod:`pipeline.timing`) and its share of the arm's frames budget.
 
     An arm's budget is :data:`~.intervals.MIN_FRAMES` timed frames at least (fewer would leave the comparison's
     claims inconclusive whatever they measure: :func:`~.intervals.timing_decision`) and the profile's

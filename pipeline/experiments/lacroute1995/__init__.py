@@ -21,7 +21,8 @@ shear-warp frame checked against its ground truth), :mod:`.reading` (angles in v
 :mod:`.pages` (charts as figures, what cannot be measured here) and :mod:`.judging` (timing claims: one
 stage on both sides, 95 % intervals, starved parallel runs).
 
-Every timed comparison renders at least one warm-up frame and three timed frames (more when the
+Every timed comparison renders at least one untimed frame that compiled nothing before three timed
+frames, more until the frame time settles (:mod:`pipeline.timing`; more timed frames when the
 experiment's scale or the profile asks), the runs a claim compares timed together frame by frame (their
 ``interleave`` group); ground-truth runs of the reference render one untimed frame. Each timing claim
 names the stage it reads: the technique (the kernels and tables, or VolPack's library calls, what the
