@@ -9,10 +9,9 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, table
-from pipeline.experiments.kainz2009.ratios import counts, timed
 from pipeline.experiments.kainz2009.scenes import mesh, volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counts, ratio, timed
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, scene, timed_frames

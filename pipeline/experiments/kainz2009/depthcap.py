@@ -10,11 +10,11 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, run_settings, table
-from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, timed
+from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, screw
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, ratio, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, TECHNIQUE, counts, ratio, timed, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)

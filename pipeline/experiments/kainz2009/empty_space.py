@@ -11,10 +11,11 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, run_settings, table
-from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, draws, point, timed
+from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decided, ratio
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all_of, counts, decided, ratio, statistic,
+                                             timed)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, db_words, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run
@@ -108,9 +109,9 @@ def _build_cheap(df):
         if not np.isfinite(build_ms):
             raise ValueError(f"{name}: the 8³ hull's run reported no time_bricks or no time_hull")
         builds[name] = build_ms
-        frames = draws(frame, TECHNIQUE, resampler)
+        time, frames = statistic(frame, TECHNIQUE, resampler)
         build = build_ms / 1e3
-        decisions[name] = decided(build / point(frame, TECHNIQUE), None if frames is None else build / frames,
+        decisions[name] = decided(build / time, None if frames is None else build / frames,
                                   at_most=1.0, frames=resampler.arms())
     return all_of(decisions,
                   extra=f"bricks + hull build (each timed process's preprocessing frame, compiled, mean over the "

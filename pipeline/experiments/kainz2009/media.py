@@ -10,10 +10,9 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, run_settings, table
-from pipeline.experiments.kainz2009.ratios import counts, timed
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, ratio, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, counts, ratio, timed, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, scene, truth_run

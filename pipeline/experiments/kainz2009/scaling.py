@@ -16,11 +16,12 @@ from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
                                                     device_note, devices, frames_caption, peeling_missing, run_settings,
                                                     table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, TECHNIQUE, TOTAL, draws, point, timed
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS
 from pipeline.experiments.kainz2009.scenes import blob, clouds, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure, Ratio
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decided, with_interval
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, TOTAL, decided, statistic, timed,
+                                             with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
@@ -103,9 +104,9 @@ def _peeling_growth(df):
     growth, growth_draws = {}, {}
     for config, part in rows.items():
         many, one = (part[numeric(part, "count") == count] for count in (n, 1))
-        growth[config] = point(many, TOTAL) / point(one, TOTAL)
-        top, bottom = draws(many, TOTAL, resampler), draws(one, TOTAL, resampler)
-        growth_draws[config] = None if top is None or bottom is None else top / bottom
+        (top, top_draws), (bottom, bottom_draws) = (statistic(part, TOTAL, resampler) for part in (many, one))
+        growth[config] = top / bottom
+        growth_draws[config] = None if top_draws is None or bottom_draws is None else top_draws / bottom_draws
     both = not any(d is None for d in growth_draws.values())
     decision = decided(growth[PEEL] / growth[TILED], growth_draws[PEEL] / growth_draws[TILED] if both else None,
                        at_least=STRICTLY_ABOVE_ONE, frames=resampler.arms())

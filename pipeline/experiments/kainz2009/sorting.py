@@ -10,10 +10,9 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, run_settings, table
-from pipeline.experiments.kainz2009.ratios import counts, draws, point, timed
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, mesh
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of, decided
+from pipeline.experiments.kit.judging import all_of, counts, decided, statistic, timed
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import accepts, listed, scene
@@ -78,8 +77,9 @@ def _sort_decision(df, name, resampler):
         sort = times["back-to-front", "gather+sort"] - times["front-to-back", "gather+sort"]
         return sort, times["back-to-front", "full"] - times["back-to-front", "gather+sort"]
 
-    sort, traversal = split({key: point(part, PIXEL) for key, part in parts.items()})
-    part_draws = {key: draws(part, PIXEL, resampler) for key, part in parts.items()}
+    measured = {key: statistic(part, PIXEL, resampler) for key, part in parts.items()}
+    sort, traversal = split({key: value for key, (value, _) in measured.items()})
+    part_draws = {key: draws for key, (_, draws) in measured.items()}
     complete = not any(d is None for d in part_draws.values())
     decision = decided(sort / traversal, np.divide(*split(part_draws)) if complete else None, at_most=1.0,
                        frames=resampler.arms())

@@ -9,10 +9,10 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
-from pipeline.experiments.kainz2009.ratios import KERNELS, TECHNIQUE, counts, timed
+from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import clouds, volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import decided, with_interval
+from pipeline.experiments.kit.judging import TECHNIQUE, counts, decided, timed, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, is_registered, scene, timed_frames, truth_run

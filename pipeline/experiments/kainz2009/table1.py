@@ -10,11 +10,12 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
                                                     frames_caption, peeling_missing, run_settings, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, TECHNIQUE, TOTAL, counts, frame_ratios, timed
+from pipeline.experiments.kainz2009.ratios import FRAMES, frame_ratios
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, all_of, decided, with_interval
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, all_of, counts,
+                                             decided, timed, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)

@@ -4,20 +4,31 @@ A claim's check reads the experiment's successful rows and returns a
 :class:`~pipeline.experiments.kit.model.ClaimResult`. What the papers' checks share is here, with one
 rule each: the rows of one configuration (:func:`config_rows`), the ratio of two configurations' frame
 times with its bootstrap interval (:func:`time_ratio`, :func:`ratio_of_draws`), a machine-independent
-count over the views (:func:`median_count`), a value decided with the interval of its draws (:func:`decided`,
-:func:`ratio`, :func:`r_squared` of a fitted line), a value with its interval in words (:func:`with_interval`)
-and several labelled decisions that must all hold (:func:`all_of`), phrased one way on every page:
-``measured`` is the deciding (worst) label's value and interval, named; the detail lists every label.
+count over the views (:func:`median_count`, :func:`counts` in words), a value decided with the interval of its
+draws (:func:`decided`, :func:`ratio`, :func:`statistic` over rows, :func:`line` and :func:`r_squared` of a fitted
+line), a value with its interval in words (:func:`with_interval`, :func:`labelled`), several labelled decisions
+that must all hold (:func:`all_of`), phrased one way on every page: ``measured`` is the deciding (worst) label's
+value and interval, named; the detail lists every label; and a verdict that a starved parallel run may have
+decided, turned inconclusive (:func:`unless_starved`).
+
+Every timing claim names the stage it compares and compares the same stage on both sides: the technique
+(:data:`TECHNIQUE`, the backend's kernels or library calls), the compositing loop (:data:`COMPOSITE`) or the
+whole frame (:data:`TOTAL`).
 
 Judging imports no page code (:mod:`.pages` imports this module's words, not the other way round).
 """
+
+from dataclasses import replace
 
 import numpy as np
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import ClaimResult
-from pipeline.experiments.kit.results import numeric, rows_matching
-from pipeline.experiments.kit.words import as_ratio
+from pipeline.experiments.kit.results import fit_line, numeric, rows_matching
+from pipeline.experiments.kit.words import as_percent, as_ratio, format_number
+
+TECHNIQUE, COMPOSITE, TOTAL = "time_technique", "time_composite", "time_total"
+"""The stages a timing claim compares: the backend's technique stages, its compositing loop, the whole frame."""
 
 STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE = float(np.nextafter(1.0, 2.0)), float(np.nextafter(1.0, 0.0))
 """The bounds of "strictly slower" and "strictly faster" ratios: the intervals' bounds are inclusive, and equal
@@ -161,3 +172,105 @@ def median_count(rows, column):
         No run of the experiment reported ``column``: a claim that reads it is not measured.
     """
     return float(numeric(rows, column).median())
+
+
+def measured(rows, column):
+    """The rows with a value in ``column`` (:class:`~pipeline.experiments.kit.results.MissingColumn` if absent)."""
+    return rows[numeric(rows, column).notna()]
+
+
+def timed(frame, what, column, **match):
+    """The rows of ``frame`` matching ``match`` that have a ``column`` time; ValueError naming ``what`` if none."""
+    rows = measured(rows_matching(frame, what, **match), column)
+    if rows.empty:
+        raise ValueError(f"no {column} of {what}")
+    return rows
+
+
+def values(rows, column, resampler):
+    """``(values, draws)``: each row's median ``column`` and its ``(DRAWS, rows)`` bootstrap draws (``None``
+    without frames)."""
+    rows = measured(rows, column)
+    if rows.empty:
+        raise ValueError(f"no run reported {column}")
+    return numeric(rows, column).to_numpy(float), intervals.row_draws(rows, column, resampler)
+
+
+def statistic(rows, column, resampler, reduce="median"):
+    """``(value, draws)`` of ``reduce`` (a key of :data:`~pipeline.experiments.kit.intervals.REDUCE`) over the rows."""
+    point, draws = values(rows, column, resampler)
+    function = intervals.REDUCE[reduce]
+    return float(function(point)), (None if draws is None else function(draws, axis=1))
+
+
+def line(rows, x, column, resampler, *, at_least):
+    """``(slope, intercept, Decision on R²)`` of a least-squares line of ``column`` against the rows' column ``x``."""
+    ys, draws = values(rows, column, resampler)
+    rows = measured(rows, column)
+    slope, intercept, r2 = fit_line(rows[x], ys)
+    return slope, intercept, decided(r2, r_squared(rows[x].to_numpy(float), draws), at_least=at_least,
+                                     frames=resampler.arms())
+
+
+def r2_words(value):
+    """``"R² 0.97"``."""
+    return f"R² {format_number(value)}"
+
+
+def labelled(decisions, show=as_ratio):
+    """``"×1.12 (brain; 95 % CI ×1.08–×1.17), ×0.9 (head)"``: each decision's value, label and interval."""
+    parts = []
+    for label, decision in decisions.items():
+        words = intervals.interval_words(decision, show)
+        parts.append(f"{show(decision.value)} ({label}{'; ' + words if words else ''})")
+    return ", ".join(parts)
+
+
+def milliseconds(rows, column=TECHNIQUE):
+    """``"1.23 ms"``: the median of ``column`` over the rows."""
+    return f"{format_number(float(numeric(rows, column).median()) * 1e3)} ms"
+
+
+def counts(rows, column, label="scene"):
+    """``"C1: 1.05e+06, C8: 7.05e+06"``: a counter of each row (samples, fragments: they do not depend on the
+    machine) for a claim's detail, beside its times; ``"n/a"`` where no run reported it."""
+    if column not in rows:
+        return "n/a"
+    numbers = numeric(rows, column)
+    names = [int(n) if isinstance(n, float) and n.is_integer() else n for n in rows[label]]  # 1000.0 read back
+    return ", ".join(f"{name}: {format_number(value)}" for name, value in zip(names, numbers))
+
+
+def starved(rows):
+    """Why the parallel runs among ``rows`` were starved (their ``info_starved`` sentences), or ``""``."""
+    if "info_starved" not in rows:
+        return ""
+    texts = [str(t) for t in rows["info_starved"] if isinstance(t, str) and t.strip()]
+    return "; ".join(dict.fromkeys(texts))
+
+
+def busy(rows):
+    """``"workers busy 97 %"``: the parallel runs' mean busy share over compositing (``info_worker_busy``), or ``""``."""
+    if "info_worker_busy" not in rows:
+        return ""
+    shares = numeric(rows, "info_worker_busy").dropna()
+    return f"workers busy {as_percent(float(shares.min()))} at least" if not shares.empty else ""
+
+
+def unless_starved(result, rows, *, holding_survives):
+    """``result``, or inconclusive where a starved run among ``rows`` may have decided it.
+
+    A parallel run whose workers had fewer free cores than threads (``info_starved``, from the machine's load
+    over its frames) measured the machine rather than the technique. ``holding_survives``: the claim says a
+    parallel run is fast enough, and starving it can only slow it, so a claim that holds anyway still holds;
+    otherwise (comparisons among parallel runs, shares of work that follow which thread ran when) a starved run
+    decides nothing either way.
+    """
+    why = starved(rows)
+    if not why:
+        return result
+    detail = f"{result.detail}; starved: {why}"
+    if result.holds is None or (result.holds and holding_survives):
+        return replace(result, detail=detail)
+    return replace(result, holds=None, inconclusive=True,
+                   detail=detail + " (a verdict from a starved run is the machine's, not the technique's)")

@@ -14,7 +14,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, figure, format_number
 from pipeline.experiments.kit.planning import dataset_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows
-from pipeline.experiments.lacroute1995 import judging, tables
+from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.reading import angle_of
@@ -22,7 +22,7 @@ from reports import blocks, plots
 
 ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
 
-TIME = judging.TECHNIQUE
+TIME = kit_judging.TECHNIQUE
 """The claims' scope: the technique (tables, clearing, compositing, warp), what Fig. 5.3 times."""
 
 
@@ -215,7 +215,7 @@ def _variation(df, dataset, bound):
     stats = _turn_stats(part, TIME, resampler)
     decision = kit_judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],
                                    at_most=bound, centred=True, frames=resampler.arms())
-    detail = f"thesis: 6 %; {judging.SCOPES[TIME]}"
+    detail = f"thesis: 6 %; {tables.SCOPES[TIME]}"
     try:
         detail += f"; samples vary {as_percent(_turn_stats(part, 'count_samples')['variation'])}"
     except (KeyError, ValueError):

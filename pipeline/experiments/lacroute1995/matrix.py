@@ -14,7 +14,6 @@ from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaw
                                             format_number, linked_table)
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
-from pipeline.experiments.lacroute1995 import judging
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.tables import FIG_5_17, THESIS
@@ -216,13 +215,13 @@ def _speedup(df, config, low, high):
     """Brute force's compositing time over ``config``'s, the runs of a data set timed together; samples beside."""
     resampler = intervals.Resampler()
     groups = _groups(df)
-    decisions = {d: kit_judging.ratio(rows["brute-force"], rows[config], judging.COMPOSITE, resampler, at_least=low,
+    decisions = {d: kit_judging.ratio(rows["brute-force"], rows[config], kit_judging.COMPOSITE, resampler, at_least=low,
                                   at_most=high) for d, rows in groups.items()}
     counts = "; ".join(f"{d}: samples ×{format_number(_samples_of(rows['brute-force']) / _samples_of(rows[config]))} "
-                       f"fewer, composite {judging.milliseconds(rows['brute-force'], judging.COMPOSITE)} → "
-                       f"{judging.milliseconds(rows[config], judging.COMPOSITE)}, whole frame "
-                       f"{judging.milliseconds(rows['brute-force'], judging.TOTAL)} → "
-                       f"{judging.milliseconds(rows[config], judging.TOTAL)}" for d, rows in groups.items())
+                       f"fewer, composite {kit_judging.milliseconds(rows['brute-force'], kit_judging.COMPOSITE)} → "
+                       f"{kit_judging.milliseconds(rows[config], kit_judging.COMPOSITE)}, whole frame "
+                       f"{kit_judging.milliseconds(rows['brute-force'], kit_judging.TOTAL)} → "
+                       f"{kit_judging.milliseconds(rows[config], kit_judging.TOTAL)}" for d, rows in groups.items())
     return all_of(decisions, extra=f"{counts}; thesis: brainsmall {as_ratio(1.1 / FIG_5_17['brainsmall'][config][1])}, "
                                    f"brain {as_ratio(8.2 / FIG_5_17['brain'][config][1])} (its fixed costs were small; "
                                    "ours, about 0.5 ms of tables, warp and Python, would hide the loop's speed-up)")

@@ -15,7 +15,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
-from pipeline.experiments.lacroute1995 import judging
+from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes
 from pipeline.experiments.lacroute1995.reading import angle_of
@@ -38,7 +38,7 @@ PROJECTION_CONFIGS = {
     "fast-classification": ("orthographic", {"classification": "octree"},
                             "fast classification (min-max octree + summed-area table), parallel"),
 }
-TIME = judging.TECHNIQUE
+TIME = kit_judging.TECHNIQUE
 """The claims' scope: the technique (tables, octree runs, compositing, warp), what Table 5.3 timed."""
 
 OCTREE_MEMORY_LIMIT = 4.0
@@ -236,7 +236,7 @@ def _ratio(df, config, low, high):
                        + (f", thesis ×{format_number(thesis[config][0] / thesis['parallel'][0])}" if thesis else ""))
     if not decisions:
         raise ValueError(f"no data set rendered both {config} and parallel")
-    return all_of(decisions, extra="; ".join(details) + f"; {judging.SCOPES[TIME]}, the views timed together")
+    return all_of(decisions, extra="; ".join(details) + f"; {tables.SCOPES[TIME]}, the views timed together")
 
 
 def _octree_memory(df):

@@ -20,7 +20,7 @@ from pipeline.experiments.kit.planning import (accepts, headline_view, is_regist
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
                                               speed_points, stage_time)
-from pipeline.experiments.lacroute1995 import judging, tables
+from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, VP, sizes
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
@@ -33,7 +33,7 @@ SW_MODE_CONFIGS = {
 PREPROCESSING_STAGES = ("time_classify", "time_rle_build", "time_octree", "time_octree_build", "time_sat_build")
 """Stages timed only in the frame that builds a per-volume structure."""
 
-TIME = judging.TECHNIQUE
+TIME = kit_judging.TECHNIQUE
 """The claims' scope: the technique (our kernels and tables; VolPack's library calls), per frame."""
 
 LUT_SPEED = Ratio(Measure("per-voxel Phong", match={"part": "shading", "config": "procedural"}, column=TIME),
@@ -216,7 +216,7 @@ def _config_row(df, part, config):
 def _after_edit(rows, stages, resampler):
     """``(seconds, draws)`` to the next image after a classification edit: ``stages`` (timed once) and a frame."""
     once = sum(stage_time(rows.iloc[0], stage) for stage in stages)
-    frame, draws = judging.statistic(rows, TIME, resampler)
+    frame, draws = kit_judging.statistic(rows, TIME, resampler)
     return once + frame, None if draws is None else once + draws
 
 
@@ -255,13 +255,13 @@ def _mode_switch_ours(df):
     rle, octree = _mode_rows(df, "shearwarp"), _mode_rows(df, "shearwarp-octree")
     decision, fast, slow = _edit_race(octree, ("sat_build",), rle, ("classify", "rle_build"))
     row, other = octree.iloc[0], rle.iloc[0]
-    return ClaimResult.decided(judging.labelled({f"fast classification {format_number(fast * 1e3)} ms vs RLE "
+    return ClaimResult.decided(kit_judging.labelled({f"fast classification {format_number(fast * 1e3)} ms vs RLE "
                                                  f"{format_number(slow * 1e3)} ms": decision}), decision,
                                f"octree: SAT {format_number(stage_time(row, 'sat_build') * 1e3)} ms + frame "
-                               f"{judging.milliseconds(octree)}; RLE: classify "
+                               f"{kit_judging.milliseconds(octree)}; RLE: classify "
                                f"{format_number(stage_time(other, 'classify') * 1e3)} ms + build "
                                f"{format_number(stage_time(other, 'rle_build') * 1e3)} ms + frame "
-                               f"{judging.milliseconds(rle)}; frames: the technique's median")
+                               f"{kit_judging.milliseconds(rle)}; frames: the technique's median")
 
 
 def _lut_speed(df):
@@ -294,10 +294,10 @@ def _mode_switch(df):
     if not np.isfinite(float(rle.iloc[0].get("time_classify", np.nan))):
         raise ValueError("VolPack's RLE run reported no classify stage")
     decision, fast, slow = _edit_race(octree, (), rle, ("classify",))
-    return ClaimResult.decided(judging.labelled({f"octree {format_number(fast * 1e3)} ms vs RLE "
+    return ClaimResult.decided(kit_judging.labelled({f"octree {format_number(fast * 1e3)} ms vs RLE "
                                                  f"{format_number(slow * 1e3)} ms": decision}), decision,
                                f"RLE: classify {format_number(stage_time(rle.iloc[0], 'classify') * 1e3)} ms (once) + "
-                               f"frame {judging.milliseconds(rle)}; octree build (once per volume) "
+                               f"frame {kit_judging.milliseconds(rle)}; octree build (once per volume) "
                                f"{format_number(float(octree.iloc[0].get('time_octree', np.nan)) * 1e3)} ms; frames: "
                                "VolPack's library calls (vpShadeTable and its render)")
 

@@ -7,8 +7,15 @@ experiment that labels them with its configurations builds its table from them.
 import numpy as np
 import pandas as pd
 
+from pipeline.experiments.kit.judging import COMPOSITE, TECHNIQUE, TOTAL
+
 THESIS = "150 MHz SGI Indigo2 (R4400), 256² grey images"
 """Where the thesis's Ch. 5 timings come from."""
+
+SCOPES = {TECHNIQUE: "technique (the backend's kernels or library calls: tables, compositing, warp)",
+          COMPOSITE: "compositing loop (the composite stage)", TOTAL: "whole frame (Python and conversions included)"}
+"""What each stage a timing claim compares holds here (the kit's judging compares the same stage on both sides),
+for the claims' details."""
 
 FIG_5_17 = {
     # data set: {config: (samples, seconds)}

@@ -1,14 +1,14 @@
-"""lacroute1995 judging: like-scope ratios and statistics with intervals, starved parallel runs."""
+"""The kit's judging over rows of timed runs: like-scope ratios and statistics with intervals, lines, starved
+parallel runs (pipeline.experiments.kit.judging; test_kit_judging.py tests the rest of the module)."""
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from pipeline.experiments.kit import judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.intervals import Resampler
 from pipeline.experiments.kit.model import ClaimResult
 from pipeline.experiments.kit.results import MissingColumn
-from pipeline.experiments.lacroute1995 import judging
 from test_lacroute1995_package import frames, timed
 
 STARVED = "2 workers had 1.0 free cores (other work used 1.00)"
@@ -20,15 +20,15 @@ def _rows(*medians, spread=0.0, run="r", **extra):
 
 
 def test_ratio_takes_its_interval_from_the_frames():
-    decision = kit_judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, spread=0.1, run="s"), judging.TECHNIQUE, Resampler(),
+    decision = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, spread=0.1, run="s"), judging.TECHNIQUE, Resampler(),
                              at_least=1.5)
     assert decision.value == pytest.approx(2.0) and decision.holds is True
     assert decision.interval[0] < 2.0 < decision.interval[1]
-    close = kit_judging.ratio(_rows(1.05, spread=0.3), _rows(1.0, spread=0.3, run="s"), judging.TECHNIQUE, Resampler(),
+    close = judging.ratio(_rows(1.05, spread=0.3), _rows(1.0, spread=0.3, run="s"), judging.TECHNIQUE, Resampler(),
                           at_most=1.0)
     assert close.holds is None and close.inconclusive
     with pytest.raises(MissingColumn):
-        kit_judging.ratio(_rows(1.0), _rows(1.0), judging.COMPOSITE, Resampler())
+        judging.ratio(_rows(1.0), _rows(1.0), judging.COMPOSITE, Resampler())
 
 
 def test_runs_timed_together_are_paired_round_by_round():
@@ -41,30 +41,30 @@ def test_runs_timed_together_are_paired_round_by_round():
         return pd.DataFrame([{"experiment": "e", "run": "a" if values is a else "b", "view": "v", "interleave": group,
                               **values}])
 
-    paired = kit_judging.ratio(rows(a, "g"), rows(b, "g"), judging.TECHNIQUE, Resampler())
-    alone = kit_judging.ratio(rows(a, ""), rows(b, ""), judging.TECHNIQUE, Resampler())
+    paired = judging.ratio(rows(a, "g"), rows(b, "g"), judging.TECHNIQUE, Resampler())
+    alone = judging.ratio(rows(a, ""), rows(b, ""), judging.TECHNIQUE, Resampler())
     assert paired.interval == pytest.approx((2.0, 2.0), rel=1e-4)
     assert alone.interval[1] - alone.interval[0] > 1.0
 
 
 def test_centred_draws_sit_about_the_value():
     draws = np.linspace(0.3, 0.5, 101)  # extremes of noisy medians: every draw above the value 0.1
-    assert kit_judging.decided(0.1, draws, at_most=0.12).holds is False
-    centred = kit_judging.decided(0.1, draws, at_most=0.12, centred=True)
+    assert judging.decided(0.1, draws, at_most=0.12).holds is False
+    centred = judging.decided(0.1, draws, at_most=0.12, centred=True)
     assert centred.interval[0] < 0.1 < centred.interval[1] and centred.inconclusive
 
 
 def test_r_squared_fits_every_draw():
     x = np.array([1.0, 2.0, 3.0, 4.0])
     draws = np.vstack([2 * x + 1, [1.0, 3.0, 2.0, 4.0]])
-    assert kit_judging.r_squared(x, draws) == pytest.approx([1.0, 0.64])
-    assert kit_judging.r_squared(x, np.full((1, 4), 3.0)) == pytest.approx([1.0])  # a constant: fitted exactly
-    assert kit_judging.r_squared(x, None) is None
+    assert judging.r_squared(x, draws) == pytest.approx([1.0, 0.64])
+    assert judging.r_squared(x, np.full((1, 4), 3.0)) == pytest.approx([1.0])  # a constant: fitted exactly
+    assert judging.r_squared(x, None) is None
 
 
 def test_labelled_names_each_scene_with_its_interval():
-    one = kit_judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, run="s"), judging.TECHNIQUE, Resampler(), at_least=1.5)
-    other = kit_judging.decided(1.2, None, at_least=1.5)
+    one = judging.ratio(_rows(2.0, spread=0.1), _rows(1.0, run="s"), judging.TECHNIQUE, Resampler(), at_least=1.5)
+    other = judging.decided(1.2, None, at_least=1.5)
     words = judging.labelled({"head": one, "brain": other})
     assert words.startswith("×2 (head; 95 % CI ×") and words.endswith(", ×1.2 (brain)")
 
@@ -85,3 +85,31 @@ def test_a_starved_run_turns_what_it_could_decide_inconclusive():
 def test_frames_helper_spreads_about_the_median():
     values = np.array(frames(2.0, 0.5).split(), float)
     assert np.median(values) == pytest.approx(2.0) and values.min() == pytest.approx(1.0)
+
+
+def test_timed_rows_are_the_matching_rows_with_a_time_and_none_is_an_error_naming_them():
+    rows = pd.concat([_rows(1.0, scene="a"), _rows(2.0, run="s", scene="b"),
+                      _rows(float("nan"), run="t", scene="a")], ignore_index=True)
+    assert list(judging.timed(rows, "scene a", judging.TECHNIQUE, scene="a").run) == ["r0"]
+    with pytest.raises(ValueError, match="no time_technique of scene c"):
+        judging.timed(rows, "scene c", judging.TECHNIQUE, scene="c")
+
+
+def test_a_statistic_over_rows_has_a_draw_per_resample_and_fails_closed_without_a_value():
+    value, draws = judging.statistic(_rows(1.0, 3.0, spread=0.1), judging.TECHNIQUE, Resampler(), reduce="max")
+    assert value == pytest.approx(3.0) and draws.shape == (intervals.DRAWS,) and draws.min() > 2.0
+    with pytest.raises(ValueError, match="no run reported time_technique"):
+        judging.statistic(_rows(float("nan")), judging.TECHNIQUE, Resampler())
+
+
+def test_counts_name_each_row_and_say_when_none_was_counted():
+    rows = pd.DataFrame({"scene": [1.0, "head"], "count_samples": [1_050_000, 7]})
+    assert judging.counts(rows, "count_samples") == "1: 1.05e+06, head: 7"
+    assert judging.counts(rows, "count_fragments") == "n/a"
+
+
+def test_a_line_is_judged_on_the_r_squared_of_every_draw():
+    rows = _rows(1.0, 2.0, 3.0, 4.0, spread=0.01).assign(samples=[1, 2, 3, 4])
+    slope, intercept, decision = judging.line(rows, "samples", judging.TECHNIQUE, Resampler(), at_least=0.95)
+    assert slope == pytest.approx(1.0) and intercept == pytest.approx(0.0, abs=1e-9) and decision.holds is True
+    assert judging.r2_words(decision.value) == "R² 1"
