@@ -113,3 +113,14 @@ def test_a_line_is_judged_on_the_r_squared_of_every_draw():
     slope, intercept, decision = judging.line(rows, "samples", judging.TECHNIQUE, Resampler(), at_least=0.95)
     assert slope == pytest.approx(1.0) and intercept == pytest.approx(0.0, abs=1e-9) and decision.holds is True
     assert judging.r2_words(decision.value) == "R² 1"
+
+
+def test_a_speedup_is_a_pair_whose_ratio_to_another_is_decided_and_inconclusive_without_draws():
+    rows = pd.concat([_rows(2.0, spread=0.1, config="slow"), _rows(1.0, spread=0.1, run="s", config="fast")],
+                     ignore_index=True)
+    value, draws = judging.speedup(rows, "slow", "fast", resampler=Resampler(), column=judging.TECHNIQUE)
+    assert value == pytest.approx(2.0) and draws.shape == (intervals.DRAWS,)
+    assert judging.ratio_pair((value, draws), (1.0, None)) == (value, None)
+    assert judging.ratio_of_draws((value, draws), (1.0, np.ones_like(draws)), at_least=1.5).holds is True
+    # No frames behind a side: no interval, and a timing without one decides nothing (issue 34: fail closed).
+    assert judging.ratio_of_draws((value, None), (1.0, None), at_least=1.5).inconclusive

@@ -98,11 +98,23 @@ def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, col
                                     at_least=at_least, at_most=at_most, resampler=resampler)
 
 
+def ratio_pair(top, bottom):
+    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair (``draws`` ``None`` where either has none)."""
+    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
+
+
+def speedup(frame, slow, fast, *, resampler, column="time_total", select=config_rows, **match):
+    """``(value, draws)`` of ``time(slow) / time(fast)``: each side the median of ``column`` over its rows
+    (``select(frame, config, **match)``: the views), with its bootstrap draws; a pair for :func:`ratio_of_draws`."""
+    return ratio_pair(*(statistic(select(frame, config, **match), column, resampler) for config in (slow, fast)))
+
+
 def ratio_of_draws(top, bottom, **bounds):
     """A :class:`~pipeline.experiments.kit.intervals.Decision` on ``top / bottom``, each a ``(value, draws)`` pair
-    of frame times (``draws`` ``None`` where no frames were kept: then the decision is inconclusive)."""
-    draws = top[1] / bottom[1] if top[1] is not None and bottom[1] is not None else None
-    return intervals.timing_decision(top[0] / bottom[0], draws, {}, **bounds)
+    (:func:`ratio_pair`) of frame times; ``draws`` ``None`` where no frames were kept: then it is inconclusive.
+    Pairs from separate interleave groups were resampled independently, so the ratio's draws carry both spreads."""
+    value, draws = ratio_pair(top, bottom)
+    return intervals.timing_decision(value, draws, {}, **bounds)
 
 
 def decided(value, draws, *, frames=None, at_least=None, at_most=None, centred=False):

@@ -14,13 +14,13 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws, ratio_pair
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, ratio_pair, select
+from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, select
 from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, mode_name, stand_in
 from pipeline.experiments.xue2005.pages import runs_table, unless_missing
 from pipeline.experiments.xue2005.sweeps import interval_columns

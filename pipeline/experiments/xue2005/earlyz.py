@@ -14,7 +14,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, with_interval
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, ratio_pair, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, format_number
 from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames
@@ -80,11 +80,6 @@ def per_fragment(rows, resampler):
     value = float(numeric(rows, "time_draw").sum()) / total
     draws = intervals.row_draws(rows, "time_draw", resampler)
     return value, None if draws is None else draws.sum(axis=1) / total
-
-
-def ratio_pair(top, bottom):
-    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair."""
-    return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
 
 
 def ns(seconds):

@@ -11,7 +11,7 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws, speedup
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             frame_note, linked_table)
@@ -19,7 +19,7 @@ from pipeline.experiments.kit.planning import headline_view, phantom, scene, tim
 from pipeline.experiments.kit.results import numeric, ok_rows
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs, short_name
 from pipeline.experiments.xue2005.pages import tagged, unless_missing
-from pipeline.experiments.xue2005.sweeps import SCOPE, interval_or_nan, mode_counts, ratio_of, speedup
+from pipeline.experiments.xue2005.sweeps import SCOPE, interval_or_nan, mode_counts
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
 from reports import blocks, plots
 
@@ -56,7 +56,7 @@ def _speedup_falls(df):
     groups = _groups(df)
     resampler = intervals.Resampler()
     speeds = [(haze, speedup(rows, "basic", "ess+ert", resampler=resampler)) for haze, rows in groups]
-    decisions = {f"haze {a:g} / {b:g}": ratio_of(sa, sb, at_least=STRICTLY_ABOVE_ONE)
+    decisions = {f"haze {a:g} / {b:g}": ratio_of_draws(sa, sb, at_least=STRICTLY_ABOVE_ONE)
                  for (a, sa), (b, sb) in zip(speeds, speeds[1:])}
     trend = ", ".join(f"{h:g}: {as_ratio(s[0])}" for h, s in speeds)
     return all_of(decisions, what="speed-up over the next haze's ",
@@ -82,7 +82,7 @@ def _gains_fall(df):
     decisions, notes = {}, []
     for config in ("ess", "ert"):
         ends = [speedup(rows, "basic", config, resampler=resampler) for rows in (first, last)]
-        decisions[short_name(config)] = ratio_of(*ends, at_least=STRICTLY_ABOVE_ONE)
+        decisions[short_name(config)] = ratio_of_draws(*ends, at_least=STRICTLY_ABOVE_ONE)
         notes.append(f"{config.upper()} {as_ratio(ends[0][0])} → {as_ratio(ends[1][0])}, α' "
                      f"{as_percent(_alpha(first, config))} → {as_percent(_alpha(last, config))}")
     return all_of(decisions, what=f"speed-up at haze {low:g} over haze {high:g} ",

@@ -21,7 +21,7 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of, config_rows, median_count
+from pipeline.experiments.kit.judging import all_of, config_rows, median_count, ratio_of_draws, speedup
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames
@@ -113,26 +113,6 @@ def sweep_pairs(scene_name, iso_t, iso_p):
 
 
 # ------------------------------------------------------------------------------------- speed-ups
-def speedup(group, slow="basic", fast="ess+ert", *, resampler, column="time_total"):
-    """``(value, draws)``: time(``slow``) / time(``fast``) over one interleave group's rows, each the median over
-    the views, with its bootstrap draws (``None`` where no frames were kept)."""
-    top, bottom = config_rows(group, slow), config_rows(group, fast)
-    value = float(numeric(top, column).median() / numeric(bottom, column).median())
-    a = intervals.statistic_draws(top, column, "median", resampler)
-    b = intervals.statistic_draws(bottom, column, "median", resampler)
-    return value, (a / b if a is not None and b is not None else None)
-
-
-def ratio_of(first, second, **bounds):
-    """The ratio of two :func:`speedup` results from different groups, judged against ``bounds`` with its interval.
-
-    Different groups are resampled independently, so the draws of the ratio carry both groups' spread.
-    """
-    (a, da), (b, db) = first, second
-    interval = intervals.interval_of(da / db) if da is not None and db is not None else None
-    return intervals.decide(a / b, interval, **bounds)
-
-
 def interval_or_nan(draws):
     """``(low, high)`` of bootstrap ``draws``, NaNs where there are none."""
     interval = intervals.interval_of(draws)
@@ -181,10 +161,10 @@ def _iso_dependence(df):
     decisions, notes = {}, []
     for scene_name in scenes:
         groups = _ramps(df, scene_name)
-        speeds = {name: speedup(rows, resampler=resampler) for name, rows in groups.items()}
+        speeds = {name: speedup(rows, "basic", "ess+ert", resampler=resampler) for name, rows in groups.items()}
         best = max(speeds, key=lambda name: speeds[name][0])
         worst = min(speeds, key=lambda name: speeds[name][0])
-        decisions[scene_name] = ratio_of(speeds[best], speeds[worst], at_least=STRONG)
+        decisions[scene_name] = ratio_of_draws(speeds[best], speeds[worst], at_least=STRONG)
         ends = [f"{end} {groups[name].tf.iloc[0]} {as_ratio(speeds[name][0])} "
                 f"(α' {as_percent(culled_fraction(config_rows(groups[name], 'ess+ert')))})"
                 for end, name in (("best", best), ("worst", worst))]
@@ -277,7 +257,7 @@ def summary(ok):
     rows = []
     for name, group in groups_of(ok).items():
         try:
-            value, draws = speedup(group, resampler=resampler)
+            value, draws = speedup(group, "basic", "ess+ert", resampler=resampler)
             tested = config_rows(group, "ess+ert")
         except (KeyError, ValueError):
             continue

@@ -22,7 +22,8 @@ import pandas as pd
 import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
+                                             ratio_pair)
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
                                             linked_table)
@@ -30,8 +31,7 @@ from pipeline.experiments.kit.planning import phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.costmodel_check import BAND, shared_views, stacked, summed, timed_model
-from pipeline.experiments.xue2005.earlyz import (DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, can_plan, isbvr_run, ns,
-                                                 ratio_pair)
+from pipeline.experiments.xue2005.earlyz import DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, can_plan, isbvr_run, ns
 from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable
 from pipeline.experiments.xue2005.pages import runs_table, unless_missing
 from pipeline.experiments.xue2005.sweeps import groups_of, interval_columns
