@@ -124,3 +124,14 @@ def test_a_speedup_is_a_pair_whose_ratio_to_another_is_decided_and_inconclusive_
     assert judging.ratio_of_draws((value, draws), (1.0, np.ones_like(draws)), at_least=1.5).holds is True
     # No frames behind a side: no interval, and a timing without one decides nothing (issue 34: fail closed).
     assert judging.ratio_of_draws((value, None), (1.0, None), at_least=1.5).inconclusive
+
+
+def test_points_of_a_configuration_fail_closed_and_counts_ratio_to_nan_where_uncounted():
+    rows = pd.DataFrame([{"run": "a", "config": "slow", "view": "v", "time_total": 2.0, "count_samples": 40},
+                         {"run": "b", "config": "fast", "view": "v", "time_total": 0.5, "count_samples": 10},
+                         {"run": "c", "config": "broken", "view": "v", "time_total": float("nan")}])
+    assert judging.median_time(rows, "slow") == 2.0 and judging.point_speedup(rows, "slow", "fast") == 4.0
+    with pytest.raises(ValueError, match="run c reported no 'total' time"):
+        judging.point_speedup(rows, "broken", "fast")
+    assert judging.count_ratio(rows, "slow", "fast") == 4.0
+    assert np.isnan(judging.count_ratio(rows, "broken", "fast"))

@@ -24,7 +24,7 @@ import numpy as np
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import ClaimResult
-from pipeline.experiments.kit.results import fit_line, numeric, rows_matching
+from pipeline.experiments.kit.results import fit_line, numeric, rows_matching, stage_time
 from pipeline.experiments.kit.words import as_percent, as_ratio, format_number
 
 TECHNIQUE, COMPOSITE, TOTAL = "time_technique", "time_composite", "time_total"
@@ -84,6 +84,25 @@ def config_rows(frame, config, *, what="", **match):
         raise ValueError(f"no successful {config} run" + (f" of {what}" if what else "")
                          + (f" for {match}" if match else ""))
     return rows
+
+
+def median_time(frame, config, **match):
+    """The median whole-frame time of ``config``'s rows matching ``match`` (its views), a point for a page or a
+    claim's detail; ValueError naming the run that reported none (:func:`~.results.stage_time`)."""
+    return float(np.median([stage_time(row) for _, row in config_rows(frame, config, **match).iterrows()]))
+
+
+def point_speedup(frame, slow, fast, **match):
+    """``median_time(slow) / median_time(fast)`` on the rows matching ``match``: a point, without the interval
+    of :func:`time_ratio` or the draws of :func:`speedup`."""
+    return median_time(frame, slow, **match) / median_time(frame, fast, **match)
+
+
+def count_ratio(frame, slow, fast, column="count_samples", **match):
+    """The ratio of a count (:func:`median_count` over the views) of ``slow`` and ``fast``; NaN where it was not
+    counted."""
+    top, bottom = (median_count(config_rows(frame, config, **match), column) for config in (slow, fast))
+    return top / bottom if bottom else np.nan
 
 
 def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, column="time_total", select=config_rows,

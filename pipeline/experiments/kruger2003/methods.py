@@ -4,11 +4,11 @@ times, the no-cue control scene, their pages' figures, and what cannot be measur
 
 import numpy as np
 
-from pipeline.experiments.kit.judging import config_rows, median_count
+from pipeline.experiments.kit.judging import count_ratio
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import as_ratio, not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, unregistered
-from pipeline.experiments.kit.results import speed_points, stage_time
+from pipeline.experiments.kit.results import speed_points
 
 RAYCAST, SLICER = "gl-raycast", "gl-slicer"
 
@@ -93,25 +93,9 @@ def gl_not_measurable():
                                                                           "opaque_threshold", "block_size"))
 
 
-def count_ratio(frame, slow, fast, column="count_samples", **match):
-    """The ratio of a count (median over the views) of ``slow`` and ``fast``; NaN where it was not counted."""
-    top, bottom = (median_count(config_rows(frame, config, **match), column) for config in (slow, fast))
-    return top / bottom if bottom else np.nan
-
-
 def samples_note(frame, slow, fast, **match):
     """``"samples ×2.1"``: the same ratio of the samples the shaders took (empty where not counted)."""
     if "count_samples" not in frame:
         return ""
     ratio = count_ratio(frame, slow, fast, **match)
     return f"samples {as_ratio(ratio)}" if np.isfinite(ratio) else ""
-
-
-def time_of(frame, config, **match):
-    """The median frame time of ``config`` in ``frame`` (rows matching ``match``); ValueError if none."""
-    return float(np.median([stage_time(row) for _, row in config_rows(frame, config, **match).iterrows()]))
-
-
-def speedup(frame, slow, fast, **match):
-    """``time(slow) / time(fast)`` on the rows matching ``match``."""
-    return time_of(frame, slow, **match) / time_of(frame, fast, **match)

@@ -16,8 +16,9 @@ from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, fo
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count
-from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, sizes, time_of
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
+                                             median_time)
+from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, sizes
 from pipeline.experiments.kruger2003.tables import PASSES
 from reports import plots
 
@@ -74,8 +75,8 @@ def _iso_faster(df):
     decision = intervals.ratio_decision(dvr, iso, at_least=STRICTLY_ABOVE_ONE)
     samples = median_count(dvr, "count_samples") / median_count(iso, "count_samples")
     return ClaimResult.decided(decision_words(decision), decision,
-                               f"DVR {format_number(time_of(dvr, 'rc-a') * 1e3)} ms, iso "
-                               f"{format_number(time_of(iso, 'rc-a') * 1e3)} ms (whole frames, interleaved)"
+                               f"DVR {format_number(median_time(dvr, 'rc-a') * 1e3)} ms, iso "
+                               f"{format_number(median_time(iso, 'rc-a') * 1e3)} ms (whole frames, interleaved)"
                                + (f"; samples DVR / iso {as_ratio(samples)}" if np.isfinite(samples) else ""))
 
 
@@ -85,7 +86,7 @@ COUNTS = (("count_passes_main", "main passes"), ("count_samples", "samples"))
 
 def _m_words(rows, m):
     """``"M 8: 42.9 ms, 40 main passes, 5.54e+05 samples"`` (the counts where recorded)."""
-    return ", ".join([f"M {m}: {format_number(time_of(rows, 'rc-b') * 1e3)} ms"]
+    return ", ".join([f"M {m}: {format_number(median_time(rows, 'rc-b') * 1e3)} ms"]
                      + [f"{format_number(median_count(rows, column))} {name}" for column, name in COUNTS
                         if column in rows])
 
@@ -98,7 +99,7 @@ def _m_u_shape(df):
     if len(values) < 3:
         raise ValueError("fewer than three values of M")
     rows = {m: sweep[ms == m] for m in values}
-    best = min(values[1:-1], key=lambda m: time_of(rows[m], "rc-b"))
+    best = min(values[1:-1], key=lambda m: median_time(rows[m], "rc-b"))
     resampler = intervals.Resampler()
     decisions = {f"M {m}": intervals.ratio_decision(rows[m], rows[best], at_least=STRICTLY_ABOVE_ONE,
                                                     resampler=resampler) for m in (values[0], values[-1])}

@@ -16,9 +16,9 @@ from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_r
                                                timed_frames, truth_run)
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, role_rows,
                                               rows_matching, text_column)
-from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, time_ratio
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, point_speedup, time_ratio
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, gl_not_measurable, method_name,
-                                                     method_points, method_runs, samples_note, sizes, speedup)
+                                                     method_points, method_runs, samples_note, sizes)
 from pipeline.experiments.kruger2003.tables import (HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR, PAPER_DEVICE, REAL_SCANS,
                                                     TABLE1)
 from reports import blocks, plots
@@ -183,7 +183,7 @@ def _ratio_table(tests):
                                          ("RC-b / SBVR", "sbvr", "rc-b", rcb / sbvr)):
             row[f"{label} (paper)"] = round(paper, 2)
             try:
-                row[f"{label} (ours)"] = round(speedup(here, slow, fast), 2)
+                row[f"{label} (ours)"] = round(point_speedup(here, slow, fast), 2)
             except ValueError:
                 row[f"{label} (ours)"] = np.nan
         rows.append(row)
