@@ -23,6 +23,7 @@ disagree on a decided verdict.
 """
 
 import argparse
+import io
 import json
 import sys
 import tempfile
@@ -33,7 +34,7 @@ import pandas as pd
 
 import renderers
 from core.errors import BackendUnavailableError, InputError
-from pipeline.collect import claims_table
+from pipeline.collect import claims_table, table_path
 from pipeline.environment import SLURM_FACTS, uses_device
 from reports.imageio import read_image
 
@@ -93,10 +94,15 @@ def read_runs(folder, *, experiments=None):
     Only the rows of ``experiments`` (names; ``None``: all), without the columns none of them fills,
     sorted by :data:`KEY` (``view`` ``""`` where a run made no frame).
     """
-    folder = Path(folder)
     frame = pd.read_csv(results_file(folder, "runs.csv"), low_memory=False)
     if experiments is not None:
         frame = frame[frame.experiment.isin(list(experiments))]
+    return _under(frame, Path(folder)).sort_values(KEY).reset_index(drop=True)
+
+
+def _under(frame, folder):
+    """``frame`` (rows of ``runs.csv`` or a table of it) without the columns it leaves empty, its paths under
+    ``folder``."""
     frame = frame.dropna(axis=1, how="all").copy()
     frame["view"] = frame["view"].fillna("") if "view" in frame else ""
     # The records sit at <results>/runs/<experiment>/<run>.json: <results> is where the run wrote them.
@@ -105,7 +111,7 @@ def read_runs(folder, *, experiments=None):
                for record, suffix in zip(frame.record, suffixes)]
     for column in [c for c in PATH_COLUMNS if c in frame]:
         frame[column] = [_moved(path, prefix, folder) for path, prefix in zip(frame[column], written)]
-    return frame.sort_values(KEY).reset_index(drop=True)
+    return frame
 
 
 def results_file(folder, name):
@@ -442,6 +448,46 @@ def phantom_differences(a, b, *, keys=None):
     return differences
 
 
+def rejudged_claims(folder):
+    """The claims of the results folder ``folder`` judged again by this code on its runs; nothing is rendered.
+
+    Each experiment is judged on its own table (``tables/<experiment>.csv``, the records and images it names),
+    as the pipeline judged it: its rows in their order and their types as that table alone gives them (in
+    ``runs.csv`` a tag such as ``task_size`` 8 reads 8.0 where other experiments leave it empty). Read back as
+    :func:`read_claims` reads ``claims.csv``, so that the two compare cell by cell.
+    """
+    folder = Path(folder)
+    tables = []
+    for experiment in _experiments(list(dict.fromkeys(read_claims(folder).experiment))):
+        path = table_path(folder, experiment.name)
+        if not path.is_file():
+            raise InputError(f"{folder}: no {path.relative_to(folder)}; give the results folder of a finished "
+                             "pipeline run (results/<profile>)")
+        judged = claims_table(_under(pd.read_csv(path, low_memory=False), folder), [experiment])
+        tables.append(pd.read_csv(io.StringIO(judged.to_csv(index=False)), dtype=str, keep_default_na=False))
+    return pd.concat(tables, ignore_index=True).fillna("")
+
+
+def rejudge_differences(folder):
+    """How judging the runs of ``folder`` again (:func:`rejudged_claims`) changes its claims: ``(changes,
+    sentences)``, :func:`verdict_changes`' table of the written against the re-judged verdicts, and a sentence
+    per changed cell of a claim (its verdict, measured value, interval, margin, expected text, detail, kind,
+    paper value...) or per claim one side lacks. A change of code that must not change what a claim says
+    (moving the judging helpers into the kit) re-judges a finished run with no sentence."""
+    written, judged = read_claims(folder), rejudged_claims(folder)
+    key = ["experiment", "claim"]
+    sentences = _only_in([tuple(r) for r in written[key].values], [tuple(r) for r in judged[key].values],
+                         "claims (experiment, claim)", f"{folder}/claims.csv", "its runs judged again")
+    columns = [c for c in dict.fromkeys([*written.columns, *judged.columns]) if c not in key]
+    merged = written.merge(judged, on=key, suffixes=("_written", "_judged"))
+    for column in columns:
+        mine, again = (merged.get(f"{column}_{side}", pd.Series("", index=merged.index)) for side in ("written", "judged"))
+        for row, a, b in zip(merged.itertuples(index=False), mine, again):
+            if a != b:
+                sentences.append(f"claim {row.experiment}/{row.claim}: {column} {a!r} as written, {b!r} judged again")
+    return verdict_changes(written, judged), sentences
+
+
 def finished_runs(*folders):
     """Refuse (:class:`InputError`) a folder that is not a finished run's, before any comparison."""
     for folder in folders:
@@ -463,8 +509,15 @@ def main(argv=None):
     """``scripts/compare-results A B``: print the differences; exit 1 when there are any, 2 on bad input."""
     parser = argparse.ArgumentParser(prog="compare-results", description=__doc__.split("\n\n")[0])
     parser.add_argument("a", help="a results folder (results/<profile>)")
-    parser.add_argument("b", help="the results folder to compare it with")
+    parser.add_argument("b", nargs="?", help="the results folder to compare it with (not with --rejudge)")
+    parser.add_argument("--rejudge", action="store_true",
+                        help="judge A's claims again with this code from its runs (nothing rendered) and list every "
+                             "claim whose row changes: for a change of code that must not change verdicts")
     args = parser.parse_args(argv)
+    if args.rejudge != (args.b is None):
+        parser.error("give two results folders, or one with --rejudge")
+    if args.rejudge:
+        return _rejudge(args.a)
     try:
         finished_runs(args.a, args.b)  # before the timing claims are judged, which reads the folders
         timing = timing_claims(args.a, args.b)
@@ -482,6 +535,22 @@ def main(argv=None):
     print(f"verdicts: {agreement_words(changes, timing=timing)}; {len(moved)} changed to or from inconclusive")
     print(f"{len(found)} differences" if found else
           f"{args.a} and {args.b}: the same runs, images, claims (no timing claim flipped) and phantoms")
+    return 1 if found else 0
+
+
+def _rejudge(folder):
+    try:
+        finished_runs(folder)
+        changes, found = rejudge_differences(folder)
+    except InputError as exc:
+        print(f"compare-results: {exc}", file=sys.stderr)
+        return 2
+    for sentence in found:
+        print(sentence)
+    flipped = int((changes.change == "flipped").sum())
+    print(f"verdicts as written against judged again: {agreement_words(changes)}; {flipped} flipped between holds "
+          "and fails")
+    print(f"{len(found)} differences" if found else f"{folder}: every claim judged again as written")
     return 1 if found else 0
 
 

@@ -268,3 +268,37 @@ def test_a_timing_claim_that_flips_is_a_difference_and_one_that_turns_inconclusi
     [flip] = compare.timing_flips(a, b)
     assert flip.startswith(f"timing claim {experiment}/{claim} flipped: holds in {a} (") and f"fails in {b}" in flip
     assert compare.main([str(a), str(b)]) == 1
+
+
+def test_a_folder_judged_again_by_this_code_says_what_it_wrote(folders, capsys):
+    a, b = folders
+    changes, found = compare.rejudge_differences(b)  # a copy elsewhere: its files are read where it is
+    assert found == [] and (changes.change == "same").all() and len(changes) == 9
+    assert compare.main(["--rejudge", str(b)]) == 0
+    assert capsys.readouterr().out.endswith(f"{b}: every claim judged again as written\n")
+
+
+def test_a_claim_judged_again_differently_is_named_with_its_cell(folders, capsys):
+    _, b = folders
+    _edit_csv(b / "claims.csv", lambda frame: frame.assign(
+        verdict=frame.verdict.where(frame.claim != "monotone", "inconclusive"),
+        detail=frame.detail.where(frame.claim != "monotone", "written by other code")))
+    _edit_csv(b / "claims.csv", lambda frame: frame[frame.claim != "tradeoff"])
+    changes, found = compare.rejudge_differences(b)
+    assert "claim volbench-convergence/monotone: detail 'written by other code' as written" in "\n".join(found)
+    assert any(s.startswith("claim volbench-convergence/monotone: verdict 'inconclusive' as written, 'holds'")
+               for s in found)
+    assert any("volbench-speed-accuracy" in s and "tradeoff" in s for s in found)  # a claim only one side has
+    assert compare.main(["--rejudge", str(b)]) == 1
+    assert f"{len(found)} differences" in capsys.readouterr().out
+
+
+def test_rejudge_takes_one_finished_folder_and_comparing_takes_two(folders, capsys):
+    _, b = folders
+    with pytest.raises(SystemExit):
+        compare.main(["--rejudge", "a", "b"])
+    with pytest.raises(SystemExit):
+        compare.main(["a"])
+    (b / "tables" / "volbench-convergence.csv").unlink()  # each experiment is judged on its own table
+    assert compare.main(["--rejudge", str(b)]) == 2
+    assert "no tables/volbench-convergence.csv; give the results folder of a finished" in capsys.readouterr().err
