@@ -481,7 +481,8 @@ def rejudge_differences(folder):
     columns = [c for c in dict.fromkeys([*written.columns, *judged.columns]) if c not in key]
     merged = written.merge(judged, on=key, suffixes=("_written", "_judged"))
     for column in columns:
-        mine, again = (merged.get(f"{column}_{side}", pd.Series("", index=merged.index)) for side in ("written", "judged"))
+        mine, again = (merged.get(f"{column}_{side}", pd.Series("", index=merged.index))
+                       for side in ("written", "judged"))
         for row, a, b in zip(merged.itertuples(index=False), mine, again):
             if a != b:
                 sentences.append(f"claim {row.experiment}/{row.claim}: {column} {a!r} as written, {b!r} judged again")

@@ -106,7 +106,8 @@ class _Arm:
 
     def prepare(self, warmup, bar):
         """The cold frame, the preprocessing frame where it compiled, then warm-up frames until ``max(warmup, 1)``
-        untimed frames that compiled nothing have been rendered (the cold frame among them where it compiled nothing)."""
+        untimed frames that compiled nothing have been rendered (the cold frame among them, where it compiled
+        nothing)."""
         caches = self.renderer.caches_preprocessing
         if caches:
             self.renderer.drop_caches()  # a view after the first builds its preprocessing again too

@@ -17,7 +17,7 @@ from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, counts, decided,
-                                             r_squared, with_interval)
+                                              r_squared, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run

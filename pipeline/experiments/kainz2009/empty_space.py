@@ -15,7 +15,7 @@ from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all_of, counts, decided, ratio, statistic,
-                                             timed)
+                                              timed)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, db_words, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run

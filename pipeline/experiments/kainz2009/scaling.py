@@ -20,8 +20,8 @@ from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS
 from pipeline.experiments.kainz2009.scenes import blob, clouds, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure, Ratio
-from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, TOTAL, decided, statistic, timed,
-                                             with_interval)
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, TOTAL, decided, ratio_pair, statistic,
+                                              timed, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
@@ -101,16 +101,12 @@ def _peeling_growth(df):
         raise ValueError("depth peeling and cl-tiled share no count beyond one volume")
     n = common[-1]
     resampler = intervals.Resampler()
-    growth, growth_draws = {}, {}
+    growth = {}  # config -> (value, draws) of its time at N over its time at 1
     for config, part in rows.items():
-        many, one = (part[numeric(part, "count") == count] for count in (n, 1))
-        (top, top_draws), (bottom, bottom_draws) = (statistic(part, TOTAL, resampler) for part in (many, one))
-        growth[config] = top / bottom
-        growth_draws[config] = None if top_draws is None or bottom_draws is None else top_draws / bottom_draws
-    both = not any(d is None for d in growth_draws.values())
-    decision = decided(growth[PEEL] / growth[TILED], growth_draws[PEEL] / growth_draws[TILED] if both else None,
-                       at_least=STRICTLY_ABOVE_ONE, frames=resampler.arms())
-    measured = f"peeling {as_ratio(growth[PEEL])}, cl-tiled {as_ratio(growth[TILED])} at N = {int(n)}"
+        growth[config] = ratio_pair(*(statistic(part[numeric(part, "count") == count], TOTAL, resampler)
+                                      for count in (n, 1)))
+    decision = decided(*ratio_pair(growth[PEEL], growth[TILED]), at_least=STRICTLY_ABOVE_ONE, frames=resampler.arms())
+    measured = f"peeling {as_ratio(growth[PEEL][0])}, cl-tiled {as_ratio(growth[TILED][0])} at N = {int(n)}"
     return ClaimResult.decided(with_interval(f"{measured}: {as_ratio(decision.value)}", decision), decision,
                                f"time at N = {int(n)} over time at N = 1, clouds alone, {FRAMES}; peeling's growth "
                                f"over cl-tiled's; {devices(pd.concat(rows.values()))}")

@@ -15,7 +15,7 @@ from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, v
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, all_of, counts,
-                                             decided, timed, with_interval)
+                                              decided, timed, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)

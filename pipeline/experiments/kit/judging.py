@@ -118,7 +118,8 @@ def time_ratio(frame, slow, fast, *, resampler, at_least=None, at_most=None, col
 
 
 def ratio_pair(top, bottom):
-    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair (``draws`` ``None`` where either has none)."""
+    """``(value, draws)`` of ``top / bottom``, each a ``(value, draws)`` pair (``draws`` ``None`` where either
+    has none)."""
     return top[0] / bottom[0], None if top[1] is None or bottom[1] is None else top[1] / bottom[1]
 
 
@@ -228,10 +229,13 @@ def values(rows, column, resampler):
 
 
 def statistic(rows, column, resampler, reduce="median"):
-    """``(value, draws)`` of ``reduce`` (a key of :data:`~pipeline.experiments.kit.intervals.REDUCE`) over the rows."""
-    point, draws = values(rows, column, resampler)
-    function = intervals.REDUCE[reduce]
-    return float(function(point)), (None if draws is None else function(draws, axis=1))
+    """``(value, draws)`` of ``reduce`` (a key of :data:`~pipeline.experiments.kit.intervals.REDUCE`) over the rows
+    that measured ``column`` (:func:`~pipeline.experiments.kit.intervals.statistic_draws`); ValueError if none did."""
+    rows = measured(rows, column)
+    if rows.empty:
+        raise ValueError(f"no run reported {column}")
+    value = float(intervals.REDUCE[reduce](numeric(rows, column).to_numpy(float)))
+    return value, intervals.statistic_draws(rows, column, reduce, resampler)
 
 
 def line(rows, x, column, resampler, *, at_least):
@@ -281,7 +285,8 @@ def starved(rows):
 
 
 def busy(rows):
-    """``"workers busy 97 %"``: the parallel runs' mean busy share over compositing (``info_worker_busy``), or ``""``."""
+    """``"workers busy 97 % at least"``: the least busy share over compositing of the parallel runs
+    (``info_worker_busy``), or ``""``."""
     if "info_worker_busy" not in rows:
         return ""
     shares = numeric(rows, "info_worker_busy").dropna()

@@ -13,8 +13,8 @@ from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, li
 from pipeline.experiments.kit.planning import is_registered, timed_frames, truth_run
 from pipeline.experiments.kit.results import ok_rows, role_rows
 from pipeline.experiments.kit.judging import all_of, count_ratio, time_ratio
-from pipeline.experiments.kruger2003.methods import (RAYCAST, gl_not_measurable, method_name, method_points, method_runs,
-                                                     no_cue_control, sizes)
+from pipeline.experiments.kruger2003.methods import (RAYCAST, gl_not_measurable, method_name, method_points,
+                                                     method_runs, no_cue_control, sizes)
 from pipeline.experiments.kruger2003.tables import NO_CUE
 from reports import plots
 

@@ -17,7 +17,7 @@ from pipeline.experiments.kit.planning import (accepts, headline_view, is_regist
                                                truth_run)
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
-                                             median_time)
+                                              median_time)
 from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, sizes
 from pipeline.experiments.kruger2003.tables import PASSES
 from reports import plots

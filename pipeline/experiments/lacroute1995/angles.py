@@ -8,7 +8,7 @@ import numpy as np
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, figure, format_number
@@ -22,7 +22,7 @@ from reports import blocks, plots
 
 ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
 
-TIME = kit_judging.TECHNIQUE
+TIME = judging.TECHNIQUE
 """The claims' scope: the technique (tables, clearing, compositing, warp), what Fig. 5.3 times."""
 
 
@@ -196,7 +196,7 @@ def _jump(df, column=TIME):
     resampler = intervals.Resampler()
     stats = {d: _turn_stats(p, column, resampler) for d, p in frame.groupby("dataset")}
     with np.errstate(divide="ignore", invalid="ignore"):  # nothing changes away from a switch: an infinite ratio
-        decisions = {d: kit_judging.decided(np.float64(s["switch"]) / s["other"],
+        decisions = {d: judging.decided(np.float64(s["switch"]) / s["other"],
                                         None if s["draws"] is None else s["draws"][1] / s["draws"][2], at_most=1.5,
                                         centred=True, frames=resampler.arms() if column == TIME else None)
                      for d, s in stats.items()}
@@ -213,8 +213,8 @@ def _variation(df, dataset, bound):
         raise ValueError(f"no successful turn of {dataset}")
     resampler = intervals.Resampler()
     stats = _turn_stats(part, TIME, resampler)
-    decision = kit_judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],
-                                   at_most=bound, centred=True, frames=resampler.arms())
+    decision = judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],
+                               at_most=bound, centred=True, frames=resampler.arms())
     detail = f"thesis: 6 %; {tables.SCOPES[TIME]}"
     try:
         detail += f"; samples vary {as_percent(_turn_stats(part, 'count_samples')['variation'])}"
@@ -237,8 +237,8 @@ def _head(df):
     for d, part in heads.groupby("dataset"):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
-        decisions[d] = kit_judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE,
-                                           centred=True, frames=resampler.arms())
+        decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE,
+                                       centred=True, frames=resampler.arms())
     varies = ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
     return all_of(decisions,
                   extra=f"sphere varies {as_percent(s['variation'])}, {varies}; thesis: head 13 %, sphere 6 %")

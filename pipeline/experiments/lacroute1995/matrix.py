@@ -7,7 +7,7 @@ and the CT head stand-in; the sample counts do not depend on the machine.
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
@@ -215,13 +215,13 @@ def _speedup(df, config, low, high):
     """Brute force's compositing time over ``config``'s, the runs of a data set timed together; samples beside."""
     resampler = intervals.Resampler()
     groups = _groups(df)
-    decisions = {d: kit_judging.ratio(rows["brute-force"], rows[config], kit_judging.COMPOSITE, resampler, at_least=low,
+    decisions = {d: judging.ratio(rows["brute-force"], rows[config], judging.COMPOSITE, resampler, at_least=low,
                                   at_most=high) for d, rows in groups.items()}
     counts = "; ".join(f"{d}: samples ×{format_number(_samples_of(rows['brute-force']) / _samples_of(rows[config]))} "
-                       f"fewer, composite {kit_judging.milliseconds(rows['brute-force'], kit_judging.COMPOSITE)} → "
-                       f"{kit_judging.milliseconds(rows[config], kit_judging.COMPOSITE)}, whole frame "
-                       f"{kit_judging.milliseconds(rows['brute-force'], kit_judging.TOTAL)} → "
-                       f"{kit_judging.milliseconds(rows[config], kit_judging.TOTAL)}" for d, rows in groups.items())
+                       f"fewer, composite {judging.milliseconds(rows['brute-force'], judging.COMPOSITE)} → "
+                       f"{judging.milliseconds(rows[config], judging.COMPOSITE)}, whole frame "
+                       f"{judging.milliseconds(rows['brute-force'], judging.TOTAL)} → "
+                       f"{judging.milliseconds(rows[config], judging.TOTAL)}" for d, rows in groups.items())
     return all_of(decisions, extra=f"{counts}; thesis: brainsmall {as_ratio(1.1 / FIG_5_17['brainsmall'][config][1])}, "
                                    f"brain {as_ratio(8.2 / FIG_5_17['brain'][config][1])} (its fixed costs were small; "
                                    "ours, about 0.5 ms of tables, warp and Python, would hide the loop's speed-up)")

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 import datasets
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
@@ -30,7 +30,7 @@ SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous
 DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE = "round-robin-steal", 8
 """The shearwarp backend's defaults (the agreed interface)."""
 
-TIME = kit_judging.TECHNIQUE
+TIME = judging.TECHNIQUE
 """The claims' scope: the technique (the parallel kernels and tables), not the serial Python around them."""
 
 
@@ -210,7 +210,7 @@ def _at_most_workers(df, **match):
 
 def _machine(rows):
     """The parallel runs' busy share and the cores, for a detail."""
-    return "; ".join(filter(None, [kit_judging.busy(rows), f"this machine: {usable_cores()} cores"]))
+    return "; ".join(filter(None, [judging.busy(rows), f"this machine: {usable_cores()} cores"]))
 
 
 def _speedup(df):
@@ -223,16 +223,16 @@ def _speedup(df):
         if one.empty or w.max() <= 1:
             continue
         p = int(w.max())
-        t1, one_draws = kit_judging.statistic(one, TIME, resampler)
-        tp, most_draws = kit_judging.statistic(most, TIME, resampler)
+        t1, one_draws = judging.statistic(one, TIME, resampler)
+        tp, most_draws = judging.statistic(most, TIME, resampler)
         draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
-        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = kit_judging.decided(
+        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = judging.decided(
             t1 / tp / p, draws, at_least=0.7, frames=resampler.arms())
         parallel.append(most)
     if not decisions:
         raise ValueError("no size rendered with one worker and with more")
     result = all_of(decisions, extra=f"{tables.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", show=as_percent)
-    return kit_judging.unless_starved(result, pd.concat(parallel), holding_survives=True)
+    return judging.unless_starved(result, pd.concat(parallel), holding_survives=True)
 
 
 def _schedule_order(df):
@@ -244,11 +244,11 @@ def _schedule_order(df):
             continue
         for s in SCHEDULES:
             if s != "contiguous":
-                decisions[f"{n}³ contiguous / {s}"] = kit_judging.ratio(runs["contiguous"], runs[s], TIME, resampler,
-                                                                     at_least=1.0)
+                decisions[f"{n}³ contiguous / {s}"] = judging.ratio(runs["contiguous"], runs[s], TIME, resampler,
+                                                                    at_least=1.0)
             if s != DEFAULT_SCHEDULE:
-                decisions[f"{n}³ {DEFAULT_SCHEDULE} / {s}"] = kit_judging.ratio(runs[DEFAULT_SCHEDULE], runs[s], TIME,
-                                                                           resampler, at_most=1.05)
+                decisions[f"{n}³ {DEFAULT_SCHEDULE} / {s}"] = judging.ratio(runs[DEFAULT_SCHEDULE], runs[s], TIME,
+                                                                            resampler, at_most=1.05)
         times = {s: float(numeric(r, TIME).median()) for s, r in runs.items()}
         measured.append(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in
                                               sorted(times.items(), key=lambda kv: kv[1])))
@@ -257,11 +257,11 @@ def _schedule_order(df):
         raise ValueError("not all four schedules rendered at the most workers")
     workers = int(numeric(df, "workers").max())
     combined = intervals.combine(decisions.values())
-    detail = (f"{kit_judging.labelled(decisions)}; {workers} workers; {_machine(pd.concat(read))}"
+    detail = (f"{judging.labelled(decisions)}; {workers} workers; {_machine(pd.concat(read))}"
               + ("; with 2 workers a contiguous split has only two blocks, so the thesis's 32-processor imbalance "
                  "cannot show fully" if workers <= 2 else ""))
     result = ClaimResult.decided("; ".join(measured), combined, detail)
-    return kit_judging.unless_starved(result, pd.concat(read), holding_survives=False)
+    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
 
 
 def _task_u(df):
@@ -271,7 +271,7 @@ def _task_u(df):
         sizes = sorted(numeric(part, "task_size").dropna().unique())
         if len(sizes) < 3:
             continue
-        point, draws = zip(*(kit_judging.statistic(part[numeric(part, "task_size") == t], TIME, resampler) for t in sizes))
+        point, draws = zip(*(judging.statistic(part[numeric(part, "task_size") == t], TIME, resampler) for t in sizes))
         point = np.array(point)
         best = int(sizes[1 + int(np.argmin(point[1:-1]))])
         value = min(point[0], point[-1]) / point[1:-1].min()
@@ -279,14 +279,14 @@ def _task_u(df):
         if all(d is not None for d in draws):
             draws = np.column_stack(draws)
             draw = np.minimum(draws[:, 0], draws[:, -1]) / draws[:, 1:-1].min(axis=1)
-        decisions[f"{n}³, fastest interior {best} scanlines"] = kit_judging.decided(value, draw, at_least=1.0,
-                                                                                              frames=resampler.arms())
+        decisions[f"{n}³, fastest interior {best} scanlines"] = judging.decided(value, draw, at_least=1.0,
+                                                                                frames=resampler.arms())
         read.append(part)
     if not decisions:
         raise ValueError("fewer than three task sizes swept")
     result = all_of(decisions, extra="ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
                                      f"the Challenge; {_machine(pd.concat(read))}")
-    return kit_judging.unless_starved(result, pd.concat(read), holding_survives=False)
+    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
 
 
 def _imbalance_text(row):
@@ -316,7 +316,7 @@ def _imbalance(df):
     result = ClaimResult(", ".join(f"{as_percent(v)} ({n}³)" for n, v in values.items()),
                          bool(max(values.values()) <= 0.2),
                          "samples composited per worker; thesis 7 % in busy time (DASH, 32 processors)")
-    return kit_judging.unless_starved(result, rows, holding_survives=False)
+    return judging.unless_starved(result, rows, holding_survives=False)
 
 
 def _imbalance_order(df):
@@ -328,7 +328,7 @@ def _imbalance_order(df):
     result = ClaimResult(", ".join(f"contiguous {as_percent(bad[n])} vs round-robin-steal {as_percent(good[n])} ({n}³)"
                                    for n in sizes),
                          bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")
-    return kit_judging.unless_starved(result, pd.concat([good_rows, bad_rows]), holding_survives=False)
+    return judging.unless_starved(result, pd.concat([good_rows, bad_rows]), holding_survives=False)
 
 
 def _speedup_title(ok):

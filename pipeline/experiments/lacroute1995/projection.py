@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
@@ -38,7 +38,7 @@ PROJECTION_CONFIGS = {
     "fast-classification": ("orthographic", {"classification": "octree"},
                             "fast classification (min-max octree + summed-area table), parallel"),
 }
-TIME = kit_judging.TECHNIQUE
+TIME = judging.TECHNIQUE
 """The claims' scope: the technique (tables, octree runs, compositing, warp), what Table 5.3 timed."""
 
 OCTREE_MEMORY_LIMIT = 4.0
@@ -227,7 +227,7 @@ def _ratio(df, config, low, high):
         mine, parallel = (part[text_column(part, "config") == c] for c in (config, "parallel"))
         if mine.empty or parallel.empty:
             continue
-        decisions[dataset] = kit_judging.ratio(mine, parallel, TIME, resampler, at_least=low, at_most=high, statistic="mean")
+        decisions[dataset] = judging.ratio(mine, parallel, TIME, resampler, at_least=low, at_most=high, statistic="mean")
         thesis = TABLE_5_3.get(str(part["thesis_dataset"].iloc[0]) if "thesis_dataset" in part else "", {})
         times = numeric(mine, TIME)
         details.append(f"{dataset}: {format_number(times.mean() * 1e3)} ms mean over {len(times)} views "

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
@@ -181,13 +181,13 @@ def _growth_pairs(df):
 
 def _per_doubling(rows_a, rows_b, doublings, column, resampler):
     """``(ratio per doubling, its draws)`` of ``column`` from rows ``a`` to rows ``b``."""
-    a, a_draws = kit_judging.statistic(rows_a, column, resampler)
-    b, b_draws = kit_judging.statistic(rows_b, column, resampler)
+    a, a_draws = judging.statistic(rows_a, column, resampler)
+    b, b_draws = judging.statistic(rows_b, column, resampler)
     draws = None if a_draws is None or b_draws is None else (b_draws / a_draws) ** (1 / doublings)
     return (b / a) ** (1 / doublings), draws
 
 
-def _growth_ratios(df, column=kit_judging.COMPOSITE):
+def _growth_ratios(df, column=judging.COMPOSITE):
     """``{data set: (ratio per doubling, from size, to size)}`` of ``column`` at each data set's largest sizes."""
     return {d: (_per_doubling(a, b, k, column, intervals.Resampler())[0], n, m)
             for d, (a, b, k, n, m) in _growth_pairs(df).items()}
@@ -197,10 +197,10 @@ def _growth(df):
     resampler = intervals.Resampler()
     decisions, details = {}, []
     for dataset, (a, b, doublings, n, m) in _growth_pairs(df).items():
-        value, draws = _per_doubling(a, b, doublings, kit_judging.COMPOSITE, resampler)
-        decisions[dataset] = kit_judging.decided(value, draws, at_least=2.8, at_most=5.66, frames=resampler.arms())
+        value, draws = _per_doubling(a, b, doublings, judging.COMPOSITE, resampler)
+        decisions[dataset] = judging.decided(value, draws, at_least=2.8, at_most=5.66, frames=resampler.arms())
         words = f"{dataset} {n}³ → {m}³: samples {as_ratio(_ratio_of(a, b, 'count_samples', doublings))}"
-        for column, name in ((kit_judging.TECHNIQUE, "technique"), (kit_judging.TOTAL, "whole frame")):
+        for column, name in ((judging.TECHNIQUE, "technique"), (judging.TOTAL, "whole frame")):
             try:
                 words += f", {name} {as_ratio(_ratio_of(a, b, column, doublings))}"
             except (KeyError, ValueError):
@@ -245,8 +245,8 @@ def _warp_growth(df):
     a, b = smallest.iloc[[-2]], smallest.iloc[[-1]]
     resampler = intervals.Resampler()
     value, draws = _per_doubling(a, b, math.log2(b.i.iloc[0] / a.i.iloc[0]), "time_warp", resampler)
-    decision = kit_judging.decided(value, draws, at_least=2.5, at_most=5.5, frames=resampler.arms())
-    return ClaimResult.decided(kit_judging.labelled({f"{int(a.i.iloc[0])}² → {int(b.i.iloc[0])}²": decision}), decision,
+    decision = judging.decided(value, draws, at_least=2.5, at_most=5.5, frames=resampler.arms())
+    return ClaimResult.decided(judging.labelled({f"{int(a.i.iloc[0])}² → {int(b.i.iloc[0])}²": decision}), decision,
                                ", ".join(f"{int(r.i)}²: {format_number(r.warp * 1e3)} ms" for r in smallest.itertuples())
                                + " warp stage per frame; thesis ×3.4, ×3.8")
 
@@ -257,12 +257,12 @@ def _warp_share(df):
     if len(largest) < 2:
         raise ValueError("fewer than two volume sizes at the largest image")
     resampler = intervals.Resampler()
-    warp, warp_draws = kit_judging.values(largest, "time_warp", resampler)
-    technique, technique_draws = kit_judging.values(largest, kit_judging.TECHNIQUE, resampler)
+    warp, warp_draws = judging.values(largest, "time_warp", resampler)
+    technique, technique_draws = judging.values(largest, judging.TECHNIQUE, resampler)
     shares = warp / technique
     draws = None if warp_draws is None or technique_draws is None else warp_draws / technique_draws
-    decision = kit_judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
-                                   at_most=0.0, centred=True, frames=resampler.arms())
+    decision = judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
+                               at_most=0.0, centred=True, frames=resampler.arms())
     return ClaimResult.decided(", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n))
                                + f"; largest rise {decision_words(decision, as_percent)}", decision,
                                f"warp stage over the technique at {int(largest.i.iloc[0])}² images; thesis 48 %, 31 %, 9 %")

@@ -10,7 +10,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
@@ -33,7 +33,7 @@ SW_MODE_CONFIGS = {
 PREPROCESSING_STAGES = ("time_classify", "time_rle_build", "time_octree", "time_octree_build", "time_sat_build")
 """Stages timed only in the frame that builds a per-volume structure."""
 
-TIME = kit_judging.TECHNIQUE
+TIME = judging.TECHNIQUE
 """The claims' scope: the technique (our kernels and tables; VolPack's library calls), per frame."""
 
 LUT_SPEED = Ratio(Measure("per-voxel Phong", match={"part": "shading", "config": "procedural"}, column=TIME),
@@ -216,7 +216,7 @@ def _config_row(df, part, config):
 def _after_edit(rows, stages, resampler):
     """``(seconds, draws)`` to the next image after a classification edit: ``stages`` (timed once) and a frame."""
     once = sum(stage_time(rows.iloc[0], stage) for stage in stages)
-    frame, draws = kit_judging.statistic(rows, TIME, resampler)
+    frame, draws = judging.statistic(rows, TIME, resampler)
     return once + frame, None if draws is None else once + draws
 
 
@@ -226,7 +226,7 @@ def _edit_race(top, top_stages, bottom, bottom_stages):
     a, a_draws = _after_edit(top, top_stages, resampler)
     b, b_draws = _after_edit(bottom, bottom_stages, resampler)
     draws = None if a_draws is None or b_draws is None else a_draws / b_draws
-    return kit_judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a, b
+    return judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a, b
 
 
 def _mode_rows(df, config):
@@ -240,7 +240,7 @@ def _octree_rle_build(df):
     brute, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree-rle")
     plain = stage_time(brute, "classify") + stage_time(brute, "rle_build")
     fast = stage_time(octree, "sat_build") + stage_time(octree, "rle_build")
-    decision = kit_judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE, frames={})  # timed once
+    decision = judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE, frames={})  # timed once
     return ClaimResult.decided(f"{as_ratio(fast / plain)}: {format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms",
                                decision,
                                f"octree: SAT {format_number(stage_time(octree, 'sat_build') * 1e3)} ms + RLE "
@@ -255,13 +255,13 @@ def _mode_switch_ours(df):
     rle, octree = _mode_rows(df, "shearwarp"), _mode_rows(df, "shearwarp-octree")
     decision, fast, slow = _edit_race(octree, ("sat_build",), rle, ("classify", "rle_build"))
     row, other = octree.iloc[0], rle.iloc[0]
-    return ClaimResult.decided(kit_judging.labelled({f"fast classification {format_number(fast * 1e3)} ms vs RLE "
+    return ClaimResult.decided(judging.labelled({f"fast classification {format_number(fast * 1e3)} ms vs RLE "
                                                  f"{format_number(slow * 1e3)} ms": decision}), decision,
                                f"octree: SAT {format_number(stage_time(row, 'sat_build') * 1e3)} ms + frame "
-                               f"{kit_judging.milliseconds(octree)}; RLE: classify "
+                               f"{judging.milliseconds(octree)}; RLE: classify "
                                f"{format_number(stage_time(other, 'classify') * 1e3)} ms + build "
                                f"{format_number(stage_time(other, 'rle_build') * 1e3)} ms + frame "
-                               f"{kit_judging.milliseconds(rle)}; frames: the technique's median")
+                               f"{judging.milliseconds(rle)}; frames: the technique's median")
 
 
 def _lut_speed(df):
@@ -294,10 +294,10 @@ def _mode_switch(df):
     if not np.isfinite(float(rle.iloc[0].get("time_classify", np.nan))):
         raise ValueError("VolPack's RLE run reported no classify stage")
     decision, fast, slow = _edit_race(octree, (), rle, ("classify",))
-    return ClaimResult.decided(kit_judging.labelled({f"octree {format_number(fast * 1e3)} ms vs RLE "
+    return ClaimResult.decided(judging.labelled({f"octree {format_number(fast * 1e3)} ms vs RLE "
                                                  f"{format_number(slow * 1e3)} ms": decision}), decision,
                                f"RLE: classify {format_number(stage_time(rle.iloc[0], 'classify') * 1e3)} ms (once) + "
-                               f"frame {kit_judging.milliseconds(rle)}; octree build (once per volume) "
+                               f"frame {judging.milliseconds(rle)}; octree build (once per volume) "
                                f"{format_number(float(octree.iloc[0].get('time_octree', np.nan)) * 1e3)} ms; frames: "
                                "VolPack's library calls (vpShadeTable and its render)")
 

@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
@@ -24,7 +24,7 @@ from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
-TIME = kit_judging.TECHNIQUE
+TIME = judging.TECHNIQUE
 """The claims' scope: the technique (tables, compositing, warp), as the thesis timed its renderer."""
 
 PREDICT_DATASETS = {"ct_skull": "bone", "engine": "surfaces"}
@@ -233,9 +233,9 @@ def _series(df, series, config):
 
 
 def _cube_linear(df):
-    slope, intercept, decision = kit_judging.line(_series(df, "cube", "optimised"), "samples", TIME, intervals.Resampler(),
+    slope, intercept, decision = judging.line(_series(df, "cube", "optimised"), "samples", TIME, intervals.Resampler(),
                                               at_least=0.95)
-    return ClaimResult.decided(kit_judging.labelled({"cubes": decision}, kit_judging.r2_words), decision,
+    return ClaimResult.decided(judging.labelled({"cubes": decision}, judging.r2_words), decision,
                                f"{format_number(1 / slope / 1e6)} Mvoxels/s, {format_number(intercept * 1e3)} ms fixed; "
                                "thesis 0.88 Mvoxels/s")
 
@@ -251,13 +251,13 @@ def _brute_flat(df):
     if len(rows) < 2:
         raise ValueError("fewer than two brute-force cubes that composite")
     resampler = intervals.Resampler()
-    times, draws = kit_judging.values(rows, TIME, resampler)
+    times, draws = judging.values(rows, TIME, resampler)
     spread = lambda t, axis=None: (t.max(axis=axis) - t.min(axis=axis)) / np.median(t, axis=axis)  # noqa: E731
-    decision = kit_judging.decided(spread(times), None if draws is None else spread(draws, axis=1), at_most=0.25,
-                                   centred=True, frames=resampler.arms())
+    decision = judging.decided(spread(times), None if draws is None else spread(draws, axis=1), at_most=0.25,
+                               centred=True, frames=resampler.arms())
     return ClaimResult.decided(decision_words(decision, as_percent), decision,
                                f"{len(rows)} cubes at α " + ", ".join(format_number(a) for a in rows.alpha)
-                               + f", median {kit_judging.milliseconds(rows)} technique; samples "
+                               + f", median {judging.milliseconds(rows)} technique; samples "
                                + ", ".join(format_number(v) for v in rows.samples))
 
 
@@ -270,9 +270,9 @@ def _crossover(df):
         raise ValueError("brute force reported no samples")
     rows = rows.assign(visible=rows.samples / total).sort_values("visible")
     resampler = intervals.Resampler()
-    level, level_draws = kit_judging.statistic(brute, TIME, resampler)
-    times, draws = kit_judging.values(rows, TIME, resampler)
-    decisions = {f"{as_percent(v)} visible": kit_judging.decided(
+    level, level_draws = judging.statistic(brute, TIME, resampler)
+    times, draws = judging.values(rows, TIME, resampler)
+    decisions = {f"{as_percent(v)} visible": judging.decided(
         t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE,
         frames=resampler.arms())
         for i, (v, t) in enumerate(zip(rows.visible, times))}
@@ -284,8 +284,8 @@ def _crossover(df):
                 else f"slower than brute force from {as_percent(float(slower.visible.min()))} visible")
     worst = intervals.combine(low)
     return ClaimResult.decided(f"{crossing}; at ≤ 50 % visible at most "
-                               + kit_judging.labelled({"worst": worst}), worst,
-                               kit_judging.labelled(decisions) + " (optimised / brute force; thesis: ×1.25 at 100 %)")
+                               + judging.labelled({"worst": worst}), worst,
+                               judging.labelled(decisions) + " (optimised / brute force; thesis: ×1.25 at 100 %)")
 
 
 def _checker_series(df):
@@ -298,13 +298,13 @@ def _runs_linear(df):
     for s in _checker_series(df):
         rows = _series(df, s, "optimised")
         if len(rows) >= 3:
-            fits[s] = kit_judging.line(rows, "runs", TIME, resampler, at_least=0.9)
+            fits[s] = judging.line(rows, "runs", TIME, resampler, at_least=0.9)
             samples[s] = (rows.samples.min(), rows.samples.max())
     if not fits:
         raise ValueError("no checkerboard series with three block sizes")
     slopes = ", ".join(f"{format_number(slope * 1e9)} ns per run ({s}; samples {format_number(lo)}–"
                        f"{format_number(hi)})" for (s, (slope, _b, _d)), (lo, hi) in zip(fits.items(), samples.values()))
-    return all_of({s: d for s, (_a, _b, d) in fits.items()}, show=kit_judging.r2_words,
+    return all_of({s: d for s, (_a, _b, d) in fits.items()}, show=judging.r2_words,
                   extra=f"{slopes}; thesis 400 ns. Where the samples vary, the visible count is not constant: "
                         "bilinear footprints of small blocks reach both colours")
 
@@ -318,13 +318,13 @@ def _worst_runs(df):
         match = brute[numeric(brute, "block") == smallest]
         if opt.empty or match.empty:
             continue
-        ratios[s] = kit_judging.ratio(opt[numeric(opt, "block") == smallest], match, TIME, resampler, at_most=1.3)
+        ratios[s] = judging.ratio(opt[numeric(opt, "block") == smallest], match, TIME, resampler, at_most=1.3)
     if not ratios:
         raise ValueError("no checkerboard with both renderers at its smallest block")
     # The all-visible series is the thesis's worst case: the lowest opacity.
     key = min(ratios, key=lambda s: float(s.split("α")[-1]))
-    return ClaimResult.decided(kit_judging.labelled({key: ratios[key]}), ratios[key],
-                               kit_judging.labelled(ratios) + "; thesis ×1.15")
+    return ClaimResult.decided(judging.labelled({key: ratios[key]}), ratios[key],
+                               judging.labelled(ratios) + "; thesis ×1.15")
 
 
 def _fit_rows(df):
@@ -347,7 +347,7 @@ def _prediction(df):
         raise ValueError("no predicted scene rendered")
     resampler = intervals.Resampler()
     fit = _fit_rows(df)
-    _, fit_draws = kit_judging.values(fit, TIME, resampler)
+    _, fit_draws = judging.values(fit, TIME, resampler)
     coefficients = None  # (3, draws): the model refitted to every draw
     if fit_draws is not None:
         design = np.column_stack([fit.samples, fit.runs, np.ones(len(fit))])
@@ -356,12 +356,12 @@ def _prediction(df):
     for index, row in rows.iterrows():
         samples, runs = float(row["count_samples"]), float(row["count_voxel_runs"])
         predicted = samples / a + runs * b + c
-        (measured,), draws = kit_judging.values(rows.loc[[index]], TIME, resampler)
+        (measured,), draws = judging.values(rows.loc[[index]], TIME, resampler)
         error_draws = None
         if coefficients is not None and draws is not None:
             error_draws = (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1
-        decisions[row["dataset"]] = kit_judging.decided(predicted / measured - 1, error_draws, at_least=-0.25,
-                                                        at_most=0.25, frames=resampler.arms())
+        decisions[row["dataset"]] = judging.decided(predicted / measured - 1, error_draws, at_least=-0.25,
+                                                    at_most=0.25, frames=resampler.arms())
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
     return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "

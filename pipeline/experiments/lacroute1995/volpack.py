@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 import renderers
-from pipeline.experiments.kit import intervals, judging as kit_judging
+from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, figure, format_number,
@@ -123,13 +123,13 @@ class VolPackComparison(Experiment):
         Claim("speed-1-worker-frame", "On one core our shear-warp renders a whole frame no slower than VolPack's "
               "classified-RLE mode, each as `volbench render` times it", "whole-frame time ratio ours / VolPack ≤ 1 "
               "(every scene: Python around our kernels against VolPack's wrapper and 8-bit image conversion)",
-              lambda df: _speed(df, "shearwarp-1", kit_judging.TOTAL), kind="timing"),
+              lambda df: _speed(df, "shearwarp-1", judging.TOTAL), kind="timing"),
         Claim("speed-all-cores", "With every core our shear-warp's kernels render a frame no slower than VolPack's "
               "library call (single-threaded)", "technique time ratio ours / VolPack ≤ 1 (every scene)",
               lambda df: _speed(df, "shearwarp-all"), kind="timing"),
         Claim("speed-all-cores-frame", "With every core our shear-warp renders a whole frame no slower than VolPack's "
               "classified-RLE mode (single-threaded)", "whole-frame time ratio ours / VolPack ≤ 1 (every scene)",
-              lambda df: _speed(df, "shearwarp-all", kit_judging.TOTAL), kind="timing"),
+              lambda df: _speed(df, "shearwarp-all", judging.TOTAL), kind="timing"),
         Claim("octree-speed", "In fast-classification (octree) mode our shear-warp's kernels on one core render a "
               "frame within 1.2× of VolPack's octree mode", "technique time ratio ours / VolPack, both octree, ≤ 1.2 "
               "(every scene: our kernels with their on-the-fly classification against VolPack's vpShadeTable + "
@@ -209,11 +209,11 @@ def _modes_cell(ours, vp):
     """``"1.04 / 2.2 ms (×0.95 / ×1.1)"``: technique / whole frame, each over VolPack's matching mode."""
     if ours.empty:
         return ""
-    tech, total = (float(numeric(ours, c).iloc[0]) for c in (kit_judging.TECHNIQUE, kit_judging.TOTAL))
+    tech, total = (float(numeric(ours, c).iloc[0]) for c in (judging.TECHNIQUE, judging.TOTAL))
     text = f"{format_number(tech * 1e3)} / {format_number(total * 1e3)} ms"
     if vp is not None and not vp.empty:
-        text += (f" ({as_ratio(tech / float(numeric(vp, kit_judging.TECHNIQUE).iloc[0]))} / "
-                 f"{as_ratio(total / float(numeric(vp, kit_judging.TOTAL).iloc[0]))})")
+        text += (f" ({as_ratio(tech / float(numeric(vp, judging.TECHNIQUE).iloc[0]))} / "
+                 f"{as_ratio(total / float(numeric(vp, judging.TOTAL).iloc[0]))})")
     return text
 
 
@@ -392,21 +392,21 @@ def _pairs(df, config, against="volpack-rle"):
     return pairs
 
 
-def _speed(df, config, column=kit_judging.TECHNIQUE, *, against="volpack-rle", peer="VolPack", at_most=1.0):
+def _speed(df, config, column=judging.TECHNIQUE, *, against="volpack-rle", peer="VolPack", at_most=1.0):
     """Our ``column`` time over the other's, every scene; the detail gives both scopes on both sides."""
     resampler = intervals.Resampler()
     pairs = _pairs(df, config, against)
-    decisions = {s: kit_judging.ratio(ours, other, column, resampler, at_most=at_most) for s, (ours, other) in pairs.items()}
+    decisions = {s: judging.ratio(ours, other, column, resampler, at_most=at_most) for s, (ours, other) in pairs.items()}
     detail = f"judged on the {tables.SCOPES[column]}; " + "; ".join(
-        f"{s}: technique ours {kit_judging.milliseconds(o)}, {peer} {kit_judging.milliseconds(v)}; whole frame "
-        f"ours {kit_judging.milliseconds(o, kit_judging.TOTAL)}, {peer} {kit_judging.milliseconds(v, kit_judging.TOTAL)}"
+        f"{s}: technique ours {judging.milliseconds(o)}, {peer} {judging.milliseconds(v)}; whole frame "
+        f"ours {judging.milliseconds(o, judging.TOTAL)}, {peer} {judging.milliseconds(v, judging.TOTAL)}"
         for s, (o, v) in pairs.items())
     if peer == "VolPack":
         detail += ("; VolPack's whole frame adds our wrapper's uint8 quantisation and image conversion, ours adds "
                    "Python around the kernels")
     rows = pd.concat([ours for ours, _ in pairs.values()])
-    result = all_of(decisions, extra="; ".join(filter(None, [detail, _on_the_fly(rows), kit_judging.busy(rows)])))
-    return kit_judging.unless_starved(result, rows, holding_survives=True)
+    result = all_of(decisions, extra="; ".join(filter(None, [detail, _on_the_fly(rows), judging.busy(rows)])))
+    return judging.unless_starved(result, rows, holding_survives=True)
 
 
 def _on_the_fly(rows):
@@ -436,13 +436,13 @@ def _octree_words(scene_name, part, row):
     if rle.empty or not classified > 0:
         return sentence + "."
     first = rle.iloc[0]
-    extra = float(row[kit_judging.TECHNIQUE]) - float(first[kit_judging.TECHNIQUE])
+    extra = float(row[judging.TECHNIQUE]) - float(first[judging.TECHNIQUE])
     sentence += (f", and composites {as_ratio(float(row.count_samples) / float(first.count_samples))} the samples of "
                  f"our RLE mode (the octree's leaves pass transparent voxels too): its kernels take "
                  f"{format_number(extra * 1e3)} ms more than our RLE mode's, {_per_voxel(extra / classified)} per voxel "
                  "classified")
     if not (vp_rle.empty or vp_octree.empty):
-        vp_extra = float(vp_octree.iloc[0][kit_judging.TECHNIQUE]) - float(vp_rle.iloc[0][kit_judging.TECHNIQUE])
+        vp_extra = float(vp_octree.iloc[0][judging.TECHNIQUE]) - float(vp_rle.iloc[0][judging.TECHNIQUE])
         sentence += (f", where VolPack's octree mode takes {format_number(vp_extra * 1e3)} ms more than its RLE mode "
                      "(VolPack classifies by two 8-bit table lookups; ours rules out most transparent voxels by one "
                      "lookup of their two 8-bit parameter bins and interpolates the transfer function and "
@@ -479,15 +479,15 @@ def _parallel(df):
             return ClaimResult("not measurable", None, f"{s}: the all-cores run had {int(workers)} worker: a speed-up "
                                "cannot be measured on a 1-core machine")
         bound = EFFICIENCY * workers
-        decisions[f"{s}, {int(workers)} workers"] = kit_judging.ratio(one, most, kit_judging.TECHNIQUE, resampler,
+        decisions[f"{s}, {int(workers)} workers"] = judging.ratio(one, most, judging.TECHNIQUE, resampler,
                                                                   at_least=bound)
-        words.append(f"{s}: bound {as_ratio(bound)}; technique 1 worker {kit_judging.milliseconds(one)}, all cores "
-                     f"{kit_judging.milliseconds(most)}; whole frame 1 worker {kit_judging.milliseconds(one, kit_judging.TOTAL)}, "
-                     f"all cores {kit_judging.milliseconds(most, kit_judging.TOTAL)}")
+        words.append(f"{s}: bound {as_ratio(bound)}; technique 1 worker {judging.milliseconds(one)}, all cores "
+                     f"{judging.milliseconds(most)}; whole frame 1 worker {judging.milliseconds(one, judging.TOTAL)}, "
+                     f"all cores {judging.milliseconds(most, judging.TOTAL)}")
     most = pd.concat([m for _, m in pairs.values()])
-    detail = "; ".join(filter(None, [f"judged on the {tables.SCOPES[kit_judging.TECHNIQUE]}", *words, kit_judging.busy(most),
+    detail = "; ".join(filter(None, [f"judged on the {tables.SCOPES[judging.TECHNIQUE]}", *words, judging.busy(most),
                                      f"this machine: {usable_cores()} cores"]))
-    return kit_judging.unless_starved(all_of(decisions, extra=detail), most, holding_survives=True)
+    return judging.unless_starved(all_of(decisions, extra=detail), most, holding_survives=True)
 
 
 def _agree(df):
@@ -513,7 +513,7 @@ def _parity(df):
 
 def _octree(df):
     resampler = intervals.Resampler()
-    decisions = {s: kit_judging.ratio(octree, rle, kit_judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
+    decisions = {s: judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
                  for s, (octree, rle) in _pairs(df, "volpack-octree").items()}
     return all_of(decisions, extra="thesis: ×1.8 (brainsmall), ×2.3 (brain), ×2.5 (head); both VolPack's library calls "
                                    "(vpShadeTable, then vpRenderRawVolume or vpRenderClassifiedVolume)")

@@ -11,7 +11,8 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws, speedup
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
+                                              speedup)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             frame_note, linked_table)

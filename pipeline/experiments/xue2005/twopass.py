@@ -23,7 +23,7 @@ import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
-                                             ratio_pair)
+                                              ratio_pair)
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
                                             linked_table)
