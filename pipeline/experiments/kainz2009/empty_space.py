@@ -171,14 +171,16 @@ class EmptySpace(Experiment):
 
     claims = (
         Claim("hull-faster", "Tight hulls make frames faster than box boundaries (paper: up to 15 %)",
-              f"time(box) / time(fastest hull) > ×1 on every scene ({KERNELS})", _ess_gain, kind="timing"),
+              f"time(box) / time(fastest hull) > ×1 on every scene ({KERNELS})", _ess_gain, paper_value="up to 15 %",
+              kind="timing"),
         Claim("best-brick-8", "8³ bricks are the best size for medical data", "time(fastest other brick size) / "
-              f"time(8³) ≥ ×1 on every scene ({KERNELS})", _best_brick, kind="timing"),
+              f"time(8³) ≥ ×1 on every scene ({KERNELS})", _best_brick, paper_value="8³", kind="timing"),
         Claim("hull-accurate", "Hulls skip only empty space: the image stays the reference's",
               "PSNR of every hull within 1 dB of the box's, against the reference", _hull_accuracy, kind="accuracy"),
         Claim("build-cheap", "Rebuilding the hull on a transfer-function change costs less than a frame "
               "(paper: ≈ 5 ms for 512³)", "bricks + hull build time (8³ bricks) / the median frame with that hull, "
-              f"both in the same timed processes, ≤ ×1 ({KERNELS})", _build_cheap, kind="timing"),
+              f"both in the same timed processes, ≤ ×1 ({KERNELS})", _build_cheap, paper_value="≈ 5 ms for 512³",
+              kind="timing"),
     )
 
     def paper_table(self):
