@@ -135,3 +135,43 @@ def test_points_of_a_configuration_fail_closed_and_counts_ratio_to_nan_where_unc
         judging.point_speedup(rows, "broken", "fast")
     assert judging.count_ratio(rows, "slow", "fast") == 4.0
     assert np.isnan(judging.count_ratio(rows, "broken", "fast"))
+
+
+def test_a_count_a_claim_rests_on_fails_closed_where_no_view_counted_it():
+    rows = pd.DataFrame({"count_samples": [4.0, 2.0, np.nan]})
+    assert judging.counted(rows, "count_samples", "brain") == 3.0
+    with pytest.raises(ValueError, match="brain counted no samples"):
+        judging.counted(pd.DataFrame({"count_samples": [np.nan]}), "count_samples", "brain")
+
+
+def test_the_worst_row_decides_and_each_group_keeps_its_own_extreme():
+    rows = pd.DataFrame({"case": ["a", "a", "b"], "psnr": [40.0, 31.0, 35.0], "holes": [0, 2, 5]})
+    worst, per_case = judging.worst_of(rows, "psnr", "case", lowest=True)
+    assert worst.psnr == 31.0 and per_case.to_dict() == {"a": 31.0, "b": 35.0}
+    worst, per_case = judging.worst_of(rows, "holes", "case")
+    assert worst.case == "b" and per_case.to_dict() == {"a": 2, "b": 5}
+
+
+def test_a_ratio_of_two_stages_taken_once_per_view_resamples_the_views_and_fails_closed():
+    rows = pd.DataFrame({"time_phi_p": [0.20, 0.22, 0.18, 0.21, 0.19], "time_phi_t": [0.01, 0.011, 0.009, 0.01, 0.01]})
+    value, draws, views = judging.view_ratio(rows, "time_phi_p", "time_phi_t", Resampler(), key="head")
+    assert value == pytest.approx(20.0) and views == 5 and draws.shape == (intervals.DRAWS,)
+    assert draws.min() < value < draws.max()
+    with pytest.raises(ValueError, match="head: a view without"):
+        judging.view_ratio(rows.assign(time_phi_t=[0.01, np.nan, 0.01, 0.01, 0.01]), "time_phi_p", "time_phi_t",
+                           Resampler(), key="head")
+
+
+def test_ratios_compare_only_the_scenes_both_configurations_rendered_and_none_is_not_measured():
+    def run(scene, config, median):
+        return {"experiment": "e", "run": f"{config}-{scene}", "view": "v", "interleave": "", "role": "test",
+                "scene": scene, "config": config, **timed(median, 0.05, stage="total")}
+
+    frame = pd.DataFrame([run("s1", "peel", 3.0), run("s1", "tiled", 1.0), run("s2", "peel", 2.0),
+                          run("s3", "tiled", 1.0)])
+    result = judging.ratios_where_both(frame, ["s1", "s2", "s3"], "peel", "tiled", what="peel / tiled",
+                                       describe=lambda rows: f"{len(rows)} rows", at_least=2.0)
+    assert result.holds is True and "(s1)" in result.measured and "s2" not in result.detail
+    assert result.detail.endswith("; peel / tiled; 2 rows")
+    with pytest.raises(ValueError, match="no scene of s2, s3 rendered by both peel and tiled"):
+        judging.ratios_where_both(frame, ["s2", "s3"], "peel", "tiled", what="")

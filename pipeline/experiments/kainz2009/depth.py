@@ -11,13 +11,13 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
                                                     table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, frame_ratios
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, counts, decided,
-                                              r_squared, with_interval)
+                                              r_squared, ratios_where_both, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
@@ -113,9 +113,11 @@ def _depth_fit(df):
 
 def _dual_ratio(df, scenes, *, dual_faster):
     """cl-tiled's whole frame over dual depth peeling's on every scene both render."""
-    return frame_ratios(df, scenes, TILED, DUAL, what=f"time of cl-tiled over dual depth peeling's, same scene and "
-                                                      f"view, {FRAMES}, paper S1: 2.4×",
-                        **({"at_least": STRICTLY_ABOVE_ONE} if dual_faster else {"at_most": STRICTLY_BELOW_ONE}))
+    # Table 2's frame rates put dual peeling ×2.4 ahead on S1 (123–150 against 52–62 fps) only.
+    what = f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}"
+    return ratios_where_both(df, scenes, TILED, DUAL, describe=devices,
+                             what=what + (", paper S1: 2.4×" if dual_faster else ""),
+                             **({"at_least": STRICTLY_ABOVE_ONE} if dual_faster else {"at_most": STRICTLY_BELOW_ONE}))
 
 
 def _crossing(depths, gaps):

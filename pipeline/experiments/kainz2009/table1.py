@@ -9,13 +9,13 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    frames_caption, peeling_missing, run_settings, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, frame_ratios
+                                                    devices, frames_caption, peeling_missing, run_settings, table)
+from pipeline.experiments.kainz2009.ratios import FRAMES
 from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, all_of, counts,
-                                              decided, timed, with_interval)
+                                              decided, ratios_where_both, timed, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)
@@ -159,9 +159,9 @@ def _pool(df):
 
 def _peel_ratio(df, scenes, *, below):
     """Depth peeling's whole frame over cl-tiled's, below 1 (peeling faster) or above, on every scene both render."""
-    return frame_ratios(df, scenes, PEEL, TILED, what=f"time of depth peeling over cl-tiled's, same scene and view, "
-                                                      f"{FRAMES}",
-                        **({"at_most": STRICTLY_BELOW_ONE} if below else {"at_least": STRICTLY_ABOVE_ONE}))
+    return ratios_where_both(df, scenes, PEEL, TILED, describe=devices,
+                             what=f"time of depth peeling over cl-tiled's, same scene and view, {FRAMES}",
+                             **({"at_most": STRICTLY_BELOW_ONE} if below else {"at_least": STRICTLY_ABOVE_ONE}))
 
 
 class Table1(Experiment):

@@ -4,12 +4,14 @@ A claim's check reads the experiment's successful rows and returns a
 :class:`~pipeline.experiments.kit.model.ClaimResult`. What the papers' checks share is here, with one
 rule each: the rows of one configuration (:func:`config_rows`), the ratio of two configurations' frame
 times with its bootstrap interval (:func:`time_ratio`, :func:`ratio_of_draws`), a machine-independent
-count over the views (:func:`median_count`, :func:`counts` in words), a value decided with the interval of its
-draws (:func:`decided`, :func:`ratio`, :func:`statistic` over rows, :func:`line` and :func:`r_squared` of a fitted
-line), a value with its interval in words (:func:`with_interval`, :func:`labelled`), several labelled decisions
-that must all hold (:func:`all_of`), phrased one way on every page: ``measured`` is the deciding (worst) label's
-value and interval, named; the detail lists every label; and a verdict that a starved parallel run may have
-decided, turned inconclusive (:func:`unless_starved`).
+count over the views (:func:`median_count`, :func:`counted` where a claim rests on it, :func:`counts` in words),
+two stages taken once per view (:func:`view_ratio`), two configurations on every scene both rendered
+(:func:`ratios_where_both`), the deciding row of an all-of over values (:func:`worst_of`), a value decided
+with the interval of its draws (:func:`decided`, :func:`ratio`, :func:`statistic` over rows, :func:`line` and
+:func:`r_squared` of a fitted line), a value with its interval in words (:func:`with_interval`,
+:func:`labelled`), several labelled decisions that must all hold (:func:`all_of`), phrased one way on every page:
+``measured`` is the deciding (worst) label's value and interval, named; the detail lists every label; and a verdict
+that a starved parallel run may have decided, turned inconclusive (:func:`unless_starved`).
 
 Every timing claim names the stage it compares and compares the same stage on both sides: the technique
 (:data:`TECHNIQUE`, the backend's kernels or library calls), the compositing loop (:data:`COMPOSITE`) or the
@@ -21,6 +23,7 @@ Judging imports no page code (:mod:`.pages` imports this module's words, not the
 from dataclasses import replace
 
 import numpy as np
+import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import ClaimResult
@@ -206,9 +209,75 @@ def median_count(rows, column):
     return float(numeric(rows, column).median())
 
 
-def measured(rows, column):
-    """The rows with a value in ``column`` (:class:`~pipeline.experiments.kit.results.MissingColumn` if absent)."""
-    return rows[numeric(rows, column).notna()]
+def counted(rows, column, what):
+    """:func:`median_count` of ``column`` over ``rows``, failing closed: ValueError naming ``what`` where no row
+    counted it (a claim that rests on it is then not measured, never judged on NaN)."""
+    value = median_count(rows, column)
+    if not np.isfinite(value):
+        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
+    return value
+
+
+def worst_of(rows, column, by, *, lowest=False):
+    """``(row, per_group)``: the deciding row of an all-of over values, the one of ``rows`` whose ``column`` is the
+    largest (with ``lowest``, the smallest), and that extreme per group of ``by`` for the claim's detail."""
+    groups = rows.groupby(by, sort=False)[column]
+    if lowest:
+        return rows.loc[rows[column].idxmin()], groups.min()
+    return rows.loc[rows[column].idxmax()], groups.max()
+
+
+def view_ratio(rows, top, bottom, resampler, *, key):
+    """``(value, draws, views)``: the median over ``rows`` (views) of ``top`` over that of ``bottom``, two stages
+    measured once per view (not per frame: nothing to resample within a view), with draws that resample the views,
+    each view's two stages together; ``key`` names the rows' draws in ``resampler``.
+
+    Raises
+    ------
+    ValueError
+        A view lacks either stage's time or has a zero ``bottom``: the claim is not measured.
+    """
+    tops, bottoms = (numeric(rows, column).to_numpy(float) for column in (top, bottom))
+    if not (np.isfinite(tops).all() and np.isfinite(bottoms).all() and (bottoms > 0).all()):
+        raise ValueError(f"{key}: a view without its {top} and {bottom}")
+    picks = resampler.indices(("views", key), len(rows))
+    draws = np.median(tops[picks], axis=1) / np.median(bottoms[picks], axis=1)
+    return float(np.median(tops) / np.median(bottoms)), draws, len(rows)
+
+
+def ratios_where_both(frame, scenes, top, bottom, *, what, describe=None, column=TOTAL, **bounds):
+    """``top``'s ``column`` over ``bottom``'s (two configurations' test runs, each the median over its views) on
+    each of ``scenes`` that both rendered, every one judged against ``bounds`` (:func:`all_of`).
+
+    A scene only one of them renders (a peer's limit on volumes, say) is not compared; ``what`` says the ratio in
+    the detail, then ``describe(rows)`` what the compared rows record (the devices they ran on).
+
+    Raises
+    ------
+    ValueError
+        No scene of ``scenes`` was rendered by both: the claim is not measured.
+    """
+    resampler = intervals.Resampler()
+    decisions, compared = {}, []
+    for name in scenes:
+        pair = [measured(rows_matching(frame, name, scene=name, role="test", config=config), column)
+                for config in (top, bottom)]
+        if not any(part.empty for part in pair):
+            decisions[name] = ratio(*pair, column, resampler, **bounds)
+            compared += pair
+    if not decisions:
+        raise ValueError(f"no scene of {', '.join(map(str, scenes))} rendered by both {top} and {bottom}")
+    described = describe(pd.concat(compared)) if describe else ""
+    return all_of(decisions, extra=what + (f"; {described}" if described else ""))
+
+
+def measured(rows, column, missing=None):
+    """The rows with a value in ``column``, read as numbers (:class:`~pipeline.experiments.kit.results.MissingColumn`
+    if absent); where none has one and ``missing`` says what that means, ValueError saying it (fails closed)."""
+    values = numeric(rows, column)
+    if missing is not None and values.notna().sum() == 0:
+        raise ValueError(missing)
+    return rows.assign(**{column: values})[values.notna()]
 
 
 def timed(frame, what, column, **match):

@@ -16,13 +16,13 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
                                             frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMES, counted,
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
@@ -97,7 +97,7 @@ def _clip_cheapest(df):
     if not decisions:
         raise ValueError("no scene rendered with a clipping lens and another appearance")
     return all_of(decisions, notes=notes, what="time(appearance) / time(clip) ",
-                 extra=f"{TIMES}; the segments method; every appearance of a scene timed together")
+                  extra=f"{TIMES}; the segments method; every appearance of a scene timed together")
 
 
 def _iso_stops(df):
@@ -290,4 +290,3 @@ class Appearances(Experiment):
                                  names={c: f"{r} samples" for r, c in REGION_COLUMNS.items()},
                                  csv_name="appearance_runs.csv"))
         return out + raycast_not_measurable([PAPER_METHOD, EXPOSURE_METHOD])
-

@@ -12,6 +12,7 @@ from dataclasses import replace
 import numpy as np
 import pandas as pd
 
+from pipeline.experiments.kit.judging import measured, worst_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, truth_run
@@ -47,27 +48,10 @@ def config_name(config):
     return "reference" if config == REFERENCE_CONFIG else method_name(config)
 
 
-def measured_rows(rows, column, missing):
-    """``rows`` that measured ``column`` (as numbers); ValueError saying ``missing`` where none did."""
-    values = numeric(rows, column)
-    if values.notna().sum() == 0:
-        raise ValueError(missing)
-    return rows.assign(**{column: values}).dropna(subset=[column])
-
-
-def worst_of(rows, column, by, *, lowest=False):
-    """``(row, per_group)``: the row of ``rows`` whose ``column`` is the largest (with ``lowest``, the smallest),
-    and that extreme per group of ``by``."""
-    groups = rows.groupby(by, sort=False)[column]
-    if lowest:
-        return rows.loc[rows[column].idxmin()], groups.min()
-    return rows.loc[rows[column].idxmax()], groups.max()
-
-
 def method_psnr(df, scene):
     """``{config: (worst PSNR dB, its view)}`` of every lens method's lens image of ``scene`` against the reference."""
-    rows = measured_rows(rows_matching(df, scene, scene=scene, appearance="lens", role="test"), "psnr",
-                         f"no lens image of {scene} compared with the reference")
+    rows = measured(rows_matching(df, scene, scene=scene, appearance="lens", role="test"), "psnr",
+                    f"no lens image of {scene} compared with the reference")
     out = {}
     for config, part in rows.groupby("config", sort=False):
         worst = part.loc[part.psnr.idxmin()]
@@ -88,8 +72,8 @@ def _accuracy(scene):
 
 
 def _seams(df):
-    rows = measured_rows(rows_matching(df, "the outside-appearance runs", appearance="outside"), "max_error",
-                         "no outside-appearance image compared with its lens-off image")
+    rows = measured(rows_matching(df, "the outside-appearance runs", appearance="outside"), "max_error",
+                    "no outside-appearance image compared with its lens-off image")
     worst, per_config = worst_of(rows, "max_error", "config")
     return ClaimResult(f"{format_number(worst.max_error)} ({worst.config}, {worst.scene}, {worst.view})",
                        bool(rows.max_error.max() <= SEAM_TOLERANCE),

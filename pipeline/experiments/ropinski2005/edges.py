@@ -19,13 +19,13 @@ import pandas as pd
 
 from core.camera import Camera
 from core.errors import InputError
-from pipeline.experiments.kit.judging import median_count
+from pipeline.experiments.kit.judging import measured, median_count, worst_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
-from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION, measured_rows, worst_of
+from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, RAYCAST, STEP, lens_coverage, lens_run,
                                                        lens_settings, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.pages import psnr_note, tests_of
@@ -167,8 +167,8 @@ def _no_holes(df):
 
 
 def _accuracy(df):
-    rows = measured_rows(rows_matching(df, "the lens methods' runs", role="test"), "psnr",
-                         "no lens method's image compared with the reference")
+    rows = measured(rows_matching(df, "the lens methods' runs", role="test"), "psnr",
+                    "no lens method's image compared with the reference")
     worst, per_case = worst_of(rows, "psnr", "case", lowest=True)
     return ClaimResult(f"{format_number(worst.psnr)} dB ({worst.config}, {worst.case})",
                        bool(rows.psnr.min() >= ACCURACY_PSNR),

@@ -13,7 +13,6 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit import pages
-from pipeline.experiments.kit.judging import median_count
 from pipeline.experiments.kit.model import Run
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import missing_options, unregistered
@@ -125,14 +124,6 @@ def raycast_not_measurable(configs=()):
 def scenes_of(frame):
     """The scenes of ``frame``'s rows, in their order."""
     return list(pd.unique(text_column(frame, "scene")))
-
-
-def counted(rows, column, what):
-    """The median count ``column`` of ``rows``; ValueError naming ``what`` where none was counted."""
-    value = median_count(rows, column)
-    if not np.isfinite(value):
-        raise ValueError(f"{what} counted no {column.removeprefix('count_')}")
-    return value
 
 
 def lens_coverage(rows):

@@ -15,13 +15,13 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, time_ratio
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, counted, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMES, counted, device_takeaways,
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMES, device_takeaways,
                                                        lens_run, lens_settings, raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, median_ms, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, lens_scene, lens_views, scene_tags
@@ -93,7 +93,8 @@ def _faster(df):
             notes[scene] = (f"region₀ samples {format_number(region0[0])} back to front, {format_number(region0[1])} "
                             "front to back")
     return all_of(decisions, notes=notes, what="time(back to front) / time(front to back) ",
-                 extra=f"{TIMES}; both orders timed together, early termination at opacity {format_number(THRESHOLD)}")
+                  extra=f"{TIMES}; both orders timed together, early termination at opacity "
+                        f"{format_number(THRESHOLD)}")
 
 
 def _fewer_samples(df):

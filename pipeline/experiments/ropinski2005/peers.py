@@ -19,13 +19,13 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 
-from pipeline.experiments.kit.judging import decision_words
+from pipeline.experiments.kit.judging import decision_words, measured
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
                                             frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
-from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, measured_rows
+from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
                                                        lens_run, lens_settings)
 from pipeline.experiments.ropinski2005.pages import CI, headline, interval_columns, median_ms, psnr_note
@@ -92,8 +92,8 @@ def overhead(frame, scene, config, *, resampler):
 
 def lens_psnr(frame, scene, config):
     """The worst PSNR over the views of ``config``'s lens image of ``scene`` against the reference."""
-    return float(measured_rows(rows_matching(frame, scene, scene=scene, config=config, lens="on"), "psnr",
-                               f"no lens image of {config} on {scene} compared with the reference").psnr.min())
+    return float(measured(rows_matching(frame, scene, scene=scene, config=config, lens="on"), "psnr",
+                          f"no lens image of {config} on {scene} compared with the reference").psnr.min())
 
 
 def psnr_cost(frame, scene, config):

@@ -7,11 +7,10 @@ level, classification, cube set, mesh), which the timing harness measures once p
 warm, after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`).
 """
 
-import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of, median_count
+from pipeline.experiments.kit.judging import all_of, median_count, view_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, listed
@@ -62,23 +61,12 @@ def _scene_words(scene_name, rows):
     return f"{scene_name}: {stage('Φ_t', 't')}, {stage('Φ_p', 'p')}"
 
 
-def _view_ratio(rows, resampler):
-    """``(value, draws, views)``: Φ_p's median extraction time over Φ_t's across the views, with draws that resample
-    the views (each view's two stages together)."""
-    phi_t, phi_p = (numeric(rows, f"time_{stage}").to_numpy(float) for stage in ("phi_t", "phi_p"))
-    if not (np.isfinite(phi_t).all() and np.isfinite(phi_p).all() and (phi_t > 0).all()):
-        raise ValueError(f"{rows.scene.iloc[0]}: a view without its Φ_t and Φ_p extraction times")
-    picks = resampler.indices(("views", rows.scene.iloc[0]), len(rows))
-    draws = np.median(phi_p[picks], axis=1) / np.median(phi_t[picks], axis=1)
-    return float(np.median(phi_p) / np.median(phi_t)), draws, len(rows)
-
-
 def _phi_p_slower(df, bound=MUCH_SLOWER):
     scenes = _per_scene(df)
     resampler = intervals.Resampler()
     decisions = {}
     for scene_name, rows in scenes.items():
-        value, draws, views = _view_ratio(rows, resampler)
+        value, draws, views = view_ratio(rows, "time_phi_p", "time_phi_t", resampler, key=scene_name)
         decisions[scene_name] = intervals.timing_decision(value, draws, {f"{scene_name}'s views": views},
                                                           at_least=bound)
     return all_of(decisions, what="Φ_p / Φ_t ",
