@@ -1,6 +1,6 @@
 """``ropinski2005-methods`` (E4): the paper's segments against per-sample lens tests and depth-based clipping.
 
-The paper's argument (§1, §3, against Weiskopf et al. 2003) is never measured in it: cutting each ray
+The paper's argument (§2, §3, against Weiskopf et al. 2003) is never measured in it: cutting each ray
 into regions before the volume pass leaves the main pass without a per-sample test (no extra texture
 fetch, no depth comparison), and never writing the fragment's depth keeps early-z on. Here every lens
 method of ``gl-raycast`` renders every Table 1 scene, all timed together in one job per scene, so each
@@ -208,7 +208,7 @@ def _earlyz_time(df):
 
 CLAIMS = (
     Claim("segments-faster", "The segments method is faster than testing every sample against the lens "
-          "(analytically or by a 3-D mask fetch) and than depth-based clipping, on every Table 1 scene (§1, §3; "
+          "(analytically or by a 3-D mask fetch) and than depth-based clipping, on every Table 1 scene (§2, §3; "
           "issue 24's target)",
           f"time(baseline) / time(segments) > ×1 for {', '.join(BASELINES)}, every Table 1 scene, at the "
           f"experiment's image size ({TIMES}; 95 % paired bootstrap interval wholly above ×1)",
@@ -219,7 +219,7 @@ CLAIMS = (
           f"Table 1 scene, occluder {format_number(OCCLUDER)} ({TIMES})",
           _faster("yes", tuple(b for b in OCCLUDED if b != PAPER_METHOD)), kind="timing"),
     Claim("earlyz-fragments", "Writing gl_FragDepth turns early-z off: behind the occluder frag-depth still shades "
-          "every fragment, while the segments method (fragment depth never written) drops the covered ones (§1)",
+          "every fragment, while the segments method (fragment depth never written) drops the covered ones (§3)",
           "(fragments shaded without the occluder − with it) / rays it covers: frag-depth ≤ "
           f"{format_number(DROP_TOLERANCE)}, segments ≥ {format_number(1 - DROP_TOLERANCE)} (its region₀ pass "
           "drops every covered ray), every Table 1 scene (counted, exact)",
