@@ -81,3 +81,17 @@ def test_a_tie_is_not_faster(tmp_path):
             row.update(interleave="sphere1000", view="az0el0", experiment=NAME)
     result = _evaluate("bitshift-faster", rows)
     assert result.interval == (1.0, 1.0) and result.holds is False
+
+
+def test_the_papers_four_times_is_judged_beside_ours(tmp_path):
+    ids = [c.id for c in Coverage.claims]
+    paper, ours = (Coverage.claims[ids.index("bitshift-faster-paper") + i] for i in (0, 1))
+    assert ours.id == "bitshift-faster" and (paper.target, ours.target) == ("paper", "ours")
+    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value == "×4"
+    assert "≥ ×4 at every triangle count" in paper.expected
+    rows = _rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.0045}, 4000: {"bitmask": 0.002, "edge": 0.0085}})
+    assert _evaluate(paper.id, rows).holds is True and _evaluate(ours.id, rows).holds is True
+    rows = _rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.0045}, 4000: {"bitmask": 0.002, "edge": 0.005}})
+    result = _evaluate(paper.id, rows)  # faster, not four times: ours holds, the paper's fails
+    assert result.holds is False and result.measured.endswith("(4000 triangles)")
+    assert _evaluate(ours.id, rows).holds is True

@@ -6,7 +6,7 @@ import pytest
 
 from pipeline import experiments
 from pipeline.experiments import Profile
-from pipeline.experiments.kainz2009.depth import SWEEP, Depth
+from pipeline.experiments.kainz2009.depth import DEEP, SHALLOW, SWEEP, Depth
 from pipeline.experiments.kainz2009.methods import DUAL, TILED
 from pipeline.experiments.kainz2009.tables import TABLE2
 
@@ -99,3 +99,41 @@ def test_depth_claims_inconclusive_within_the_scatter():
     assert linear.inconclusive and linear.interval[0] < 0.9 < linear.interval[1]
     rows = _depth_rows(lambda d: 2 + 0.1 * d, spread=0.3)  # dual as fast as cl-tiled on S1
     assert _evaluate("dual-wins-shallow", rows).inconclusive
+
+
+def _pair(paper_id):
+    """The twin judging the paper's number and our claim right after it."""
+    ids = [c.id for c in Depth.claims]
+    paper, ours = Depth.claims[ids.index(paper_id)], Depth.claims[ids.index(paper_id) + 1]
+    assert ours.id == paper_id.removesuffix("-paper") and (paper.target, ours.target) == ("paper", "ours")
+    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value
+    return paper, ours
+
+
+def test_the_papers_margins_over_dual_peeling_are_judged_beside_the_direction():
+    for paper_id in ("dual-wins-shallow-paper", "tiled-wins-deep-paper"):
+        _pair(paper_id)
+    # Table 2's frame rates, slowest with slowest and fastest with fastest: dual peeling ×2.4 ahead on S1.
+    assert SHALLOW["S1"] == pytest.approx((123 / 52, 150 / 62))
+    assert DEEP == {"S2": pytest.approx((16 / 28, 14 / 18)), "S3": pytest.approx((25 / 31, 46 / 52))}
+    inside = {21: 2.4, 40: 0.67, 82: 0.85}  # cl-tiled over dual at S1's, S2's and S3's depth, each in its band
+    rows = _depth_rows(lambda d: (2 + 0.1 * d) / inside.get(d, 1.0), spread=0.002)  # S1's band is ±1 %
+    for claim in ("dual-wins-shallow", "tiled-wins-deep"):
+        assert _evaluate(f"{claim}-paper", rows).holds is True, claim
+        assert _evaluate(claim, rows).holds is True, claim
+    # Dual peeling ahead at depth 20 and behind from 40 on, but by other margins: ours holds, the paper's fails.
+    rows = _depth_rows(lambda d: 0.8 + 0.14 * d)
+    for claim in ("dual-wins-shallow", "tiled-wins-deep"):
+        assert _evaluate(f"{claim}-paper", rows).holds is False, claim
+        assert _evaluate(claim, rows).holds is True, claim
+    assert "paper: ×0.571–×0.778 on S2, ×0.806–×0.885 on S3" in _evaluate("tiled-wins-deep-paper", rows).detail
+
+
+def test_the_papers_depth_complexities_are_judged_exactly_beside_ours():
+    paper, ours = _pair("depths-match-paper")
+    rows = _depth_rows(lambda d: 1.0)
+    assert _evaluate(paper.id, rows).holds is False and _evaluate(ours.id, rows).holds is True  # S1 21, S3 82
+    for row in rows:
+        if row["role"] == "depth" and row["scene"] in TABLE2:
+            row["count_fragments_max"] = TABLE2[row["scene"]][1]
+    assert _evaluate(paper.id, rows).holds is True and _evaluate(ours.id, rows).holds is True

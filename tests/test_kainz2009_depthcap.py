@@ -88,3 +88,15 @@ def test_small_cap_speed_is_judged_only_where_both_caps_do_the_same_work():
     # Had the smaller cap dropped fragments, it would have rendered less: that is not the paper's gain.
     dropped = _evaluate("small-cap-faster", _speed_rows(0.5, 1.0, dropped=40))
     assert dropped.holds is None and not dropped.inconclusive and "dropped 40 fragments" in dropped.detail
+
+
+def test_the_papers_up_to_forty_percent_is_judged_beside_ours():
+    ids = [c.id for c in DepthCap.claims]
+    paper, ours = (DepthCap.claims[ids.index("small-cap-faster-paper") + i] for i in (0, 1))
+    assert ours.id == "small-cap-faster" and (paper.target, ours.target) == ("paper", "ours")
+    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value == "up to 40 %"
+    assert "≥ ×1.4 " in paper.expected
+    assert _evaluate(paper.id, _speed_rows(0.7, 1.0)).holds is True  # ×1.43
+    assert _evaluate(ours.id, _speed_rows(0.7, 1.0)).holds is True
+    assert _evaluate(paper.id, _speed_rows(0.8, 1.0)).holds is False  # ×1.25: faster, not the paper's best case
+    assert _evaluate(ours.id, _speed_rows(0.8, 1.0)).holds is True

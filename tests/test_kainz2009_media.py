@@ -63,3 +63,14 @@ def test_media_claims():
     # The gain is the rods view's: the whole apple, where media alone are rare, does not decide it.
     assert _evaluate("shortcut-gain", _rows(0.010, 0.015, whole=(0.050, 0.049))).holds is True
     assert _evaluate("shortcut-gain", _rows(0.010, 0.0101, spread=0.3)).inconclusive
+
+
+def test_the_papers_up_to_ten_percent_is_judged_beside_ours():
+    ids = [c.id for c in Media.claims]
+    paper, ours = (Media.claims[ids.index("shortcut-gain-paper") + i] for i in (0, 1))
+    assert ours.id == "shortcut-gain" and (paper.target, ours.target) == ("paper", "ours")
+    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value == "up to 10 %"
+    rows = _rows(0.010, 0.0125)  # 25 %
+    assert _evaluate(paper.id, rows).holds is True and _evaluate(ours.id, rows).holds is True
+    rows = _rows(0.010, 0.0104)  # 4 %: a gain, short of the paper's best case
+    assert _evaluate(paper.id, rows).holds is False and _evaluate(ours.id, rows).holds is True

@@ -175,3 +175,16 @@ def test_ratios_compare_only_the_scenes_both_configurations_rendered_and_none_is
     assert result.detail.endswith("; peel / tiled; 2 rows")
     with pytest.raises(ValueError, match="no scene of s2, s3 rendered by both peel and tiled"):
         judging.ratios_where_both(frame, ["s2", "s3"], "peel", "tiled", what="")
+
+
+def test_each_scene_may_be_judged_against_a_band_of_its_own():
+    def run(scene, config, median):
+        return {"experiment": "e", "run": f"{config}-{scene}", "view": "v", "interleave": "", "role": "test",
+                "scene": scene, "config": config, **timed(median, 0.01, stage="total")}
+
+    frame = pd.DataFrame([run("s1", "peel", 3.0), run("s1", "tiled", 1.0), run("s2", "peel", 2.0),
+                          run("s2", "tiled", 1.0)])
+    bands = {"s1": {"at_least": 2.5, "at_most": 3.5}, "s2": {"at_least": 2.5, "at_most": None}}
+    result = judging.ratios_where_both(frame, bands, "peel", "tiled", what="peel / tiled")
+    assert result.holds is False and "(s2)" in result.measured
+    assert judging.ratios_where_both(frame, {"s1": bands["s1"]}, "peel", "tiled", what="").holds is True

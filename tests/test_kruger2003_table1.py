@@ -54,6 +54,48 @@ def test_table1_claims_fail_where_the_numbers_do():
     assert evaluate(NAME, "ert-gain-opaque", _table1_rows(slow, scenes=("engine",))).holds is None
 
 
+PAPER_ROWS = {scene: {"sbvr": 1 / row[3], "rc": 1 / row[4], "rc-a": 1 / row[5], "rc-b": 1 / row[6]}
+              for scene, row in T.TABLE1.items() if scene not in T.REAL_SCANS}
+"""Table 1's four rows as frame times: the paper's own ratios, some of them on the bounds of its bands."""
+
+TWINS = ("rc-slower-than-sbvr", "ert-none-semi-transparent", "ess-gain")
+"""Our claims that stand beside a twin judging the paper's own figure."""
+
+
+def test_the_papers_own_figures_stand_before_ours():
+    claims = [c.id for c in T.CLAIMS]
+    for ours in TWINS:
+        paper, mine = (next(c for c in T.CLAIMS if c.id == i) for i in (f"{ours}-paper", ours))
+        assert claims.index(paper.id) + 1 == claims.index(ours)
+        assert (paper.target, mine.target) == ("paper", "ours") and paper.paper_value == mine.paper_value
+        assert paper.statement.endswith("(paper)")
+    # The bands are Table 1's own min–max, not the text's rounding: the aneurysm's ×2.202 lies above 2.2.
+    assert T.SBVR_OVER_RC == pytest.approx((6.3 / 10.4, 4.8 / 7.1))
+    assert T.RCA_OVER_RCB == pytest.approx((23.4 / 14.4, 19.6 / 8.9))
+    assert T.ENGINE_RC_OVER_RCA == pytest.approx((6.25 / 6.35, 6.35 / 6.25))
+
+
+def test_the_twins_hold_on_every_row_of_the_papers_table():
+    rows = _table1_rows(PAPER_ROWS, scenes=tuple(PAPER_ROWS))
+    for ours in TWINS:
+        assert evaluate(NAME, f"{ours}-paper", rows).holds is True, ours
+        assert evaluate(NAME, ours, rows).holds is True, ours
+    assert evaluate(NAME, "ess-gain-paper", rows).measured.endswith("(aneurysm)")
+
+
+def test_the_twins_fail_outside_the_papers_figures_where_ours_hold():
+    times = {"head": {"sbvr": 0.7, "rc": 1.0, "rc-a": 0.5, "rc-b": 0.31},   # RC at 0.70 of SBVR; ESS ×1.61
+             "engine": {"sbvr": 0.6, "rc": 1.0, "rc-a": 0.97, "rc-b": 0.5}}  # RC-a 3 % faster than RC
+    rows = _table1_rows(times)
+    for ours in TWINS:
+        assert evaluate(NAME, f"{ours}-paper", rows).holds is False, ours
+        assert evaluate(NAME, ours, rows).holds is True, ours
+    assert evaluate(NAME, "ert-none-semi-transparent-paper", rows).measured.startswith("×1.03")
+    # Within the paper's precision: RC-a 1 % faster than RC on the engine counts as 6.3 = 6.3 fps.
+    times["engine"]["rc-a"] = 0.99
+    assert evaluate(NAME, "ert-none-semi-transparent-paper", _table1_rows(times)).holds is True
+
+
 def _timed_rows(times, views=("headline", "orbit000", "orbit090"), frames=lambda seconds, view: [seconds] * 5,
                 group="head", samples=None):
     """Rows of the head, each config over ``views`` with the frames ``frames(seconds, view)``."""

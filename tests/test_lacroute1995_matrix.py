@@ -48,3 +48,15 @@ def test_speed_ups_are_of_the_compositing_loop_with_intervals():
 
 def test_report_writes_its_charts(tmp_path):
     check_report(tmp_path, NAME, _matrix_rows([1, 0.78, 0.16, 0.028], [1, 1.03, 4.1, 9.9]))
+
+
+def test_fig_5_17s_sample_ratios_are_judged_beside_ours():
+    # Inside the thesis's brainsmall–brain range (0.73–0.78, 0.16–0.22, 0.023–0.028): both hold.
+    inside = _matrix_rows([1, 0.75, 0.2, 0.025], [1, 1.03, 4.1, 9.9])
+    assert evaluate(NAME, "sample-ratios-paper", inside).holds is True
+    # Early termination saving more, the RLE less: ours holds, the thesis's figures do not.
+    outside = _matrix_rows([1, 0.6, 0.3, 0.05], [1, 1.03, 4.1, 9.9])
+    assert evaluate(NAME, "sample-ratios", outside).holds is True
+    assert evaluate(NAME, "sample-ratios-paper", outside).holds is False
+    # The band is the counts' own, not their rounding: the brain's 0.7757 is its top.
+    assert evaluate(NAME, "sample-ratios-paper", _matrix_rows([1, 0.78, 0.2, 0.025], [1, 1, 4, 9])).holds is False

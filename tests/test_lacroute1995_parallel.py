@@ -108,3 +108,19 @@ def test_every_run_table_says_which_runs_were_starved(tmp_path):
     table = next(b.frame for b in out if isinstance(b, blocks.Table) and b.title == "Every run")
     assert list(table["fewer free cores than workers"]).count(STARVED) == 1
     assert (table["fewer free cores than workers"] == "").sum() == len(rows) - 1
+
+
+def test_the_theses_speed_up_and_order_are_judged_beside_ours():
+    # Table 6.2 on 2 processors: ×2.0–2.12, 100–106 % efficiency.
+    superlinear = evaluate(NAME, "speed-up-paper", _parallel_rows(speedup=2.05))
+    assert superlinear.holds is True and superlinear.measured.startswith("102 %")
+    assert evaluate(NAME, "speed-up-paper", _parallel_rows(speedup=1.8)).holds is False  # 90 %: ours holds
+    assert evaluate(NAME, "speed-up", _parallel_rows(speedup=1.8)).holds is True
+    three = [{**row, "workers": 3} if row["workers"] == 2 else row for row in _parallel_rows(speedup=2.9)]
+    missing = evaluate(NAME, "speed-up-paper", three)  # Table 6.2 has no column for 3 processors
+    assert missing.holds is None and "no column for 3 processors" in missing.detail
+    # Table 6.4's whole order: round robin with stealing < round robin < contiguous with stealing < contiguous.
+    assert evaluate(NAME, "schedule-order-paper", _parallel_rows(schedules=ORDERED)).holds is True
+    swapped = _parallel_rows(schedules={**ORDERED, "round-robin": 0.0109})  # 2 % faster than round robin stealing
+    assert evaluate(NAME, "schedule-order", swapped).holds is True
+    assert evaluate(NAME, "schedule-order-paper", swapped).holds is False

@@ -87,3 +87,26 @@ def test_opacity_correction_claims(tmp_path):
         if row["correction"] == "on":
             row["exr"] = row["exr"].replace("-on", "-off")
     assert evaluate(name, "corrected-agrees", rows).holds is False
+
+
+def test_the_theses_30_percent_is_judged_beside_ours(tmp_path):
+    tau = np.linspace(0.2, 2.5, 400).reshape(20, 20)
+    name = "lacroute1995-quality"
+
+    def rows(az45):
+        """The cube's views uncorrected, as 1 − Δ0/Δ would have them, but at 45° ``az45`` times less deep."""
+        out = []
+        for view, _az, _el, spacing in CUBE_VIEWS:
+            factor = az45 if view == "az45" else spacing
+            out.append({"part": "opacity", "role": "truth", "view": view, "correction": "reference",
+                        "exr": write(tmp_path / f"{view}-truth.exr", alpha_image(1 - np.exp(-tau)))})
+            out.append({"part": "opacity", "role": "test", "view": view, "correction": "off",
+                        "exr": write(tmp_path / f"{view}-{factor:g}.exr", alpha_image(1 - np.exp(-tau / factor)))})
+        return out
+
+    exact = evaluate(name, "uncorrected-too-transparent-paper", rows(math.sqrt(2)))  # 29.3 %: rounds to 30 %
+    assert exact.holds is True and exact.measured == "29.3 % (az45)" and "25 %–35 % (az45)" in exact.detail
+    # 35.5 % at 45°: within ours (29.3 % ± 7), more than the thesis's 30 % says.
+    assert evaluate(name, "uncorrected-too-transparent", rows(1.55)).holds is True
+    assert evaluate(name, "uncorrected-too-transparent-paper", rows(1.55)).holds is False
+    assert evaluate(name, "uncorrected-too-transparent-paper", rows(1.25)).holds is False  # 20 %

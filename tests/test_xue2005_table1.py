@@ -178,6 +178,22 @@ def test_basic_is_the_same_on_every_data_set():
     assert evaluate(NAME, "basic-time", rows).holds is True
 
 
+def test_the_papers_basic_spread_is_table1s_precision_beside_our_ten_percent():
+    assert T.PAPER_BASIC_SPREAD == pytest.approx(7.35 / 7.25)
+    claims = [c.id for c in experiments.get(NAME).claims]
+    assert claims.index("basic-time-paper") + 1 == claims.index("basic-time")
+    paper, ours = (next(c for c in experiments.get(NAME).claims if c.id == i)
+                   for i in ("basic-time-paper", "basic-time"))
+    assert paper.target == "paper" and ours.target == "ours" and paper.paper_value == ours.paper_value
+    assert "×1.014" in paper.expected and paper.statement.endswith("(paper)")
+    fragments = {"head": 5000, "aneurysm": 5000}
+    within = basic_rows({"head": 0.100, "aneurysm": 0.101}, fragments)  # ×1.01: 7.3 fps on both, printed
+    assert evaluate(NAME, "basic-time-paper", within).holds is True
+    outside = basic_rows({"head": 0.100, "aneurysm": 0.104}, fragments)  # ×1.04: ours holds, the paper's does not
+    assert evaluate(NAME, "basic-time-paper", outside).holds is False
+    assert evaluate(NAME, "basic-time", outside).holds is True
+
+
 def test_basic_compares_scenes_of_one_volume_size_only():
     rows = basic_rows({"head": 0.100, "cthead": 0.300}, {"head": 5000, "cthead": 9000})
     for row in rows:

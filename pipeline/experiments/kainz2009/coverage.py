@@ -60,8 +60,9 @@ def _coverage_rows(ok):
     return rows
 
 
-def _mask_speedup(df):
-    """The edge-function binning kernel over the bit-shift one at every triangle count, timed together."""
+def _mask_speedup(df, at_least=STRICTLY_ABOVE_ONE):
+    """The edge-function binning kernel over the bit-shift one at every triangle count, timed together, at least
+    ``at_least`` (by default: slower at all)."""
     rows = timed(df, "the coverage methods", BINNING, role="test")
     resampler = intervals.Resampler()
     decisions = {}
@@ -69,8 +70,7 @@ def _mask_speedup(df):
         at = rows[numeric(rows, "triangles") == triangles]
         edge, bitmask = (at[text_column(at, "config") == method] for method in ("edge", "bitmask"))
         if not edge.empty and not bitmask.empty:
-            decisions[f"{int(triangles)} triangles"] = ratio(edge, bitmask, BINNING, resampler,
-                                                             at_least=STRICTLY_ABOVE_ONE)
+            decisions[f"{int(triangles)} triangles"] = ratio(edge, bitmask, BINNING, resampler, at_least=at_least)
     if not decisions:
         raise ValueError("no triangle count timed with both methods")
     bitmask = rows[text_column(rows, "config") == "bitmask"]
@@ -156,10 +156,17 @@ class Coverage(Experiment):
         return runs
 
     claims = (
+        Claim("bitshift-faster-paper", f"Coverage masks by bit shifts are {tables.PAPER_MASK_SPEEDUP:g}× faster than "
+              "per-pixel edge evaluation on a GT200 (paper)",
+              f"time(edge) / time(bitmask) ≥ {as_ratio(tables.PAPER_MASK_SPEEDUP)} at every triangle count (the "
+              "triangle kernel, time_binning)", lambda df: _mask_speedup(df, tables.PAPER_MASK_SPEEDUP),
+              paper_value="×4", kind="timing"),
         Claim("bitshift-faster", "Coverage masks by bit shifts are faster than per-pixel edge evaluation "
               f"(paper: {tables.PAPER_MASK_SPEEDUP:g}× on a GT200)",
               "time(edge) / time(bitmask) > ×1 at every triangle count (the triangle kernel, time_binning)",
-              _mask_speedup, paper_value="×4", kind="timing"),
+              _mask_speedup, paper_value="×4",
+              ours="faster at all: the margin depends on the device, and ours (PoCL on a CPU) is not the paper's GT200",
+              kind="timing"),
         Claim("watertight", "Closed boundaries are covered exactly once per crossing: no missing or doubled fragment",
               "pixels with unequal front- and back-facing fragment counts = 0 in every view, both methods",
               _watertight, kind="count"),

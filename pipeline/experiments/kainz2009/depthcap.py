@@ -102,8 +102,9 @@ def _error_monotone(df):
     return ClaimResult("rises on " + ", ".join(rising) if rising else "never rises", not rising, detail)
 
 
-def _cap_speed(df):
-    """cap 63's kernel time over cap 16's on the shallow scene, where both keep every fragment."""
+def _cap_speed(df, at_least=STRICTLY_ABOVE_ONE):
+    """cap 63's kernel time over cap 16's on the shallow scene, where both keep every fragment, at least ``at_least``
+    (by default: slower at all)."""
     rows = timed(df, "the shallow scene's caps", TECHNIQUE, scene=SHALLOW, role="speed")
     large, small = (rows[numeric(rows, "cap") == cap] for cap in (max(SPEED_CAPS), min(SPEED_CAPS)))
     if large.empty or small.empty:
@@ -111,7 +112,7 @@ def _cap_speed(df):
     dropped = numeric(rows, "count_fragments_dropped").sum()
     if dropped:
         raise ValueError(f"the shallow scene dropped {int(dropped)} fragments: the caps did different work")
-    decision = ratio(large, small, TECHNIQUE, intervals.Resampler(), at_least=STRICTLY_ABOVE_ONE)
+    decision = ratio(large, small, TECHNIQUE, intervals.Resampler(), at_least=at_least)
     return ClaimResult.decided(with_interval(as_ratio(decision.value), decision), decision,
                                f"time(cap {max(SPEED_CAPS)}) / time(cap {min(SPEED_CAPS)}), {KERNELS}; both kept every "
                                f"fragment (at most {int(numeric(rows, 'count_fragments_max').max())} per pixel; "
@@ -190,9 +191,15 @@ class DepthCap(Experiment):
               "from one cap to the next larger (every scene)", _error_monotone, kind="accuracy"),
         Claim("unbounded-exact", "The unbounded global-memory lists render the reference's image",
               UNBOUNDED_EXACT.expected, UNBOUNDED_EXACT),
+        Claim("small-cap-faster-paper", "A lighter load on local memory (a smaller cap) makes frames up to 40 % faster "
+              "(paper)", f"time(cap 63) / time(cap 16) ≥ {as_ratio(tables.CAP_GAIN)} where both keep every fragment "
+              f"({SHALLOW_CLOUDS} clouds, {KERNELS})", lambda df: _cap_speed(df, tables.CAP_GAIN),
+              paper_value="up to 40 %", kind="timing"),
         Claim("small-cap-faster", "A smaller cap is faster (paper: up to 40 % from the occupancy it buys)",
               f"time(cap 63) / time(cap 16) > ×1 where both keep every fragment ({SHALLOW_CLOUDS} clouds, "
-              f"{KERNELS})", _cap_speed, paper_value="up to 40 %", kind="timing"),
+              f"{KERNELS})", _cap_speed, paper_value="up to 40 %",
+              ours="faster at all: the paper's 40 % is its best case, the occupancy a GPU gains, which a CPU lacks",
+              kind="timing"),
     )
 
     def paper_table(self):

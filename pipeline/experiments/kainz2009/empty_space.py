@@ -14,10 +14,10 @@ from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_capti
 from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all_of, counts, decided, ratio, statistic,
-                                              timed)
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all_of, counts, decided, decision_words,
+                                              ratio, statistic, timed)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, db_words, figure, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, db_words, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, rows_matching, speed_points, text_column
 from reports import plots
@@ -56,14 +56,23 @@ def _work(box, hulls):
             f"triangles {counts(both, 'count_triangles', label='brick')}")
 
 
-def _ess_gain(df):
+def _ess_gain(df, best_at_least=None):
+    """time(box) / time(fastest hull) on every scene above 1 (hulls faster at all); with ``best_at_least``, the best
+    scene's at least that (the paper's "up to": its best case), the others listed beside it."""
     resampler = intervals.Resampler()
+    bound = STRICTLY_ABOVE_ONE if best_at_least is None else best_at_least
     decisions, work = {}, []
     for name in _scenes(df):
         box, hulls = _ess_rows(df, name)
-        decisions[name] = ratio(box, hulls, TECHNIQUE, resampler, statistic="min", at_least=STRICTLY_ABOVE_ONE)
+        decisions[name] = ratio(box, hulls, TECHNIQUE, resampler, statistic="min", at_least=bound)
         work.append(f"{name}: {_work(box, hulls)}")
-    return all_of(decisions, extra=f"time(box) / time(fastest hull), {KERNELS}; " + "; ".join(work))
+    extra = f"time(box) / time(fastest hull), {KERNELS}; " + "; ".join(work)
+    if best_at_least is None:
+        return all_of(decisions, extra=extra)
+    best = max(decisions, key=lambda name: decisions[name].value)
+    return ClaimResult.decided(f"{decision_words(decisions[best])} ({best}, the best scene)", decisions[best],
+                               "; ".join(f"{name}: {decision_words(d)}" for name, d in decisions.items())
+                               + f"; {extra}")
 
 
 def _best_brick(df):
@@ -170,15 +179,20 @@ class EmptySpace(Experiment):
         return runs
 
     claims = (
+        Claim("hull-faster-paper", "Tight hulls make frames up to 15 % faster than box boundaries (paper)",
+              f"time(box) / time(fastest hull) ≥ {as_ratio(tables.HULL_GAIN)} on the best scene ({KERNELS})",
+              lambda df: _ess_gain(df, tables.HULL_GAIN), paper_value="up to 15 %", kind="timing"),
         Claim("hull-faster", "Tight hulls make frames faster than box boundaries (paper: up to 15 %)",
               f"time(box) / time(fastest hull) > ×1 on every scene ({KERNELS})", _ess_gain, paper_value="up to 15 %",
+              ours="faster at all, on every scene: the paper's 15 % is its best case, on its data and GPU",
               kind="timing"),
         Claim("best-brick-8", "8³ bricks are the best size for medical data", "time(fastest other brick size) / "
               f"time(8³) ≥ ×1 on every scene ({KERNELS})", _best_brick, paper_value="8³", kind="timing"),
         Claim("hull-accurate", "Hulls skip only empty space: the image stays the reference's",
               "PSNR of every hull within 1 dB of the box's, against the reference", _hull_accuracy, kind="accuracy"),
-        Claim("build-cheap", "Rebuilding the hull on a transfer-function change costs less than a frame "
-              "(paper: ≈ 5 ms for 512³)", "bricks + hull build time (8³ bricks) / the median frame with that hull, "
+        Claim("build-cheap", "Rebuilding the hull on a transfer-function change costs less than a frame (our bound; "
+              "the paper states ≈ 5 ms for 512³ on its GPU, no share of a frame)",
+              "bricks + hull build time (8³ bricks) / the median frame with that hull, "
               f"both in the same timed processes, ≤ ×1 ({KERNELS})", _build_cheap, paper_value="≈ 5 ms for 512³",
               kind="timing"),
     )

@@ -88,18 +88,20 @@ def _media_pairs(df, column):
     return pairs
 
 
-def _gain(df, view, resampler):
-    """Sampled over analytic pixel kernel in ``view`` (a Decision) and the rows compared."""
+def _gain(df, view, resampler, at_least=STRICTLY_ABOVE_ONE):
+    """Sampled over analytic pixel kernel in ``view`` (a Decision, at least ``at_least``) and the rows compared."""
     rows = timed(df, f"the {view} view", PIXEL, role="test", view=view)
     analytic, sampled = (rows[text_column(rows, "config") == config] for config in ("analytic", "sampled"))
     if analytic.empty or sampled.empty:
         raise ValueError(f"no analytic and sampled run of the {view} view")
-    return ratio(sampled, analytic, PIXEL, resampler, at_least=STRICTLY_ABOVE_ONE), rows
+    return ratio(sampled, analytic, PIXEL, resampler, at_least=at_least), rows
 
 
-def _media_gain(df):
+def _media_gain(df, at_least=STRICTLY_ABOVE_ONE):
+    """The pixel kernel's gain where segments hold media alone, at least ``at_least`` (by default: a gain at all);
+    the whole apple's beside it."""
     resampler = intervals.Resampler()
-    decision, rows = _gain(df, RODS, resampler)
+    decision, rows = _gain(df, RODS, resampler, at_least)
     times = dict(zip(rows.config, numeric(rows, PIXEL) * 1e3))
     detail = (f"pixel kernel where only media are (view {RODS!r}) {format_number(times['analytic'])} ms analytic, "
               f"{format_number(times['sampled'])} ms sampled; "
@@ -170,9 +172,14 @@ class Media(Experiment):
                           for media in ("analytic", "sampled")]
 
     claims = (
+        Claim("shortcut-gain-paper", "Compositing homogeneous segments analytically instead of sampling them makes "
+              "frames up to 10 % faster (paper)", f"pixel-kernel time(sampled) / time(analytic) ≥ "
+              f"{as_ratio(tables.MEDIA_GAIN)} where segments hold media alone (view {RODS!r})",
+              lambda df: _media_gain(df, tables.MEDIA_GAIN), paper_value="up to 10 %", kind="timing"),
         Claim("shortcut-gain", "Compositing homogeneous segments analytically instead of sampling them makes frames "
               "faster (paper: up to 10 %)", f"pixel-kernel time(sampled) / time(analytic) > ×1 where segments hold "
-              f"media alone (view {RODS!r})", _media_gain, paper_value="up to 10 %", kind="timing"),
+              f"media alone (view {RODS!r})", _media_gain, paper_value="up to 10 %",
+              ours="faster at all: the paper's 10 % is its best case, on its scenes and GPU", kind="timing"),
         Claim("shortcut-exact", "The shortcut costs no accuracy", "PSNR against the reference ≥ 40 dB for both, "
               "within 0.5 dB of each other, every view", _media_accuracy, kind="accuracy"),
         Claim("fewer-steps", "The shortcut replaces the sampling loop by one step per segment",

@@ -26,6 +26,10 @@ BAND = 25 / 7
 POOL_BYTES = 6 * 2 ** 20
 """The paper's chunk pool (6 MB), enough for its scenes."""
 
+TRIANGLE_KERNEL_SHARE = (0.02, 0.10)
+"""The triangle kernel's share of the computation, "2–10 %, depending on the triangle/voxel ratio of the scene"
+(§4.2); the pixel kernel takes the rest ("up to 90 %")."""
+
 TABLE2 = {
     # scene: (content, max depth, DDP fps, ours fps)
     "S1": ("Stanford dragon, 20k polygons", 20, (123, 150), (52, 62)),
@@ -52,11 +56,19 @@ DEPTH_CAP = [
     {"item": "smaller local-memory load (cap or objects)", "paper": "up to 40 % faster", "source": "§4.2"},
 ]
 
+CAP_GAIN = 1.40
+"""A lighter load on shared memory (a lower depth cap, fewer objects): "overall performance improvements of up to
+40 %" (§4.2), the paper's best case as a ratio of frame times."""
+
 EMPTY_SPACE = [
     {"item": "frame-rate gain from tight hulls", "paper": "up to 15 %", "source": "§3.4"},
     {"item": "best brick size (medical data)", "paper": "8³", "source": "§3.4"},
     {"item": "hull build, 512³ on a GTX 280", "paper": "≈ 5 ms", "source": "§3.4"},
 ]
+
+HULL_GAIN = 1.15
+"""Tight bounding geometry "improves frame rate by up to 15 %" (§3.4), the paper's best case as a ratio of frame
+times."""
 
 STEP = [
     {"item": "common world step", "paper": "the smallest step of the objects present × a user factor; "
@@ -75,6 +87,10 @@ MEDIA = [
     {"item": "loop skip for purely homogeneous segments", "paper": "up to 10 % faster", "source": "§3.3"},
     {"item": "Fig. 1 (4)", "paper": "35 translucent rods of 76 polygons in a 512³ apple", "source": "Fig. 1"},
 ]
+
+MEDIA_GAIN = 1.10
+"""Segments of homogeneous polyhedra alone skip the sampling loop: "performance improvements of up to 10 %"
+(§3.3), the paper's best case as a ratio of frame times."""
 
 COVERAGE = [
     {"item": "bit-shift coverage masks vs per-pixel computation", "paper": "4× faster (GT200)",

@@ -20,6 +20,7 @@ whole frame (:data:`TOTAL`).
 Judging imports no page code (:mod:`.pages` imports this module's words, not the other way round).
 """
 
+from collections.abc import Mapping
 from dataclasses import replace
 
 import numpy as np
@@ -247,7 +248,9 @@ def view_ratio(rows, top, bottom, resampler, *, key):
 
 def ratios_where_both(frame, scenes, top, bottom, *, what, describe=None, column=TOTAL, **bounds):
     """``top``'s ``column`` over ``bottom``'s (two configurations' test runs, each the median over its views) on
-    each of ``scenes`` that both rendered, every one judged against ``bounds`` (:func:`all_of`).
+    each of ``scenes`` that both rendered, every one judged against ``bounds`` (:func:`all_of`); ``scenes`` a
+    mapping gives each scene bounds of its own instead (``{scene: {"at_least": …, "at_most": …}}``: a paper's
+    band per table row).
 
     A scene only one of them renders (a peer's limit on volumes, say) is not compared; ``what`` says the ratio in
     the detail, then ``describe(rows)`` what the compared rows record (the devices they ran on).
@@ -259,11 +262,12 @@ def ratios_where_both(frame, scenes, top, bottom, *, what, describe=None, column
     """
     resampler = intervals.Resampler()
     decisions, compared = {}, []
-    for name in scenes:
+    per_scene = scenes if isinstance(scenes, Mapping) else dict.fromkeys(scenes, bounds)
+    for name, scene_bounds in per_scene.items():
         pair = [measured(rows_matching(frame, name, scene=name, role="test", config=config), column)
                 for config in (top, bottom)]
         if not any(part.empty for part in pair):
-            decisions[name] = ratio(*pair, column, resampler, **bounds)
+            decisions[name] = ratio(*pair, column, resampler, **scene_bounds)
             compared += pair
     if not decisions:
         raise ValueError(f"no scene of {', '.join(map(str, scenes))} rendered by both {top} and {bottom}")

@@ -15,7 +15,7 @@ from pipeline.experiments.kit.results import ok_rows, role_rows
 from pipeline.experiments.kit.judging import all_of, count_ratio, time_ratio
 from pipeline.experiments.kruger2003.methods import (RAYCAST, gl_not_measurable, method_name, method_points,
                                                      method_runs, no_cue_control, sizes)
-from pipeline.experiments.kruger2003.tables import NO_CUE
+from pipeline.experiments.kruger2003.tables import NO_CUE, NO_CUE_LOSS
 from reports import plots
 
 STAGES = ("time_setup", "time_main", "time_intermediate", "time_readback")
@@ -30,11 +30,18 @@ def _main_fragments(config):
                    column="count_fragments_main", unit="")
 
 
+ABOUT = 0.05
+"""How far the paper's "about 30 %" reaches: a figure given in tens of percent, ± half that digit (25–35 %)."""
+
+PAPER_OVERHEAD = (1 / (1 - (NO_CUE_LOSS - ABOUT)), 1 / (1 - (NO_CUE_LOSS + ABOUT)))
+"""Time RC-a / RC and RC-b / RC for a frame rate 25–35 % below RC's (Sec. 3): ×1.333–1.538."""
+
 NO_EMPTY_BLOCKS = Ratio(_main_fragments("rc-b"), _main_fragments("rc-a"), at_least=0.95)
 """RC-b culls no more than RC-a where no block is empty."""
 
 
-def _overhead(df):
+def _overhead(df, low=1.1, high=1.6):
+    """Time RC-a / RC and RC-b / RC within [low, high] on the control (ours by default: 10–60 % slower)."""
     # The control's premise, not a claim: with no block empty, skipping culls nothing beyond what early
     # termination culls. Where it does, the time ratio is no longer the passes' cost.
     premise = NO_EMPTY_BLOCKS(df)
@@ -42,7 +49,7 @@ def _overhead(df):
         raise ValueError(f"the control has empty space: RC-b draws {premise.measured} of RC-a's main-pass "
                          f"fragments ({premise.detail}), so its time is not the extra passes' cost alone")
     resampler = intervals.Resampler()
-    decisions = {method_name(c): time_ratio(df, c, "rc", resampler=resampler, at_least=1.1, at_most=1.6)
+    decisions = {method_name(c): time_ratio(df, c, "rc", resampler=resampler, at_least=low, at_most=high)
                  for c in ACCELERATED}
     # Equal main-pass fragments show that nothing was culled: the time ratio is the intermediate passes' cost.
     fragments = {c: count_ratio(df, c, "rc", "count_fragments_main") for c in ACCELERATED}
@@ -72,9 +79,15 @@ class NoCue(Experiment):
         "timed interleaved, frame against frame."
     )
     claims = (
-        Claim("overhead", "Where neither acceleration applies, the intermediate passes cost about 30 % (Sec. 3)",
-              "time RC-a / RC and RC-b / RC within ×1.1–×1.6 (10–60 % slower; whole frames)", _overhead,
+        Claim("overhead-paper", "Where neither acceleration applies, the intermediate passes lose about 30 % of the "
+              "frame rate, read as 25–35 % (paper)",
+              f"time RC-a / RC and RC-b / RC within ×{PAPER_OVERHEAD[0]:.3f}–×{PAPER_OVERHEAD[1]:.3f} (frame rate "
+              "25–35 % below RC's; whole frames)", lambda df: _overhead(df, *PAPER_OVERHEAD),
               paper_value="≈30 %", kind="timing"),
+        Claim("overhead", "Where neither acceleration applies, the intermediate passes only cost (paper: about 30 %, "
+              "Sec. 3)", "time RC-a / RC and RC-b / RC within ×1.1–×1.6 (10–60 % slower; whole frames)", _overhead,
+              paper_value="≈30 %", ours="that the passes cost, 10–60 %: what they cost a rasterizer is not the R300's",
+              kind="timing"),
     )
 
     def runs(self, profile):

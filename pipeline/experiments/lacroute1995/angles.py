@@ -11,7 +11,8 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, figure, format_number
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number)
 from pipeline.experiments.kit.planning import dataset_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows
 from pipeline.experiments.lacroute1995 import tables
@@ -24,6 +25,9 @@ ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
 
 TIME = judging.TECHNIQUE
 """The claims' scope: the technique (tables, clearing, compositing, warp), what Fig. 5.3 times."""
+
+HEAD_OVER_SPHERE = tables.FIG_5_3["head"] / tables.FIG_5_3["sphere"]
+"""Fig. 5.3: how many times the sphere's variation over a turn the head's is (13 % / 6 %)."""
 
 
 def principal_axis(angle):
@@ -88,9 +92,14 @@ class ViewAngles(Experiment):
               "(max − min)/mean of the technique time over the turn ≤ 12 %", lambda df: _variation(df, "sphere", 0.12),
               paper_value="6 %", ours="hardly: twice the thesis's 6 %, for a sphere voxelised at another size",
               kind="timing"),
+        Claim("head-varies-more-paper", f"The head's time varies {as_ratio(HEAD_OVER_SPHERE)} as much with the view "
+              "as the sphere's: 13 % against 6 % (thesis, Fig. 5.3)",
+              f"head variation / sphere variation of the technique time ≥ {as_ratio(HEAD_OVER_SPHERE)}",
+              lambda df: _head(df, HEAD_OVER_SPHERE), paper_value="13 % vs 6 %", kind="timing"),
         Claim("head-varies-more", "The head's time varies more with the view than the sphere's (thesis: 13 % against 6 %)",
               "head variation / sphere variation of the technique time > 1", lambda df: _head(df),
-              paper_value="13 % vs 6 %", kind="timing"),
+              paper_value="13 % vs 6 %", ours="that the head varies more at all: by how much follows our stand-in "
+              "head's surfaces, not the thesis's CT scan", kind="timing"),
     )
 
     def paper_table(self):
@@ -224,7 +233,7 @@ def _variation(df, dataset, bound):
     return ClaimResult.decided(decision_words(decision, as_percent), decision, detail)
 
 
-def _head(df):
+def _head(df, at_least=STRICTLY_ABOVE_ONE):
     frame = _turns(df)
     if frame.empty:
         raise ValueError("no successful turn")
@@ -238,7 +247,7 @@ def _head(df):
     for d, part in heads.groupby("dataset"):
         h = _turn_stats(part, TIME, resampler)
         draws = None if h["draws"] is None or s["draws"] is None else h["draws"][0] / s["draws"][0]
-        decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=STRICTLY_ABOVE_ONE,
+        decisions[d] = judging.decided(h["variation"] / s["variation"], draws, at_least=at_least,
                                        centred=True, frames=resampler.arms())
     varies = ", ".join(f"{d} {as_percent(d_.value * s['variation'])}" for d, d_ in decisions.items())
     return all_of(decisions,

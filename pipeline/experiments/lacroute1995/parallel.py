@@ -13,7 +13,7 @@ import pandas as pd
 
 import datasets
 from pipeline.experiments.kit import intervals, judging
-from pipeline.experiments.kit.judging import all_of
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
@@ -51,6 +51,22 @@ def worker_imbalance(record_path, view):
                 raise ValueError(f"{record_path}: no per-worker samples for view {view!r}")
             return float(samples.max() / samples.mean() - 1.0)
     raise ValueError(f"{record_path}: no view {view!r}")
+
+
+def _table_6_2_efficiency(processors):
+    """``(least, most)`` efficiency of Table 6.2 at ``processors`` over its two data sets (``ValueError`` where the
+    table has no such column)."""
+    efficiencies = [s / processors for s in tables.table_6_2_speedups(processors)]
+    return min(efficiencies), max(efficiencies)
+
+
+def _percents(band):
+    """``"73.9–77.5 %"``."""
+    return f"{format_number(100 * band[0])}–{format_number(100 * band[1])} %"
+
+
+TABLE_6_4_ORDER = tuple(sorted(tables.TABLE_6_4, key=lambda schedule: tables.TABLE_6_4[schedule][1]))
+"""The task assignments from fastest to slowest in Table 6.4 (149, 160, 187, 342 ms)."""
 
 
 class Parallel(Experiment):
@@ -110,21 +126,36 @@ class Parallel(Experiment):
         return runs
 
     claims = (
+        Claim("speed-up-paper", "Rendering speeds up as on the SGI Challenge: ×2.0–2.1 on 2 processors "
+              f"({_percents(_table_6_2_efficiency(2))} efficiency), {_percents(_table_6_2_efficiency(16))} efficiency "
+              "on 16 (thesis, Table 6.2)", "efficiency T1 / (p·Tp) of the technique "
+              "time at the most workers p within Table 6.2's range at p over its two data sets (every size; not "
+              "measurable at a p Table 6.2 has no column for)", lambda df: _speedup(df, _table_6_2_efficiency),
+              paper_value="×2.0–2.1 on 2, 75 % on 16", kind="timing"),
         Claim("speed-up", "Rendering speeds up nearly linearly with processors (thesis: ×2.0–2.1 on 2, 75 % "
               "efficiency on 16)", "efficiency T1 / (p·Tp) of the technique time ≥ 70 % at the most workers (every size)",
-              lambda df: _speedup(df), paper_value="×2.0–2.1 on 2, 75 % on 16", kind="timing"),
+              lambda df: _speedup(df), paper_value="×2.0–2.1 on 2, 75 % on 16", ours="nearly linear at whatever "
+              "workers this machine has: at least about the thesis's 16-processor 75 %, not its ×2.1 on 2",
+              kind="timing"),
+        Claim("schedule-order-paper", "The four task assignments rank round robin with stealing < round robin < "
+              "contiguous with stealing < contiguous: 149 < 160 < 187 < 342 ms (thesis, Table 6.4)",
+              "technique time: each schedule / the one before it in Table 6.4's order > 1",
+              lambda df: _schedule_order(df, strict=True), paper_value="149 < 160 < 187 < 342 ms", kind="timing"),
         Claim("schedule-order", "Round robin with stealing balances best and contiguous blocks without stealing worst "
               "(Table 6.4: 149 < 160 < 187 < 342 ms)", "technique time: contiguous / every other schedule ≥ 1, "
               "round-robin-steal / every other ≤ 1.05", lambda df: _schedule_order(df),
-              paper_value="149 < 160 < 187 < 342 ms", kind="timing"),
+              paper_value="149 < 160 < 187 < 342 ms", ours="the two ends of the order: on a few cores the middle "
+              "schedules differ by less than the thesis's 32 processors made them", kind="timing"),
         Claim("task-size-u", "The task size has an interior optimum: small tasks lose locality, large ones balance",
               "technique time at the smallest and largest task size / the fastest interior one ≥ 1",
               lambda df: _task_u(df), kind="timing"),
-        Claim("load-imbalance", "Round robin with stealing keeps the load imbalance low (7 % in Table 6.4)",
+        Claim("load-imbalance", "Round robin with stealing keeps the load imbalance low (Table 6.4: 7 % of busy "
+              "time; here of the samples per worker)",
               "imbalance (largest − mean)/mean of the samples per worker ≤ 20 %", lambda df: _imbalance(df),
               paper_value="7 %", kind="count"),
-        Claim("imbalance-order", "Contiguous blocks without stealing are the worst balanced (169 % against 7 % for "
-              "round robin with stealing)", "sample imbalance of contiguous > round-robin-steal",
+        Claim("imbalance-order", "Contiguous blocks without stealing are the worst balanced (Table 6.4: 169 % against "
+              "7 % of busy time for round robin with stealing; here of the samples per worker)",
+              "sample imbalance of contiguous > round-robin-steal",
               lambda df: _imbalance_order(df), paper_value="169 % vs 7 %", kind="count"),
     )
 
@@ -214,7 +245,8 @@ def _machine(rows):
     return "; ".join(filter(None, [judging.busy(rows), f"this machine: {usable_cores()} cores"]))
 
 
-def _speedup(df):
+def _speedup(df, band=None):
+    """The efficiency at the most workers, at least 70 %, or within ``band(workers)`` (``(low, high)``)."""
     rows = df[(text_column(df, "schedule") == DEFAULT_SCHEDULE) & (numeric(df, "task_size") == DEFAULT_TASK_SIZE)]
     resampler = intervals.Resampler()
     decisions, parallel = {}, []
@@ -227,23 +259,30 @@ def _speedup(df):
         t1, one_draws = judging.statistic(one, TIME, resampler)
         tp, most_draws = judging.statistic(most, TIME, resampler)
         draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
+        low, high = (0.7, None) if band is None else band(p)
         decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = judging.decided(
-            t1 / tp / p, draws, at_least=0.7, frames=resampler.arms())
+            t1 / tp / p, draws, at_least=low, at_most=high, frames=resampler.arms())
         parallel.append(most)
     if not decisions:
         raise ValueError("no size rendered with one worker and with more")
     result = all_of(decisions, extra=f"{tables.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", show=as_percent)
-    return judging.unless_starved(result, pd.concat(parallel), holding_survives=True)
+    # Starving only slows the parallel run: a pass above a floor stands, one inside a band need not.
+    return judging.unless_starved(result, pd.concat(parallel), holding_survives=band is None)
 
 
-def _schedule_order(df):
+def _schedule_order(df, strict=False):
+    """Contiguous the slowest and round robin with stealing within 5 % of the fastest, or (``strict``) every
+    schedule slower than the one before it in Table 6.4's order (:data:`TABLE_6_4_ORDER`)."""
     resampler = intervals.Resampler()
     decisions, measured, read = {}, [], []
     for n, part in _at_most_workers(df, task_size=DEFAULT_TASK_SIZE).items():
         runs = {s: part[text_column(part, "schedule") == s] for s in SCHEDULES}
         if any(r.empty for r in runs.values()):
             continue
-        for s in SCHEDULES:
+        for faster, slower in zip(TABLE_6_4_ORDER, TABLE_6_4_ORDER[1:]) if strict else ():
+            decisions[f"{n}³ {slower} / {faster}"] = judging.ratio(runs[slower], runs[faster], TIME, resampler,
+                                                                   at_least=STRICTLY_ABOVE_ONE)
+        for s in SCHEDULES if not strict else ():
             if s != "contiguous":
                 decisions[f"{n}³ contiguous / {s}"] = judging.ratio(runs["contiguous"], runs[s], TIME, resampler,
                                                                     at_least=1.0)

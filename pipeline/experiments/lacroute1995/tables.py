@@ -49,6 +49,82 @@ TABLE_6_2 = {"CT head 128³": (2.5, 5.3, 9.9, 18, 31), "CT head 256×256×225": 
 TABLE_6_4 = {"round-robin-steal": (7, 149), "round-robin": (18, 160), "contiguous-steal": (32, 187), "contiguous": (169, 342)}
 """Table 6.4: load imbalance (%) and frame time (ms) of each task assignment (DASH, 32 CPUs, 256³ head)."""
 
+TABLE_6_2_PROCESSORS = (1, 2, 4, 8, 16)
+"""The processor counts of Table 6.2's columns."""
+
+TABLE_7_1 = {"procedural": (13.3, 14.5), "lut": (2.3, 3.4), "lut-inlined": (1.6, 2.8)}
+"""Table 7.1: seconds of shading and of the whole image (Fig. 5.5) with procedural shading, lookup tables, and
+lookup tables inlined."""
+
+FIG_5_3 = {"sphere": 0.06, "head": 0.13}
+"""Fig. 5.3 (§5.1.1): the rendering time's variation over a full turn, "only 6%" for the 256³ sphere and "13%"
+for the CT head."""
+
+UNION_BY_RANK_SLOWER = (0.05, 0.15)
+"""§4.1.3: with union by rank besides path compression "our overall rendering algorithm is 5-15% slower than with
+path compression alone"."""
+
+UNCORRECTED_45 = 0.30
+"""§4.1.6: without opacity correction "a cube-shaped voxel appears 30% more transparent than it should when
+viewed from a 45 degree angle" (1 − 1/√2 = 29.3 %, stated to one significant figure)."""
+
+COMPOSITE_GROWTH = 4.0
+"""§5.2.1: "an eight-fold increase in the number of voxels leads to only a four-fold increase in time for the
+compositing stage" (one doubling of the side)."""
+
+COST_MODEL = {"head": (0.6, (0.764, 0.87)), "engine": (0.9, (0.924,))}
+"""§5.3.3: the cost polynomial's predicted seconds for the CT head (bone) and the engine, and the times the
+thesis measured for them (Table 5.5's 764 and 924 ms; the head's Table 5.3 mean, 0.87 s)."""
+
+CROSSOVER_VISIBLE, FULLY_VISIBLE_SLOWER = 0.8, 0.25
+"""§5.3.2, Fig. 5.19: brute force matches the optimised renderer "when 80% of the voxels are visible"; "when all
+voxels are visible the optimized algorithm is about 25% slower" ("the worst-case 25% performance degradation")."""
+
+ONE_VOXEL_RUNS_SLOWER = 0.15
+"""§5.3.3: "with 256 runs/scanline (implying 50% of the voxels visible), the optimized algorithm is only 15%
+slower than the brute force algorithm"."""
+
+
+def sample_ratio_bands():
+    """Fig. 5.17's samples over brute force's per configuration: ``{config: (least, most)}`` over its two brains."""
+    return {config: (min(ratios), max(ratios)) for config, ratios in (
+        (c, [runs[c][0] / runs["brute-force"][0] for runs in FIG_5_17.values()])
+        for c in ("early-termination", "rle", "rle+early-termination"))}
+
+
+def fast_classification_band():
+    """Table 5.3's fast classification over the parallel projection (mean times): ``(least, most)`` over its four
+    data sets, to the one decimal of the thesis's ×1.8–2.5 (the times have two digits)."""
+    ratios = [configs["fast-classification"][0] / configs["parallel"][0] for configs in TABLE_5_3.values()]
+    return round(min(ratios), 1), round(max(ratios), 1)
+
+
+def table_6_2_speedups(processors):
+    """Table 6.2's speed-ups over one processor at ``processors``, one per data set.
+
+    Raises
+    ------
+    ValueError
+        The table has no column for that many processors: the thesis gives no figure to judge.
+    """
+    if processors not in TABLE_6_2_PROCESSORS:
+        raise ValueError(f"Table 6.2 has no column for {processors} processors (only "
+                         f"{', '.join(map(str, TABLE_6_2_PROCESSORS))}): no thesis figure to judge")
+    column = TABLE_6_2_PROCESSORS.index(processors)
+    return [rates[column] / rates[0] for rates in TABLE_6_2.values()]
+
+
+def warp_steps():
+    """Table 5.4's warp time per doubling of the image side: ``(least, most)`` over its steps (×3.4, ×3.8)."""
+    times = [TABLE_5_4["warp (ms)"][size] for size in sorted(TABLE_5_4["warp (ms)"])]
+    steps = [b / a for a, b in zip(times, times[1:])]
+    return min(steps), max(steps)
+
+
+def cost_model_error():
+    """The largest error of the thesis's own predictions, |predicted / measured − 1| (§5.3.3: the head's 31 %)."""
+    return max(abs(predicted / seconds - 1) for predicted, measured in COST_MODEL.values() for seconds in measured)
+
 
 def volpack_times():
     """Tables 5.3 and 5.5: VolPack's frame times and memory for the two brains and the CT head (256×256×225)."""
@@ -117,7 +193,7 @@ def multiprocessor():
     """Tables 6.2 and 6.4: frame rates against processors, and the task assignments' imbalance."""
     rows = []
     for data, rates in TABLE_6_2.items():
-        for p, rate in zip((1, 2, 4, 8, 16), rates):
+        for p, rate in zip(TABLE_6_2_PROCESSORS, rates):
             rows.append({"table": "6.2 (SGI Challenge)", "data set / assignment": data, "processors": p,
                          "frame rate (Hz)": rate, "speed-up": rate / rates[0], "load imbalance": ""})
     for schedule, (imbalance, ms) in TABLE_6_4.items():

@@ -44,6 +44,9 @@ OCTREE_BOUND = 1.2
 EFFICIENCY = 0.9
 """The parallel speed-up claim's bound per worker: one worker's time over all cores' ≥ this × the workers."""
 
+OCTREE_VS_RLE = tables.fast_classification_band()
+"""Table 5.3's fast classification over classified RLE, ``(least, most)`` over its data sets (×1.8–2.5)."""
+
 
 def _technique(config):
     return VOLPACK_CONFIGS.get(config, (None, None, config))[2]
@@ -135,10 +138,18 @@ class VolPackComparison(Experiment):
               "(every scene: our kernels with their on-the-fly classification against VolPack's vpShadeTable + "
               "vpRenderRawVolume)", lambda df: _speed(df, "shearwarp-octree-1", against="volpack-octree",
                                                       at_most=OCTREE_BOUND), kind="timing"),
+        Claim("parallel-speed-up-paper", "Our shear-warp speeds up as the thesis's did: ×2.0–2.1 on 2 processors "
+              "(thesis, Table 6.2)", "technique time ratio 1 worker / all cores within Table 6.2's speed-ups at the "
+              "all-cores run's workers over its two data sets ("
+              f"{as_ratio(min(tables.table_6_2_speedups(2)))}–{as_ratio(max(tables.table_6_2_speedups(2)))} on 2; "
+              "every scene; not measurable at a count the table has no column for)",
+              lambda df: _parallel(df, tables.table_6_2_speedups),
+              paper_value="×2.0–2.1 on 2", kind="timing"),
         Claim("parallel-speed-up", "Our shear-warp speeds up nearly linearly on the cores present (thesis: ×2.0–2.1 "
               "on 2 processors)", f"technique time ratio 1 worker / all cores ≥ {format_number(EFFICIENCY)} × the "
               f"all-cores run's workers (×{format_number(2 * EFFICIENCY)} on 2; every scene)",
-              lambda df: _parallel(df), paper_value="×2.0–2.1 on 2", kind="timing"),
+              lambda df: _parallel(df), paper_value="×2.0–2.1 on 2", ours="nearly linear at whatever cores this "
+              "machine has: 90 % per worker, short of Table 6.2's superlinear 2-processor figure", kind="timing"),
         Claim("images-agree", "Our images agree with VolPack's (the same algorithm and classification)",
               "PSNR ≥ 30 dB between the two (every scene)", lambda df: _agree(df), kind="accuracy"),
         Claim("accuracy-parity", "Our images are as close to the reference ray caster as VolPack's",
@@ -147,9 +158,14 @@ class VolPackComparison(Experiment):
               "ray caster on one thread at one sample per voxel", "technique time ratio ours / VTK ≤ 1 (every scene: "
               "our kernels against vtkRenderWindow.Render)",
               lambda df: _speed(df, "shearwarp-1", against="vtk-cpu-1", peer="VTK"), kind="timing"),
+        Claim("octree-vs-rle-paper", "VolPack's fast-classification (octree) mode renders 1.8–2.5× slower than its "
+              "classified-RLE mode (thesis, Table 5.3)", "technique time ratio octree / RLE in "
+              f"{as_ratio(OCTREE_VS_RLE[0])}–{as_ratio(OCTREE_VS_RLE[1])} (every scene: VolPack's library calls)",
+              lambda df: _octree(df, *OCTREE_VS_RLE), paper_value="×1.8–2.5", kind="timing"),
         Claim("octree-vs-rle", "VolPack's fast-classification (octree) mode renders about 2× slower than its "
               "classified-RLE mode (Table 5.3: 1.8–2.5×)", "technique time ratio octree / RLE in 1.4–3.2 (every scene: "
-              "VolPack's library calls)", lambda df: _octree(df), paper_value="×1.8–2.5", kind="timing"),
+              "VolPack's library calls)", lambda df: _octree(df), paper_value="×1.8–2.5", ours="about the thesis's "
+              "range: VolPack's modes on our stand-ins at other sizes, on a modern CPU's caches", kind="timing"),
     )
 
     def paper_table(self):
@@ -462,8 +478,9 @@ def _count(value):
     return f"{int(value):,}" if pd.notna(value) else ""
 
 
-def _parallel(df):
-    """One worker's technique time over all cores', against :data:`EFFICIENCY` × the all-cores run's workers.
+def _parallel(df, speedups=None):
+    """One worker's technique time over all cores', against :data:`EFFICIENCY` × the all-cores run's workers, or
+    within the least and most of ``speedups(workers)`` (the thesis's at that count; ``ValueError`` where it has none).
 
     The all-cores run's worker count is its ``workers`` option as the backend recorded it (``None``
     resolved to Numba's threads): ``option_workers``.
@@ -478,16 +495,22 @@ def _parallel(df):
         if workers < 2:
             return ClaimResult("not measurable", None, f"{s}: the all-cores run had {int(workers)} worker: a speed-up "
                                "cannot be measured on a 1-core machine")
-        bound = EFFICIENCY * workers
+        if speedups is None:
+            bound, high = EFFICIENCY * workers, None
+        else:
+            thesis = speedups(int(workers))
+            bound, high = min(thesis), max(thesis)
         decisions[f"{s}, {int(workers)} workers"] = judging.ratio(one, most, judging.TECHNIQUE, resampler,
-                                                                  at_least=bound)
-        words.append(f"{s}: bound {as_ratio(bound)}; technique 1 worker {judging.milliseconds(one)}, all cores "
+                                                                  at_least=bound, at_most=high)
+        band = as_ratio(bound) if high is None else f"{as_ratio(bound)}–{as_ratio(high)}"
+        words.append(f"{s}: bound {band}; technique 1 worker {judging.milliseconds(one)}, all cores "
                      f"{judging.milliseconds(most)}; whole frame 1 worker {judging.milliseconds(one, judging.TOTAL)}, "
                      f"all cores {judging.milliseconds(most, judging.TOTAL)}")
     most = pd.concat([m for _, m in pairs.values()])
     detail = "; ".join(filter(None, [f"judged on the {tables.SCOPES[judging.TECHNIQUE]}", *words, judging.busy(most),
                                      f"this machine: {usable_cores()} cores"]))
-    return judging.unless_starved(all_of(decisions, extra=detail), most, holding_survives=True)
+    # Starving only slows the all-cores run: a pass above a floor stands, one inside a band need not.
+    return judging.unless_starved(all_of(decisions, extra=detail), most, holding_survives=speedups is None)
 
 
 def _agree(df):
@@ -511,9 +534,9 @@ def _parity(df):
                        "; ".join(f"{s}: ours {format_number(o)} dB, VolPack {format_number(v)} dB" for s, (o, v) in gaps.items()))
 
 
-def _octree(df):
+def _octree(df, low=1.4, high=3.2):
     resampler = intervals.Resampler()
-    decisions = {s: judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=1.4, at_most=3.2)
+    decisions = {s: judging.ratio(octree, rle, judging.TECHNIQUE, resampler, at_least=low, at_most=high)
                  for s, (octree, rle) in _pairs(df, "volpack-octree").items()}
     return all_of(decisions, extra="thesis: ×1.8 (brainsmall), ×2.3 (brain), ×2.5 (head); both VolPack's library calls "
                                    "(vpShadeTable, then vpRenderRawVolume or vpRenderClassifiedVolume)")

@@ -233,8 +233,8 @@ CLAIMS = (
           f"the largest full-resolution surface > {format_number(FULL_RES_TRIANGLES)} triangles at {PAPER_SIZE}³ "
           "(measured at full scale only)", _full_million, paper_value="> 1 million triangles", kind="count"),
     Claim("cube-init-small", "With the cube sets the init passes cost little beside the volume pass (T_a ≪ T_m, "
-          "§2.6)", f"T_a / T_m (time_init / time_draw) ≤ {format_number(INIT_SHARE)}, every scene", _cube_init_small,
-          kind="timing"),
+          "§3.5, Eqs. 7–9)", f"T_a / T_m (time_init / time_draw) ≤ {format_number(INIT_SHARE)}, every scene",
+          _cube_init_small, kind="timing"),
     Claim("full-erodes-paper", "Full-resolution surfaces offset any speed-up: their rendering cost cancels the gain "
           "(§4)", f"Basic / ESS+ERT with full-resolution surfaces ≤ ×1 ({TECHNIQUE}), every scene", _full_offsets,
           paper_value="offsets any speed-up", kind="timing"),
@@ -354,7 +354,7 @@ class Surfaces(Experiment):
     def paper_table(self):
         rows = [s for s in STATEMENTS if "Fig. 4" in s["source"] or "million" in s["claim"]]
         return pd.DataFrame(rows + statements(("the init passes' time must stay well below the volume pass's, or the "
-                                               "gain is lost", "§2.6, §4", "no timing")))
+                                               "gain is lost", "§3.5 (Eqs. 7–9), §4", "no timing")))
 
     def report(self, results, ctx):
         ok = ok_rows(results)

@@ -46,11 +46,20 @@ BASIC_TOLERANCE = 1.10
 """Slowest over fastest Basic frame across the data sets of one volume size: the paper's 7.3 fps on all four
 is "the same" here when within 10 %."""
 
+TABLE1_FPS_STEP = 0.05
+"""fps: half the last digit Table 1 prints (7.3): a frame rate it prints as 7.3 lies within 7.25–7.35."""
+
+_PAPER_BASIC_FPS = [fps for scene, (_d, _p, _r, fps, *_modes) in TABLE1.items() if scene not in REAL_SCANS]
+PAPER_BASIC_SPREAD = (max(_PAPER_BASIC_FPS) + TABLE1_FPS_STEP) / (min(_PAPER_BASIC_FPS) - TABLE1_FPS_STEP)
+"""The most Table 1's Basic column (7.3 fps on all four data sets) lets its slowest and fastest frame differ
+at the precision it is printed: 7.35 / 7.25, ×1.014."""
+
 ERT_BAND = (1.2, 1.6)
 """ERT alone over Basic (issue 23's target; the paper's text says 30–50 %, its table 1.18–1.59)."""
 
 ESS_BAND = (2.0, 3.0)
-"""ESS alone over Basic (the paper's "200 %–300 %", §3.4; its table 1.95–2.99)."""
+"""ESS alone over Basic (the paper's "200 %–300 %", §3.4: its frame rate against Basic's, as its table's
+1.95–2.99 shows, not a gain of 200–300 % over Basic, ×3–×4)."""
 
 TIMES = "whole frames (time_total), median over the views"
 """The scope of Table 1's speed claims: the paper's frame rates are of whole frames from views it does not give."""
@@ -139,7 +148,7 @@ def _basic_by_grid(df, config="basic"):
     return grids
 
 
-def _basic_time(df):
+def _basic_time(df, bound=BASIC_TOLERANCE):
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
     for grid, rows in _basic_by_grid(df, "basic-across").items():
@@ -149,7 +158,7 @@ def _basic_time(df):
         spread = None if any(d is None for d in draws) else np.max(draws, axis=0) / np.min(draws, axis=0)
         frames = {s: intervals.frame_count(rows[rows.scene == s], "time_total") for s in scenes}
         decisions[grid] = intervals.timing_decision(medians.max() / medians.min(), spread, frames,
-                                                    at_most=BASIC_TOLERANCE)
+                                                    at_most=bound)
         notes[grid] = " ".join(f"{s} {format_number(m * 1e3)} ms" for s, m in zip(scenes, medians))
         if "count_fragments" in rows:  # Basic's work, machine-independent: the same F wherever the box is
             counts = (median_count(rows[rows.scene == s], "count_fragments") for s in scenes)
@@ -202,19 +211,27 @@ CLAIMS = (
           "×2.2 golden lady to ×3.8 bonsai; a real scan against its kind's row)",
           f"time(Basic) / time(ESS+ERT) ≥ the paper's ratio of the scene's row, every scene ({TIMES})", _combined,
           paper_value="×2.2–3.8", kind="timing"),
-    Claim("ert-alone-paper", "Pseudo early ray termination alone gains 30–50 % (the paper's text)",
-          f"time(Basic) / time(ERT) within ×1.3–×1.5 on every scene ({TIMES})",
+    Claim("ert-alone-paper", "Pseudo early ray termination alone gains 30–50 % over Basic, ×1.3–×1.5, §3.1 "
+          "(paper)", f"time(Basic) / time(ERT) within ×1.3–×1.5 on every scene ({TIMES})",
           lambda df: _gain(df, "ert", lambda s: (1.3, 1.5), what="Basic / ERT "), paper_value="30–50 %", kind="timing"),
-    Claim("ert-alone", "Pseudo early ray termination alone gains 20–60 % (the paper's text: 30–50 %; its table "
-          "1.18–1.59)", f"time(Basic) / time(ERT) within ×1.2–×1.6 on every scene ({TIMES})", _ert,
-          paper_value="30–50 %", ours="the span of the paper's own table (1.18–1.59), which its text rounds",
+    Claim("ert-alone", "Pseudo early ray termination alone gains 20–60 % over Basic, ×1.2–×1.6 (§3.1's text: "
+          "30–50 %; its table ×1.18–×1.59)", f"time(Basic) / time(ERT) within ×1.2–×1.6 on every scene ({TIMES})",
+          _ert, paper_value="30–50 %", ours="the span of the paper's own table (1.18–1.59), which its text rounds",
           kind="timing"),
-    Claim("ess-alone", "Exit-based leaping with empty-ray removal alone gains ×2–×3 (the paper's \"200 %–300 %\"; "
-          "its table 1.95–2.99)", f"time(Basic) / time(ESS) within ×2–×3 on every scene ({TIMES})", _ess,
-          paper_value="200–300 %", kind="timing"),
+    Claim("ess-alone", "Exit-based leaping with empty-ray removal alone gains 100–200 % over Basic, ×2–×3 (§3.4's "
+          "\"speed-up between 200 %–300 %\" is its frame rate against Basic's: its table ×1.95–×2.99)",
+          f"time(Basic) / time(ESS) within ×2–×3 on every scene ({TIMES})", _ess, paper_value="200–300 %",
+          kind="timing"),
+    Claim("basic-time-paper", "Basic's frame time does not depend on the data: 7.3 fps on all four data sets, the "
+          f"same within ×{format_number(PAPER_BASIC_SPREAD, 4)} at Table 1's precision (paper)",
+          f"slowest / fastest Basic time ≤ ×{format_number(PAPER_BASIC_SPREAD, 4)} across the scenes of one volume "
+          f"size ({TIMES})", lambda df: _basic_time(df, PAPER_BASIC_SPREAD), paper_value="7.3 fps on all four",
+          kind="timing"),
     Claim("basic-time", "Basic's frame time does not depend on the data (the paper: 7.3 fps on all four)",
           f"slowest / fastest Basic time ≤ ×{format_number(BASIC_TOLERANCE)} across the scenes of one volume size "
-          f"({TIMES})", _basic_time, paper_value="7.3 fps on all four", kind="timing"),
+          f"({TIMES})", _basic_time, paper_value="7.3 fps on all four",
+          ours="the same within 10 %: a CPU rasterizer's frames vary more than a GPU's, even over the same fragments",
+          kind="timing"),
     Claim("lossless", "iSBVR with the reduced cube sets is lossless: ESS+ERT renders Basic's image",
           f"PSNR(ESS+ERT, Basic) ≥ {format_number(LOSSLESS_PSNR)} dB and ≤ {as_percent(LOSSLESS_SHARE)} of pixels "
           "off by more than 1/255, every scene and view", _lossless, kind="accuracy"),

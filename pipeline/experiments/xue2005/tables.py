@@ -28,7 +28,7 @@ def paper_speedup(scene, mode):
 
 
 EXTRACTION_MS = {"phi_t": 10.0, "phi_p": 210.0}
-"""Cube-set extraction per transfer-function change (§4.2/§5: 8³ nodes for Φ_t, 2³ for Φ_p; CPU not stated)."""
+"""Cube-set extraction per transfer-function change (§5: 8³ nodes for Φ_t, 2³ for Φ_p; CPU not stated)."""
 
 CLAIM_COLUMNS = ("claim", "source", "paper's own table")
 """The columns of the paper's claims beyond Table 1 (:data:`STATEMENTS`)."""

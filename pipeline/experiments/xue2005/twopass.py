@@ -219,8 +219,8 @@ def _eq5_within(df):
 
 
 CLAIMS = (
-    Claim("break-even", "Per-slice two-pass rendering pays off only above the culling rate γ / (1 − γ) (Eq. 6; "
-          "γ = 0.2 needs α > 25 %)",
+    Claim("break-even", "Per-slice two-pass rendering pays off only above the culling rate γ / (1 − γ) (Eq. 6, "
+          "judged at the γ measured here; the paper's example: γ = 0.2 needs α > 25 %)",
           f"Basic / slice-ert time ≤ 1 where α < γ / (1 − γ) − {MARGIN:g}, > 1 where α > γ / (1 − γ) + {MARGIN:g}, "
           f"each point with γ measured with it (over {SCOPE}; points within ±{MARGIN:g} not judged; needs both)",
           _break_even, paper_value="α > 25 % at γ = 0.2", kind="cost model"),
