@@ -7,6 +7,7 @@ from pipeline import experiments
 from pipeline.experiments import Profile
 from pipeline.experiments.kainz2009.coverage import METHODS, Coverage
 from reports.imageio import write_exr
+from test_kainz2009_package import paper_twin
 
 NAME = "kainz2009-coverage"
 
@@ -84,10 +85,8 @@ def test_a_tie_is_not_faster(tmp_path):
 
 
 def test_the_papers_four_times_is_judged_beside_ours(tmp_path):
-    ids = [c.id for c in Coverage.claims]
-    paper, ours = (Coverage.claims[ids.index("bitshift-faster-paper") + i] for i in (0, 1))
-    assert ours.id == "bitshift-faster" and (paper.target, ours.target) == ("paper", "ours")
-    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value == "×4"
+    paper, ours = paper_twin(Coverage, "bitshift-faster")
+    assert paper.paper_value == ours.paper_value == "×4"
     assert "≥ ×4 at every triangle count" in paper.expected
     rows = _rows(tmp_path, {1000: {"bitmask": 0.001, "edge": 0.0045}, 4000: {"bitmask": 0.002, "edge": 0.0085}})
     assert _evaluate(paper.id, rows).holds is True and _evaluate(ours.id, rows).holds is True

@@ -9,6 +9,7 @@ from pipeline.experiments import Profile
 from pipeline.experiments.kainz2009.depth import DEEP, SHALLOW, SWEEP, Depth
 from pipeline.experiments.kainz2009.methods import DUAL, TILED
 from pipeline.experiments.kainz2009.tables import TABLE2
+from test_kainz2009_package import paper_twin
 
 NAME = "kainz2009-depth"
 
@@ -101,18 +102,9 @@ def test_depth_claims_inconclusive_within_the_scatter():
     assert _evaluate("dual-wins-shallow", rows).inconclusive
 
 
-def _pair(paper_id):
-    """The twin judging the paper's number and our claim right after it."""
-    ids = [c.id for c in Depth.claims]
-    paper, ours = Depth.claims[ids.index(paper_id)], Depth.claims[ids.index(paper_id) + 1]
-    assert ours.id == paper_id.removesuffix("-paper") and (paper.target, ours.target) == ("paper", "ours")
-    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value
-    return paper, ours
-
-
 def test_the_papers_margins_over_dual_peeling_are_judged_beside_the_direction():
-    for paper_id in ("dual-wins-shallow-paper", "tiled-wins-deep-paper"):
-        _pair(paper_id)
+    for claim in ("dual-wins-shallow", "tiled-wins-deep"):
+        paper_twin(Depth, claim)
     # Table 2's frame rates, slowest with slowest and fastest with fastest: dual peeling ×2.4 ahead on S1.
     assert SHALLOW["S1"] == pytest.approx((123 / 52, 150 / 62))
     assert DEEP == {"S2": pytest.approx((16 / 28, 14 / 18)), "S3": pytest.approx((25 / 31, 46 / 52))}
@@ -130,7 +122,7 @@ def test_the_papers_margins_over_dual_peeling_are_judged_beside_the_direction():
 
 
 def test_the_papers_depth_complexities_are_judged_exactly_beside_ours():
-    paper, ours = _pair("depths-match-paper")
+    paper, ours = paper_twin(Depth, "depths-match")
     rows = _depth_rows(lambda d: 1.0)
     assert _evaluate(paper.id, rows).holds is False and _evaluate(ours.id, rows).holds is True  # S1 21, S3 82
     for row in rows:

@@ -8,6 +8,7 @@ from pipeline.experiments import Profile
 from pipeline.experiments.kainz2009.depthcap import CAPS, SCENES, SHALLOW, SPEED_CAPS, DepthCap
 from pipeline.experiments.kainz2009.methods import TILED
 from reports.imageio import write_exr
+from test_kainz2009_package import paper_twin
 
 NAME = "kainz2009-depthcap"
 
@@ -91,10 +92,8 @@ def test_small_cap_speed_is_judged_only_where_both_caps_do_the_same_work():
 
 
 def test_the_papers_up_to_forty_percent_is_judged_beside_ours():
-    ids = [c.id for c in DepthCap.claims]
-    paper, ours = (DepthCap.claims[ids.index("small-cap-faster-paper") + i] for i in (0, 1))
-    assert ours.id == "small-cap-faster" and (paper.target, ours.target) == ("paper", "ours")
-    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value == "up to 40 %"
+    paper, ours = paper_twin(DepthCap, "small-cap-faster")
+    assert paper.paper_value == ours.paper_value == "up to 40 %"
     assert "≥ ×1.4 " in paper.expected
     assert _evaluate(paper.id, _speed_rows(0.7, 1.0)).holds is True  # ×1.43
     assert _evaluate(ours.id, _speed_rows(0.7, 1.0)).holds is True

@@ -19,6 +19,15 @@ NAMES = ("kainz2009-scaling", "kainz2009-depthcap", "kainz2009-table1", "kainz20
 ABLATIONS = ("kainz2009-sorting", "kainz2009-media", "kainz2009-coverage")
 
 
+def paper_twin(experiment, ours_id):
+    """``(paper, ours)``: the claim judging the paper's number and our claim ``ours_id`` beside it (their names and
+    places: test_kit_judging), the twin's statement ending "(paper)" as every kainz2009 twin's does."""
+    claims = {c.id: c for c in experiment.claims}
+    paper, ours = claims[f"{ours_id}-paper"], claims[ours_id]
+    assert paper.statement.endswith("(paper)") and (paper.target, ours.target) == ("paper", "ours")
+    return paper, ours
+
+
 def _runs(**settings):
     profile = Profile(name="t", volume_size=16, image_size=24, warmup=0, repeat=1, experiments=list(NAMES),
                       settings=settings)

@@ -11,6 +11,7 @@ from pipeline.experiments.kainz2009.methods import PEEL, TILED, VTK
 from pipeline.experiments.kainz2009.table1 import GROUP, MANY_VOLUMES, ONE_VOLUME, WITH_MESHES, Table1
 from pipeline.experiments.kainz2009.tables import TABLE1
 from pipeline.scene_io import build_scene
+from test_kainz2009_package import paper_twin
 
 NAME = "kainz2009-table1"
 
@@ -129,19 +130,9 @@ def test_the_band_is_of_frame_rates_as_the_paper_states_them():
     assert band.holds is False and band.measured.startswith("×7.97") and "kernels alone ×1.9" in band.detail
 
 
-def _pair(paper_id):
-    """The twin judging the paper's number and our claim right after it."""
-    ids = [c.id for c in Table1.claims]
-    paper, ours = Table1.claims[ids.index(paper_id)], Table1.claims[ids.index(paper_id) + 1]
-    assert ours.id == paper_id.removesuffix("-paper") and (paper.target, ours.target) == ("paper", "ours")
-    assert paper.statement.endswith("(paper)") and paper.paper_value == ours.paper_value
-    return paper, ours
-
-
 def test_the_papers_depth_peeling_margins_are_judged_beside_the_direction():
-    for paper_id in ("peeling-wins-one-volume-paper", "tiled-wins-many-volumes-paper",
-                     "peeling-collapses-with-meshes-paper"):
-        _pair(paper_id)
+    for claim in ("peeling-wins-one-volume", "tiled-wins-many-volumes", "peeling-collapses-with-meshes"):
+        paper_twin(Table1, claim)
     # The bands come from Table 1's frame rates, slowest with slowest and fastest with fastest.
     assert ONE_VOLUME["C1"] == pytest.approx((21 / 46, 10 / 14))
     assert MANY_VOLUMES == {"C3": pytest.approx((25 / 9, 16 / 5)), "C4": pytest.approx((23 / 3, 15 / 1.5))}
@@ -168,7 +159,7 @@ def test_the_papers_depth_peeling_margins_are_judged_beside_the_direction():
 
 
 def test_the_papers_triangle_kernel_share_is_judged_beside_ours():
-    paper, ours = _pair("pixel-kernel-dominates-paper")
+    paper, ours = paper_twin(Table1, "pixel-kernel-dominates")
     assert paper.paper_value == "2–10 %" and "within 2–10 %" in paper.expected and "≤ 10 %" in ours.expected
     rows = _table1_rows({"C1": 1 / 15, "C2": 1 / 21})
     assert _evaluate(paper.id, rows).holds is True and _evaluate(ours.id, rows).holds is True

@@ -131,6 +131,12 @@ def test_every_target_of_ours_stands_beside_the_papers_own_number():
             assert claim.paper_value, f"{experiment.name}/{claim.id}: our target needs the paper's number it departs from"
             papers = [c for c in experiment.claims if c.target == "paper" and c.paper_value == claim.paper_value]
             assert papers, f"{experiment.name}/{claim.id}: the paper's {claim.paper_value} is not judged on its own"
+            # The twin is named after ours and stands right before it, in claims.csv and on the page.
+            ids = [c.id for c in experiment.claims]
+            twin = f"{claim.id}-paper"
+            assert twin in ids and ids.index(twin) == ids.index(claim.id) - 1, \
+                f"{experiment.name}/{claim.id}: the paper's twin {twin!r} does not stand right before it"
+            assert experiment.claims[ids.index(twin)] in papers, f"{experiment.name}/{twin}: not the paper's number"
     assert ours >= 10
 
 

@@ -162,13 +162,15 @@ def test_a_ratio_of_two_stages_taken_once_per_view_resamples_the_views_and_fails
                            Resampler(), key="head")
 
 
-def test_ratios_compare_only_the_scenes_both_configurations_rendered_and_none_is_not_measured():
-    def run(scene, config, median):
-        return {"experiment": "e", "run": f"{config}-{scene}", "view": "v", "interleave": "", "role": "test",
-                "scene": scene, "config": config, **timed(median, 0.05, stage="total")}
+def _scene_run(scene, config, median, spread):
+    """A test run of ``config`` on ``scene`` with whole frames about ``median`` seconds (± ``spread``)."""
+    return {"experiment": "e", "run": f"{config}-{scene}", "view": "v", "interleave": "", "role": "test",
+            "scene": scene, "config": config, **timed(median, spread, stage="total")}
 
-    frame = pd.DataFrame([run("s1", "peel", 3.0), run("s1", "tiled", 1.0), run("s2", "peel", 2.0),
-                          run("s3", "tiled", 1.0)])
+
+def test_ratios_compare_only_the_scenes_both_configurations_rendered_and_none_is_not_measured():
+    frame = pd.DataFrame([_scene_run(s, c, m, 0.05) for s, c, m in
+                          (("s1", "peel", 3.0), ("s1", "tiled", 1.0), ("s2", "peel", 2.0), ("s3", "tiled", 1.0))])
     result = judging.ratios_where_both(frame, ["s1", "s2", "s3"], "peel", "tiled", what="peel / tiled",
                                        describe=lambda rows: f"{len(rows)} rows", at_least=2.0)
     assert result.holds is True and "(s1)" in result.measured and "s2" not in result.detail
@@ -178,12 +180,8 @@ def test_ratios_compare_only_the_scenes_both_configurations_rendered_and_none_is
 
 
 def test_each_scene_may_be_judged_against_a_band_of_its_own():
-    def run(scene, config, median):
-        return {"experiment": "e", "run": f"{config}-{scene}", "view": "v", "interleave": "", "role": "test",
-                "scene": scene, "config": config, **timed(median, 0.01, stage="total")}
-
-    frame = pd.DataFrame([run("s1", "peel", 3.0), run("s1", "tiled", 1.0), run("s2", "peel", 2.0),
-                          run("s2", "tiled", 1.0)])
+    frame = pd.DataFrame([_scene_run(s, c, m, 0.01) for s, c, m in
+                          (("s1", "peel", 3.0), ("s1", "tiled", 1.0), ("s2", "peel", 2.0), ("s2", "tiled", 1.0))])
     bands = {"s1": {"at_least": 2.5, "at_most": 3.5}, "s2": {"at_least": 2.5, "at_most": None}}
     result = judging.ratios_where_both(frame, bands, "peel", "tiled", what="peel / tiled")
     assert result.holds is False and "(s2)" in result.measured
