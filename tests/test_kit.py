@@ -8,7 +8,7 @@ from core.errors import InputError
 from pipeline.experiments.kit.checks import Band, Bound, Growth, Measure, Ratio
 from pipeline.experiments.kit.intervals import format_frames
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE
-from pipeline.experiments.kit.model import Experiment, Paper, Profile
+from pipeline.experiments.kit.model import SIZES, Claim, Experiment, Paper, Profile, scaled
 from pipeline.experiments.kit.pages import device_takeaways, gl_devices
 from pipeline.experiments.kit.planning import listed, scene, truth_run
 
@@ -29,6 +29,20 @@ def test_an_experiment_takes_its_own_settings_for_the_profiles_scale_and_the_pro
     assert overridden.setting("test-sweep", "image_size", 64) == 64  # by name: the profile's overrides alone
     with pytest.raises(InputError, match="scale: expected one of smoke, default, full"):
         Profile(name="e", scale="huge")
+
+
+def test_scaled_adds_an_experiments_own_settings_to_a_shared_base_at_each_scale():
+    assert scaled() == SIZES and scaled() is not SIZES
+    lens = scaled(smoke={"orbit": 0}, full={"image_size": 1024, "orbit": 2})
+    assert lens == {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0}, "default": SIZES["default"],
+                    "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    assert SIZES["full"] == {"volume_size": 256, "image_size": 512}  # the base is left as it was
+    # A paper's own base, one scale of it extended, and a scale neither gives left out.
+    assert scaled(base=lens, full={"scenes": ["skull"]})["full"] == {**lens["full"], "scenes": ["skull"]}
+    assert scaled(base={"full": {"repeat": 15}}, smoke={"views": 1}) == {"smoke": {"views": 1}, "full": {"repeat": 15}}
+    sweep = type("Lens", (Experiment,), {"name": "test-lens", "scales": lens})()
+    assert Profile(name="f", scale="full").setting(sweep, "image_size", 64) == 1024
+    assert Profile(name="d", scale="default").setting(sweep, "orbit", 1) == 1  # not set at that scale
 
 
 def test_listed_names_the_unknown_values():
@@ -175,3 +189,20 @@ def test_a_claim_knows_what_it_measures_from_its_check_or_declares_it():
     assert Claim("by-hand", "A statement", "a bound", lambda df: None, kind="cost model").kind == "cost model"
     kinds = {claim.kind for experiment in all_experiments().values() for claim in experiment.claims}
     assert kinds == set(CLAIM_KINDS)
+
+
+def test_with_ours_puts_our_target_right_after_the_papers_number_with_its_value_and_kind():
+    paper_check = Ratio(Measure("RC", match={"config": "rc"}), Measure("RC-b", match={"config": "rc-b"}), at_least=3.0)
+    ours_check = Ratio(paper_check.numerator, paper_check.denominator, at_least=1.0)
+    twin = Claim("gain-paper", "RC-b is 3× faster (paper)", paper_check.expected, paper_check, paper_value="×3")
+    paper, ours = twin.with_ours("RC-b is faster", ours_check.expected, ours_check, why="faster at all: another device")
+    assert paper is twin and (paper.id, paper.target, paper.ours) == ("gain-paper", "paper", "")
+    assert (ours.id, ours.statement, ours.check) == ("gain", "RC-b is faster", ours_check)
+    assert ours.expected == "RC / RC-b ≥ ×1"
+    assert (ours.target, ours.ours, ours.paper_value) == ("ours", "faster at all: another device", "×3")
+    assert ours.kind == paper.kind == "timing"
+    # Only the paper's number takes ours beside it: ours would have no twin named after it.
+    for claim in (Claim("gain", "RC-b is faster", "", paper_check),
+                  Claim("gain-paper", "RC-b is faster", "", paper_check, ours="why")):
+        with pytest.raises(ValueError, match="'<id>-paper', takes ours"):
+            claim.with_ours("x", "y", ours_check, why="z")

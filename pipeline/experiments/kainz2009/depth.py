@@ -11,13 +11,12 @@ import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
                                                     table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, band_bounds, band_words, bands_words, paper_band
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, PeelingRatio, paper_band
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, counts, decided,
-                                              r_squared, ratios_where_both, with_interval)
+from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, counts, decided, r_squared, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
@@ -112,18 +111,6 @@ def _depth_fit(df):
                                + counts(rows, "count_fragments"))
 
 
-TILED_OVER_DUAL = f"time of cl-tiled over dual depth peeling's, same scene and view, {FRAMES}"
-"""What the dual-peeling claims compare, in their detail."""
-
-
-def _dual_ratio(df, scenes, *, dual_faster):
-    """cl-tiled's whole frame over dual depth peeling's on every scene both render."""
-    # Table 2's frame rates put dual peeling ×2.4 ahead on S1 (123–150 against 52–62 fps) only.
-    return ratios_where_both(df, scenes, TILED, DUAL, describe=devices,
-                             what=TILED_OVER_DUAL + (", paper S1: 2.4×" if dual_faster else ""),
-                             **({"at_least": STRICTLY_ABOVE_ONE} if dual_faster else {"at_most": STRICTLY_BELOW_ONE}))
-
-
 def _paper_bands(*scenes):
     """Table 2's frame time of the tiled caster over dual depth peeling's on each of ``scenes``, from the two
     methods' frame rates (:func:`~pipeline.experiments.kainz2009.ratios.paper_band`)."""
@@ -136,15 +123,8 @@ DEEP = _paper_bands("S2", "S3")
 """Table 2's S2 and S3 (depth complexity 40 and 81), where the tiled caster wins."""
 
 
-def _dual_paper(df, bands):
-    """cl-tiled's whole frame over dual depth peeling's within the paper's band on each scene of ``bands`` both
-    render."""
-    return ratios_where_both(df, band_bounds(bands), TILED, DUAL, describe=devices,
-                             what=f"{TILED_OVER_DUAL}; paper: {bands_words(bands)}")
-
-
-ON_OTHER_DEVICES = "dual depth peeling and cl-tiled run here on other devices (llvmpipe, PoCL) than the paper's GTX 280"
-"""Why the dual-peeling claims judge the direction only, the paper's bands beside them."""
+TILED_OVER_DUAL = PeelingRatio(TILED, DUAL)
+"""What the dual-peeling claims compare."""
 
 
 def _crossing(depths, gaps):
@@ -253,13 +233,12 @@ class Depth(Experiment):
         return runs
 
     claims = (
-        Claim("depths-match-paper", "Table 2's scenes have depth complexities 20, 40 and 81 (paper)",
-              "max depth complexity equal to the paper's on S1, S2 and S3 (unbounded lists)",
-              lambda df: _depths(df, 0.0), paper_value="20, 40, 81", kind="count"),
-        Claim("depths-match", "The stand-ins have the paper's depth complexities (20, 40, 81)",
-              "max depth complexity within 10 % of the paper's on S1, S2 and S3 (unbounded lists)", _depths,
-              paper_value="20, 40, 81",
-              ours="within 10 %: a coil and a 40-turn screw stand in for the paper's dragon and screws", kind="count"),
+        *Claim("depths-match-paper", "Table 2's scenes have depth complexities 20, 40 and 81 (paper)",
+               "max depth complexity equal to the paper's on S1, S2 and S3 (unbounded lists)",
+               lambda df: _depths(df, 0.0), paper_value="20, 40, 81", kind="count").with_ours(
+            "The stand-ins have the paper's depth complexities (20, 40, 81)", "max depth complexity within 10 % of the "
+            "paper's on S1, S2 and S3 (unbounded lists)", _depths, why="within 10 %: a coil and a 40-turn screw stand "
+            "in for the paper's dragon and screws"),
         Claim("linear-in-depth", "The tiled caster's cost grows about linearly with depth complexity: one binning "
               "pass, a coherent per-pixel insertion sort (§3.2)",
               f"frame time over the box sweep fits a line in depth complexity, R² ≥ 0.9 ({KERNELS})", _depth_fit,
@@ -268,26 +247,20 @@ class Depth(Experiment):
               TILED_ACCURATE.expected, TILED_ACCURATE),
         Claim("dual-accuracy", "Dual depth peeling renders the reference's image (every layer, no cap)",
               DUAL_ACCURATE.expected, DUAL_ACCURATE),
-        Claim("dual-wins-shallow-paper", "At depth complexity 20 dual depth peeling beats the tiled caster by the "
-              "paper's margin: 123–150 fps against 52–62 on S1 (paper)",
-              f"time(cl-tiled) / time(dual depth peeling) within {band_words(SHALLOW['S1'])} on S1 ({FRAMES})",
-              lambda df: _dual_paper(df, SHALLOW), paper_value="123–150 vs 52–62 fps", kind="timing"),
-        Claim("dual-wins-shallow", "At depth complexity 20 dual depth peeling beats the tiled caster (S1: "
-              "123–150 fps against 52–62, 2.4×)",
-              f"time(cl-tiled) / time(dual depth peeling) > ×1 on S1 ({FRAMES})",
-              lambda df: _dual_ratio(df, ("S1",), dual_faster=True), paper_value="123–150 vs 52–62 fps",
-              ours="the direction only: " + ON_OTHER_DEVICES, kind="timing"),
-        Claim("tiled-wins-deep-paper", "At depth complexity 40 and 81 the tiled caster beats dual depth peeling by "
-              "the paper's margins: 18–28 fps against 14–16 on S2, 31–52 against 25–46 on S3 (paper)",
-              f"time(cl-tiled) / time(dual depth peeling) within {bands_words(DEEP)}, whichever both render "
-              f"({FRAMES})", lambda df: _dual_paper(df, DEEP),
-              paper_value="S2 18–28 vs 14–16, S3 31–52 vs 25–46 fps", kind="timing"),
-        Claim("tiled-wins-deep", "At depth complexity 40 and 81 the tiled caster beats dual depth peeling (S2: 18–28 "
-              "fps against 14–16; S3: 31–52 against 25–46)",
-              f"time(cl-tiled) / time(dual depth peeling) < ×1 on S2 and S3 ({FRAMES})",
-              lambda df: _dual_ratio(df, ("S2", "S3"), dual_faster=False),
-              paper_value="S2 18–28 vs 14–16, S3 31–52 vs 25–46 fps", ours="the direction only: " + ON_OTHER_DEVICES,
-              kind="timing"),
+        # Table 2's frame rates put dual peeling ×2.4 ahead on S1 (123–150 against 52–62 fps) only.
+        *TILED_OVER_DUAL.claims(
+            "dual-wins-shallow", SHALLOW,
+            ("At depth complexity 20 dual depth peeling beats the tiled caster by the paper's margin: 123–150 fps "
+             "against 52–62 on S1 (paper)",
+             "At depth complexity 20 dual depth peeling beats the tiled caster (S1: 123–150 fps against 52–62, 2.4×)"),
+            above=True, note=", paper S1: 2.4×", paper_value="123–150 vs 52–62 fps"),
+        *TILED_OVER_DUAL.claims(
+            "tiled-wins-deep", DEEP,
+            ("At depth complexity 40 and 81 the tiled caster beats dual depth peeling by the paper's margins: 18–28 "
+             "fps against 14–16 on S2, 31–52 against 25–46 on S3 (paper)",
+             "At depth complexity 40 and 81 the tiled caster beats dual depth peeling (S2: 18–28 fps against 14–16; "
+             "S3: 31–52 against 25–46)"),
+            above=False, paper_value="S2 18–28 vs 14–16, S3 31–52 vs 25–46 fps"),
         Claim("crossover", "The two cross between depth complexity 20 and 40", "the depth where dual depth "
               "peeling's frame time passes cl-tiled's (box sweep, interpolated between measured depths) lies in "
               f"[20, 40] ({FRAMES})", _crossover, kind="timing"),

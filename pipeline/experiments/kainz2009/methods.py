@@ -38,6 +38,11 @@ COLUMN_NAMES = {"count_fragments_max": "max depth complexity", "count_fragments_
 """This paper's columns in words (times and metrics are named by the kit)."""
 
 
+IMAGE_SIZES = {"smoke": {"image_size": 48}, "default": {"image_size": 192}, "full": {"image_size": 512}}
+"""The image size (pixels) this paper's experiments take at each scale, which :func:`run_settings` reads: the base
+of their :attr:`~pipeline.experiments.kit.model.Experiment.scales` (:func:`~pipeline.experiments.kit.model.scaled`)."""
+
+
 def run_settings(experiment, profile):
     """``(image size, step factor, the reference's step factor, timed frames)``: what ``experiment``'s runs take
     from ``profile`` (the profile's image size, half a voxel, a quarter)."""

@@ -13,7 +13,11 @@ Two scopes are compared, each like with like (:data:`~pipeline.experiments.kit.j
 """
 
 import math
+from dataclasses import dataclass
 
+from pipeline.experiments.kainz2009.methods import METHOD_NAMES, TILED, devices
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, ratios_where_both
+from pipeline.experiments.kit.model import Claim
 from pipeline.experiments.kit.words import as_ratio
 
 KERNELS = "cl-tiled's kernels, time_technique"
@@ -50,3 +54,58 @@ def band_bounds(bands):
     """``{scene: {"at_least": low, "at_most": high}}`` of ``{scene: (low, high)}``: each scene's bounds for
     :func:`~pipeline.experiments.kit.judging.ratios_where_both`."""
     return {name: {"at_least": low, "at_most": high} for name, (low, high) in bands.items()}
+
+
+@dataclass(frozen=True)
+class PeelingRatio:
+    """The whole frame of configuration ``top`` over ``bottom``'s, cl-tiled against a depth peeler either way round,
+    same scene and view, on the scenes both render (:func:`~pipeline.experiments.kit.judging.ratios_where_both`).
+
+    The paper's frame rates of the two come from its GTX 280, ours from other devices: :meth:`claims` judges the
+    ratio within the paper's band on each of its scenes and, as our target beside it, its direction alone.
+    """
+
+    top: str
+    bottom: str
+
+    def _judge(self, scenes, what, **bounds):
+        return lambda df: ratios_where_both(df, scenes, self.top, self.bottom, describe=devices, what=what, **bounds)
+
+    def claims(self, id, bands, statements, *, above, paper_value, scenes=None, where=None, why="the direction only",
+               note=""):
+        """The claim ``<id>-paper`` that the ratio lies within each scene's band of ``bands`` and ours, ``id``,
+        that it lies above ×1 (``above``) or below it (:meth:`~pipeline.experiments.kit.model.Claim.with_ours`).
+
+        Parameters
+        ----------
+        id : str
+        bands : dict
+            ``{scene: (low, high)}``: the paper's ratio on each of its scenes (:func:`paper_band`).
+        statements : tuple of str
+            The paper's claim and ours, in words.
+        above : bool
+            Whether our target is a ratio above ×1 (``top`` slower) or below it.
+        paper_value : str
+            The paper's frame rates, in words.
+        scenes : tuple of str, optional
+            The scenes our target reads (default: those of ``bands``).
+        where : str, optional
+            Those scenes in its expected text (default: ``"on S2 and S3"`` for ``("S2", "S3")``).
+        why : str
+            Why ours judges less than the paper's band; that the devices differ from the paper's follows.
+        note : str
+            Ends what our target's detail says it compares.
+        """
+        scenes = tuple(bands) if scenes is None else scenes
+        where = f"on {' and '.join(scenes)}" if where is None else where
+        top, bottom = METHOD_NAMES[self.top], METHOD_NAMES[self.bottom]
+        words, what = f"time({top}) / time({bottom})", f"time of {top} over {bottom}'s, same scene and view, {FRAMES}"
+        peer = METHOD_NAMES[self.bottom if self.top == TILED else self.top]
+        both = ", whichever both render" if len(bands) > 1 else ""
+        bound = {"at_least": STRICTLY_ABOVE_ONE} if above else {"at_most": STRICTLY_BELOW_ONE}
+        return Claim(f"{id}-paper", statements[0], f"{words} within {bands_words(bands)}{both} ({FRAMES})",
+                     self._judge(band_bounds(bands), f"{what}; paper: {bands_words(bands)}"), paper_value=paper_value,
+                     kind="timing").with_ours(
+            statements[1], f"{words} {'>' if above else '<'} ×1 {where} ({FRAMES})",
+            self._judge(scenes, what + note, **bound),
+            why=f"{why}: {peer} and cl-tiled run here on other devices (llvmpipe, PoCL) than the paper's GTX 280")

@@ -17,12 +17,12 @@ from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL
                                                     device_note, devices, frames_caption, peeling_missing, run_settings,
                                                     table)
 from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS
-from pipeline.experiments.kainz2009.scenes import blob, clouds, volume
+from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, blob, clouds, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import Bound, Measure, Ratio
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, TOTAL, decided, ratio_pair, statistic,
                                               timed, with_interval)
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, role_rows, rows_matching, speed_points
@@ -120,13 +120,10 @@ class Scaling(Experiment):
     title = "Frame time against the number of overlapping volumes (E2; C5, C8)"
     settings = frozenset({"counts", "series", "small_size", "large_size", "image_size", "mesh_triangles",
                           "step_factor", "truth_step_factor", "truth_counts", "repeat"})
-    scales = {
-        "smoke": {"counts": [1, 50], "series": ["clouds"], "small_size": 16, "large_size": 32, "image_size": 48,
-                  "mesh_triangles": 2000, "truth_counts": [50]},
-        "default": {"counts": [1, 4, 8, 16, 50, 64], "small_size": 32, "large_size": 96, "image_size": 192,
-                    "mesh_triangles": 30000, "truth_counts": [1, 8, 50]},
-        "full": {"small_size": 64, "large_size": 256, "image_size": 512, "mesh_triangles": 30000},
-    }
+    scales = scaled(base=CLOUD_SIZES,
+                    smoke={"counts": [1, 50], "series": ["clouds"], "mesh_triangles": 2000, "truth_counts": [50]},
+                    default={"counts": [1, 4, 8, 16, 50, 64], "mesh_triangles": 30000, "truth_counts": [1, 8, 50]},
+                    full={"mesh_triangles": 30000})
     description = (
         "The paper's central point: the tiled caster rasterizes every boundary once per frame and "
         "walks each ray's segments with the set of volumes present, so its cost grows gently with "

@@ -6,6 +6,8 @@ them in a scene with :func:`pipeline.experiments.kit.planning.scene`.
 
 import numpy as np
 
+from pipeline.experiments.kainz2009.methods import IMAGE_SIZES
+from pipeline.experiments.kit.model import scaled
 from pipeline.experiments.kit.planning import phantom
 
 CLOUD_SPREAD = 0.25
@@ -13,6 +15,11 @@ CLOUD_SPREAD = 0.25
 
 SURFACE = {"colour": [0.9, 0.75, 0.55], "alpha": 0.35, "specular": 0.3}
 """A translucent Phong surface (Table 2's scenes, the meshes of C6–C8)."""
+
+CLOUD_SIZES = scaled(base=IMAGE_SIZES, smoke={"small_size": 16, "large_size": 32},
+                     default={"small_size": 32, "large_size": 96}, full={"small_size": 64, "large_size": 256})
+"""The small volumes' (the clouds') and the large volume's sizes (voxels) at each scale, with the images'
+(:data:`~pipeline.experiments.kainz2009.methods.IMAGE_SIZES`): Table 1's scenes and those built like them."""
 
 AXIS_VIEW = {"view": "axis", "azimuth": 0.0, "elevation": 0.0}
 """Along the z axis: the screw's, the coil's and the row of boxes' axis."""

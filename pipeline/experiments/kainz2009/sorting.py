@@ -9,11 +9,12 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, device_note, frames_caption, run_settings, table
+from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, PAPER_ID, TILED, device_note, frames_caption,
+                                                    run_settings, table)
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, mesh
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, counts, decided, statistic, timed
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import accepts, listed, scene
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, speed_points, text_column
@@ -128,11 +129,8 @@ class Sorting(Experiment):
     title = "The sorting worst case: triangles submitted front to back and back to front (E7)"
     settings = frozenset({"scenes", "orders", "image_size", "small_size", "count", "triangles", "step_factor",
                           "repeat"})
-    scales = {
-        "smoke": {"scenes": ["boxes"], "orders": ["front-to-back", "back-to-front"], "image_size": 48},
-        "default": {"small_size": 32, "image_size": 192},
-        "full": {"small_size": 64, "image_size": 512},
-    }
+    scales = scaled(base=IMAGE_SIZES, smoke={"scenes": ["boxes"], "orders": ["front-to-back", "back-to-front"]},
+                    default={"small_size": 32}, full={"small_size": 64})
     description = (
         "Each pixel inserts its fragments into a depth-sorted list in local memory in the order the "
         "triangle kernel appended them to the tile. Insertion sort costs nothing for fragments that "

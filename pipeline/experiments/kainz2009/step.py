@@ -10,10 +10,10 @@ import pandas as pd
 from pipeline.experiments.kainz2009 import tables
 from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
 from pipeline.experiments.kainz2009.ratios import KERNELS
-from pipeline.experiments.kainz2009.scenes import clouds, volume
+from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, clouds, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import TECHNIQUE, counts, decided, timed, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, is_registered, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, speed_points
@@ -81,11 +81,7 @@ class Step(Experiment):
     title = "The common world step with mixed resolutions: oversampling cost and error (E10)"
     settings = frozenset({"small_size", "large_size", "count", "image_size", "step_factors", "truth_step_factor",
                           "repeat"})
-    scales = {
-        "smoke": {"small_size": 16, "large_size": 32, "count": 2, "image_size": 48, "step_factors": [1.0, 0.5, 0.25]},
-        "default": {"small_size": 32, "large_size": 128, "image_size": 192},
-        "full": {"small_size": 64, "large_size": 256, "image_size": 512},
-    }
+    scales = scaled(base=CLOUD_SIZES, smoke={"count": 2, "step_factors": [1.0, 0.5, 0.25]}, default={"large_size": 128})
     description = (
         "Every volume a ray meets is sampled at one world step, the smallest of their voxel sizes, "
         "so that samples line up for blending; low-resolution volumes are oversampled. The paper "

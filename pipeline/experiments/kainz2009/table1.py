@@ -9,14 +9,13 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    devices, frames_caption, peeling_missing, run_settings, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, band_bounds, band_words, bands_words, paper_band
-from pipeline.experiments.kainz2009.scenes import SURFACE, blob, clouds, mesh, volume
+                                                    frames_caption, peeling_missing, run_settings, table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, PeelingRatio, paper_band
+from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, SURFACE, blob, clouds, mesh, volume
 from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1, TRIANGLE_KERNEL_SHARE
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, STRICTLY_BELOW_ONE, TECHNIQUE, TOTAL, all_of, counts,
-                                              decided, ratios_where_both, timed, with_interval)
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, all_of, counts, decided, timed, with_interval
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
@@ -158,16 +157,6 @@ def _pool(df):
                        f"{len(rows)} scenes")
 
 
-PEEL_OVER_TILED = f"time of depth peeling over cl-tiled's, same scene and view, {FRAMES}"
-"""What the depth-peeling claims compare, in their detail."""
-
-
-def _peel_ratio(df, scenes, *, below):
-    """Depth peeling's whole frame over cl-tiled's, below 1 (peeling faster) or above, on every scene both render."""
-    return ratios_where_both(df, scenes, PEEL, TILED, describe=devices, what=PEEL_OVER_TILED,
-                             **({"at_most": STRICTLY_BELOW_ONE} if below else {"at_least": STRICTLY_ABOVE_ONE}))
-
-
 def _paper_bands(peer, *scenes):
     """Table 1's frame time of the shader caster ``peer`` ("Roessler" or "Brecheisen", whom depth peeling stands in
     for) over the tiled caster's on each of ``scenes``, from the two methods' frame rates
@@ -184,14 +173,8 @@ WITH_MESHES = _paper_bands("Brecheisen", "C6", "C7")
 """Table 1's scenes with meshes, which only Brecheisen ran (C7 from 0 fps: no upper bound)."""
 
 
-def _peel_paper(df, bands):
-    """Depth peeling's whole frame over cl-tiled's within the paper's band on each scene of ``bands`` both render."""
-    return ratios_where_both(df, band_bounds(bands), PEEL, TILED, describe=devices,
-                             what=f"{PEEL_OVER_TILED}; paper: {bands_words(bands)}")
-
-
-ON_OTHER_DEVICES = "depth peeling and cl-tiled run here on other devices (llvmpipe, PoCL) than the paper's GTX 280"
-"""Why the depth-peeling claims judge the direction only, the paper's bands beside them."""
+PEEL_OVER_TILED = PeelingRatio(PEEL, TILED)
+"""What the depth-peeling claims compare."""
 
 
 class Table1(Experiment):
@@ -202,14 +185,10 @@ class Table1(Experiment):
     title = "Table 1: the multi-volume scenes C1–C8, images, workload split and memory (E1, E5, E12, E13)"
     settings = frozenset({"scenes", "small_size", "large_size", "scan_size", "image_size", "mesh_triangles",
                           "vessel_resolution", "step_factor", "truth_step_factor", "repeat"})
-    scales = {
-        "smoke": {"scenes": ["C2", "C6", "C8"], "small_size": 16, "large_size": 32, "scan_size": 32,
-                  "image_size": 48, "mesh_triangles": 2000, "vessel_resolution": 32},
-        "default": {"small_size": 32, "large_size": 96, "scan_size": 128, "image_size": 192,
-                    "mesh_triangles": 30000, "vessel_resolution": 96},
-        "full": {"small_size": 64, "large_size": 256, "scan_size": 512, "image_size": 512, "mesh_triangles": 30000,
-                 "vessel_resolution": 160},
-    }
+    scales = scaled(base=CLOUD_SIZES, smoke={"scenes": ["C2", "C6", "C8"], "scan_size": 32, "mesh_triangles": 2000,
+                                             "vessel_resolution": 32},
+                    default={"scan_size": 128, "mesh_triangles": 30000, "vessel_resolution": 96},
+                    full={"scan_size": 512, "mesh_triangles": 30000, "vessel_resolution": 160})
     description = (
         "Table 1 times the tiled caster against two depth-peeling shader casters on eight scenes: "
         "one 512³ scan (C1), two and four overlapping 256³ volumes (C2, C3), a 256³ scan with 8 or "
@@ -256,49 +235,38 @@ class Table1(Experiment):
         Claim("narrow-band", "The tiled caster's frame time stays in a narrow band across all eight scenes "
               "(paper: 7–25 fps)", f"slowest / fastest scene ≤ {as_ratio(BAND)} (every scene cl-tiled rendered; "
               f"{FRAMES}: the paper states frame rates)", _band, paper_value="7–25 fps", kind="timing"),
-        Claim("pixel-kernel-dominates-paper", "The triangle kernel takes 2–10 % of the computation, the pixel kernel "
-              "the rest (paper)", f"binning within {format_number(100 * TRIANGLE_KERNEL_SHARE[0])}–"
-              f"{as_percent(TRIANGLE_KERNEL_SHARE[1])} of binning + pixel kernel on every scene (OpenCL profiling: "
-              "time_binning, time_pixel)", lambda df: _binning_share(df, *TRIANGLE_KERNEL_SHARE),
-              paper_value="2–10 %", kind="timing"),
-        Claim("pixel-kernel-dominates", "The pixel kernel takes most of the frame, the triangle kernel at most 10 % "
-              "(paper: 2–10 %, §4.2)",
-              "binning ≤ 10 % of binning + pixel kernel on every scene (OpenCL profiling: time_binning, "
-              "time_pixel)", _binning_share, paper_value="2–10 %",
-              ours="at most 10 %: how little the triangle kernel takes follows each stand-in's triangles per voxel",
-              kind="timing"),
+        *Claim("pixel-kernel-dominates-paper", "The triangle kernel takes 2–10 % of the computation, the pixel kernel "
+               "the rest (paper)", f"binning within {format_number(100 * TRIANGLE_KERNEL_SHARE[0])}–"
+               f"{as_percent(TRIANGLE_KERNEL_SHARE[1])} of binning + pixel kernel on every scene (OpenCL profiling: "
+               "time_binning, time_pixel)", lambda df: _binning_share(df, *TRIANGLE_KERNEL_SHARE), paper_value="2–10 %",
+               kind="timing").with_ours(
+            "The pixel kernel takes most of the frame, the triangle kernel at most 10 % (paper: 2–10 %, §4.2)",
+            "binning ≤ 10 % of binning + pixel kernel on every scene (OpenCL profiling: time_binning, time_pixel)",
+            _binning_share, why="at most 10 %: how little the triangle kernel takes follows each stand-in's triangles "
+            "per voxel"),
         Claim("pool-enough", "The paper's 6 MB chunk pool holds every scene's tile lists",
               "chunk pool used ≤ 6 MiB on every scene", _pool, paper_value="6 MB", kind="count"),
-        Claim("peeling-wins-one-volume-paper", "On a single volume a shader caster beats the tiled caster by the "
-              "paper's margin: Roessler 14–46 fps against 10–21 on C1 (paper)",
-              f"time(depth peeling) / time(cl-tiled) within {band_words(ONE_VOLUME['C1'])} on C1 ({FRAMES})",
-              lambda df: _peel_paper(df, ONE_VOLUME), paper_value="14–46 vs 10–21 fps", kind="timing"),
-        Claim("peeling-wins-one-volume", "A shader caster beats the tiled caster on a single volume (C1: Roessler "
-              "14–46 fps against 10–21)", f"time(depth peeling) / time(cl-tiled) < ×1 on C1 ({FRAMES})",
-              lambda df: _peel_ratio(df, ("C1",), below=True), paper_value="14–46 vs 10–21 fps",
-              ours="the direction only: " + ON_OTHER_DEVICES, kind="timing"),
-        Claim("tiled-wins-many-volumes-paper", "From four volumes on, the tiled caster beats a shader caster by the "
-              "paper's margins: 16–25 fps against Roessler's 5–9 on C3, 15–23 against 1.5–3 on C4 (paper)",
-              f"time(depth peeling) / time(cl-tiled) within {bands_words(MANY_VOLUMES)}, whichever both render "
-              f"({FRAMES})", lambda df: _peel_paper(df, MANY_VOLUMES),
-              paper_value="C3 16–25 vs 5–9, C4 15–23 vs 1.5–3 fps", kind="timing"),
-        Claim("tiled-wins-many-volumes", "From four volumes on, the tiled caster beats depth peeling (C3: 16–25 fps "
-              "against 5–9)",
-              f"time(depth peeling) / time(cl-tiled) > ×1 on every scene with ≥ 4 volumes both render ({FRAMES})",
-              lambda df: _peel_ratio(df, ("C3", "C4", "C5", "C8"), below=False),
-              paper_value="C3 16–25 vs 5–9, C4 15–23 vs 1.5–3 fps",
-              ours="the direction, also on C5 and C8 (no shader caster ran them): " + ON_OTHER_DEVICES, kind="timing"),
-        Claim("peeling-collapses-with-meshes-paper", "With meshes, a shader caster collapses by the paper's margins: "
-              "Brecheisen 1–2 fps against the tiled caster's 7–15 on C6, 0–1 against 7–15 on C7 (paper)",
-              f"time(depth peeling) / time(cl-tiled) within {bands_words(WITH_MESHES)}, whichever both render "
-              f"({FRAMES})", lambda df: _peel_paper(df, WITH_MESHES),
-              paper_value="C6 1–2, C7 0–1 vs 7–15 fps", kind="timing"),
-        Claim("peeling-collapses-with-meshes", "With meshes, depth peeling collapses (C6, C7: Brecheisen 0–2 fps "
-              "against the tiled caster's 7–15): every surface layer costs a geometry pass",
-              f"time(depth peeling) / time(cl-tiled) > ×1 on C6 and C7, whichever both render ({FRAMES})",
-              lambda df: _peel_ratio(df, ("C6", "C7"), below=False),
-              paper_value="C6 1–2, C7 0–1 vs 7–15 fps", ours="the direction only: " + ON_OTHER_DEVICES,
-              kind="timing"),
+        *PEEL_OVER_TILED.claims(
+            "peeling-wins-one-volume", ONE_VOLUME,
+            ("On a single volume a shader caster beats the tiled caster by the paper's margin: Roessler 14–46 fps "
+             "against 10–21 on C1 (paper)",
+             "A shader caster beats the tiled caster on a single volume (C1: Roessler 14–46 fps against 10–21)"),
+            above=False, paper_value="14–46 vs 10–21 fps"),
+        *PEEL_OVER_TILED.claims(
+            "tiled-wins-many-volumes", MANY_VOLUMES,
+            ("From four volumes on, the tiled caster beats a shader caster by the paper's margins: 16–25 fps against "
+             "Roessler's 5–9 on C3, 15–23 against 1.5–3 on C4 (paper)",
+             "From four volumes on, the tiled caster beats depth peeling (C3: 16–25 fps against 5–9)"),
+            above=True, scenes=("C3", "C4", "C5", "C8"), where="on every scene with ≥ 4 volumes both render",
+            why="the direction, also on C5 and C8 (no shader caster ran them)",
+            paper_value="C3 16–25 vs 5–9, C4 15–23 vs 1.5–3 fps"),
+        *PEEL_OVER_TILED.claims(
+            "peeling-collapses-with-meshes", WITH_MESHES,
+            ("With meshes, a shader caster collapses by the paper's margins: Brecheisen 1–2 fps against the tiled "
+             "caster's 7–15 on C6, 0–1 against 7–15 on C7 (paper)",
+             "With meshes, depth peeling collapses (C6, C7: Brecheisen 0–2 fps against the tiled caster's 7–15): "
+             "every surface layer costs a geometry pass"),
+            above=True, where="on C6 and C7, whichever both render", paper_value="C6 1–2, C7 0–1 vs 7–15 fps"),
     )
 
     def paper_table(self):

@@ -1,7 +1,7 @@
 """The kit every paper's experiments are built with; no paper imports another, every paper imports this.
 
 * :mod:`.model`: :class:`~.model.Profile`, :class:`~.model.Run`, :class:`~.model.Claim`,
-  :class:`~.model.Experiment`, :class:`~.model.Paper`;
+  :class:`~.model.Experiment`, :class:`~.model.Paper`, an experiment's settings per scale (:func:`~.model.scaled`);
 * :mod:`.planning`: frames, backends and their options, views, scenes, phantoms, truth runs;
 * :mod:`.results`: reading an experiment's rows with errors that name what is missing;
 * :mod:`.checks`: claims as small declarative checks (ratio, bound, band, growth);

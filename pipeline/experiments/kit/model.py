@@ -30,6 +30,37 @@ SCALES = ("smoke", "default", "full")
 """The sizes an experiment knows its own settings for (:attr:`Experiment.scales`): a few minutes for CI,
 every experiment at reduced size, paper scale."""
 
+SIZES = {"smoke": {"volume_size": 32, "image_size": 48}, "default": {"volume_size": 128, "image_size": 256},
+         "full": {"volume_size": 256, "image_size": 512}}
+"""The phantom size (voxels along its longest axis) and the image size (pixels) most experiments take at each scale
+(:func:`scaled`'s default base)."""
+
+
+def scaled(*, base=SIZES, smoke=None, default=None, full=None):
+    """An experiment's own settings for each scale (:attr:`Experiment.scales`): ``base``'s, with those given for a
+    scale added to them or replacing them.
+
+    Parameters
+    ----------
+    base : dict
+        ``{scale: {key: value}}``: the settings the experiment shares with others (default :data:`SIZES`).
+    smoke, default, full : dict, optional
+        The experiment's own settings at that scale of :data:`SCALES`, over ``base``'s.
+
+    Returns
+    -------
+    dict
+        ``{scale: {key: value}}``, a new mapping: ``base`` is not changed.
+
+    Examples
+    --------
+    >>> scaled(smoke={"orbit": 0}, full={"image_size": 1024})["full"]
+    {'volume_size': 256, 'image_size': 1024}
+    """
+    own = {"smoke": smoke, "default": default, "full": full}
+    return {scale: {**base.get(scale, {}), **(own[scale] or {})} for scale in SCALES if scale in base or own[scale]}
+
+
 PROFILE_REQUIRED = ("name", "scale", "volume_size", "image_size", "warmup", "repeat", "results", "render_time_limit")
 """The keys every profile file sets. A default for any of them would silently change what is measured
 (sizes, frames, the time limit, where ``null`` says "no limit" explicitly) or put two profiles'
@@ -355,6 +386,32 @@ class Claim:
     def target(self):
         """``"ours"`` for our own target, ``"paper"`` for the paper's statement."""
         return "ours" if self.ours else "paper"
+
+    def with_ours(self, statement, expected, check, *, why):
+        """This claim of the paper's number, ``<id>-paper``, and right after it our target ``<id>`` beside it.
+
+        Our target never stands alone where it departs from the paper: the paper's number is judged too, the twin
+        right before ours in ``claims.csv`` and on the page, both stating this claim's :attr:`paper_value` and
+        :attr:`kind`.
+
+        Parameters
+        ----------
+        statement, expected : str
+        check : callable
+            Our claim's, as :class:`Claim` takes them.
+        why : str
+            Why our target differs from the paper's number (:attr:`ours`).
+
+        Returns
+        -------
+        tuple of Claim
+            ``(self, ours)``: splice them into an experiment's claims with ``*``.
+        """
+        if not self.id.endswith("-paper") or self.ours:
+            raise ValueError(f"claim {self.id!r}: only a claim of the paper's number, '<id>-paper', takes ours "
+                             "beside it")
+        return self, Claim(self.id.removesuffix("-paper"), statement, expected, check, paper_value=self.paper_value,
+                           ours=why, kind=self.kind)
 
     def evaluate(self, df):
         if df.empty:

@@ -5,7 +5,7 @@ times, the no-cue control scene, their pages' figures, and what cannot be measur
 import numpy as np
 
 from pipeline.experiments.kit.judging import count_ratio
-from pipeline.experiments.kit.model import Run
+from pipeline.experiments.kit.model import Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, not_measurable
 from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, unregistered
 from pipeline.experiments.kit.results import speed_points
@@ -32,6 +32,14 @@ UPLOADS = "uploads (volume, gradients, min–max grid, transfer-function tables)
 def method_name(config):
     """The paper's name of ``config`` (a key of :data:`METHODS`), for tables and figures."""
     return METHODS[config][2]
+
+
+SETTINGS = frozenset({"volume_size", "image_size", "step_factor", "repeat"})
+"""The settings every experiment here takes: what :func:`sizes` reads, and ``repeat``, the frames of its timed runs
+(:func:`~pipeline.experiments.kit.planning.timed_frames`)."""
+
+SIZE_SCALES = scaled(smoke={"image_size": 64})
+"""What :func:`sizes` reads at each scale: the kit's sizes, with 64-pixel images at smoke scale."""
 
 
 def sizes(experiment, profile):

@@ -13,8 +13,8 @@ from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, li
 from pipeline.experiments.kit.planning import is_registered, timed_frames, truth_run
 from pipeline.experiments.kit.results import ok_rows, role_rows
 from pipeline.experiments.kit.judging import all_of, count_ratio, time_ratio
-from pipeline.experiments.kruger2003.methods import (RAYCAST, gl_not_measurable, method_name, method_points,
-                                                     method_runs, no_cue_control, sizes)
+from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, method_name,
+                                                     method_points, method_runs, no_cue_control, sizes)
 from pipeline.experiments.kruger2003.tables import NO_CUE, NO_CUE_LOSS
 from reports import plots
 
@@ -64,10 +64,8 @@ class NoCue(Experiment):
     name = "kruger2003-nocue"
     paper = "kruger2003"
     title = "The no-cue control: what the intermediate pass costs (E2)"
-    settings = frozenset({"volume_size", "image_size", "step_factor", "truth_step_factor", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 64},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512}}
+    settings = SETTINGS | {"truth_step_factor"}
+    scales = SIZE_SCALES
     description = (
         "The paper reports a loss of about 30 % for semi-transparent data where neither early "
         "termination nor empty-space skipping applies: the intermediate pass writes depth, so the "
@@ -79,15 +77,14 @@ class NoCue(Experiment):
         "timed interleaved, frame against frame."
     )
     claims = (
-        Claim("overhead-paper", "Where neither acceleration applies, the intermediate passes lose about 30 % of the "
-              "frame rate, read as 25–35 % (paper)",
-              f"time RC-a / RC and RC-b / RC within ×{PAPER_OVERHEAD[0]:.3f}–×{PAPER_OVERHEAD[1]:.3f} (frame rate "
-              "25–35 % below RC's; whole frames)", lambda df: _overhead(df, *PAPER_OVERHEAD),
-              paper_value="≈30 %", kind="timing"),
-        Claim("overhead", "Where neither acceleration applies, the intermediate passes only cost (paper: about 30 %, "
-              "Sec. 3)", "time RC-a / RC and RC-b / RC within ×1.1–×1.6 (10–60 % slower; whole frames)", _overhead,
-              paper_value="≈30 %", ours="that the passes cost, 10–60 %: what they cost a rasterizer is not the R300's",
-              kind="timing"),
+        *Claim("overhead-paper", "Where neither acceleration applies, the intermediate passes lose about 30 % of the "
+               "frame rate, read as 25–35 % (paper)",
+               f"time RC-a / RC and RC-b / RC within ×{PAPER_OVERHEAD[0]:.3f}–×{PAPER_OVERHEAD[1]:.3f} (frame rate "
+               "25–35 % below RC's; whole frames)", lambda df: _overhead(df, *PAPER_OVERHEAD), paper_value="≈30 %",
+               kind="timing").with_ours(
+            "Where neither acceleration applies, the intermediate passes only cost (paper: about 30 %, Sec. 3)",
+            "time RC-a / RC and RC-b / RC within ×1.1–×1.6 (10–60 % slower; whole frames)", _overhead,
+            why="that the passes cost, 10–60 %: what they cost a rasterizer is not the R300's"),
     )
 
     def runs(self, profile):

@@ -9,14 +9,14 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, figure, format_number, frames_caption,
                                             linked_table)
 from pipeline.experiments.kit.planning import accepts, timed_frames
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching
 from pipeline.experiments.kit.judging import decided, r_squared, with_interval
-from pipeline.experiments.kruger2003.methods import (RAYCAST, UPLOADS, gl_not_measurable, method_points, no_cue_control,
-                                                     sizes)
+from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, UPLOADS, gl_not_measurable,
+                                                     method_points, no_cue_control, sizes)
 from pipeline.experiments.kruger2003.tables import OCCLUDER
 from reports import plots
 
@@ -96,10 +96,8 @@ class Occluder(Experiment):
     name = "kruger2003-occluder"
     paper = "kruger2003"
     title = "The occluder demonstration: frame time against the occluded area (E8)"
-    settings = frozenset({"volume_size", "image_size", "step_factor", "fractions", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 64, "fractions": [0, 0.5, 1]},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512}}
+    settings = SETTINGS | {"fractions"}
+    scales = scaled(base=SIZE_SCALES, smoke={"fractions": [0, 0.5, 1]})
     description = (
         "The paper motivates early-z with an opaque polygon drawn before the volume: the rays it "
         "hides are culled by the depth test, so the speed-up is “directly proportional to the area "

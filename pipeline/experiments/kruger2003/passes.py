@@ -11,14 +11,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               median_time)
-from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, method_name, method_runs, sizes
+from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, method_name,
+                                                     method_runs, sizes)
 from pipeline.experiments.kruger2003.tables import PASSES
 from reports import plots
 
@@ -118,10 +119,8 @@ class Passes(Experiment):
     name = "kruger2003-passes"
     paper = "kruger2003"
     title = "Work per pass, the iso-surface caster and the samples per pass M (E4, E6, E7)"
-    settings = frozenset({"volume_size", "image_size", "step_factor", "m_values", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 64, "m_values": [2, 8, 32]},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512}}
+    settings = SETTINGS | {"m_values"}
+    scales = scaled(base=SIZE_SCALES, smoke={"m_values": [2, 8, 32]})
     description = (
         "Occlusion queries count, for every main pass, the fragments that survive the early depth "
         "test: flat for RC (the whole footprint every pass), falling for RC-a as rays saturate or "

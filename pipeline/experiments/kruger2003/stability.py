@@ -6,13 +6,13 @@ RC-b on the opaque head and the sparse aneurysm, each setting's speed and error 
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import change_words, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
                                               text_column)
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
-from pipeline.experiments.kruger2003.methods import RAYCAST, gl_not_measurable, sizes
+from pipeline.experiments.kruger2003.methods import RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, sizes
 from pipeline.experiments.kruger2003.tables import TABLE1
 from reports import plots
 
@@ -89,10 +89,8 @@ class Stability(Experiment):
     name = "kruger2003-stability"
     paper = "kruger2003"
     title = "Stability: the early-termination threshold and the block size of empty-space skipping"
-    settings = frozenset({"volume_size", "image_size", "step_factor", "thresholds", "block_sizes", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 64, "thresholds": [0.9, 1.0], "block_sizes": [8, 16]},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512}}
+    settings = SETTINGS | {"thresholds", "block_sizes"}
+    scales = scaled(base=SIZE_SCALES, smoke={"thresholds": [0.9, 1.0], "block_sizes": [8, 16]})
     description = (
         "The paper leaves the threshold T unspecified and fixes 8³ blocks. A lower T ends rays "
         "sooner and drops up to 1 − T of their light; a threshold of 1 never ends a ray early. The "

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery, figure,
                                             format_number, frames_caption, gl_devices, linked_table)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
@@ -17,8 +17,9 @@ from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_r
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, role_rows,
                                               rows_matching, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, point_speedup, time_ratio
-from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SLICER, UPLOADS, gl_not_measurable, method_name,
-                                                     method_points, method_runs, samples_note, sizes)
+from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SETTINGS, SIZE_SCALES, SLICER, UPLOADS,
+                                                     gl_not_measurable, method_name, method_points, method_runs,
+                                                     samples_note, sizes)
 from pipeline.experiments.kruger2003.tables import (ENGINE_RC_OVER_RCA, HEAD_RCB_OVER_RC, HEAD_RCB_OVER_SBVR,
                                                     PAPER_DEVICE, RCA_OVER_RCB, REAL_SCANS, SBVR_OVER_RC, TABLE1)
 from reports import blocks, plots
@@ -130,42 +131,34 @@ def _band(band):
 
 
 CLAIMS = (
-    Claim("rc-slower-than-sbvr-paper", "Unaccelerated ray casting runs at 0.61–0.68 of slicing's frame rate on "
-          "every data set (paper)", f"time ratio SBVR / RC within {_band(SBVR_OVER_RC)} on every data set ({TIMES})",
-          lambda df: _gain(df, "sbvr", "rc", None, *SBVR_OVER_RC, what="SBVR / RC time "),
-          paper_value="×0.61–0.68", kind="timing"),
-    Claim("rc-slower-than-sbvr", "Unaccelerated ray casting is slower than slicing: it processes fragments "
-          "outside the volume and all M samples of every pass (paper: RC/SBVR fps 0.61–0.68)",
-          f"time ratio SBVR / RC < 1 on every data set ({TIMES})",
-          lambda df: _gain(df, "sbvr", "rc", None, high=STRICTLY_BELOW_ONE, what="SBVR / RC time "),
-          paper_value="×0.61–0.68",
-          ours="that slicing is faster: by how much follows what a pass and a slice cost a rasterizer, not the R300",
-          kind="timing"),
-    Claim("ert-gain-opaque-paper", "Early ray termination pays most on the opaque head: RC-a 3.0× RC (paper)",
-          f"RC / RC-a ≥ 3 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 3.0), paper_value="×3.0",
-          kind="timing"),
-    Claim("ert-gain-opaque", "Early ray termination pays most on the opaque head (paper: RC-a 3.0× RC)",
-          f"RC / RC-a ≥ 2 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 2.0), paper_value="×3.0",
-          ours="the gain, not the paper's GPU's figure: a software rasterizer's passes cost differently",
-          kind="timing"),
-    Claim("ert-none-semi-transparent-paper", "On the semi-transparent engine early termination gains nothing: "
-          "RC-a 6.3 fps = RC 6.3 fps, equal within the table's 0.1 fps (paper)",
-          f"RC / RC-a within {_band(ENGINE_RC_OVER_RCA)} (6.25 / 6.35 to 6.35 / 6.25) on the engine ({TIMES})",
-          lambda df: _gain(df, "rc", "rc-a", ENGINES, *ENGINE_RC_OVER_RCA), paper_value="6.3 = 6.3 fps",
-          kind="timing"),
-    Claim("ert-none-semi-transparent", "On the semi-transparent engine early termination gains nothing "
-          "(paper: 6.3 = 6.3 fps)", f"RC / RC-a within 0.8–1.25 on the engine ({TIMES})",
-          lambda df: _gain(df, "rc", "rc-a", ENGINES, 0.8, 1.25), paper_value="6.3 = 6.3 fps",
-          ours="no gain within ±25 %: the gain and the intermediate pass cancel on the R300, not on every rasterizer",
-          kind="timing"),
-    Claim("ess-gain-paper", "Empty-space skipping adds 1.6–2.2× to early termination on every data set (paper)",
-          f"RC-a / RC-b within {_band(RCA_OVER_RCB)} on every data set ({TIMES})",
-          lambda df: _gain(df, "rc-a", "rc-b", None, *RCA_OVER_RCB), paper_value="×1.6–2.2", kind="timing"),
-    Claim("ess-gain", "Empty-space skipping adds to early termination on every data set (paper: RC-b "
-          "1.6–2.2× RC-a)", f"RC-a / RC-b ≥ 1.1 on every data set ({TIMES})",
-          lambda df: _gain(df, "rc-a", "rc-b", None, 1.1), paper_value="×1.6–2.2",
-          ours="that skipping gains at all: how much depends on the empty blocks of each data set's stand-in",
-          kind="timing"),
+    *Claim("rc-slower-than-sbvr-paper", "Unaccelerated ray casting runs at 0.61–0.68 of slicing's frame rate on every "
+           "data set (paper)", f"time ratio SBVR / RC within {_band(SBVR_OVER_RC)} on every data set ({TIMES})",
+           lambda df: _gain(df, "sbvr", "rc", None, *SBVR_OVER_RC, what="SBVR / RC time "), paper_value="×0.61–0.68",
+           kind="timing").with_ours(
+        "Unaccelerated ray casting is slower than slicing: it processes fragments outside the volume and all M samples "
+        "of every pass (paper: RC/SBVR fps 0.61–0.68)", f"time ratio SBVR / RC < 1 on every data set ({TIMES})",
+        lambda df: _gain(df, "sbvr", "rc", None, high=STRICTLY_BELOW_ONE, what="SBVR / RC time "),
+        why="that slicing is faster: by how much follows what a pass and a slice cost a rasterizer, not the R300"),
+    *Claim("ert-gain-opaque-paper", "Early ray termination pays most on the opaque head: RC-a 3.0× RC (paper)",
+           f"RC / RC-a ≥ 3 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 3.0), paper_value="×3.0",
+           kind="timing").with_ours(
+        "Early ray termination pays most on the opaque head (paper: RC-a 3.0× RC)",
+        f"RC / RC-a ≥ 2 on the head ({TIMES})", lambda df: _gain(df, "rc", "rc-a", HEADS, 2.0),
+        why="the gain, not the paper's GPU's figure: a software rasterizer's passes cost differently"),
+    *Claim("ert-none-semi-transparent-paper", "On the semi-transparent engine early termination gains nothing: RC-a "
+           "6.3 fps = RC 6.3 fps, equal within the table's 0.1 fps (paper)",
+           f"RC / RC-a within {_band(ENGINE_RC_OVER_RCA)} (6.25 / 6.35 to 6.35 / 6.25) on the engine ({TIMES})",
+           lambda df: _gain(df, "rc", "rc-a", ENGINES, *ENGINE_RC_OVER_RCA), paper_value="6.3 = 6.3 fps",
+           kind="timing").with_ours(
+        "On the semi-transparent engine early termination gains nothing (paper: 6.3 = 6.3 fps)",
+        f"RC / RC-a within 0.8–1.25 on the engine ({TIMES})", lambda df: _gain(df, "rc", "rc-a", ENGINES, 0.8, 1.25),
+        why="no gain within ±25 %: the gain and the intermediate pass cancel on the R300, not on every rasterizer"),
+    *Claim("ess-gain-paper", "Empty-space skipping adds 1.6–2.2× to early termination on every data set (paper)",
+           f"RC-a / RC-b within {_band(RCA_OVER_RCB)} on every data set ({TIMES})",
+           lambda df: _gain(df, "rc-a", "rc-b", None, *RCA_OVER_RCB), paper_value="×1.6–2.2", kind="timing").with_ours(
+        "Empty-space skipping adds to early termination on every data set (paper: RC-b 1.6–2.2× RC-a)",
+        f"RC-a / RC-b ≥ 1.1 on every data set ({TIMES})", lambda df: _gain(df, "rc-a", "rc-b", None, 1.1),
+        why="that skipping gains at all: how much depends on the empty blocks of each data set's stand-in"),
     Claim("rcb-over-rc-head", "RC-b over RC on the opaque head at least the paper's 4.9× (23.4 / 4.8 fps)",
           f"RC / RC-b ≥ {format_number(HEAD_RCB_OVER_RC)} on the head ({TIMES})",
           lambda df: _gain(df, "rc", "rc-b", HEADS, HEAD_RCB_OVER_RC), paper_value="×4.9 (23.4 / 4.8 fps)",
@@ -181,14 +174,13 @@ CLAIMS = (
           "PSNR(RC-b, RC-a) ≥ 60 dB (every data set and view)", _ess_lossless, kind="accuracy"),
     Claim("ert-bound", "Early termination changes a pixel by at most what the opacity threshold leaves",
           "max |RC-a − RC| ≤ 1 − T (+ 1e-3) on every image", _ert_bound, kind="accuracy"),
-    Claim("fragments-contribute-paper", "0.2–4 % of the slicing fragments contribute to the image (paper)",
-          "contributing / generated slicing fragments within 0.2–4 % on every data set (median over the views)",
-          lambda df: _contributing_fragments(df, 0.002, 0.04), paper_value="0.2–4 %", kind="count"),
-    Claim("fragments-contribute", "Only a small fraction of slicing fragments contributes to the image "
-          "(paper: 0.2–4 %)", "contributing / generated slicing fragments ≤ 10 % on every data set (median over "
-          "the views)", _contributing_fragments, paper_value="0.2–4 %",
-          ours="a small fraction: the share follows each stand-in's transfer function, not the paper's data",
-          kind="count"),
+    *Claim("fragments-contribute-paper", "0.2–4 % of the slicing fragments contribute to the image (paper)",
+           "contributing / generated slicing fragments within 0.2–4 % on every data set (median over the views)",
+           lambda df: _contributing_fragments(df, 0.002, 0.04), paper_value="0.2–4 %", kind="count").with_ours(
+        "Only a small fraction of slicing fragments contributes to the image (paper: 0.2–4 %)",
+        "contributing / generated slicing fragments ≤ 10 % on every data set (median over the views)",
+        _contributing_fragments, why="a small fraction: the share follows each stand-in's transfer function, not the "
+        "paper's data"),
 )
 
 
@@ -282,11 +274,8 @@ class Table1(Experiment):
     name = "kruger2003-table1"
     paper = "kruger2003"
     title = "Table 1: slicing against multi-pass ray casting with early termination and empty-space skipping (E1, E3, E5)"
-    settings = frozenset({"scenes", "volume_size", "image_size", "step_factor", "truth_step_factor", "orbit",
-                          "repeat"})
-    scales = {"smoke": {"scenes": ["head"], "volume_size": 32, "image_size": 64, "orbit": 1},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 2},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 8}}
+    settings = SETTINGS | {"scenes", "truth_step_factor", "orbit"}
+    scales = scaled(base=SIZE_SCALES, smoke={"scenes": ["head"], "orbit": 1}, default={"orbit": 2}, full={"orbit": 8})
     description = (
         "The paper times 3D-texture slicing (SBVR) against its multi-pass GPU ray caster without "
         "acceleration (RC), with early ray termination through the depth test (RC-a) and with "

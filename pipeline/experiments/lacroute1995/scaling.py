@@ -76,38 +76,36 @@ class SizeScaling(Experiment):
         return runs
 
     claims = (
-        Claim("n-squared-growth-paper", "Doubling the volume's side at most quadruples the compositing time: 8× the "
-              "voxels, \"only a four-fold increase\" (thesis, §5.2.1)", f"composite-stage time ratio per doubling ≤ "
-              f"{as_ratio(tables.COMPOSITE_GROWTH)} at the largest sizes (every data set)",
-              lambda df: _growth(df, None, tables.COMPOSITE_GROWTH), paper_value="×4 compositing, ×3.5–3.9 total",
-              kind="timing"),
-        Claim("n-squared-growth", "Doubling the volume's side multiplies the compositing time by about 4 (n²), not 8 "
-              "(§5.2.1: 8× the voxels, about 4× the compositing time; Table 5.3: ×3.5–3.9 in total)",
-              "composite-stage time ratio per doubling 2.8–5.7 at the largest sizes (every data set)",
-              lambda df: _growth(df), paper_value="×4 compositing, ×3.5–3.9 total", ours="n² within half a power of "
-              "two: how fast our stand-ins' visible surfaces grow with the side is their own", kind="timing"),
+        *Claim("n-squared-growth-paper", "Doubling the volume's side at most quadruples the compositing time: 8× the "
+               "voxels, \"only a four-fold increase\" (thesis, §5.2.1)", f"composite-stage time ratio per doubling ≤ "
+               f"{as_ratio(tables.COMPOSITE_GROWTH)} at the largest sizes (every data set)",
+               lambda df: _growth(df, None, tables.COMPOSITE_GROWTH), paper_value="×4 compositing, ×3.5–3.9 total",
+               kind="timing").with_ours(
+            "Doubling the volume's side multiplies the compositing time by about 4 (n²), not 8 (§5.2.1: 8× the voxels, "
+            "about 4× the compositing time; Table 5.3: ×3.5–3.9 in total)", "composite-stage time ratio per doubling "
+            "2.8–5.7 at the largest sizes (every data set)", lambda df: _growth(df), why="n² within half a power of "
+            "two: how fast our stand-ins' visible surfaces grow with the side is their own"),
         Claim("rle-memory", "The three RLE copies take less memory than an unencoded 4-byte-per-voxel array "
               "(the thesis's head: 9.8 MB of RLE against 61 MB)", "rle_bytes < 4 B × voxels (every run)",
               lambda df: _rle_memory(df),
               paper_value="9.8 MB vs 61 MB (head)", kind="count"),
-        Claim("warp-per-pixel-paper", f"The warp's time grows ×{format_number(WARP_STEPS[0], 2)}–"
-              f"{format_number(WARP_STEPS[1], 2)} per doubling of the image side: 5.0, 17, 64 ms (thesis, Table 5.4)",
-              f"warp-stage time ratio per doubling of the image side within {as_ratio(WARP_STEPS[0])}–"
-              f"{as_ratio(WARP_STEPS[1])}, Table 5.4's steps (largest pair)", lambda df: _warp_growth(df, *WARP_STEPS),
-              paper_value="5.0, 17, 64 ms", kind="timing"),
-        Claim("warp-per-pixel", "The warp's time is proportional to the image's pixels (Table 5.4: 5, 17, 64 ms)",
-              "warp-stage time ratio per doubling of the image side 2.5–5.5 (largest pair)", lambda df: _warp_growth(df),
-              paper_value="5.0, 17, 64 ms", ours="about ×4 per doubling: a modern CPU's caches and per-frame costs "
-              "weigh small warps otherwise than the R4400's", kind="timing"),
-        Claim("warp-share-paper", "The warp takes at least 48 % of the time at 64³ → 256² and at most 9 % at "
-              "256³ → 256² (thesis, Table 5.4)", "warp share of the technique time at the largest image: ≥ Table 5.4's "
-              "at the smallest volume, ≤ its share at the largest (not measurable at sizes the table lacks)",
-              lambda df: _warp_share(df, paper=True), paper_value="48 % (64³) → 9 % (256³)", kind="timing"),
-        Claim("warp-share", "The warp matters only when the image is much larger than the volume (48 % of the "
-              "time at 64³ → 256², 9 % at 256³ → 256²)", "warp share of the technique time at the largest image falls "
-              "as the volume grows (its largest rise ≤ 0)", lambda df: _warp_share(df),
-              paper_value="48 % (64³) → 9 % (256³)", ours="that the share falls at all: a modern CPU's warp and "
-              "compositing stand in another ratio than the R4400's", kind="timing"),
+        *Claim("warp-per-pixel-paper", f"The warp's time grows ×{format_number(WARP_STEPS[0], 2)}–"
+               f"{format_number(WARP_STEPS[1], 2)} per doubling of the image side: 5.0, 17, 64 ms (thesis, Table 5.4)",
+               f"warp-stage time ratio per doubling of the image side within {as_ratio(WARP_STEPS[0])}–"
+               f"{as_ratio(WARP_STEPS[1])}, Table 5.4's steps (largest pair)", lambda df: _warp_growth(df, *WARP_STEPS),
+               paper_value="5.0, 17, 64 ms", kind="timing").with_ours(
+            "The warp's time is proportional to the image's pixels (Table 5.4: 5, 17, 64 ms)",
+            "warp-stage time ratio per doubling of the image side 2.5–5.5 (largest pair)", lambda df: _warp_growth(df),
+            why="about ×4 per doubling: a modern CPU's caches and per-frame costs weigh small warps otherwise than the "
+            "R4400's"),
+        *Claim("warp-share-paper", "The warp takes at least 48 % of the time at 64³ → 256² and at most 9 % at 256³ → "
+               "256² (thesis, Table 5.4)", "warp share of the technique time at the largest image: ≥ Table 5.4's at "
+               "the smallest volume, ≤ its share at the largest (not measurable at sizes the table lacks)",
+               lambda df: _warp_share(df, paper=True), paper_value="48 % (64³) → 9 % (256³)", kind="timing").with_ours(
+            "The warp matters only when the image is much larger than the volume (48 % of the time at 64³ → 256², 9 % "
+            "at 256³ → 256²)", "warp share of the technique time at the largest image falls as the volume grows (its "
+            "largest rise ≤ 0)", lambda df: _warp_share(df), why="that the share falls at all: a modern CPU's warp and "
+            "compositing stand in another ratio than the R4400's"),
     )
 
     def paper_table(self):

@@ -118,37 +118,36 @@ class Variants(Experiment):
         return runs
 
     claims = (
-        Claim("lut-faster-paper", "Lookup-table shading renders ×4.3 faster than per-voxel procedural shading: "
-              "14.5 against 3.4 s (thesis, Table 7.1)", "technique time ratio per-voxel Phong / lookup-table shading "
-              f"≥ {as_ratio(LUT_SPEED_PAPER.at_least)}", lambda df: _lut_speed(df, LUT_SPEED_PAPER),
-              paper_value="×4.3 (14.5 vs 3.4 s)", kind="timing"),
-        Claim("lut-faster", "Lookup-table shading is several times faster than per-voxel Phong (Table 7.1: ×4.3 "
-              "total)", "technique time ratio per-voxel Phong / lookup-table shading ≥ ×2", lambda df: _lut_speed(df),
-              paper_value="×4.3 (14.5 vs 3.4 s)", ours="several times: our per-voxel Phong is inlined compiled code, "
-              "the thesis's a procedure call per voxel on a 1995 CPU", kind="timing"),
+        *Claim("lut-faster-paper", "Lookup-table shading renders ×4.3 faster than per-voxel procedural shading: 14.5 "
+               "against 3.4 s (thesis, Table 7.1)", "technique time ratio per-voxel Phong / lookup-table shading "
+               f"≥ {as_ratio(LUT_SPEED_PAPER.at_least)}", lambda df: _lut_speed(df, LUT_SPEED_PAPER),
+               paper_value="×4.3 (14.5 vs 3.4 s)", kind="timing").with_ours(
+            "Lookup-table shading is several times faster than per-voxel Phong (Table 7.1: ×4.3 total)",
+            "technique time ratio per-voxel Phong / lookup-table shading ≥ ×2", lambda df: _lut_speed(df),
+            why="several times: our per-voxel Phong is inlined compiled code, the thesis's a procedure call per voxel "
+            "on a 1995 CPU"),
         Claim("lut-accurate", "13-bit normals are enough: the table's image matches per-voxel Phong",
               "PSNR ≥ 35 dB between them", lambda df: _lut_accuracy(df), kind="accuracy"),
-        Claim("union-by-rank-paper", "Union by rank makes the renderer 5–15 % slower than path compression alone "
-              "(thesis, §4.1.3)", "technique time ratio union by rank / path compression alone within "
-              f"{as_ratio(UNION_BY_RANK_PAPER.at_least)}–{as_ratio(UNION_BY_RANK_PAPER.at_most)}", UNION_BY_RANK_PAPER,
-              paper_value="5–15 % slower"),
-        Claim("union-by-rank", "Union by rank does not make the renderer faster (thesis: 5–15 % slower)",
-              "technique time ratio union by rank / path compression alone ≥ ×0.97", UNION_BY_RANK,
-              paper_value="5–15 % slower", ours="not faster: how much rank costs follows how often our opaque-pixel "
-              "runs merge, not the thesis's renderer"),
+        *Claim("union-by-rank-paper", "Union by rank makes the renderer 5–15 % slower than path compression alone "
+               "(thesis, §4.1.3)", "technique time ratio union by rank / path compression alone within "
+               f"{as_ratio(UNION_BY_RANK_PAPER.at_least)}–{as_ratio(UNION_BY_RANK_PAPER.at_most)}", UNION_BY_RANK_PAPER,
+               paper_value="5–15 % slower").with_ours(
+            "Union by rank does not make the renderer faster (thesis: 5–15 % slower)", "technique time ratio union by "
+            "rank / path compression alone ≥ ×0.97", UNION_BY_RANK, why="not faster: how much rank costs follows how "
+            "often our opaque-pixel runs merge, not the thesis's renderer"),
         Claim("mode-switch", "After a classification edit the octree mode shows an image sooner than re-encoding "
               "the RLE volume (§4.4)", "VolPack: octree frame / (RLE classify + RLE frame) < 1, technique frames",
               lambda df: _mode_switch(df), kind="timing"),
         Claim("octree-rle-build", "Building the three RLE copies from the min-max octree is faster than the brute-force "
               "build (§4.4, E22)", "ours: (sat_build + rle_build from the octree) / (classify + rle_build) < 1",
               lambda df: _octree_rle_build(df), kind="timing"),
-        Claim("fast-classification-render-paper", "Rendering with fast classification takes 1.8–2.5× the "
-              "classified-RLE render (thesis, Table 5.3)", "technique time ratio fast classification / classified RLE "
-              f"in {as_ratio(OCTREE_RENDER_PAPER.at_least)}–{as_ratio(OCTREE_RENDER_PAPER.at_most)}",
-              lambda df: _octree_render(df, OCTREE_RENDER_PAPER), paper_value="×1.8–2.5", kind="timing"),
-        Claim("fast-classification-render", "Rendering with fast classification takes about twice the classified-RLE "
-              "render (Table 5.3: ×1.8–2.5)", "technique time ratio fast classification / classified RLE in ×1.4–×3.2",
-              lambda df: _octree_render(df), paper_value="×1.8–2.5", ours=OURS_OCTREE, kind="timing"),
+        *Claim("fast-classification-render-paper", "Rendering with fast classification takes 1.8–2.5× the "
+               "classified-RLE render (thesis, Table 5.3)", "technique time ratio fast classification / classified RLE "
+               f"in {as_ratio(OCTREE_RENDER_PAPER.at_least)}–{as_ratio(OCTREE_RENDER_PAPER.at_most)}",
+               lambda df: _octree_render(df, OCTREE_RENDER_PAPER), paper_value="×1.8–2.5", kind="timing").with_ours(
+            "Rendering with fast classification takes about twice the classified-RLE render (Table 5.3: ×1.8–2.5)",
+            "technique time ratio fast classification / classified RLE in ×1.4–×3.2", lambda df: _octree_render(df),
+            why=OURS_OCTREE),
         Claim("mode-switch-ours", "With our backend too, after a classification edit fast classification shows an "
               "image sooner than re-encoding (§4.4)", "ours: (sat_build + octree frame) / (classify + rle_build + RLE "
               "frame) < 1, technique frames", lambda df: _mode_switch_ours(df), kind="timing"),

@@ -152,40 +152,39 @@ class Throughput(Experiment):
         Claim("brute-force-flat", "Brute force takes the same time whatever the opacity (Fig. 5.19)",
               "(max − min)/median ≤ 25 % of the technique time over the cubes where brute force composites (α above "
               "the minimum opacity)", lambda df: _brute_flat(df), kind="timing"),
-        Claim("crossover-paper", "The optimised renderer beats brute force up to 80 % of the voxels visible and is at "
-              "most 25 % slower with all of them visible (thesis, §5.3.2, Fig. 5.19)", "technique time ratio optimised "
-              f"/ brute force < 1 on every cube with ≤ {as_percent(tables.CROSSOVER_VISIBLE)} of its voxels visible, "
-              f"≤ {as_ratio(1 + tables.FULLY_VISIBLE_SLOWER)} on every cube with more",
-              lambda df: _crossover(df, tables.CROSSOVER_VISIBLE, 1 + tables.FULLY_VISIBLE_SLOWER),
-              paper_value="80 % visible; 25 % slower at 100 %", kind="timing"),
-        Claim("crossover", "The optimised renderer beats brute force unless most voxels are visible "
-              "(crossover ≈ 80 % visible; ≈ 25 % slower at 100 %)", "technique time ratio optimised / brute force < 1 "
-              "on every cube with ≤ 50 % of its voxels visible", lambda df: _crossover(df),
-              paper_value="80 % visible; 25 % slower at 100 %", ours="faster while at most half the voxels are "
-              "visible, the thesis's crossover in kind: where it falls follows a modern CPU's costs", kind="timing"),
+        *Claim("crossover-paper", "The optimised renderer beats brute force up to 80 % of the voxels visible and is at "
+               "most 25 % slower with all of them visible (thesis, §5.3.2, Fig. 5.19)",
+               "technique time ratio optimised / brute force < 1 on every cube with ≤ "
+               f"{as_percent(tables.CROSSOVER_VISIBLE)} of its voxels visible, ≤ "
+               f"{as_ratio(1 + tables.FULLY_VISIBLE_SLOWER)} on every cube with more",
+               lambda df: _crossover(df, tables.CROSSOVER_VISIBLE, 1 + tables.FULLY_VISIBLE_SLOWER),
+               paper_value="80 % visible; 25 % slower at 100 %", kind="timing").with_ours(
+            "The optimised renderer beats brute force unless most voxels are visible (crossover ≈ 80 % visible; ≈ 25 % "
+            "slower at 100 %)", "technique time ratio optimised / brute force < 1 on every cube with ≤ 50 % of its "
+            "voxels visible", lambda df: _crossover(df), why="faster while at most half the voxels are visible, the "
+            "thesis's crossover in kind: where it falls follows a modern CPU's costs"),
         Claim("linear-in-runs", "At a constant visible count, time is linear in the number of runs (Fig. 5.21; the "
               "thesis's 400 ns per run is its R4400's)", "R² ≥ 0.9 per checkerboard series (technique time against "
               "voxel_runs)", lambda df: _runs_linear(df), paper_value="400 ns/run", kind="cost model"),
-        Claim("one-voxel-runs-paper", "1-voxel runs with half of the voxels visible make the optimised renderer at "
-              "most 15 % slower than brute force (thesis, §5.3.3)", "technique time ratio optimised / brute force ≤ "
-              f"{as_ratio(1 + tables.ONE_VOXEL_RUNS_SLOWER)} at the smallest block, every non-transparent voxel "
-              "visible", lambda df: _worst_runs(df, 1 + tables.ONE_VOXEL_RUNS_SLOWER), paper_value="15 %",
-              kind="timing"),
-        Claim("one-voxel-runs", "Even 1-voxel runs with half of the voxels visible (every non-transparent one) make "
-              "the optimised renderer only about 15 % slower than brute force", "technique time ratio optimised / "
-              "brute force ≤ 1.3 at the smallest block, every non-transparent voxel visible",
-              lambda df: _worst_runs(df), paper_value="15 %", ours="about the thesis's worst case: a modern CPU "
-              "weighs a run's overhead against a sample otherwise than the R4400", kind="timing"),
-        Claim("cost-model-paper", "T = N_v/a + N_r·b predicts real scenes as well as the thesis's own predictions "
-              f"did: within {as_percent(tables.cost_model_error())} (head 0.6 s predicted vs 0.76–0.87 s measured; "
-              "thesis, §5.3.3)", f"technique time predicted within {as_percent(tables.cost_model_error())} of the "
-              "measured (every predicted scene)", lambda df: _prediction(df, tables.cost_model_error()),
-              paper_value="0.6 vs 0.76–0.87 s; 0.9 vs 0.92 s", kind="cost model"),
-        Claim("cost-model", "T = N_v/a + N_r·b predicts real scenes (thesis: head 0.6 s predicted vs 0.76–0.87 s, "
-              "engine 0.9 vs 0.92 s)", "technique time predicted within 25 % of the measured (every predicted scene)",
-              lambda df: _prediction(df), paper_value="0.6 vs 0.76–0.87 s; 0.9 vs 0.92 s", ours="closer than the "
-              "thesis's own head prediction: our model fits a constant for the per-frame costs the thesis's leaves "
-              "out", kind="cost model"),
+        *Claim("one-voxel-runs-paper", "1-voxel runs with half of the voxels visible make the optimised renderer at "
+               "most 15 % slower than brute force (thesis, §5.3.3)", "technique time ratio optimised / brute force ≤ "
+               f"{as_ratio(1 + tables.ONE_VOXEL_RUNS_SLOWER)} at the smallest block, every non-transparent voxel "
+               "visible", lambda df: _worst_runs(df, 1 + tables.ONE_VOXEL_RUNS_SLOWER), paper_value="15 %",
+               kind="timing").with_ours(
+            "Even 1-voxel runs with half of the voxels visible (every non-transparent one) make the optimised renderer "
+            "only about 15 % slower than brute force", "technique time ratio optimised / brute force ≤ 1.3 at the "
+            "smallest block, every non-transparent voxel visible", lambda df: _worst_runs(df),
+            why="about the thesis's worst case: a modern CPU weighs a run's overhead against a sample otherwise than "
+            "the R4400"),
+        *Claim("cost-model-paper", "T = N_v/a + N_r·b predicts real scenes as well as the thesis's own predictions "
+               f"did: within {as_percent(tables.cost_model_error())} (head 0.6 s predicted vs 0.76–0.87 s measured; "
+               "thesis, §5.3.3)", f"technique time predicted within {as_percent(tables.cost_model_error())} of the "
+               "measured (every predicted scene)", lambda df: _prediction(df, tables.cost_model_error()),
+               paper_value="0.6 vs 0.76–0.87 s; 0.9 vs 0.92 s", kind="cost model").with_ours(
+            "T = N_v/a + N_r·b predicts real scenes (thesis: head 0.6 s predicted vs 0.76–0.87 s, engine 0.9 vs 0.92 "
+            "s)", "technique time predicted within 25 % of the measured (every predicted scene)",
+            lambda df: _prediction(df), why="closer than the thesis's own head prediction: our model fits a constant "
+            "for the per-frame costs the thesis's leaves out"),
     )
 
     def paper_table(self):

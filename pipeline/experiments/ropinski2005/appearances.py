@@ -17,12 +17,12 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, median_count
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
                                             frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMES,
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
@@ -230,9 +230,8 @@ class Appearances(Experiment):
     title = "Lens appearances: clip, transparency, isosurface, MIP (E6)"
     settings = frozenset({"scenes", "appearances", "volume_size", "image_size", "orbit", "step_factor", "repeat",
                           "min_time"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0, "scenes": ["seismic", "skull", "foot"]},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0, "scenes": ["seismic", "skull", "foot"]},
-              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    scales = scaled(base=TIMED_SCALES, smoke={"scenes": ["seismic", "skull", "foot"]},
+                    default={"scenes": ["seismic", "skull", "foot"]})
     description = (
         "The paper shows a transparency lens (the engine), a clipping lens (the seismic cube) and an isosurface "
         "lens (the foot); note 004 §4.2 E6 sweeps the appearance on each data set. Here each scene's lens keeps "

@@ -17,8 +17,9 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP,
-                                                       lens_run, lens_settings, method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, OPTIONS, PAPER_METHOD,
+                                                       RAYCAST, STEP, lens_run, lens_settings, method_name,
+                                                       raycast_not_measurable)
 from pipeline.experiments.ropinski2005.pages import headline, psnr_note, run_table
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
                                                       without_lens)
@@ -133,9 +134,7 @@ class Correctness(Experiment):
     paper = "ropinski2005"
     title = "Images against the reference, and a lens with the outside appearance against no lens (E7)"
     settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 2}}
+    scales = LENS_SCALES
     description = (
         "Not measured in the paper. The reference renders every lens scene exactly (the lens interval per ray "
         "from the sphere's quadratic or the box's slabs, samples on the no-lens lattice), one frame per view at "

@@ -20,7 +20,7 @@ import pandas as pd
 from core.camera import Camera
 from core.errors import InputError
 from pipeline.experiments.kit.judging import measured, median_count, worst_of
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
@@ -229,9 +229,7 @@ class Edges(Experiment):
     paper = "ropinski2005"
     title = "Edge cases: where the lens lies against the volume and the camera (E8)"
     settings = frozenset({"cases", "methods", "volume_size", "image_size"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512}}
+    scales = SIZES
     description = (
         "Not in the paper, whose recipe misses one case (note 004 §2.8): a ray whose lens lies wholly behind the "
         "box is marked \"no region₀\" by transition₀ and has an empty lens ∩ box, so no region renders it. The "

@@ -16,14 +16,14 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import all_of, decision_words, median_count
-from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
                                             frame_note, frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMES, device_takeaways,
-                                                       lens_coverage, lens_run, lens_settings, raycast_not_measurable,
-                                                       scenes_of)
+from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+                                                       device_takeaways, lens_coverage, lens_run, lens_settings,
+                                                       raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
                                                      overhead_figure, rounded_table, run_table, samples_ratio,
                                                      scene_by_scene, tests_of)
@@ -209,9 +209,7 @@ class LensSize(Experiment):
     title = "Lens size: overhead against lens coverage (E5)"
     settings = frozenset({"scenes", "radii", "volume_size", "image_size", "orbit", "step_factor", "lens_method",
                           "repeat", "min_time"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0, "radii": [0.1, 0.3, 0.6]},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2, "scenes": ["skull", "seismic", "foot"]}}
+    scales = scaled(base=TIMED_SCALES, smoke={"radii": [0.1, 0.3, 0.6]}, full={"scenes": ["skull", "seismic", "foot"]})
     description = (
         "Not in the paper. A scene's sphere lens keeps its centre while its radius goes from 0.05 to 0.6 of the "
         "volume's longest edge, showing the outside appearance (the volume's own table: the lens then changes "

@@ -13,7 +13,7 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit import pages
-from pipeline.experiments.kit.model import Run
+from pipeline.experiments.kit.model import Run, scaled
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import missing_options, unregistered
 from pipeline.experiments.kit.results import numeric, text_column
@@ -74,6 +74,14 @@ def method_options(config, *, step_factor=STEP, **extra):
     """``gl-raycast``'s options for ``config`` (a key of :data:`METHODS`, or :data:`OFF`), plus ``extra``."""
     method = {} if config == OFF else METHODS[config][0]
     return {**VARIANT, **method, "step_factor": step_factor, **extra}
+
+
+LENS_SCALES = scaled(smoke={"orbit": 0}, default={"orbit": 0}, full={"orbit": 2})
+"""What :func:`lens_settings` reads at each scale: the kit's sizes, and the headline view alone until full scale
+adds two around it (:func:`~pipeline.experiments.ropinski2005.scenes.lens_views`)."""
+
+TIMED_SCALES = scaled(base=LENS_SCALES, full={"image_size": 1024})
+""":data:`LENS_SCALES` with the paper's larger viewport, 1024², at full scale."""
 
 
 def lens_settings(profile, experiment):

@@ -27,9 +27,9 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaway
                                             frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMES, device_takeaways,
-                                                       lens_coverage, lens_run, lens_settings, method_name,
-                                                       raycast_not_measurable)
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+                                                       device_takeaways, lens_coverage, lens_run, lens_settings,
+                                                       method_name, raycast_not_measurable)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
                                                      rounded_table, run_table, tests_of)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags
@@ -344,9 +344,7 @@ class MethodsCompared(Experiment):
     title = "Segments against per-sample lens tests and depth-based clipping, and early-z (E4)"
     settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit", "step_factor", "occluder",
                           "repeat", "min_time"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    scales = TIMED_SCALES
     description = (
         "The paper argues, without measuring it, that cutting rays into regions beats testing each sample against "
         "the lens (Weiskopf et al.'s volumetric clipping: an extra texture fetch per sample) and depth-based "

@@ -21,8 +21,9 @@ from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, 
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMES, device_takeaways,
-                                                       lens_run, lens_settings, raycast_not_measurable, scenes_of)
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+                                                       device_takeaways, lens_run, lens_settings,
+                                                       raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, median_ms, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, lens_scene, lens_views, scene_tags
 from reports import blocks
@@ -185,9 +186,7 @@ class Order(Experiment):
     paper = "ropinski2005"
     title = "Region order: back to front (the paper) against front to back (E9)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "step_factor", "repeat", "min_time"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    scales = TIMED_SCALES
     description = (
         "Not in the paper, which casts region₀, region₁ and region₂ back to front, each blended over the "
         "image: opacity in front of the lens cannot stop the rays behind it, cast first. gl-raycast's "

@@ -18,7 +18,7 @@ from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES,
+from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES, TIMED_SCALES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, run_table, tests_of
@@ -159,9 +159,7 @@ class Passes(Experiment):
     title = "The lens frame pass by pass: geometry against the three region passes (E2)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "step_factor", "lens_method", "repeat",
                           "min_time"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 1024, "orbit": 2}}
+    scales = TIMED_SCALES
     description = (
         "Not in the paper, which reports whole frames only (note 004 §3.4). The segments method rasterises the "
         "lens's faces into per-pixel entry and exit images and resolves the region transitions from them "

@@ -26,8 +26,8 @@ from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, differe
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, device_takeaways,
-                                                       lens_run, lens_settings)
+from pipeline.experiments.ropinski2005.methods import (LENS_SCALES, OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP,
+                                                       device_takeaways, lens_run, lens_settings)
 from pipeline.experiments.ropinski2005.pages import CI, headline, interval_columns, median_ms, psnr_note
 from pipeline.experiments.ropinski2005.scenes import lens_scene, lens_views, scene_tags, without_lens
 from reports import blocks, plots
@@ -203,9 +203,7 @@ class Peers(Experiment):
     paper = "ropinski2005"
     title = "The lens in VTK and in shear-warp, beside the paper's method"
     settings = frozenset({"scenes", "peers", "volume_size", "image_size", "orbit", "repeat", "min_time"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 2}}
+    scales = LENS_SCALES
     description = (
         "Not in the paper. Each implementation renders each lens scene it can without and with the lens, the two "
         "timed together in the implementation's own job: gl-raycast with the paper's segments method; VTK's GPU ray "

@@ -17,8 +17,9 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import claim_takeaways, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, METHODS, OFF, OPTIONS, PAPER_METHOD, RAYCAST, REGIONS,
-                                                       lens_run, lens_settings, method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, OPTIONS, PAPER_METHOD,
+                                                       RAYCAST, REGIONS, lens_run, lens_settings, method_name,
+                                                       raycast_not_measurable)
 from pipeline.experiments.ropinski2005.pages import headline, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
                                                       without_lens)
@@ -187,9 +188,7 @@ class Samples(Experiment):
     paper = "ropinski2005"
     title = "Sample counts with and without the lens, region by region (E3)"
     settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit", "step_factor"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 2}}
+    scales = LENS_SCALES
     description = (
         "The paper's argument for cutting rays into regions instead of testing samples: each region takes the "
         "samples of its own section of the ray, so the lens costs no samples (§3). gl-raycast counts every "

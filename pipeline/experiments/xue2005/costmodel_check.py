@@ -15,7 +15,7 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws, ratio_pair
-from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
 from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
@@ -319,9 +319,7 @@ class CostModelCheck(Experiment):
     paper = "xue2005"
     title = "The cost model: Eq. 9 predicted against measured, and the shader-complexity sweep (E4, E5)"
     settings = frozenset({"scenes", "sweep_scene", "extra_taps", "volume_size", "image_size", "views", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "views": 1},
-              "default": {"volume_size": 128, "image_size": 256, "views": 3, "repeat": 5},
-              "full": {"volume_size": 256, "image_size": 512, "views": 4, "repeat": 5}}
+    scales = scaled(smoke={"views": 1}, default={"views": 3, "repeat": 5}, full={"views": 4, "repeat": 5})
     description = (
         "The paper models iSBVR's speed-up over Basic slicing from fragment counts and per-fragment times "
         "(Eq. 9: δ = F·T_c / (F_t·T_s + F_p·T_s + (F − F'_c)·T_s + F'_c·T_c)) but validates it on no data; "

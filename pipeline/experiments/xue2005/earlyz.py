@@ -15,7 +15,7 @@ import pandas as pd
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, ratio_pair, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import claim_takeaways, format_number
 from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
@@ -246,9 +246,7 @@ class EarlyZ(Experiment):
     paper = "xue2005"
     title = "The early-z micro-benchmark: T_s, T_z and T_c per fragment (E2)"
     settings = frozenset({"volume_size", "image_size", "extra_taps", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48},
-              "default": {"volume_size": 128, "image_size": 256, "repeat": 5},
-              "full": {"volume_size": 256, "image_size": 512, "repeat": 5}}
+    scales = scaled(default={"repeat": 5}, full={"repeat": 5})
     description = (
         "The cost model (Eqs. 1–9) prices a fragment three ways: through the simple z-setup shader (T_s), "
         "discarded by the early depth test before any shader runs (T_z) and through the volume shader (T_c); "

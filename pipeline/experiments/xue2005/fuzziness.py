@@ -13,7 +13,7 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
                                               speedup)
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             frame_note, linked_table)
 from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
@@ -173,9 +173,7 @@ class Fuzziness(Experiment):
     paper = "xue2005"
     title = "The golden lady's haze against iSBVR's gains (E11)"
     settings = frozenset({"hazes", "volume_size", "image_size", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "hazes": [0, 1.5]},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512}}
+    scales = scaled(smoke={"hazes": [0, 1.5]})
     description = (
         "The paper's golden lady, with its \"large fuzzy area\", gains least of its four data sets (Table 1: ESS "
         "1.95×, ERT 1.18×, ESS+ERT 2.23×): a haze just above iso_t fills the Φ_t envelope, so few rays are empty "

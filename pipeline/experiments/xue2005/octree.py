@@ -11,7 +11,7 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             linked_table)
 from pipeline.experiments.kit.planning import listed, timed_frames
@@ -201,9 +201,7 @@ class Octree(Experiment):
     paper = "xue2005"
     title = "Φ_p's octree node size: 1³, 2³, 4³ and 8³ (E6, Fig. 7)"
     settings = frozenset({"volume_size", "image_size", "orbit", "nodes", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 2},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 3}}
+    scales = scaled(smoke={"orbit": 0}, default={"orbit": 2}, full={"orbit": 3})
     description = (
         "Φ_p's cube set is the outer layer of the octree blocks that are wholly opaque; its front faces, drawn "
         "with LESS before the slices, stop every slice fragment behind them (pseudo early ray termination). "

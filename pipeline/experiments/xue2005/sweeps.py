@@ -22,7 +22,7 @@ import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, config_rows, median_count, ratio_of_draws, speedup
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
 from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
@@ -322,9 +322,7 @@ class TransferSweep(Experiment):
     paper = "xue2005"
     title = "Transfer functions and iso-values: where iSBVR gains and where it costs nothing (E10)"
     settings = frozenset({"scenes", "iso_t", "iso_p", "volume_size", "image_size", "orbit", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "iso_t": [10, 50], "iso_p": [100], "orbit": 0},
-              "default": {"volume_size": 128, "image_size": 256, "orbit": 0},
-              "full": {"volume_size": 256, "image_size": 512, "orbit": 3}}
+    scales = scaled(smoke={"iso_t": [10, 50], "iso_p": [100], "orbit": 0}, default={"orbit": 0}, full={"orbit": 3})
     description = (
         "The paper's gains are \"data set and transfer function dependent\" (§3): space leaping needs a "
         "zero-opacity region, pseudo early termination an opaque one, and a TF with neither should cost nothing, "

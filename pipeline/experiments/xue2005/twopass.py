@@ -24,7 +24,7 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
                                               ratio_pair)
-from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
                                             linked_table)
 from pipeline.experiments.kit.planning import phantom, scene, timed_frames
@@ -358,10 +358,8 @@ class TwoPass(Experiment):
     paper = "xue2005"
     title = "Eq. 5 against per-slice two-pass early termination: break-even and ceiling (E3)"
     settings = frozenset({"volume_size", "image_size", "culling", "extra_taps", "opaque", "repeat"})
-    scales = {"smoke": {"volume_size": 32, "image_size": 48, "culling": [0.0, 0.9], "extra_taps": [0]},
-              "default": {"volume_size": 128, "image_size": 256},
-              "full": {"volume_size": 256, "image_size": 512, "culling": [0.0, 0.1, 0.25, 0.5, 0.75, 0.9],
-                       "repeat": 5}}
+    scales = scaled(smoke={"culling": [0.0, 0.9], "extra_taps": [0]},
+                    full={"culling": [0.0, 0.1, 0.25, 0.5, 0.75, 0.9], "repeat": 5})
     description = (
         "The paper's cost model starts from a generic two-pass slicer (§2): each slice drawn twice, a simple "
         "shader writing depth where the opacity buffer is already opaque, then the complex shader culled there "

@@ -13,7 +13,7 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, time_ratio
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
@@ -188,9 +188,9 @@ class Variants(Experiment):
     title = "Slice order and the leaping variant: front-to-back against back-to-front, front-based against " \
             "exit-based leaping (E12, E13)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "repeat", "min_time"})
-    scales = {"smoke": {"scenes": ["head"], "volume_size": 32, "image_size": 48, "orbit": 0},
-              "default": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 128, "image_size": 256, "orbit": 1},
-              "full": {"scenes": ["head", "aneurysm", "bonsai"], "volume_size": 256, "image_size": 512, "orbit": 4}}
+    scales = scaled(smoke={"scenes": ["head"], "orbit": 0},
+                    default={"scenes": ["head", "aneurysm", "bonsai"], "orbit": 1},
+                    full={"scenes": ["head", "aneurysm", "bonsai"], "orbit": 4})
     description = (
         "Two variants the paper describes without measuring. Slice order (§3.5: iSBVR \"works equally well\" "
         "either way): Basic and ESS+ERT are rendered back to front with \"over\" (the paper's order) and front to "
