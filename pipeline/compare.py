@@ -275,12 +275,19 @@ def agreement_words(changes, *, timing=()):
     """``"231 of 235 claims (98.3 %) have the same verdict; of the 103 that read timings, 99 (96.1 %)"``.
 
     ``changes`` is :func:`verdict_changes`' table, ``timing`` the ``(experiment, claim)`` pairs that read
-    timings (:func:`varying_claims`)."""
-    same = changes.change == "same"
-    words = f"{int(same.sum())} of {len(changes)} claims ({_share(same)}) have the same verdict"
-    timed = [(e, c) in set(timing) for e, c in zip(changes.experiment, changes.claim)]
+    timings (:func:`varying_claims`). The share is of the claims both folders judged: a run of three experiments
+    compared with a whole one agrees or not on those three, and the claims of one folder alone are counted apart
+    (``"; 235 claims in one folder only"``)."""
+    absent = (changes.verdict_a == "absent") | (changes.verdict_b == "absent")
+    shared = changes[~absent]
+    same = shared.change == "same"
+    words = f"{int(same.sum())} of {len(shared)} claims ({_share(same)}) have the same verdict"
+    timed = [(e, c) in set(timing) for e, c in zip(shared.experiment, shared.claim)]
     if any(timed):
         words += f"; of the {sum(timed)} that read timings, {int(same[timed].sum())} ({_share(same[timed])})"
+    if absent.any():
+        alone = int(absent.sum())
+        words += f"; {alone} claim{'s' if alone > 1 else ''} in one folder only"
     return words
 
 

@@ -270,6 +270,17 @@ def test_a_timing_claim_that_flips_is_a_difference_and_one_that_turns_inconclusi
     assert compare.main([str(a), str(b)]) == 1
 
 
+def test_the_agreement_is_over_the_claims_both_folders_judged():
+    # A run of some experiments against a whole run: its share is of the claims both have, the rest counted apart.
+    first = pd.DataFrame({"experiment": ["e", "e", "f"], "claim": ["a", "b", "c"],
+                          "verdict": ["holds", "fails", "holds"], "measured": ["", "", ""]})
+    second = first[first.experiment == "e"].assign(verdict=["holds", "inconclusive"])
+    changes = compare.verdict_changes(first, second)
+    assert compare.agreement_words(changes, timing=[("e", "b")]) == (
+        "1 of 2 claims (50.0 %) have the same verdict; of the 1 that read timings, 0 (0.0 %); "
+        "1 claim in one folder only")
+
+
 def test_a_folder_judged_again_by_this_code_says_what_it_wrote(folders, capsys):
     a, b = folders
     changes, found = compare.rejudge_differences(b)  # a copy elsewhere: its files are read where it is
