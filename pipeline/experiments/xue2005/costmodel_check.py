@@ -1,12 +1,6 @@
 """``xue2005-costmodel`` (E4, E5): Eq. 9's speed-up against the measured one, and the shader-complexity sweep.
 
-For each of Table 1's four stand-ins, Basic slicing, ESS+ERT and Basic's slices drawn with the trivial shader
-are timed in one interleave group: the trivial shader gives T_s (draw time over the slices' fragments F),
-Basic gives T_c the same way, and ESS+ERT's occlusion queries give F'_c (fragments shaded), F_t and F_p (the
-surfaces' fragments). Eq. 9 (:mod:`.costmodel`) then predicts ESS+ERT's speed-up over Basic, which is set
-beside the measured one over the passes the model covers (the depth-init passes and the volume pass), with
-whole frames beside that. On one stand-in the volume shader gets 0, 4 and 16 extra texture taps, Basic and
-ESS+ERT at each in the same group, for the abstract's claim that iSBVR gains more as the shader grows.
+What it runs, and why: :attr:`CostModelCheck.description`, the words its page shows.
 """
 
 import numpy as np

@@ -1,12 +1,6 @@
 """``xue2005-earlyz`` (E2): the early-z micro-benchmark: T_s, T_z and T_c per fragment, γ against the shader.
 
-The cost model (:mod:`.costmodel`) prices a fragment three ways: through the simple shader (T_s), discarded
-by the early depth test (T_z) and through the volume shader (T_c). Here ``gl-isbvr``'s volume pass times
-each on one phantom that fills the picture, seen straight at a face: the trivial shader with no depth test
-(T_s), the volume shader against a depth buffer cleared to 0 (``zinit`` ``cull-all``: every fragment is
-culled, T_z) and the volume shader with no depth test and 0, 4, 16 extra texture taps (T_c, and γ = T_s / T_c
-as the shader grows). Every configuration is timed in one interleave group, frame against frame; a time
-per fragment is the volume pass's draw time over the fragments the slices generate (F, an occlusion query).
+What it runs, and why: :attr:`EarlyZ.description`, the words its page shows.
 """
 
 import numpy as np

@@ -1,10 +1,7 @@
 """``xue2005-extraction`` (E9): the cube sets' extraction time per transfer-function change.
 
-The cube sets depend on the transfer function, so they are extracted again whenever it changes: the paper
-took 10 ms for Φ_t (8³ nodes) and 210 ms for Φ_p (2³ nodes) on an unstated CPU at 256³, and calls that
-interactive. ``gl-isbvr`` times each as a preprocessing stage of its own (``phi_t``, ``phi_p``: min–max
-level, classification, cube set, mesh), which the timing harness measures once per view with the code
-warm, after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`).
+What it runs, and why: :attr:`Extraction.description`, the words its page shows. The harness times each stage warm,
+after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`).
 """
 
 import pandas as pd

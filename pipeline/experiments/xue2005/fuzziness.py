@@ -1,10 +1,7 @@
 """``xue2005-fuzziness`` (E11): the golden-lady stand-in's haze grows, and iSBVR's gains shrink.
 
-The paper's fuzzy golden lady gains least (Table 1: ESS 1.95×, ERT 1.18×, ESS+ERT 2.23×) because of its "large
-fuzzy area". Here the stand-in's ``haze`` (:func:`datasets.phantoms.clouds.golden_lady`) scales the low-density
-haze around the figure, from none to nearly the whole box, under the ``isbvr`` preset (iso_t 30, iso_p 190).
-Basic, ESS, ERT and ESS+ERT of every haze are one interleave group: the claims compare one haze's speed-up with
-another's, so all of them are timed together, round by round in the same processes.
+What it runs, and why: :attr:`Fuzziness.description`, the words its page shows. The haze is the phantom's ``haze``
+parameter (:func:`datasets.phantoms.clouds.golden_lady`).
 """
 
 import pandas as pd

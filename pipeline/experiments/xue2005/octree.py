@@ -1,10 +1,6 @@
 """``xue2005-octree`` (E6, Fig. 7): Φ_p's octree node size against the pseudo early ray termination it buys.
 
-Φ_p's cube set keeps the blocks that are wholly opaque, so the coarser the blocks, the fewer fit inside
-thin opaque material: on the Siemens head the paper's Φ_p "shrinks drastically" from node size 1 to 8,
-where "there are almost no pixels" set for ERT, and it chose 2³ as the trade-off between the surface's
-triangles and the fragments it culls. Here ERT alone (``zinit`` ``ert``) runs at each node size on the
-head stand-in (its thin skull), timed together with Basic, whose image each is compared with.
+What it runs, and why: :attr:`Octree.description`, the words its page shows.
 """
 
 import pandas as pd

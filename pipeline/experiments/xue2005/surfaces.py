@@ -1,13 +1,8 @@
 """``xue2005-surfaces`` (E7, E8; Fig. 4): the paper's "original" surfaces against its cube sets, and what
 full-resolution isosurfaces cost.
 
-ESS+ERT draws Φ_t's back faces and Φ_p's front faces into the depth buffer before the slices. With the
-cube sets (``surfaces`` ``reduced``) the culling is conservative and the image is Basic's; with marching
-cubes on the coarse block maxima and minima (``coarse``, the paper's "original" surfaces) the surfaces
-cut visible material away (Fig. 4a); with marching cubes at full resolution (``full``) the init passes
-draw hundreds of thousands of triangles (the paper: over a million at 256³), which is why the paper
-contours at a coarse octree level. Also the helpers :mod:`.octree` shares: each image against Basic's, and the
-lossless test (:mod:`.table1`'s bounds).
+What it runs, and why: :attr:`Surfaces.description`, the words its page shows. Also the helpers :mod:`.octree`
+shares: each image against Basic's, and the lossless test (:mod:`.table1`'s bounds).
 """
 
 import numpy as np

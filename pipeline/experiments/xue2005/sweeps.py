@@ -1,13 +1,9 @@
 """``xue2005-tf`` (E10): the speed-up of ESS+ERT over Basic as the transfer function's iso-values move, and the
 transfer functions with nothing to cull, where the paper claims no overhead.
 
-Every transfer function is the paper's Fig. 9e ramp (opacity 0 below iso_t, linear to 1 at iso_p, 1 above),
-given explicitly in the scene (``transfer_function`` of the volume entry) with the colours of the data set's
-``isbvr`` preset. iso_t moves at the paper's iso_p and iso_p at the paper's iso_t, on the head stand-in and
-the aneurysm. The controls: the same ramp lifted to a small opacity everywhere and stopped short of 1
-(neither property: no zero-opacity region, no opaque one), the ramp stopped short of 1 (no opaque region:
-pseudo ERT has nothing to cull), and the dense block of note 001 §5 (smooth fBm filling the box, a uniform
-faint opacity). Each transfer function's modes are one interleave group.
+What it runs, and why: :attr:`TransferSweep.description`, the words its page shows. Every transfer function is given
+explicitly in the scene (``transfer_function`` of the volume entry) with the colours of the data set's ``isbvr``
+preset.
 
 Also the helpers :mod:`.fuzziness` shares: speed-ups with bootstrap draws, ratios of speed-ups from different
 groups, a mode's counts.

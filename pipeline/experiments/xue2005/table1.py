@@ -1,14 +1,7 @@
 """``xue2005-table1`` (E1): Table 1's four depth-init modes on the paper's four kinds of data, and their images.
 
-Basic, ESS, ERT and ESS+ERT (``gl-isbvr``'s ``zinit``) on the aneurysm, head, golden-lady and bonsai
-stand-ins and on the real bonsai and CT head, slices one voxel apart, Phong shading, from the headline view
-and around an orbit. The four modes of a scene are timed interleaved; each speed-up over Basic is judged
-with its bootstrap interval against the paper's, beside the fragments the depth test culled (occlusion
-queries: the same on every machine), which say how much any device could gain. Every image is compared
-with Basic (iSBVR must be lossless) and with the reference.
-
-The helpers here (mode rows, per-scene time ratios, culled fractions, image pairs) serve
-:mod:`~pipeline.experiments.xue2005.variants` too.
+What it runs, and why: :attr:`Table1.description`, the words its page shows. The helpers here (mode rows, per-scene
+time ratios, culled fractions, image pairs) serve :mod:`~pipeline.experiments.xue2005.variants` too.
 """
 
 import numpy as np

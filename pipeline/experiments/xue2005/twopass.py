@@ -1,19 +1,9 @@
 """``xue2005-twopass`` (E3): Eq. 5 against the per-slice two-pass early termination it models.
 
-The paper's cost model starts from a generic two-pass slicer (§2): every slice is drawn twice, front to
-back, a simple pass writing depth where the accumulated opacity is already opaque, then the volume pass,
-culled there by the early depth test (``gl-isbvr``'s ``zinit`` ``slice-ert``). Its speed-up over Basic
-slicing is Eq. 5, δ = 1 / (αγ + 1 − α + γ), with the culled fraction α and the shader ratio γ = T_s / T_c;
-it pays off above α = γ / (1 − γ) (Eq. 6) and never beats 1 / (2γ).
-
-Here α is set by the transfer function: the smooth-noise phantom of :mod:`.earlyz`, seen straight at a face
-so that every ray crosses every slice, gets a constant opacity chosen so that the accumulated opacity
-reaches ``opaque_threshold`` after a known share of the slices (:func:`opacity_for`); α itself is measured
-from the occlusion queries, 1 − F'_c / F. γ is swept with the volume shader's extra texture taps and
-measured at every point: T_s is the trivial shader's draw time over F, T_c Basic's. The trivial shader,
-Basic and slice-ert of one (opacity, taps) point are one interleave group, frame against frame. At opacity
-1, ESS+ERT joins the group: where both cull nearly everything, slice-ert's first passes draw every slice
-fragment (F_s = F) while iSBVR's draw one surface (φ = (F_t + F_p) / F ≪ 1), the reason its bound is 1 / γ.
+What it runs, and why: :attr:`TwoPass.description`, the words its page shows. α is set by the transfer function
+(:func:`opacity_for`) and measured from the occlusion queries. At opacity 1, ESS+ERT joins the group: where both
+cull nearly everything, slice-ert's first passes draw every slice fragment (F_s = F) while iSBVR's draw one surface
+(φ = (F_t + F_p) / F ≪ 1), the reason its bound is 1 / γ.
 """
 
 import numpy as np

@@ -1,11 +1,6 @@
 """``xue2005-variants`` (E12, E13): front-to-back against back-to-front, front-based against exit-based leaping.
 
-E12: the paper says iSBVR "works equally well" with either slice order (§3.5); here Basic and ESS+ERT are
-timed in both orders, and the speed-up in one order is compared with the other's (a ratio of ratios, with
-its interval) and the images with each other. E13: front-based leaping (§3.2: Φ_t's front faces, then
-GREATER) culls the space in front of Φ_t that exit-based leaping (§3.3–3.4, Table 1's ESS) shades, but it
-cannot be combined with ERT; the fragments each culls (occlusion queries) and the times say which pays.
-Every run of a scene is timed in one interleave group, so every ratio is paired frame by frame.
+What it runs, and why: :attr:`Variants.description`, the words its page shows.
 """
 
 import numpy as np
