@@ -10,7 +10,7 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws, ratio_pair
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
@@ -248,27 +248,25 @@ def _chart(table, ctx):
     guides = [("y = x: the prediction exact", line, line)] + [
         (f"predicted / measured = {format_number(bound)}", line, tuple(v / bound for v in line))
         for bound in (1 + BAND, 1 - BAND)]
-    path, rel = ctx.plot_path("predicted-measured")
-    plots.lines(points, path, x="predicted δ", y="measured δ", group="series",
-                y_range=("measured low", "measured high"), guides=guides, title=_chart_title(table),
-                x_label="speed-up predicted by Eq. 9 (×, ESS+ERT over Basic)",
-                y_label="measured speed-up (×, init + volume passes)")
-    return blocks.Figure("Predicted against measured", rel,
-                         "One point per stand-in (the swept stand-in's complexities joined); bars: the 95 % bootstrap "
-                         f"interval of the measured speed-up ({PASSES}); grey: y = x and the 20 % band.")
+    return figure(ctx, "predicted-measured", plots.lines, points, heading="Predicted against measured",
+                  caption="One point per stand-in (the swept stand-in's complexities joined); bars: the 95 % bootstrap "
+                          f"interval of the measured speed-up ({PASSES}); grey: y = x and the 20 % band.",
+                  x="predicted δ", y="measured δ", group="series", y_range=("measured low", "measured high"),
+                  guides=guides, title=_chart_title(table),
+                  x_label="speed-up predicted by Eq. 9 (×, ESS+ERT over Basic)",
+                  y_label="measured speed-up (×, init + volume passes)")
 
 
 def _sweep_chart(sweep, ctx):
     long = stacked(sweep, [("measured (init + volume passes)", "measured"), ("predicted by Eq. 9", "predicted"),
                            ("measured, whole frames", "whole frames")])
-    path, rel = ctx.plot_path("sweep")
-    plots.lines(long, path, x="extra taps", y="value", group="series", y_range=("low", "high"),
-                title=f"ESS+ERT over Basic from {as_ratio(sweep['measured δ'].iloc[0])} to "
-                      f"{as_ratio(sweep['measured δ'].iloc[-1])} as the shader grows ({sweep.scene.iloc[0]})",
-                x_label="extra texture taps in the volume shader (count)",
-                y_label="speed-up of ESS+ERT over Basic (×)")
-    return blocks.Figure("Speed-up against the shader's complexity", rel,
-                         "Bars: 95 % bootstrap intervals (Basic and ESS+ERT at every complexity timed interleaved).")
+    return figure(ctx, "sweep", plots.lines, long, heading="Speed-up against the shader's complexity",
+                  caption="Bars: 95 % bootstrap intervals (Basic and ESS+ERT at every complexity timed interleaved).",
+                  x="extra taps", y="value", group="series", y_range=("low", "high"),
+                  title=f"ESS+ERT over Basic from {as_ratio(sweep['measured δ'].iloc[0])} to "
+                        f"{as_ratio(sweep['measured δ'].iloc[-1])} as the shader grows ({sweep.scene.iloc[0]})",
+                  x_label="extra texture taps in the volume shader (count)",
+                  y_label="speed-up of ESS+ERT over Basic (×)")
 
 
 RUN_COLUMNS = {"scene": "scene", "mode": "mode", "extra_taps": "extra taps", "view": "view",

@@ -9,7 +9,7 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, median_count, view_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, listed
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
 from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, orbit_views,
@@ -119,15 +119,13 @@ def _range(values):
 
 
 def _chart(summary, ctx):
-    path, rel = ctx.plot_path("times")
     worst = summary.loc[summary["Φ_p / Φ_t"].idxmin()]
-    plots.bar_compare(summary, path, category_col="scene",
-                      value_cols=["Φ_t (ms)", "Φ_p (ms)", "Φ_t paper (ms)", "Φ_p paper (ms)"],
-                      value_label="extraction time (ms, log scale)", log_y=True,
-                      title=f"Φ_p / Φ_t here down to {as_ratio(worst['Φ_p / Φ_t'])} ({worst.scene}); paper ×21")
-    return blocks.Figure("Extraction times, ours and the paper's", rel,
-                         f"Ours: {ONCE}, at {format_number(summary['size (voxels)'].max())}³; the paper's at "
-                         f"{PAPER_SIZE}³ on an unstated CPU.")
+    return figure(ctx, "times", plots.bar_compare, summary, heading="Extraction times, ours and the paper's",
+                  caption=f"Ours: {ONCE}, at {format_number(summary['size (voxels)'].max())}³; the paper's at "
+                          f"{PAPER_SIZE}³ on an unstated CPU.",
+                  category_col="scene", value_cols=["Φ_t (ms)", "Φ_p (ms)", "Φ_t paper (ms)", "Φ_p paper (ms)"],
+                  value_label="extraction time (ms, log scale)", log_y=True,
+                  title=f"Φ_p / Φ_t here down to {as_ratio(worst['Φ_p / Φ_t'])} ({worst.scene}); paper ×21")
 
 
 class Extraction(Experiment):

@@ -11,15 +11,15 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
                                               speedup)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            frame_note, linked_table)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, frame_note, linked_table)
 from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs, short_name
 from pipeline.experiments.xue2005.pages import tagged, unless_missing
 from pipeline.experiments.xue2005.sweeps import SCOPE, interval_or_nan, mode_counts
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
-from reports import blocks, plots
+from reports import plots
 
 SCENE = "golden_lady"
 """The fuzzy stand-in's scene of :data:`~pipeline.experiments.xue2005.tables.TABLE1`."""
@@ -128,21 +128,20 @@ COLUMNS = {"haze": "haze", "mode": "mode", "speedup": "speed-up over Basic (×)"
 
 
 def _figure(table, ctx):
-    path, rel = ctx.plot_path("speedup-haze")
     both = table[table.config == "ess+ert"].sort_values("haze")
     span = " → ".join(as_ratio(v) for v in both.speedup.iloc[[0, -1]]) if not both.empty else ""
     ends = [table.haze.min(), table.haze.max()]
     guides = [(f"paper {short_name(c)} {as_ratio(paper_speedup(SCENE, c))} (golden lady)", ends,
                [paper_speedup(SCENE, c)] * 2) for c in GAINS]
-    plots.lines(table.assign(mode=[short_name(c) for c in table.config]), path, x="haze", y="speedup", group="mode",
-                y_range=("low", "high"), title=f"ESS+ERT speed-up vs haze: {span}",
-                x_label="haze (extent of the fuzzy region, "
-                "0 = none, 1 = the registered golden lady)", y_label="speed-up, Basic / mode time (×)",
-                vlines=(PAPER_HAZE,), guides=guides)
-    return blocks.Figure("Speed-ups against the haze", rel,
-                         "Each point: Basic over the mode's whole-frame time, the four modes of a haze timed "
-                         "interleaved; bars: 95 % bootstrap interval from the frames. Grey: the paper's golden-lady "
-                         f"ratios ({PAPER_DEVICE}); dotted: the registered haze.")
+    return figure(ctx, "speedup-haze", plots.lines, table.assign(mode=[short_name(c) for c in table.config]),
+                  heading="Speed-ups against the haze",
+                  caption="Each point: Basic over the mode's whole-frame time, the four modes of a haze timed "
+                          "interleaved; bars: 95 % bootstrap interval from the frames. Grey: the paper's golden-lady "
+                          f"ratios ({PAPER_DEVICE}); dotted: the registered haze.",
+                  x="haze", y="speedup", group="mode", y_range=("low", "high"),
+                  title=f"ESS+ERT speed-up vs haze: {span}",
+                  x_label="haze (extent of the fuzzy region, 0 = none, 1 = the registered golden lady)",
+                  y_label="speed-up, Basic / mode time (×)", vlines=(PAPER_HAZE,), guides=guides)
 
 
 def _gallery(ok, results, ctx):

@@ -8,8 +8,8 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, linked_table)
 from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
@@ -17,7 +17,7 @@ from pipeline.experiments.xue2005.pages import tagged
 from pipeline.experiments.xue2005.surfaces import (LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence, image_errors,
                                                    lossless_result, off_percent)
 from pipeline.experiments.xue2005.tables import PAPER_PHI_P_NODE, PHI_P_NODES, STATEMENTS, statements
-from reports import blocks, plots
+from reports import plots
 
 SCENE = "head"
 """The head stand-in: the paper's Fig. 7 shows the Siemens head, whose thin skull holds few whole cubes."""
@@ -144,25 +144,23 @@ def _coverage_chart(rows, ctx):
     long = pd.concat([medians.assign(measure="fragments the Φ_p pass wrote (≈ pixels set)",
                                      count=medians.count_init_fragments),
                       medians.assign(measure="slice fragments culled (F − F'_c)", count=medians.culled)])
-    path, rel = ctx.plot_path("coverage")
     top = medians.set_index("node_size").count_init_fragments
-    title = "ERT coverage: " + ", ".join(f"{format_number(top[n])} at {int(n)}³" for n in top.index)
-    plots.lines(long, path, x="node_size", y="count", group="measure", title=title, log_x=True,
-                x_label="Φ_p octree node size (voxels a side, log scale)", y_label="fragments (count)")
-    return blocks.Figure("ERT coverage against the node size", rel,
-                         "Occlusion-query counts, the median over the views; the same on every machine.")
+    return figure(ctx, "coverage", plots.lines, long, heading="ERT coverage against the node size",
+                  caption="Occlusion-query counts, the median over the views; the same on every machine.",
+                  x="node_size", y="count", group="measure", log_x=True,
+                  title="ERT coverage: " + ", ".join(f"{format_number(top[n])} at {int(n)}³" for n in top.index),
+                  x_label="Φ_p octree node size (voxels a side, log scale)", y_label="fragments (count)")
 
 
 def _triangle_chart(rows, ctx):
     medians = rows.groupby("node_size").count_surface_triangles_p.median().reset_index()
     medians["series"] = "Φ_p triangles"
-    path, rel = ctx.plot_path("triangles")
     title = "Φ_p triangles: " + ", ".join(f"{format_number(c)} at {int(n)}³" for n, c in
                                           zip(medians.node_size, medians.count_surface_triangles_p))
-    plots.lines(medians, path, x="node_size", y="count_surface_triangles_p", group="series", title=title, log_x=True,
-                x_label="Φ_p octree node size (voxels a side, log scale)", y_label="triangles (count)")
-    return blocks.Figure("Φ_p's triangles against the node size", rel, "The cube set's boundary faces, two "
-                         "triangles each (median over the views).")
+    return figure(ctx, "triangles", plots.lines, medians, heading="Φ_p's triangles against the node size",
+                  caption="The cube set's boundary faces, two triangles each (median over the views).",
+                  x="node_size", y="count_surface_triangles_p", group="series", title=title, log_x=True,
+                  x_label="Φ_p octree node size (voxels a side, log scale)", y_label="triangles (count)")
 
 
 def _time_chart(rows, basic, ctx):
@@ -172,14 +170,14 @@ def _time_chart(rows, basic, ctx):
     if not basic.empty:
         level = float(numeric(basic, "time_total").median() * 1e3)
         guides = (("Basic (median over the views)", [frames.node_size.min(), frames.node_size.max()], [level, level]),)
-    path, rel = ctx.plot_path("frame-time")
-    plots.lines(frames, path, x="node_size", y="frame_ms", group="series", y_range=("frame_ms_min", "frame_ms_max"),
-                title=f"Fastest at {int(fastest.node_size)}³ ({format_number(fastest.frame_ms)} ms, {fastest.view}); "
-                      f"the paper chose {PAPER_PHI_P_NODE}³",
-                x_label="Φ_p octree node size (voxels a side, log scale)", y_label="median frame time (ms)",
-                log_x=True, vlines=(PAPER_PHI_P_NODE,), guides=guides)
-    return blocks.Figure("Frame time against the node size", rel, "Each view's median frame, bars from its fastest "
-                         f"to its slowest frame; dotted: the paper's {PAPER_PHI_P_NODE}³; grey: Basic. Timed together.")
+    return figure(ctx, "frame-time", plots.lines, frames, heading="Frame time against the node size",
+                  caption="Each view's median frame, bars from its fastest to its slowest frame; dotted: the paper's "
+                          f"{PAPER_PHI_P_NODE}³; grey: Basic. Timed together.",
+                  x="node_size", y="frame_ms", group="series", y_range=("frame_ms_min", "frame_ms_max"),
+                  title=f"Fastest at {int(fastest.node_size)}³ ({format_number(fastest.frame_ms)} ms, "
+                        f"{fastest.view}); the paper chose {PAPER_PHI_P_NODE}³",
+                  x_label="Φ_p octree node size (voxels a side, log scale)", y_label="median frame time (ms)",
+                  log_x=True, vlines=(PAPER_PHI_P_NODE,), guides=guides)
 
 
 def _gallery(rows, results, ctx):

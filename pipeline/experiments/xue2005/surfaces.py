@@ -11,15 +11,15 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, linked_table)
 from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, text_column
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
 from pipeline.experiments.xue2005.pages import tagged, unless_missing
 from pipeline.experiments.xue2005.table1 import LOSSLESS_PIXEL, LOSSLESS_PSNR, LOSSLESS_SHARE
 from pipeline.experiments.xue2005.tables import FULL_RES_TRIANGLES, PAPER_SIZE, STATEMENTS, TABLE1, statements
-from reports import blocks, plots
+from reports import plots
 from reports.metrics import fraction_over, max_error, psnr
 
 VISIBLE_SHARE = 0.01
@@ -297,12 +297,11 @@ def _time_chart(rows, ctx):
     chart["T_a: init passes"], chart["T_m: volume pass"] = chart.init_ms, chart.draw_ms
     shares = chart.groupby("variant").ta_tm.max()
     title = "T_a / T_m up to " + ", ".join(f"{format_number(shares[v])} ({v})" for v in VARIANTS if v in shares)
-    path, rel = ctx.plot_path("ta-tm")
-    plots.bar_compare(chart, path, category_col="scene · surfaces", value_cols=["T_a: init passes", "T_m: volume pass"],
-                      value_label="median time per frame (ms, log scale)", title=title, log_y=True)
-    return blocks.Figure("Init passes (T_a) against the volume pass (T_m)", rel,
-                         "Bars: the median over the views of each view's median frame (the table gives every view "
-                         "with its fastest and slowest frame; the claims give the intervals).")
+    return figure(ctx, "ta-tm", plots.bar_compare, chart, heading="Init passes (T_a) against the volume pass (T_m)",
+                  caption="Bars: the median over the views of each view's median frame (the table gives every view "
+                          "with its fastest and slowest frame; the claims give the intervals).",
+                  category_col="scene · surfaces", value_cols=["T_a: init passes", "T_m: volume pass"],
+                  value_label="median time per frame (ms, log scale)", title=title, log_y=True)
 
 
 class Surfaces(Experiment):
