@@ -19,12 +19,12 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, config_rows, median_count, ratio_of_draws, speedup
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs, orbit_views
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1, paper_speedup
-from reports import blocks, plots
+from reports import plots
 
 SCENES = ("head", "aneurysm")
 """The stand-ins swept (keys of :data:`~pipeline.experiments.xue2005.tables.TABLE1`)."""
@@ -288,17 +288,17 @@ def _sweep_figures(table, ctx):
         if at_paper.empty:
             continue
         at_paper[axis] = at_paper[axis].astype(float)
-        path, rel = ctx.plot_path(f"speedup-{axis.replace('_', '')}")
         marks = sorted({PAPER_ISO[s][1 - index] for s in at_paper.scene})
-        plots.lines(at_paper, path, x=axis, y="speedup", group="scene", y_range=("low", "high"),
-                    title=_sweep_title(at_paper, axis),
-                    x_label=f"{axis} (grey level, 0–255; {fixed} at the paper's)",
-                    y_label="speed-up, Basic / ESS+ERT time (×)", vlines=marks)
-        out.append(blocks.Figure(f"Speed-up against {axis}", rel,
-                                 f"Each point: Basic over ESS+ERT whole-frame time, the two timed interleaved; bars: "
-                                 f"95 % bootstrap interval from the frames. {fixed} at the paper's "
-                                 f"({', '.join(f'{s} {PAPER_ISO[s][index]}' for s in PAPER_ISO)}); dotted: the "
-                                 f"paper's {axis}."))
+        out.append(figure(ctx, f"speedup-{axis.replace('_', '')}", plots.lines, at_paper,
+                          heading=f"Speed-up against {axis}",
+                          caption=f"Each point: Basic over ESS+ERT whole-frame time, the two timed interleaved; bars: "
+                                  f"95 % bootstrap interval from the frames. {fixed} at the paper's "
+                                  f"({', '.join(f'{s} {PAPER_ISO[s][index]}' for s in PAPER_ISO)}); dotted: the "
+                                  f"paper's {axis}.",
+                          x=axis, y="speedup", group="scene", y_range=("low", "high"),
+                          title=_sweep_title(at_paper, axis),
+                          x_label=f"{axis} (grey level, 0–255; {fixed} at the paper's)",
+                          y_label="speed-up, Basic / ESS+ERT time (×)", vlines=marks))
     return out
 
 

@@ -10,8 +10,8 @@ import pandas as pd
 from pipeline.experiments.kit import intervals, pages
 from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            frame_note, linked_table)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, frame_note, linked_table)
 from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, timed_frames, truth_run
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, speed_points,
                                               text_column)
@@ -335,10 +335,6 @@ def _ratio_blocks(tests, ctx):
                         for device, group in tests.groupby(pages.gl_devices(tests))], ignore_index=True)
     if ratios.empty:
         return []
-    path, rel = ctx.plot_path("table1-speedups")
-    plots.bar_compare(ratios, path, category_col="scene", value_cols=["ESS+ERT (paper)", "ESS+ERT (ours)"],
-                      value_label="speed-up of ESS+ERT over Basic (×)",
-                      title="ESS+ERT over Basic per data set, the paper's and ours")
     return [blocks.Table("Table 1 beside ours: speed-ups over Basic (median over the views)", ratios,
                          csv_name="table1_ratios.csv",
                          caption="Ours: the quotient of Basic's and the mode's time, each the median over the views "
@@ -347,8 +343,11 @@ def _ratio_blocks(tests, ctx):
                                  "depth-init passes, volume pass: time_technique). Paper: the quotient of its frame "
                                  "rates. Real scans share the paper row of their kind; the claims give each ratio's "
                                  "interval."),
-            blocks.Figure("ESS+ERT over Basic, paper and ours", rel,
-                          "Bars: the paper's ratio of frame rates and ours of median whole-frame times."),
+            figure(ctx, "table1-speedups", plots.bar_compare, ratios, heading="ESS+ERT over Basic, paper and ours",
+                   caption="Bars: the paper's ratio of frame rates and ours of median whole-frame times.",
+                   category_col="scene", value_cols=["ESS+ERT (paper)", "ESS+ERT (ours)"],
+                   value_label="speed-up of ESS+ERT over Basic (×)",
+                   title="ESS+ERT over Basic per data set, the paper's and ours"),
             blocks.Table("Culled fragments beside the speed-ups", _culling_table(tests), csv_name="table1_culling.csv",
                          caption="F: slice fragments generated; F'c: fragments that passed the depth test and were "
                                  "shaded (occlusion queries, median over the views; machine-independent). α' = 1 − "

@@ -9,7 +9,8 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, figure, format_number,
+                                            linked_table)
 from pipeline.experiments.kit.planning import accepts, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
 from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, isbvr_not_measurable, mode_name,
@@ -57,9 +58,8 @@ def _order_speedup(df):
 
 
 def _order_image(df):
-    values = pair_psnr(image_pairs(df, "ess+ert", "ess+ert", first_match={"order": FRONT},
-                                   second_match={"order": BACK}))
-    basic = pair_psnr(image_pairs(df, "basic", "basic", first_match={"order": FRONT}, second_match={"order": BACK}))
+    values, basic = (pair_psnr(image_pairs(df, config, config, first_match={"order": FRONT},
+                                           second_match={"order": BACK})) for config in ("ess+ert", "basic"))
     worst = min(values, key=lambda k: values[k][0])
     return ClaimResult(f"{format_number(values[worst][0])} dB ({worst[0]}, {worst[1]})",
                        all(p >= LOSSLESS_PSNR for p, _share in values.values()),
@@ -135,11 +135,6 @@ def _blocks(tests, ctx):
     summary = _summary(tests)
     back = summary[summary.order == BACK]
     culled = back.pivot_table(index="scene", columns="mode", values="α'", sort=False).reset_index()
-    path, rel = ctx.plot_path("variants-culled")
-    modes = [c for c in culled.columns if c != "scene"]
-    plots.bar_compare(culled, path, category_col="scene", value_cols=modes,
-                      value_label="culled share of slice fragments α' = 1 − F'_c/F",
-                      title="Fragments culled by each depth-init mode (back to front, median over the views)")
     headline = speed_points(tests[tests.view == "headline"])
     headline["mode"] = [_mode_label(r) for r in headline.itertuples()]
     return [blocks.Table("Modes and orders: fragments shaded, culled share and speed-up over Basic", summary,
@@ -147,9 +142,13 @@ def _blocks(tests, ctx):
                          caption="Median over the views; times are whole frames; the speed-up divides Basic's time "
                                  "in the same order by the mode's. Every run of a scene timed interleaved; the "
                                  "claims give each ratio's interval."),
-            blocks.Figure("Culled share per mode", rel, "Front-based leaping culls in front of Φ_t, exit-based "
-                          "behind it; both cull the rays that miss Φ_t, so their difference is the front space less "
-                          "the back space (each alone would need the depth band, not built)."),
+            figure(ctx, "variants-culled", plots.bar_compare, culled, heading="Culled share per mode",
+                   caption="Front-based leaping culls in front of Φ_t, exit-based behind it; both cull the rays that "
+                           "miss Φ_t, so their difference is the front space less the back space (each alone would "
+                           "need the depth band, not built).",
+                   category_col="scene", value_cols=[c for c in culled.columns if c != "scene"],
+                   value_label="culled share of slice fragments α' = 1 − F'_c/F",
+                   title="Fragments culled by each depth-init mode (back to front, median over the views)"),
             linked_table("Headline view: every run", headline,
                          ["scene", "mode", "time_ms", "time_ms_min", "time_ms_max", "count_fragments",
                           "count_fragments_generated"], ctx, csv_name="variants_headline.csv",
