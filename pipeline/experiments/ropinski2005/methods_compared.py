@@ -1,18 +1,8 @@
 """``ropinski2005-methods`` (E4): the paper's segments against per-sample lens tests and depth-based clipping.
 
-The paper's argument (§2, §3, against Weiskopf et al. 2003) is never measured in it: cutting each ray
-into regions before the volume pass leaves the main pass without a per-sample test (no extra texture
-fetch, no depth comparison), and never writing the fragment's depth keeps early-z on. Here every lens
-method of ``gl-raycast`` renders every Table 1 scene, all timed together in one job per scene, so each
-baseline's frame time over the segments method's comes with a paired bootstrap interval. The early-z
-part is measured with an opaque plane hiding half of the box's footprint (option ``occluder``): a
-method that keeps early-z shades only the uncovered fragments (counter ``fragments_shaded``), one that
-writes ``gl_FragDepth`` shades them all. Every method's image is compared with the reference's beside
-its time.
-
-The per-sample methods classify one sample at a time and refuse ``mip`` and ``iso`` lenses (they need
-the lens segment whole), so a scene whose lens is one of those (the foot's bone isosurface) is compared
-with a transparency lens of the same shape and place here.
+The paper's argument (§2, §3, against Weiskopf et al. 2003) is never measured in it. How it is measured here,
+the early-z test behind an occluder (counter ``fragments_shaded``) and the foot's isosurface lens that the
+per-sample methods refuse: :attr:`MethodsCompared.description`.
 """
 
 import numpy as np
@@ -23,8 +13,8 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            frames_caption)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
@@ -310,30 +300,26 @@ def _speed_accuracy(tests, ctx):
     # One marker per method; each scene's cluster is named once, at the paper's method, so labels do not pile up.
     points = points.assign(psnr=numeric(points, "psnr"), method=configs,
                            label=np.where(configs == PAPER_METHOD, text_column(points, "scene"), ""))
-    path, rel = ctx.plot_path("speed-accuracy")
-    plots.speed_accuracy(points, path, time_col="time_ms", error_col="psnr", group_col="method", label_col="label",
-                         log_y=False, join=False, time_range_cols=("time_ms_min", "time_ms_max"),
-                         title="Frame time against accuracy, each lens method on each Table 1 scene",
-                         x_label="median frame time (ms)", y_label="PSNR against the reference (dB)",
-                         better="upper left")
-    return [blocks.Figure("Speed against accuracy", rel,
-                          "One marker per lens method, one cluster per scene (named at the segments method's point; "
-                          "every view its own point); bars: fastest and slowest frame. Early termination at the "
-                          "caster's opacity threshold drops light the reference keeps, the same for every method. "
-                          + frames_caption(points))]
+    return [figure(ctx, "speed-accuracy", plots.speed_accuracy, points, heading="Speed against accuracy",
+                   caption="One marker per lens method, one cluster per scene (named at the segments method's point; "
+                           "every view its own point); bars: fastest and slowest frame. Early termination at the "
+                           "caster's opacity threshold drops light the reference keeps, the same for every method. "
+                           + frames_caption(points),
+                   time_col="time_ms", error_col="psnr", group_col="method", label_col="label", log_y=False,
+                   join=False, time_range_cols=("time_ms_min", "time_ms_max"),
+                   title="Frame time against accuracy, each lens method on each Table 1 scene",
+                   x_label="median frame time (ms)", y_label="PSNR against the reference (dB)", better="upper left")]
 
 
 def _earlyz_figure(table, ctx):
     if table.empty:
         return []
-    path, rel = ctx.plot_path("earlyz")
-    plots.bar_compare(table, path, category_col="method",
-                      value_cols=["time with / without (%)", "fragments shaded with / without (%)"],
-                      value_label="with the occluder / without it (%, median over the scenes)",
-                      title=f"An occluder on {as_percent(OCCLUDER)} of the footprint: who drops the covered fragments")
-    return [blocks.Figure("Early-z behind an occluder", rel,
-                          "Frame time and fragment-shader invocations with the opaque plane over without it; 100 %: "
-                          "the occluder saved nothing.")]
+    return [figure(ctx, "earlyz", plots.bar_compare, table, heading="Early-z behind an occluder",
+                   caption="Frame time and fragment-shader invocations with the opaque plane over without it; 100 %: "
+                           "the occluder saved nothing.",
+                   category_col="method", value_cols=["time with / without (%)", "fragments shaded with / without (%)"],
+                   value_label="with the occluder / without it (%, median over the scenes)",
+                   title=f"An occluder on {as_percent(OCCLUDER)} of the footprint: who drops the covered fragments")]
 
 
 class MethodsCompared(Experiment):

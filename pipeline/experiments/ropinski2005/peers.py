@@ -21,8 +21,8 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import decision_words, measured
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            frames_caption, linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure,
+                                            format_number, frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
@@ -182,18 +182,17 @@ def _takeaways(tests):
 
 
 def _figure(table, ctx):
-    path, rel = ctx.plot_path("peers-overhead-accuracy")
-    plots.speed_accuracy(table, path, time_col="time ratio lens / no lens", error_col="PSNR with the lens (dB)",
-                         group_col="implementation", label_col="scene", log_x=False, log_y=False, join=False,
-                         time_range_cols=CI, better="upper left",
-                         x_label="frame time with the lens / without it (ratio)",
-                         y_label="PSNR with the lens against the reference (dB)",
-                         title="What the lens costs each implementation: time and accuracy")
-    return blocks.Figure("The lens's cost in time and in accuracy, per implementation", rel,
-                         "Each point one scene: the overhead, whole-frame time with the lens over without it, timed "
-                         "together in the implementation's own job (bars: its 95 % bootstrap interval), against the "
-                         "PSNR of the lens image against the reference. Overheads compare across implementations; "
-                         "absolute times, taken in different jobs and stacks, do not.")
+    return figure(ctx, "peers-overhead-accuracy", plots.speed_accuracy, table,
+                  heading="The lens's cost in time and in accuracy, per implementation",
+                  caption="Each point one scene: the overhead, whole-frame time with the lens over without it, timed "
+                          "together in the implementation's own job (bars: its 95 % bootstrap interval), against the "
+                          "PSNR of the lens image against the reference. Overheads compare across implementations; "
+                          "absolute times, taken in different jobs and stacks, do not.",
+                  time_col="time ratio lens / no lens", error_col="PSNR with the lens (dB)",
+                  group_col="implementation", label_col="scene", log_x=False, log_y=False, join=False,
+                  time_range_cols=CI, better="upper left", x_label="frame time with the lens / without it (ratio)",
+                  y_label="PSNR with the lens against the reference (dB)",
+                  title="What the lens costs each implementation: time and accuracy")
 
 
 class Peers(Experiment):
