@@ -11,7 +11,7 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
-                                              time_ratio)
+                                              ratio_pair, time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, frames_caption)
@@ -108,11 +108,10 @@ def covered_share(frame, scene):
 
 def occluder_saving(frame, scene, config, *, resampler):
     """``(value, draws)``: time with the occluder over time without it, ``config`` on ``scene`` (paired)."""
-    behind, open_ = behind_and_open(frame, scene, config)
-    value = numeric(behind, "time_total").median() / numeric(open_, "time_total").median()
-    a = intervals.statistic_draws(behind, "time_total", "median", resampler)
-    b = intervals.statistic_draws(open_, "time_total", "median", resampler)
-    return float(value), (a / b if a is not None and b is not None else None)
+    value, draws = ratio_pair(*((numeric(rows, "time_total").median(),
+                                 intervals.statistic_draws(rows, "time_total", "median", resampler))
+                                for rows in behind_and_open(frame, scene, config)))
+    return float(value), draws
 
 
 def earlyz_decision(frame, scene, *, resampler, method="frag-depth"):
@@ -120,10 +119,9 @@ def earlyz_decision(frame, scene, *, resampler, method="frag-depth"):
 
     Above 1: the occluder saves the segments method a larger share of its frame than ``method``.
     """
-    own, own_draws = occluder_saving(frame, scene, method, resampler=resampler)
-    paper, paper_draws = occluder_saving(frame, scene, PAPER_METHOD, resampler=resampler)
-    draws = own_draws / paper_draws if own_draws is not None and paper_draws is not None else None
-    return intervals.decide(own / paper, intervals.interval_of(draws), at_least=1.0)
+    value, draws = ratio_pair(*(occluder_saving(frame, scene, config, resampler=resampler)
+                                for config in (method, PAPER_METHOD)))
+    return intervals.decide(value, intervals.interval_of(draws), at_least=1.0)
 
 
 # ------------------------------------------------------------------------------------------------- claims

@@ -8,10 +8,8 @@ intersection of half-spaces: a ``clip`` lens that cuts the box with one face). O
 classify voxels, not samples: ``shearwarp`` puts the lens into its pre-classification (the contrast note
 004 names), which costs a reclassification and a re-encoding of the volume whenever the lens moves.
 
-Each implementation renders each scene it can without and with the lens, timed together in its own job
-(VTK's OpenGL stack and moderngl's cannot share one), so every overhead is a paired ratio on one machine;
-every lens image is judged against the reference's. The cutaway scene is the one all three VTK methods can
-render: a box clip lens along the axes that removes the front half of the seismic cube.
+Each implementation's runs are timed in a job of their own (VTK's OpenGL stack and moderngl's cannot share
+one); the scenes and how overheads and images are judged: :attr:`Peers.description`.
 """
 
 import numpy as np
