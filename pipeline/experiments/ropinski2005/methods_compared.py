@@ -16,7 +16,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
-from pipeline.experiments.kit.results import numeric, speed_points, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable)
@@ -63,10 +63,7 @@ def occluded_rows(frame, occluded):
 
 def table1_scenes(frame):
     """The Table 1 scenes among ``frame``'s rows, in their order; ValueError if none."""
-    scenes = [s for s in pd.unique(text_column(frame, "scene")) if s in TABLE1_SCENES]
-    if not scenes:
-        raise ValueError("no successful run of a Table 1 scene")
-    return scenes
+    return nonempty([s for s in pd.unique(text_column(frame, "scene")) if s in TABLE1_SCENES], what="a Table 1 scene")
 
 
 def image_of(frame):

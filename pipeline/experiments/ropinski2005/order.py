@@ -13,7 +13,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
 from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
                                                        device_takeaways, lens_run, lens_settings,
@@ -58,10 +58,7 @@ def termination_rows(frame, termination):
 
 def present_scenes(frame):
     """The scenes of ``frame``'s rows, in their order; ValueError if none."""
-    scenes = scenes_of(frame)
-    if not scenes:
-        raise ValueError("no successful run")
-    return scenes
+    return nonempty(scenes_of(frame))
 
 
 def order_difference(frame, termination, scene):

@@ -12,7 +12,7 @@ from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES, TIMED_SCALES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable)
@@ -39,10 +39,7 @@ def stage_share(rows, stage, *, resampler, at_most=None):
 
 def scene_rows(frame, scene):
     """The rows of ``scene``; ValueError naming it if none."""
-    rows = rows_matching(frame, scene, scene=scene)
-    if rows.empty:
-        raise ValueError(f"no successful run of {scene}")
-    return rows
+    return nonempty(rows_matching(frame, scene, scene=scene), what=scene)
 
 
 def _geometry(df):

@@ -14,7 +14,7 @@ from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number,
                                             frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, method_name,
                                                        raycast_not_measurable, scenes_of)
@@ -36,9 +36,7 @@ def lens_rows(frame, scene, image, lens):
     """The rows of ``scene`` at ``image`` with the lens (``lens`` "on") or without ("off"); ValueError if none."""
     rows = rows_matching(frame, scene, scene=scene, lens=lens)
     rows = rows[numeric(rows, "image_size") == image]  # a number: runs.csv holds it as 512.0 beside other tables
-    if rows.empty:
-        raise ValueError(f"no successful run of {scene} at {image}² with the lens {lens}")
-    return rows
+    return nonempty(rows, what=f"{scene} at {image}² with the lens {lens}")
 
 
 def overhead(frame, scene, image, *, resampler, at_most=None):
@@ -53,10 +51,7 @@ def drop(ratio):
 
 
 def _paper_scenes(frame):
-    scenes = [s for s in scenes_of(frame) if s in SETUPS and SETUPS[s].paper_row]
-    if not scenes:
-        raise ValueError("no successful run of a scene of Table 1")
-    return scenes
+    return nonempty([s for s in scenes_of(frame) if s in SETUPS and SETUPS[s].paper_row], what="a scene of Table 1")
 
 
 def coverage_note(frame, scene, image):
