@@ -11,6 +11,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE
 from pipeline.experiments.kit.model import SIZES, Claim, Experiment, Paper, Profile, scaled
 from pipeline.experiments.kit.pages import device_takeaways, gl_devices
 from pipeline.experiments.kit.planning import listed, scene, truth_run
+from pipeline.experiments.kit.results import nonempty
 
 
 class Sweep(Experiment):
@@ -206,3 +207,13 @@ def test_with_ours_puts_our_target_right_after_the_papers_number_with_its_value_
                   Claim("gain-paper", "RC-b is faster", "", paper_check, ours="why")):
         with pytest.raises(ValueError, match="'<id>-paper', takes ours"):
             claim.with_ours("x", "y", ours_check, why="z")
+
+
+def test_nonempty_passes_what_was_found_and_names_what_was_not():
+    rows = pd.DataFrame({"scene": ["foot"]})
+    assert nonempty(rows, what="the foot") is rows
+    assert nonempty(["foot"]) == ["foot"]
+    with pytest.raises(ValueError, match="^no successful run of the foot at 512²$"):
+        nonempty(rows.iloc[:0], what="the foot at 512²")
+    with pytest.raises(ValueError, match="^no successful run$"):
+        nonempty([])

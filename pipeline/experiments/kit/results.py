@@ -59,6 +59,26 @@ def rows_matching(frame, what, **match):
     return rows
 
 
+def nonempty(found, *, what=None):
+    """``found``, the rows or the scenes a selection found, unless it found none.
+
+    Parameters
+    ----------
+    found : pandas.DataFrame or sequence
+    what : str, optional
+        What was looked for, in words (``"seismic at 512²"``), for the error.
+
+    Raises
+    ------
+    ValueError
+        ``found`` is empty: "no successful run of ``what``" (``"no successful run"`` without ``what``), which a
+        claim turns into "not measured".
+    """
+    if found.empty if isinstance(found, pd.DataFrame) else not len(found):
+        raise ValueError("no successful run" + (f" of {what}" if what else ""))
+    return found
+
+
 def one_row(frame, what, **match):
     """The single row of ``frame`` matching ``match``; ValueError naming ``what`` when none."""
     rows = rows_matching(frame, what, **match)

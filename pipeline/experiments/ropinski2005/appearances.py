@@ -1,14 +1,9 @@
 """``ropinski2005-appearance`` (E6): one lens, four appearances: clip, transparency, isosurface, MIP.
 
 Note 004 §4.2 E6: "Clipping is cheapest inside the lens but exposes region₀ (longer traversal behind).
-Isosurface stops at the first hit." Each scene's lens keeps its shape and place and shows, in turn,
-nothing (``clip``), the volume's table with its opacity scaled down (``dvr``, a transparency lens), the
-first crossing of an isovalue (``iso``) and the largest sample (``mip``, not in the paper). The lens-off
-frame and the four appearances are timed together in one job per scene (the paper's segments method),
-and ``gl-raycast`` counts each region's samples. The segments method casts region₀ whole behind whatever
-the lens shows (back to front), so what a lens exposes behind it shows where early termination runs
-across the regions: the ``fused`` method (one loop over the three segments) renders the clipping and the
-isosurface lens in the same job.
+Isosurface stops at the first hit." The segments method casts region₀ whole behind whatever the lens shows
+(back to front), so what a lens exposes behind it shows only where early termination runs across the
+regions: the ``fused`` method. The runs: :attr:`Appearances.description`.
 """
 
 import numpy as np
@@ -18,8 +13,8 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            frames_caption)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure,
+                                            format_number, frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
@@ -193,13 +188,11 @@ def _region_figure(table, ctx):
         return []
     bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
     bars = bars.rename(columns=APPEARANCES).reset_index()
-    path, rel = ctx.plot_path("region1")
-    plots.bar_compare(bars, path, category_col="scene",
-                      value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
-                      value_label="region₁ samples per frame (millions)",
-                      title="What each appearance takes inside the lens")
-    return [blocks.Figure("Samples inside the lens, per appearance", rel,
-                          "Region₁ samples counted by the caster (the segments method, median over the views).")]
+    return [figure(ctx, "region1", plots.bar_compare, bars, heading="Samples inside the lens, per appearance",
+                   caption="Region₁ samples counted by the caster (the segments method, median over the views).",
+                   category_col="scene", value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
+                   value_label="region₁ samples per frame (millions)",
+                   title="What each appearance takes inside the lens")]
 
 
 def _takeaways(table):

@@ -1,10 +1,7 @@
 """``ropinski2005-correctness`` (E7): every lens method's image against the reference, and no seams.
 
-The reference renders a lens scene exactly (the lens interval per ray from the analytic shape, samples on
-the no-lens lattice), so each ``gl-raycast`` lens method is judged by PSNR against it on every lens scene.
-A lens showing the outside appearance must give the lens-off image (note 004 §4.2 E7): any difference is
-a seam where the regions meet or a sample counted twice or left out; every method and the reference are
-held to it.
+The exact reference, and the outside-appearance lens held to the lens-off image (note 004 §4.2 E7):
+:attr:`Correctness.description`.
 """
 
 from dataclasses import replace

@@ -1,15 +1,7 @@
 """``ropinski2005-edges`` (E8): where the lens lies against the volume and the camera, and no holes.
 
-Note 004 §4.1 (9) and §4.2 E8: a lens partly outside the box, wholly in front of it or behind it,
-enclosing the box, enclosing the camera (perspective), and rays grazing the lens's faces. The paper's
-recipe leaves one of them without an image (§2.8): a ray whose lens lies wholly behind the box gets
-``transition₀``'s "no region₀" mark and an empty lens ∩ box, so no region would render it. Every lens
-method of ``gl-raycast`` renders every case and is compared with the reference's exact lens image
-(PSNR), and its coverage with the reference's (alpha, pixel by pixel): a hole is a pixel the reference
-covers that the method leaves nearly empty. ``segments-stencil`` builds the paper's transition images
-and counts the rays they give no region (``hole_rays``).
-
-The cases are placed from the view: "in front" is towards the camera of the case's one view.
+The cases (note 004 §4.1 (9), §4.2 E8; each placed from its one view: "in front" is towards its camera), the
+hole the paper's recipe leaves (§2.8) and how a hole is found: :attr:`Edges.description`.
 """
 
 from dataclasses import dataclass

@@ -1,12 +1,7 @@
 """``ropinski2005-size`` (E5): the lens's overhead against how much of the picture it covers.
 
-Note 004 §4.2 E5: a sphere lens swept from 0.05 to 0.6 of the volume's edge; the overhead (frame time with
-the lens over without it) should grow with the lens's screen coverage, since every ray through the lens
-is cut into three segments cast in three passes, and with the back-to-front order region₀ is cast whole
-behind whatever region₁ and region₂ composite in front of it. ``gl-raycast`` counts the rays whose lens
-segment inside the box is not empty (``lens_rays``), so the coverage is exact; the lens-off frame and
-every radius are timed together in one job per scene, so each overhead has a paired bootstrap interval,
-and so has the slope of the overhead against the coverage.
+The sweep (note 004 §4.2 E5), the exact coverage (``gl-raycast``'s ``lens_rays``) and the slope's paired
+bootstrap interval: :attr:`LensSize.description`.
 """
 
 import numpy as np

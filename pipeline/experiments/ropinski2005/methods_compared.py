@@ -1,18 +1,8 @@
 """``ropinski2005-methods`` (E4): the paper's segments against per-sample lens tests and depth-based clipping.
 
-The paper's argument (§2, §3, against Weiskopf et al. 2003) is never measured in it: cutting each ray
-into regions before the volume pass leaves the main pass without a per-sample test (no extra texture
-fetch, no depth comparison), and never writing the fragment's depth keeps early-z on. Here every lens
-method of ``gl-raycast`` renders every Table 1 scene, all timed together in one job per scene, so each
-baseline's frame time over the segments method's comes with a paired bootstrap interval. The early-z
-part is measured with an opaque plane hiding half of the box's footprint (option ``occluder``): a
-method that keeps early-z shades only the uncovered fragments (counter ``fragments_shaded``), one that
-writes ``gl_FragDepth`` shades them all. Every method's image is compared with the reference's beside
-its time.
-
-The per-sample methods classify one sample at a time and refuse ``mip`` and ``iso`` lenses (they need
-the lens segment whole), so a scene whose lens is one of those (the foot's bone isosurface) is compared
-with a transparency lens of the same shape and place here.
+The paper's argument (§2, §3, against Weiskopf et al. 2003) is never measured in it. How it is measured here,
+the early-z test behind an occluder (counter ``fragments_shaded``) and the foot's isosurface lens that the
+per-sample methods refuse: :attr:`MethodsCompared.description`.
 """
 
 import numpy as np
@@ -21,12 +11,12 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
-                                              time_ratio)
+                                              ratio_pair, time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            frames_caption)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
-from pipeline.experiments.kit.results import numeric, speed_points, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable)
@@ -73,10 +63,7 @@ def occluded_rows(frame, occluded):
 
 def table1_scenes(frame):
     """The Table 1 scenes among ``frame``'s rows, in their order; ValueError if none."""
-    scenes = [s for s in pd.unique(text_column(frame, "scene")) if s in TABLE1_SCENES]
-    if not scenes:
-        raise ValueError("no successful run of a Table 1 scene")
-    return scenes
+    return nonempty([s for s in pd.unique(text_column(frame, "scene")) if s in TABLE1_SCENES], what="a Table 1 scene")
 
 
 def image_of(frame):
@@ -118,11 +105,10 @@ def covered_share(frame, scene):
 
 def occluder_saving(frame, scene, config, *, resampler):
     """``(value, draws)``: time with the occluder over time without it, ``config`` on ``scene`` (paired)."""
-    behind, open_ = behind_and_open(frame, scene, config)
-    value = numeric(behind, "time_total").median() / numeric(open_, "time_total").median()
-    a = intervals.statistic_draws(behind, "time_total", "median", resampler)
-    b = intervals.statistic_draws(open_, "time_total", "median", resampler)
-    return float(value), (a / b if a is not None and b is not None else None)
+    value, draws = ratio_pair(*((numeric(rows, "time_total").median(),
+                                 intervals.statistic_draws(rows, "time_total", "median", resampler))
+                                for rows in behind_and_open(frame, scene, config)))
+    return float(value), draws
 
 
 def earlyz_decision(frame, scene, *, resampler, method="frag-depth"):
@@ -130,10 +116,9 @@ def earlyz_decision(frame, scene, *, resampler, method="frag-depth"):
 
     Above 1: the occluder saves the segments method a larger share of its frame than ``method``.
     """
-    own, own_draws = occluder_saving(frame, scene, method, resampler=resampler)
-    paper, paper_draws = occluder_saving(frame, scene, PAPER_METHOD, resampler=resampler)
-    draws = own_draws / paper_draws if own_draws is not None and paper_draws is not None else None
-    return intervals.decide(own / paper, intervals.interval_of(draws), at_least=1.0)
+    value, draws = ratio_pair(*(occluder_saving(frame, scene, config, resampler=resampler)
+                                for config in (method, PAPER_METHOD)))
+    return intervals.decide(value, intervals.interval_of(draws), at_least=1.0)
 
 
 # ------------------------------------------------------------------------------------------------- claims
@@ -310,30 +295,26 @@ def _speed_accuracy(tests, ctx):
     # One marker per method; each scene's cluster is named once, at the paper's method, so labels do not pile up.
     points = points.assign(psnr=numeric(points, "psnr"), method=configs,
                            label=np.where(configs == PAPER_METHOD, text_column(points, "scene"), ""))
-    path, rel = ctx.plot_path("speed-accuracy")
-    plots.speed_accuracy(points, path, time_col="time_ms", error_col="psnr", group_col="method", label_col="label",
-                         log_y=False, join=False, time_range_cols=("time_ms_min", "time_ms_max"),
-                         title="Frame time against accuracy, each lens method on each Table 1 scene",
-                         x_label="median frame time (ms)", y_label="PSNR against the reference (dB)",
-                         better="upper left")
-    return [blocks.Figure("Speed against accuracy", rel,
-                          "One marker per lens method, one cluster per scene (named at the segments method's point; "
-                          "every view its own point); bars: fastest and slowest frame. Early termination at the "
-                          "caster's opacity threshold drops light the reference keeps, the same for every method. "
-                          + frames_caption(points))]
+    return [figure(ctx, "speed-accuracy", plots.speed_accuracy, points, heading="Speed against accuracy",
+                   caption="One marker per lens method, one cluster per scene (named at the segments method's point; "
+                           "every view its own point); bars: fastest and slowest frame. Early termination at the "
+                           "caster's opacity threshold drops light the reference keeps, the same for every method. "
+                           + frames_caption(points),
+                   time_col="time_ms", error_col="psnr", group_col="method", label_col="label", log_y=False,
+                   join=False, time_range_cols=("time_ms_min", "time_ms_max"),
+                   title="Frame time against accuracy, each lens method on each Table 1 scene",
+                   x_label="median frame time (ms)", y_label="PSNR against the reference (dB)", better="upper left")]
 
 
 def _earlyz_figure(table, ctx):
     if table.empty:
         return []
-    path, rel = ctx.plot_path("earlyz")
-    plots.bar_compare(table, path, category_col="method",
-                      value_cols=["time with / without (%)", "fragments shaded with / without (%)"],
-                      value_label="with the occluder / without it (%, median over the scenes)",
-                      title=f"An occluder on {as_percent(OCCLUDER)} of the footprint: who drops the covered fragments")
-    return [blocks.Figure("Early-z behind an occluder", rel,
-                          "Frame time and fragment-shader invocations with the opaque plane over without it; 100 %: "
-                          "the occluder saved nothing.")]
+    return [figure(ctx, "earlyz", plots.bar_compare, table, heading="Early-z behind an occluder",
+                   caption="Frame time and fragment-shader invocations with the opaque plane over without it; 100 %: "
+                           "the occluder saved nothing.",
+                   category_col="method", value_cols=["time with / without (%)", "fragments shaded with / without (%)"],
+                   value_label="with the occluder / without it (%, median over the scenes)",
+                   title=f"An occluder on {as_percent(OCCLUDER)} of the footprint: who drops the covered fragments")]
 
 
 class MethodsCompared(Experiment):

@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.judging import median_count
-from pipeline.experiments.kit.pages import format_number, linked_table
+from pipeline.experiments.kit.pages import figure, format_number, linked_table
 from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import scenes_of
 from reports import blocks, plots
@@ -84,7 +84,5 @@ def overhead_figure(points, ctx, name, *, heading, caption, **options):
 
     ``options`` go to :func:`reports.plots.lines` (``x``, its label, the title).
     """
-    path, rel = ctx.plot_path(name)
-    plots.lines(points, path, y="overhead (%)", group="series", y_range=PERCENT_CI,
-                y_label="overhead, t(lens) / t(no lens) − 1 (%)", **options)
-    return [blocks.Figure(heading, rel, caption)]
+    return [figure(ctx, name, plots.lines, points, heading=heading, caption=caption, y="overhead (%)",
+                   group="series", y_range=PERCENT_CI, y_label="overhead, t(lens) / t(no lens) − 1 (%)", **options)]

@@ -1,11 +1,6 @@
 """``ropinski2005-passes`` (E2): the segments method's frame, pass by pass.
 
-The paper gives only whole frames. Its method adds a geometry stage before the volume is touched (the
-lens's faces rasterised into entry and exit images, the transitions between the regions resolved from
-them) and splits the ray casting into three region passes; note 004 §4.2 expects the geometry to be a
-small share of the frame and the region passes to cost what their samples cost. ``gl-raycast`` times
-each pass (stages ``lens_geometry``, ``region0``–``region2``, ``readback``) and counts each region's
-samples (``samples_region0``–``2``), on every lens scene.
+The paper gives only whole frames; what ``gl-raycast`` times and counts here: :attr:`Passes.description`.
 """
 
 import numpy as np
@@ -15,9 +10,9 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, format_number, frames_caption
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES, TIMED_SCALES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable)
@@ -44,10 +39,7 @@ def stage_share(rows, stage, *, resampler, at_most=None):
 
 def scene_rows(frame, scene):
     """The rows of ``scene``; ValueError naming it if none."""
-    rows = rows_matching(frame, scene, scene=scene)
-    if rows.empty:
-        raise ValueError(f"no successful run of {scene}")
-    return rows
+    return nonempty(rows_matching(frame, scene, scene=scene), what=scene)
 
 
 def _geometry(df):
@@ -126,24 +118,22 @@ def _pass_blocks(tests, ctx):
     out = []
     stages = stage_columns(tests)
     if stages:
-        path, rel = ctx.plot_path("passes-stages")
-        plots.stage_breakdown(tests, path, stage_cols=stages, group_col="scene",
-                              title="Time per pass of a lens frame (segments)")
-        out.append(blocks.Figure("Time per pass (segments method)", rel,
-                                 "Median time of each stage per frame, one bar per scene (headline view); "
-                                 + frames_caption(tests)))
+        out.append(figure(ctx, "passes-stages", plots.stage_breakdown, tests, heading="Time per pass (segments method)",
+                          caption="Median time of each stage per frame, one bar per scene (headline view); "
+                                  + frames_caption(tests),
+                          stage_cols=stages, group_col="scene", title="Time per pass of a lens frame (segments)"))
     points = share_points(tests)
     if not points.empty and points.coverage.notna().any():
-        path, rel = ctx.plot_path("passes-shares")
-        plots.lines(points, path, x="coverage", y="share", group="stage", y_range=("low", "high"), join=False,
-                    label="scene", title=_share_title(points),
-                    x_label="rays meeting lens ∩ box (% of the rays)", y_label="share of the frame time (%)",
-                    guides=(("the claim's bound", [points.coverage.min(), points.coverage.max()],
-                             [100 * GEOMETRY_SHARE] * 2),))
-        out.append(blocks.Figure("Geometry and lens-region shares against lens coverage", rel,
-                                 "One point per scene and pass (not joined: the scenes are not a sweep); bars: 95 % "
-                                 "bootstrap interval over the run's frames; dashed: "
-                                 "the claim's bound on the geometry share."))
+        out.append(figure(ctx, "passes-shares", plots.lines, points,
+                          heading="Geometry and lens-region shares against lens coverage",
+                          caption="One point per scene and pass (not joined: the scenes are not a sweep); bars: 95 % "
+                                  "bootstrap interval over the run's frames; dashed: the claim's bound on the geometry "
+                                  "share.",
+                          x="coverage", y="share", group="stage", y_range=("low", "high"), join=False, label="scene",
+                          title=_share_title(points), x_label="rays meeting lens ∩ box (% of the rays)",
+                          y_label="share of the frame time (%)",
+                          guides=(("the claim's bound", [points.coverage.min(), points.coverage.max()],
+                                   [100 * GEOMETRY_SHARE] * 2),)))
     out.append(blocks.Table("Passes and samples per scene (median frame)", pass_table(tests).round(3),
                             csv_name="passes.csv",
                             caption="Stage times and their share of the whole frame; region samples counted by the "

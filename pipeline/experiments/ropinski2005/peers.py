@@ -8,10 +8,8 @@ intersection of half-spaces: a ``clip`` lens that cuts the box with one face). O
 classify voxels, not samples: ``shearwarp`` puts the lens into its pre-classification (the contrast note
 004 names), which costs a reclassification and a re-encoding of the volume whenever the lens moves.
 
-Each implementation renders each scene it can without and with the lens, timed together in its own job
-(VTK's OpenGL stack and moderngl's cannot share one), so every overhead is a paired ratio on one machine;
-every lens image is judged against the reference's. The cutaway scene is the one all three VTK methods can
-render: a box clip lens along the axes that removes the front half of the seismic cube.
+Each implementation's runs are timed in a job of their own (VTK's OpenGL stack and moderngl's cannot share
+one); the scenes and how overheads and images are judged: :attr:`Peers.description`.
 """
 
 import numpy as np
@@ -21,8 +19,8 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import decision_words, measured
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            frames_caption, linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure,
+                                            format_number, frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
@@ -182,18 +180,17 @@ def _takeaways(tests):
 
 
 def _figure(table, ctx):
-    path, rel = ctx.plot_path("peers-overhead-accuracy")
-    plots.speed_accuracy(table, path, time_col="time ratio lens / no lens", error_col="PSNR with the lens (dB)",
-                         group_col="implementation", label_col="scene", log_x=False, log_y=False, join=False,
-                         time_range_cols=CI, better="upper left",
-                         x_label="frame time with the lens / without it (ratio)",
-                         y_label="PSNR with the lens against the reference (dB)",
-                         title="What the lens costs each implementation: time and accuracy")
-    return blocks.Figure("The lens's cost in time and in accuracy, per implementation", rel,
-                         "Each point one scene: the overhead, whole-frame time with the lens over without it, timed "
-                         "together in the implementation's own job (bars: its 95 % bootstrap interval), against the "
-                         "PSNR of the lens image against the reference. Overheads compare across implementations; "
-                         "absolute times, taken in different jobs and stacks, do not.")
+    return figure(ctx, "peers-overhead-accuracy", plots.speed_accuracy, table,
+                  heading="The lens's cost in time and in accuracy, per implementation",
+                  caption="Each point one scene: the overhead, whole-frame time with the lens over without it, timed "
+                          "together in the implementation's own job (bars: its 95 % bootstrap interval), against the "
+                          "PSNR of the lens image against the reference. Overheads compare across implementations; "
+                          "absolute times, taken in different jobs and stacks, do not.",
+                  time_col="time ratio lens / no lens", error_col="PSNR with the lens (dB)",
+                  group_col="implementation", label_col="scene", log_x=False, log_y=False, join=False,
+                  time_range_cols=CI, better="upper left", x_label="frame time with the lens / without it (ratio)",
+                  y_label="PSNR with the lens against the reference (dB)",
+                  title="What the lens costs each implementation: time and accuracy")
 
 
 class Peers(Experiment):

@@ -14,7 +14,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import claim_takeaways, format_number
+from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, OPTIONS, PAPER_METHOD,
@@ -173,12 +173,11 @@ def _region_figure(tests, ctx):
     bars = pd.DataFrame({"scene": own.scene.to_numpy()})
     for column, region in zip(REGION_COLUMNS, ("region0", "region1", "region2")):
         bars[REGIONS[region]] = numeric(own, column).to_numpy() / 1e6
-    path, rel = ctx.plot_path("samples-regions")
-    plots.bar_compare(bars, path, category_col="scene", value_cols=list(REGIONS.values())[::-1],
-                      value_label="samples per frame (millions)",
-                      title="Samples per region, the paper's method")
-    return [blocks.Figure("Samples per region", rel, "Counted by the caster (exact, machine-independent), the lens "
-                          "with its own appearance, headline view, early termination off.")]
+    return [figure(ctx, "samples-regions", plots.bar_compare, bars, heading="Samples per region",
+                   caption="Counted by the caster (exact, machine-independent), the lens with its own appearance, "
+                           "headline view, early termination off.",
+                   category_col="scene", value_cols=list(REGIONS.values())[::-1],
+                   value_label="samples per frame (millions)", title="Samples per region, the paper's method")]
 
 
 class Samples(Experiment):

@@ -1,11 +1,7 @@
 """``ropinski2005-table1`` (E1): Table 1's frame rates without and with the lens, as overheads beside the paper's.
 
-The seismic, skull and foot stand-ins, the real CT head (in the skull's row) and the engine (Fig. 1, not
-timed in the paper), each with its lens (:mod:`~pipeline.experiments.ropinski2005.scenes`), rendered by
-``gl-raycast`` without and with the lens (the paper's ``segments`` method) at two image sizes. The four
-runs of a scene are timed together, frame against frame, so each overhead (frame time with the lens over
-frame time without it) comes with a paired bootstrap interval, judged against the paper's
-fps(no lens) / fps(lens) of its row at the matching viewport.
+Which scenes are rendered, how they are timed and what each overhead is judged against:
+:attr:`Table1.description`.
 """
 
 import numpy as np
@@ -15,9 +11,10 @@ from pipeline.experiments.kit import intervals
 
 from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, format_number, frames_caption
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number,
+                                            frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, method_name,
                                                        raycast_not_measurable, scenes_of)
@@ -39,9 +36,7 @@ def lens_rows(frame, scene, image, lens):
     """The rows of ``scene`` at ``image`` with the lens (``lens`` "on") or without ("off"); ValueError if none."""
     rows = rows_matching(frame, scene, scene=scene, lens=lens)
     rows = rows[numeric(rows, "image_size") == image]  # a number: runs.csv holds it as 512.0 beside other tables
-    if rows.empty:
-        raise ValueError(f"no successful run of {scene} at {image}² with the lens {lens}")
-    return rows
+    return nonempty(rows, what=f"{scene} at {image}² with the lens {lens}")
 
 
 def overhead(frame, scene, image, *, resampler, at_most=None):
@@ -56,10 +51,7 @@ def drop(ratio):
 
 
 def _paper_scenes(frame):
-    scenes = [s for s in scenes_of(frame) if s in SETUPS and SETUPS[s].paper_row]
-    if not scenes:
-        raise ValueError("no successful run of a scene of Table 1")
-    return scenes
+    return nonempty([s for s in scenes_of(frame) if s in SETUPS and SETUPS[s].paper_row], what="a scene of Table 1")
 
 
 def coverage_note(frame, scene, image):
@@ -149,15 +141,14 @@ def _overhead_figure(table, ctx):
         for image in PAPER_SIZES:
             points.append({"series": f"{row} (paper)", "image": image, "drop": 100 * paper_drop(row, image),
                            "low": np.nan, "high": np.nan})
-    path, rel = ctx.plot_path("table1-overhead")
-    plots.lines(pd.DataFrame(points), path, x="image", y="drop", group="series", y_range=("low", "high"),
-                title="Lens overhead per data set: ours beside the paper's Table 1", log_x=True,
-                x_label="image width and height (pixels)",
-                y_label="fps drop with the lens, 1 − t(no lens) / t(lens) (%)")
-    return blocks.Figure("Lens overhead against image size", rel,
-                         "Ours: the fps drop implied by the median frame-time ratio, bars its 95 % bootstrap interval "
-                         "(lens and no lens timed together); paper: Table 1's drop at 512² and 1024² (no interval "
-                         "given). The sizes differ: compare the shape per data set, not one point against another.")
+    return figure(ctx, "table1-overhead", plots.lines, pd.DataFrame(points), heading="Lens overhead against image size",
+                  caption="Ours: the fps drop implied by the median frame-time ratio, bars its 95 % bootstrap interval "
+                          "(lens and no lens timed together); paper: Table 1's drop at 512² and 1024² (no interval "
+                          "given). The sizes differ: compare the shape per data set, not one point against another.",
+                  x="image", y="drop", group="series", y_range=("low", "high"), log_x=True,
+                  title="Lens overhead per data set: ours beside the paper's Table 1",
+                  x_label="image width and height (pixels)",
+                  y_label="fps drop with the lens, 1 − t(no lens) / t(lens) (%)")
 
 
 def _other_takeaways(tests):
