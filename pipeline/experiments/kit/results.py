@@ -7,6 +7,7 @@ view); these helpers raise :class:`MissingColumn` (a ``KeyError``) for a column 
 """
 
 import functools
+import re
 from pathlib import Path
 
 import numpy as np
@@ -59,6 +60,41 @@ def rows_matching(frame, what, **match):
     return rows
 
 
+def complete_groups(frame, configs, *, by, missing):
+    """The rows of every one of ``configs`` (their ``config`` tag), for each value of the tag ``by`` where all rendered.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The experiment's successful rows.
+    configs : iterable of str
+        The configurations a claim compares.
+    by : str
+        The tag they are compared within: ``"scene"``, ``"dataset"``.
+    missing : str
+        The error's message where no value of ``by`` has them all.
+
+    Returns
+    -------
+    dict
+        ``{value: {config: rows}}``, values in the order they first appear.
+
+    Raises
+    ------
+    ValueError
+        No value of ``by`` has a row of every configuration: the claim is not measured.
+    """
+    groups = {}
+    for value in pd.unique(text_column(frame, by)):
+        part = frame[text_column(frame, by) == value]
+        rows = {config: part[text_column(part, "config") == config] for config in configs}
+        if not any(r.empty for r in rows.values()):
+            groups[value] = rows
+    if not groups:
+        raise ValueError(missing)
+    return groups
+
+
 def one_row(frame, what, **match):
     """The single row of ``frame`` matching ``match``; ValueError naming ``what`` when none."""
     rows = rows_matching(frame, what, **match)
@@ -81,6 +117,30 @@ def speed_points(frame):
     out["time_ms"] = numeric(frame, "time_total") * 1e3
     out["time_ms_min"] = pd.to_numeric(frame.get("time_total_min", np.nan), errors="coerce") * 1e3
     out["time_ms_max"] = pd.to_numeric(frame.get("time_total_max", np.nan), errors="coerce") * 1e3
+    return out
+
+
+def stage_points(frame, stage, *, name):
+    """``frame`` with the median, fastest and slowest frame of column ``stage`` in milliseconds, for a chart.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The runs' rows, with ``stage`` (seconds) and, where timed, ``<stage>_min`` and ``<stage>_max``.
+    stage : str
+        The time column, ``"time_warp"`` say (:func:`speed_points` does ``"time_total"``).
+    name : str
+        The new columns' name: ``name``, ``<name>_min`` and ``<name>_max`` (NaN where a frame range is absent).
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of ``frame`` with the three columns.
+    """
+    out = frame.copy()
+    out[name] = numeric(frame, stage) * 1e3
+    for end in ("min", "max"):
+        out[f"{name}_{end}"] = pd.to_numeric(frame.get(f"{stage}_{end}", np.nan), errors="coerce") * 1e3
     return out
 
 
@@ -133,3 +193,22 @@ def fit_line(x, y):
     total = np.sum((y - y.mean()) ** 2)
     r2 = 1.0 - np.sum(residual ** 2) / total if total > 0 else 1.0
     return float(slope), float(intercept), float(r2)
+
+
+def view_angle(view):
+    """The angle a view's name ends with, in degrees (``"az22.5"`` → 22.5, ``"deg090"`` → 90).
+
+    Parameters
+    ----------
+    view : str
+        A view's name, as the turntables of the experiments name them.
+
+    Raises
+    ------
+    ValueError
+        The name ends with no number.
+    """
+    match = re.search(r"(-?\d+(?:\.\d+)?)$", str(view))
+    if not match:
+        raise ValueError(f"view {view!r} names no angle")
+    return float(match.group(1))
