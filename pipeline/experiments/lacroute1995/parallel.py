@@ -15,13 +15,12 @@ import datasets
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table, title_or
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
-from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
 SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous")

@@ -12,13 +12,12 @@ import datasets
 from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, difference_gallery,
-                                            figure, format_number, linked_table)
+                                            figure, format_number, linked_table, title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
-from pipeline.experiments.lacroute1995.reading import title_or
 from reports import plots
 
 

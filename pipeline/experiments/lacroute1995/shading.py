@@ -15,14 +15,14 @@ from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
-                                            format_number, frame_note, linked_table, not_measurable)
+                                            format_number, frame_note, linked_table, not_measurable,
+                                            title_or)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
                                                timed_frames, unregistered)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
                                               speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, VP, sizes
-from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
 SW_MODE_CONFIGS = {
@@ -333,5 +333,4 @@ def _lut_title(ok):
         ratio = LUT_SPEED.denominator.value(d) / LUT_SPEED.numerator.value(d)
         return f"Lookup-table shading is {change_words(ratio)} than per-voxel Phong"
 
-    return title_or(title, ok,
-                    "Per-frame time by stage")
+    return title_or(title, ok, "Per-frame time by stage")
