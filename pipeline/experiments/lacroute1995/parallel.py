@@ -254,12 +254,11 @@ def _speedup(df, band=None):
         if one.empty or w.max() <= 1:
             continue
         p = int(w.max())
-        t1, one_draws = judging.statistic(one, TIME, resampler)
-        tp, most_draws = judging.statistic(most, TIME, resampler)
-        draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
+        one_time = judging.statistic(one, TIME, resampler)
+        speedup, draws = judging.ratio_pair(one_time, judging.statistic(most, TIME, resampler))
         low, high = (0.7, None) if band is None else band(p)
-        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = judging.decided(
-            t1 / tp / p, draws, at_least=low, at_most=high, frames=resampler.arms())
+        decisions[f"{int(n)}³, ×{format_number(speedup)} on {p} workers"] = judging.decided(
+            speedup / p, None if draws is None else draws / p, at_least=low, at_most=high, frames=resampler.arms())
         parallel.append(most)
     if not decisions:
         raise ValueError("no size rendered with one worker and with more")

@@ -199,10 +199,9 @@ def _growth_pairs(df):
 
 def _per_doubling(rows_a, rows_b, doublings, column, resampler):
     """``(ratio per doubling, its draws)`` of ``column`` from rows ``a`` to rows ``b``."""
-    a, a_draws = judging.statistic(rows_a, column, resampler)
-    b, b_draws = judging.statistic(rows_b, column, resampler)
-    draws = None if a_draws is None or b_draws is None else (b_draws / a_draws) ** (1 / doublings)
-    return (b / a) ** (1 / doublings), draws
+    a = judging.statistic(rows_a, column, resampler)
+    value, draws = judging.ratio_pair(judging.statistic(rows_b, column, resampler), a)
+    return value ** (1 / doublings), None if draws is None else draws ** (1 / doublings)
 
 
 def _growth_ratios(df, column=judging.COMPOSITE):
@@ -277,10 +276,8 @@ def _warp_share(df, paper=False):
     if len(largest) < 2:
         raise ValueError("fewer than two volume sizes at the largest image")
     resampler = intervals.Resampler()
-    warp, warp_draws = judging.values(largest, "time_warp", resampler)
-    technique, technique_draws = judging.values(largest, judging.TECHNIQUE, resampler)
-    shares = warp / technique
-    draws = None if warp_draws is None or technique_draws is None else warp_draws / technique_draws
+    warp = judging.values(largest, "time_warp", resampler)
+    shares, draws = judging.ratio_pair(warp, judging.values(largest, judging.TECHNIQUE, resampler))
     if paper:
         return _warp_share_paper(largest, shares, draws, resampler)
     decision = judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),

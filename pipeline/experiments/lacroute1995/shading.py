@@ -249,10 +249,9 @@ def _after_edit(rows, stages, resampler):
 def _edit_race(top, top_stages, bottom, bottom_stages):
     """Whether the ``top`` mode shows an image first: its time to an image over ``bottom``'s, < 1, decided."""
     resampler = intervals.Resampler()
-    a, a_draws = _after_edit(top, top_stages, resampler)
-    b, b_draws = _after_edit(bottom, bottom_stages, resampler)
-    draws = None if a_draws is None or b_draws is None else a_draws / b_draws
-    return judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a, b
+    a, b = _after_edit(top, top_stages, resampler), _after_edit(bottom, bottom_stages, resampler)
+    value, draws = judging.ratio_pair(a, b)
+    return judging.decided(value, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a[0], b[0]
 
 
 def _mode_rows(df, config):
