@@ -5,8 +5,9 @@ import pandas as pd
 import pytest
 
 from pipeline.experiments.kit.pages import title_or
-from pipeline.experiments.kit.results import complete_groups, stage_points, view_angle
+from pipeline.experiments.kit.results import complete_groups, footprint_psnr, stage_points, view_angle
 from pipeline.experiments.kit.words import full_count, megabytes, short_duration
+from reports.imageio import write_exr
 
 
 def test_view_names_give_their_angle():
@@ -45,3 +46,16 @@ def test_complete_groups_keep_the_values_where_every_configuration_rendered():
     assert groups["c"]["x"].v.tolist() == [4] and groups["a"]["y"].v.tolist() == [1]
     with pytest.raises(ValueError, match="none has both"):
         complete_groups(frame, ("x", "z"), by="scene", missing="none has both")
+
+
+def test_footprint_psnr_reads_only_the_pixels_either_image_covers(tmp_path):
+    truth = np.zeros((20, 20, 4), np.float32)
+    truth[5:10, 5:10] = 0.5
+    test = truth.copy()
+    test[5:10, 5:10, 0] += 0.1
+    paths = [str(tmp_path / name) for name in ("truth.exr", "test.exr", "empty.exr")]
+    for path, image in zip(paths, (truth, test, np.zeros_like(truth))):
+        write_exr(path, image)
+    assert footprint_psnr(paths[0], paths[1]) == pytest.approx(10 * np.log10(4 / 0.01))  # 1 of 4 channels off
+    with pytest.raises(ValueError, match="cover no pixel"):
+        footprint_psnr(paths[2], paths[2])

@@ -183,6 +183,38 @@ def pair_metrics(reference_exr, test_exr):
     return {"psnr": float(psnr(a, b)), "ssim": float(ssim(a, b)), "rmse": float(rmse(a, b))}
 
 
+FOOTPRINT_ALPHA = 1 / 255
+"""A pixel is in the object's footprint where either image's opacity exceeds one 8-bit step."""
+
+
+def footprint_psnr(reference_exr, test_exr):
+    """PSNR (premultiplied RGBA) over the object's footprint: the pixels either image covers.
+
+    The whole frame's PSNR counts the empty background as perfect, and a wider field of view with the
+    camera framing the volume shrinks the object on the image: the whole-frame PSNR then rises as the
+    error per covered pixel grows. Over the footprint it measures the error where there is something.
+
+    Parameters
+    ----------
+    reference_exr, test_exr : str or pathlib.Path
+        The two rendered images (same size).
+
+    Raises
+    ------
+    ValueError
+        The images differ in size, or neither covers a pixel (:data:`FOOTPRINT_ALPHA`).
+    """
+    from reports.metrics import psnr  # here: the metrics import SciPy, which planning the experiments never needs
+
+    a, b = read_exr(reference_exr), read_exr(test_exr)
+    if a.shape != b.shape:
+        raise ValueError(f"{test_exr} and {reference_exr} differ in size")
+    covered = (a[..., 3] > FOOTPRINT_ALPHA) | (b[..., 3] > FOOTPRINT_ALPHA)
+    if not covered.any():
+        raise ValueError(f"{reference_exr} and {test_exr} cover no pixel")
+    return psnr(a[covered][np.newaxis], b[covered][np.newaxis])
+
+
 def fit_line(x, y):
     """Least-squares ``y = slope·x + intercept``: ``(slope, intercept, R²)``."""
     x, y = np.asarray(x, float), np.asarray(y, float)
