@@ -16,7 +16,7 @@ the measured table, one module each:
 * :mod:`.projection`: E2, Table 5.3 complete (parallel, perspective, fast classification) with memory;
 * :mod:`.perspective`: E21, perspective image quality as the field of view widens.
 
-Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, the sizes, a
+Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, a
 shear-warp frame checked against its ground truth), :mod:`.pages` (what cannot be measured here); the claims
 are judged by the kit (:mod:`pipeline.experiments.kit.judging`: one stage on both sides, 95 % intervals, starved
 parallel runs).

@@ -13,11 +13,12 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decisio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)
-from pipeline.experiments.kit.planning import dataset_view, is_registered, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
+                                               volume_and_image_size)
 from pipeline.experiments.kit.results import numeric, ok_rows, stage_points, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes
+from pipeline.experiments.lacroute1995.planning import SW
 from reports import blocks, plots
 
 ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
@@ -64,7 +65,7 @@ class ViewAngles(Experiment):
         step = float(profile.setting(self, "angle_step", 10))
         if not 0 < step <= 90:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.angle_step: expected degrees in (0, 90], got {step}")
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:

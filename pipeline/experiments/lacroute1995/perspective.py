@@ -13,11 +13,11 @@ from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, difference_gallery,
                                             figure, format_number, linked_table, title_or)
-from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene
+from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, volume_and_image_size
 from pipeline.experiments.kit.results import FOOTPRINT_ALPHA, footprint_psnr, numeric, ok_rows, read_exr, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
 from reports import plots
 
 
@@ -56,7 +56,7 @@ class PerspectiveQuality(Experiment):
         if bad or len(fovs) < 2:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.fovs: expected two or more fields of "
                              f"view in (0, 120) degrees, got {fovs}")
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         truth_factor = profile.setting(self, "truth_step_factor", 0.25)
         volume = phantom(dataset, size, preset=preset)
         views = (headline_view(dataset),)

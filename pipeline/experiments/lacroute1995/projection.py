@@ -13,11 +13,12 @@ from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene,
+                                               timed_frames, volume_and_image_size)
 from pipeline.experiments.kit.results import complete_groups, numeric, ok_rows, speed_points, text_column, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes
+from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.tables import TABLE_5_3, THESIS
 from reports import blocks, plots
 
@@ -93,7 +94,7 @@ class Projections(Experiment):
         if workers is not None and (not isinstance(workers, int) or workers < 1):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.workers: expected an integer ≥ 1 or null "
                              f"(all cores), got {workers!r}")
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:

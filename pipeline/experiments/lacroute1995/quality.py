@@ -15,11 +15,11 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, db_words, difference_gallery, figure,
                                             format_number, linked_table, title_or)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, phantom, scene,
-                                               truth_run)
+                                               truth_run, volume_and_image_size)
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
 from reports import blocks, plots
 
 QUALITY_TFS = {
@@ -110,7 +110,7 @@ class ImageQuality(Experiment):
         if not is_registered(SW):
             return []
         wanted = listed(profile, self, "datasets", self.DATASETS, known=QUALITY_TFS)
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         angles = [float(a) for a in profile.setting(self, "angles", list(self.ANGLES))]
         truth_factor = profile.setting(self, "truth_step_factor", 0.125)
         shading = profile.setting(self, "shading", "phong")

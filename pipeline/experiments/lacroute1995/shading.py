@@ -18,11 +18,11 @@ from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaw
                                             format_number, frame_note, linked_table, not_measurable,
                                             title_or)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
-                                               timed_frames, unregistered)
+                                               timed_frames, unregistered, volume_and_image_size)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
                                               speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.planning import SW, VP, sizes
+from pipeline.experiments.lacroute1995.planning import SW, VP
 from reports import blocks, plots
 
 SW_MODE_CONFIGS = {
@@ -80,7 +80,7 @@ class Variants(Experiment):
     )
 
     def runs(self, profile):
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         dataset = profile.setting(self, "dataset", "ct_skull")
         preset = profile.setting(self, "preset", "skin")
         volume = phantom(dataset, size, preset=preset)
