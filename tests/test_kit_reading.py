@@ -25,7 +25,8 @@ def test_titles_fall_back_where_the_results_cannot_say_them():
 
 
 def test_stage_points_give_a_stage_in_milliseconds_with_its_frame_range():
-    frame = pd.DataFrame({"time_warp": [0.002, 0.004], "time_warp_min": [0.001, 0.003], "time_warp_max": [0.003, 0.005]})
+    frame = pd.DataFrame({"time_warp": [0.002, 0.004], "time_warp_min": [0.001, 0.003],
+                          "time_warp_max": [0.003, 0.005]})
     points = stage_points(frame, "time_warp", name="warp_ms")
     assert np.allclose(points.warp_ms, [2.0, 4.0]) and np.allclose(points.warp_ms_min, [1.0, 3.0])
     assert np.allclose(points.warp_ms_max, [3.0, 5.0]) and "warp_ms" not in frame  # a copy
