@@ -6,7 +6,7 @@ import pytest
 from core.camera import Camera
 from pipeline.experiments import Profile
 from pipeline.experiments.kit import planning as C
-from pipeline.experiments.kit.planning import UPRIGHT
+from pipeline.experiments.kit.planning import UPRIGHT, volume_and_image_size
 from pipeline.scene_io import rotation_matrix
 
 
@@ -46,3 +46,15 @@ def test_views_of_symmetric_controls_are_plain():
     assert C.dataset_view("sphere", "a", 30) == {"view": "a", "azimuth": 30.0, "elevation": 0.0}
     assert C.headline_view("ct_skull")["up"] == [0.0, 0.0, 1.0]
     assert C.upright_view("front", 0, 0)["elevation"] == -90.0
+
+
+def test_volume_and_image_size_take_the_experiments_settings_else_the_profiles():
+    from pipeline.experiments.kit.model import Experiment, Profile
+
+    class Sized(Experiment):
+        name = "test-sized"
+        settings = frozenset({"volume_size", "image_size"})
+        scales = {"full": {"image_size": 512}}
+
+    assert volume_and_image_size(Profile(name="a", scale="full", volume_size=96), Sized()) == (96, 512)
+    assert volume_and_image_size(Profile(name="b", scale="smoke", volume_size=32, image_size=64), Sized()) == (32, 64)

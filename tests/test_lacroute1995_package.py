@@ -18,7 +18,6 @@ from pipeline.experiments.kit.model import Profile
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import unregistered
 from pipeline.experiments.lacroute1995.planning import truth_and_shearwarp
-from pipeline.experiments.lacroute1995.reading import angle_of, title_or
 from reports import blocks
 from reports.html import ReportContext
 from reports.imageio import write_exr
@@ -206,13 +205,3 @@ def test_each_shearwarp_frame_is_checked_against_its_own_truth():
     assert both["s.truth"].options == {"step_factor": 0.25}
     assert {r.id: r.tags["truth"] for r in both.values()} == {"s.truth": "post", "s.shearwarp": "post",
                                                               "s.truth-pre": "pre", "s.shearwarp-vs-pre": "pre"}
-
-
-def test_view_names_give_their_angle_and_titles_fall_back():
-    assert [angle_of(v) for v in ("az22.5", "deg090", "az-10", "az0")] == [22.5, 90.0, -10.0, 0.0]
-    with pytest.raises(ValueError, match="names no angle"):
-        angle_of("headline")
-    assert title_or(lambda d: f"{len(d)} rows", [1, 2], "none") == "2 rows"
-    assert title_or(lambda d: d["missing"], {}, "none") == "none"  # a KeyError: the data cannot say
-    with pytest.raises(IndexError):
-        title_or(lambda d: d[5], [1], "none")

@@ -22,7 +22,7 @@ from reports.takeaways import change_words, db_words, setting_words
 __all__ = ["DIFF_SCALE", "as_percent", "as_ratio", "change_words", "claim_evidence", "claim_takeaways", "db_words",
            "device_takeaways", "difference_gallery", "figure", "format_number", "frame_note", "frames_caption",
            "frames_counted", "frames_note", "GL_TIMING", "gl_timing_words", "gl_devices", "linked_table", "links",
-           "ms", "not_measurable", "setting_words"]
+           "ms", "not_measurable", "setting_words", "title_or"]
 
 DIFF_SCALE = 0.1
 """Absolute error at the top of every difference image's colour map, on every page (one stated scale)."""
@@ -214,3 +214,23 @@ def _stand_in_words(names):
         return ""
     shown = ", ".join(names[:2]) + (f" and {len(names) - 2} more" if len(names) > 2 else "")
     return f"{shown} standing in for the paper's data"
+
+
+def title_or(make, data, fallback, *, errors=(KeyError, ValueError)):
+    """A chart title built from the results, or ``fallback`` where they cannot say it.
+
+    Parameters
+    ----------
+    make : callable
+        ``make(data)``: the title, from a claim's result say.
+    data : pandas.DataFrame
+        What ``make`` reads.
+    fallback : str
+        The title where ``make`` raises one of ``errors`` (a run or a column it needs is missing).
+    errors : tuple of type
+        The exceptions that mean "not measurable"; any other propagates.
+    """
+    try:
+        return make(data)
+    except errors:
+        return fallback

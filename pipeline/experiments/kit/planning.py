@@ -50,6 +50,19 @@ def timed_frames(profile, experiment=None):
             "replicates": processes}
 
 
+def volume_and_image_size(profile, experiment):
+    """``(volume size, image size)`` of ``experiment``'s runs: its ``volume_size`` and ``image_size`` settings.
+
+    Parameters
+    ----------
+    profile : Profile
+    experiment : Experiment
+        Its settings at the profile's scale; where it has none, the profile's own sizes.
+    """
+    return (profile.setting(experiment, "volume_size", profile.volume_size),
+            profile.setting(experiment, "image_size", profile.image_size))
+
+
 def usable_cores():
     """Cores this process may use (the render jobs take them all)."""
     try:

@@ -7,6 +7,7 @@ view); these helpers raise :class:`MissingColumn` (a ``KeyError``) for a column 
 """
 
 import functools
+import re
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +80,41 @@ def nonempty(found, *, what=None):
     return found
 
 
+def complete_groups(frame, configs, *, by, missing):
+    """The rows of every one of ``configs`` (their ``config`` tag), for each value of the tag ``by`` where all rendered.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The experiment's successful rows.
+    configs : iterable of str
+        The configurations a claim compares.
+    by : str
+        The tag they are compared within: ``"scene"``, ``"dataset"``.
+    missing : str
+        The error's message where no value of ``by`` has them all.
+
+    Returns
+    -------
+    dict
+        ``{value: {config: rows}}``, values in the order they first appear.
+
+    Raises
+    ------
+    ValueError
+        No value of ``by`` has a row of every configuration: the claim is not measured.
+    """
+    groups = {}
+    for value in pd.unique(text_column(frame, by)):
+        part = frame[text_column(frame, by) == value]
+        rows = {config: part[text_column(part, "config") == config] for config in configs}
+        if not any(r.empty for r in rows.values()):
+            groups[value] = rows
+    if not groups:
+        raise ValueError(missing)
+    return groups
+
+
 def one_row(frame, what, **match):
     """The single row of ``frame`` matching ``match``; ValueError naming ``what`` when none."""
     rows = rows_matching(frame, what, **match)
@@ -101,6 +137,30 @@ def speed_points(frame):
     out["time_ms"] = numeric(frame, "time_total") * 1e3
     out["time_ms_min"] = pd.to_numeric(frame.get("time_total_min", np.nan), errors="coerce") * 1e3
     out["time_ms_max"] = pd.to_numeric(frame.get("time_total_max", np.nan), errors="coerce") * 1e3
+    return out
+
+
+def stage_points(frame, stage, *, name):
+    """``frame`` with the median, fastest and slowest frame of column ``stage`` in milliseconds, for a chart.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        The runs' rows, with ``stage`` (seconds) and, where timed, ``<stage>_min`` and ``<stage>_max``.
+    stage : str
+        The time column, ``"time_warp"`` say (:func:`speed_points` does ``"time_total"``).
+    name : str
+        The new columns' name: ``name``, ``<name>_min`` and ``<name>_max`` (NaN where a frame range is absent).
+
+    Returns
+    -------
+    pandas.DataFrame
+        A copy of ``frame`` with the three columns.
+    """
+    out = frame.copy()
+    out[name] = numeric(frame, stage) * 1e3
+    for end in ("min", "max"):
+        out[f"{name}_{end}"] = pd.to_numeric(frame.get(f"{stage}_{end}", np.nan), errors="coerce") * 1e3
     return out
 
 
@@ -143,6 +203,38 @@ def pair_metrics(reference_exr, test_exr):
     return {"psnr": float(psnr(a, b)), "ssim": float(ssim(a, b)), "rmse": float(rmse(a, b))}
 
 
+FOOTPRINT_ALPHA = 1 / 255
+"""A pixel is in the object's footprint where either image's opacity exceeds one 8-bit step."""
+
+
+def footprint_psnr(reference_exr, test_exr):
+    """PSNR (premultiplied RGBA) over the object's footprint: the pixels either image covers.
+
+    The whole frame's PSNR counts the empty background as perfect, and a wider field of view with the
+    camera framing the volume shrinks the object on the image: the whole-frame PSNR then rises as the
+    error per covered pixel grows. Over the footprint it measures the error where there is something.
+
+    Parameters
+    ----------
+    reference_exr, test_exr : str or pathlib.Path
+        The two rendered images (same size).
+
+    Raises
+    ------
+    ValueError
+        The images differ in size, or neither covers a pixel (:data:`FOOTPRINT_ALPHA`).
+    """
+    from reports.metrics import psnr  # here: the metrics import SciPy, which planning the experiments never needs
+
+    a, b = read_exr(reference_exr), read_exr(test_exr)
+    if a.shape != b.shape:
+        raise ValueError(f"{test_exr} and {reference_exr} differ in size")
+    covered = (a[..., 3] > FOOTPRINT_ALPHA) | (b[..., 3] > FOOTPRINT_ALPHA)
+    if not covered.any():
+        raise ValueError(f"{reference_exr} and {test_exr} cover no pixel")
+    return psnr(a[covered][np.newaxis], b[covered][np.newaxis])
+
+
 def fit_line(x, y):
     """Least-squares ``y = slope·x + intercept``: ``(slope, intercept, R²)``."""
     x, y = np.asarray(x, float), np.asarray(y, float)
@@ -153,3 +245,22 @@ def fit_line(x, y):
     total = np.sum((y - y.mean()) ** 2)
     r2 = 1.0 - np.sum(residual ** 2) / total if total > 0 else 1.0
     return float(slope), float(intercept), float(r2)
+
+
+def view_angle(view):
+    """The angle a view's name ends with, in degrees (``"az22.5"`` → 22.5, ``"deg090"`` → 90).
+
+    Parameters
+    ----------
+    view : str
+        A view's name, as the turntables of the experiments name them.
+
+    Raises
+    ------
+    ValueError
+        The name ends with no number.
+    """
+    match = re.search(r"(-?\d+(?:\.\d+)?)$", str(view))
+    if not match:
+        raise ValueError(f"view {view!r} names no angle")
+    return float(match.group(1))

@@ -4,6 +4,8 @@ Below both :mod:`.judging` (a claim's ``measured`` and ``detail``) and :mod:`.pa
 them), so that judging a claim never imports page code.
 """
 
+import pandas as pd
+
 from reports.takeaways import number
 
 
@@ -20,3 +22,20 @@ def as_percent(value):
 def as_ratio(value):
     """``"×1.12"``."""
     return f"×{format_number(value)}"
+
+
+def full_count(value):
+    """``"15,900"``: a counter in full (3 significant digits would read ``1.59e+04``); ``""`` if missing."""
+    value = pd.to_numeric(value, errors="coerce")
+    return f"{int(value):,}" if pd.notna(value) else ""
+
+
+def megabytes(value):
+    """``"4.89"``: a byte count in MB (10⁶ bytes); ``""`` if missing."""
+    value = pd.to_numeric(value, errors="coerce")
+    return format_number(value / 1e6) if pd.notna(value) else ""
+
+
+def short_duration(seconds):
+    """``"20.7 ns"``, or in µs from a microsecond on: a time per item (per voxel, per run)."""
+    return f"{format_number(seconds * 1e9)} ns" if abs(seconds) < 1e-6 else f"{format_number(seconds * 1e6)} µs"

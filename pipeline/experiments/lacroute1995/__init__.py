@@ -16,10 +16,10 @@ the measured table, one module each:
 * :mod:`.projection`: E2, Table 5.3 complete (parallel, perspective, fast classification) with memory;
 * :mod:`.perspective`: E21, perspective image quality as the field of view widens.
 
-Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, the sizes, a
-shear-warp frame checked against its ground truth), :mod:`.reading` (angles in view names, chart titles),
-:mod:`.pages` (charts as figures, what cannot be measured here); the claims are judged by the kit
-(:mod:`pipeline.experiments.kit.judging`: one stage on both sides, 95 % intervals, starved parallel runs).
+Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, a
+shear-warp frame checked against its ground truth), :mod:`.pages` (what cannot be measured here); the claims
+are judged by the kit (:mod:`pipeline.experiments.kit.judging`: one stage on both sides, 95 % intervals, starved
+parallel runs).
 
 Every timed comparison renders at least one untimed frame that compiled nothing before three timed
 frames, more until the frame time settles (:mod:`pipeline.timing`; more timed frames when the

@@ -13,12 +13,12 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decisio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number)
-from pipeline.experiments.kit.planning import dataset_view, is_registered, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows
+from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
+                                               volume_and_image_size)
+from pipeline.experiments.kit.results import numeric, ok_rows, stage_points, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes
-from pipeline.experiments.lacroute1995.reading import angle_of
+from pipeline.experiments.lacroute1995.planning import SW
 from reports import blocks, plots
 
 ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
@@ -65,7 +65,7 @@ class ViewAngles(Experiment):
         step = float(profile.setting(self, "angle_step", 10))
         if not 0 < step <= 90:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.angle_step: expected degrees in (0, 90], got {step}")
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:
@@ -109,9 +109,7 @@ class ViewAngles(Experiment):
         out = [claim_takeaways(ctx, _takeaways(frame))]
         if frame.empty:
             return out
-        frame["time_ms"] = numeric(frame, TIME) * 1e3
-        frame["time_ms_min"] = pd.to_numeric(frame.get(f"{TIME}_min"), errors="coerce") * 1e3
-        frame["time_ms_max"] = pd.to_numeric(frame.get(f"{TIME}_max"), errors="coerce") * 1e3
+        frame = stage_points(frame, TIME, name="time_ms")
         out += [figure(ctx, f"angle-{dataset}", plots.lines, part, heading=f"{dataset}: time over a full turn",
                        caption="Dotted: the principal-axis switches. Bars: fastest to slowest timed frame.",
                        x="angle", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
@@ -142,7 +140,7 @@ def _turns(df):
     if df.empty or "dataset" not in df:
         return pd.DataFrame()
     frame = df.copy()
-    frame["angle"] = [angle_of(v) for v in frame.view]
+    frame["angle"] = [view_angle(v) for v in frame.view]
     frame["time_total"] = numeric(frame, "time_total")
     return frame.sort_values(["dataset", "angle"])
 

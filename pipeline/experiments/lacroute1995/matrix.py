@@ -12,10 +12,11 @@ from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table)
-from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.planning import (accepts, headline_view, listed, phantom, scene, timed_frames,
+                                               volume_and_image_size)
+from pipeline.experiments.kit.results import complete_groups, ok_rows, speed_points
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes
+from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.tables import FIG_5_17, THESIS
 from reports import plots
@@ -72,7 +73,7 @@ class OptimisationMatrix(Experiment):
         if not accepts(SW, "rle", "early_termination"):
             return []
         wanted = listed(profile, self, "datasets", self.DATASETS, known=MATRIX_DATASETS)
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         runs = []
         for dataset in wanted:
             volume = phantom(dataset, size, preset=MATRIX_DATASETS[dataset])
@@ -195,16 +196,8 @@ def _table(ok):
 
 def _groups(df):
     """``{data set: {config: rows}}`` for every data set that rendered all four configurations."""
-    groups = {}
-    for dataset in pd.unique(text_column(df, "dataset")):
-        part = rows_matching(df, "", dataset=dataset)
-        configs = {c: part[text_column(part, "config") == c] for c in MATRIX_CONFIGS}
-        if any(rows.empty for rows in configs.values()):
-            continue
-        groups[dataset] = configs
-    if not groups:
-        raise ValueError("no data set with all four configurations rendered")
-    return groups
+    return complete_groups(df, MATRIX_CONFIGS, by="dataset",
+                           missing="no data set with all four configurations rendered")
 
 
 def _samples_of(rows):

@@ -15,13 +15,12 @@ import datasets
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table, title_or
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
-from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
 SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous")
@@ -255,12 +254,11 @@ def _speedup(df, band=None):
         if one.empty or w.max() <= 1:
             continue
         p = int(w.max())
-        t1, one_draws = judging.statistic(one, TIME, resampler)
-        tp, most_draws = judging.statistic(most, TIME, resampler)
-        draws = None if one_draws is None or most_draws is None else one_draws / most_draws / p
+        one_time = judging.statistic(one, TIME, resampler)
+        speedup, draws = judging.ratio_pair(one_time, judging.statistic(most, TIME, resampler))
         low, high = (0.7, None) if band is None else band(p)
-        decisions[f"{int(n)}³, ×{format_number(t1 / tp)} on {p} workers"] = judging.decided(
-            t1 / tp / p, draws, at_least=low, at_most=high, frames=resampler.arms())
+        decisions[f"{int(n)}³, ×{format_number(speedup)} on {p} workers"] = judging.decided(
+            speedup / p, None if draws is None else draws / p, at_least=low, at_most=high, frames=resampler.arms())
         parallel.append(most)
     if not decisions:
         raise ValueError("no size rendered with one worker and with more")

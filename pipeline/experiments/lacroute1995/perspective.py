@@ -12,13 +12,12 @@ import datasets
 from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, difference_gallery,
-                                            figure, format_number, linked_table)
-from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, text_column
+                                            figure, format_number, linked_table, title_or)
+from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, volume_and_image_size
+from pipeline.experiments.kit.results import FOOTPRINT_ALPHA, footprint_psnr, numeric, ok_rows, read_exr, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
-from pipeline.experiments.lacroute1995.reading import title_or
+from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
 from reports import plots
 
 
@@ -57,7 +56,7 @@ class PerspectiveQuality(Experiment):
         if bad or len(fovs) < 2:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.fovs: expected two or more fields of "
                              f"view in (0, 120) degrees, got {fovs}")
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         truth_factor = profile.setting(self, "truth_step_factor", 0.25)
         volume = phantom(dataset, size, preset=preset)
         views = (headline_view(dataset),)
@@ -123,28 +122,6 @@ class PerspectiveQuality(Experiment):
         return out + shearwarp_missing(more=[
             ("the visibility error of Fig. 4.12 (plates A, B before C)", "no registered data set holds thin plates "
              "before a plane, and scenes take volumes from the registry only")])
-
-
-FOOTPRINT_ALPHA = 1 / 255
-"""A pixel is in the object's footprint where either image's opacity exceeds one 8-bit step."""
-
-
-def footprint_psnr(reference_exr, test_exr):
-    """PSNR (premultiplied RGBA) over the object's footprint: the pixels either image covers.
-
-    The whole frame's PSNR counts the empty background as perfect, and a wider field of view with the
-    camera framing the volume shrinks the object on the image: the whole-frame PSNR then rises as the
-    error per covered pixel grows. Over the footprint it measures the error where there is something.
-    """
-    from reports.metrics import psnr  # here: the metrics import SciPy, which planning the experiments never needs
-
-    a, b = read_exr(reference_exr), read_exr(test_exr)
-    if a.shape != b.shape:
-        raise ValueError(f"{test_exr} and {reference_exr} differ in size")
-    covered = (a[..., 3] > FOOTPRINT_ALPHA) | (b[..., 3] > FOOTPRINT_ALPHA)
-    if not covered.any():
-        raise ValueError(f"{reference_exr} and {test_exr} cover no pixel")
-    return psnr(a[covered][np.newaxis], b[covered][np.newaxis])
 
 
 def fov_rows(df):

@@ -1,4 +1,4 @@
-"""Planning this paper's runs: its backends, their sizes, and untimed shear-warp frames checked against a ground
+"""Planning this paper's runs: its backends and untimed shear-warp frames checked against a ground
 truth."""
 
 from pipeline.experiments.kit.model import Run
@@ -26,9 +26,3 @@ def truth_and_shearwarp(experiment, prefix, scene, views, step_factor, tags, *, 
         runs += [truth, Run(experiment, test_id, SW, scene, views, reference=truth.id, **UNTIMED,
                             tags={**tags, "role": "test", **extra})]
     return runs
-
-
-def sizes(experiment, profile):
-    """``(volume size, image size)``: ``experiment``'s settings, the profile's own sizes where it has none."""
-    return (profile.setting(experiment, "volume_size", profile.volume_size),
-            profile.setting(experiment, "image_size", profile.image_size))

@@ -13,12 +13,12 @@ from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene,
+                                               timed_frames, volume_and_image_size)
+from pipeline.experiments.kit.results import complete_groups, numeric, ok_rows, speed_points, text_column, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes
-from pipeline.experiments.lacroute1995.reading import angle_of
+from pipeline.experiments.lacroute1995.planning import SW
 from pipeline.experiments.lacroute1995.tables import TABLE_5_3, THESIS
 from reports import blocks, plots
 
@@ -94,7 +94,7 @@ class Projections(Experiment):
         if workers is not None and (not isinstance(workers, int) or workers < 1):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.workers: expected an integer ≥ 1 or null "
                              f"(all cores), got {workers!r}")
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:
@@ -169,7 +169,7 @@ class Projections(Experiment):
                           category_col="category", value_cols=["ours", "thesis"],
                           value_label="mean time / parallel mean time", title=_title(ok)))
         frame = speed_points(ok)
-        frame["angle"] = [angle_of(v) for v in frame.view]
+        frame["angle"] = [view_angle(v) for v in frame.view]
         out += [figure(ctx, f"turn-{dataset}", plots.lines, part.sort_values("angle"),
                        heading=f"{dataset}: time per view",
                        caption="One line per algorithm; bars: fastest to slowest timed frame of each view.",
@@ -222,20 +222,17 @@ def _ratio(df, config, low, high):
     """``config``'s mean-view technique time over the parallel projection's, every data set, with intervals."""
     resampler = intervals.Resampler()
     decisions, details = {}, []
-    for dataset in pd.unique(text_column(df, "dataset")):
-        part = df[text_column(df, "dataset") == dataset]
-        mine, parallel = (part[text_column(part, "config") == c] for c in (config, "parallel"))
-        if mine.empty or parallel.empty:
-            continue
+    groups = complete_groups(df, (config, "parallel"), by="dataset",
+                             missing=f"no data set rendered both {config} and parallel")
+    for dataset, rows in groups.items():
+        mine, parallel = rows[config], rows["parallel"]
         decisions[dataset] = judging.ratio(mine, parallel, TIME, resampler, at_least=low, at_most=high, statistic="mean")
-        thesis = TABLE_5_3.get(str(part["thesis_dataset"].iloc[0]) if "thesis_dataset" in part else "", {})
+        thesis = TABLE_5_3.get(str(mine["thesis_dataset"].iloc[0]) if "thesis_dataset" in mine else "", {})
         times = numeric(mine, TIME)
         details.append(f"{dataset}: {format_number(times.mean() * 1e3)} ms mean over {len(times)} views "
                        f"({format_number(times.min() * 1e3)}–{format_number(times.max() * 1e3)} ms), samples "
                        f"×{format_number(numeric(mine, 'count_samples').mean() / numeric(parallel, 'count_samples').mean())}"
                        + (f", thesis ×{format_number(thesis[config][0] / thesis['parallel'][0])}" if thesis else ""))
-    if not decisions:
-        raise ValueError(f"no data set rendered both {config} and parallel")
     return all_of(decisions, extra="; ".join(details) + f"; {tables.SCOPES[TIME]}, the views timed together")
 
 

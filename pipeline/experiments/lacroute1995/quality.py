@@ -13,14 +13,13 @@ import pandas as pd
 import datasets
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, db_words, difference_gallery, figure,
-                                            format_number, linked_table)
+                                            format_number, linked_table, title_or)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, phantom, scene,
-                                               truth_run)
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching
+                                               truth_run, volume_and_image_size)
+from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, sizes, truth_and_shearwarp
-from pipeline.experiments.lacroute1995.reading import angle_of, title_or
+from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
 from reports import blocks, plots
 
 QUALITY_TFS = {
@@ -111,7 +110,7 @@ class ImageQuality(Experiment):
         if not is_registered(SW):
             return []
         wanted = listed(profile, self, "datasets", self.DATASETS, known=QUALITY_TFS)
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         angles = [float(a) for a in profile.setting(self, "angles", list(self.ANGLES))]
         truth_factor = profile.setting(self, "truth_step_factor", 0.125)
         shading = profile.setting(self, "shading", "phong")
@@ -187,7 +186,7 @@ class ImageQuality(Experiment):
 
 def _classification_blocks(tests, results, ctx):
     """The error by angle: a table, a chart and a gallery at 0° and 45°."""
-    tests["angle (°)"] = [angle_of(v) for v in tests.view]
+    tests["angle (°)"] = [view_angle(v) for v in tests.view]
     tests["truth"] = tests.truth.fillna("post") if "truth" in tests else "post"
     tests["against"] = tests.truth.map(TRUTHS)
     tests["series"] = tests.dataset + " " + tests.tf + " vs " + tests.truth + "-classified"
@@ -207,7 +206,7 @@ def _classification_blocks(tests, results, ctx):
                x_label="view angle to the volume axes (degrees)", y_label="PSNR against the reference (dB)",
                vlines=(45.0,)),
         difference_gallery("Binary and smooth classification at 0° and 45°", shown, ctx, against=results,
-                           label=lambda row: f"{row.dataset}, {row.tf}, {angle_of(row.view):g}°, vs "
+                           label=lambda row: f"{row.dataset}, {row.tf}, {view_angle(row.view):g}°, vs "
                                              f"{row.truth}-classified",
                            caption="Left the shear-warp image, right its difference from the reference named in "
                                    "the title.",
@@ -244,7 +243,7 @@ def _rows(df, tf, truth="post"):
     rows = rows_matching(df, "", part="classification", role="test", tf=tf, truth=truth).copy()
     if rows.empty:
         raise ValueError(f"no successful shear-warp run with the {tf} classification against {TRUTHS[truth]}")
-    rows["angle"] = [angle_of(v) for v in rows.view]
+    rows["angle"] = [view_angle(v) for v in rows.view]
     rows["psnr"] = numeric(rows, "psnr")
     return rows
 

@@ -12,13 +12,13 @@ import pandas as pd
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
+                                            title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, stage_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
-from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
 SCALING_DATASETS = {"folded_brain": "volpack", "ct_skull": "bone"}
@@ -157,9 +157,7 @@ def _growth_figure(growth, ok, ctx):
 
 def _warp_blocks(frame, ok, ctx):
     """The warp's time against the image size (the first data set), as a chart and beside Table 5.4."""
-    frame["warp_ms"] = numeric(frame, "time_warp") * 1e3
-    frame["warp_ms_min"] = pd.to_numeric(frame.get("time_warp_min"), errors="coerce") * 1e3
-    frame["warp_ms_max"] = pd.to_numeric(frame.get("time_warp_max"), errors="coerce") * 1e3
+    frame = stage_points(frame, "time_warp", name="warp_ms")
     frame["volume"] = [f"{int(v)}³ {d}" for v, d in zip(frame.volume_size, frame.dataset)]
     image_sizes = np.array(sorted(frame.image_size.unique()), float)
     warp = frame[frame.dataset == frame.dataset.iloc[0]]
@@ -201,10 +199,9 @@ def _growth_pairs(df):
 
 def _per_doubling(rows_a, rows_b, doublings, column, resampler):
     """``(ratio per doubling, its draws)`` of ``column`` from rows ``a`` to rows ``b``."""
-    a, a_draws = judging.statistic(rows_a, column, resampler)
-    b, b_draws = judging.statistic(rows_b, column, resampler)
-    draws = None if a_draws is None or b_draws is None else (b_draws / a_draws) ** (1 / doublings)
-    return (b / a) ** (1 / doublings), draws
+    a = judging.statistic(rows_a, column, resampler)
+    value, draws = judging.ratio_pair(judging.statistic(rows_b, column, resampler), a)
+    return value ** (1 / doublings), None if draws is None else draws ** (1 / doublings)
 
 
 def _growth_ratios(df, column=judging.COMPOSITE):
@@ -279,10 +276,8 @@ def _warp_share(df, paper=False):
     if len(largest) < 2:
         raise ValueError("fewer than two volume sizes at the largest image")
     resampler = intervals.Resampler()
-    warp, warp_draws = judging.values(largest, "time_warp", resampler)
-    technique, technique_draws = judging.values(largest, judging.TECHNIQUE, resampler)
-    shares = warp / technique
-    draws = None if warp_draws is None or technique_draws is None else warp_draws / technique_draws
+    warp = judging.values(largest, "time_warp", resampler)
+    shares, draws = judging.ratio_pair(warp, judging.values(largest, judging.TECHNIQUE, resampler))
     if paper:
         return _warp_share_paper(largest, shares, draws, resampler)
     decision = judging.decided(np.diff(shares).max(), None if draws is None else np.diff(draws, axis=1).max(axis=1),
@@ -309,14 +304,11 @@ def _warp_share_paper(largest, shares, draws, resampler):
 
 
 def _growth_title(ok):
-    try:
-        ratios = _growth_ratios(ok)
-    except (KeyError, ValueError):
-        return "Frame time against the volume size"
-    return ("Compositing time grows " + ", ".join(f"×{format_number(r, 2)} ({d})" for d, (r, _a, _b) in ratios.items())
-            + " per doubling of the side\n(n² would be ×4, n³ ×8)")
+    return title_or(lambda d: "Compositing time grows " + ", ".join(
+        f"×{format_number(r, 2)} ({dataset})" for dataset, (r, _a, _b) in _growth_ratios(d).items())
+        + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size")
 
 
 def _warp_title(ok):
     return title_or(lambda d: f"The warp grows {_warp_growth(d).measured} per doubling of the image side (pixels: ×4)", ok,
-                    "Warp time against the image size", (KeyError, ValueError, IndexError))
+                    "Warp time against the image size", errors=(KeyError, ValueError, IndexError))

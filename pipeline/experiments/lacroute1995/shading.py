@@ -15,14 +15,14 @@ from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
-                                            format_number, frame_note, linked_table, not_measurable)
+                                            format_number, frame_note, linked_table, not_measurable,
+                                            title_or)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
-                                               timed_frames, unregistered)
+                                               timed_frames, unregistered, volume_and_image_size)
 from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
                                               speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.planning import SW, VP, sizes
-from pipeline.experiments.lacroute1995.reading import title_or
+from pipeline.experiments.lacroute1995.planning import SW, VP
 from reports import blocks, plots
 
 SW_MODE_CONFIGS = {
@@ -80,7 +80,7 @@ class Variants(Experiment):
     )
 
     def runs(self, profile):
-        size, image = sizes(self, profile)
+        size, image = volume_and_image_size(profile, self)
         dataset = profile.setting(self, "dataset", "ct_skull")
         preset = profile.setting(self, "preset", "skin")
         volume = phantom(dataset, size, preset=preset)
@@ -249,10 +249,9 @@ def _after_edit(rows, stages, resampler):
 def _edit_race(top, top_stages, bottom, bottom_stages):
     """Whether the ``top`` mode shows an image first: its time to an image over ``bottom``'s, < 1, decided."""
     resampler = intervals.Resampler()
-    a, a_draws = _after_edit(top, top_stages, resampler)
-    b, b_draws = _after_edit(bottom, bottom_stages, resampler)
-    draws = None if a_draws is None or b_draws is None else a_draws / b_draws
-    return judging.decided(a / b, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a, b
+    a, b = _after_edit(top, top_stages, resampler), _after_edit(bottom, bottom_stages, resampler)
+    value, draws = judging.ratio_pair(a, b)
+    return judging.decided(value, draws, at_most=STRICTLY_BELOW_ONE, frames=resampler.arms()), a[0], b[0]
 
 
 def _mode_rows(df, config):
@@ -333,5 +332,4 @@ def _lut_title(ok):
         ratio = LUT_SPEED.denominator.value(d) / LUT_SPEED.numerator.value(d)
         return f"Lookup-table shading is {change_words(ratio)} than per-voxel Phong"
 
-    return title_or(title, ok,
-                    "Per-frame time by stage")
+    return title_or(title, ok, "Per-frame time by stage")

@@ -128,13 +128,12 @@ def cost_model_error():
 
 def volpack_times():
     """Tables 5.3 and 5.5: VolPack's frame times and memory for the two brains and the CT head (256×256×225)."""
-    rows = [
-        ("brainsmall", "parallel projection, classified RLE", 0.22, "0.19–0.26", 4),
-        ("brain", "parallel projection, classified RLE", 0.86, "0.69–1.06", 19),
-        ("head", "parallel projection, classified RLE", 0.87, "0.77–0.98", 13),
-        ("brainsmall", "fast classification (raw array + min-max octree)", 0.40, "0.35–0.47", 8),
-        ("brain", "fast classification (raw array + min-max octree)", 1.94, "1.51–2.36", 46),
-        ("head", "fast classification (raw array + min-max octree)", 2.19, "1.92–2.39", 61),
+    algorithms = {"parallel": "parallel projection, classified RLE",
+                  "fast-classification": "fast classification (raw array + min-max octree)"}
+    rows = [(data, words, mean, f"{fastest:.2f}–{slowest:.2f}", memory)
+            for config, words in algorithms.items() for data in ("brainsmall", "brain", "head")
+            for mean, fastest, slowest, memory in [TABLE_5_3[data][config]]]
+    rows += [
         ("brainsmall", "classified RLE, one view (Table 5.5)", 0.154, "", None),
         ("brain", "classified RLE, one view (Table 5.5)", 0.824, "", None),
     ]

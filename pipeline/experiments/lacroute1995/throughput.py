@@ -15,13 +15,13 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
+                                            title_or)
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.pages import shearwarp_missing
 from pipeline.experiments.lacroute1995.planning import SW
-from pipeline.experiments.lacroute1995.reading import title_or
 from reports import blocks, plots
 
 TIME = judging.TECHNIQUE

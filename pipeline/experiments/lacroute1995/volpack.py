@@ -17,7 +17,9 @@ from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, ch
                                             linked_table, not_measurable)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, listed, missing_options, phantom,
                                                scene, timed_frames, truth_run, unregistered, usable_cores)
-from pipeline.experiments.kit.results import numeric, ok_rows, pair_metrics, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import (complete_groups, numeric, ok_rows, pair_metrics, rows_matching,
+                                              speed_points, text_column)
+from pipeline.experiments.kit.words import full_count, megabytes, short_duration
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, VP
 from reports import blocks, plots
@@ -329,7 +331,7 @@ def _where_the_time_goes(tests, ctx):
               "count_classified_on_the_fly", "count_rle_bytes", "count_octree_bytes", "count_voxel_array_bytes",
               "count_intermediate_pixels"]
     shown = runs.assign(technique=[_technique(c) for c in runs.config],
-                        **{c: [_megabytes(v) if c.endswith("_bytes") else _count(v) for v in runs[c]]
+                        **{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
                            for c in counts if c in runs})
     out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx,
                             names={"count_samples": "samples composited", "count_voxel_runs": "voxel runs",
@@ -397,15 +399,9 @@ def _gallery(scene_name, group, ctx):
 
 def _pairs(df, config, against="volpack-rle"):
     """``{scene: (ours, the other's)}``: the rows of both configurations for every scene where both rendered."""
-    pairs = {}
-    for scene_name in pd.unique(text_column(df, "scene")):
-        ours = rows_matching(df, "", scene=scene_name, config=config)
-        other = rows_matching(df, "", scene=scene_name, config=against)
-        if not ours.empty and not other.empty:
-            pairs[scene_name] = (ours, other)
-    if not pairs:
-        raise ValueError(f"no scene with both a successful {config} run and a {against} run")
-    return pairs
+    groups = complete_groups(df, (config, against), by="scene",
+                             missing=f"no scene with both a successful {config} run and a {against} run")
+    return {scene_name: (rows[config], rows[against]) for scene_name, rows in groups.items()}
 
 
 def _speed(df, config, column=judging.TECHNIQUE, *, against="volpack-rle", peer="VolPack", at_most=1.0):
@@ -433,20 +429,14 @@ def _on_the_fly(rows):
               if np.isfinite(c)]
     if not counts:
         return ""
-    return "voxels classified on the fly per frame: " + ", ".join(f"{_count(c)} ({s})" for s, c in counts)
-
-
-def _megabytes(value):
-    """``"4.89"``: a byte count in MB (10⁶ bytes); ``""`` if missing."""
-    value = pd.to_numeric(value, errors="coerce")
-    return format_number(value / 1e6) if pd.notna(value) else ""
+    return "voxels classified on the fly per frame: " + ", ".join(f"{full_count(c)} ({s})" for s, c in counts)
 
 
 def _octree_words(scene_name, part, row):
     """Where our octree mode's time goes against our RLE mode's, beside VolPack's two modes (one scene)."""
-    sentence = (f"{scene_name}: our octree mode classifies {_count(row.get('count_classified_on_the_fly'))} voxels a "
-                f"frame where compositing reaches them, of the {_count(row.get('count_candidate_voxels'))} its octree "
-                f"cannot rule out")
+    sentence = (f"{scene_name}: our octree mode classifies {full_count(row.get('count_classified_on_the_fly'))} "
+                "voxels a frame where compositing reaches them, of the "
+                f"{full_count(row.get('count_candidate_voxels'))} its octree cannot rule out")
     rle, vp_rle, vp_octree = (part[part.config == c] for c in ("shearwarp-1", "volpack-rle", "volpack-octree"))
     classified = float(pd.to_numeric(row.get("count_classified_on_the_fly"), errors="coerce"))
     if rle.empty or not classified > 0:
@@ -455,8 +445,8 @@ def _octree_words(scene_name, part, row):
     extra = float(row[judging.TECHNIQUE]) - float(first[judging.TECHNIQUE])
     sentence += (f", and composites {as_ratio(float(row.count_samples) / float(first.count_samples))} the samples of "
                  f"our RLE mode (the octree's leaves pass transparent voxels too): its kernels take "
-                 f"{format_number(extra * 1e3)} ms more than our RLE mode's, {_per_voxel(extra / classified)} per voxel "
-                 "classified")
+                 f"{format_number(extra * 1e3)} ms more than our RLE mode's, {short_duration(extra / classified)} per "
+                 "voxel classified")
     if not (vp_rle.empty or vp_octree.empty):
         vp_extra = float(vp_octree.iloc[0][judging.TECHNIQUE]) - float(vp_rle.iloc[0][judging.TECHNIQUE])
         sentence += (f", where VolPack's octree mode takes {format_number(vp_extra * 1e3)} ms more than its RLE mode "
@@ -465,17 +455,6 @@ def _octree_words(scene_name, part, row):
                      "gradient-opacity tables in floating point for the rest, so that its records equal the RLE "
                      "mode's)")
     return sentence + "."
-
-
-def _per_voxel(seconds):
-    """``"20.7 ns"``, or in µs from a microsecond on."""
-    return f"{format_number(seconds * 1e9)} ns" if abs(seconds) < 1e-6 else f"{format_number(seconds * 1e6)} µs"
-
-
-def _count(value):
-    """``"15,900"``: a counter in full (a count in 3 significant digits reads as ``1.59e+04``); ``""`` if missing."""
-    value = pd.to_numeric(value, errors="coerce")
-    return f"{int(value):,}" if pd.notna(value) else ""
 
 
 def _parallel(df, speedups=None):
