@@ -20,9 +20,8 @@ A timing is a distribution, not a number. For one view of one run (or several ru
    preprocessing included, is what the next frame must agree with): in a warm worker, a view whose
    first frame was already a warm frame costs no warm-up frame of its own. Runs timed together
    warm up in rounds once each has had ``warmup`` frames: an arm has settled once one of its frames
-   agrees with its frame before (or its warm-up is capped), and from then on waits while the others
-   warm up; the round in which the last arm settles, completed by the waiting ones, is their first
-   timed round;
+   agrees with its frame before (or its warm-up is capped), and the round in which the last arm
+   settles is their first timed round;
 4. renders **timed frames** until there are at least ``repeat`` of them *and* they took at least
    ``min_time`` seconds *and* the span the load is read over (from the cold frame on) is long enough
    to read (:data:`pipeline.disturbance.MIN_SPAN`), at most ``max_frames``.
@@ -68,14 +67,6 @@ def _unreadable(start):
     (:data:`pipeline.disturbance.MIN_SPAN`): a view is timed on until it is not, so that a disturbance
     is seen in every view, fast frames too, instead of the view passing as quiet unmeasured."""
     return time.monotonic() - start.wall < disturbance.MIN_SPAN
-
-
-def _round_frame(state, bar):
-    """One arm's frame of a round, with its wall time as the round saw it: ``(result, wall, wait, took)``."""
-    began = time.perf_counter()
-    frame = state.frame()
-    bar.update()
-    return frame + (time.perf_counter() - began,)
 
 
 def _total(result, wall):
@@ -298,26 +289,24 @@ def measure_together(arms, *, warmup=1, repeat=3, min_time=0.0, max_frames=MAX_F
                                        or _unreadable(start)):
             order = states if played % 2 == 0 else states[::-1]
             frames = {}
-            # Warm-up goes on in rounds of the arms that have neither settled (a frame agreed with the frame
-            # before; an arm stays settled) nor had their most warm-up. The others wait: their frames would be
-            # thrown away, and in every timed round other arms render between two of theirs anyway. The round in
-            # which the last arm is done is the first timed one, the waiting arms completing it. Waiting for
-            # every arm to agree in one round would keep a group of five noisy arms warming up to the cap.
-            rendering = [state for state in order if not (warming and (state.settled or state.capped()))]
-            for state in rendering:
-                frames[id(state)] = _round_frame(state, bar)
+            for state in order:
+                began = time.perf_counter()
+                frames[id(state)] = state.frame()
+                frames[id(state)] += (time.perf_counter() - began,)
+                bar.update()
             played += 1
             if warming:
-                for state in rendering:
+                # Warm-up goes on in rounds until every arm has settled (a frame that agreed with its
+                # frame before; an arm stays settled) or had its most warm-up: the round in which the
+                # last one does is the first timed round. Waiting for every arm to agree in one round
+                # would keep a group of five noisy arms warming up to the cap.
+                for state in states:
                     if state.agrees(*frames[id(state)][:2]):
                         state.settled = True
                 if not all(state.settled or state.capped() for state in states):
-                    for state in rendering:
+                    for state in states:
                         state.warm_up(frames[id(state)][1])
                     continue
-                for state in order:
-                    if id(state) not in frames:
-                        frames[id(state)] = _round_frame(state, bar)
                 warming = False
             for i, state in enumerate(states):
                 result, wall, wait, took = frames[id(state)]
