@@ -41,10 +41,9 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from renderers.base.numba_kernels import JIT as _JIT
 from renderers.reference.raycast import (_blinn_phong, _boundary_cell, _cell_range, half_vector, is_ray, iso_colour,
                                          iso_first_crossing, stop_requested, volume_sample, volume_spans)
-
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 OP_LEAF, OP_UNION, OP_INTERSECTION, OP_DIFFERENCE = 0, 1, 2, 3
 OPERATION_CODES = {"union": OP_UNION, "intersection": OP_INTERSECTION, "difference": OP_DIFFERENCE}

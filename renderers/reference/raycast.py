@@ -68,7 +68,7 @@ import numpy as np
 from numba import njit, prange, types
 from numba.extending import intrinsic
 
-from renderers.base.numba_kernels import table_position
+from renderers.base.numba_kernels import JIT as _JIT, table_position
 
 MODE_DVR, MODE_MIP, MODE_ISO = 0, 1, 2
 MODE_CODES = {"dvr": MODE_DVR, "mip": MODE_MIP, "iso": MODE_ISO}
@@ -81,8 +81,6 @@ MAX_BISECTIONS = 64
 
 MAX_CELL_CORRECTIONS = 64
 """Upper bound on each correction loop of :func:`_cell_range` (finite spans need one step at most)."""
-
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 
 @intrinsic

@@ -78,9 +78,8 @@ import numpy as np
 from numba import njit, prange
 
 from core.transfer import MAX_GRADIENT
-from renderers.base.numba_kernels import table_position
+from renderers.base.numba_kernels import JIT as _JIT, table_position
 
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 NORMAL_GRID = 64
 """Cells per rotated octahedral axis (6 bits)."""

@@ -96,10 +96,9 @@ from numba import njit, prange, types
 from numba.core import cgutils
 from numba.extending import intrinsic
 
+from renderers.base.numba_kernels import JIT as _JIT
 from renderers.shearwarp.classify import INDEX_SHIFT, NORMAL_CODES, NORMAL_DIRECTIONS, classify_parameters
 from renderers.shearwarp.warp import row_extent
-
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 SHADE_NONE, SHADE_LUT, SHADE_PROCEDURAL = 0, 1, 2
 N_COUNTERS = 6

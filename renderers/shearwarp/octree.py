@@ -101,11 +101,10 @@ from numba import njit, prange
 from core.errors import InputError
 from core.transfer import MAX_GRADIENT
 from core.validation import check_positive_int
-from renderers.base.numba_kernels import table_position
+from renderers.base.numba_kernels import JIT as _JIT, table_position
 from renderers.shearwarp.classify import (NO_LENS_ARGUMENTS, Encoding, _scanline_runs, central_gradient,
                                           classify_lens_voxel, encode_normal)
 
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 TRANSPARENT, NONTRANSPARENT, SUBDIVIDE = 0, 1, 2
 MARGIN = 1e-9

@@ -49,12 +49,11 @@ import math
 import numpy as np
 from numba import njit, prange
 
+from renderers.base.numba_kernels import JIT as _JIT
 from renderers.shearwarp.composite import (BIG, C_CREATES, C_FINDS, C_RUNS, C_SAMPLES, C_SKIPPED, SHADE_LUT,
                                            SHADE_NONE, SHADE_PROCEDURAL, _fetch_add, _premultiply, _procedural,
                                            _root_rank, _union_rank, clear_rows, colour_index, normal_code,
                                            opacity_table)
-
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 
 OPACITY_TABLES = 32
 """Opacity-correction tables interpolated per pixel (thesis §4.2.3; error bound in the module notes)."""

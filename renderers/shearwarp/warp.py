@@ -23,8 +23,7 @@ import numpy as np
 from numba import njit, prange
 
 from core.errors import InputError
-
-_JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
+from renderers.base.numba_kernels import JIT as _JIT
 
 
 @njit(**_JIT)
