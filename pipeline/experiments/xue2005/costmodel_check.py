@@ -11,7 +11,7 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws, ratio_pair
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
-from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames
+from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, select
@@ -338,8 +338,7 @@ class CostModelCheck(Experiment):
         if 0 not in taps or len(taps) < 2:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.extra_taps: need 0 (the volume shader as "
                              f"it is, which Eq. 9 is checked at) and at least one more count, got {taps}")
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = map(int, volume_and_image_size(profile, self))
         count = int(profile.setting(self, "views", 3))
         frames = timed_frames(profile, self)
         runs = []

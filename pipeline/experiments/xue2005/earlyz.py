@@ -10,8 +10,8 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, ratio_pair, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import claim_takeaways, format_number
-from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames
+from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number
+from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP, isbvr_not_measurable
@@ -202,24 +202,23 @@ def _figures(table, ctx):
     guides = [(f"{q}: {format_number(v)} ns", span, (v, v)) for q, v in zip(flat.quantity, flat["ns per fragment"])]
     shaded, simple, culled = (float(rows["ns per fragment"].iloc[0])
                               for rows in (complex_, flat[flat.quantity == "T_s"], flat[flat.quantity == "T_z"]))
-    path, rel = ctx.plot_path("per-fragment")
-    plots.lines(complex_, path, x="extra taps", y="ns per fragment", group="series",
-                y_range=("fastest frame (ns)", "slowest frame (ns)"), log_y=True, guides=guides,
-                title=f"A shaded fragment costs {format_number(shaded / simple)} simple or "
-                      f"{format_number(shaded / culled)} culled ones",
-                x_label="extra texture taps in the volume shader (count)",
-                y_label="volume-pass time per fragment (ns)")
-    gamma_path, gamma_rel = ctx.plot_path("gamma")
-    plots.lines(complex_, gamma_path, x="extra taps", y="γ = T_s / T_c", group="gamma",
-                y_range=("γ CI low", "γ CI high"),
-                title=f"γ from {format_number(complex_['γ = T_s / T_c'].iloc[0])} to "
-                      f"{format_number(complex_['γ = T_s / T_c'].iloc[-1])} as the volume shader grows",
-                x_label="extra texture taps in the volume shader (count)", y_label="γ = T_s / T_c (ratio)")
-    return [blocks.Figure("Time per fragment against the shader's complexity", rel,
-                          "Points: T_c; bars from the fastest to the slowest frame; grey lines: T_s and T_z. "
-                          f"Each is {SCOPE}."),
-            blocks.Figure("γ against the shader's complexity", gamma_rel, "Bars: the 95 % bootstrap interval of γ "
-                          "(T_s and T_c timed interleaved, resampled round by round).")]
+    return [figure(ctx, "per-fragment", plots.lines, complex_,
+                   heading="Time per fragment against the shader's complexity",
+                   caption=f"Points: T_c; bars from the fastest to the slowest frame; grey lines: T_s and T_z. Each is "
+                           f"{SCOPE}.",
+                   x="extra taps", y="ns per fragment", group="series",
+                   y_range=("fastest frame (ns)", "slowest frame (ns)"), log_y=True, guides=guides,
+                   title=f"A shaded fragment costs {format_number(shaded / simple)} simple or "
+                         f"{format_number(shaded / culled)} culled ones",
+                   x_label="extra texture taps in the volume shader (count)",
+                   y_label="volume-pass time per fragment (ns)"),
+            figure(ctx, "gamma", plots.lines, complex_, heading="γ against the shader's complexity",
+                   caption="Bars: the 95 % bootstrap interval of γ (T_s and T_c timed interleaved, resampled round by "
+                           "round).",
+                   x="extra taps", y="γ = T_s / T_c", group="gamma", y_range=("γ CI low", "γ CI high"),
+                   title=f"γ from {format_number(complex_['γ = T_s / T_c'].iloc[0])} to "
+                         f"{format_number(complex_['γ = T_s / T_c'].iloc[-1])} as the volume shader grows",
+                   x_label="extra texture taps in the volume shader (count)", y_label="γ = T_s / T_c (ratio)")]
 
 
 Z_ONLY = ("the z-only pass against the same pass with colour on (the paper: up to twice as fast with colour writes "
@@ -259,8 +258,7 @@ class EarlyZ(Experiment):
     def runs(self, profile):
         if not can_plan():
             return []
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = map(int, volume_and_image_size(profile, self))
         taps = [int(k) for k in profile.setting(self, "extra_taps", list(EXTRA_TAPS))]
         if len(set(taps)) < 2 or min(taps) < 0:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.extra_taps: need at least two different "

@@ -13,7 +13,7 @@ from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, frame_note, linked_table)
-from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs, short_name
 from pipeline.experiments.xue2005.pages import tagged, unless_missing
@@ -186,8 +186,7 @@ class Fuzziness(Experiment):
         if len(hazes) < 2 or hazes != sorted(set(hazes)) or not all(0 <= h <= 3 for h in hazes):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.hazes: need at least two increasing "
                              f"values in [0, 3] (golden_lady's haze), got {hazes}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         frames = timed_frames(profile, self)
         dataset, preset = TABLE1[SCENE][:2]
         views = (headline_view(dataset),)

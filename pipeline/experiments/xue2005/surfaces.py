@@ -14,7 +14,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scale
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table)
 from pipeline.experiments.kit.planning import listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty, numeric, ok_rows, read_exr, rows_matching, text_column
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
 from pipeline.experiments.xue2005.pages import tagged, unless_missing
 from pipeline.experiments.xue2005.table1 import LOSSLESS_PIXEL, LOSSLESS_PSNR, LOSSLESS_SHARE
@@ -95,10 +95,7 @@ def off_percent(rows, df, what, **match):
 
 def scenes_of(df):
     """The scenes of ``df`` in order of appearance; ValueError when there is none."""
-    scenes = list(pd.unique(text_column(df, "scene")))
-    if not scenes:
-        raise ValueError("no successful run")
-    return scenes
+    return nonempty(list(pd.unique(text_column(df, "scene"))))
 
 
 def device_sentence(rows):

@@ -20,7 +20,7 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, config_rows, median_count, ratio_of_draws, speedup
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
-from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs, orbit_views
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1, paper_speedup
@@ -339,8 +339,7 @@ class TransferSweep(Experiment):
         if not all(0 <= v <= 255 for v in iso_t + iso_p):
             raise InputError(f"profile {profile.name!r} settings.{self.name}: iso_t and iso_p are grey levels in "
                              f"[0, 255], got {iso_t} and {iso_p}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 0))
         frames = timed_frames(profile, self)
         runs = []

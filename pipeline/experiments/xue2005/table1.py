@@ -12,7 +12,7 @@ from pipeline.experiments.kit.judging import all_of, config_rows, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, frame_note, linked_table)
-from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, timed_frames, truth_run
+from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, timed_frames, truth_run, volume_and_image_size
 from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, speed_points,
                                               text_column)
 from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, RAYCAST, SLICER, STEP, VTK, culled_fraction,
@@ -417,8 +417,7 @@ class Table1(Experiment):
         if not accepts(ISBVR, *OPTIONS):
             return []
         wanted = listed(profile, self, "scenes", self.SCENES, known=TABLE1)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 3))
         truth_step = profile.setting(self, "truth_step_factor", STEP)
         frames = timed_frames(profile, self)

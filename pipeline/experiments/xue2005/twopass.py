@@ -17,7 +17,7 @@ from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
                                             linked_table)
-from pipeline.experiments.kit.planning import phantom, scene, timed_frames
+from pipeline.experiments.kit.planning import phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.costmodel_check import BAND, shared_views, stacked, summed, timed_model
@@ -363,8 +363,7 @@ class TwoPass(Experiment):
     def runs(self, profile):
         if not can_plan("opaque_threshold"):
             return []
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = map(int, volume_and_image_size(profile, self))
         where = f"profile {profile.name!r} settings.{self.name}"
         culling = [float(c) for c in profile.setting(self, "culling", list(CULLING))]
         if not culling or not all(0.0 <= c < 1.0 for c in culling) or len(set(culling)) < len(culling):

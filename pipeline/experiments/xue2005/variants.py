@@ -11,7 +11,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, figure, format_number,
                                             linked_table)
-from pipeline.experiments.kit.planning import accepts, listed, timed_frames
+from pipeline.experiments.kit.planning import accepts, listed, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
 from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, isbvr_not_measurable, mode_name,
                                                   mode_runs, orbit_views, stand_in)
@@ -201,8 +201,7 @@ class Variants(Experiment):
         if not accepts(ISBVR, *OPTIONS):
             return []
         wanted = listed(profile, self, "scenes", ("head", "aneurysm"), known=TABLE1)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 2))
         frames = timed_frames(profile, self)
         runs = []
