@@ -357,3 +357,22 @@ def interval_words(decision, show):
         return ""
     low, high = decision.interval
     return f"95 % CI {show(low)}–{show(high)}"
+
+
+def interval_or_nan(draws, level=LEVEL):
+    """``(low, high)`` of bootstrap ``draws`` (:func:`interval_of`), NaNs where there are none, for a table's columns.
+
+    Parameters
+    ----------
+    draws : numpy.ndarray or None
+        Bootstrap draws of a value; ``None`` where no frames were kept.
+    level : float
+        The interval's coverage.
+
+    Returns
+    -------
+    tuple of float
+        The interval's ends, or ``(nan, nan)``.
+    """
+    interval = interval_of(draws, level)
+    return interval if interval is not None else (np.nan, np.nan)

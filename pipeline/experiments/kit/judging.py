@@ -28,7 +28,7 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import ClaimResult
-from pipeline.experiments.kit.results import fit_line, numeric, rows_matching, stage_time
+from pipeline.experiments.kit.results import file_exists, fit_line, numeric, rows_matching, stage_time, text_column
 from pipeline.experiments.kit.words import as_percent, as_ratio, format_number
 
 TECHNIQUE, COMPOSITE, TOTAL = "time_technique", "time_composite", "time_total"
@@ -383,3 +383,54 @@ def unless_starved(result, rows, *, holding_survives):
         return replace(result, detail=detail)
     return replace(result, holds=None, inconclusive=True,
                    detail=detail + " (a verdict from a starved run is the machine's, not the technique's)")
+
+
+def summed(rows, column, resampler):
+    """``(value, draws)``: each row's (view's) median ``column`` summed over ``rows``, with its bootstrap draws.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        The views of one run (or of runs timed together), with ``column`` and, where timed, its frames.
+    column : str
+        A time column (``"time_draw"``).
+    resampler : pipeline.experiments.kit.intervals.Resampler
+        Shared by every pair of one claim, so that rows of one interleave group are resampled together.
+
+    Returns
+    -------
+    tuple
+        The sum, and the sums of the views' draws (``None`` without frames): a pair for :func:`ratio_pair`.
+    """
+    draws = intervals.row_draws(rows, column, resampler)
+    return float(numeric(rows, column).sum()), None if draws is None else draws.sum(axis=1)
+
+
+def image_pairs(frame, first, second, *, first_match=None, second_match=None):
+    """``[(scene, view, row_first, row_second)]``: every scene and view that configurations ``first`` and ``second``
+    both rendered to an EXR, for comparing their images.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        An experiment's successful rows.
+    first, second : str
+        The configurations (``config`` tags), each selected by :func:`config_rows`.
+    first_match, second_match : dict, optional
+        More tags each side's rows must have (``{"order": "front-to-back"}``).
+
+    Raises
+    ------
+    ValueError
+        Either configuration has no run, or the two share no rendered view.
+    """
+    a = config_rows(frame, first, **(first_match or {}))
+    b = config_rows(frame, second, **(second_match or {}))
+    pairs = []
+    for row in a.itertuples():
+        match = b[(text_column(b, "scene") == str(row.scene)) & (text_column(b, "view") == str(row.view))]
+        if not match.empty and file_exists(row.exr) and file_exists(match.exr.iloc[0]):
+            pairs.append((row.scene, row.view, row, match.iloc[0]))
+    if not pairs:
+        raise ValueError(f"no view rendered by both {first} and {second}")
+    return pairs

@@ -8,6 +8,8 @@ Every experiment's ``report`` builds its blocks (:mod:`reports.blocks`) with the
 page links a number to its run the same way and draws every difference map on :data:`DIFF_SCALE`.
 """
 
+import functools
+
 import numpy as np
 import pandas as pd
 
@@ -234,3 +236,55 @@ def title_or(make, data, fallback, *, errors=(KeyError, ValueError)):
         return make(data)
     except errors:
         return fallback
+
+
+def unless_missing(compute, *args, empty, **options):
+    """``compute(*args, **options)``, or ``empty`` where the runs it reads are missing.
+
+    Parameters
+    ----------
+    compute : callable
+        What a page shows from the results: a table, its rows, take-aways.
+    *args, **options
+        ``compute``'s arguments.
+    empty
+        What the page shows instead where ``compute`` raises ``KeyError`` or ``ValueError`` (a run or a column it
+        needs is missing): an empty table, no sentence.
+    """
+    try:
+        return compute(*args, **options)
+    except (KeyError, ValueError):
+        return empty
+
+
+def silent_without_runs(sentences):
+    """``sentences``, a function of take-aways, made to say none where the runs it reads are missing.
+
+    Parameters
+    ----------
+    sentences : callable
+        Returns a list of sentences; called through :func:`unless_missing` with ``empty=[]``.
+    """
+    @functools.wraps(sentences)
+    def said(*args, **options):
+        return unless_missing(sentences, *args, empty=[], **options)
+    return said
+
+
+def by_scene(rows, *within):
+    """``rows`` with the scenes in the order they first appear, sorted by the columns ``within`` inside a scene.
+
+    Parameters
+    ----------
+    rows : pandas.DataFrame
+        Rows with a ``scene`` column (a gallery's pictures).
+    *within : str
+        Columns that order the rows of one scene (a stable sort: ties keep their order).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The rows reordered, with the scene's rank as ``scene_order``.
+    """
+    first = {name: i for i, name in enumerate(pd.unique(rows.scene))}
+    return rows.assign(scene_order=rows.scene.map(first)).sort_values(["scene_order", *within], kind="stable")

@@ -206,3 +206,24 @@ def voxels(step):
     """A step in voxels as the notes write it: ``1/32`` rather than 0.03125."""
     inverse = 1 / step
     return f"1/{inverse:g}" if step < 1 and float(inverse).is_integer() else f"{step:g}"
+
+
+def orbit_views(dataset, orbit, *, repeat_headline=False):
+    """The headline view of ``dataset`` and ``orbit`` more around it at 20° elevation, evenly spaced from 0°.
+
+    Parameters
+    ----------
+    dataset : str
+        The data set viewed (:func:`dataset_view`: a z-up one is turned upright).
+    orbit : int
+        How many orbit views (``"orbit000"``, ``"orbit090"``, …); 0: the headline view alone.
+    repeat_headline : bool
+        Keep an orbit view at the headline's azimuth (30°) too; by default it is left out.
+
+    Returns
+    -------
+    tuple of dict
+    """
+    return (headline_view(dataset),) + tuple(
+        dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in (i * 360.0 / max(orbit, 1) for i in range(orbit))
+        if repeat_headline or a != HEADLINE_VIEW["azimuth"])

@@ -264,3 +264,43 @@ def view_angle(view):
     if not match:
         raise ValueError(f"view {view!r} names no angle")
     return float(match.group(1))
+
+
+def tagged(ok, **match):
+    """The rows of ``ok`` whose tags equal ``match`` (compared as text), none where a tag's column is absent.
+
+    Parameters
+    ----------
+    ok : pandas.DataFrame
+        An experiment's successful rows.
+    **match
+        Tag columns and their values (``backend="gl-isbvr"``, ``role="test"``).
+
+    Returns
+    -------
+    pandas.DataFrame
+        The matching rows; empty (with ``ok``'s columns) where ``ok`` lacks a column of ``match``, so that a page
+        of runs that never ran shows nothing rather than failing.
+    """
+    return rows_matching(ok, "", **match) if set(match) <= set(ok.columns) else ok.iloc[:0]
+
+
+def interleave_groups(frame, **match):
+    """``{interleave group: rows}`` of the rows of ``frame`` whose tags equal ``match``, groups in the order they
+    first appear.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        An experiment's successful rows, with the ``interleave`` column (:attr:`~.model.Run.interleave`).
+    **match
+        Tag columns and their values (compared as text, :func:`rows_matching`).
+
+    Returns
+    -------
+    dict
+        Each group's name and its rows: the runs timed together in one job (the points of a sweep).
+    """
+    rows = rows_matching(frame, "the sweep", **match)
+    names = text_column(rows, "interleave")
+    return {name: rows[names == name] for name in pd.unique(names)}

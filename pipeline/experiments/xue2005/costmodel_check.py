@@ -8,15 +8,14 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws, ratio_pair
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_of_draws, ratio_pair, summed
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
-from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, unless_missing
+from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, select
-from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, mode_name, stand_in
-from pipeline.experiments.xue2005.pages import runs_table, unless_missing
+from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, mode_name, runs_table, stand_in
 from pipeline.experiments.xue2005.sweeps import interval_columns
 from pipeline.experiments.xue2005.tables import IMPLIED_CULLING, IMPLIED_GAMMAS, TABLE1, paper_speedup
 from reports import blocks, plots
@@ -39,12 +38,6 @@ COUNTS = {"fragments": "count_fragments_generated", "shaded": "count_fragments",
 
 
 # ------------------------------------------------------------------------------------------ measurement
-def summed(rows, column, resampler):
-    """``(value, draws)``: each view's median ``column`` (bootstrap draws from its frames) summed over the views."""
-    draws = intervals.row_draws(rows, column, resampler)
-    return float(numeric(rows, column).sum()), None if draws is None else draws.sum(axis=1)
-
-
 def with_passes(rows):
     """``rows`` with ``time_passes`` and ``frames_passes``: each frame's depth-init plus volume pass."""
     rows = rows.copy()
@@ -68,13 +61,19 @@ def shared_views(frames, what):
     return [with_passes(rows[text_column(rows, "view").isin(views)].sort_values("view")) for rows in frames]
 
 
-def timed_model(simple, basic, tested, model, resampler):
+def timed_model(simple, basic, tested, time, resampler):
     """A cost model's speed-up of ``tested`` over ``basic`` beside the measured one, from rows of the same views.
 
-    ``model(simple, basic)`` is the model's speed-up from the trivial shader's and Basic's draw time of each view
-    (arrays: the views last). Returns the ``(value, draws)`` pairs ``predicted``, ``measured`` (:data:`PASSES`),
-    ``whole`` (whole frames), ``t_simple`` and ``t_complex`` (per fragment, :func:`~.earlyz.per_fragment`).
+    ``time(t_simple, t_complex)`` is the model's time of each view (arrays: the views last) from its T_s and T_c, the
+    trivial shader's and Basic's draw time over ``tested``'s F; it predicts Basic's draw time over it, each summed over
+    the views. Returns the ``(value, draws)`` pairs ``predicted``, ``measured`` (:data:`PASSES`), ``whole`` (whole
+    frames), ``t_simple`` and ``t_complex`` (per fragment, :func:`~.earlyz.per_fragment`).
     """
+    fragments = numeric(tested, "count_fragments_generated").to_numpy(float)
+
+    def model(simple_draw, basic_draw):
+        return np.sum(basic_draw, axis=-1) / np.sum(time(simple_draw / fragments, basic_draw / fragments), axis=-1)
+
     simple_draws = intervals.row_draws(simple, "time_draw", resampler)
     basic_draws = intervals.row_draws(basic, "time_draw", resampler)
     point = model(numeric(simple, "time_draw").to_numpy(float), numeric(basic, "time_draw").to_numpy(float))
@@ -98,21 +97,16 @@ def scene_model(df, scene_name, taps, resampler):
     for name, rows in (("Basic", basic), ("ESS+ERT", isbvr), ("trivial-shader", simple)):
         if rows.empty:
             raise ValueError(f"{scene_name}, {taps} extra taps: no successful {name} run")
-    basic, isbvr, simple = shared_views((basic, isbvr, simple),
-                                        f"{scene_name}: Basic, ESS+ERT and the trivial shader")
+    basic, isbvr, simple = shared_views((basic, isbvr, simple), f"{scene_name}: Basic, ESS+ERT and the trivial shader")
     counts = {name: numeric(isbvr, column).to_numpy(float) for name, column in COUNTS.items()}
     fragments = counts["fragments"]
     if not (fragments > 0).all():
         raise ValueError(f"{scene_name}: ESS+ERT counted no slice fragments (count_fragments_generated)")
 
-    def eq9(simple_draw, basic_draw):
-        # Each view's T_s and T_c (draw time over its F), Eqs. 7 and 8 per view, summed.
-        t_simple, t_complex = simple_draw / fragments, basic_draw / fragments
-        time = (costmodel.isbvr_init_time(surface_t=counts["surface_t"], surface_p=counts["surface_p"],
-                                          t_simple=t_simple)
-                + costmodel.isbvr_volume_time(fragments=fragments, shaded=counts["shaded"], t_simple=t_simple,
-                                              t_complex=t_complex))
-        return np.sum(basic_draw, axis=-1) / np.sum(time, axis=-1)
+    def eq9(t_simple, t_complex):  # Eqs. 7 and 8 per view
+        t_a = costmodel.isbvr_init_time(surface_t=counts["surface_t"], surface_p=counts["surface_p"], t_simple=t_simple)
+        return t_a + costmodel.isbvr_volume_time(fragments=fragments, shaded=counts["shaded"], t_simple=t_simple,
+                                                 t_complex=t_complex)
 
     timed = timed_model(simple, basic, isbvr, eq9, resampler)
     t_simple, t_complex = timed["t_simple"][0], timed["t_complex"][0]
@@ -278,8 +272,7 @@ RUN_COLUMNS = {"scene": "scene", "mode": "mode", "extra_taps": "extra taps", "vi
 
 SHOWN = {"scene": "scene", "extra taps": "extra taps", "α'": "α'", "φ": "φ", "γ": "γ", "T_s (ns)": "T_s (ns)",
          "T_c (ns)": "T_c (ns)", "predicted δ": "Eq. 9 δ", "measured δ": "measured δ (95 % CI)",
-         "predicted / measured": "Eq. 9 / measured",
-         "whole frames δ": "whole frames δ", "paper δ": "paper δ",
+         "predicted / measured": "Eq. 9 / measured", "whole frames δ": "whole frames δ", "paper δ": "paper δ",
          f"paper's implied α' (γ = {IMPLIED_GAMMAS[0]:g})": "paper's α' (γ = 0)", "F": "F (M)", "F'_c": "F'_c (M)",
          "F_t": "F_t (k)", "F_p": "F_p (k)"}
 """The page's columns (the CSV keeps every column): counts in millions or thousands and the interval beside its
@@ -338,8 +331,7 @@ class CostModelCheck(Experiment):
         if 0 not in taps or len(taps) < 2:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.extra_taps: need 0 (the volume shader as "
                              f"it is, which Eq. 9 is checked at) and at least one more count, got {taps}")
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = map(int, volume_and_image_size(profile, self))
         count = int(profile.setting(self, "views", 3))
         frames = timed_frames(profile, self)
         runs = []
@@ -381,8 +373,7 @@ class CostModelCheck(Experiment):
             out.append(_chart(table, ctx))
             sweep = table[table.swept].sort_values("extra taps")
             if len(sweep) > 1:
-                out.append(blocks.Table("Shader-complexity sweep", _shown(sweep),
-                                        csv_name="costmodel_sweep.csv",
+                out.append(blocks.Table("Shader-complexity sweep", _shown(sweep), csv_name="costmodel_sweep.csv",
                                         caption="The same quantities per complexity on one stand-in."))
                 out.append(_sweep_chart(sweep, ctx))
         if not ok.empty:

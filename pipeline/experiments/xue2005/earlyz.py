@@ -10,13 +10,12 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_of_draws, ratio_pair, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import claim_takeaways, format_number
-from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames
+from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, unless_missing
+from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
+from pipeline.experiments.kit.words import short_duration
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP, isbvr_not_measurable
-from pipeline.experiments.xue2005.pages import runs_table, unless_missing
-from pipeline.experiments.xue2005.sweeps import interval_or_nan
+from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP, isbvr_not_measurable, runs_table
 from pipeline.experiments.xue2005.tables import EARLYZ_STATEMENTS
 from reports import blocks, plots
 
@@ -36,8 +35,8 @@ EXTRA_TAPS = (0, 4, 16)
 CONFIGS = {
     # config: (gl-isbvr options, what its volume pass times)
     "simple": ({"zinit": "none", "shader": "simple"}, "T_s: the trivial shader, no depth test"),
-    "culled": ({"zinit": "cull-all", "shader": "volume"}, "T_z: the volume shader, every fragment culled by the "
-                                                           "early depth test"),
+    "culled": ({"zinit": "cull-all", "shader": "volume"},
+               "T_z: the volume shader, every fragment culled by the early depth test"),
     "volume": ({"zinit": "none", "shader": "volume"}, "T_c: the volume shader, no depth test"),
 }
 """The micro-benchmark's configurations; ``volume`` is run once per value of :data:`EXTRA_TAPS`."""
@@ -76,11 +75,6 @@ def per_fragment(rows, resampler):
     return value, None if draws is None else draws.sum(axis=1) / total
 
 
-def ns(seconds):
-    """Seconds per fragment in words: ``"1.23 ns"``."""
-    return f"{format_number(seconds * 1e9)} ns"
-
-
 # ----------------------------------------------------------------------------------------------- claims
 def select(df, config, taps=None, **match):
     """The rows of ``config`` matching the tags ``match`` and, unless ``None``, ``taps`` extra taps (as numbers)."""
@@ -110,8 +104,8 @@ def _culled_at_most_simple(df):
     simple = per_fragment(_config_rows(df, "simple"), resampler)
     decision = ratio_of_draws(culled, simple, at_most=1.0)
     return ClaimResult.decided(with_interval(f"T_z / T_s {format_number(decision.value)}", decision, format_number),
-                               decision, f"T_z {ns(culled[0])}, T_s {ns(simple[0])} per fragment ({SCOPE}; "
-                                         "interleaved)")
+                               decision, f"T_z {short_duration(culled[0])}, T_s {short_duration(simple[0])} per "
+                                         f"fragment ({SCOPE}; interleaved)")
 
 
 def _gamma_falls(df):
@@ -122,8 +116,8 @@ def _gamma_falls(df):
     gammas = {k: ratio_pair(simple, t) for k, t in complex_.items()}
     decisions = {f"{a} → {b} taps": ratio_of_draws(gammas[b], gammas[a], at_most=STRICTLY_BELOW_ONE)
                  for a, b in zip(taps, taps[1:])}
-    steps = ", ".join(f"{k} taps: γ {format_number(gammas[k][0])}, T_c {ns(complex_[k][0])}" for k in taps)
-    return all_of(decisions, what="γ ", extra=steps + f"; T_s {ns(simple[0])} ({SCOPE}; interleaved)")
+    steps = ", ".join(f"{k} taps: γ {format_number(gammas[k][0])}, T_c {short_duration(complex_[k][0])}" for k in taps)
+    return all_of(decisions, what="γ ", extra=steps + f"; T_s {short_duration(simple[0])} ({SCOPE}; interleaved)")
 
 
 def _culls_everything(df):
@@ -160,13 +154,12 @@ def _quantities(ok):
     """One row per configuration: time per fragment (ns) with its interval and extremes, F, F'_c, and γ for T_c."""
     resampler = intervals.Resampler()
     simple = per_fragment(_config_rows(ok, "simple"), resampler)
-    entries = [("T_s", "simple", None), ("T_z", "culled", None)]
-    entries += [("T_c", "volume", k) for k in _taps(ok)]
+    entries = [("T_s", "simple", None), ("T_z", "culled", None)] + [("T_c", "volume", k) for k in _taps(ok)]
     out = []
     for symbol, config, taps in entries:
         rows = _config_rows(ok, config, taps)
         value = per_fragment(rows, resampler)
-        low, high = interval_or_nan(value[1])
+        low, high = intervals.interval_or_nan(value[1])
         gamma = ratio_of_draws(simple, value) if symbol == "T_c" else None
         gamma_low, gamma_high = (gamma and gamma.interval) or (np.nan, np.nan)
         out.append({"quantity": symbol, "configuration": CONFIGS[config][1], "extra taps": taps or 0,
@@ -175,8 +168,7 @@ def _quantities(ok):
                     "slowest frame (ns)": 1e9 * _extreme(rows, "max"),
                     "F": float(numeric(rows, "count_fragments_generated").sum()),
                     "F'_c": float(numeric(rows, "count_fragments").sum()),
-                    "γ = T_s / T_c": gamma.value if gamma else np.nan, "γ CI low": gamma_low,
-                    "γ CI high": gamma_high})
+                    "γ = T_s / T_c": gamma.value if gamma else np.nan, "γ CI low": gamma_low, "γ CI high": gamma_high})
     return pd.DataFrame(out)
 
 
@@ -202,24 +194,23 @@ def _figures(table, ctx):
     guides = [(f"{q}: {format_number(v)} ns", span, (v, v)) for q, v in zip(flat.quantity, flat["ns per fragment"])]
     shaded, simple, culled = (float(rows["ns per fragment"].iloc[0])
                               for rows in (complex_, flat[flat.quantity == "T_s"], flat[flat.quantity == "T_z"]))
-    path, rel = ctx.plot_path("per-fragment")
-    plots.lines(complex_, path, x="extra taps", y="ns per fragment", group="series",
-                y_range=("fastest frame (ns)", "slowest frame (ns)"), log_y=True, guides=guides,
-                title=f"A shaded fragment costs {format_number(shaded / simple)} simple or "
-                      f"{format_number(shaded / culled)} culled ones",
-                x_label="extra texture taps in the volume shader (count)",
-                y_label="volume-pass time per fragment (ns)")
-    gamma_path, gamma_rel = ctx.plot_path("gamma")
-    plots.lines(complex_, gamma_path, x="extra taps", y="γ = T_s / T_c", group="gamma",
-                y_range=("γ CI low", "γ CI high"),
-                title=f"γ from {format_number(complex_['γ = T_s / T_c'].iloc[0])} to "
-                      f"{format_number(complex_['γ = T_s / T_c'].iloc[-1])} as the volume shader grows",
-                x_label="extra texture taps in the volume shader (count)", y_label="γ = T_s / T_c (ratio)")
-    return [blocks.Figure("Time per fragment against the shader's complexity", rel,
-                          "Points: T_c; bars from the fastest to the slowest frame; grey lines: T_s and T_z. "
-                          f"Each is {SCOPE}."),
-            blocks.Figure("γ against the shader's complexity", gamma_rel, "Bars: the 95 % bootstrap interval of γ "
-                          "(T_s and T_c timed interleaved, resampled round by round).")]
+    return [figure(ctx, "per-fragment", plots.lines, complex_,
+                   heading="Time per fragment against the shader's complexity",
+                   caption=f"Points: T_c; bars from the fastest to the slowest frame; grey lines: T_s and T_z. Each is "
+                           f"{SCOPE}.",
+                   x="extra taps", y="ns per fragment", group="series",
+                   y_range=("fastest frame (ns)", "slowest frame (ns)"), log_y=True, guides=guides,
+                   title=f"A shaded fragment costs {format_number(shaded / simple)} simple or "
+                         f"{format_number(shaded / culled)} culled ones",
+                   x_label="extra texture taps in the volume shader (count)",
+                   y_label="volume-pass time per fragment (ns)"),
+            figure(ctx, "gamma", plots.lines, complex_, heading="γ against the shader's complexity",
+                   caption="Bars: the 95 % bootstrap interval of γ (T_s and T_c timed interleaved, resampled round by "
+                           "round).",
+                   x="extra taps", y="γ = T_s / T_c", group="gamma", y_range=("γ CI low", "γ CI high"),
+                   title=f"γ from {format_number(complex_['γ = T_s / T_c'].iloc[0])} to "
+                         f"{format_number(complex_['γ = T_s / T_c'].iloc[-1])} as the volume shader grows",
+                   x_label="extra texture taps in the volume shader (count)", y_label="γ = T_s / T_c (ratio)")]
 
 
 Z_ONLY = ("the z-only pass against the same pass with colour on (the paper: up to twice as fast with colour writes "
@@ -259,8 +250,7 @@ class EarlyZ(Experiment):
     def runs(self, profile):
         if not can_plan():
             return []
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = map(int, volume_and_image_size(profile, self))
         taps = [int(k) for k in profile.setting(self, "extra_taps", list(EXTRA_TAPS))]
         if len(set(taps)) < 2 or min(taps) < 0:
             raise InputError(f"profile {profile.name!r} settings.{self.name}.extra_taps: need at least two different "

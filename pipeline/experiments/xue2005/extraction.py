@@ -10,11 +10,9 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, median_count, view_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
-from pipeline.experiments.kit.planning import accepts, listed
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
-from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, orbit_views,
-                                                  stand_in)
-from pipeline.experiments.xue2005.pages import tagged
+from pipeline.experiments.kit.planning import accepts, listed, orbit_views
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, tagged
+from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, stand_in
 from pipeline.experiments.xue2005.surfaces import scenes_of
 from pipeline.experiments.xue2005.tables import EXTRACTION_MS, PAPER_SIZE, REAL_SCANS, TABLE1
 from reports import blocks, plots
@@ -154,13 +152,10 @@ class Extraction(Experiment):
         size = int(profile.setting(self, "volume_size", profile.volume_size))
         image = profile.setting(self, "image_size", profile.image_size)
         orbit = int(profile.setting(self, "orbit", 4))
-        runs = []
-        for scene_name in wanted:
-            spec, tags = stand_in(scene_name, size, image)
-            runs.append(Run(self.name, f"{scene_name}.{CONFIG}", ISBVR, spec, orbit_views(tags["dataset"], orbit),
-                            options={**MODES[CONFIG][0], "surfaces": "reduced", "step_factor": STEP}, **FRAMES,
-                            tags={**tags, "size": size, "config": CONFIG}))
-        return runs
+        return [Run(self.name, f"{tags['scene']}.{CONFIG}", ISBVR, spec, orbit_views(tags["dataset"], orbit),
+                    options={**MODES[CONFIG][0], "surfaces": "reduced", "step_factor": STEP}, **FRAMES,
+                    tags={**tags, "size": size, "config": CONFIG})
+                for spec, tags in (stand_in(scene_name, size, image) for scene_name in wanted)]
 
     def paper_table(self):
         return pd.DataFrame([{"stage": "Φ_t cube set (8³ nodes)", "ms": EXTRACTION_MS["phi_t"]},

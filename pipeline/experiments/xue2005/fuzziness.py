@@ -12,12 +12,11 @@ from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config
                                               speedup)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, frame_note, linked_table)
-from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows
+                                            format_number, frame_note, linked_table, unless_missing)
+from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames, volume_and_image_size
+from pipeline.experiments.kit.results import numeric, ok_rows, tagged
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs, short_name
-from pipeline.experiments.xue2005.pages import tagged, unless_missing
-from pipeline.experiments.xue2005.sweeps import SCOPE, interval_or_nan, mode_counts
+from pipeline.experiments.xue2005.sweeps import SCOPE, mode_counts
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
 from reports import plots
 
@@ -35,6 +34,7 @@ CONFIGS = ("basic", "ess", "ert", "ess+ert")
 
 GAINS = ("ess", "ert", "ess+ert")
 """The modes whose speed-up over Basic the page follows."""
+
 
 def _groups(df):
     """``[(haze, rows)]`` of the sweep, by increasing haze; ValueError with fewer than two hazes."""
@@ -58,7 +58,7 @@ def _speedup_falls(df):
                  for (a, sa), (b, sb) in zip(speeds, speeds[1:])}
     trend = ", ".join(f"{h:g}: {as_ratio(s[0])}" for h, s in speeds)
     return all_of(decisions, what="speed-up over the next haze's ",
-                 extra=f"ESS+ERT / Basic by haze {trend} ({SCOPE}; each haze's modes interleaved)")
+                  extra=f"ESS+ERT / Basic by haze {trend} ({SCOPE}; each haze's modes interleaved)")
 
 
 def _culled_falls(df):
@@ -84,7 +84,7 @@ def _gains_fall(df):
         notes.append(f"{config.upper()} {as_ratio(ends[0][0])} → {as_ratio(ends[1][0])}, α' "
                      f"{as_percent(_alpha(first, config))} → {as_percent(_alpha(last, config))}")
     return all_of(decisions, what=f"speed-up at haze {low:g} over haze {high:g} ",
-                 extra="; ".join(notes) + f" ({SCOPE})")
+                  extra="; ".join(notes) + f" ({SCOPE})")
 
 
 CLAIMS = (
@@ -111,7 +111,7 @@ def summary(ok):
                 tested = config_rows(group, config)
             except (KeyError, ValueError):
                 continue
-            low, high = interval_or_nan(draws)
+            low, high = intervals.interval_or_nan(draws)
             first = tested.iloc[0]
             rows.append({"haze": haze, "config": config, "mode": mode_name(config), "speedup": value, "low": low,
                          "high": high, **mode_counts(tested),
@@ -186,8 +186,7 @@ class Fuzziness(Experiment):
         if len(hazes) < 2 or hazes != sorted(set(hazes)) or not all(0 <= h <= 3 for h in hazes):
             raise InputError(f"profile {profile.name!r} settings.{self.name}.hazes: need at least two increasing "
                              f"values in [0, 3] (golden_lady's haze), got {hazes}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         frames = timed_frames(profile, self)
         dataset, preset = TABLE1[SCENE][:2]
         views = (headline_view(dataset),)
@@ -214,7 +213,6 @@ class Fuzziness(Experiment):
         if not table.empty:
             out.append(_figure(table, ctx))
             out.append(linked_table("Speed-ups and culled fractions per haze", table, list(COLUMNS), ctx,
-                                    names=COLUMNS, csv_name="fuzziness.csv",
-                                    caption=TABLE_CAPTION))
+                                    names=COLUMNS, csv_name="fuzziness.csv", caption=TABLE_CAPTION))
             out.append(_gallery(ok[numeric(ok, "haze").notna()], results, ctx))
         return out + isbvr_not_measurable()

@@ -1,13 +1,13 @@
 """What the paper's experiments share: the depth-init modes as ``gl-isbvr`` options, Table 1's scenes and views,
-their runs, the culled fraction from their counts and the page note for what this machine cannot measure."""
+their runs, the culled fraction from their counts, the table of every run and the page note for what this machine
+cannot measure."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.model import Run
-from pipeline.experiments.kit.pages import not_measurable
-from pipeline.experiments.kit.planning import (accepts, dataset_view, headline_view, missing_options, phantom, scene,
-                                               unregistered)
+from pipeline.experiments.kit.pages import linked_table, not_measurable
+from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, unregistered
 from pipeline.experiments.kit.results import numeric
 from pipeline.experiments.xue2005.tables import TABLE1
 
@@ -25,6 +25,9 @@ MODES = {
 
 STEP = 1.0
 """Slices one voxel apart, as the paper's."""
+
+STAGE_MS = {"init_ms": "time_init", "draw_ms": "time_draw", "time_ms": "time_total"}
+"""The run table's stage times in milliseconds and the columns they come from."""
 
 OPTIONS = ("zinit", "surfaces", "phi_t_node", "phi_p_node", "depth_offset", "shader", "extra_taps", "order")
 """The ``gl-isbvr`` options the experiments set."""
@@ -46,14 +49,6 @@ def stand_in(scene_name, size, image):
     dataset, preset = TABLE1[scene_name][:2]
     tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
     return scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)]), tags
-
-
-def orbit_views(dataset, orbit, *, repeat_headline=False):
-    """The headline view and ``orbit`` more around the data set at 20° elevation (the headline's azimuth left out
-    unless ``repeat_headline``)."""
-    return (headline_view(dataset),) + tuple(
-        dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
-        if repeat_headline or a != 30.0)
 
 
 def mode_runs(experiment, prefix, scene_spec, views, configs, frames, tags, *, options=None, group=None,
@@ -88,3 +83,9 @@ def culled_fraction(rows):
         raise ValueError(f"runs {', '.join(map(str, pd.unique(rows.run)))} counted no fragments "
                          "(gl-isbvr's count_fragments option)")
     return value
+
+
+def runs_table(ok, ctx, columns):
+    """The page's table of every run: ``columns`` (column: its name), stage times of :data:`STAGE_MS` in ms."""
+    runs = ok.assign(**{ms: numeric(ok, stage) * 1e3 for ms, stage in STAGE_MS.items() if ms in columns})
+    return linked_table("Runs", runs, list(columns), ctx, names=columns)

@@ -10,10 +10,9 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table)
-from pipeline.experiments.kit.planning import listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
-from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
-from pipeline.experiments.xue2005.pages import tagged
+from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames
+from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, stage_points, tagged
+from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, stand_in
 from pipeline.experiments.xue2005.surfaces import (LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence, image_errors,
                                                    lossless_result, off_percent)
 from pipeline.experiments.xue2005.tables import PAPER_PHI_P_NODE, PHI_P_NODES, STATEMENTS, statements
@@ -92,7 +91,7 @@ def _paper_node_fastest(df):
                  for n, rows in found.items() if n != PAPER_PHI_P_NODE}
     fastest = min(found, key=lambda n: float(numeric(found[n], "time_total").median()))
     return all_of(decisions, show=as_ratio, what=f"fastest here {fastest}³; time / time at {PAPER_PHI_P_NODE}³ ",
-                 extra="Whole frames, median over the views, timed together")
+                  extra="Whole frames, median over the views, timed together")
 
 
 CLAIMS = (
@@ -130,8 +129,7 @@ def _page_rows(ok):
     rows["node_size"] = numeric(rows, NODE)
     rows["culled"] = numeric(rows, "count_fragments_generated") - numeric(rows, "count_fragments")
     rows["init_ms"] = numeric(rows, "time_init") * 1e3
-    for suffix in ("", "_min", "_max"):
-        rows[f"frame_ms{suffix}"] = pd.to_numeric(rows.get(f"time_total{suffix}"), errors="coerce") * 1e3
+    rows = stage_points(rows, "time_total", name="frame_ms")
     rows["off_percent"] = off_percent(rows, ok, "ERT", config="ert")
     return rows.sort_values(["view", "node_size"])
 

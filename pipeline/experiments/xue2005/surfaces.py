@@ -12,11 +12,10 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, linked_table)
-from pipeline.experiments.kit.planning import listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, text_column
-from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, orbit_views, stand_in
-from pipeline.experiments.xue2005.pages import tagged, unless_missing
+                                            format_number, linked_table, unless_missing)
+from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames
+from pipeline.experiments.kit.results import nonempty, numeric, ok_rows, read_exr, rows_matching, tagged, text_column
+from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, stand_in
 from pipeline.experiments.xue2005.table1 import LOSSLESS_PIXEL, LOSSLESS_PSNR, LOSSLESS_SHARE
 from pipeline.experiments.xue2005.tables import FULL_RES_TRIANGLES, PAPER_SIZE, STATEMENTS, TABLE1, statements
 from reports import plots
@@ -55,9 +54,7 @@ def image_errors(df, what, **match):
     channel off by more than :data:`~.table1.LOSSLESS_PIXEL`) and ``max_error``; ValueError naming ``what`` when no row
     matches, or naming the run whose reference image is missing.
     """
-    rows = rows_matching(df, what, **match)
-    if rows.empty:
-        raise ValueError(f"no successful run of {what}")
+    rows = nonempty(rows_matching(df, what, **match), what=what)
     runs, views = text_column(df, "run"), text_column(df, "view")
     out = []
     for _, row in rows.iterrows():
@@ -95,10 +92,7 @@ def off_percent(rows, df, what, **match):
 
 def scenes_of(df):
     """The scenes of ``df`` in order of appearance; ValueError when there is none."""
-    scenes = list(pd.unique(text_column(df, "scene")))
-    if not scenes:
-        raise ValueError("no successful run")
-    return scenes
+    return nonempty(list(pd.unique(text_column(df, "scene"))))
 
 
 def device_sentence(rows):
@@ -174,8 +168,8 @@ def _cube_init_small(df):
                                              column="time_init", bottom_column="time_draw", at_most=INIT_SHARE,
                                              resampler=resampler) for s in scenes_of(df)}
     return all_of(decisions, show=format_number, what="T_a / T_m ",
-                 extra="Median over the views of each view's median frame; init passes and volume pass of the "
-                       "same frames")
+                  extra="Median over the views of each view's median frame; init passes and volume pass of the "
+                        "same frames")
 
 
 def _speedup(df, variant, scene_name, resampler, **bounds):
@@ -199,7 +193,7 @@ def _full_erodes(df):
                     f"{format_number(share.value)} and whose shaded fragments F'_c are {as_ratio(shaded)} the cube "
                     "sets'")
     return all_of(decisions, show=as_ratio, notes=notes, what="time full / cube sets ",
-                 extra=f"Times: {TECHNIQUE}, median over the views, timed together")
+                  extra=f"Times: {TECHNIQUE}, median over the views, timed together")
 
 
 def _full_offsets(df):

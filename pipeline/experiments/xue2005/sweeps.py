@@ -20,9 +20,10 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, config_rows, median_count, ratio_of_draws, speedup
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table
-from pipeline.experiments.kit.planning import headline_view, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
-from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs, orbit_views
+from pipeline.experiments.kit.planning import (headline_view, listed, orbit_views, phantom, scene, timed_frames,
+                                               volume_and_image_size)
+from pipeline.experiments.kit.results import interleave_groups, nonempty, numeric, ok_rows, text_column
+from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_runs
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1, paper_speedup
 from reports import plots
 
@@ -71,17 +72,9 @@ SCOPE = "whole frames (time_total), median over the views"
 
 # ---------------------------------------------------------------------------------- transfer functions
 def ramp_points(dataset, iso_t, iso_p, *, floor=0.0, top=1.0):
-    """A ``transfer_function`` entry (scene format): opacity ``floor`` up to ``iso_t``, linear to ``top`` at ``iso_p``.
-
-    Parameters
-    ----------
-    dataset : str
-        The data set whose ``isbvr`` preset lends the colours (sampled at the four control points).
-    iso_t, iso_p : float
-        Grey levels (0–255), ``iso_t < iso_p``.
-    floor, top : float
-        Opacity below ``iso_t`` and from ``iso_p`` on: 0 and 1 are the paper's Fig. 9e ramp.
-    """
+    """A ``transfer_function`` entry (scene format): opacity ``floor`` up to ``iso_t``, linear to ``top`` at ``iso_p``
+    (grey levels, 0 <= ``iso_t`` < ``iso_p`` <= 255), in the colours of ``dataset``'s ``isbvr`` preset at the four
+    points; ``floor`` 0 and ``top`` 1 are the paper's Fig. 9e ramp."""
     if not 0 <= iso_t < iso_p <= 255:
         raise InputError(f"xue2005-tf: iso values need 0 <= iso_t < iso_p <= 255 grey levels, got {iso_t} and {iso_p}")
     table = datasets.preset(dataset, "isbvr").transfer_function.table
@@ -109,16 +102,10 @@ def sweep_pairs(scene_name, iso_t, iso_p):
 
 
 # ------------------------------------------------------------------------------------- speed-ups
-def interval_or_nan(draws):
-    """``(low, high)`` of bootstrap ``draws``, NaNs where there are none."""
-    interval = intervals.interval_of(draws)
-    return interval if interval is not None else (np.nan, np.nan)
-
-
 def interval_columns(name, pair, *, value=None):
-    """``{value: v, "<name> low": low, "<name> high": high}`` of a ``(v, draws)`` pair (:func:`interval_or_nan`);
-    ``value`` defaults to ``"<name> δ"``."""
-    low, high = interval_or_nan(pair[1])
+    """``{value: v, "<name> low": low, "<name> high": high}`` of a ``(v, draws)`` pair
+    (:func:`~pipeline.experiments.kit.intervals.interval_or_nan`); ``value`` defaults to ``"<name> δ"``."""
+    low, high = intervals.interval_or_nan(pair[1])
     return {value or f"{name} δ": pair[0], f"{name} low": low, f"{name} high": high}
 
 
@@ -133,16 +120,9 @@ def mode_counts(tested):
             "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan}
 
 
-def groups_of(frame, **match):
-    """``{interleave group: rows}`` of the rows matching ``match`` (tags), in the order they first appear."""
-    rows = rows_matching(frame, "the sweep", **match)
-    names = text_column(rows, "interleave")
-    return {name: rows[names == name] for name in pd.unique(names)}
-
-
 # ------------------------------------------------------------------------------------------- claims
 def _ramps(df, scene_name):
-    groups = groups_of(df, scene=scene_name, kind="ramp")
+    groups = interleave_groups(df, scene=scene_name, kind="ramp")
     if len(groups) < 2:
         raise ValueError(f"fewer than two iso pairs of {scene_name}")
     return groups
@@ -151,9 +131,7 @@ def _ramps(df, scene_name):
 def _iso_dependence(df):
     """Per scene: the best ramp's ESS+ERT speed-up over the worst's, at least :data:`STRONG` (with its interval)."""
     resampler = intervals.Resampler()
-    scenes = [s for s in SCENES if s in set(text_column(df, "scene"))]
-    if not scenes:
-        raise ValueError("no successful run of a swept scene")
+    scenes = nonempty([s for s in SCENES if s in set(text_column(df, "scene"))], what="a swept scene")
     decisions, notes = {}, []
     for scene_name in scenes:
         groups = _ramps(df, scene_name)
@@ -172,11 +150,9 @@ def _nothing_to_cull(df):
     """The groups of the "neither" controls and the dense block: ``{label: rows}``."""
     found = {}
     for kind in ("neither", "dense"):
-        for rows in groups_of(df, kind=kind).values():
+        for rows in interleave_groups(df, kind=kind).values():
             found[f"{rows.scene.iloc[0]} {kind}" if kind != "dense" else str(rows.scene.iloc[0])] = rows
-    if not found:
-        raise ValueError("no successful run of a control with nothing to cull")
-    return found
+    return nonempty(found, what="a control with nothing to cull")
 
 
 def _no_overhead(df):
@@ -207,9 +183,8 @@ def _ert_free(df):
     """The "never opaque" controls: ESS+ERT / ESS time in :data:`NO_OVERHEAD`, and no Φ_p to draw or cull with."""
     resampler = intervals.Resampler()
     low, high = NO_OVERHEAD
-    groups = {str(rows.scene.iloc[0]): rows for rows in groups_of(df, kind="never-opaque").values()}
-    if not groups:
-        raise ValueError("no successful run of the never-opaque control")
+    groups = nonempty({str(rows.scene.iloc[0]): rows for rows in interleave_groups(df, kind="never-opaque").values()},
+                      what="the never-opaque control")
     decisions, broken = {}, []
     for scene_name, rows in groups.items():
         both, ess = config_rows(rows, "ess+ert", what=scene_name), config_rows(rows, "ess", what=scene_name)
@@ -251,13 +226,13 @@ def summary(ok):
     """
     resampler = intervals.Resampler()
     rows = []
-    for name, group in groups_of(ok).items():
+    for name, group in interleave_groups(ok).items():
         try:
             value, draws = speedup(group, "basic", "ess+ert", resampler=resampler)
             tested = config_rows(group, "ess+ert")
         except (KeyError, ValueError):
             continue
-        low, high = interval_or_nan(draws)
+        low, high = intervals.interval_or_nan(draws)
         first = tested.iloc[0]
         rows.append({**{k: first.get(k) for k in ("scene", "kind", "tf", "iso_t", "iso_p", "record", "exr")},
                      "group": name, "speedup": value, "low": low, "high": high, **mode_counts(tested),
@@ -339,8 +314,7 @@ class TransferSweep(Experiment):
         if not all(0 <= v <= 255 for v in iso_t + iso_p):
             raise InputError(f"profile {profile.name!r} settings.{self.name}: iso_t and iso_p are grey levels in "
                              f"[0, 255], got {iso_t} and {iso_p}")
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 0))
         frames = timed_frames(profile, self)
         runs = []
@@ -387,6 +361,5 @@ class TransferSweep(Experiment):
                               if r.kind == "ramp" and (r.iso_t, r.iso_p) == PAPER_ISO.get(r.scene) else ""
                               for r in table.itertuples()]
             out.append(linked_table("Every transfer function: speed-up, culled fraction and cube sets", table,
-                                    list(COLUMNS), ctx, names=COLUMNS, csv_name="tf_sweep.csv",
-                                    caption=TABLE_CAPTION))
+                                    list(COLUMNS), ctx, names=COLUMNS, csv_name="tf_sweep.csv", caption=TABLE_CAPTION))
         return out + isbvr_not_measurable()

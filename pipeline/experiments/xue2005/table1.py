@@ -8,17 +8,16 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals, pages
-from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, median_count, time_ratio
+from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, image_pairs, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, frame_note, linked_table)
-from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, timed_frames, truth_run
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, speed_points,
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, by_scene, claim_takeaways, difference_gallery, figure,
+                                            format_number, frame_note, linked_table, silent_without_runs)
+from pipeline.experiments.kit.planning import (UNTIMED, accepts, listed, orbit_views, timed_frames, truth_run,
+                                               volume_and_image_size)
+from pipeline.experiments.kit.results import (numeric, ok_rows, read_exr, reference_exr, speed_points, tagged,
                                               text_column)
 from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, RAYCAST, SLICER, STEP, VTK, culled_fraction,
-                                                  isbvr_not_measurable, mode_name, mode_runs, orbit_views, short_name,
-                                                  stand_in)
-from pipeline.experiments.xue2005.pages import by_scene, tagged, silent_without_runs
+                                                  isbvr_not_measurable, mode_name, mode_runs, short_name, stand_in)
 from pipeline.experiments.xue2005.tables import MODES_IN_TABLE, PAPER_DEVICE, REAL_SCANS, TABLE1, paper_speedup
 from reports import blocks, plots
 from reports.metrics import fraction_over, psnr
@@ -75,20 +74,6 @@ def culling_note(frame, config, **match):
     return f"α' {format_number(alpha)} (ideal {as_ratio(ideal_speedup(alpha))})"
 
 
-def image_pairs(frame, first, second, *, first_match=None, second_match=None):
-    """``[(scene, view, row_first, row_second)]`` for every scene and view both configs rendered to an EXR."""
-    a = config_rows(frame, first, **(first_match or {}))
-    b = config_rows(frame, second, **(second_match or {}))
-    pairs = []
-    for row in a.itertuples():
-        match = b[(text_column(b, "scene") == str(row.scene)) & (text_column(b, "view") == str(row.view))]
-        if not match.empty and file_exists(row.exr) and file_exists(match.exr.iloc[0]):
-            pairs.append((row.scene, row.view, row, match.iloc[0]))
-    if not pairs:
-        raise ValueError(f"no view rendered by both {first} and {second}")
-    return pairs
-
-
 def view_count(count):
     """``"1 view"``, ``"4 views"``."""
     return f"{count} view" + ("" if count == 1 else "s")
@@ -114,8 +99,8 @@ def _gain(df, fast, bounds, what=""):
                                            scene=scene_name)
         notes[scene_name] = culling_note(df, fast, scene=scene_name)
     return all_of(decisions, notes=notes, what=what,
-                 extra=f"{TIMES}; α': the share of slice fragments the depth test culled (occlusion queries, "
-                       "machine-independent) and the speed-up that share would give were culled fragments free")
+                  extra=f"{TIMES}; α': the share of slice fragments the depth test culled (occlusion queries, "
+                        "machine-independent) and the speed-up that share would give were culled fragments free")
 
 
 def _basic_by_grid(df, config="basic"):
@@ -138,15 +123,14 @@ def _basic_time(df, bound=BASIC_TOLERANCE):
         draws = [intervals.statistic_draws(rows[rows.scene == s], "time_total", "median", resampler) for s in scenes]
         spread = None if any(d is None for d in draws) else np.max(draws, axis=0) / np.min(draws, axis=0)
         frames = {s: intervals.frame_count(rows[rows.scene == s], "time_total") for s in scenes}
-        decisions[grid] = intervals.timing_decision(medians.max() / medians.min(), spread, frames,
-                                                    at_most=bound)
+        decisions[grid] = intervals.timing_decision(medians.max() / medians.min(), spread, frames, at_most=bound)
         notes[grid] = " ".join(f"{s} {format_number(m * 1e3)} ms" for s, m in zip(scenes, medians))
         if "count_fragments" in rows:  # Basic's work, machine-independent: the same F wherever the box is
             counts = (median_count(rows[rows.scene == s], "count_fragments") for s in scenes)
             notes[grid] += "; F " + " ".join(f"{s} {format_number(f, 4)}" for s, f in zip(scenes, counts))
     return all_of(decisions, notes=notes, what="slowest / fastest Basic ",
-                 extra=f"{TIMES} (headline view); the scenes' Basic runs timed together in one job, frame against "
-                       "frame, so the interval is paired")
+                  extra=f"{TIMES} (headline view); the scenes' Basic runs timed together in one job, frame against "
+                        "frame, so the interval is paired")
 
 
 def _lossless(df):
@@ -175,10 +159,8 @@ def _accuracy(df):
 
 
 def _culling(df):
-    found = {}
-    for scene_name in scenes_of(df, "ess+ert"):
-        needed = 1.0 - 1.0 / paper_speedup(scene_name, "ess+ert")
-        found[scene_name] = (culled_fraction(config_rows(df, "ess+ert", scene=scene_name)), needed)
+    found = {s: (culled_fraction(config_rows(df, "ess+ert", scene=s)), 1.0 - 1.0 / paper_speedup(s, "ess+ert"))
+             for s in scenes_of(df, "ess+ert")}
     worst = min(found, key=lambda s: found[s][0] - found[s][1])
     alpha, needed = found[worst]
     return ClaimResult(f"α' {format_number(alpha)} against {format_number(needed)} needed ({worst})",
@@ -417,8 +399,7 @@ class Table1(Experiment):
         if not accepts(ISBVR, *OPTIONS):
             return []
         wanted = listed(profile, self, "scenes", self.SCENES, known=TABLE1)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 3))
         truth_step = profile.setting(self, "truth_step_factor", STEP)
         frames = timed_frames(profile, self)
@@ -458,13 +439,10 @@ class Table1(Experiment):
         return runs
 
     def paper_table(self):
-        rows = []
-        for scene_name, (_d, _p, row, basic, ess, ert, both) in TABLE1.items():
-            if scene_name in REAL_SCANS:
-                continue
-            rows.append({"data set (paper)": row, "our stand-in": scene_name, "Basic fps": basic, "ESS fps": ess,
-                         "ERT fps": ert, "ESS+ERT fps": both, "ESS / Basic": ess / basic, "ERT / Basic": ert / basic,
-                         "ESS+ERT / Basic": both / basic, "α' needed (γ → 0)": 1.0 - basic / both})
+        rows = [{"data set (paper)": row, "our stand-in": scene_name, "Basic fps": basic, "ESS fps": ess,
+                 "ERT fps": ert, "ESS+ERT fps": both, "ESS / Basic": ess / basic, "ERT / Basic": ert / basic,
+                 "ESS+ERT / Basic": both / basic, "α' needed (γ → 0)": 1.0 - basic / both}
+                for scene_name, (_d, _p, row, basic, ess, ert, both) in TABLE1.items() if scene_name not in REAL_SCANS]
         return pd.DataFrame(rows).round(3).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):

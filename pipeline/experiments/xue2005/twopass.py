@@ -13,18 +13,18 @@ import datasets
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
-                                              ratio_pair)
+                                              ratio_pair, summed)
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
-                                            linked_table)
-from pipeline.experiments.kit.planning import phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, text_column
+                                            linked_table, unless_missing)
+from pipeline.experiments.kit.planning import phantom, scene, timed_frames, volume_and_image_size
+from pipeline.experiments.kit.results import interleave_groups, numeric, ok_rows, text_column
+from pipeline.experiments.kit.words import short_duration
 from pipeline.experiments.xue2005 import costmodel
-from pipeline.experiments.xue2005.costmodel_check import BAND, shared_views, stacked, summed, timed_model
-from pipeline.experiments.xue2005.earlyz import DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, can_plan, isbvr_run, ns
-from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable
-from pipeline.experiments.xue2005.pages import runs_table, unless_missing
-from pipeline.experiments.xue2005.sweeps import groups_of, interval_columns
+from pipeline.experiments.xue2005.costmodel_check import BAND, shared_views, stacked, timed_model
+from pipeline.experiments.xue2005.earlyz import DATASET, EXTRA_TAPS, FILL, FRONT_VIEW, can_plan, isbvr_run
+from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, runs_table
+from pipeline.experiments.xue2005.sweeps import interval_columns
 from pipeline.experiments.xue2005.tables import TWOPASS_STATEMENTS
 from reports import blocks, plots
 
@@ -61,25 +61,12 @@ SCOPE = "the first passes and the volume passes (time_init + time_draw)"
 
 # ------------------------------------------------------------------------------------------------ design
 def opacity_for(culling, slices, *, threshold=THRESHOLD):
-    """The constant per-slice opacity at which front-to-back compositing reaches ``threshold`` so that about
-    ``culling`` of ``slices`` slices lie behind it.
+    """The constant per-slice opacity at which front-to-back compositing reaches ``threshold`` (the accumulated
+    opacity from which slice-ert culls) so that about ``culling`` of ``slices`` slices lie behind it.
 
     The accumulated opacity after k slices is 1 − (1 − a)^k; it is made to reach ``threshold`` half a slice
     after (1 − ``culling``)·``slices``, so rounding cannot move the crossing by a slice: the culled fraction is
     ``culling`` − 1/``slices`` where that is positive, and 0 for ``culling`` 0.
-
-    Parameters
-    ----------
-    culling : float
-        The culled fraction aimed at, in [0, 1).
-    slices : int
-        Slices along every ray (> 0).
-    threshold : float, optional
-        The accumulated opacity from which slice-ert culls, in (0, 1).
-
-    Returns
-    -------
-    float
     """
     if not 0.0 <= culling < 1.0:
         raise InputError(f"culling: expected a culled fraction in [0, 1), got {culling!r}")
@@ -94,8 +81,7 @@ def constant_tf(opacity):
     """A ``transfer_function`` entry (scene format): ``opacity`` for every value, the phantom's preset colours."""
     table = datasets.preset(DATASET, "no_cue").transfer_function.table
     low, high = (np.round(table[i, :3].astype(float), 6).tolist() for i in (0, -1))
-    return {"points": [[0.0, *low, opacity], [1.0, *high, opacity]],
-            "name": f"constant-{opacity:.4g}"}
+    return {"points": [[0.0, *low, opacity], [1.0, *high, opacity]], "name": f"constant-{opacity:.4g}"}
 
 
 # ------------------------------------------------------------------------------------------ measurement
@@ -116,12 +102,8 @@ def point_model(group, resampler):
     if not (fragments > 0).all():
         raise ValueError(f"run {two.run.iloc[0]} counted no slice fragments (count_fragments_generated)")
 
-    def eq4(simple_draw, basic_draw):
-        time = costmodel.per_slice_time(fragments=fragments, shaded=shaded, t_simple=simple_draw / fragments,
-                                        t_complex=basic_draw / fragments)
-        return np.sum(basic_draw, axis=-1) / np.sum(time, axis=-1)
-
-    timed = timed_model(simple, basic, two, eq4, resampler)
+    timed = timed_model(simple, basic, two, lambda t_simple, t_complex: costmodel.per_slice_time(
+        fragments=fragments, shaded=shaded, t_simple=t_simple, t_complex=t_complex), resampler)
     gamma, measured = ratio_pair(timed["t_simple"], timed["t_complex"]), timed["measured"]
     alpha = costmodel.culling_rate(fragments.sum(), shaded.sum())
     break_even = float(costmodel.break_even_culling(gamma[0]))
@@ -151,7 +133,7 @@ def point_model(group, resampler):
 
 def point_models(df):
     """:func:`point_model` of every group with a slice-ert run, by extra taps and then α (one resampler)."""
-    groups = groups_of(df, config="slice-ert")
+    groups = interleave_groups(df, config="slice-ert")
     if not groups:
         raise ValueError("no successful slice-ert run")
     resampler = intervals.Resampler()
@@ -185,8 +167,8 @@ def _break_even(df):
                         f"at γ {format_number(m['gamma'][0])}" for side in sides.values() for m in side}
     skipped = [_label(m) for m in models if m["side"] is None]
     return all_of(decisions, notes=notes, what="Basic / slice-ert ",
-                 extra=(f"within ±{MARGIN:g} of the break-even, not judged: {', '.join(skipped)}; " if skipped else "")
-                 + f"over {SCOPE}, interleaved")
+                  extra=(f"within ±{MARGIN:g} of the break-even, not judged: {', '.join(skipped)}; " if skipped else "")
+                  + f"over {SCOPE}, interleaved")
 
 
 def _below_ceiling(df):
@@ -205,7 +187,7 @@ def _eq5_within(df):
     notes = {_label(m): f"Eq. 5 ×{format_number(m['predicted'][0])}, measured ×{format_number(m['measured'][0])}; "
                         f"{_counts(m)}, γ {format_number(m['gamma'][0])}" for m in models}
     return all_of(decisions, notes=notes, what="predicted / measured ",
-                 extra=f"measured over {SCOPE}; Eq. 5 from slice-ert's counts and T_s, T_c timed with it")
+                  extra=f"measured over {SCOPE}; Eq. 5 from slice-ert's counts and T_s, T_c timed with it")
 
 
 CLAIMS = (
@@ -238,9 +220,7 @@ def _table(models):
 
 
 def _takeaways(models):
-    by_taps = {}
-    for m in models:
-        by_taps.setdefault(m["taps"], []).append(m)
+    by_taps = {k: [m for m in models if m["taps"] == k] for k in dict.fromkeys(m["taps"] for m in models)}
     out = [f"The opacities set α = 1 − F'_c / F (occlusion queries, the same on any device) from "
            f"{format_number(min(m['alpha'] for m in models))} to {format_number(max(m['alpha'] for m in models))}; "
            "γ = T_s / T_c and the break-even α it gives: "
@@ -261,9 +241,9 @@ def _takeaways(models):
     first = np.median([m["t_first"] for m in models])
     simple = np.median([m["t_simple"] for m in models])
     waits = any(m["timing"] == "finish" for m in models)
-    out.append(f"slice-ert's first passes cost {ns(first)} per slice fragment against T_s {ns(simple)} "
-               "(medians over the points): Eq. 3 prices them F·T_s; the rest is per-slice work the model leaves out, "
-               "the copy of the accumulated image each first pass reads"
+    out.append(f"slice-ert's first passes cost {short_duration(first)} per slice fragment against T_s "
+               f"{short_duration(simple)} (medians over the points): Eq. 3 prices them F·T_s; the rest is per-slice "
+               "work the model leaves out, the copy of the accumulated image each first pass reads"
                + (" and the wait that ends each of the two timed passes per slice (timing 'finish': this device's "
                   "pass times are wall clock to the pass's end)" if waits else "") + ".")
     contrast = [m for m in models if "isbvr" in m]
@@ -363,8 +343,7 @@ class TwoPass(Experiment):
     def runs(self, profile):
         if not can_plan("opaque_threshold"):
             return []
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = map(int, volume_and_image_size(profile, self))
         where = f"profile {profile.name!r} settings.{self.name}"
         culling = [float(c) for c in profile.setting(self, "culling", list(CULLING))]
         if not culling or not all(0.0 <= c < 1.0 for c in culling) or len(set(culling)) < len(culling):
@@ -386,8 +365,7 @@ class TwoPass(Experiment):
                 spec = scene(DATASET, image, volumes=[phantom(DATASET, size, transfer_function=constant_tf(opacity))],
                              camera={"projection": "orthographic", "view_height": FILL * size})
                 group = f"{label}.t{k}"
-                tags = {"scene": DATASET, "dataset": DATASET, "kind": kind, "opacity": opacity,
-                        "extra_taps": k}
+                tags = {"scene": DATASET, "dataset": DATASET, "kind": kind, "opacity": opacity, "extra_taps": k}
                 configs = ("simple", "basic", "slice-ert") + (("ess+ert",) if kind == "opaque" else ())
                 for config in configs:
                     options = {**PREFIX, **CONFIGS[config][0], **({"extra_taps": k} if config != "simple" else {})}

@@ -7,17 +7,16 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, time_ratio
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, image_pairs, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, figure, format_number,
-                                            linked_table)
-from pipeline.experiments.kit.planning import accepts, listed, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points
+from pipeline.experiments.kit.pages import (as_ratio, by_scene, claim_takeaways, difference_gallery, figure,
+                                            format_number, linked_table)
+from pipeline.experiments.kit.planning import accepts, listed, orbit_views, timed_frames, volume_and_image_size
+from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, tagged
 from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, isbvr_not_measurable, mode_name,
-                                                  mode_runs, orbit_views, stand_in)
-from pipeline.experiments.xue2005.pages import by_scene, tagged
-from pipeline.experiments.xue2005.table1 import (LOSSLESS_PSNR, TIMES, culling_note, device_takeaways, image_pairs,
-                                                 pair_psnr, scenes_of, view_count)
+                                                  mode_runs, stand_in)
+from pipeline.experiments.xue2005.table1 import (LOSSLESS_PSNR, TIMES, culling_note, device_takeaways, pair_psnr,
+                                                 scenes_of, view_count)
 from pipeline.experiments.xue2005.tables import LEAPING_STATEMENTS, STATEMENTS, TABLE1
 from reports import blocks, plots
 
@@ -32,6 +31,7 @@ LEAPING_CONFIGS = ("ess", "front")
 
 ORDER_TOLERANCE = 1.10
 """"The same speed-up" in both orders: their ratio within ×1/1.1–×1.1."""
+
 
 # ------------------------------------------------------------------------------------------------- claims
 def _order_decision(df, scene_name, resampler):
@@ -53,8 +53,8 @@ def _order_speedup(df):
     for scene_name in scenes_of(df, "ess+ert"):
         decisions[scene_name], notes[scene_name] = _order_decision(df, scene_name, resampler)
     return all_of(decisions, notes=notes, what="front-to-back / back-to-front speed-up ",
-                 extra=f"speed-up: time(Basic) / time(ESS+ERT) in one order, {TIMES}; the four runs of a scene "
-                       "timed interleaved")
+                  extra=f"speed-up: time(Basic) / time(ESS+ERT) in one order, {TIMES}; the four runs of a scene "
+                        "timed interleaved")
 
 
 def _order_image(df):
@@ -201,8 +201,7 @@ class Variants(Experiment):
         if not accepts(ISBVR, *OPTIONS):
             return []
         wanted = listed(profile, self, "scenes", ("head", "aneurysm"), known=TABLE1)
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 2))
         frames = timed_frames(profile, self)
         runs = []
