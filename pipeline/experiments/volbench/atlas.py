@@ -15,10 +15,9 @@ import numpy as np
 import pandas as pd
 
 import renderers
-from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, difference_gallery, format_number, linked_table
-from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, truth_run
+from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, listed, truth_run, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
 from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, axis_reason, backend_options, points, short
 from reports import blocks
@@ -288,17 +287,11 @@ class Atlas(Experiment):
 
     def axes(self, profile):
         """The axes of this profile (its ``axes`` setting: keys of :data:`AXIS_BY_KEY`; default all)."""
-        keys = list(profile.setting(self, "axes", [axis.key for axis in AXES]))
-        unknown = [k for k in keys if k not in AXIS_BY_KEY]
-        if unknown:
-            raise InputError(f"profile {profile.name!r} settings.{self.name}.axes: unknown {unknown}; "
-                             f"known: {list(AXIS_BY_KEY)}")
-        return [AXIS_BY_KEY[k] for k in keys]
+        return [AXIS_BY_KEY[k] for k in listed(profile, self, "axes", [axis.key for axis in AXES], known=AXIS_BY_KEY)]
 
     def plan(self, profile):
         """``{axis key: points}``: each axis's ``(value, scene, views)`` at this profile's scale."""
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = (int(value) for value in volume_and_image_size(profile, self))
         return {axis.key: points(axis, axis.values[profile.scale], size=size, image=image)
                 for axis in self.axes(profile)}
 

@@ -155,6 +155,7 @@ def backend_options(axis, backend):
     isolating = ISOLATING_OPTIONS.get(backend, {}) if axis.option != "min_opacity" else {}
     return {**isolating, **(axis.backend_options or {}).get(backend, {})}
 
+
 RAMP_CENTER = 170
 """The engine's metal (raw 160–200 in its presets): where the sharpness axis puts its ramp."""
 
@@ -240,32 +241,26 @@ def points(axis, scale_values, *, size, image):
         return [(None, spec, tuple({**headline(), "view": f"at{v:g}", "fov_y": v} for v in scale_values))]
     out = []
     for value in scale_values:
-        label = f"{name}-{value:g}"
+        label, view = f"{name}-{value:g}", headline()
         if axis.key == "tf":
             spec = scene(label, image, volumes=[phantom(BASE[0], size, transfer_function=ramp(value))])
         elif axis.key == "shell":
-            volumes = [phantom("sphere", size, preset="opaque", params={"shell": value})]
-            out.append((value, scene(label, image, volumes=volumes), (headline("sphere"),)))
-            continue
+            spec = scene(label, image, volumes=[phantom("sphere", size, preset="opaque", params={"shell": value})])
+            view = headline("sphere")
         elif axis.key == "image":
             spec = scene(label, int(value), volumes=engine)
         elif axis.key == "volume":
             spec = scene(label, image, volumes=[phantom(BASE[0], int(value), preset=BASE[1])])
-        elif axis.key == "volumes":
-            spec = scene(label, image, volumes=clouds(int(value), size), camera={"view_height": 1.5 * size})
-            out.append((value, spec, (headline("smoke_cloud"),)))
-            continue
-        elif axis.key == "iso-volumes":
-            spec = scene(label, image, volumes=clouds(int(value), size, isovalue=CLOUD_ISOVALUE), mode=axis.mode,
+        elif axis.key in ("volumes", "iso-volumes"):
+            iso = {"isovalue": CLOUD_ISOVALUE} if axis.mode == "iso" else {}
+            spec = scene(label, image, volumes=clouds(int(value), size, **iso), mode=axis.mode,
                          camera={"view_height": 1.5 * size})
-            out.append((value, spec, (headline("smoke_cloud"),)))
-            continue
+            view = headline("smoke_cloud")
         elif axis.key == "thin":
             dataset, preset = axis.dataset
             volumes = [phantom(dataset, size, preset=preset, params={"radius": value})]
             spec = scene(label, image, volumes=volumes, mode=axis.mode, camera={"view_height": tubes_window(size)})
-            out.append((value, spec, (tubes_view(dataset),)))
-            continue
+            view = tubes_view(dataset)
         elif axis.key == "inside":
             spec = scene(label, image, volumes=engine,
                          camera={"projection": "perspective", "fov_y": 60.0, "distance": round(value * size, 4)})
@@ -276,7 +271,7 @@ def points(axis, scale_values, *, size, image):
                                "appearance": {"mode": "dvr", "preset": BASE[1], "opacity_scale": 0.2}}]
         else:
             raise ValueError(f"atlas axis {axis.key!r} has no scene of its own")
-        out.append((value, spec, (headline(),)))
+        out.append((value, spec, (view,)))
     return out
 
 

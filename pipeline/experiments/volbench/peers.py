@@ -18,8 +18,8 @@ import pandas as pd
 import renderers
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, Experiment, Run
-from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, figure,
+                                            format_number, linked_table)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, headline_view, listed, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import ok_rows, speed_points
@@ -152,23 +152,23 @@ class Peers(Experiment):
                                     caption="Median frame after warm-up, fastest and slowest timed frame; 'time / "
                                             "VTK' below 1: faster than VTK on the same scene and image size, measured "
                                             "in one run. Metrics against the reference at a finer step."))
-            for image, group in timed.groupby("image_size"):
-                path, rel = ctx.plot_path(f"peers-{int(image)}")
-                plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="scene",
-                                     label_col="backend", title=_chart_title(group, int(image)), log_x=True,
-                                     log_y=False, time_range_cols=("time_ms_min", "time_ms_max"),
-                                     better="upper left",
-                                     x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
-                                     y_label="PSNR against the reference (dB)")
-                out.append(blocks.Figure(f"Speed against accuracy at {int(image)}²", rel,
-                                         "One series per scene, each point one backend (labelled); higher and "
-                                         "further left is better."))
+            out += [figure(ctx, f"peers-{int(image)}", plots.speed_accuracy, group,
+                           heading=f"Speed against accuracy at {int(image)}²",
+                           caption="One series per scene, each point one backend (labelled); higher and further left "
+                                   "is better.",
+                           time_col="time_ms", error_col="psnr", group_col="scene", label_col="backend",
+                           title=_chart_title(group, int(image)), log_x=True, log_y=False,
+                           time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                           x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
+                           y_label="PSNR against the reference (dB)")
+                    for image, group in timed.groupby("image_size")]
             largest = timed[timed.image_size == timed.image_size.max()]
             out += [difference_gallery(f"{scene_name} at {int(group.image_size.iloc[0])}²: every backend and its "
                                        "difference from the reference", group.sort_values("time_total"), ctx,
                                        against=results, label=lambda row: row.technique)
                     for scene_name, group in largest.groupby("scene")]
-        matched = _matched_rows(ok)
+        matched = (ok[(ok.part == "matched") & (ok.role == "test")].sort_values(["backend", "scene"]) if "part" in ok
+                   else ok.iloc[:0])
         if not matched.empty:
             out.append(blocks.Table("Matched scenes: VTK against the reference at the same step", matched[
                 ["scene", "backend", *METRICS]].rename(columns=METRICS).reset_index(drop=True),
@@ -193,12 +193,6 @@ def _timed(ok):
         keys = list(zip(rows.scene, rows.image_size))
         rows[column] = rows.time_total.to_numpy() / np.array([vtk.get(k, np.nan) for k in keys], float)
     return rows.sort_values(["scene", "image_size", "time_total"])
-
-
-def _matched_rows(ok):
-    if "part" not in ok:
-        return pd.DataFrame()
-    return ok[(ok.part == "matched") & (ok.role == "test")].sort_values(["backend", "scene"])
 
 
 def _peer_takeaways(timed):
