@@ -1,9 +1,4 @@
-"""``kruger2003-table1`` (E1, E3, E5): Table 1's four methods on the paper's four kinds of data, and their images.
-
-SBVR, RC, RC-a and RC-b (with the single-pass caster and VTK's GPU caster beside them) on stand-ins and
-real scans of the head, aneurysm, foot and engine: the speed-ups between methods against the paper's,
-every image against the reference, and the share of slicing fragments that contribute.
-"""
+"""``kruger2003-table1`` (E1, E3, E5): Table 1's four methods on the paper's four kinds of data, and their images."""
 
 import numpy as np
 import pandas as pd
@@ -14,8 +9,8 @@ from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_ta
                                             format_number, frames_caption, gl_devices, linked_table)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, role_rows,
-                                              rows_matching, text_column)
+from pipeline.experiments.kit.results import (file_exists, nonempty, numeric, ok_rows, pair_metrics, read_exr,
+                                              role_rows, rows_matching, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, point_speedup, time_ratio
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SETTINGS, SIZE_SCALES, SLICER, UPLOADS,
                                                      gl_not_measurable, method_name, method_points, method_runs,
@@ -30,15 +25,18 @@ HEADS, ENGINES = ("head", "mrihead"), ("engine", "engine_real")
 PAPER_METHODS = ("sbvr", "rc", "rc-a", "rc-b")
 """Table 1's methods; the single-pass caster (ours) is reported beside them, not judged with them."""
 
+RATIOS = {"RC / SBVR": ("sbvr", "rc"), "RC-a / RC": ("rc", "rc-a"), "RC-b / RC-a": ("rc-a", "rc-b"),
+          "RC-b / RC": ("rc", "rc-b"), "RC-b / SBVR": ("sbvr", "rc-b")}
+"""Table 1's speed-ups as ``(slow, fast)`` methods: the paper's quotient of frame rates, ours of frame times."""
+
+
+def _paper_ratio(scene_name, slow, fast):
+    """The paper's speed-up of ``fast`` over ``slow`` on ``scene_name``'s row of Table 1 (its frame rates)."""
+    fps = dict(zip(PAPER_METHODS, TABLE1[scene_name][3:]))
+    return fps[fast] / fps[slow]
+
 
 # ---------------------------------------------------------------------------------------------- claims
-def _scene_groups(df, scenes):
-    present = [s for s in pd.unique(text_column(df, "scene")) if scenes is None or s in scenes]
-    if not present:
-        raise ValueError(f"no successful run of {', '.join(scenes) if scenes else 'any scene'}")
-    return present
-
-
 def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
     """``time(slow) / time(fast)`` (whole frames, median over the views) within [low, high] on each of ``scenes``.
 
@@ -46,7 +44,8 @@ def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
     interleaved); the claim fails if one scene fails and is inconclusive if one is.
     """
     resampler = intervals.Resampler()
-    scenes = _scene_groups(df, scenes)
+    scenes = nonempty([s for s in pd.unique(text_column(df, "scene")) if scenes is None or s in scenes],
+                      what=", ".join(scenes) if scenes else "any scene")
     decisions = {s: time_ratio(df, slow, fast, resampler=resampler, at_least=low, at_most=high, scene=s)
                  for s in scenes}
     notes = {s: samples_note(df, slow, fast, scene=s) for s in scenes}
@@ -190,12 +189,9 @@ def _ratio_table(tests):
     rows = []
     for scene_name in pd.unique(tests.scene):
         here = tests[tests.scene == scene_name]
-        _d, _p, paper_row, sbvr, rc, rca, rcb = TABLE1[scene_name]
-        row = {"scene": scene_name, "paper row": paper_row}
-        for label, slow, fast, paper in (("RC / SBVR", "sbvr", "rc", rc / sbvr), ("RC-a / RC", "rc", "rc-a", rca / rc),
-                                         ("RC-b / RC-a", "rc-a", "rc-b", rcb / rca), ("RC-b / RC", "rc", "rc-b", rcb / rc),
-                                         ("RC-b / SBVR", "sbvr", "rc-b", rcb / sbvr)):
-            row[f"{label} (paper)"] = round(paper, 2)
+        row = {"scene": scene_name, "paper row": TABLE1[scene_name][2]}
+        for label, (slow, fast) in RATIOS.items():
+            row[f"{label} (paper)"] = round(_paper_ratio(scene_name, slow, fast), 2)
             try:
                 row[f"{label} (ours)"] = round(point_speedup(here, slow, fast), 2)
             except ValueError:
@@ -315,13 +311,9 @@ class Table1(Experiment):
         return runs
 
     def paper_table(self):
-        rows = []
-        for scene_name, (_d, _p, row, sbvr, rc, rca, rcb) in TABLE1.items():
-            if scene_name in REAL_SCANS:
-                continue
-            rows.append({"data set (paper)": row, "SBVR fps": sbvr, "RC fps": rc, "RC-a fps": rca, "RC-b fps": rcb,
-                         "RC / SBVR": rc / sbvr, "RC-a / RC": rca / rc, "RC-b / RC-a": rcb / rca,
-                         "RC-b / RC": rcb / rc, "RC-b / SBVR": rcb / sbvr})
+        rows = [{"data set (paper)": row[2], **{f"{method_name(c)} fps": fps for c, fps in zip(PAPER_METHODS, row[3:])},
+                 **{label: _paper_ratio(scene_name, *pair) for label, pair in RATIOS.items()}}
+                for scene_name, row in TABLE1.items() if scene_name not in REAL_SCANS]
         return pd.DataFrame(rows).round(2).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):

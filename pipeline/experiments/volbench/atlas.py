@@ -1,11 +1,7 @@
 """``volbench-atlas``: the stability atlas, every backend swept along every stress axis it supports.
 
-Each axis of :mod:`.atlas_axes` sweeps one thing on one scene shared by every backend; every point is
-one untimed frame compared with the reference at a fine step. The page opens with each technique's
-failure threshold (30 dB PSNR: it "breaks"; 40 dB: accurate), then a technique × axis heat map of the
-worst PSNR, each cell linked to its axis's sweep chart and its worst difference image; a backend that
-lacks an axis's feature or option shows why in its cell. Besides every backend at its defaults, a few
-:data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
+Each axis (:mod:`.atlas_axes`) sweeps one thing on one scene shared by every backend. Besides every backend at its
+defaults, a few :data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
 """
 
 import dataclasses
@@ -37,18 +33,9 @@ CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
 class Technique:
     """A backend with options of its own, a row of the atlas beside the backends at their defaults.
 
-    Parameters
-    ----------
-    backend : str
-    options : dict
-        What makes it this technique: its runs add them to the axis's options (none of them is an option its
-        axes sweep), and its rows in the results are the backend's runs with these options.
-    axes : tuple of str
-        The keys of the axes it runs on.
-    elsewhere : str
-        Why it is not on the other axes (its heat-map cells there).
-    slug : str
-        Its part of run ids and interleave groups.
+    Its runs add ``options`` to the axis's (none of them is an option its axes sweep), and its rows in the results
+    are the backend's runs with these options. It runs on the axes keyed ``axes``; ``elsewhere`` says why not on
+    the others (its heat-map cells there); ``slug`` is its part of run ids and interleave groups.
     """
 
     backend: str
@@ -459,22 +446,21 @@ def _breaking_points(axis, rows):
 def _axis_blocks(axis, rows, results, ctx, plots):
     """One axis: its sweep chart (anchored for the heat map) and a gallery of each backend's worst point."""
     path, rel = ctx.plot_path(axis.key)
-    low, high = float(rows.value.min()), float(rows.value.max())
+    low, high, name = float(rows.value.min()), float(rows.value.max()), axis.words.split(" (")[0].capitalize()
     guides = [(f"{PSNR_BREAKS:g} dB (breaks)", [low, high], [PSNR_BREAKS] * 2),
               (f"{PSNR_GOOD:g} dB (accurate)", [low, high], [PSNR_GOOD] * 2)]
     below = sorted(set(rows[rows.psnr < PSNR_BREAKS].backend))
-    title = (f"{axis.words.split(' (')[0].capitalize()}: {len(below)} of {rows.backend.nunique()} techniques "
-             f"fall below {PSNR_BREAKS:g} dB")
-    plots.lines(rows.sort_values("value"), path, x="value", y="psnr", group="backend", title=title,
+    plots.lines(rows.sort_values("value"), path, x="value", y="psnr", group="backend",
+                title=f"{name}: {len(below)} of {rows.backend.nunique()} techniques fall below {PSNR_BREAKS:g} dB",
                 x_label=axis.words, y_label="PSNR against the reference (dB)", guides=guides,
                 log_x=axis.log_x and low > 0)
-    out = [blocks.Figure(f"{axis.words.split(' (')[0].capitalize()} on {axis.scene_words}", rel,
+    out = [blocks.Figure(f"{name} on {axis.scene_words}", rel,
                          f"PSNR against the reference at each point, one line per technique; grey lines at "
                          f"{PSNR_BREAKS:g} dB (breaks) and {PSNR_GOOD:g} dB (accurate). {_breaking_points(axis, rows)}",
                          anchor=f"atlas-{axis.key}")]
     worst = rows.loc[[mine.psnr.idxmin() for _, mine in rows.groupby("backend")]]
     return out + [difference_gallery(
-        f"{axis.words.split(' (')[0].capitalize()}: each technique's worst point", worst, ctx, against=results,
+        f"{name}: each technique's worst point", worst, ctx, against=results,
         label=lambda row: f"{row.backend} at {axis.point(row.value)}",
         note=lambda row: f"PSNR {format_number(row.psnr)} dB" + (f", FLIP {format_number(row.flip)}"
                                                                  if pd.notna(row.flip) else ""))]

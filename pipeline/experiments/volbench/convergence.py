@@ -1,8 +1,4 @@
-"""``volbench-convergence``: the reference renderer's error against a much finer step, as the step shrinks.
-
-The reference is ground truth only if its default step (1/4 voxel) has converged: the claims ask for
-an error that falls every time the step halves, at least linearly, and 40 dB at the default step.
-"""
+"""``volbench-convergence``: the reference renderer's error against a much finer step, as the step shrinks."""
 
 import numpy as np
 import pandas as pd

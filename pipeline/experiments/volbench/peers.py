@@ -1,11 +1,4 @@
-"""volbench's peer study: every backend present against VTK's mappers on the same scenes.
-
-``volbench-peers``
-    Phantoms and real scans, orthographic, at two image sizes, in every mode a backend supports:
-    frame time (median, fastest, slowest), speed ratio to VTK's GPU and CPU mappers measured in
-    the same run, and PSNR/SSIM/FLIP against the reference. Beside it, the matched-scene check:
-    VTK matched to CONVENTIONS (unshaded, early termination off, the same step) against the
-    reference at that step.
+"""``volbench-peers``: every backend present against VTK's mappers on the same scenes.
 
 VTK's timed runs keep its default early ray termination (α > 1 − 1/255), what its users get; the
 matched runs turn it off. A backend that cannot render a scene (VolPack in MIP, VTK's CPU mapper

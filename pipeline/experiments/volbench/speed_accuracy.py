@@ -1,8 +1,4 @@
-"""``volbench-speed-accuracy``: every registered backend over its quality settings, time against error.
-
-Each backend's ``quality_sweep`` renders the same scenes; the error is measured against the reference
-at 1/16 voxel. The index's techniques × data sets table is built from these runs (``overview``).
-"""
+"""``volbench-speed-accuracy``: every registered backend over its quality settings, time against error."""
 
 import functools
 
