@@ -264,3 +264,35 @@ def view_angle(view):
     if not match:
         raise ValueError(f"view {view!r} names no angle")
     return float(match.group(1))
+
+
+def image_pairs(first, second, what):
+    """``[(scene, view, row_first, row_second)]``: each row of ``first`` with the row of ``second`` of its scene and
+    view, where both rendered an EXR (two configurations' images compared with each other, not with the reference).
+
+    Parameters
+    ----------
+    first, second : pandas.DataFrame
+        The rows of the two configurations, with ``scene``, ``view`` and ``exr``.
+    what : str
+        The two in words, for the error (``"rc-a and rc-b"``).
+
+    Returns
+    -------
+    list of tuple
+        In the order of ``first``'s rows; each row a named tuple, each of ``second`` a Series.
+
+    Raises
+    ------
+    ValueError
+        No scene and view has both images: "no view rendered by both ``what``", which a claim turns into "not
+        measured".
+    """
+    pairs, scenes, views = [], text_column(second, "scene"), text_column(second, "view")
+    for row in first.itertuples():
+        match = second[(scenes == str(row.scene)) & (views == str(row.view))]
+        if not match.empty and file_exists(row.exr) and file_exists(match.exr.iloc[0]):
+            pairs.append((row.scene, row.view, row, match.iloc[0]))
+    if not pairs:
+        raise ValueError(f"no view rendered by both {what}")
+    return pairs

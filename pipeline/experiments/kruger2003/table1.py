@@ -9,7 +9,7 @@ from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_ta
                                             format_number, frames_caption, gl_devices, linked_table)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, nonempty, numeric, ok_rows, pair_metrics, read_exr,
+from pipeline.experiments.kit.results import (image_pairs, nonempty, numeric, ok_rows, pair_metrics, read_exr,
                                               role_rows, rows_matching, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, point_speedup, time_ratio
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SETTINGS, SIZE_SCALES, SLICER, UPLOADS,
@@ -71,17 +71,8 @@ def _accuracy(df):
 
 
 def _paired(df, first, second):
-    """``[(scene, view, row_first, row_second)]`` for every scene and view rendered by both configs."""
-    a = rows_matching(df, first, config=first)
-    b = rows_matching(df, second, config=second)
-    pairs = []
-    for row in a.itertuples():
-        match = b[(b.scene == row.scene) & (b.view == row.view)]
-        if not match.empty and file_exists(row.exr) and file_exists(match.exr.iloc[0]):
-            pairs.append((row.scene, row.view, row, match.iloc[0]))
-    if not pairs:
-        raise ValueError(f"no view rendered by both {first} and {second}")
-    return pairs
+    """:func:`~pipeline.experiments.kit.results.image_pairs` of two configs: every scene and view both rendered."""
+    return image_pairs(*(rows_matching(df, c, config=c) for c in (first, second)), f"{first} and {second}")
 
 
 def _ess_lossless(df):

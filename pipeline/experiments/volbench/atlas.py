@@ -132,24 +132,22 @@ def threshold(rows, axis, *, breaks=PSNR_BREAKS):
     fails = (order.psnr < breaks).to_numpy()
     if not fails.any():
         return None
-    name, worst = axis.words.split(" (")[0], float(order.psnr.min())
-    if fails.all():
-        words = (f"any {name} tried ({axis.point(order.value.iloc[0])} to {axis.point(order.value.iloc[-1])})"
-                 if len(order) > 1 else f"{name} {axis.point(order.value.iloc[0])}")
-        return {"words": words, "value": float(order.value.iloc[0]), "psnr": worst, "everywhere": True,
-                "expected": True}
-    if fails[-1]:
-        first = len(fails) - np.argmin(fails[::-1])  # the mildest of the failing tail
-        return {"words": axis.threshold(order.value.iloc[first]), "value": float(order.value.iloc[first]),
-                "psnr": worst, "everywhere": False, "expected": True}
-    if fails[0]:
-        last = np.argmin(fails) - 1
-        reverse = dataclasses.replace(axis, harsher="down" if axis.harsher == "up" else "up")
-        return {"words": reverse.threshold(order.value.iloc[last]), "value": float(order.value.iloc[last]),
-                "psnr": worst, "everywhere": False, "expected": False}
-    failing = order[fails]
-    return {"words": f"{name} at " + ", ".join(axis.point(v) for v in failing.value), "value": float(failing.value.iloc[0]),
-            "psnr": worst, "everywhere": False, "expected": False}
+    name, values = axis.words.split(" (")[0], order.value
+    everywhere, expected = bool(fails.all()), bool(fails.all() or fails[-1])
+    if everywhere:
+        at = 0
+        words = (f"any {name} tried ({axis.point(values.iloc[0])} to {axis.point(values.iloc[-1])})"
+                 if len(order) > 1 else f"{name} {axis.point(values.iloc[0])}")
+    elif fails[-1]:
+        at = len(fails) - np.argmin(fails[::-1])  # the mildest of the failing tail
+        words = axis.threshold(values.iloc[at])
+    elif fails[0]:
+        at = np.argmin(fails) - 1
+        words = dataclasses.replace(axis, harsher="down" if axis.harsher == "up" else "up").threshold(values.iloc[at])
+    else:
+        at, words = np.argmax(fails), f"{name} at " + ", ".join(axis.point(v) for v in values[fails])
+    return {"words": words, "value": float(values.iloc[at]), "psnr": float(order.psnr.min()), "everywhere": everywhere,
+            "expected": expected}
 
 
 OTHERS_NAMED = 2

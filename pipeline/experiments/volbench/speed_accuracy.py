@@ -161,21 +161,18 @@ class SpeedAccuracy(Experiment):
             for backend in renderers.names():
                 backend_class = renderers.backend_class(backend)
                 sweep = backend_class.quality_sweep_for(mode)
-                if mode not in backend_class.capabilities.modes:
-                    sweep = sweep[:1]  # one run, skipped with the backend's reason, says why it is absent
+                # Whatever the panel ranks is timed together, interleaved in every replicate process: the
+                # contenders' settings on a scene (the ranking claims), and apart from them the reference's
+                # steps (the trade-off claim).
+                group = f"{scene_name}.{'reference' if backend == 'reference' else 'contenders'}"
+                timing = dict(**timed_frames(profile, self), interleave=group)
+                if mode not in backend_class.capabilities.modes:  # one run, skipped with its reason, says why
+                    sweep, timing = sweep[:1], dict(warmup=profile.warmup, repeat=profile.repeat)
                 for index, options in enumerate(sweep):
                     setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
-                    # Whatever the panel ranks is timed together, interleaved in every replicate process: the
-                    # contenders' settings on a scene (the ranking claims), and apart from them the reference's
-                    # steps (the trade-off claim). A backend that lacks the scene's mode has one run, skipped.
-                    group = f"{scene_name}.{'reference' if backend == 'reference' else 'contenders'}"
-                    timing = (dict(**timed_frames(profile, self), interleave=group)
-                              if mode in backend_class.capabilities.modes
-                              else dict(warmup=profile.warmup, repeat=profile.repeat))
-                    runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
-                                    (HEADLINE_VIEW,), options=dict(options), reference=truth.id, **timing,
-                                    tags={"scene": scene_name, "setting": setting, "role": "sweep",
-                                          "kind": kind}))
+                    runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene, (HEADLINE_VIEW,),
+                                    options=dict(options), reference=truth.id, **timing,
+                                    tags={"scene": scene_name, "setting": setting, "role": "sweep", "kind": kind}))
         return runs
 
     claims = (
