@@ -6,7 +6,7 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption, gl_devices, linked_table)
+                                            format_number, frames_caption, gl_devices, linked_table, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
                                                timed_frames, truth_run)
 from pipeline.experiments.kit.results import (image_pairs, nonempty, numeric, ok_rows, pair_metrics, read_exr,
@@ -61,9 +61,8 @@ def _accuracy(df):
     if psnr.notna().sum() == 0:
         raise ValueError("no PSNR against the reference")
     if psnr.isna().any():  # a view without its comparison is missing, not left out of the worst
-        missing = tests[psnr.isna()]
         raise ValueError("no PSNR against the reference for " + ", ".join(
-            f"{r.run} ({r.view})" for r in missing.itertuples()))
+            f"{r.run} ({r.view})" for r in tests[psnr.isna()].itertuples()))
     worst = tests.loc[psnr.idxmin()]
     per_method = tests.assign(psnr=psnr).groupby("config").psnr.min()
     return ClaimResult(f"{format_number(psnr.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
@@ -243,14 +242,11 @@ def _speed_blocks(headline, tests, ctx):
     return [linked_table("Frame times and accuracy (headline view)", timing,
                          ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
                          csv_name="table1.csv", caption=frames_caption(timing, untimed=UPLOADS)),
-            figure(ctx, "table1-speed-accuracy", plots.speed_accuracy, timing, heading="Speed against accuracy",
-                   caption="One series per scene, each point one method (labelled), headline view; higher and "
-                           "further left is better.",
-                   time_col="time_ms", error_col="psnr", group_col="scene", label_col="method",
-                   title="Median frame time against PSNR, every method and scene", log_y=False,
-                   time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                   x_label="median frame time (ms); bars: fastest to slowest frame",
-                   y_label="PSNR against the reference (dB)"),
+            speed_psnr_figure(ctx, "table1-speed-accuracy", timing, heading="Speed against accuracy",
+                              caption="One series per scene, each point one method (labelled), headline view; "
+                                      "higher and further left is better.",
+                              title="Median frame time against PSNR, every method and scene", group="scene",
+                              label="method"),
             blocks.Table("Over the orbit", summary, csv_name="table1_orbit.csv",
                          caption="Median frame time per view, then median, fastest and slowest view.")]
 

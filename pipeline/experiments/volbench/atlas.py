@@ -83,10 +83,7 @@ def techniques(frame):
         mine = frame.backend == technique.backend
         for name, value in technique.options.items():
             column = frame.get(f"option_{name}", pd.Series(np.nan, frame.index))
-            if isinstance(value, str):
-                mine &= column.astype(str) == value
-            else:
-                mine &= pd.to_numeric(column, errors="coerce") == value
+            mine &= (column.astype(str) if isinstance(value, str) else pd.to_numeric(column, errors="coerce")) == value
         labels[mine] = label
     return labels
 

@@ -11,12 +11,12 @@ import pandas as pd
 import renderers
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, Experiment, Run
-from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, linked_table)
+from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, format_number,
+                                            linked_table, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, headline_view, listed, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import ok_rows, speed_points
-from reports import blocks, plots, takeaways
+from reports import blocks, takeaways
 
 VTK_GPU, VTK_CPU = "vtk-gpu", "vtk-cpu"
 
@@ -145,15 +145,12 @@ class Peers(Experiment):
                                     caption="Median frame after warm-up, fastest and slowest timed frame; 'time / "
                                             "VTK' below 1: faster than VTK on the same scene and image size, measured "
                                             "in one run. Metrics against the reference at a finer step."))
-            out += [figure(ctx, f"peers-{int(image)}", plots.speed_accuracy, group,
-                           heading=f"Speed against accuracy at {int(image)}²",
-                           caption="One series per scene, each point one backend (labelled); higher and further left "
-                                   "is better.",
-                           time_col="time_ms", error_col="psnr", group_col="scene", label_col="backend",
-                           title=_chart_title(group, int(image)), log_x=True, log_y=False,
-                           time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                           x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
-                           y_label="PSNR against the reference (dB)")
+            out += [speed_psnr_figure(ctx, f"peers-{int(image)}", group, group="scene", label="backend",
+                                      heading=f"Speed against accuracy at {int(image)}²",
+                                      caption="One series per scene, each point one backend (labelled); higher and "
+                                              "further left is better.",
+                                      title=_chart_title(group, int(image)),
+                                      x_label="median frame time (ms, log scale)", log_x=True)
                     for image, group in timed.groupby("image_size")]
             largest = timed[timed.image_size == timed.image_size.max()]
             out += [difference_gallery(f"{scene_name} at {int(group.image_size.iloc[0])}²: every backend and its "
@@ -195,9 +192,7 @@ def _peer_takeaways(timed):
     largest = timed[timed.image_size == timed.image_size.max()]
     sentences = takeaways.fastest_at_accuracy(largest.assign(
         scene=[f"{s} ({int(i)}²)" for s, i in zip(largest.scene, largest.image_size)]), psnr_min=USABLE_PSNR)
-    for backend in pd.unique(timed.backend):
-        if backend in (VTK_GPU, VTK_CPU):
-            continue
+    for backend in [b for b in pd.unique(timed.backend) if b not in (VTK_GPU, VTK_CPU)]:
         mine = timed[timed.backend == backend]
         parts = []
         for column, peer in (("over_vtk_gpu", "VTK GPU"), ("over_vtk_cpu", "VTK CPU")):
