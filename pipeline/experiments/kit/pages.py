@@ -288,3 +288,32 @@ def by_scene(rows, *within):
     """
     first = {name: i for i, name in enumerate(pd.unique(rows.scene))}
     return rows.assign(scene_order=rows.scene.map(first)).sort_values(["scene_order", *within], kind="stable")
+
+
+def speed_psnr_figure(ctx, name, frame, *, heading, caption, title, group, label, x_label="median frame time (ms)",
+                      **options):
+    """Each row's median frame time against its PSNR against the reference, as the page's chart ``name`` (a
+    :func:`figure` of :func:`reports.plots.speed_accuracy`), higher and further left better.
+
+    Parameters
+    ----------
+    ctx : reports.html.ReportContext
+    name : str
+    frame : pandas.DataFrame
+        The rows, with ``time_ms``, ``time_ms_min`` and ``time_ms_max`` (:func:`~.results.speed_points`) and ``psnr``.
+    heading, caption, title : str
+        The figure's heading and caption, the chart's title.
+    group, label : str
+        The column whose values are the series, and the one that labels each point.
+    x_label : str
+        The time axis in words; the chart adds that its bars span the fastest to the slowest frame.
+    **options
+        More options of the chart (``log_x``).
+    """
+    from reports import plots  # matplotlib: only when a page draws it
+
+    return figure(ctx, name, plots.speed_accuracy, frame, heading=heading, caption=caption, time_col="time_ms",
+                  error_col="psnr", group_col=group, label_col=label, title=title, log_y=False,
+                  time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
+                  x_label=f"{x_label}; bars: fastest to slowest frame", y_label="PSNR against the reference (dB)",
+                  **options)

@@ -1,13 +1,13 @@
-"""What several of the paper's experiments share: the methods compared, their settings, timed runs and frame
-times, the no-cue control scene, their pages' figures, and what cannot be measured without the GL backends
-(judging is the kit's, :mod:`pipeline.experiments.kit.judging`)."""
+"""What several of the paper's experiments share: the methods compared, their settings, runs and frame times, the
+no-cue control scene, and what cannot be measured without the GL backends."""
 
 import numpy as np
 
 from pipeline.experiments.kit.judging import count_ratio
 from pipeline.experiments.kit.model import Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, not_measurable
-from pipeline.experiments.kit.planning import accepts, missing_options, phantom, scene, unregistered
+from pipeline.experiments.kit.planning import (accepts, missing_options, phantom, scene, unregistered,
+                                               volume_and_image_size)
 from pipeline.experiments.kit.results import speed_points
 
 RAYCAST, SLICER = "gl-raycast", "gl-slicer"
@@ -44,9 +44,7 @@ SIZE_SCALES = scaled(smoke={"image_size": 64})
 
 def sizes(experiment, profile):
     """``(volume size, image size, step factor)``: ``experiment``'s settings (the profile's sizes, half a voxel)."""
-    return (profile.setting(experiment, "volume_size", profile.volume_size),
-            profile.setting(experiment, "image_size", profile.image_size),
-            profile.setting(experiment, "step_factor", 0.5))
+    return (*volume_and_image_size(profile, experiment), profile.setting(experiment, "step_factor", 0.5))
 
 
 def method_runs(experiment, prefix, scene_spec, views, configs, step_factor, truth, tags, frames, *, together=(),

@@ -1,8 +1,4 @@
-"""``kruger2003-nocue`` (E2): what the intermediate pass costs on the control with no cue.
-
-The control is dense and faint and seen straight at a face: no ray ends early, none leaves the volume
-before the last pass and no block is empty, so the extra passes only cost.
-"""
+"""``kruger2003-nocue`` (E2): what the intermediate pass costs on the control with no cue."""
 
 import pandas as pd
 

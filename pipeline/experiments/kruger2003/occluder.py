@@ -1,8 +1,4 @@
-"""``kruger2003-occluder`` (E8): an opaque plane in front of the volume covering 0–100 % of its footprint.
-
-Early-z must cull every fragment of a hidden ray in every main pass, so the frame time falls with the
-covered area.
-"""
+"""``kruger2003-occluder`` (E8): an opaque plane in front of the volume covering 0–100 % of its footprint."""
 
 import numpy as np
 import pandas as pd

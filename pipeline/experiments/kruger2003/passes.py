@@ -1,9 +1,4 @@
-"""``kruger2003-passes`` (E4, E6, E7): fragments per main pass, the iso-surface caster against DVR, the sweep of M.
-
-Occlusion queries count the fragments that survive the early depth test in each main pass; the
-iso-surface caster ends a ray at its hit; M, the samples per pass, trades per-pass overhead against
-samples wasted after a ray ends inside a pass.
-"""
+"""``kruger2003-passes`` (E4, E6, E7): fragments per main pass, the iso-surface caster against DVR, the sweep of M."""
 
 import json
 

@@ -1,7 +1,4 @@
-"""``kruger2003-stability``: where the accelerations break: the early-termination threshold and the block size.
-
-RC-b on the opaque head and the sparse aneurysm, each setting's speed and error against the reference.
-"""
+"""``kruger2003-stability``: where the accelerations break: the early-termination threshold and the block size."""
 
 import pandas as pd
 
@@ -112,6 +109,9 @@ class Stability(Experiment):
             return []
         size, image, step = sizes(self, profile)
         frames = timed_frames(profile, self)
+        # (sweep, option, its type, values): a run id is the sweep's initial and the value (head.t0.9, head.b8)
+        sweeps = (("threshold", "opaque_threshold", float, profile.setting(self, "thresholds", list(THRESHOLDS))),
+                  ("block", "block_size", int, profile.setting(self, "block_sizes", list(BLOCK_SIZES))))
         runs = []
         for scene_name in SCENES:
             dataset, preset = TABLE1[scene_name][:2]
@@ -120,17 +120,11 @@ class Stability(Experiment):
             tags = {"scene": scene_name, "dataset": dataset}
             truth = truth_run(self.name, scene_name, scene_spec, view, 0.25, tags)
             runs.append(truth)
-            for t in profile.setting(self, "thresholds", list(THRESHOLDS)):
-                runs.append(Run(self.name, f"{scene_name}.t{t:g}", RAYCAST, scene_spec, view,
-                                options={"variant": "rc-b", "opaque_threshold": float(t), "step_factor": step},
-                                reference=truth.id, **frames, interleave=f"{scene_name}.threshold",
-                                tags={**tags, "role": "test", "config": "rc-b", "sweep": "threshold",
-                                      "value": float(t)}))
-            for b in profile.setting(self, "block_sizes", list(BLOCK_SIZES)):
-                runs.append(Run(self.name, f"{scene_name}.b{int(b)}", RAYCAST, scene_spec, view,
-                                options={"variant": "rc-b", "block_size": int(b), "step_factor": step},
-                                reference=truth.id, **frames, interleave=f"{scene_name}.block",
-                                tags={**tags, "role": "test", "config": "rc-b", "sweep": "block", "value": int(b)}))
+            runs += [Run(self.name, f"{scene_name}.{sweep[0]}{value:g}", RAYCAST, scene_spec, view,
+                         options={"variant": "rc-b", option: value, "step_factor": step}, reference=truth.id,
+                         **frames, interleave=f"{scene_name}.{sweep}",
+                         tags={**tags, "role": "test", "config": "rc-b", "sweep": sweep, "value": value})
+                     for sweep, option, cast, values in sweeps for value in map(cast, values)]
         return runs
 
     def report(self, results, ctx):

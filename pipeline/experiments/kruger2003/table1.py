@@ -1,9 +1,4 @@
-"""``kruger2003-table1`` (E1, E3, E5): Table 1's four methods on the paper's four kinds of data, and their images.
-
-SBVR, RC, RC-a and RC-b (with the single-pass caster and VTK's GPU caster beside them) on stand-ins and
-real scans of the head, aneurysm, foot and engine: the speed-ups between methods against the paper's,
-every image against the reference, and the share of slicing fragments that contribute.
-"""
+"""``kruger2003-table1`` (E1, E3, E5): Table 1's four methods on the paper's four kinds of data, and their images."""
 
 import numpy as np
 import pandas as pd
@@ -11,12 +6,12 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption, gl_devices, linked_table)
-from pipeline.experiments.kit.planning import (dataset_view, headline_view, is_registered, listed, phantom, scene,
+                                            format_number, frames_caption, gl_devices, linked_table, speed_psnr_figure)
+from pipeline.experiments.kit.planning import (is_registered, listed, orbit_views, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, pair_metrics, read_exr, role_rows,
-                                              rows_matching, text_column)
-from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, point_speedup, time_ratio
+from pipeline.experiments.kit.results import (nonempty, numeric, ok_rows, pair_metrics, read_exr,
+                                              role_rows, rows_matching, text_column)
+from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, image_pairs, point_speedup, time_ratio
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SETTINGS, SIZE_SCALES, SLICER, UPLOADS,
                                                      gl_not_measurable, method_name, method_points, method_runs,
                                                      samples_note, sizes)
@@ -30,15 +25,18 @@ HEADS, ENGINES = ("head", "mrihead"), ("engine", "engine_real")
 PAPER_METHODS = ("sbvr", "rc", "rc-a", "rc-b")
 """Table 1's methods; the single-pass caster (ours) is reported beside them, not judged with them."""
 
+RATIOS = {"RC / SBVR": ("sbvr", "rc"), "RC-a / RC": ("rc", "rc-a"), "RC-b / RC-a": ("rc-a", "rc-b"),
+          "RC-b / RC": ("rc", "rc-b"), "RC-b / SBVR": ("sbvr", "rc-b")}
+"""Table 1's speed-ups as ``(slow, fast)`` methods: the paper's quotient of frame rates, ours of frame times."""
+
+
+def _paper_ratio(scene_name, slow, fast):
+    """The paper's speed-up of ``fast`` over ``slow`` on ``scene_name``'s row of Table 1 (its frame rates)."""
+    fps = dict(zip(PAPER_METHODS, TABLE1[scene_name][3:]))
+    return fps[fast] / fps[slow]
+
 
 # ---------------------------------------------------------------------------------------------- claims
-def _scene_groups(df, scenes):
-    present = [s for s in pd.unique(text_column(df, "scene")) if scenes is None or s in scenes]
-    if not present:
-        raise ValueError(f"no successful run of {', '.join(scenes) if scenes else 'any scene'}")
-    return present
-
-
 def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
     """``time(slow) / time(fast)`` (whole frames, median over the views) within [low, high] on each of ``scenes``.
 
@@ -46,7 +44,8 @@ def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
     interleaved); the claim fails if one scene fails and is inconclusive if one is.
     """
     resampler = intervals.Resampler()
-    scenes = _scene_groups(df, scenes)
+    scenes = nonempty([s for s in pd.unique(text_column(df, "scene")) if scenes is None or s in scenes],
+                      what=", ".join(scenes) if scenes else "any scene")
     decisions = {s: time_ratio(df, slow, fast, resampler=resampler, at_least=low, at_most=high, scene=s)
                  for s in scenes}
     notes = {s: samples_note(df, slow, fast, scene=s) for s in scenes}
@@ -62,31 +61,16 @@ def _accuracy(df):
     if psnr.notna().sum() == 0:
         raise ValueError("no PSNR against the reference")
     if psnr.isna().any():  # a view without its comparison is missing, not left out of the worst
-        missing = tests[psnr.isna()]
         raise ValueError("no PSNR against the reference for " + ", ".join(
-            f"{r.run} ({r.view})" for r in missing.itertuples()))
+            f"{r.run} ({r.view})" for r in tests[psnr.isna()].itertuples()))
     worst = tests.loc[psnr.idxmin()]
     per_method = tests.assign(psnr=psnr).groupby("config").psnr.min()
     return ClaimResult(f"{format_number(psnr.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
                        bool(psnr.min() >= 40.0), ", ".join(f"{c}: ≥ {format_number(v)} dB" for c, v in per_method.items()))
 
 
-def _paired(df, first, second):
-    """``[(scene, view, row_first, row_second)]`` for every scene and view rendered by both configs."""
-    a = rows_matching(df, first, config=first)
-    b = rows_matching(df, second, config=second)
-    pairs = []
-    for row in a.itertuples():
-        match = b[(b.scene == row.scene) & (b.view == row.view)]
-        if not match.empty and file_exists(row.exr) and file_exists(match.exr.iloc[0]):
-            pairs.append((row.scene, row.view, row, match.iloc[0]))
-    if not pairs:
-        raise ValueError(f"no view rendered by both {first} and {second}")
-    return pairs
-
-
 def _ess_lossless(df):
-    values = {(s, v): pair_metrics(a.exr, b.exr)["psnr"] for s, v, a, b in _paired(df, "rc-a", "rc-b")}
+    values = {(s, v): pair_metrics(a.exr, b.exr)["psnr"] for s, v, a, b in image_pairs(df, "rc-a", "rc-b")}
     worst = min(values, key=values.get)
     return ClaimResult(f"{format_number(values[worst])} dB ({worst[0]}, {worst[1]})",
                        bool(values[worst] >= 60.0), f"{len(values)} views compared")
@@ -94,7 +78,7 @@ def _ess_lossless(df):
 
 def _ert_bound(df):
     worst, where = 0.0, None
-    for scene_name, view, rc, rca in _paired(df, "rc", "rc-a"):
+    for scene_name, view, rc, rca in image_pairs(df, "rc", "rc-a"):
         difference = float(np.abs(read_exr(rc.exr) - read_exr(rca.exr)).max())
         if difference >= worst:
             worst, where = difference, (scene_name, view)
@@ -190,12 +174,9 @@ def _ratio_table(tests):
     rows = []
     for scene_name in pd.unique(tests.scene):
         here = tests[tests.scene == scene_name]
-        _d, _p, paper_row, sbvr, rc, rca, rcb = TABLE1[scene_name]
-        row = {"scene": scene_name, "paper row": paper_row}
-        for label, slow, fast, paper in (("RC / SBVR", "sbvr", "rc", rc / sbvr), ("RC-a / RC", "rc", "rc-a", rca / rc),
-                                         ("RC-b / RC-a", "rc-a", "rc-b", rcb / rca), ("RC-b / RC", "rc", "rc-b", rcb / rc),
-                                         ("RC-b / SBVR", "sbvr", "rc-b", rcb / sbvr)):
-            row[f"{label} (paper)"] = round(paper, 2)
+        row = {"scene": scene_name, "paper row": TABLE1[scene_name][2]}
+        for label, (slow, fast) in RATIOS.items():
+            row[f"{label} (paper)"] = round(_paper_ratio(scene_name, slow, fast), 2)
             try:
                 row[f"{label} (ours)"] = round(point_speedup(here, slow, fast), 2)
             except ValueError:
@@ -256,14 +237,11 @@ def _speed_blocks(headline, tests, ctx):
     return [linked_table("Frame times and accuracy (headline view)", timing,
                          ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
                          csv_name="table1.csv", caption=frames_caption(timing, untimed=UPLOADS)),
-            figure(ctx, "table1-speed-accuracy", plots.speed_accuracy, timing, heading="Speed against accuracy",
-                   caption="One series per scene, each point one method (labelled), headline view; higher and "
-                           "further left is better.",
-                   time_col="time_ms", error_col="psnr", group_col="scene", label_col="method",
-                   title="Median frame time against PSNR, every method and scene", log_y=False,
-                   time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                   x_label="median frame time (ms); bars: fastest to slowest frame",
-                   y_label="PSNR against the reference (dB)"),
+            speed_psnr_figure(ctx, "table1-speed-accuracy", timing, heading="Speed against accuracy",
+                              caption="One series per scene, each point one method (labelled), headline view; "
+                                      "higher and further left is better.",
+                              title="Median frame time against PSNR, every method and scene", group="scene",
+                              label="method"),
             blocks.Table("Over the orbit", summary, csv_name="table1_orbit.csv",
                          caption="Median frame time per view, then median, fastest and slowest view.")]
 
@@ -304,9 +282,7 @@ class Table1(Experiment):
         for scene_name in wanted:
             dataset, preset = TABLE1[scene_name][:2]
             scene_spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)])
-            views = (headline_view(dataset),) + tuple(
-                dataset_view(dataset, f"orbit{int(a):03d}", a, 20.0) for a in np.arange(orbit) * 360.0 / max(orbit, 1)
-                if a != 30.0)
+            views = orbit_views(dataset, orbit)
             tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
             truth = truth_run(self.name, scene_name, scene_spec, views, truth_step, tags)
             runs.append(truth)
@@ -315,13 +291,9 @@ class Table1(Experiment):
         return runs
 
     def paper_table(self):
-        rows = []
-        for scene_name, (_d, _p, row, sbvr, rc, rca, rcb) in TABLE1.items():
-            if scene_name in REAL_SCANS:
-                continue
-            rows.append({"data set (paper)": row, "SBVR fps": sbvr, "RC fps": rc, "RC-a fps": rca, "RC-b fps": rcb,
-                         "RC / SBVR": rc / sbvr, "RC-a / RC": rca / rc, "RC-b / RC-a": rcb / rca,
-                         "RC-b / RC": rcb / rc, "RC-b / SBVR": rcb / sbvr})
+        rows = [{"data set (paper)": row[2], **{f"{method_name(c)} fps": fps for c, fps in zip(PAPER_METHODS, row[3:])},
+                 **{label: _paper_ratio(scene_name, *pair) for label, pair in RATIOS.items()}}
+                for scene_name, row in TABLE1.items() if scene_name not in REAL_SCANS]
         return pd.DataFrame(rows).round(2).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):

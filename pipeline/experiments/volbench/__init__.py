@@ -3,13 +3,8 @@
 No paper stands behind them, so none of the guides in ``../shared/papers/notes/`` is theirs: they check
 what every paper's reproduction relies on, against the contract of ``../shared/CONVENTIONS.md``.
 
-* :mod:`.phantoms`: ``volbench-phantoms``, every data set rendered by the reference, its statistics
-  against its real scan or the notes' targets;
-* :mod:`.convergence`: ``volbench-convergence``, the reference's error as its step shrinks;
-* :mod:`.speed_accuracy`: ``volbench-speed-accuracy``, every backend's quality sweep, time against error;
-* :mod:`.peers`: ``volbench-peers``, every backend against VTK's GPU and CPU mappers;
-* :mod:`.atlas`: ``volbench-atlas``, the stability atlas: every backend along every stress axis it supports;
-* :mod:`.scenes`: the one-phantom scene and ground truth the convergence and speed–accuracy studies share.
+Each experiment is a module of its own (:data:`EXPERIMENTS`); :mod:`.atlas_axes` holds the stability atlas's
+stress axes and :mod:`.scenes` the scene and ground truth the convergence and speed–accuracy studies share.
 """
 
 from pipeline.experiments.kit.model import Paper

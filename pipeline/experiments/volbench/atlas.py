@@ -1,11 +1,7 @@
 """``volbench-atlas``: the stability atlas, every backend swept along every stress axis it supports.
 
-Each axis of :mod:`.atlas_axes` sweeps one thing on one scene shared by every backend; every point is
-one untimed frame compared with the reference at a fine step. The page opens with each technique's
-failure threshold (30 dB PSNR: it "breaks"; 40 dB: accurate), then a technique × axis heat map of the
-worst PSNR, each cell linked to its axis's sweep chart and its worst difference image; a backend that
-lacks an axis's feature or option shows why in its cell. Besides every backend at its defaults, a few
-:data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
+Each axis (:mod:`.atlas_axes`) sweeps one thing on one scene shared by every backend. Besides every backend at its
+defaults, a few :data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
 """
 
 import dataclasses
@@ -15,10 +11,9 @@ import numpy as np
 import pandas as pd
 
 import renderers
-from core.errors import InputError
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, difference_gallery, format_number, linked_table
-from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, truth_run
+from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, listed, truth_run, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
 from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, axis_reason, backend_options, points, short
 from reports import blocks
@@ -38,18 +33,9 @@ CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
 class Technique:
     """A backend with options of its own, a row of the atlas beside the backends at their defaults.
 
-    Parameters
-    ----------
-    backend : str
-    options : dict
-        What makes it this technique: its runs add them to the axis's options (none of them is an option its
-        axes sweep), and its rows in the results are the backend's runs with these options.
-    axes : tuple of str
-        The keys of the axes it runs on.
-    elsewhere : str
-        Why it is not on the other axes (its heat-map cells there).
-    slug : str
-        Its part of run ids and interleave groups.
+    Its runs add ``options`` to the axis's (none of them is an option its axes sweep), and its rows in the results
+    are the backend's runs with these options. It runs on the axes keyed ``axes``; ``elsewhere`` says why not on
+    the others (its heat-map cells there); ``slug`` is its part of run ids and interleave groups.
     """
 
     backend: str
@@ -97,10 +83,7 @@ def techniques(frame):
         mine = frame.backend == technique.backend
         for name, value in technique.options.items():
             column = frame.get(f"option_{name}", pd.Series(np.nan, frame.index))
-            if isinstance(value, str):
-                mine &= column.astype(str) == value
-            else:
-                mine &= pd.to_numeric(column, errors="coerce") == value
+            mine &= (column.astype(str) if isinstance(value, str) else pd.to_numeric(column, errors="coerce")) == value
         labels[mine] = label
     return labels
 
@@ -146,24 +129,22 @@ def threshold(rows, axis, *, breaks=PSNR_BREAKS):
     fails = (order.psnr < breaks).to_numpy()
     if not fails.any():
         return None
-    name, worst = axis.words.split(" (")[0], float(order.psnr.min())
-    if fails.all():
-        words = (f"any {name} tried ({axis.point(order.value.iloc[0])} to {axis.point(order.value.iloc[-1])})"
-                 if len(order) > 1 else f"{name} {axis.point(order.value.iloc[0])}")
-        return {"words": words, "value": float(order.value.iloc[0]), "psnr": worst, "everywhere": True,
-                "expected": True}
-    if fails[-1]:
-        first = len(fails) - np.argmin(fails[::-1])  # the mildest of the failing tail
-        return {"words": axis.threshold(order.value.iloc[first]), "value": float(order.value.iloc[first]),
-                "psnr": worst, "everywhere": False, "expected": True}
-    if fails[0]:
-        last = np.argmin(fails) - 1
-        reverse = dataclasses.replace(axis, harsher="down" if axis.harsher == "up" else "up")
-        return {"words": reverse.threshold(order.value.iloc[last]), "value": float(order.value.iloc[last]),
-                "psnr": worst, "everywhere": False, "expected": False}
-    failing = order[fails]
-    return {"words": f"{name} at " + ", ".join(axis.point(v) for v in failing.value), "value": float(failing.value.iloc[0]),
-            "psnr": worst, "everywhere": False, "expected": False}
+    name, values = axis.words.split(" (")[0], order.value
+    everywhere, expected = bool(fails.all()), bool(fails.all() or fails[-1])
+    if everywhere:
+        at = 0
+        words = (f"any {name} tried ({axis.point(values.iloc[0])} to {axis.point(values.iloc[-1])})"
+                 if len(order) > 1 else f"{name} {axis.point(values.iloc[0])}")
+    elif fails[-1]:
+        at = len(fails) - np.argmin(fails[::-1])  # the mildest of the failing tail
+        words = axis.threshold(values.iloc[at])
+    elif fails[0]:
+        at = np.argmin(fails) - 1
+        words = dataclasses.replace(axis, harsher="down" if axis.harsher == "up" else "up").threshold(values.iloc[at])
+    else:
+        at, words = np.argmax(fails), f"{name} at " + ", ".join(axis.point(v) for v in values[fails])
+    return {"words": words, "value": float(values.iloc[at]), "psnr": float(order.psnr.min()), "everywhere": everywhere,
+            "expected": expected}
 
 
 OTHERS_NAMED = 2
@@ -288,17 +269,11 @@ class Atlas(Experiment):
 
     def axes(self, profile):
         """The axes of this profile (its ``axes`` setting: keys of :data:`AXIS_BY_KEY`; default all)."""
-        keys = list(profile.setting(self, "axes", [axis.key for axis in AXES]))
-        unknown = [k for k in keys if k not in AXIS_BY_KEY]
-        if unknown:
-            raise InputError(f"profile {profile.name!r} settings.{self.name}.axes: unknown {unknown}; "
-                             f"known: {list(AXIS_BY_KEY)}")
-        return [AXIS_BY_KEY[k] for k in keys]
+        return [AXIS_BY_KEY[k] for k in listed(profile, self, "axes", [axis.key for axis in AXES], known=AXIS_BY_KEY)]
 
     def plan(self, profile):
         """``{axis key: points}``: each axis's ``(value, scene, views)`` at this profile's scale."""
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = int(profile.setting(self, "image_size", profile.image_size))
+        size, image = (int(value) for value in volume_and_image_size(profile, self))
         return {axis.key: points(axis, axis.values[profile.scale], size=size, image=image)
                 for axis in self.axes(profile)}
 
@@ -466,22 +441,21 @@ def _breaking_points(axis, rows):
 def _axis_blocks(axis, rows, results, ctx, plots):
     """One axis: its sweep chart (anchored for the heat map) and a gallery of each backend's worst point."""
     path, rel = ctx.plot_path(axis.key)
-    low, high = float(rows.value.min()), float(rows.value.max())
+    low, high, name = float(rows.value.min()), float(rows.value.max()), axis.words.split(" (")[0].capitalize()
     guides = [(f"{PSNR_BREAKS:g} dB (breaks)", [low, high], [PSNR_BREAKS] * 2),
               (f"{PSNR_GOOD:g} dB (accurate)", [low, high], [PSNR_GOOD] * 2)]
     below = sorted(set(rows[rows.psnr < PSNR_BREAKS].backend))
-    title = (f"{axis.words.split(' (')[0].capitalize()}: {len(below)} of {rows.backend.nunique()} techniques "
-             f"fall below {PSNR_BREAKS:g} dB")
-    plots.lines(rows.sort_values("value"), path, x="value", y="psnr", group="backend", title=title,
+    plots.lines(rows.sort_values("value"), path, x="value", y="psnr", group="backend",
+                title=f"{name}: {len(below)} of {rows.backend.nunique()} techniques fall below {PSNR_BREAKS:g} dB",
                 x_label=axis.words, y_label="PSNR against the reference (dB)", guides=guides,
                 log_x=axis.log_x and low > 0)
-    out = [blocks.Figure(f"{axis.words.split(' (')[0].capitalize()} on {axis.scene_words}", rel,
+    out = [blocks.Figure(f"{name} on {axis.scene_words}", rel,
                          f"PSNR against the reference at each point, one line per technique; grey lines at "
                          f"{PSNR_BREAKS:g} dB (breaks) and {PSNR_GOOD:g} dB (accurate). {_breaking_points(axis, rows)}",
                          anchor=f"atlas-{axis.key}")]
     worst = rows.loc[[mine.psnr.idxmin() for _, mine in rows.groupby("backend")]]
     return out + [difference_gallery(
-        f"{axis.words.split(' (')[0].capitalize()}: each technique's worst point", worst, ctx, against=results,
+        f"{name}: each technique's worst point", worst, ctx, against=results,
         label=lambda row: f"{row.backend} at {axis.point(row.value)}",
         note=lambda row: f"PSNR {format_number(row.psnr)} dB" + (f", FLIP {format_number(row.flip)}"
                                                                  if pd.notna(row.flip) else ""))]

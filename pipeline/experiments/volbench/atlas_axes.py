@@ -28,35 +28,18 @@ ENGINE_ASPECT = (1.0, 1.0, 0.5)
 class Axis:
     """One stress axis of the atlas.
 
-    Parameters
-    ----------
-    key : str
-        Short name: run ids, tags, anchors.
-    words : str
-        The swept quantity in words with its unit (the heat map's column, the charts' x label).
-    unit : str
-        Appended to a value in sentences (``" voxels"``, ``"°"``; ``""`` for none).
-    scene_words : str
-        The scene in words ("the semi-transparent engine").
-    values : dict
-        ``{scale: [values]}`` for smoke, default and full.
-    harsher : {"up", "down"}
-        Whether larger (``"up"``) or smaller values stress the backends more: a failure threshold
-        reads "≥ v" or "≤ v".
-    option : str, optional
-        The backend option swept; backends without it are left out with ``option_reason``.
-    option_reason : str
-        Why a backend without ``option`` has nothing to sweep.
-    view_key : str, optional
-        The camera field swept over the views of one run (``"azimuth"``, ``"fov_y"``).
-    backend_options : dict
-        ``{backend: options}`` a backend needs to render this axis at all (gl-raycast's lenses).
-    dataset : (str, str)
-        The data set and preset of the axis's scene (an option axis's, the thin axis's tubes).
-    mode : {"dvr", "iso"}
-        The scene's rendering mode: an ``iso`` axis leaves out the backends without iso-surfaces.
-    log_x : bool
-        Whether its chart spaces the values logarithmically (a sweep that halves them).
+    ``key`` names it in run ids, tags and anchors; ``words`` is the swept quantity with its unit (the heat map's
+    column, the charts' x label), ``unit`` what a value takes in sentences (``" voxels"``, ``"°"``; ``""`` for none),
+    ``scene_words`` its scene in words ("the semi-transparent engine") and ``values`` ``{scale: [values]}``.
+    ``harsher`` is ``"up"`` where larger values stress the backends more (a failure threshold reads "≥ v"), else
+    ``"down"`` ("≤ v").
+
+    It sweeps a backend ``option`` (backends without it are left out, ``option_reason`` says why), or the camera
+    field ``view_key`` over the views of one run (``"azimuth"``, ``"fov_y"``), or else the scene itself, a scene per
+    value. ``backend_options`` are ``{backend: options}`` a backend needs to render the axis at all (gl-raycast's
+    lenses); ``dataset`` the data set and preset of its scene (an option axis's, the thin axis's tubes); ``mode``
+    the scene's rendering mode (an ``"iso"`` axis leaves out the backends without iso-surfaces); ``log_x`` whether
+    its chart spaces the values logarithmically (a sweep that halves them).
     """
 
     key: str
@@ -155,6 +138,7 @@ def backend_options(axis, backend):
     isolating = ISOLATING_OPTIONS.get(backend, {}) if axis.option != "min_opacity" else {}
     return {**isolating, **(axis.backend_options or {}).get(backend, {})}
 
+
 RAMP_CENTER = 170
 """The engine's metal (raw 160–200 in its presets): where the sharpness axis puts its ramp."""
 
@@ -216,16 +200,9 @@ def clouds(count, size, **extra):
 
 
 def points(axis, scale_values, *, size, image):
-    """``[(value, scene, views)]``: each point's scene and views (a view axis: one scene, every value a view).
-
-    Parameters
-    ----------
-    axis : Axis
-    scale_values : list of float
-        The values swept at this profile's scale.
-    size, image : int
-        The phantoms' longest edge in voxels and the image's height and width in pixels.
-    """
+    """``[(value, scene, views)]``: each point's scene and views (a view axis: one scene, every value a view), for
+    the values swept at this profile's scale, phantoms ``size`` voxels along their longest edge and images ``image``
+    pixels high and wide."""
     engine = [phantom(BASE[0], size, preset=BASE[1])]
     name = f"atlas-{axis.key}"
     if axis.option:
@@ -240,32 +217,26 @@ def points(axis, scale_values, *, size, image):
         return [(None, spec, tuple({**headline(), "view": f"at{v:g}", "fov_y": v} for v in scale_values))]
     out = []
     for value in scale_values:
-        label = f"{name}-{value:g}"
+        label, view = f"{name}-{value:g}", headline()
         if axis.key == "tf":
             spec = scene(label, image, volumes=[phantom(BASE[0], size, transfer_function=ramp(value))])
         elif axis.key == "shell":
-            volumes = [phantom("sphere", size, preset="opaque", params={"shell": value})]
-            out.append((value, scene(label, image, volumes=volumes), (headline("sphere"),)))
-            continue
+            spec = scene(label, image, volumes=[phantom("sphere", size, preset="opaque", params={"shell": value})])
+            view = headline("sphere")
         elif axis.key == "image":
             spec = scene(label, int(value), volumes=engine)
         elif axis.key == "volume":
             spec = scene(label, image, volumes=[phantom(BASE[0], int(value), preset=BASE[1])])
-        elif axis.key == "volumes":
-            spec = scene(label, image, volumes=clouds(int(value), size), camera={"view_height": 1.5 * size})
-            out.append((value, spec, (headline("smoke_cloud"),)))
-            continue
-        elif axis.key == "iso-volumes":
-            spec = scene(label, image, volumes=clouds(int(value), size, isovalue=CLOUD_ISOVALUE), mode=axis.mode,
+        elif axis.key in ("volumes", "iso-volumes"):
+            iso = {"isovalue": CLOUD_ISOVALUE} if axis.mode == "iso" else {}
+            spec = scene(label, image, volumes=clouds(int(value), size, **iso), mode=axis.mode,
                          camera={"view_height": 1.5 * size})
-            out.append((value, spec, (headline("smoke_cloud"),)))
-            continue
+            view = headline("smoke_cloud")
         elif axis.key == "thin":
             dataset, preset = axis.dataset
             volumes = [phantom(dataset, size, preset=preset, params={"radius": value})]
             spec = scene(label, image, volumes=volumes, mode=axis.mode, camera={"view_height": tubes_window(size)})
-            out.append((value, spec, (tubes_view(dataset),)))
-            continue
+            view = tubes_view(dataset)
         elif axis.key == "inside":
             spec = scene(label, image, volumes=engine,
                          camera={"projection": "perspective", "fov_y": 60.0, "distance": round(value * size, 4)})
@@ -276,7 +247,7 @@ def points(axis, scale_values, *, size, image):
                                "appearance": {"mode": "dvr", "preset": BASE[1], "opacity_scale": 0.2}}]
         else:
             raise ValueError(f"atlas axis {axis.key!r} has no scene of its own")
-        out.append((value, spec, (headline(),)))
+        out.append((value, spec, (view,)))
     return out
 
 

@@ -1,15 +1,11 @@
-"""``volbench-convergence``: the reference renderer's error against a much finer step, as the step shrinks.
-
-The reference is ground truth only if its default step (1/4 voxel) has converged: the claims ask for
-an error that falls every time the step halves, at least linearly, and 40 dB at the default step.
-"""
+"""``volbench-convergence``: the reference renderer's error against a much finer step, as the step shrinks."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import METRICS, difference_gallery, format_number, linked_table, ms
+from pipeline.experiments.kit.pages import METRICS, difference_gallery, figure, format_number, linked_table, ms
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, voxels
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, takeaways
@@ -36,9 +32,13 @@ def _sweep(df):
     return rows.sort_values("step_factor", ascending=False)
 
 
+def _not_monotone(sweep):
+    """The scenes of ``sweep`` (largest step first) whose error does not fall at every halving of the step."""
+    return [scene for scene, g in sweep.groupby("scene") if not (np.diff(g.rmse.to_numpy()) < 0).all()]
+
+
 def _monotone(df):
-    failures = [scene for scene, g in _sweep(df).groupby("scene") if not (np.diff(g.rmse.to_numpy()) < 0).all()]
-    scenes = _sweep(df).scene.nunique()
+    failures, scenes = _not_monotone(_sweep(df)), _sweep(df).scene.nunique()
     return ClaimResult(f"{scenes - len(failures)}/{scenes} scenes monotone", not failures,
                        f"not monotone: {', '.join(failures)}" if failures else "")
 
@@ -110,11 +110,12 @@ class ReferenceConvergence(Experiment):
                 orders[scene] = _observed_order(group)
             except ValueError:
                 pass
-        path, rel = ctx.plot_path("convergence")
         truth = voxels(float(results[results.role == "truth"].step_factor.astype(float).min()))
-        plots.convergence(ok, path, x_col="step_factor", y_col="rmse", group_col="scene",
-                          title=_convergence_title(ok, orders),
-                          y_label=f"RMSE against a {truth}-voxel render (intensity 0–1)")
+        chart = figure(ctx, "convergence", plots.convergence, ok, heading="Error against step size (log–log)",
+                       caption=f"RMSE against a {truth}-voxel render, one line per scene; grey guide lines of "
+                               "slope 1 and 2 through the coarsest point. Parallel to a guide: that order.",
+                       x_col="step_factor", y_col="rmse", group_col="scene", title=_convergence_title(ok, orders),
+                       y_label=f"RMSE against a {truth}-voxel render (intensity 0–1)")
         times = ms(ok)
         timed = pd.concat([ok, times], axis=1).sort_values(["scene", "step_factor"])
         shown = ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].sort_values(["scene", "step_factor"])
@@ -123,10 +124,7 @@ class ReferenceConvergence(Experiment):
                                      caption="Left each render, right its difference from the finest render.",
                                      note=lambda row: f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} "
                                                       f"dB, largest error {format_number(row.max_error)}")
-        return [blocks.Takeaways(_convergence_takeaways(ok, orders)),
-                blocks.Figure("Error against step size (log–log)", rel,
-                              f"RMSE against a {truth}-voxel render, one line per scene; grey guide lines of "
-                              "slope 1 and 2 through the coarsest point. Parallel to a guide: that order."),
+        return [blocks.Takeaways(_convergence_takeaways(ok, orders)), chart,
                 linked_table("Errors and times", timed, ["scene", "step_factor", *times, *METRICS], ctx,
                              names={"step_factor": "step (voxels)"}, csv_name="convergence.csv",
                              caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
@@ -138,8 +136,7 @@ def _convergence_title(ok, orders):
     """The finding of the convergence chart, from the numbers."""
     if not orders:
         return "Error against step size"
-    flat = [scene for scene, g in ok.sort_values("step_factor", ascending=False).groupby("scene")
-            if not (np.diff(g.rmse.to_numpy()) < 0).all()]
+    flat = _not_monotone(ok.sort_values("step_factor", ascending=False))
     low, high = min(orders.values()), max(orders.values())
     span = f"{low:.2g}" if f"{low:.2g}" == f"{high:.2g}" else f"{low:.2g}–{high:.2g}"
     title = f"Error falls at observed order {span} as the step shrinks"

@@ -1,11 +1,4 @@
-"""volbench's peer study: every backend present against VTK's mappers on the same scenes.
-
-``volbench-peers``
-    Phantoms and real scans, orthographic, at two image sizes, in every mode a backend supports:
-    frame time (median, fastest, slowest), speed ratio to VTK's GPU and CPU mappers measured in
-    the same run, and PSNR/SSIM/FLIP against the reference. Beside it, the matched-scene check:
-    VTK matched to CONVENTIONS (unshaded, early termination off, the same step) against the
-    reference at that step.
+"""``volbench-peers``: every backend present against VTK's mappers on the same scenes.
 
 VTK's timed runs keep its default early ray termination (α > 1 − 1/255), what its users get; the
 matched runs turn it off. A backend that cannot render a scene (VolPack in MIP, VTK's CPU mapper
@@ -19,11 +12,11 @@ import renderers
 from pipeline.experiments.kit.checks import Bound, Measure
 from pipeline.experiments.kit.model import Claim, Experiment, Run
 from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
+                                            linked_table, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, headline_view, listed, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import ok_rows, speed_points
-from reports import blocks, plots, takeaways
+from reports import blocks, takeaways
 
 VTK_GPU, VTK_CPU = "vtk-gpu", "vtk-cpu"
 
@@ -152,23 +145,20 @@ class Peers(Experiment):
                                     caption="Median frame after warm-up, fastest and slowest timed frame; 'time / "
                                             "VTK' below 1: faster than VTK on the same scene and image size, measured "
                                             "in one run. Metrics against the reference at a finer step."))
-            for image, group in timed.groupby("image_size"):
-                path, rel = ctx.plot_path(f"peers-{int(image)}")
-                plots.speed_accuracy(group, path, time_col="time_ms", error_col="psnr", group_col="scene",
-                                     label_col="backend", title=_chart_title(group, int(image)), log_x=True,
-                                     log_y=False, time_range_cols=("time_ms_min", "time_ms_max"),
-                                     better="upper left",
-                                     x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
-                                     y_label="PSNR against the reference (dB)")
-                out.append(blocks.Figure(f"Speed against accuracy at {int(image)}²", rel,
-                                         "One series per scene, each point one backend (labelled); higher and "
-                                         "further left is better."))
+            out += [speed_psnr_figure(ctx, f"peers-{int(image)}", group, group="scene", label="backend",
+                                      heading=f"Speed against accuracy at {int(image)}²",
+                                      caption="One series per scene, each point one backend (labelled); higher and "
+                                              "further left is better.",
+                                      title=_chart_title(group, int(image)),
+                                      x_label="median frame time (ms, log scale)", log_x=True)
+                    for image, group in timed.groupby("image_size")]
             largest = timed[timed.image_size == timed.image_size.max()]
             out += [difference_gallery(f"{scene_name} at {int(group.image_size.iloc[0])}²: every backend and its "
                                        "difference from the reference", group.sort_values("time_total"), ctx,
                                        against=results, label=lambda row: row.technique)
                     for scene_name, group in largest.groupby("scene")]
-        matched = _matched_rows(ok)
+        matched = (ok[(ok.part == "matched") & (ok.role == "test")].sort_values(["backend", "scene"]) if "part" in ok
+                   else ok.iloc[:0])
         if not matched.empty:
             out.append(blocks.Table("Matched scenes: VTK against the reference at the same step", matched[
                 ["scene", "backend", *METRICS]].rename(columns=METRICS).reset_index(drop=True),
@@ -195,12 +185,6 @@ def _timed(ok):
     return rows.sort_values(["scene", "image_size", "time_total"])
 
 
-def _matched_rows(ok):
-    if "part" not in ok:
-        return pd.DataFrame()
-    return ok[(ok.part == "matched") & (ok.role == "test")].sort_values(["backend", "scene"])
-
-
 def _peer_takeaways(timed):
     """Per scene at the largest size the fastest accurate backend; each backend's time over VTK's."""
     if timed.empty:
@@ -208,9 +192,7 @@ def _peer_takeaways(timed):
     largest = timed[timed.image_size == timed.image_size.max()]
     sentences = takeaways.fastest_at_accuracy(largest.assign(
         scene=[f"{s} ({int(i)}²)" for s, i in zip(largest.scene, largest.image_size)]), psnr_min=USABLE_PSNR)
-    for backend in pd.unique(timed.backend):
-        if backend in (VTK_GPU, VTK_CPU):
-            continue
+    for backend in [b for b in pd.unique(timed.backend) if b not in (VTK_GPU, VTK_CPU)]:
         mine = timed[timed.backend == backend]
         parts = []
         for column, peer in (("over_vtk_gpu", "VTK GPU"), ("over_vtk_cpu", "VTK CPU")):

@@ -87,8 +87,7 @@ class PhantomGallery(Experiment):
     def runs(self, profile):
         wanted = profile.setting(self, "datasets", "all")
         names = datasets.names() if wanted == "all" else wanted
-        size = profile.setting(self, "volume_size", profile.volume_size)
-        image_size = profile.setting(self, "image_size", profile.image_size)
+        size, image_size = planning.volume_and_image_size(profile, self)
         step_factor = profile.setting(self, "step_factor", 0.5)
         stats_size = profile.setting(self, "statistics_size", "paper")
         stood_in = {}
@@ -114,13 +113,9 @@ class PhantomGallery(Experiment):
                 else:
                     measured = planning.phantom(name, spec.default_size if stats_size == "paper" else stats_size,
                                                 preset=preset)
-                runs.append(Run(
-                    experiment=self.name, id=f"{name}.{preset}", backend=REFERENCE,
-                    scene=scene(name, image_size, volumes=[volume]),
-                    views=(HEADLINE_VIEW,), options={"step_factor": step_factor},
-                    **UNTIMED, statistics=measured,
-                    tags={"dataset": name, "preset": preset, "kind": spec.kind},
-                ))
+                runs.append(Run(self.name, f"{name}.{preset}", REFERENCE, scene(name, image_size, volumes=[volume]),
+                                (HEADLINE_VIEW,), options={"step_factor": step_factor}, **UNTIMED, statistics=measured,
+                                tags={"dataset": name, "preset": preset, "kind": spec.kind}))
         return runs
 
     def report(self, results, ctx):
@@ -129,11 +124,9 @@ class PhantomGallery(Experiment):
         table = ok[["dataset", "kind", "preset", *stat_cols]].rename(columns=lambda c: c.removeprefix("stat_"))
         shown = [c for c in ("dataset", "kind", "preset", "size", *BOX_STATISTICS, "megabytes", "generation_seconds")
                  if c in table]
-        targets = []
-        for name in table.dataset.unique():
-            for preset, stats in datasets.get(name).targets_by_preset.items():
-                targets.extend({"dataset": name, "preset": preset, "statistic": stat, "target": value}
-                               for stat, value in stats.items())
+        targets = [{"dataset": name, "preset": preset, "statistic": stat, "target": value}
+                   for name in table.dataset.unique() for preset, stats in datasets.get(name).targets_by_preset.items()
+                   for stat, value in stats.items()]
         table.reset_index(drop=True).to_csv(ctx.report_dir / "csv" / "phantom_statistics_all.csv", index=False)
         out = [blocks.Takeaways(_gallery_takeaways(results)),
                linked_table("Statistics under each rendered preset",
@@ -275,8 +268,9 @@ def _gallery_takeaways(results):
                          f"{phantoms} phantom renders and {reals} renders of real scans.")
         pairs = [f"{p} ↔ {s.real}" for p, s in STAND_INS.items() if {p, s.real} <= set(ok.dataset)]
         if pairs:
-            sentences.append(f"{len(pairs)} phantom{'s are' if len(pairs) != 1 else ' is'} shown beside the real scan {'they stand' if len(pairs) != 1 else 'it stands'} in for "
-                             f"({', '.join(pairs)}).")
+            many = len(pairs) != 1
+            sentences.append(f"{len(pairs)} phantom{'s are' if many else ' is'} shown beside the real scan "
+                             f"{'they stand' if many else 'it stands'} in for ({', '.join(pairs)}).")
         compared = _stand_in_comparison(ok)
         if not compared.empty:
             missed = compared[~compared["within band"].astype(bool)]

@@ -1,8 +1,4 @@
-"""``volbench-speed-accuracy``: every registered backend over its quality settings, time against error.
-
-Each backend's ``quality_sweep`` renders the same scenes; the error is measured against the reference
-at 1/16 voxel. The index's techniques × data sets table is built from these runs (``overview``).
-"""
+"""``volbench-speed-accuracy``: every registered backend over its quality settings, time against error."""
 
 import functools
 
@@ -12,8 +8,8 @@ import pandas as pd
 import renderers
 from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, format_number, linked_table, ms,
-                                            setting_words)
+from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, figure, format_number, linked_table,
+                                            ms, setting_words)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, timed_frames
 from pipeline.experiments.kit.results import speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
@@ -135,11 +131,6 @@ def _work(rows, samples):
     return ", " + ", ".join(found) if found else ""
 
 
-def _timed_with(scene_name, backend):
-    """The interleave group of ``backend``'s settings on ``scene_name``."""
-    return f"{scene_name}.reference" if backend == "reference" else f"{scene_name}.contenders"
-
-
 class SpeedAccuracy(Experiment):
     """Every registered backend over its quality settings: time against error."""
 
@@ -170,20 +161,18 @@ class SpeedAccuracy(Experiment):
             for backend in renderers.names():
                 backend_class = renderers.backend_class(backend)
                 sweep = backend_class.quality_sweep_for(mode)
-                if mode not in backend_class.capabilities.modes:
-                    sweep = sweep[:1]  # one run, skipped with the backend's reason, says why it is absent
+                # Whatever the panel ranks is timed together, interleaved in every replicate process: the
+                # contenders' settings on a scene (the ranking claims), and apart from them the reference's
+                # steps (the trade-off claim).
+                group = f"{scene_name}.{'reference' if backend == 'reference' else 'contenders'}"
+                timing = dict(**timed_frames(profile, self), interleave=group)
+                if mode not in backend_class.capabilities.modes:  # one run, skipped with its reason, says why
+                    sweep, timing = sweep[:1], dict(warmup=profile.warmup, repeat=profile.repeat)
                 for index, options in enumerate(sweep):
                     setting = ",".join(f"{k}={v}" for k, v in sorted(options.items())) or "default"
-                    # Whatever the panel ranks is timed together, interleaved in every replicate process: the
-                    # contenders' settings on a scene (the ranking claims), and apart from them the reference's
-                    # steps (the trade-off claim). A backend that lacks the scene's mode has one run, skipped.
-                    timing = (dict(**timed_frames(profile, self), interleave=_timed_with(scene_name, backend))
-                              if mode in backend_class.capabilities.modes
-                              else dict(warmup=profile.warmup, repeat=profile.repeat))
-                    runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene,
-                                    (HEADLINE_VIEW,), options=dict(options), reference=truth.id, **timing,
-                                    tags={"scene": scene_name, "setting": setting, "role": "sweep",
-                                          "kind": kind}))
+                    runs.append(Run(self.name, f"{scene_name}.{backend}.{index}", backend, scene, (HEADLINE_VIEW,),
+                                    options=dict(options), reference=truth.id, **timing,
+                                    tags={"scene": scene_name, "setting": setting, "role": "sweep", "kind": kind}))
         return runs
 
     claims = (
@@ -212,28 +201,26 @@ class SpeedAccuracy(Experiment):
                                 + _stage_takeaways(ok))]
         fronts = decision.panel(decision.technique_rows(results[results.role == "sweep"]), None)
         techniques = sorted({b for item in fronts for b in item["points"].backend})
-        for item in fronts:
-            path, rel = ctx.plot_path(f"speed-accuracy-{item['scene']}")
-            group = ok[ok.scene == item["scene"]]
-            plots.pareto_fronts(item["points"], path, title=_speed_title(item["scene"], group[group.backend != "reference"]),
-                                psnr_min=takeaways.PSNR_GOOD, techniques=techniques)
-            out.append(blocks.Figure(f"{item['scene']} ({item['kind']}): median frame time against PSNR", rel,
-                                     "Each technique's Pareto front over its settings (the settings no other setting "
-                                     "of it beats in both time and PSNR) as a line, its other settings as hollow "
-                                     "markers; higher and further left is better. Bars span the fastest and slowest "
-                                     "timed frame. The reference's own sweep is its convergence study, not drawn here; "
-                                     "every setting is in the table below."))
+        out += [figure(ctx, f"speed-accuracy-{item['scene']}", plots.pareto_fronts, item["points"],
+                       heading=f"{item['scene']} ({item['kind']}): median frame time against PSNR",
+                       caption="Each technique's Pareto front over its settings (the settings no other setting of it "
+                               "beats in both time and PSNR) as a line, its other settings as hollow markers; higher "
+                               "and further left is better. Bars span the fastest and slowest timed frame. The "
+                               "reference's own sweep is its convergence study, not drawn here; every setting is in "
+                               "the table below.",
+                       title=_speed_title(item["scene"], ok[(ok.scene == item["scene"]) & (ok.backend != "reference")]),
+                       psnr_min=takeaways.PSNR_GOOD, techniques=techniques)
+                for item in fronts]
         stages = _frame_stages(ok)
         if stages:
             # One bar per backend: its first quality setting (the run id's last part is the setting's index),
             # median over the scenes it rendered; every setting's stages are in the table below.
             first = ok[ok.run.str.endswith(".0")]
-            path, rel = ctx.plot_path("stages")
-            plots.stage_breakdown(first, path, stage_cols=stages, group_col="backend",
-                                  title=_stage_title(first, stages))
-            out.append(blocks.Figure("Time per stage: each backend's first setting (median over scenes)", rel,
-                                     "Each backend's own stages, as it reports them (CONVENTIONS, Results), at the "
-                                     "first setting of its quality sweep; the table below has every setting."))
+            out.append(figure(ctx, "stages", plots.stage_breakdown, first,
+                              heading="Time per stage: each backend's first setting (median over scenes)",
+                              caption="Each backend's own stages, as it reports them (CONVENTIONS, Results), at the "
+                                      "first setting of its quality sweep; the table below has every setting.",
+                              stage_cols=stages, group_col="backend", title=_stage_title(first, stages)))
         times = ms(ok)
         table = pd.concat([ok, times], axis=1).sort_values(["scene", "backend", "time (ms)"])
         table["setting"] = table.setting.map(setting_words)
