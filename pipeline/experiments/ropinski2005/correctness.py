@@ -91,7 +91,6 @@ CLAIMS = tuple(
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def psnr_table(tests):
     """PSNR against the reference, one row per scene, one column per method (worst view)."""
     rows = []
@@ -125,8 +124,6 @@ def _galleries(ok, results, ctx):
 
 
 class Correctness(Experiment):
-    """Every lens method against the reference on every lens scene, and the outside appearance against no lens."""
-
     name = "ropinski2005-correctness"
     paper = "ropinski2005"
     title = "Images against the reference, and a lens with the outside appearance against no lens (E7)"

@@ -4,17 +4,14 @@ The cases (note 004 §4.1 (9), §4.2 E8; each placed from its one view: "in fron
 hole the paper's recipe leaves (§2.8) and how a hole is found: :attr:`Edges.description`.
 """
 
-from dataclasses import dataclass
-
 import numpy as np
 import pandas as pd
 
 from core.camera import Camera
 from core.errors import InputError
-from pipeline.experiments.kit.judging import measured, median_count, worst_of
+from pipeline.experiments.kit.judging import counted, measured, median_count, worst_of
 from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number, linked_table
 from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
@@ -48,29 +45,21 @@ CAMERA_DISTANCE = 2.2
 of view: the picture shows ±0.59 edges at the box centre)."""
 
 
-@dataclass(frozen=True)
-class Case:
-    """One edge case: its name and where the lens lies, in words (placed by :func:`case_scene`)."""
-
-    name: str
-    what: str
-
-
-CASES = {case.name: case for case in (
-    Case("partly-front", "a sphere around the box corner nearest the camera: partly inside, partly in front and "
-                         "beside"),
-    Case("partly-behind", "a sphere around the farthest corner: partly inside, partly behind (the guide's regression "
-                          "test for the hole)"),
-    Case("in-front", "a sphere wholly between the camera and the box: lens ∩ box is empty"),
-    Case("behind", "a sphere wholly behind the box: lens ∩ box is empty, and the paper's transition images give "
-                   "its rays no region (note 004 §2.8)"),
-    Case("enclosing-volume", "a sphere enclosing the whole box: region₁ is every ray's whole span"),
-    Case("enclosing-camera", "perspective, a sphere around the camera reaching past the box centre: every ray starts "
-                             "inside the lens"),
-    Case("grazing", "an axis-aligned box lens from the top face down to the centre, seen from above: rays parallel "
-                    "to four of its faces, the faces on pixel centres"),
-)}
-"""The edge cases of note 004 §4.1 (9), in report order."""
+CASES = {
+    "partly-front": "a sphere around the box corner nearest the camera: partly inside, partly in front and beside",
+    "partly-behind": "a sphere around the farthest corner: partly inside, partly behind (the guide's regression test "
+                     "for the hole)",
+    "in-front": "a sphere wholly between the camera and the box: lens ∩ box is empty",
+    "behind": "a sphere wholly behind the box: lens ∩ box is empty, and the paper's transition images give its rays "
+              "no region (note 004 §2.8)",
+    "enclosing-volume": "a sphere enclosing the whole box: region₁ is every ray's whole span",
+    "enclosing-camera": "perspective, a sphere around the camera reaching past the box centre: every ray starts inside "
+                        "the lens",
+    "grazing": "an axis-aligned box lens from the top face down to the centre, seen from above: rays parallel to four "
+               "of its faces, the faces on pixel centres",
+}
+"""The edge cases of note 004 §4.1 (9), in report order: where each lens lies, in words (placed by
+:func:`case_scene`)."""
 
 
 def toward_camera(view):
@@ -124,7 +113,6 @@ def case_scene(case, image, *, size, real_data=None):
     return spec, view
 
 
-# ------------------------------------------------------------------------------------------- images
 def coverage_holes(reference, test):
     """``(holes, covered)``: pixels the reference covers (alpha ≥ :data:`COVERED`) that ``test`` leaves below
     :data:`HOLE` of the reference's alpha, and the pixels the reference covers."""
@@ -147,7 +135,6 @@ def hole_counts(frame):
     return pd.DataFrame(out)
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _no_holes(df):
     counts = hole_counts(df)
     worst, per_case = worst_of(counts, "holes", "case")
@@ -173,9 +160,7 @@ def _hole_closed(df):
     behind = stencil[text_column(stencil, "case") == "behind"]
     if behind.empty:
         raise ValueError("no successful segments-stencil run of the fully-behind lens")
-    rays = median_count(behind, "count_hole_rays")
-    if not np.isfinite(rays):
-        raise ValueError("segments-stencil counted no hole_rays")
+    rays = counted(behind, "count_hole_rays", "segments-stencil")
     counts = hole_counts(df)
     holes = int(counts[(counts.case == "behind") & (counts.config == "segments-stencil")].holes.max())
     others = {case: median_count(part, "count_hole_rays") for case, part in stencil.groupby("case", sort=False)}
@@ -198,7 +183,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def case_table(tests, counts):
     """Per case and method: PSNR, hole pixels, coverage and counters."""
     rows = []
@@ -215,8 +199,6 @@ def case_table(tests, counts):
 
 
 class Edges(Experiment):
-    """Every lens method where the lens lies partly outside, in front of, behind or around the box, or the camera."""
-
     name = "ropinski2005-edges"
     paper = "ropinski2005"
     title = "Edge cases: where the lens lies against the volume and the camera (E8)"
@@ -272,7 +254,7 @@ class Edges(Experiment):
                                             "One untimed frame per run, early termination off."))
             out.append(difference_gallery("The reference's image of each case", ok[text_column(ok, "role") == "truth"],
                                           ctx, label=lambda row: str(row.case), note=lambda row: "",
-                                          caption="; ".join(f"{name}: {case.what}" for name, case in CASES.items())))
+                                          caption="; ".join(f"{name}: {what}" for name, what in CASES.items())))
             out.append(difference_gallery(
                 "Every edge case: each method's image and its difference from the reference", tests, ctx,
                 against=results, label=lambda row: f"{row.case}, {row.config}", note=psnr_note,

@@ -9,19 +9,17 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import all_of, decision_words, median_count
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            frame_note, frames_caption)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number, frame_note,
+                                            frames_caption)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
-from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
-                                                     overhead_figure, rounded_table, run_table, samples_ratio,
-                                                     scene_by_scene, tests_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
+                                                     rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
                                                       without_lens)
 
@@ -42,7 +40,6 @@ APPEARANCES = {"outside": "the outside appearance", "own": "the scene's own appe
 cost the claim is about) or the scene's lens appearance."""
 
 
-# ------------------------------------------------------------------------------------------- rows
 def sweep_points(frame, scene, appearance, *, resampler):
     """Per radius of ``scene``'s lens showing ``appearance``: ``(radius, coverage, overhead, draws)``.
 
@@ -108,7 +105,6 @@ def slopes(frame, appearance):
     return decisions, notes
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _grows(df):
     decisions, notes = slopes(df, "outside")
     return all_of(decisions, show=format_number, notes=notes,
@@ -140,7 +136,6 @@ def own_takeaways(tests):
             f"{', '.join(words)}."]
 
 
-# ------------------------------------------------------------------------------------------------ page
 def sweep_table(tests):
     """Per scene, appearance and radius: coverage, frame time, overhead with its interval, samples per region."""
     rows = []
@@ -197,8 +192,6 @@ def _gallery(tests, ctx):
 
 
 class LensSize(Experiment):
-    """A sphere lens's radius swept on one or two scenes: overhead against the rays it covers."""
-
     name = "ropinski2005-size"
     paper = "ropinski2005"
     title = "Lens size: overhead against lens coverage (E5)"

@@ -9,7 +9,6 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               ratio_pair, time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
@@ -20,8 +19,8 @@ from pipeline.experiments.kit.results import nonempty, numeric, speed_points, te
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
-                                                     rounded_table, run_table, tests_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, rounded_table,
+                                                     run_table, tests_of)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags
 from reports import blocks, plots
 
@@ -55,7 +54,6 @@ def comparable_appearance(setup):
     return None
 
 
-# ------------------------------------------------------------------------------------------- rows
 def occluded_rows(frame, occluded):
     """The rows with (``occluded`` ``"yes"``) or without (``"no"``) the occluder."""
     return frame[text_column(frame, "occluded") == occluded]
@@ -121,7 +119,6 @@ def earlyz_decision(frame, scene, *, resampler, method="frag-depth"):
     return intervals.decide(value, intervals.interval_of(draws), at_least=1.0)
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _faster(occluded, baselines):
     def check(df):
         rows, image = _at_image(occluded_rows(df, occluded))
@@ -216,7 +213,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def method_table(tests):
     """Per scene and method, without the occluder: frame time, ratio to segments with its interval, PSNR, counts."""
     rows = []
@@ -318,8 +314,6 @@ def _earlyz_figure(table, ctx):
 
 
 class MethodsCompared(Experiment):
-    """Segments against per-sample tests, the mask fetch, depth-based clipping and the fused loop, with an occluder."""
-
     name = "ropinski2005-methods"
     paper = "ropinski2005"
     title = "Segments against per-sample lens tests and depth-based clipping, and early-z (E4)"

@@ -8,7 +8,6 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, counted, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
@@ -16,7 +15,7 @@ from pipeline.experiments.kit.planning import accepts, is_registered, listed, ti
 from pipeline.experiments.kit.results import nonempty, numeric, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
 from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
-                                                       device_takeaways, lens_run, lens_settings,
+                                                       counts_compared, device_takeaways, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, median_ms, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, lens_scene, lens_views, scene_tags
@@ -71,7 +70,6 @@ def order_difference(frame, termination, scene):
     return float(values.max())
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _faster(df):
     rows = termination_rows(df, "on")
     resampler = intervals.Resampler()
@@ -91,18 +89,14 @@ def _faster(df):
 
 def _fewer_samples(df):
     rows = termination_rows(df, "on")
-    compared, wrong = [], []
-    for scene in present_scenes(rows):
-        back, front = (counted(config_rows(rows, config, scene=scene), "count_samples_region0", f"{scene} {order}")
-                       for config, order in ((PAPER_METHOD, "back to front"), (FRONT_TO_BACK, "front to back")))
-        compared.append((front / back if back else np.inf, scene, front, back))
-        if not front < back:
-            wrong.append(scene)
-    share, scene, front, back = max(compared)
-    return ClaimResult(f"front to back takes {format_number(100 * share)} % of the region₀ samples ({scene})",
-                       not wrong,
-                       "; ".join(f"{s}: {format_number(f)} of {format_number(b)}" for _, s, f, b in compared)
-                       + f"; counted, early termination at opacity {format_number(THRESHOLD)}")
+    return counts_compared(
+        present_scenes(rows), lambda scene: tuple(  # (front, back), counted back to front first
+            counted(config_rows(rows, config, scene=scene), "count_samples_region0", f"{scene} {order}")
+            for config, order in ((PAPER_METHOD, "back to front"), (FRONT_TO_BACK, "front to back")))[::-1],
+        fewer=True, measured=lambda share, scene: f"front to back takes {format_number(100 * share)} % of the "
+                                                  f"region₀ samples ({scene})",
+        words=lambda s, f, b: f"{s}: {format_number(f)} of {format_number(b)}",
+        extra=f"; counted, early termination at opacity {format_number(THRESHOLD)}")
 
 
 def _differ_at_most(termination, bound, how):
@@ -140,7 +134,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def order_table(tests):
     """Per scene and early termination: both orders' frame times, their ratio with its interval, samples, difference."""
     rows = []
@@ -168,8 +161,6 @@ def order_table(tests):
 
 
 class Order(Experiment):
-    """Back-to-front against front-to-back region passes where region₁ or region₂ is opaque."""
-
     name = "ropinski2005-order"
     paper = "ropinski2005"
     title = "Region order: back to front (the paper) against front to back (E9)"

@@ -7,7 +7,6 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, Experiment
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, frames_caption
@@ -61,7 +60,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def stage_columns(frame):
     """The ``time_<stage>`` columns of :data:`STAGES` that ``frame`` reports, in the order the stages run."""
     return [f"time_{s}" for s in STAGES if f"time_{s}" in frame and numeric(frame, f"time_{s}").notna().any()]
@@ -142,8 +140,6 @@ def _pass_blocks(tests, ctx):
 
 
 class Passes(Experiment):
-    """The segments method's stages and region samples on every lens scene."""
-
     name = "ropinski2005-passes"
     paper = "ropinski2005"
     title = "The lens frame pass by pass: geometry against the three region passes (E2)"

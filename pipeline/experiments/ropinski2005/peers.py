@@ -16,11 +16,10 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import decision_words, measured
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption, linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
+                                            frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
@@ -78,7 +77,6 @@ def implementation(config):
     return PEERS[config][0] if config in PEERS else RAYCAST
 
 
-# ------------------------------------------------------------------------------------------------ values
 def overhead(frame, scene, config, *, resampler):
     """time(lens) / time(no lens) of ``config``'s implementation on ``scene``, with its paired interval."""
     on = rows_matching(frame, scene, scene=scene, config=config, lens="on")
@@ -125,7 +123,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def summary_table(tests):
     """Per scene and implementation: lens-off and lens-on times, the overhead with its interval, PSNR."""
     rows = []
@@ -194,8 +191,6 @@ def _figure(table, ctx):
 
 
 class Peers(Experiment):
-    """The paper's method beside VTK's three lens mechanisms and shear-warp's pre-classified lens."""
-
     name = "ropinski2005-peers"
     paper = "ropinski2005"
     title = "The lens in VTK and in shear-warp, beside the paper's method"

@@ -1,13 +1,8 @@
 """``ropinski2005-samples`` (E3): the lens leaves the samples where they were, and the regions split them.
 
 The paper (§3): "The number of samples used during rendering of each region is determined based on the
-length of the current section of the ray", so a ray takes as many samples with the lens as without.
-``gl-raycast`` counts every sample it takes (``samples``) and, for the methods that know a ray's lens
-segment, the samples of each region (``samples_region0``–``2``). With early termination off (opacity
-threshold 1, so no sample is skipped because of what was composited before it) a lens showing the
-outside appearance must take exactly the lens-off samples, by every method, and its regions must
-partition them; with the lens's own appearance only region₁'s samples may change (a clipping lens takes
-none there, an isosurface lens stops at its hit).
+length of the current section of the ray", so a ray takes as many samples with the lens as without; the runs
+and what ``gl-raycast`` counts: :attr:`Samples.description`.
 """
 
 import numpy as np
@@ -32,6 +27,7 @@ APPEARANCES = {"none": "no lens", "outside": "lens with the outside appearance",
 """The ``appearance`` tag of each run, in words."""
 
 REGION_COLUMNS = tuple(f"count_samples_{region}" for region in ("region0", "region1", "region2"))
+REGION_WORDS = ("region₀", "region₁", "region₂")
 
 
 def _pairs(df, appearance):
@@ -145,7 +141,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def sample_table(tests):
     """Per scene and method: samples without the lens, with the outside appearance and with its own, by region."""
     rows = []
@@ -158,7 +153,7 @@ def sample_table(tests):
         for appearance in ("outside", "lens"):
             chosen = part[part.appearance == appearance]
             row[APPEARANCES[appearance]] = numeric(chosen, "count_samples").median()
-            for column, region in zip(REGION_COLUMNS, ("region₀", "region₁", "region₂")):
+            for column, region in zip(REGION_COLUMNS, REGION_WORDS):
                 if column in chosen:
                     row[f"{region}, {appearance}"] = numeric(chosen, column).median()
         rows.append(row)
@@ -181,8 +176,6 @@ def _region_figure(tests, ctx):
 
 
 class Samples(Experiment):
-    """Samples with and without the lens, and per region, counted by every lens method."""
-
     name = "ropinski2005-samples"
     paper = "ropinski2005"
     title = "Sample counts with and without the lens, region by region (E3)"
@@ -232,6 +225,5 @@ class Samples(Experiment):
                                             "ray's span. Region columns only for the methods that count regions."))
             out.append(run_table(tests, ["scene", "method", "appearance", "count_samples", *REGION_COLUMNS,
                                          "count_lens_rays"], ctx, timed=False, method=method_name,
-                                 names={REGION_COLUMNS[0]: "region₀", REGION_COLUMNS[1]: "region₁",
-                                        REGION_COLUMNS[2]: "region₂"}, csv_name="samples_runs.csv"))
+                                 names=dict(zip(REGION_COLUMNS, REGION_WORDS)), csv_name="samples_runs.csv"))
         return out + raycast_not_measurable(methods)

@@ -8,11 +8,9 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number,
-                                            frames_caption)
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, frames_caption
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
 from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, TIMES,
@@ -26,7 +24,6 @@ from pipeline.experiments.ropinski2005.tables import (PAPER_DEVICE, PAPER_SIZES,
 from reports import blocks, plots
 
 
-# ------------------------------------------------------------------------------------------- rows and ratios
 def image_sizes(frame):
     """The image sizes (pixels per side) of ``frame``'s rows, ascending."""
     return sorted(int(s) for s in numeric(frame, "image_size").dropna().unique())
@@ -60,7 +57,6 @@ def coverage_note(frame, scene, image):
     return f"lens on {as_percent(share)} of the rays" if np.isfinite(share) else ""
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _overhead_claim(df, which):
     """Every Table 1 scene's overhead at our smaller (``which`` 0) or larger (-1) image within the paper's."""
     sizes = image_sizes(df)
@@ -100,7 +96,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def overhead_table(tests):
     """Per scene and image size: the paper's frame rates and drop beside our frame times, ratio and drop."""
     sizes = image_sizes(tests)
@@ -189,8 +184,6 @@ def _gallery(tests, ctx):
 
 
 class Table1(Experiment):
-    """Table 1: every lens scene without and with its lens at two image sizes, overheads beside the paper's."""
-
     name = "ropinski2005-table1"
     paper = "ropinski2005"
     title = "Table 1: frame rates without and with the lens (E1)"
