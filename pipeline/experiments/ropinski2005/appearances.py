@@ -11,19 +11,19 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, median_count
-from pipeline.experiments.kit.model import Claim, Experiment, scaled
+from pipeline.experiments.kit.model import Claim, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
                                             frames_caption)
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        counts_compared, device_takeaways, lens_coverage, lens_run,
                                                        lens_settings, method_name, raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
-                                                     run_table, samples_ratio, scene_by_scene, tests_of)
+                                                     rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (BONE_ISOVALUE, SETUPS, lens_scene, lens_views, scene_tags,
                                                       without_lens)
-from reports import blocks, plots
+from reports import plots
 
 APPEARANCES = {"clip": "clipping (nothing inside)", "transparency": "transparency (opacity × 0.2)",
                "iso": "isosurface (first crossing)", "mip": "MIP (largest sample)"}
@@ -54,7 +54,6 @@ def appearance_entry(scene, appearance):
 
 
 def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
-    """The rows of ``scene`` with the lens showing ``appearance`` by ``method``; ValueError if none."""
     rows = rows_matching(frame, scene, scene=scene, appearance=appearance, config=method)
     if rows.empty:
         raise ValueError(f"no successful {method} run of {scene} with a {appearance} lens")
@@ -62,9 +61,7 @@ def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
 
 
 def swept(frame, scene):
-    """The appearances ``scene`` was rendered with by the segments method, in :data:`APPEARANCES` order."""
-    rows = rows_matching(frame, scene, scene=scene, config=PAPER_METHOD)
-    present = set(text_column(rows, "appearance"))
+    present = set(text_column(rows_matching(frame, scene, scene=scene, config=PAPER_METHOD), "appearance"))
     return [a for a in APPEARANCES if a in present]
 
 
@@ -100,8 +97,7 @@ def _clip_exposes(df):
     return counts_compared(
         scenes_of(df), lambda scene: tuple(
             counted(appearance_rows(df, scene, a, EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, {a}")
-            for a in ("clip", "iso")), fewer=False,
-        measured=lambda ratio, scene: f"×{format_number(ratio)} ({scene})",
+            for a in ("clip", "iso")), fewer=False, measured=lambda ratio, scene: f"×{format_number(ratio)} ({scene})",
         words=lambda s, c, i: f"{s}: clip {format_number(c)}, iso {format_number(i)} region₀ samples",
         extra=f"; the {EXPOSURE_METHOD} method (early termination across the regions), counted")
 
@@ -131,9 +127,8 @@ def appearance_table(tests):
             continue
         for appearance in swept(tests, scene):
             for method in (PAPER_METHOD, EXPOSURE_METHOD):
-                try:
-                    lens = appearance_rows(tests, scene, appearance, method)
-                except ValueError:
+                lens = rows_matching(tests, scene, scene=scene, appearance=appearance, config=method)
+                if lens.empty:
                     continue
                 decision = intervals.ratio_decision(lens, off, resampler=resampler)
                 rows.append({"scene": scene, "appearance": appearance, "method": method, "frame (ms)": median_ms(lens),
@@ -149,7 +144,10 @@ def appearance_table(tests):
     return pd.DataFrame(rows)
 
 
-def _figure(paper, ctx):
+def _figures(paper, ctx):
+    """The segments method's overhead of each appearance against its samples, and its samples inside the lens."""
+    bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
+    bars = bars.rename(columns=APPEARANCES).reset_index()
     return overhead_figure(
         paper.assign(series=[APPEARANCES[a] for a in paper.appearance]), ctx, "overhead",
         heading="Overhead against samples, per appearance", x="samples lens / no lens",
@@ -157,17 +155,11 @@ def _figure(paper, ctx):
         x_label="samples with the lens / samples without it (counted)",
         caption="One point per scene and appearance, the segments method (a line joins an appearance's scenes; the "
                 "table names each point); bars: 95 % paired bootstrap interval (every appearance timed together "
-                "with the lens-off frame).")
-
-
-def _region_figure(paper, ctx):
-    bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
-    bars = bars.rename(columns=APPEARANCES).reset_index()
-    return [figure(ctx, "region1", plots.bar_compare, bars, heading="Samples inside the lens, per appearance",
-                   caption="Region₁ samples counted by the caster (the segments method, median over the views).",
-                   category_col="scene", value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
-                   value_label="region₁ samples per frame (millions)",
-                   title="What each appearance takes inside the lens")]
+                "with the lens-off frame).") + [
+        figure(ctx, "region1", plots.bar_compare, bars, heading="Samples inside the lens, per appearance",
+               caption="Region₁ samples counted by the caster (the segments method, median over the views).",
+               category_col="scene", value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
+               value_label="region₁ samples per frame (millions)", title="What each appearance takes inside the lens")]
 
 
 def _takeaways(paper):
@@ -190,9 +182,8 @@ def _gallery(tests, ctx):
         caption="No lens first, then the segments method's image with each appearance.")
 
 
-class Appearances(Experiment):
+class Appearances(LensExperiment):
     name = "ropinski2005-appearance"
-    paper = "ropinski2005"
     title = "Lens appearances: clip, transparency, isosurface, MIP (E6)"
     settings = frozenset({"scenes", "appearances", "volume_size", "image_size", "orbit", "step_factor", "repeat",
                           "min_time"})
@@ -211,9 +202,7 @@ class Appearances(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
         appearances = listed(profile, self, "appearances", tuple(APPEARANCES), known=APPEARANCES)
         size, image, orbit, step = lens_settings(profile, self)
@@ -241,14 +230,12 @@ class Appearances(Experiment):
         paper = table[table.method == PAPER_METHOD] if not table.empty else table
         out = [claim_takeaways(ctx, device_takeaways(tests), _takeaways(paper) if not paper.empty else [])]
         if not paper.empty:
-            out += _figure(paper, ctx) + _region_figure(paper, ctx)
-        if not table.empty:
-            out.append(blocks.Table("Each appearance: overhead and samples per region", table.round(3),
-                                    csv_name="appearance.csv",
-                                    caption="Overhead: frame time with the lens over without it, minus one, with its "
-                                            "95 % paired bootstrap interval; region₀ and region₁ pass: their stage "
-                                            "times (segments only; region₀ takes the same samples whatever the lens "
-                                            "shows); samples counted by the caster. " + frames_caption(tests)))
+            out += _figures(paper, ctx)
+        out += rounded_table("Each appearance: overhead and samples per region", table, csv_name="appearance.csv",
+                             caption="Overhead: frame time with the lens over without it, minus one, with its 95 % "
+                                     "paired bootstrap interval; region₀ and region₁ pass: their stage times (segments "
+                                     "only; region₀ takes the same samples whatever the lens shows); samples counted "
+                                     "by the caster. " + frames_caption(tests))
         if not tests.empty:
             out.append(_gallery(tests, ctx))
             out.append(run_table(tests, ["scene", "appearance", "method", "time_ms", "time_ms_min", "time_ms_max",

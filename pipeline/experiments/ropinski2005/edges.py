@@ -1,8 +1,4 @@
-"""``ropinski2005-edges`` (E8): where the lens lies against the volume and the camera, and no holes.
-
-The cases (note 004 §4.1 (9), §4.2 E8; each placed from its one view: "in front" is towards its camera), the
-hole the paper's recipe leaves (§2.8) and how a hole is found: :attr:`Edges.description`.
-"""
+"""``ropinski2005-edges`` (E8): where the lens lies against the volume and the camera, and no holes."""
 
 import numpy as np
 import pandas as pd
@@ -10,14 +6,14 @@ import pandas as pd
 from core.camera import Camera
 from core.errors import InputError
 from pipeline.experiments.kit.judging import counted, measured, median_count, worst_of
-from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number, linked_table
-from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
+from pipeline.experiments.kit.planning import UNTIMED, headline_view, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, RAYCAST, STEP, lens_coverage, lens_run,
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, STEP, LensExperiment, lens_coverage, lens_run,
                                                        lens_settings, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.pages import psnr_note, tests_of
+from pipeline.experiments.ropinski2005.pages import RUN_COLUMNS, psnr_note, tests_of
 from pipeline.experiments.ropinski2005.scenes import SETUPS, LensSetup, extent, lens_entry, lens_scene, scene_tags
 from reports import blocks
 
@@ -79,15 +75,6 @@ def grazing_size(image):
     return 2 * (k + 0.5) * pitch
 
 
-def sphere_placement(case, toward):
-    """``(centre, radius)`` of case ``case``'s sphere lens, fractions of the edge; ``toward`` points at the camera."""
-    corner = 0.5 * np.sign(toward)
-    far = np.sqrt(3) / 2 + 0.25 + 0.05  # the box's bounding sphere, the lens's radius and a margin
-    return {"partly-front": (corner, 0.35), "partly-behind": (-corner, 0.35), "in-front": (far * toward, 0.25),
-            "behind": (-far * toward, 0.25), "enclosing-volume": (np.zeros(3), 0.9),
-            "enclosing-camera": (CAMERA_DISTANCE * toward, CAMERA_DISTANCE - 0.25)}[case]
-
-
 def case_scene(case, image, *, size, real_data=None):
     """``(scene mapping, view)`` of edge case ``case`` (a key of :data:`CASES`)."""
     if case not in CASES:
@@ -104,7 +91,13 @@ def case_scene(case, image, *, size, real_data=None):
         view = GRAZING_VIEW
     else:
         view = headline_view(setup.dataset)
-        center, radius = sphere_placement(case, toward_camera(view))
+        toward = toward_camera(view)  # the sphere's centre and radius, fractions of the edge
+        corner = 0.5 * np.sign(toward)
+        far = np.sqrt(3) / 2 + 0.25 + 0.05  # the box's bounding sphere, the lens's radius and a margin
+        center, radius = {"partly-front": (corner, 0.35), "partly-behind": (-corner, 0.35),
+                          "in-front": (far * toward, 0.25), "behind": (-far * toward, 0.25),
+                          "enclosing-volume": (np.zeros(3), 0.9),
+                          "enclosing-camera": (CAMERA_DISTANCE * toward, CAMERA_DISTANCE - 0.25)}[case]
         spec = lens_scene(SCENE, image, size=size, real_data=real_data, appearance=APPEARANCE,
                           center=tuple(float(c) for c in center), radius=radius)
         if case == "enclosing-camera":
@@ -139,8 +132,7 @@ def _no_holes(df):
     counts = hole_counts(df)
     worst, per_case = worst_of(counts, "holes", "case")
     return ClaimResult(f"{int(worst.holes)} hole pixels of {int(worst.covered)} covered ({worst.config}, {worst.case})",
-                       bool(counts.holes.max() == 0),
-                       ", ".join(f"{c}: {int(h)}" for c, h in per_case.items())
+                       bool(counts.holes.max() == 0), ", ".join(f"{c}: {int(h)}" for c, h in per_case.items())
                        + f" (most hole pixels per case over {counts.config.nunique()} methods); a hole: alpha below "
                          f"{as_percent(HOLE)} of the reference's where the reference's is ≥ {format_number(COVERED)}")
 
@@ -198,9 +190,8 @@ def case_table(tests, counts):
     return pd.DataFrame(rows)
 
 
-class Edges(Experiment):
+class Edges(LensExperiment):
     name = "ropinski2005-edges"
-    paper = "ropinski2005"
     title = "Edge cases: where the lens lies against the volume and the camera (E8)"
     settings = frozenset({"cases", "methods", "volume_size", "image_size"})
     scales = SIZES
@@ -218,9 +209,7 @@ class Edges(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         cases = listed(profile, self, "cases", tuple(CASES), known=CASES)
         methods = listed(profile, self, "methods", CONFIGS, known=CONFIGS)
         size, image, _, _ = lens_settings(profile, self)
@@ -232,8 +221,7 @@ class Edges(Experiment):
             runs.append(truth)
             for method in methods:
                 runs.append(lens_run(self.name, f"{case}.{method}", spec, (view,), method, UNTIMED,
-                                     {**tags, "role": "test"}, group=case, reference=truth.id,
-                                     options=NO_TERMINATION))
+                                     {**tags, "role": "test"}, group=case, reference=truth.id, options=NO_TERMINATION))
         return runs
 
     def report(self, results, ctx):
@@ -261,8 +249,7 @@ class Edges(Experiment):
                 caption="Left the method's image, right |method − reference| (a hole shows as the cube's colour at "
                         "full strength)."))
             out.append(linked_table("Every run", tests, ["case", "config", "psnr", "max_error", "count_lens_rays",
-                                                         "count_hole_rays"], ctx,
-                                    names={"config": "method", "max_error": "max |difference|",
-                                           "count_lens_rays": "rays through the lens",
-                                           "count_hole_rays": "hole rays (stencil)"}, csv_name="edges_runs.csv"))
+                                                         "count_hole_rays"], ctx, csv_name="edges_runs.csv",
+                                    names={**RUN_COLUMNS, "max_error": "max |difference|",
+                                           "count_hole_rays": "hole rays (stencil)"}))
         return out + raycast_not_measurable(CONFIGS)
