@@ -10,15 +10,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, median_count
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, counts_compared, median_count
 from pipeline.experiments.kit.model import Claim, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
                                             frames_caption)
 from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
-                                                       counts_compared, device_takeaways, lens_coverage, lens_run,
-                                                       lens_settings, method_name, raycast_not_measurable, scenes_of)
+                                                       device_takeaways, lens_coverage, lens_run, lens_settings,
+                                                       method_name, raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
                                                      rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (BONE_ISOVALUE, SETUPS, lens_scene, lens_views, scene_tags,

@@ -13,7 +13,7 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit import pages
-from pipeline.experiments.kit.model import ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.model import Experiment, Run, scaled
 from pipeline.experiments.kit.pages import not_measurable
 from pipeline.experiments.kit.planning import accepts, is_registered, missing_options, unregistered
 from pipeline.experiments.kit.results import numeric, text_column
@@ -138,16 +138,6 @@ def device_takeaways(tests):
         "its fragment shaders run on the CPU's cores, so a lens pass costs what its samples cost there, not what a "
         "GPU's fill rate makes of it; only ratios of runs timed together compare with the paper's, and the sample "
         "counts (machine-independent) say what any device has to do"))
-
-
-def counts_compared(scenes, counts, *, fewer, measured, words, extra):
-    """A count claim over ``scenes``: ``counts(scene)`` gives ``(a, b)``, and it holds where every scene has ``a < b``
-    (``fewer``) or every scene ``a > b``. ``measured(ratio, scene)`` says the deciding scene's ``a / b`` (the largest
-    with ``fewer``, else the smallest); the detail joins each scene's ``words(scene, a, b)``, then ``extra``."""
-    compared = [(a / b if b else np.inf, scene, a, b) for scene in scenes for a, b in [counts(scene)]]
-    ratio, scene, _, _ = (max if fewer else min)(compared)
-    return ClaimResult(measured(ratio, scene), all(a < b if fewer else a > b for _, _, a, b in compared),
-                       "; ".join(words(s, a, b) for _, s, a, b in compared) + extra)
 
 
 class LensExperiment(Experiment):

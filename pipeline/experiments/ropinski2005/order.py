@@ -4,15 +4,15 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, counted, measured, median_count,
-                                              time_ratio)
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, counted, counts_compared,
+                                              measured, median_count, time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
 from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import nonempty, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
 from pipeline.experiments.ropinski2005.methods import (PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
-                                                       counts_compared, device_takeaways, lens_run, lens_settings,
+                                                       device_takeaways, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, median_ms, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import BONE_ISOVALUE, lens_scene, lens_views, scene_tags
