@@ -434,3 +434,31 @@ def image_pairs(frame, first, second, *, first_match=None, second_match=None):
     if not pairs:
         raise ValueError(f"no view rendered by both {first} and {second}")
     return pairs
+
+
+def counts_compared(labels, counts, *, fewer, measured, words, extra=""):
+    """A count claim over ``labels`` (the scenes, say): one count below (or above) another on every label.
+
+    Parameters
+    ----------
+    labels : iterable
+        What the counts are compared over, in the order the detail lists them.
+    counts : callable
+        ``counts(label)``: ``(a, b)``, the label's two counts (samples, fragments: they do not depend on the
+        machine), each validated (:func:`counted`).
+    fewer : bool
+        The claim holds where ``a < b`` on every label; ``False``: where ``a > b`` on every label.
+    measured : callable
+        ``measured(ratio, label)``: the result's ``measured``, from the deciding label's ``a / b`` (``inf`` where
+        ``b`` is 0): the largest with ``fewer``, else the smallest.
+    words : callable
+        ``words(label, a, b)``: a label's counts in the detail, joined by ``"; "``; ``extra`` ends the detail.
+
+    Returns
+    -------
+    ClaimResult
+    """
+    compared = [(a / b if b else np.inf, label, a, b) for label in labels for a, b in [counts(label)]]
+    ratio, label, _, _ = (max if fewer else min)(compared)
+    return ClaimResult(measured(ratio, label), all(a < b if fewer else a > b for _, _, a, b in compared),
+                       "; ".join(words(label, a, b) for _, label, a, b in compared) + extra)

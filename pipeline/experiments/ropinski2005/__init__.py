@@ -6,24 +6,8 @@ those do not transfer to another device, so the speed claims compare runs timed 
 (the lens's overhead, a ratio), and the counts the caster keeps (samples per region, rays through the
 lens) say what any device has to do.
 
-* :mod:`.table1`: ``ropinski2005-table1`` (E1): every lens scene without and with its lens at two image
-  sizes, the overheads beside the paper's;
-* :mod:`.passes`: ``ropinski2005-passes`` (E2): the segments method's frame, pass by pass;
-* :mod:`.samples`: ``ropinski2005-samples`` (E3): the samples with and without the lens, and per region;
-* :mod:`.methods_compared`: ``ropinski2005-methods`` (E4): the segments method against the per-sample
-  tests, the mask fetch, frag-depth and the fused loop, with and without an occluder (early-z);
-* :mod:`.lens_size`: ``ropinski2005-size`` (E5): the overhead against the lens's coverage;
-* :mod:`.appearances`: ``ropinski2005-appearance`` (E6): clip, transparency, iso and MIP lenses;
-* :mod:`.correctness`: ``ropinski2005-correctness`` (E7): every lens method against the reference, and a
-  lens showing the outside appearance against no lens;
-* :mod:`.edges`: ``ropinski2005-edges`` (E8): lenses partly outside, in front, behind, enclosing the volume
-  or the camera, grazing: holes and accuracy, the paper's hole in the stencil method;
-* :mod:`.order`: ``ropinski2005-order`` (E9): region passes front to back against back to front;
-* :mod:`.peers`: ``ropinski2005-peers``: the lens in VTK (label map, cropping, clipping planes) and in
-  shear-warp's pre-classification beside the paper's method, by overhead and error;
-* :mod:`.scenes`: the lens scenes (note 004 §5) and their controls; :mod:`.methods`: the lens methods as
-  ``gl-raycast`` options and what the experiments share; :mod:`.pages`: what their pages share;
-  :mod:`.tables`: the paper's numbers.
+Its experiments are :data:`EXPERIMENTS`, one module each; :mod:`.scenes` (the lens scenes), :mod:`.methods`
+(the lens methods), :mod:`.pages` and :mod:`.tables` (the paper's numbers) hold what they share.
 """
 
 from pipeline.experiments.kit.model import Paper

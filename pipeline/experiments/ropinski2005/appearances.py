@@ -10,22 +10,20 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, median_count
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption)
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, counts_compared, median_count
+from pipeline.experiments.kit.model import Claim, scaled
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
+                                            frames_caption)
+from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable, scenes_of)
-from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
-                                                     overhead_figure, run_table, samples_ratio, scene_by_scene,
-                                                     tests_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
+                                                     rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (BONE_ISOVALUE, SETUPS, lens_scene, lens_views, scene_tags,
                                                       without_lens)
-from reports import blocks, plots
+from reports import plots
 
 APPEARANCES = {"clip": "clipping (nothing inside)", "transparency": "transparency (opacity × 0.2)",
                "iso": "isosurface (first crossing)", "mip": "MIP (largest sample)"}
@@ -50,19 +48,12 @@ REGION_COLUMNS = {region: f"count_samples_{region}" for region in ("region2", "r
 
 def appearance_entry(scene, appearance):
     """The ``appearance`` entry of ``scene``'s lens showing ``appearance`` (a key of :data:`APPEARANCES`)."""
-    setup = SETUPS[scene]
-    if appearance == "clip":
-        return {"mode": "clip"}
     if appearance == "transparency":
-        return {"mode": "dvr", "preset": setup.preset, "opacity_scale": TRANSPARENCY}
-    if appearance == "iso":
-        return {"mode": "iso", "isovalue": ISOVALUES[scene]}
-    return {"mode": "mip"}
+        return {"mode": "dvr", "preset": SETUPS[scene].preset, "opacity_scale": TRANSPARENCY}
+    return {"mode": "iso", "isovalue": ISOVALUES[scene]} if appearance == "iso" else {"mode": appearance}
 
 
-# ------------------------------------------------------------------------------------------- rows
 def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
-    """The rows of ``scene`` with the lens showing ``appearance`` by ``method``; ValueError if none."""
     rows = rows_matching(frame, scene, scene=scene, appearance=appearance, config=method)
     if rows.empty:
         raise ValueError(f"no successful {method} run of {scene} with a {appearance} lens")
@@ -70,13 +61,10 @@ def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
 
 
 def swept(frame, scene):
-    """The appearances ``scene`` was rendered with by the segments method, in :data:`APPEARANCES` order."""
-    rows = rows_matching(frame, scene, scene=scene, config=PAPER_METHOD)
-    present = set(text_column(rows, "appearance"))
+    present = set(text_column(rows_matching(frame, scene, scene=scene, config=PAPER_METHOD), "appearance"))
     return [a for a in APPEARANCES if a in present]
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _clip_cheapest(df):
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
@@ -96,32 +84,22 @@ def _clip_cheapest(df):
 
 
 def _iso_stops(df):
-    compared, wrong = [], []
-    for scene in scenes_of(df):
-        iso = counted(appearance_rows(df, scene, "iso"), REGION_COLUMNS["region1"], f"{scene}, iso")
-        dvr = counted(appearance_rows(df, scene, "transparency"), REGION_COLUMNS["region1"], f"{scene}, transparency")
-        compared.append((iso / dvr if dvr else np.inf, scene, iso, dvr))
-        if not iso < dvr:
-            wrong.append(scene)
-    share, scene, iso, dvr = max(compared)
-    return ClaimResult(f"{as_percent(share)} ({scene})", not wrong,
-                       "; ".join(f"{s}: iso {format_number(i)}, transparency {format_number(d)} region₁ samples"
-                                 for _, s, i, d in compared) + "; the segments method, counted")
+    return counts_compared(
+        scenes_of(df), lambda scene: tuple(
+            counted(appearance_rows(df, scene, a), REGION_COLUMNS["region1"], f"{scene}, {a}")
+            for a in ("iso", "transparency")), fewer=True,
+        measured=lambda share, scene: f"{as_percent(share)} ({scene})",
+        words=lambda s, i, d: f"{s}: iso {format_number(i)}, transparency {format_number(d)} region₁ samples",
+        extra="; the segments method, counted")
 
 
 def _clip_exposes(df):
-    compared, wrong = [], []
-    for scene in scenes_of(df):
-        clip = counted(appearance_rows(df, scene, "clip", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, clip")
-        iso = counted(appearance_rows(df, scene, "iso", EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, iso")
-        compared.append((clip / iso if iso else np.inf, scene, clip, iso))
-        if not clip > iso:
-            wrong.append(scene)
-    ratio, scene, clip, iso = min(compared)
-    return ClaimResult(f"×{format_number(ratio)} ({scene})", not wrong,
-                       "; ".join(f"{s}: clip {format_number(c)}, iso {format_number(i)} region₀ samples"
-                                 for _, s, c, i in compared)
-                       + f"; the {EXPOSURE_METHOD} method (early termination across the regions), counted")
+    return counts_compared(
+        scenes_of(df), lambda scene: tuple(
+            counted(appearance_rows(df, scene, a, EXPOSURE_METHOD), REGION_COLUMNS["region0"], f"{scene}, {a}")
+            for a in ("clip", "iso")), fewer=False, measured=lambda ratio, scene: f"×{format_number(ratio)} ({scene})",
+        words=lambda s, c, i: f"{s}: clip {format_number(c)}, iso {format_number(i)} region₀ samples",
+        extra=f"; the {EXPOSURE_METHOD} method (early termination across the regions), counted")
 
 
 CLAIMS = (
@@ -139,7 +117,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def appearance_table(tests):
     """Per scene and appearance: frame time, overhead over no lens with its interval, samples per region."""
     rows = []
@@ -150,9 +127,8 @@ def appearance_table(tests):
             continue
         for appearance in swept(tests, scene):
             for method in (PAPER_METHOD, EXPOSURE_METHOD):
-                try:
-                    lens = appearance_rows(tests, scene, appearance, method)
-                except ValueError:
+                lens = rows_matching(tests, scene, scene=scene, appearance=appearance, config=method)
+                if lens.empty:
                     continue
                 decision = intervals.ratio_decision(lens, off, resampler=resampler)
                 rows.append({"scene": scene, "appearance": appearance, "method": method, "frame (ms)": median_ms(lens),
@@ -168,10 +144,10 @@ def appearance_table(tests):
     return pd.DataFrame(rows)
 
 
-def _figure(table, ctx):
-    paper = table[table.method == PAPER_METHOD]
-    if paper.empty:
-        return []
+def _figures(paper, ctx):
+    """The segments method's overhead of each appearance against its samples, and its samples inside the lens."""
+    bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
+    bars = bars.rename(columns=APPEARANCES).reset_index()
     return overhead_figure(
         paper.assign(series=[APPEARANCES[a] for a in paper.appearance]), ctx, "overhead",
         heading="Overhead against samples, per appearance", x="samples lens / no lens",
@@ -179,26 +155,17 @@ def _figure(table, ctx):
         x_label="samples with the lens / samples without it (counted)",
         caption="One point per scene and appearance, the segments method (a line joins an appearance's scenes; the "
                 "table names each point); bars: 95 % paired bootstrap interval (every appearance timed together "
-                "with the lens-off frame).")
+                "with the lens-off frame).") + [
+        figure(ctx, "region1", plots.bar_compare, bars, heading="Samples inside the lens, per appearance",
+               caption="Region₁ samples counted by the caster (the segments method, median over the views).",
+               category_col="scene", value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
+               value_label="region₁ samples per frame (millions)", title="What each appearance takes inside the lens")]
 
 
-def _region_figure(table, ctx):
-    paper = table[table.method == PAPER_METHOD]
-    if paper.empty:
-        return []
-    bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
-    bars = bars.rename(columns=APPEARANCES).reset_index()
-    return [figure(ctx, "region1", plots.bar_compare, bars, heading="Samples inside the lens, per appearance",
-                   caption="Region₁ samples counted by the caster (the segments method, median over the views).",
-                   category_col="scene", value_cols=[APPEARANCES[a] for a in APPEARANCES if APPEARANCES[a] in bars],
-                   value_label="region₁ samples per frame (millions)",
-                   title="What each appearance takes inside the lens")]
-
-
-def _takeaways(table):
-    """The overhead of each appearance in words, per scene (measured, not judged)."""
+def _takeaways(paper):
+    """The overhead of each appearance by the segments method in words, per scene (measured, not judged)."""
     sentences = []
-    for scene, part in table[table.method == PAPER_METHOD].groupby("scene", sort=False):
+    for scene, part in paper.groupby("scene", sort=False):
         words = [f"{row['appearance']} {format_number(row['overhead (%)'])} % (95 % CI "
                  f"{format_number(row['95 % CI low (%)'])}–{format_number(row['95 % CI high (%)'])} %)"
                  for row in part.to_dict("records")]
@@ -215,11 +182,8 @@ def _gallery(tests, ctx):
         caption="No lens first, then the segments method's image with each appearance.")
 
 
-class Appearances(Experiment):
-    """Each scene's lens as clip, transparency, isosurface and MIP: overheads and samples per region."""
-
+class Appearances(LensExperiment):
     name = "ropinski2005-appearance"
-    paper = "ropinski2005"
     title = "Lens appearances: clip, transparency, isosurface, MIP (E6)"
     settings = frozenset({"scenes", "appearances", "volume_size", "image_size", "orbit", "step_factor", "repeat",
                           "min_time"})
@@ -238,9 +202,7 @@ class Appearances(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
         appearances = listed(profile, self, "appearances", tuple(APPEARANCES), known=APPEARANCES)
         size, image, orbit, step = lens_settings(profile, self)
@@ -265,16 +227,15 @@ class Appearances(Experiment):
     def report(self, results, ctx):
         tests = tests_of(results)
         table = appearance_table(tests) if not tests.empty else pd.DataFrame()
-        out = [claim_takeaways(ctx, device_takeaways(tests), _takeaways(table) if not table.empty else [])]
-        if not table.empty:
-            out += _figure(table, ctx)
-            out += _region_figure(table, ctx)
-            out.append(blocks.Table("Each appearance: overhead and samples per region", table.round(3),
-                                    csv_name="appearance.csv",
-                                    caption="Overhead: frame time with the lens over without it, minus one, with its "
-                                            "95 % paired bootstrap interval; region₀ and region₁ pass: their stage "
-                                            "times (segments only; region₀ takes the same samples whatever the lens "
-                                            "shows); samples counted by the caster. " + frames_caption(tests)))
+        paper = table[table.method == PAPER_METHOD] if not table.empty else table
+        out = [claim_takeaways(ctx, device_takeaways(tests), _takeaways(paper) if not paper.empty else [])]
+        if not paper.empty:
+            out += _figures(paper, ctx)
+        out += rounded_table("Each appearance: overhead and samples per region", table, csv_name="appearance.csv",
+                             caption="Overhead: frame time with the lens over without it, minus one, with its 95 % "
+                                     "paired bootstrap interval; region₀ and region₁ pass: their stage times (segments "
+                                     "only; region₀ takes the same samples whatever the lens shows); samples counted "
+                                     "by the caster. " + frames_caption(tests))
         if not tests.empty:
             out.append(_gallery(tests, ctx))
             out.append(run_table(tests, ["scene", "appearance", "method", "time_ms", "time_ms_min", "time_ms_max",

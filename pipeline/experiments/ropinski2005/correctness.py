@@ -1,8 +1,4 @@
-"""``ropinski2005-correctness`` (E7): every lens method's image against the reference, and no seams.
-
-The exact reference, and the outside-appearance lens held to the lens-off image (note 004 §4.2 E7):
-:attr:`Correctness.description`.
-"""
+"""``ropinski2005-correctness`` (E7): every lens method's image against the reference, and no seams."""
 
 from dataclasses import replace
 
@@ -10,17 +6,16 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit.judging import measured, worst_of
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number
 from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, OPTIONS, PAPER_METHOD,
-                                                       RAYCAST, STEP, lens_run, lens_settings, method_name,
-                                                       raycast_not_measurable)
-from pipeline.experiments.ropinski2005.pages import headline, psnr_note, run_table
+                                                       RAYCAST, STEP, LensExperiment, lens_run, lens_settings,
+                                                       method_name, raycast_not_measurable)
+from pipeline.experiments.ropinski2005.pages import headline, psnr_note, rounded_table, run_table
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
                                                       without_lens)
-from reports import blocks
 
 ACCURACY_PSNR = 40.0
 """dB: the least PSNR of a lens method's image against the reference (issue 24's target)."""
@@ -42,7 +37,6 @@ REFERENCE_CONFIG = "reference"
 
 
 def config_name(config):
-    """The words for a run's ``config``: a lens method, no lens, or the reference."""
     return "reference" if config == REFERENCE_CONFIG else method_name(config)
 
 
@@ -50,11 +44,8 @@ def method_psnr(df, scene):
     """``{config: (worst PSNR dB, its view)}`` of every lens method's lens image of ``scene`` against the reference."""
     rows = measured(rows_matching(df, scene, scene=scene, appearance="lens", role="test"), "psnr",
                     f"no lens image of {scene} compared with the reference")
-    out = {}
-    for config, part in rows.groupby("config", sort=False):
-        worst = part.loc[part.psnr.idxmin()]
-        out[config] = (float(worst.psnr), str(worst.view))
-    return out
+    worst = rows.loc[rows.groupby("config", sort=False).psnr.idxmin()]
+    return {config: (float(psnr), str(view)) for config, psnr, view in zip(worst.config, worst.psnr, worst.view)}
 
 
 def _accuracy(scene):
@@ -91,7 +82,6 @@ CLAIMS = tuple(
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def psnr_table(tests):
     """PSNR against the reference, one row per scene, one column per method (worst view)."""
     rows = []
@@ -109,8 +99,7 @@ def psnr_table(tests):
 def _galleries(ok, results, ctx):
     """Each method's headline lens image beside its difference from the reference, and the worst seam per scene."""
     lens = rows_matching(headline(ok), "the lens images", appearance="lens", role="test")
-    outside = ok[text_column(ok, "appearance") == "outside"]
-    outside = outside.assign(max_error=numeric(outside, "max_error")).dropna(subset=["max_error"])
+    outside = measured(ok[text_column(ok, "appearance") == "outside"], "max_error")
     worst = outside.loc[outside.groupby("scene", sort=False).max_error.idxmax()]
     return [difference_gallery("Headline view: each lens method against the reference",
                                lens.sort_values(["scene", "config"]), ctx, against=results, note=psnr_note,
@@ -124,11 +113,8 @@ def _galleries(ok, results, ctx):
                                        "outline of the lens).")]
 
 
-class Correctness(Experiment):
-    """Every lens method against the reference on every lens scene, and the outside appearance against no lens."""
-
+class Correctness(LensExperiment):
     name = "ropinski2005-correctness"
-    paper = "ropinski2005"
     title = "Images against the reference, and a lens with the outside appearance against no lens (E7)"
     settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit"})
     scales = LENS_SCALES
@@ -155,16 +141,14 @@ class Correctness(Experiment):
             spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data)
             views = lens_views(scene_name, orbit)
             tags = scene_tags(scene_name)
-            truth = truth_run(self.name, scene_name, spec, views, STEP, {**tags, "config": REFERENCE_CONFIG},
-                              appearance="lens")
-            truth_off = truth_run(self.name, scene_name, without_lens(spec), views, STEP,
-                                  {**tags, "config": REFERENCE_CONFIG}, suffix=f".{OFF}", appearance="none")
-            truth_outside = truth_run(self.name, scene_name, outside_appearance(spec), views, STEP,
-                                      {**tags, "config": REFERENCE_CONFIG}, suffix=".outside", appearance="outside")
             # One job per scene (an interleave group of single untimed frames): a job's start costs more than
             # such a frame, and an image does not depend on what ran beside it.
-            runs += [replace(truth, interleave=scene_name), replace(truth_off, interleave=scene_name),
-                     replace(truth_outside, reference=truth_off.id, interleave=scene_name)]
+            truth, truth_off, truth_outside = (
+                replace(truth_run(self.name, scene_name, shown, views, STEP, {**tags, "config": REFERENCE_CONFIG},
+                                  suffix=suffix, appearance=appearance), interleave=scene_name)
+                for shown, suffix, appearance in ((spec, "", "lens"), (without_lens(spec), f".{OFF}", "none"),
+                                                  (outside_appearance(spec), ".outside", "outside")))
+            runs += [truth, truth_off, replace(truth_outside, reference=truth_off.id)]
             off = lens_run(self.name, f"{scene_name}.{OFF}", without_lens(spec), views, OFF, UNTIMED,
                            {**tags, "role": "control", "appearance": "none"}, reference=truth_off.id, group=scene_name,
                            options=NO_TERMINATION)
@@ -183,14 +167,12 @@ class Correctness(Experiment):
         out = [claim_takeaways(ctx)]
         methods = sorted(set(text_column(ok, "config")) - {OFF, REFERENCE_CONFIG}) if "config" in ok else [PAPER_METHOD]
         if not ok.empty and "appearance" in ok:
-            table = psnr_table(ok)
-            if not table.empty:
-                out.append(blocks.Table("PSNR against the reference (dB, worst view)", table,
-                                        csv_name="correctness_psnr.csv",
-                                        caption=f"Each method's image with the lens's own appearance; the claim's "
-                                                f"floor is {format_number(ACCURACY_PSNR)} dB. No lens: the caster "
-                                                "without the lens against the reference without it, the error that "
-                                                "is not the lens's. Early termination off throughout."))
+            out += rounded_table(  # already rounded to 2 decimals: rounding again changes nothing
+                "PSNR against the reference (dB, worst view)", psnr_table(ok), digits=2,
+                csv_name="correctness_psnr.csv",
+                caption=f"Each method's image with the lens's own appearance; the claim's floor is "
+                        f"{format_number(ACCURACY_PSNR)} dB. No lens: the caster without the lens against the "
+                        "reference without it, the error that is not the lens's. Early termination off throughout.")
             out += _galleries(ok, results, ctx)
             out.append(run_table(ok, ["scene", "method", "appearance", "reference", "psnr", "ssim", "max_error"], ctx,
                                  timed=False, method=config_name, csv_name="correctness.csv",

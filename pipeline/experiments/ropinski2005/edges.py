@@ -1,26 +1,19 @@
-"""``ropinski2005-edges`` (E8): where the lens lies against the volume and the camera, and no holes.
-
-The cases (note 004 §4.1 (9), §4.2 E8; each placed from its one view: "in front" is towards its camera), the
-hole the paper's recipe leaves (§2.8) and how a hole is found: :attr:`Edges.description`.
-"""
-
-from dataclasses import dataclass
+"""``ropinski2005-edges`` (E8): where the lens lies against the volume and the camera, and no holes."""
 
 import numpy as np
 import pandas as pd
 
 from core.camera import Camera
 from core.errors import InputError
-from pipeline.experiments.kit.judging import measured, median_count, worst_of
-from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult, Experiment
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            linked_table)
-from pipeline.experiments.kit.planning import UNTIMED, accepts, headline_view, is_registered, listed, truth_run
+from pipeline.experiments.kit.judging import counted, measured, median_count, worst_of
+from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult
+from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number, linked_table
+from pipeline.experiments.kit.planning import UNTIMED, headline_view, listed, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, RAYCAST, STEP, lens_coverage, lens_run,
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, STEP, LensExperiment, lens_coverage, lens_run,
                                                        lens_settings, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.pages import psnr_note, tests_of
+from pipeline.experiments.ropinski2005.pages import RUN_COLUMNS, psnr_note, tests_of
 from pipeline.experiments.ropinski2005.scenes import SETUPS, LensSetup, extent, lens_entry, lens_scene, scene_tags
 from reports import blocks
 
@@ -48,29 +41,21 @@ CAMERA_DISTANCE = 2.2
 of view: the picture shows ±0.59 edges at the box centre)."""
 
 
-@dataclass(frozen=True)
-class Case:
-    """One edge case: its name and where the lens lies, in words (placed by :func:`case_scene`)."""
-
-    name: str
-    what: str
-
-
-CASES = {case.name: case for case in (
-    Case("partly-front", "a sphere around the box corner nearest the camera: partly inside, partly in front and "
-                         "beside"),
-    Case("partly-behind", "a sphere around the farthest corner: partly inside, partly behind (the guide's regression "
-                          "test for the hole)"),
-    Case("in-front", "a sphere wholly between the camera and the box: lens ∩ box is empty"),
-    Case("behind", "a sphere wholly behind the box: lens ∩ box is empty, and the paper's transition images give "
-                   "its rays no region (note 004 §2.8)"),
-    Case("enclosing-volume", "a sphere enclosing the whole box: region₁ is every ray's whole span"),
-    Case("enclosing-camera", "perspective, a sphere around the camera reaching past the box centre: every ray starts "
-                             "inside the lens"),
-    Case("grazing", "an axis-aligned box lens from the top face down to the centre, seen from above: rays parallel "
-                    "to four of its faces, the faces on pixel centres"),
-)}
-"""The edge cases of note 004 §4.1 (9), in report order."""
+CASES = {
+    "partly-front": "a sphere around the box corner nearest the camera: partly inside, partly in front and beside",
+    "partly-behind": "a sphere around the farthest corner: partly inside, partly behind (the guide's regression test "
+                     "for the hole)",
+    "in-front": "a sphere wholly between the camera and the box: lens ∩ box is empty",
+    "behind": "a sphere wholly behind the box: lens ∩ box is empty, and the paper's transition images give its rays "
+              "no region (note 004 §2.8)",
+    "enclosing-volume": "a sphere enclosing the whole box: region₁ is every ray's whole span",
+    "enclosing-camera": "perspective, a sphere around the camera reaching past the box centre: every ray starts inside "
+                        "the lens",
+    "grazing": "an axis-aligned box lens from the top face down to the centre, seen from above: rays parallel to four "
+               "of its faces, the faces on pixel centres",
+}
+"""The edge cases of note 004 §4.1 (9), in report order: where each lens lies, in words (placed by
+:func:`case_scene`)."""
 
 
 def toward_camera(view):
@@ -90,15 +75,6 @@ def grazing_size(image):
     return 2 * (k + 0.5) * pitch
 
 
-def sphere_placement(case, toward):
-    """``(centre, radius)`` of case ``case``'s sphere lens, fractions of the edge; ``toward`` points at the camera."""
-    corner = 0.5 * np.sign(toward)
-    far = np.sqrt(3) / 2 + 0.25 + 0.05  # the box's bounding sphere, the lens's radius and a margin
-    return {"partly-front": (corner, 0.35), "partly-behind": (-corner, 0.35), "in-front": (far * toward, 0.25),
-            "behind": (-far * toward, 0.25), "enclosing-volume": (np.zeros(3), 0.9),
-            "enclosing-camera": (CAMERA_DISTANCE * toward, CAMERA_DISTANCE - 0.25)}[case]
-
-
 def case_scene(case, image, *, size, real_data=None):
     """``(scene mapping, view)`` of edge case ``case`` (a key of :data:`CASES`)."""
     if case not in CASES:
@@ -115,7 +91,13 @@ def case_scene(case, image, *, size, real_data=None):
         view = GRAZING_VIEW
     else:
         view = headline_view(setup.dataset)
-        center, radius = sphere_placement(case, toward_camera(view))
+        toward = toward_camera(view)  # the sphere's centre and radius, fractions of the edge
+        corner = 0.5 * np.sign(toward)
+        far = np.sqrt(3) / 2 + 0.25 + 0.05  # the box's bounding sphere, the lens's radius and a margin
+        center, radius = {"partly-front": (corner, 0.35), "partly-behind": (-corner, 0.35),
+                          "in-front": (far * toward, 0.25), "behind": (-far * toward, 0.25),
+                          "enclosing-volume": (np.zeros(3), 0.9),
+                          "enclosing-camera": (CAMERA_DISTANCE * toward, CAMERA_DISTANCE - 0.25)}[case]
         spec = lens_scene(SCENE, image, size=size, real_data=real_data, appearance=APPEARANCE,
                           center=tuple(float(c) for c in center), radius=radius)
         if case == "enclosing-camera":
@@ -124,7 +106,6 @@ def case_scene(case, image, *, size, real_data=None):
     return spec, view
 
 
-# ------------------------------------------------------------------------------------------- images
 def coverage_holes(reference, test):
     """``(holes, covered)``: pixels the reference covers (alpha ≥ :data:`COVERED`) that ``test`` leaves below
     :data:`HOLE` of the reference's alpha, and the pixels the reference covers."""
@@ -147,13 +128,11 @@ def hole_counts(frame):
     return pd.DataFrame(out)
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _no_holes(df):
     counts = hole_counts(df)
     worst, per_case = worst_of(counts, "holes", "case")
     return ClaimResult(f"{int(worst.holes)} hole pixels of {int(worst.covered)} covered ({worst.config}, {worst.case})",
-                       bool(counts.holes.max() == 0),
-                       ", ".join(f"{c}: {int(h)}" for c, h in per_case.items())
+                       bool(counts.holes.max() == 0), ", ".join(f"{c}: {int(h)}" for c, h in per_case.items())
                        + f" (most hole pixels per case over {counts.config.nunique()} methods); a hole: alpha below "
                          f"{as_percent(HOLE)} of the reference's where the reference's is ≥ {format_number(COVERED)}")
 
@@ -173,9 +152,7 @@ def _hole_closed(df):
     behind = stencil[text_column(stencil, "case") == "behind"]
     if behind.empty:
         raise ValueError("no successful segments-stencil run of the fully-behind lens")
-    rays = median_count(behind, "count_hole_rays")
-    if not np.isfinite(rays):
-        raise ValueError("segments-stencil counted no hole_rays")
+    rays = counted(behind, "count_hole_rays", "segments-stencil")
     counts = hole_counts(df)
     holes = int(counts[(counts.case == "behind") & (counts.config == "segments-stencil")].holes.max())
     others = {case: median_count(part, "count_hole_rays") for case, part in stencil.groupby("case", sort=False)}
@@ -198,7 +175,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def case_table(tests, counts):
     """Per case and method: PSNR, hole pixels, coverage and counters."""
     rows = []
@@ -214,11 +190,8 @@ def case_table(tests, counts):
     return pd.DataFrame(rows)
 
 
-class Edges(Experiment):
-    """Every lens method where the lens lies partly outside, in front of, behind or around the box, or the camera."""
-
+class Edges(LensExperiment):
     name = "ropinski2005-edges"
-    paper = "ropinski2005"
     title = "Edge cases: where the lens lies against the volume and the camera (E8)"
     settings = frozenset({"cases", "methods", "volume_size", "image_size"})
     scales = SIZES
@@ -236,9 +209,7 @@ class Edges(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         cases = listed(profile, self, "cases", tuple(CASES), known=CASES)
         methods = listed(profile, self, "methods", CONFIGS, known=CONFIGS)
         size, image, _, _ = lens_settings(profile, self)
@@ -250,8 +221,7 @@ class Edges(Experiment):
             runs.append(truth)
             for method in methods:
                 runs.append(lens_run(self.name, f"{case}.{method}", spec, (view,), method, UNTIMED,
-                                     {**tags, "role": "test"}, group=case, reference=truth.id,
-                                     options=NO_TERMINATION))
+                                     {**tags, "role": "test"}, group=case, reference=truth.id, options=NO_TERMINATION))
         return runs
 
     def report(self, results, ctx):
@@ -272,15 +242,14 @@ class Edges(Experiment):
                                             "One untimed frame per run, early termination off."))
             out.append(difference_gallery("The reference's image of each case", ok[text_column(ok, "role") == "truth"],
                                           ctx, label=lambda row: str(row.case), note=lambda row: "",
-                                          caption="; ".join(f"{name}: {case.what}" for name, case in CASES.items())))
+                                          caption="; ".join(f"{name}: {what}" for name, what in CASES.items())))
             out.append(difference_gallery(
                 "Every edge case: each method's image and its difference from the reference", tests, ctx,
                 against=results, label=lambda row: f"{row.case}, {row.config}", note=psnr_note,
                 caption="Left the method's image, right |method − reference| (a hole shows as the cube's colour at "
                         "full strength)."))
             out.append(linked_table("Every run", tests, ["case", "config", "psnr", "max_error", "count_lens_rays",
-                                                         "count_hole_rays"], ctx,
-                                    names={"config": "method", "max_error": "max |difference|",
-                                           "count_lens_rays": "rays through the lens",
-                                           "count_hole_rays": "hole rays (stencil)"}, csv_name="edges_runs.csv"))
+                                                         "count_hole_rays"], ctx, csv_name="edges_runs.csv",
+                                    names={**RUN_COLUMNS, "max_error": "max |difference|",
+                                           "count_hole_rays": "hole rays (stencil)"}))
         return out + raycast_not_measurable(CONFIGS)

@@ -1,27 +1,21 @@
-"""``ropinski2005-size`` (E5): the lens's overhead against how much of the picture it covers.
-
-The sweep (note 004 §4.2 E5), the exact coverage (``gl-raycast``'s ``lens_rays``) and the slope's paired
-bootstrap interval: :attr:`LensSize.description`.
-"""
+"""``ropinski2005-size`` (E5): the lens's overhead against how much of the picture it covers."""
 
 import numpy as np
 import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import all_of, decision_words, median_count
-from pipeline.experiments.kit.model import Claim, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
-                                            frame_note, frames_caption)
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.model import Claim, scaled
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number, frame_note,
+                                            frames_caption)
+from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
-from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
-                                                     overhead_figure, rounded_table, run_table, samples_ratio,
-                                                     scene_by_scene, tests_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
+                                                     rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
                                                       without_lens)
 
@@ -42,15 +36,10 @@ APPEARANCES = {"outside": "the outside appearance", "own": "the scene's own appe
 cost the claim is about) or the scene's lens appearance."""
 
 
-# ------------------------------------------------------------------------------------------- rows
 def sweep_points(frame, scene, appearance, *, resampler):
-    """Per radius of ``scene``'s lens showing ``appearance``: ``(radius, coverage, overhead, draws)``.
-
-    ``appearance`` is ``"own"`` (the scene's lens appearance) or ``"outside"`` (the outside one). The
-    overhead is in % of the lens-off frame, ``coverage`` the share of rays meeting lens ∩ box (%, counted),
-    ``draws`` the overhead's bootstrap draws, paired round by round with the lens-off run (``None``
-    without frames). Ascending radius.
-    """
+    """``(radius, coverage, overhead, draws)`` per radius, ascending, of ``scene``'s lens showing ``appearance``
+    (a key of :data:`APPEARANCES`): the rays meeting lens ∩ box (%, counted), the overhead (% of the lens-off frame)
+    and its bootstrap draws, paired round by round with the lens-off run (``None`` without frames)."""
     rows = rows_matching(frame, scene, scene=scene)
     off = rows[text_column(rows, "config") == OFF]
     if off.empty:
@@ -108,7 +97,6 @@ def slopes(frame, appearance):
     return decisions, notes
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _grows(df):
     decisions, notes = slopes(df, "outside")
     return all_of(decisions, show=format_number, notes=notes,
@@ -140,7 +128,6 @@ def own_takeaways(tests):
             f"{', '.join(words)}."]
 
 
-# ------------------------------------------------------------------------------------------------ page
 def sweep_table(tests):
     """Per scene, appearance and radius: coverage, frame time, overhead with its interval, samples per region."""
     rows = []
@@ -181,14 +168,12 @@ def _figure(table, ctx):
 
 
 def _gallery(tests, ctx):
-    def off_then_radii(here):
-        return pd.concat([here[text_column(here, "config") == OFF],
-                          here[text_column(here, "appearance") == "own"].sort_values("radius")])
-
     def note(row):
         coverage = lens_coverage(shown[shown.run == row.run])
         return frame_note(row) + (f", lens on {as_percent(coverage)} of the rays" if np.isfinite(coverage) else "")
 
+    off_then_radii = lambda here: pd.concat([here[text_column(here, "config") == OFF],
+                                             here[text_column(here, "appearance") == "own"].sort_values("radius")])
     shown = scene_by_scene(headline(tests), off_then_radii)
     return difference_gallery(
         "Headline view at each radius, the lens with the scene's own appearance", shown, ctx, note=note,
@@ -196,35 +181,29 @@ def _gallery(tests, ctx):
         caption="The lens-off image first, then each radius.")
 
 
-class LensSize(Experiment):
-    """A sphere lens's radius swept on one or two scenes: overhead against the rays it covers."""
-
+class LensSize(LensExperiment):
     name = "ropinski2005-size"
-    paper = "ropinski2005"
     title = "Lens size: overhead against lens coverage (E5)"
     settings = frozenset({"scenes", "radii", "volume_size", "image_size", "orbit", "step_factor", "lens_method",
                           "repeat", "min_time"})
     scales = scaled(base=TIMED_SCALES, smoke={"radii": [0.1, 0.3, 0.6]}, full={"scenes": ["skull", "seismic", "foot"]})
     description = (
         "Not in the paper. A scene's sphere lens keeps its centre while its radius goes from 0.05 to 0.6 of the "
-        "volume's longest edge, showing the outside appearance (the volume's own table: the lens then changes "
-        "only how each ray is cut, into three segments cast in three passes back to front) and the scene's own "
-        "lens appearance. gl-raycast renders the scene without the lens and with each lens by the paper's "
-        "segments method, all timed together in one job per scene, and counts the rays whose lens segment "
-        "inside the box is not empty. The overhead of each radius (frame time with the lens over without it, "
-        "minus one) is plotted against that coverage. The claim, on the outside appearance, is that it grows: "
-        "the slope of a least-squares line through the points has a 95 % bootstrap interval (the frames "
-        "resampled round by round) wholly above zero; no steeper bound, since the paper gives no cost model. "
-        "With the scene's own appearance the slope is reported, not judged: a clipping lens also removes its "
-        "region₁ samples, so its overhead may fall as it grows. The skull (a transparency lens over a thin "
-        "shell) and the seismic cube (a clipping lens in a dense, opaque volume) are swept, and the foot's "
-        "isosurface lens at full scale."
+        "volume's longest edge, showing the outside appearance (the volume's own table: the lens then changes only how "
+        "each ray is cut, into three segments cast in three passes back to front) and the scene's own lens appearance. "
+        "gl-raycast renders the scene without the lens and with each lens by the paper's segments method, all timed "
+        "together in one job per scene, and counts the rays whose lens segment inside the box is not empty. The "
+        "overhead of each radius (frame time with the lens over without it, minus one) is plotted against that "
+        "coverage. The claim, on the outside appearance, is that it grows: the slope of a least-squares line through "
+        "the points has a 95 % bootstrap interval (the frames resampled round by round) wholly above zero; no steeper "
+        "bound, since the paper gives no cost model. With the scene's own appearance the slope is reported, not "
+        "judged: a clipping lens also removes its region₁ samples, so its overhead may fall as it grows. The skull (a "
+        "transparency lens over a thin shell) and the seismic cube (a clipping lens in a dense, opaque volume) are "
+        "swept, and the foot's isosurface lens at full scale."
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", SCENES, known=SETUPS)
         boxes = [s for s in wanted if SETUPS[s].shape != "sphere"]
         if boxes:

@@ -13,9 +13,9 @@ import pandas as pd
 
 import renderers
 from pipeline.experiments.kit import pages
-from pipeline.experiments.kit.model import Run, scaled
+from pipeline.experiments.kit.model import Experiment, Run, scaled
 from pipeline.experiments.kit.pages import not_measurable
-from pipeline.experiments.kit.planning import missing_options, unregistered
+from pipeline.experiments.kit.planning import accepts, is_registered, missing_options, unregistered
 from pipeline.experiments.kit.results import numeric, text_column
 
 RAYCAST = "gl-raycast"
@@ -84,23 +84,19 @@ TIMED_SCALES = scaled(base=LENS_SCALES, full={"image_size": 1024})
 """:data:`LENS_SCALES` with the paper's larger viewport, 1024², at full scale."""
 
 
-def lens_settings(profile, experiment):
-    """``(volume size, image size, orbit, step)``: what ``experiment``'s runs take from ``profile``."""
+def lens_settings(profile, experiment, *, orbit=0):
+    """``(volume size, image size, orbit, step)`` of ``experiment``'s runs in ``profile`` (``orbit`` where unset)."""
     return (profile.setting(experiment, "volume_size", profile.volume_size),
             int(profile.setting(experiment, "image_size", profile.image_size)),
-            int(profile.setting(experiment, "orbit", 0)), profile.setting(experiment, "step_factor", STEP))
+            int(profile.setting(experiment, "orbit", orbit)), profile.setting(experiment, "step_factor", STEP))
 
 
 def lens_run(experiment, run_id, scene_spec, views, config, frames, tags, *, step_factor=STEP, group=None,
              reference=None, options=None):
-    """A ``gl-raycast`` run of ``config`` (a lens method, or :data:`OFF` on the lens-free scene).
-
-    ``frames`` are the run's warm-up, repeat and min_time (``UNTIMED`` or ``timed_frames``); ``group``
-    its interleave group (runs compared by a timing claim are timed together); ``options`` more
-    backend options (``opaque_threshold``). The tags get ``config``. An iso lens finds its surface as
-    the paper's caster does, at the samples (``iso_hit="sampled"``; gl-raycast's default walks every
-    cell exactly, issue 36).
-    """
+    """A ``gl-raycast`` run of ``config`` (a lens method, or :data:`OFF` on the lens-free scene), tagged with it,
+    ``frames`` its warm-up, repeat and min_time, ``group`` its interleave group (a timing claim's runs are timed
+    together). An iso lens finds its surface as the paper's caster does, at the samples (``iso_hit="sampled"``;
+    gl-raycast's default walks every cell exactly, issue 36)."""
     iso_lens = any(lens.get("appearance", {}).get("mode") == "iso" for lens in scene_spec.get("lenses", ()))
     options = {**(options or {}), **({"iso_hit": "sampled"} if iso_lens else {})}
     return Run(experiment, run_id, RAYCAST, scene_spec, tuple(views),
@@ -114,14 +110,10 @@ def unknown_methods(configs):
         table = {option.name: option for option in renderers.backend_class(RAYCAST).option_table}
     except Exception:  # noqa: BLE001 - not importable here: the runs are skipped with the reason
         return []
-    out = []
-    for config in dict.fromkeys(c for c in configs if c != OFF):
-        for name, value in METHODS[config][0].items():
-            choices = getattr(table.get(name), "choices", ())
-            if name in table and choices and value not in choices:
-                out.append((f"lens method {config}", f"{RAYCAST}'s {name} has no {value!r} here (its choices: "
-                                                     f"{', '.join(choices)}), so its runs fail"))
-    return out
+    return [(f"lens method {config}", f"{RAYCAST}'s {name} has no {value!r} here (its choices: "
+                                      f"{', '.join(table[name].choices)}), so its runs fail")
+            for config in dict.fromkeys(c for c in configs if c != OFF) for name, value in METHODS[config][0].items()
+            if getattr(table.get(name), "choices", ()) and value not in table[name].choices]
 
 
 def raycast_not_measurable(configs=()):
@@ -130,7 +122,6 @@ def raycast_not_measurable(configs=()):
 
 
 def scenes_of(frame):
-    """The scenes of ``frame``'s rows, in their order."""
     return list(pd.unique(text_column(frame, "scene")))
 
 
@@ -147,3 +138,16 @@ def device_takeaways(tests):
         "its fragment shaders run on the CPU's cores, so a lens pass costs what its samples cost there, not what a "
         "GPU's fill rate makes of it; only ratios of runs timed together compare with the paper's, and the sample "
         "counts (machine-independent) say what any device has to do"))
+
+
+class LensExperiment(Experiment):
+    """An experiment of this paper: by default planned (:meth:`lens_runs`) only where ``gl-raycast`` is registered
+    and takes :data:`OPTIONS` and :attr:`needs`."""
+
+    paper = "ropinski2005"
+    needs = ()
+
+    def runs(self, profile):
+        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS, *self.needs)):
+            return []
+        return self.lens_runs(profile)

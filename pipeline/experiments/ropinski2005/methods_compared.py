@@ -1,27 +1,23 @@
-"""``ropinski2005-methods`` (E4): the paper's segments against per-sample lens tests and depth-based clipping.
+"""``ropinski2005-methods`` (E4): the paper's segments against per-sample lens tests and depth-based clipping."""
 
-The paper's argument (§2, §3, against Weiskopf et al. 2003) is never measured in it. How it is measured here,
-the early-z test behind an occluder (counter ``fragments_shaded``) and the foot's isosurface lens that the
-per-sample methods refuse: :attr:`MethodsCompared.description`.
-"""
+from contextlib import suppress
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
-from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
-                                              ratio_pair, time_ratio)
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, measured,
+                                              median_count, ratio_pair, time_ratio)
+from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, frames_caption)
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run
+from pipeline.experiments.kit.planning import listed, timed_frames, truth_run
 from pipeline.experiments.kit.results import nonempty, numeric, speed_points, text_column
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable)
-from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms,
-                                                     rounded_table, run_table, tests_of)
+from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, rounded_table,
+                                                     run_table, tests_of)
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags
 from reports import blocks, plots
 
@@ -52,12 +48,9 @@ def comparable_appearance(setup):
     """The lens appearance every method renders: the setup's own, or a transparency lens for ``mip``/``iso``."""
     if setup.appearance.get("mode") in ("mip", "iso"):
         return {"mode": "dvr", "preset": setup.preset, "opacity_scale": TRANSPARENCY}
-    return None
 
 
-# ------------------------------------------------------------------------------------------- rows
 def occluded_rows(frame, occluded):
-    """The rows with (``occluded`` ``"yes"``) or without (``"no"``) the occluder."""
     return frame[text_column(frame, "occluded") == occluded]
 
 
@@ -66,21 +59,13 @@ def table1_scenes(frame):
     return nonempty([s for s in pd.unique(text_column(frame, "scene")) if s in TABLE1_SCENES], what="a Table 1 scene")
 
 
-def image_of(frame):
-    """The image size (pixels per side) of ``frame``'s rows: the largest."""
-    sizes = numeric(frame, "image_size").dropna()
-    if sizes.empty:
-        raise ValueError("no run reported its image size")
-    return int(sizes.max())
-
-
 def _at_image(frame):
-    image = image_of(frame)
+    """``(rows, image)``: the rows of ``frame`` at the largest image size (pixels per side) they report."""
+    image = int(measured(frame, "image_size", "no run reported its image size").image_size.max())
     return frame[numeric(frame, "image_size") == image], image
 
 
 def behind_and_open(frame, scene, config):
-    """The rows of ``config`` on ``scene`` with the occluder and without it."""
     return (config_rows(occluded_rows(frame, "yes"), config, scene=scene),
             config_rows(occluded_rows(frame, "no"), config, scene=scene))
 
@@ -112,16 +97,13 @@ def occluder_saving(frame, scene, config, *, resampler):
 
 
 def earlyz_decision(frame, scene, *, resampler, method="frag-depth"):
-    """``[t_method(occluded) / t_method(open)] / [t_segments(occluded) / t_segments(open)]``, judged ≥ 1.
-
-    Above 1: the occluder saves the segments method a larger share of its frame than ``method``.
-    """
+    """``[t_method(occluded) / t_method(open)] / [t_segments(occluded) / t_segments(open)]``, judged ≥ 1: above 1,
+    the occluder saves the segments method a larger share of its frame than ``method``."""
     value, draws = ratio_pair(*(occluder_saving(frame, scene, config, resampler=resampler)
                                 for config in (method, PAPER_METHOD)))
     return intervals.decide(value, intervals.interval_of(draws), at_least=1.0)
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _faster(occluded, baselines):
     def check(df):
         rows, image = _at_image(occluded_rows(df, occluded))
@@ -134,8 +116,7 @@ def _faster(occluded, baselines):
                 decisions[label] = time_ratio(rows, baseline, PAPER_METHOD, resampler=resampler,
                                               at_least=STRICTLY_ABOVE_ONE, scene=scene)
                 other = config_rows(rows, baseline, scene=scene)
-                shaded = (median_count(other, "count_fragments_shaded"),
-                          median_count(paper, "count_fragments_shaded"))
+                shaded = (median_count(other, "count_fragments_shaded"), median_count(paper, "count_fragments_shaded"))
                 if all(np.isfinite(shaded)):
                     notes[label] = f"fragments shaded {format_number(shaded[0])} against {format_number(shaded[1])}"
         extra = f"{TIMES}; every method of a scene timed together, frame against frame"
@@ -159,34 +140,26 @@ def dropped_share(frame, scene, config):
 
 
 def _earlyz_fragments(df):
-    """Behind the occluder frag-depth shades every fragment; the segments method drops every covered ray."""
-    scenes = table1_scenes(occluded_rows(df, "yes"))
-    worst, words = None, []
-    for scene in scenes:
+    compared = []  # (how far the scene misses the bounds, scene, {config: fragments dropped per covered ray})
+    for scene in table1_scenes(occluded_rows(df, "yes")):
         dropped = {config: dropped_share(df, scene, config) for config in (PAPER_METHOD, "frag-depth")}
-        wrong = max(dropped["frag-depth"], 1.0 - dropped[PAPER_METHOD])
-        words.append(f"{scene}: segments ×{format_number(dropped[PAPER_METHOD])}, frag-depth "
-                     f"×{format_number(dropped['frag-depth'])}")
-        if worst is None or wrong > worst[0]:
-            worst = (wrong, scene, dropped)
-    wrong, scene, dropped = worst
-    return ClaimResult(f"fragments dropped per covered ray: segments ×{format_number(dropped[PAPER_METHOD])}, "
-                       f"frag-depth ×{format_number(dropped['frag-depth'])} ({scene})",
-                       bool(wrong <= DROP_TOLERANCE),
-                       "; ".join(words) + "; fragments_shaded (the volume passes' fragment-shader invocations) "
-                       "without the occluder − with it, over rays_occluded; segments' region₀ pass alone draws every "
-                       "ray, its region₁ and region₂ passes the lens's footprint")
+        compared.append((max(dropped["frag-depth"], 1.0 - dropped[PAPER_METHOD]), scene, dropped))
+    wrong, scene, dropped = max(compared, key=lambda c: c[0])
+    said = lambda d: f"segments ×{format_number(d[PAPER_METHOD])}, frag-depth ×{format_number(d['frag-depth'])}"
+    return ClaimResult(f"fragments dropped per covered ray: {said(dropped)} ({scene})", bool(wrong <= DROP_TOLERANCE),
+                       "; ".join(f"{s}: {said(d)}" for _, s, d in compared) + "; fragments_shaded (the volume "
+                       "passes' fragment-shader invocations) without the occluder − with it, over rays_occluded; "
+                       "segments' region₀ pass alone draws every ray, its region₁ and region₂ passes the lens's "
+                       "footprint")
 
 
 def _earlyz_time(df):
     resampler = intervals.Resampler()
     decisions = {scene: earlyz_decision(df, scene, resampler=resampler)
                  for scene in table1_scenes(occluded_rows(df, "yes"))}
-    notes = {}
-    for scene in decisions:
-        own, _ = occluder_saving(df, scene, "frag-depth", resampler=resampler)
-        paper, _ = occluder_saving(df, scene, PAPER_METHOD, resampler=resampler)
-        notes[scene] = f"with / without the occluder: frag-depth {as_ratio(own)}, segments {as_ratio(paper)}"
+    saving = lambda scene, config: as_ratio(occluder_saving(df, scene, config, resampler=resampler)[0])
+    notes = {scene: f"with / without the occluder: frag-depth {saving(scene, 'frag-depth')}, segments "
+                    f"{saving(scene, PAPER_METHOD)}" for scene in decisions}
     return all_of(decisions, notes=notes, what="frag-depth's saving / segments' saving ",
                  extra=f"{TIMES}; the four runs of a scene timed together")
 
@@ -207,8 +180,7 @@ CLAIMS = (
           "every fragment, while the segments method (fragment depth never written) drops the covered ones (§3)",
           "(fragments shaded without the occluder − with it) / rays it covers: frag-depth ≤ "
           f"{format_number(DROP_TOLERANCE)}, segments ≥ {format_number(1 - DROP_TOLERANCE)} (its region₀ pass "
-          "drops every covered ray), every Table 1 scene (counted, exact)",
-          _earlyz_fragments, kind="count"),
+          "drops every covered ray), every Table 1 scene (counted, exact)", _earlyz_fragments, kind="count"),
     Claim("earlyz-time", "So the occluder saves the segments method's frames a larger share of their time than "
           "frag-depth's",
           "[time(frag-depth, occluder) / time(frag-depth, none)] / [time(segments, occluder) / time(segments, none)] "
@@ -216,7 +188,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def method_table(tests):
     """Per scene and method, without the occluder: frame time, ratio to segments with its interval, PSNR, counts."""
     rows = []
@@ -229,16 +200,13 @@ def method_table(tests):
             except ValueError:
                 continue
             row = {"scene": scene, "method": config, "frame (ms)": median_ms(chosen)}
-            try:
+            with suppress(ValueError):
                 decision = time_ratio(open_, config, PAPER_METHOD, resampler=resampler, scene=scene)
                 row |= interval_columns(decision.value, decision.interval, "time / segments")
-            except ValueError:
-                pass
-            row |= {"PSNR (dB)": numeric(chosen, "psnr").min() if "psnr" in chosen else np.nan,
-                    "samples": median_count(chosen, "count_samples"),
-                    "fragments shaded": median_count(chosen, "count_fragments_shaded"),
-                    "rays through the lens (%)": 100 * lens_coverage(chosen)}
-            rows.append(row)
+            rows.append(row | {"PSNR (dB)": numeric(chosen, "psnr").min() if "psnr" in chosen else np.nan,
+                               "samples": median_count(chosen, "count_samples"),
+                               "fragments shaded": median_count(chosen, "count_fragments_shaded"),
+                               "rays through the lens (%)": 100 * lens_coverage(chosen)})
     return pd.DataFrame(rows)
 
 
@@ -247,10 +215,9 @@ def occluder_table(tests):
     rows = []
     resampler = intervals.Resampler()
     for scene in pd.unique(occluded_rows(tests, "yes").scene):
-        try:
+        covered = np.nan
+        with suppress(KeyError, ValueError):
             covered = covered_share(tests, scene)
-        except (KeyError, ValueError):
-            covered = np.nan
         for config in OCCLUDED:
             try:
                 value, draws = occluder_saving(tests, scene, config, resampler=resampler)
@@ -276,11 +243,9 @@ def _other_takeaways(tests):
     for config in ("fused", "segments-stencil"):
         words = []
         for scene in scenes:
-            try:
+            with suppress(KeyError, ValueError):
                 decision = time_ratio(open_, config, PAPER_METHOD, resampler=intervals.Resampler(), scene=scene)
-            except (KeyError, ValueError):
-                continue
-            words.append(f"{scene} {decision_words(decision)}")
+                words.append(f"{scene} {decision_words(decision)}")
         if words:
             sentences.append(f"{method_name(config)[0].upper()}{method_name(config)[1:]}, time / segments at "
                              f"{image}² (measured, not judged): {', '.join(words)}.")
@@ -317,12 +282,10 @@ def _earlyz_figure(table, ctx):
                    title=f"An occluder on {as_percent(OCCLUDER)} of the footprint: who drops the covered fragments")]
 
 
-class MethodsCompared(Experiment):
-    """Segments against per-sample tests, the mask fetch, depth-based clipping and the fused loop, with an occluder."""
-
+class MethodsCompared(LensExperiment):
     name = "ropinski2005-methods"
-    paper = "ropinski2005"
     title = "Segments against per-sample lens tests and depth-based clipping, and early-z (E4)"
+    needs = ("occluder",)
     settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit", "step_factor", "occluder",
                           "repeat", "min_time"})
     scales = TIMED_SCALES
@@ -342,9 +305,7 @@ class MethodsCompared(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS, "occluder")):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", TABLE1_SCENES, known=SETUPS)
         methods = listed(profile, self, "methods", CONFIGS, known=CONFIGS)
         size, image, orbit, step = lens_settings(profile, self)
@@ -352,12 +313,10 @@ class MethodsCompared(Experiment):
         frames = timed_frames(profile, self)
         runs = []
         for scene_name in wanted:
-            setup = SETUPS[scene_name]
-            lens = {"appearance": comparable_appearance(setup)} if comparable_appearance(setup) else {}
-            spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data, **lens)
+            spec = lens_scene(scene_name, image, size=size, real_data=profile.real_data,
+                              appearance=comparable_appearance(SETUPS[scene_name]))  # None: the scene's own
             views = lens_views(scene_name, orbit)
-            mode = spec["lenses"][0]["appearance"]["mode"]
-            tags = scene_tags(scene_name, image_size=image, lens_mode=mode)
+            tags = scene_tags(scene_name, image_size=image, lens_mode=spec["lenses"][0]["appearance"]["mode"])
             truth = truth_run(self.name, scene_name, spec, views, step, tags, occluded="no")
             runs.append(truth)
             runs += [lens_run(self.name, f"{scene_name}.{method}", spec, views, method, frames,
@@ -398,10 +357,10 @@ class MethodsCompared(Experiment):
                                  names={"occluded": "occluder", "count_fragments_shaded": "fragments shaded",
                                         "count_rays_occluded": "rays occluded"},
                                  csv_name="methods_runs.csv", caption=frames_caption(headline(tests))))
-        return out + raycast_not_measurable(CONFIGS) + _refused(tests)
+        return out + raycast_not_measurable(CONFIGS) + _refused()
 
 
-def _refused(tests):
+def _refused():
     """The note that the foot's isosurface lens could not be compared as it is."""
     replaced = [name for name in TABLE1_SCENES if comparable_appearance(SETUPS[name])]
     if not replaced:

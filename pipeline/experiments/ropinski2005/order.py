@@ -1,21 +1,17 @@
-"""``ropinski2005-order`` (E9): the region passes back to front (the paper) against front to back.
-
-The paper's order (§4, note 004 §2.8), the ablation note 004 §4.2 E9 proposes (``gl-raycast``'s
-``region_order``) and the scenes where it should pay: :attr:`Order.description`.
-"""
+"""``ropinski2005-order`` (E9): the region passes back to front (the paper) against front to back."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, counted, median_count, time_ratio
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, counted, counts_compared,
+                                              measured, median_count, time_ratio)
+from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import nonempty, numeric, text_column
+from pipeline.experiments.kit.planning import listed, timed_frames
+from pipeline.experiments.kit.results import nonempty, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, TIMED_SCALES, TIMES,
+from pipeline.experiments.ropinski2005.methods import (PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, median_ms, run_table, tests_of
@@ -56,27 +52,18 @@ def termination_rows(frame, termination):
     return frame[text_column(frame, "termination") == termination]
 
 
-def present_scenes(frame):
-    """The scenes of ``frame``'s rows, in their order; ValueError if none."""
-    return nonempty(scenes_of(frame))
-
-
 def order_difference(frame, termination, scene):
     """The largest |front-to-back − back-to-front| (``max_error`` of the front-to-back run against its reference)."""
     rows = config_rows(termination_rows(frame, termination), FRONT_TO_BACK, scene=scene)
-    values = numeric(rows, "max_error").dropna()
-    if values.empty:
-        raise ValueError(f"the front-to-back image of {scene} (early termination {termination}) was not compared "
-                         "with the back-to-front one")
-    return float(values.max())
+    return float(measured(rows, "max_error", f"the front-to-back image of {scene} (early termination {termination}) "
+                                             "was not compared with the back-to-front one").max_error.max())
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _faster(df):
     rows = termination_rows(df, "on")
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
-    for scene in present_scenes(rows):
+    for scene in nonempty(scenes_of(rows)):
         decisions[scene] = time_ratio(rows, PAPER_METHOD, FRONT_TO_BACK, resampler=resampler,
                                       at_least=STRICTLY_ABOVE_ONE, scene=scene)
         region0 = [median_count(config_rows(rows, c, scene=scene), "count_samples_region0")
@@ -91,18 +78,14 @@ def _faster(df):
 
 def _fewer_samples(df):
     rows = termination_rows(df, "on")
-    compared, wrong = [], []
-    for scene in present_scenes(rows):
-        back, front = (counted(config_rows(rows, config, scene=scene), "count_samples_region0", f"{scene} {order}")
-                       for config, order in ((PAPER_METHOD, "back to front"), (FRONT_TO_BACK, "front to back")))
-        compared.append((front / back if back else np.inf, scene, front, back))
-        if not front < back:
-            wrong.append(scene)
-    share, scene, front, back = max(compared)
-    return ClaimResult(f"front to back takes {format_number(100 * share)} % of the region₀ samples ({scene})",
-                       not wrong,
-                       "; ".join(f"{s}: {format_number(f)} of {format_number(b)}" for _, s, f, b in compared)
-                       + f"; counted, early termination at opacity {format_number(THRESHOLD)}")
+    return counts_compared(
+        nonempty(scenes_of(rows)), lambda scene: tuple(  # (front, back), counted back to front first
+            counted(config_rows(rows, config, scene=scene), "count_samples_region0", f"{scene} {order}")
+            for config, order in ((PAPER_METHOD, "back to front"), (FRONT_TO_BACK, "front to back")))[::-1],
+        fewer=True, measured=lambda share, scene: f"front to back takes {format_number(100 * share)} % of the "
+                                                  f"region₀ samples ({scene})",
+        words=lambda s, f, b: f"{s}: {format_number(f)} of {format_number(b)}",
+        extra=f"; counted, early termination at opacity {format_number(THRESHOLD)}")
 
 
 def _differ_at_most(termination, bound, how):
@@ -110,7 +93,7 @@ def _differ_at_most(termination, bound, how):
     most ``bound``; ``how`` ends the claim's note."""
     def check(df):
         differences = {scene: order_difference(df, termination, scene)
-                       for scene in present_scenes(termination_rows(df, termination))}
+                       for scene in nonempty(scenes_of(termination_rows(df, termination)))}
         scene = max(differences, key=differences.get)
         return ClaimResult(f"{format_number(differences[scene])} ({scene})",
                            all(v <= bound for v in differences.values()),
@@ -130,8 +113,7 @@ CLAIMS = (
           "off, every scene",
           _differ_at_most("off", SEAM_TOLERANCE, "; largest |front to back − back to front| over every pixel and RGBA "
                                                  "channel, early termination off"), kind="accuracy"),
-    Claim("drops-only-terminated", "With early termination on, front to back drops only what early termination "
-          "drops",
+    Claim("drops-only-terminated", "With early termination on, front to back drops only what early termination drops",
           f"max |front to back − back to front| ≤ 1 − the opacity threshold ({format_number(1 - THRESHOLD)}), every "
           "scene",
           _differ_at_most("on", 1.0 - THRESHOLD, f"; early termination at opacity {format_number(THRESHOLD)} drops at "
@@ -140,7 +122,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def order_table(tests):
     """Per scene and early termination: both orders' frame times, their ratio with its interval, samples, difference."""
     rows = []
@@ -167,11 +148,8 @@ def order_table(tests):
     return pd.DataFrame(rows)
 
 
-class Order(Experiment):
-    """Back-to-front against front-to-back region passes where region₁ or region₂ is opaque."""
-
+class Order(LensExperiment):
     name = "ropinski2005-order"
-    paper = "ropinski2005"
     title = "Region order: back to front (the paper) against front to back (E9)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "step_factor", "repeat", "min_time"})
     scales = TIMED_SCALES
@@ -189,9 +167,7 @@ class Order(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", tuple(SCENES), known=SCENES)
         size, image, orbit, step = lens_settings(profile, self)
         frames = timed_frames(profile, self)

@@ -23,12 +23,10 @@ RUN_COLUMNS = {"config": "method", "count_samples": "samples", "count_samples_re
 
 
 def tests_of(results):
-    """The runs of ``results`` that succeeded and whose ``role`` is "test"."""
     return role_rows(ok_rows(results))
 
 
 def headline(frame):
-    """The rows of ``frame`` from the headline view."""
     return frame[text_column(frame, "view") == "headline"]
 
 
@@ -39,12 +37,9 @@ def scene_by_scene(frame, chosen):
 
 
 def run_table(frame, columns, ctx, *, csv_name, timed=True, method=None, names=None, **options):
-    """The table "Every run (headline view)": ``columns`` of ``frame``'s headline rows, each linked to its run.
-
-    ``timed``: with the frame times in ms (:func:`~pipeline.experiments.kit.results.speed_points`);
-    ``method``: ``method(config)`` gives a column ``method``; ``names``: the columns' names beside
-    :data:`RUN_COLUMNS`; ``options`` go to :func:`~pipeline.experiments.kit.pages.linked_table`.
-    """
+    """The table "Every run (headline view)": ``columns`` of ``frame``'s headline rows, each linked to its run, with
+    the frame times in ms where ``timed``, a column ``method(config)`` where given, and ``names`` beside
+    :data:`RUN_COLUMNS`; ``options`` go to :func:`~pipeline.experiments.kit.pages.linked_table`."""
     rows = speed_points(headline(frame)) if timed else headline(frame)
     if method is not None:
         rows = rows.assign(method=[method(c) for c in text_column(rows, "config")])
@@ -58,31 +53,25 @@ def rounded_table(title, frame, *, digits=3, **options):
 
 
 def median_ms(rows):
-    """The median frame time of ``rows`` (their views' median frames) in milliseconds."""
     return 1e3 * numeric(rows, "time_total").median()
 
 
 def samples_ratio(lens, off):
-    """The samples taken with the lens over those without it (counted, median over the views)."""
     return median_count(lens, "count_samples") / median_count(off, "count_samples")
 
 
 def interval_columns(value, interval, name, *, ends=CI, scale=lambda v: v):
-    """``{name: value, low: …, high: …}``: a ratio and its interval's ``ends`` (NaN without one), each through
-    ``scale``."""
+    """``{name: value, low: …, high: …}`` of a ratio and its interval's ``ends`` (NaN without one), via ``scale``."""
     low, high = interval or (np.nan, np.nan)
     return {name: scale(value), ends[0]: scale(low), ends[1]: scale(high)}
 
 
 def psnr_note(row):
-    """A gallery picture's note: its PSNR against the reference."""
     return f"PSNR {format_number(getattr(row, 'psnr', np.nan))} dB"
 
 
 def overhead_figure(points, ctx, name, *, heading, caption, **options):
-    """A figure of each point's overhead (%) with its interval, one line per ``series`` of ``points``.
-
-    ``options`` go to :func:`reports.plots.lines` (``x``, its label, the title).
-    """
+    """A figure of each point's overhead (%) with its interval, one line per ``series`` of ``points``; ``options``
+    go to :func:`reports.plots.lines` (``x``, its label, the title)."""
     return [figure(ctx, name, plots.lines, points, heading=heading, caption=caption, y="overhead (%)",
                    group="series", y_range=PERCENT_CI, y_label="overhead, t(lens) / t(no lens) − 1 (%)", **options)]

@@ -1,21 +1,17 @@
-"""``ropinski2005-passes`` (E2): the segments method's frame, pass by pass.
-
-The paper gives only whole frames; what ``gl-raycast`` times and counts here: :attr:`Passes.description`.
-"""
+"""``ropinski2005-passes`` (E2): the segments method's frame, pass by pass."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
-from pipeline.experiments.kit.judging import all_of
-from pipeline.experiments.kit.model import Claim, Experiment
+from pipeline.experiments.kit.judging import all_of, milliseconds
+from pipeline.experiments.kit.model import Claim
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, frames_caption
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
-from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OPTIONS, PAPER_METHOD, RAYCAST, REGIONS, STAGES, TIMED_SCALES,
+from pipeline.experiments.kit.planning import listed, timed_frames
+from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.ropinski2005.methods import (PAPER_METHOD, REGIONS, STAGES, TIMED_SCALES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
-                                                       raycast_not_measurable)
+                                                       raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import headline, interval_columns, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import SETUPS, lens_scene, lens_views, scene_tags
 from reports import blocks, plots
@@ -37,18 +33,12 @@ def stage_share(rows, stage, *, resampler, at_most=None):
                                     resampler=resampler)
 
 
-def scene_rows(frame, scene):
-    """The rows of ``scene``; ValueError naming it if none."""
-    return nonempty(rows_matching(frame, scene, scene=scene), what=scene)
-
-
 def _geometry(df):
     resampler = intervals.Resampler()
-    scenes = list(pd.unique(text_column(df, "scene")))
-    decisions = {s: stage_share(scene_rows(df, s), "lens_geometry", resampler=resampler, at_most=GEOMETRY_SHARE)
-                 for s in scenes}
-    notes = {s: f"{format_number(1e3 * numeric(scene_rows(df, s), 'time_lens_geometry').median())} ms of "
-                f"{format_number(1e3 * numeric(scene_rows(df, s), 'time_total').median())} ms" for s in scenes}
+    rows = {scene: rows_matching(df, scene, scene=scene) for scene in scenes_of(df)}
+    decisions = {s: stage_share(r, "lens_geometry", resampler=resampler, at_most=GEOMETRY_SHARE)
+                 for s, r in rows.items()}
+    notes = {s: f"{milliseconds(r, 'time_lens_geometry')} of {milliseconds(r, 'time_total')}" for s, r in rows.items()}
     return all_of(decisions, show=as_percent, notes=notes, what="lens geometry / frame ",
                  extra="median frames of each run; the share's interval is a bootstrap over the run's own frames")
 
@@ -61,7 +51,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def stage_columns(frame):
     """The ``time_<stage>`` columns of :data:`STAGES` that ``frame`` reports, in the order the stages run."""
     return [f"time_{s}" for s in STAGES if f"time_{s}" in frame and numeric(frame, f"time_{s}").notna().any()]
@@ -70,8 +59,7 @@ def stage_columns(frame):
 def pass_table(tests):
     """Per scene: each stage's median ms and share of the frame, each region's samples and ns per sample."""
     rows = []
-    for scene in pd.unique(tests.scene):
-        here = tests[tests.scene == scene]
+    for scene, here in tests.groupby("scene", sort=False):
         total = numeric(here, "time_total").median()
         row = {"scene": scene, "frame (ms)": 1e3 * total, "rays through the lens (%)": 100 * lens_coverage(here)}
         for column in stage_columns(here):
@@ -92,8 +80,7 @@ def share_points(tests):
     """Per scene and stage (lens geometry, region₁): the share of the frame with its interval, against coverage."""
     points = []
     resampler = intervals.Resampler()
-    for scene in pd.unique(tests.scene):
-        here = tests[tests.scene == scene]
+    for scene, here in tests.groupby("scene", sort=False):
         for stage, label in (("lens_geometry", "lens geometry"), ("region1", REGIONS["region1"])):
             try:
                 decision = stage_share(here, stage, resampler=resampler)
@@ -141,11 +128,8 @@ def _pass_blocks(tests, ctx):
     return out
 
 
-class Passes(Experiment):
-    """The segments method's stages and region samples on every lens scene."""
-
+class Passes(LensExperiment):
     name = "ropinski2005-passes"
-    paper = "ropinski2005"
     title = "The lens frame pass by pass: geometry against the three region passes (E2)"
     settings = frozenset({"scenes", "volume_size", "image_size", "orbit", "step_factor", "lens_method", "repeat",
                           "min_time"})
@@ -160,9 +144,7 @@ class Passes(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
         size, image, orbit, step = lens_settings(profile, self)
         method = profile.setting(self, "lens_method", PAPER_METHOD)

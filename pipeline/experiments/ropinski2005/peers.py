@@ -12,20 +12,21 @@ Each implementation's runs are timed in a job of their own (VTK's OpenGL stack a
 one); the scenes and how overheads and images are judged: :attr:`Peers.description`.
 """
 
+from contextlib import suppress
+
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import decision_words, measured
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption, linked_table, not_measurable)
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
+                                            frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
 from pipeline.experiments.ropinski2005.methods import (LENS_SCALES, OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP,
-                                                       device_takeaways, lens_run, lens_settings)
+                                                       LensExperiment, device_takeaways, lens_run, lens_settings)
 from pipeline.experiments.ropinski2005.pages import CI, headline, interval_columns, median_ms, psnr_note
 from pipeline.experiments.ropinski2005.scenes import lens_scene, lens_views, scene_tags, without_lens
 from reports import blocks, plots
@@ -78,7 +79,6 @@ def implementation(config):
     return PEERS[config][0] if config in PEERS else RAYCAST
 
 
-# ------------------------------------------------------------------------------------------------ values
 def overhead(frame, scene, config, *, resampler):
     """time(lens) / time(no lens) of ``config``'s implementation on ``scene``, with its paired interval."""
     on = rows_matching(frame, scene, scene=scene, config=config, lens="on")
@@ -89,7 +89,6 @@ def overhead(frame, scene, config, *, resampler):
 
 
 def lens_psnr(frame, scene, config):
-    """The worst PSNR over the views of ``config``'s lens image of ``scene`` against the reference."""
     return float(measured(rows_matching(frame, scene, scene=scene, config=config, lens="on"), "psnr",
                           f"no lens image of {config} on {scene} compared with the reference").psnr.min())
 
@@ -104,10 +103,8 @@ def _accuracy(df):
     tests = df[text_column(df, "lens") == "on"] if "lens" in df else df.iloc[:0]
     values = {}
     for (scene, config), _ in tests.groupby(["scene", "config"], sort=False):
-        try:
+        with suppress(ValueError):
             values[(scene, config)] = lens_psnr(df, scene, config)
-        except ValueError:
-            continue
     if not values:
         raise ValueError("no lens image compared with the reference")
     worst = min(values, key=values.get)
@@ -125,7 +122,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def summary_table(tests):
     """Per scene and implementation: lens-off and lens-on times, the overhead with its interval, PSNR."""
     rows = []
@@ -154,14 +150,10 @@ def _takeaways(tests):
     for config in pd.unique(text_column(tests[text_column(tests, "lens") == "on"], "config")):
         words, costs = [], []
         for scene in pd.unique(text_column(tests, "scene")):
-            try:
+            with suppress(KeyError, ValueError):
                 words.append(f"{scene} {decision_words(overhead(tests, scene, config, resampler=resampler))}")
-            except (KeyError, ValueError):
-                pass
-            try:
+            with suppress(KeyError, ValueError):
                 costs.append(psnr_cost(tests, scene, config))
-            except (KeyError, ValueError):
-                pass
         costs = [c for c in costs if np.isfinite(c)]
         if words:
             accuracy = (f"; its PSNR against the reference changes by {signed(-max(costs))} to {signed(-min(costs))} "
@@ -170,12 +162,12 @@ def _takeaways(tests):
     table = summary_table(tests)
     moved = table.dropna(subset=["ms to move the lens (preparation)"]) if not table.empty else table
     if not moved.empty:
-        share = moved["ms to move the lens (preparation)"] / moved["ms, lens"]
+        ms = moved["ms to move the lens (preparation)"]
+        share = ms / moved["ms, lens"]
         out.append(f"Moving the lens costs shear-warp a reclassification and re-encoding of the volume: "
-                   f"{format_number(moved['ms to move the lens (preparation)'].min())}–"
-                   f"{format_number(moved['ms to move the lens (preparation)'].max())} ms, "
-                   f"{as_percent(share.min())}–{as_percent(share.max())} of a lens frame's time on top of it "
-                   "(the ray casters pay nothing: the lens is a uniform or two images per frame).")
+                   f"{format_number(ms.min())}–{format_number(ms.max())} ms, {as_percent(share.min())}–"
+                   f"{as_percent(share.max())} of a lens frame's time on top of it (the ray casters pay nothing: the "
+                   "lens is a uniform or two images per frame).")
     return out
 
 
@@ -193,25 +185,21 @@ def _figure(table, ctx):
                   title="What the lens costs each implementation: time and accuracy")
 
 
-class Peers(Experiment):
-    """The paper's method beside VTK's three lens mechanisms and shear-warp's pre-classified lens."""
-
+class Peers(LensExperiment):
     name = "ropinski2005-peers"
-    paper = "ropinski2005"
     title = "The lens in VTK and in shear-warp, beside the paper's method"
     settings = frozenset({"scenes", "peers", "volume_size", "image_size", "orbit", "repeat", "min_time"})
     scales = LENS_SCALES
     description = (
-        "Not in the paper. Each implementation renders each lens scene it can without and with the lens, the two "
-        "timed together in the implementation's own job: gl-raycast with the paper's segments method; VTK's GPU ray "
-        "caster with a label-map mask (the lens voxelised, a transfer function per label), cropping regions and "
-        "clipping planes where the scene allows them; the Numba shear-warp with the lens in its per-voxel "
-        "pre-classification. Early ray termination and opacity floors are off everywhere (the reference has neither, "
-        "and each implementation's own thresholds would decide the accuracy comparison). Each overhead is the "
-        "whole-frame time with the lens over without it, with its paired bootstrap interval; each image, with and "
-        "without the lens, is compared with the reference's, so the page shows what the lens itself costs in "
-        "accuracy. For shear-warp the page also gives "
-        "what a moved lens costs: its classification and encoding stages, which a lens frame re-runs."
+        "Not in the paper. Each implementation renders each lens scene it can without and with the lens, the two timed "
+        "together in the implementation's own job: gl-raycast with the paper's segments method; VTK's GPU ray caster "
+        "with a label-map mask (the lens voxelised, a transfer function per label), cropping regions and clipping "
+        "planes where the scene allows them; the Numba shear-warp with the lens in its per-voxel pre-classification. "
+        "Early ray termination and opacity floors are off everywhere (the reference has neither, and each "
+        "implementation's own thresholds would decide the accuracy comparison). Each overhead is the whole-frame time "
+        "with the lens over without it, with its paired bootstrap interval; each image, with and without the lens, is "
+        "compared with the reference's, so the page shows what the lens itself costs in accuracy. For shear-warp the "
+        "page also gives what a moved lens costs: its classification and encoding stages, which a lens frame re-runs."
     )
     claims = CLAIMS
 
@@ -266,13 +254,12 @@ class Peers(Experiment):
             if not table.empty:
                 out.append(blocks.Table(
                     "Each implementation's lens overhead and accuracy", table.round(3), csv_name="peers.csv",
-                    caption="Median whole-frame times over the views without and with the lens, timed together in "
-                            "the implementation's own job; the ratio's 95 % interval is a paired bootstrap over the "
+                    caption="Median whole-frame times over the views without and with the lens, timed together in the "
+                            "implementation's own job; the ratio's 95 % interval is a paired bootstrap over the "
                             "frames. PSNR: the worst view against the reference's image of the same scene, with and "
                             "without the lens (their difference is what the lens costs in accuracy). Moving the lens: "
-                            "shear-warp's "
-                            "classification and encoding stages, which a frame with a moved lens re-runs (the "
-                            "frames above reuse them: the lens stood still)."))
+                            "shear-warp's classification and encoding stages, which a frame with a moved lens re-runs "
+                            "(the frames above reuse them: the lens stood still)."))
                 out.append(_figure(table, ctx))
             points = speed_points(tests)
             points["implementation"] = [config_words(c) for c in text_column(points, "config")]
@@ -286,5 +273,4 @@ class Peers(Experiment):
                 lens[text_column(lens, "lens") == "on"].sort_values(["scene", "config"]), ctx, against=results,
                 label=lambda row: f"{row.scene}, {config_words(row.config)}", note=psnr_note,
                 caption="Left the image with the lens, right |it − reference|."))
-        missing = unregistered(VTK, SHEARWARP)
-        return out + not_measurable(missing)
+        return out + not_measurable(unregistered(VTK, SHEARWARP))

@@ -1,24 +1,19 @@
 """``ropinski2005-samples`` (E3): the lens leaves the samples where they were, and the regions split them.
 
 The paper (§3): "The number of samples used during rendering of each region is determined based on the
-length of the current section of the ray", so a ray takes as many samples with the lens as without.
-``gl-raycast`` counts every sample it takes (``samples``) and, for the methods that know a ray's lens
-segment, the samples of each region (``samples_region0``–``2``). With early termination off (opacity
-threshold 1, so no sample is skipped because of what was composited before it) a lens showing the
-outside appearance must take exactly the lens-off samples, by every method, and its regions must
-partition them; with the lens's own appearance only region₁'s samples may change (a clipping lens takes
-none there, an isosurface lens stops at its hit).
+length of the current section of the ray", so a ray takes as many samples with the lens as without; the runs
+and what ``gl-raycast`` counts: :attr:`Samples.description`.
 """
 
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
+from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number
-from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed
+from pipeline.experiments.kit.planning import UNTIMED, listed
 from pipeline.experiments.kit.results import numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, OPTIONS, PAPER_METHOD,
-                                                       RAYCAST, REGIONS, lens_run, lens_settings, method_name,
+from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, PAPER_METHOD, REGIONS,
+                                                       LensExperiment, lens_run, lens_settings, method_name,
                                                        raycast_not_measurable)
 from pipeline.experiments.ropinski2005.pages import headline, run_table, tests_of
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
@@ -32,25 +27,25 @@ APPEARANCES = {"none": "no lens", "outside": "lens with the outside appearance",
 """The ``appearance`` tag of each run, in words."""
 
 REGION_COLUMNS = tuple(f"count_samples_{region}" for region in ("region0", "region1", "region2"))
+REGION_WORDS = ("region₀", "region₁", "region₂")
 
 
-def _pairs(df, appearance):
-    """``[(scene, view, config, row, row_off)]``: every ``appearance`` run's view beside the lens-off run's."""
-    runs = rows_matching(df, appearance, appearance=appearance)
-    off = rows_matching(df, "the lens-off runs", appearance="none")
+def _pairs(df, appearance, control="none", by=("scene", "view"), *, missing=None):
+    """``[(scene, view, config, row, control row)]``: every ``appearance`` run's view beside the ``control`` run's
+    with the same tags ``by`` (the lens-off run's of its scene and view); ValueError saying ``missing`` if none."""
+    controls = rows_matching(df, control, appearance=control)
     pairs = []
-    for row in runs.itertuples():
-        match = off[(text_column(off, "scene") == str(row.scene)) & (text_column(off, "view") == str(row.view))]
+    for row in rows_matching(df, appearance, appearance=appearance).itertuples():
+        match = rows_matching(controls, control, **{tag: getattr(row, tag) for tag in by})
         if not match.empty:
-            pairs.append((row.scene, row.view, row.config, row, match.iloc[0]))
+            pairs.append((row.scene, row.view, row.config, row, next(match.itertuples())))
     if not pairs:
-        raise ValueError(f"no {APPEARANCES[appearance]} run beside a lens-off run of its scene")
+        raise ValueError(missing or f"no {APPEARANCES[appearance]} run beside a lens-off run of its scene")
     return pairs
 
 
 def _worst(wrong, words, otherwise):
-    """The largest of ``wrong``, ``(size, detail, config, scene, view)`` tuples, as ``words(size, detail)`` and where;
-    ``otherwise`` where none."""
+    """The largest ``(size, detail, config, scene, view)`` of ``wrong`` in ``words(size, detail)``, or ``otherwise``."""
     if not wrong:
         return otherwise
     size, detail, config, scene, view = max(wrong)
@@ -65,7 +60,6 @@ def _count(row, column):
 
 
 def _invariant(df):
-    """Every outside-appearance run took exactly its scene's lens-off samples."""
     unequal, detail = [], {}
     for scene, view, config, row, off in _pairs(df, "outside"):
         lens, none = _count(row, "count_samples"), _count(off, "count_samples")
@@ -87,7 +81,6 @@ def _region_counts(row):
 
 
 def _partition(df):
-    """With the outside appearance, the regions' samples sum to the lens-off samples."""
     checked, wrong = [], []
     for scene, view, config, row, off in _pairs(df, "outside"):
         regions = _region_counts(row)
@@ -105,27 +98,19 @@ def _partition(df):
 
 
 def _outside_unchanged(df):
-    """With the lens's own appearance, region₀ and region₂ take the samples they take with the outside one."""
-    outside = rows_matching(df, "the outside-appearance runs", appearance="outside")
+    missing = "no lens-appearance run beside an outside-appearance run, both counting regions"
     checked, wrong, inside = 0, [], []
-    for row in rows_matching(df, "the lens-appearance runs", appearance="lens").itertuples():
-        match = outside[(text_column(outside, "scene") == str(row.scene))
-                        & (text_column(outside, "view") == str(row.view))
-                        & (text_column(outside, "config") == str(row.config))]
-        own = _region_counts(row)
-        if match.empty or own is None:
-            continue
-        control = _region_counts(next(match.itertuples()))
-        if control is None:
+    for scene, view, config, row, match in _pairs(df, "lens", "outside", ("scene", "view", "config"), missing=missing):
+        own, control = _region_counts(row), _region_counts(match)
+        if own is None or control is None:
             continue
         checked += 1
-        inside.append(f"{row.scene} {row.config} region₁ {format_number(own[1], 4)} of "
-                      f"{format_number(control[1], 4)}")
+        inside.append(f"{scene} {config} region₁ {format_number(own[1], 4)} of {format_number(control[1], 4)}")
         for index in (0, 2):
             if own[index] != control[index]:
-                wrong.append((abs(own[index] - control[index]), f"region{index}", row.config, row.scene, row.view))
+                wrong.append((abs(own[index] - control[index]), f"region{index}", config, scene, view))
     if not checked:
-        raise ValueError("no lens-appearance run beside an outside-appearance run, both counting regions")
+        raise ValueError(missing)
     measured = _worst(wrong, lambda difference, region: f"{region} differs by {format_number(difference, 4)} samples",
                       f"region₀ and region₂ equal on {checked} views")
     return ClaimResult(measured, not wrong, "; ".join(inside))
@@ -145,7 +130,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def sample_table(tests):
     """Per scene and method: samples without the lens, with the outside appearance and with its own, by region."""
     rows = []
@@ -158,7 +142,7 @@ def sample_table(tests):
         for appearance in ("outside", "lens"):
             chosen = part[part.appearance == appearance]
             row[APPEARANCES[appearance]] = numeric(chosen, "count_samples").median()
-            for column, region in zip(REGION_COLUMNS, ("region₀", "region₁", "region₂")):
+            for column, region in zip(REGION_COLUMNS, REGION_WORDS):
                 if column in chosen:
                     row[f"{region}, {appearance}"] = numeric(chosen, column).median()
         rows.append(row)
@@ -180,11 +164,8 @@ def _region_figure(tests, ctx):
                    value_label="samples per frame (millions)", title="Samples per region, the paper's method")]
 
 
-class Samples(Experiment):
-    """Samples with and without the lens, and per region, counted by every lens method."""
-
+class Samples(LensExperiment):
     name = "ropinski2005-samples"
-    paper = "ropinski2005"
     title = "Sample counts with and without the lens, region by region (E3)"
     settings = frozenset({"scenes", "methods", "volume_size", "image_size", "orbit", "step_factor"})
     scales = LENS_SCALES
@@ -199,9 +180,7 @@ class Samples(Experiment):
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
         methods = listed(profile, self, "methods", CONFIGS, known=METHODS)
         size, image, orbit, step = lens_settings(profile, self)
@@ -224,7 +203,6 @@ class Samples(Experiment):
     def report(self, results, ctx):
         tests = tests_of(results)
         out = [claim_takeaways(ctx)]
-        methods = sorted(set(text_column(tests, "config")) - {OFF}) if not tests.empty else list(CONFIGS)
         if not tests.empty:
             out += _region_figure(tests, ctx)
             out.append(blocks.Table("Samples per frame (headline view)", sample_table(tests), csv_name="samples.csv",
@@ -232,6 +210,5 @@ class Samples(Experiment):
                                             "ray's span. Region columns only for the methods that count regions."))
             out.append(run_table(tests, ["scene", "method", "appearance", "count_samples", *REGION_COLUMNS,
                                          "count_lens_rays"], ctx, timed=False, method=method_name,
-                                 names={REGION_COLUMNS[0]: "region₀", REGION_COLUMNS[1]: "region₁",
-                                        REGION_COLUMNS[2]: "region₂"}, csv_name="samples_runs.csv"))
-        return out + raycast_not_measurable(methods)
+                                 names=dict(zip(REGION_COLUMNS, REGION_WORDS)), csv_name="samples_runs.csv"))
+        return out + raycast_not_measurable(sorted(set(text_column(tests, "config"))) if not tests.empty else CONFIGS)

@@ -10,10 +10,6 @@ object axes along world axes), so a fraction ``f`` of edge ``e`` is at world ``f
 The headline view (30° yaw, 20° pitch of the upright volume, :func:`~pipeline.experiments.kit.planning.headline_view`)
 looks from the corner ``(+x, −y, +z)`` of these z-up volumes: "front" below means ``−y`` and ``+x``,
 "top" ``+z``.
-
-Each setup's lens can be resized, moved or given another appearance by keyword (:func:`lens_scene`),
-for the sweeps that build on these scenes; :func:`without_lens` and :func:`outside_appearance` give
-the two controls every lens experiment compares with.
 """
 
 import copy
@@ -27,27 +23,11 @@ from pipeline.experiments.kit.planning import dataset_view, headline_view, phant
 
 @dataclass(frozen=True)
 class LensSetup:
-    """One lens scene: the data set, its outside appearance and its lens (fractions of the box).
-
-    Parameters
-    ----------
-    dataset, preset : str
-        The volume and its preset (the outside appearance: context DVR).
-    shape : {"sphere", "box"}
-    center : tuple of 3 floats
-        Offset of the lens centre from the box centre, in fractions of each edge.
-    appearance : dict
-        The lens's ``appearance`` entry (scene-file format).
-    radius : float, optional
-        Sphere: fraction of the longest edge.
-    size : tuple of 3 floats, optional
-        Box: fractions of each edge.
-    rotate_y : float
-        Box: degrees about the world's y axis, about the lens centre.
-    paper_row : str, optional
-        The row of the paper's Table 1 this scene stands for (``None``: not in Table 1).
-    what : str
-        The paper's figure or row, in words.
+    """One lens scene: the data set and its preset (the outside appearance: context DVR), and its lens, a
+    ``"sphere"`` or a ``"box"`` placed in fractions of the box (``center``, ``radius``, ``size``: the module's
+    conventions) with its ``appearance`` entry (scene-file format); a box lens turns ``rotate_y`` degrees about
+    the world's y axis, about its centre. ``paper_row``: the row of the paper's Table 1 this scene stands for
+    (``None``: not in Table 1); ``what``: the paper's figure or row, in words.
     """
 
     dataset: str
@@ -89,8 +69,7 @@ SETUPS = {
 """The lens scenes, keyed by scene name (note 004 §5; the real CT head beside the skull stand-in)."""
 
 CUTAWAYS = {
-    "seismic-cutaway": LensSetup("seismic", "layers", "box", (0.0, -0.5, 0.0), {"mode": "clip"},
-                                 size=(1.2, 1.0, 1.2),
+    "seismic-cutaway": LensSetup("seismic", "layers", "box", (0.0, -0.5, 0.0), {"mode": "clip"}, size=(1.2, 1.0, 1.2),
                                  what="a box clip lens along the axes removing the front half of the cube (y < 0): "
                                       "one face cuts the box, so cropping regions and one clipping plane render "
                                       "it too (the peers' common ground)"),
@@ -130,16 +109,8 @@ def _vector(values, name, length=3):
 
 
 def lens_entry(setup, box, *, radius=None, center=None, size=None, rotate_y=None, appearance=None):
-    """The ``lenses`` entry of ``setup`` in a box of world extent ``box``; keywords replace its fields.
-
-    Parameters
-    ----------
-    setup : LensSetup
-    box : tuple of 3 floats
-        The volume's world extent (:func:`extent`).
-    radius, center, size, rotate_y, appearance
-        As :class:`LensSetup`'s fields (fractions of the box); ``None`` keeps the setup's.
-    """
+    """The ``lenses`` entry of ``setup`` in a box of world extent ``box`` (:func:`extent`); the keywords replace
+    :class:`LensSetup`'s fields (fractions of the box), ``None`` keeps the setup's."""
     center = _vector(setup.center if center is None else center, "center")
     entry = {"shape": setup.shape, "center": [round(c * e, 6) for c, e in zip(center, box)],
              "appearance": copy.deepcopy(setup.appearance if appearance is None else appearance)}
@@ -164,7 +135,6 @@ def lens_entry(setup, box, *, radius=None, center=None, size=None, rotate_y=None
 
 
 def setup_of(name):
-    """The :class:`LensSetup` of scene ``name``; an error listing the scenes if unknown."""
     setups = {**SETUPS, **CUTAWAYS}
     if name not in setups:
         raise InputError(f"unknown lens scene {name!r}; known: {', '.join(setups)}")
@@ -172,50 +142,31 @@ def setup_of(name):
 
 
 def scene_tags(name, **more):
-    """The tags of a run of lens scene ``name``: the scene, its data set and preset, then ``more``."""
     setup = setup_of(name)
     return {"scene": name, "dataset": setup.dataset, "preset": setup.preset, **more}
 
 
-def lens_scene(name, image, *, size, real_data=None, width=None, **lens):
-    """The scene mapping of lens scene ``name``: ``image`` pixels high, phantoms of ``size`` voxels.
-
-    Parameters
-    ----------
-    name : str
-        A key of :data:`SETUPS`.
-    image : int
-        Image height (and width unless ``width``).
-    size : int
-        Voxels along a phantom's longest edge (a real scan keeps its own grid).
-    real_data : str, optional
-        The real-data folder (the profile's ``real_data``; ``None``: the default).
-    **lens
-        ``radius``, ``center``, ``size`` (as ``box_size``), ``rotate_y``, ``appearance``:
-        :func:`lens_entry`'s keywords.
-    """
+def lens_scene(name, image, *, size, real_data=None, **lens):
+    """The scene mapping of lens scene ``name`` (:func:`setup_of`): ``image`` pixels high and wide, phantoms of
+    ``size`` voxels along the longest edge (a real scan keeps its own grid) and the real scans from ``real_data``
+    (the profile's; ``None``: the default). ``lens`` are :func:`lens_entry`'s keywords, a box lens's ``size`` as
+    ``box_size``."""
     setup = setup_of(name)
     if "box_size" in lens:
         lens["size"] = lens.pop("box_size")
     volume = phantom(setup.dataset, size, preset=setup.preset)
-    spec = scene(name, image, volumes=[volume], width=width)
+    spec = scene(name, image, volumes=[volume])
     spec["lenses"] = [lens_entry(setup, extent(setup.dataset, size, real_data=real_data), **lens)]
     return spec
 
 
 def without_lens(scene_spec):
-    """``scene_spec`` with its lens removed (the lens-off control)."""
-    out = copy.deepcopy(scene_spec)
-    out.pop("lenses", None)
-    return out
+    return {key: copy.deepcopy(value) for key, value in scene_spec.items() if key != "lenses"}
 
 
 def outside_appearance(scene_spec):
-    """``scene_spec`` with the lens showing the outside appearance: ``dvr`` with the volume's own preset.
-
-    Its image must be the lens-off image: the lens then changes only which region each sample is
-    composited in (seams, sample counts), never a colour.
-    """
+    """``scene_spec`` with the lens showing the outside appearance, ``dvr`` with the volume's own preset: its image
+    must be the lens-off image, the lens changing only which region each sample is composited in, never a colour."""
     if not scene_spec.get("lenses"):
         raise InputError(f"scene {scene_spec.get('name')!r} has no lens to give the outside appearance")
     out = copy.deepcopy(scene_spec)

@@ -1,22 +1,16 @@
-"""``ropinski2005-table1`` (E1): Table 1's frame rates without and with the lens, as overheads beside the paper's.
-
-Which scenes are rendered, how they are timed and what each overhead is judged against:
-:attr:`Table1.description`.
-"""
+"""``ropinski2005-table1`` (E1): Table 1's frame rates without and with the lens, as overheads beside the paper's."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-
 from pipeline.experiments.kit.judging import all_of, decision_words
-from pipeline.experiments.kit.model import Claim, Experiment
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number,
-                                            frames_caption)
-from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames
+from pipeline.experiments.kit.model import Claim
+from pipeline.experiments.kit.pages import as_percent, as_ratio, claim_takeaways, figure, format_number, frames_caption
+from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import nonempty, numeric, rows_matching, text_column
-from pipeline.experiments.ropinski2005.methods import (OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP, TIMES,
-                                                       device_takeaways, lens_coverage, lens_run, method_name,
+from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMES, LensExperiment, device_takeaways,
+                                                       lens_coverage, lens_run, lens_settings, method_name,
                                                        raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (headline, interval_columns, median_ms, run_table, samples_ratio,
                                                      tests_of)
@@ -26,9 +20,7 @@ from pipeline.experiments.ropinski2005.tables import (PAPER_DEVICE, PAPER_SIZES,
 from reports import blocks, plots
 
 
-# ------------------------------------------------------------------------------------------- rows and ratios
 def image_sizes(frame):
-    """The image sizes (pixels per side) of ``frame``'s rows, ascending."""
     return sorted(int(s) for s in numeric(frame, "image_size").dropna().unique())
 
 
@@ -50,17 +42,6 @@ def drop(ratio):
     return 1.0 - 1.0 / ratio
 
 
-def _paper_scenes(frame):
-    return nonempty([s for s in scenes_of(frame) if s in SETUPS and SETUPS[s].paper_row], what="a scene of Table 1")
-
-
-def coverage_note(frame, scene, image):
-    """``"lens on 18 % of the rays"`` (rays meeting lens ∩ box, counted; empty where not counted)."""
-    share = lens_coverage(lens_rows(frame, scene, image, "on"))
-    return f"lens on {as_percent(share)} of the rays" if np.isfinite(share) else ""
-
-
-# ------------------------------------------------------------------------------------------------- claims
 def _overhead_claim(df, which):
     """Every Table 1 scene's overhead at our smaller (``which`` 0) or larger (-1) image within the paper's."""
     sizes = image_sizes(df)
@@ -69,13 +50,14 @@ def _overhead_claim(df, which):
     image, paper_image = sizes[which], PAPER_SIZES[which]
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
-    for scene in _paper_scenes(df):
+    for scene in nonempty([s for s in scenes_of(df) if s in SETUPS and SETUPS[s].paper_row], what="a scene of Table 1"):
         row = SETUPS[scene].paper_row
         bound = paper_time_ratio(row, paper_image)
         decisions[scene] = overhead(df, scene, image, resampler=resampler, at_most=bound)
-        notes[scene] = ", ".join(filter(None, [
-            f"fps drop {as_percent(drop(decisions[scene].value))}, paper {as_ratio(bound)} "
-            f"= {as_percent(paper_drop(row, paper_image))} ({row}, {paper_image}²)", coverage_note(df, scene, image)]))
+        share = lens_coverage(lens_rows(df, scene, image, "on"))  # rays meeting lens ∩ box, counted
+        notes[scene] = (f"fps drop {as_percent(drop(decisions[scene].value))}, paper {as_ratio(bound)} = "
+                        f"{as_percent(paper_drop(row, paper_image))} ({row}, {paper_image}²)"
+                        + (f", lens on {as_percent(share)} of the rays" if np.isfinite(share) else ""))
     return all_of(decisions, notes=notes, what=f"time with / without the lens at {image}² ",
                  extra=f"{TIMES}; lens and no lens timed together, frame against frame")
 
@@ -100,7 +82,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def overhead_table(tests):
     """Per scene and image size: the paper's frame rates and drop beside our frame times, ratio and drop."""
     sizes = image_sizes(tests)
@@ -132,15 +113,11 @@ def overhead_table(tests):
 
 def _overhead_figure(table, ctx):
     """Fps drop against image size, ours with its interval beside the paper's, one series per data set."""
-    points = []
-    for ours in table.to_dict("records"):
-        points.append({"series": f"{ours['scene']} (ours)", "image": ours["image (px)"],
-                       "drop": ours["ours fps drop (%)"], "low": 100 * drop(ours["ratio 95 % CI low"]),
-                       "high": 100 * drop(ours["ratio 95 % CI high"])})
-    for row in TABLE1:
-        for image in PAPER_SIZES:
-            points.append({"series": f"{row} (paper)", "image": image, "drop": 100 * paper_drop(row, image),
-                           "low": np.nan, "high": np.nan})
+    points = [{"series": f"{ours['scene']} (ours)", "image": ours["image (px)"], "drop": ours["ours fps drop (%)"],
+               "low": 100 * drop(ours["ratio 95 % CI low"]), "high": 100 * drop(ours["ratio 95 % CI high"])}
+              for ours in table.to_dict("records")]
+    points += [{"series": f"{row} (paper)", "image": image, "drop": 100 * paper_drop(row, image), "low": np.nan,
+                "high": np.nan} for row in TABLE1 for image in PAPER_SIZES]
     return figure(ctx, "table1-overhead", plots.lines, pd.DataFrame(points), heading="Lens overhead against image size",
                   caption="Ours: the fps drop implied by the median frame-time ratio, bars its 95 % bootstrap interval "
                           "(lens and no lens timed together); paper: Table 1's drop at 512² and 1024² (no interval "
@@ -154,9 +131,7 @@ def _overhead_figure(table, ctx):
 def _other_takeaways(tests):
     """The overhead of each scene without a Table 1 row (the engine), in words: measured, not judged."""
     sentences = []
-    for scene in scenes_of(tests):
-        if SETUPS[scene].paper_row:
-            continue
+    for scene in (s for s in scenes_of(tests) if not SETUPS[s].paper_row):
         try:
             words = [f"{image}² {decision_words(overhead(tests, scene, image, resampler=intervals.Resampler()))}"
                      for image in image_sizes(tests)]
@@ -178,21 +153,18 @@ def _gallery(tests, ctx):
         on, off = (rows_matching(shown, scene, scene=scene, lens=lens) for lens in ("on", "off"))
         if on.empty:
             continue
-        row = on.iloc[0]
-        extra = (("no lens", ctx.image(off.png.iloc[0])),) if not off.empty else ()
+        row, extra = on.iloc[0], ()
         note = f"{format_number(row.time_total * 1e3)} ms with the lens"
         if not off.empty:
+            extra = (("no lens", ctx.image(off.png.iloc[0])),)
             note += f", {format_number(off.time_total.iloc[0] * 1e3)} ms without"
         gallery.items.append(blocks.GalleryItem(f"{scene}: {SETUPS[scene].what}", ctx.image(row.png), label="lens",
                                                 extra=extra, note=note))
     return gallery
 
 
-class Table1(Experiment):
-    """Table 1: every lens scene without and with its lens at two image sizes, overheads beside the paper's."""
-
+class Table1(LensExperiment):
     name = "ropinski2005-table1"
-    paper = "ropinski2005"
     title = "Table 1: frame rates without and with the lens (E1)"
     settings = frozenset({"scenes", "volume_size", "image_sizes", "orbit", "step_factor", "lens_method", "repeat",
                           "min_time"})
@@ -200,30 +172,25 @@ class Table1(Experiment):
               "default": {"volume_size": 128, "image_sizes": [256, 512], "orbit": 0},
               "full": {"volume_size": 256, "image_sizes": list(PAPER_SIZES), "orbit": 4}}
     description = (
-        "The paper's only measurement: frame rates of three 256³ data sets (seismic, skull, foot) at 512² and "
-        "1024², without and with the lens, on a GeForce 6800; lens shapes and appearances per row are not given. "
-        "Here gl-raycast's single-pass caster renders each lens scene of note 004 §5 (the seismic cube with a "
-        "spherical clipping lens sticking out of its front top corner, the skull with a spherical transparency "
-        "lens, the foot with a spherical bone-isosurface lens over the metatarsals, the real CT head in the "
-        "skull's row, and the engine of Fig. 1 with its rotated cuboid transparency lens) without the lens and "
-        "with it (the paper's segments method: lens entry and exit images, three region passes back to front), "
-        "at two image sizes, from the headline view (30° yaw, 20° pitch; at full scale around an orbit too). The "
-        "four runs of a scene are timed together, frame against frame; each overhead, whole-frame time with the "
-        "lens over time without it (the median over the views), is judged with its paired bootstrap interval against "
-        "the paper's fps(no lens) / fps(lens) of its row: our smaller image against the paper's 512², our "
-        "larger against its 1024² (the same sizes at full scale). A 2005 GPU's frame rates do not transfer; "
-        "the overhead, a ratio on one machine, does."
+        "The paper's only measurement: frame rates of three 256³ data sets (seismic, skull, foot) at 512² and 1024², "
+        "without and with the lens, on a GeForce 6800; lens shapes and appearances per row are not given. Here "
+        "gl-raycast's single-pass caster renders each lens scene of note 004 §5 (the seismic cube with a spherical "
+        "clipping lens sticking out of its front top corner, the skull with a spherical transparency lens, the foot "
+        "with a spherical bone-isosurface lens over the metatarsals, the real CT head in the skull's row, and the "
+        "engine of Fig. 1 with its rotated cuboid transparency lens) without the lens and with it (the paper's "
+        "segments method: lens entry and exit images, three region passes back to front), at two image sizes, from the "
+        "headline view (30° yaw, 20° pitch; at full scale around an orbit too). The four runs of a scene are timed "
+        "together, frame against frame; each overhead, whole-frame time with the lens over time without it (the median "
+        "over the views), is judged with its paired bootstrap interval against the paper's fps(no lens) / fps(lens) of "
+        "its row: our smaller image against the paper's 512², our larger against its 1024² (the same sizes at full "
+        "scale). A 2005 GPU's frame rates do not transfer; the overhead, a ratio on one machine, does."
     )
     claims = CLAIMS
 
-    def runs(self, profile):
-        if not (is_registered(RAYCAST) and accepts(RAYCAST, *OPTIONS)):
-            return []
+    def lens_runs(self, profile):
         wanted = listed(profile, self, "scenes", tuple(SETUPS), known=SETUPS)
-        size = profile.setting(self, "volume_size", profile.volume_size)
+        size, _, orbit, step = lens_settings(profile, self, orbit=1)
         sizes = sorted(int(s) for s in profile.setting(self, "image_sizes", [profile.image_size]))
-        orbit = int(profile.setting(self, "orbit", 1))
-        step = profile.setting(self, "step_factor", STEP)
         method = profile.setting(self, "lens_method", PAPER_METHOD)
         frames = timed_frames(profile, self)
         runs = []
@@ -252,12 +219,11 @@ class Table1(Experiment):
                     "Table 1 beside ours: frame times and the lens overhead", table.round(3),
                     csv_name="table1_overhead.csv",
                     caption="Ours: median whole-frame times over the views, with the lens (the paper's method) and "
-                            "without, timed together; the time ratio's 95 % interval is a paired bootstrap over "
-                            "the frames. The fps drop is 1 − t(no lens) / t(lens), the paper's 1 − fps(lens) / "
-                            "fps(no lens). Our smaller image stands beside the paper's 512², our larger beside its "
-                            "1024². Rays through the lens: rays meeting lens ∩ box (counted by the caster); "
-                            "samples: all samples taken with the lens over without it (a clip lens skips its "
-                            "own)."))
+                            "without, timed together; the time ratio's 95 % interval is a paired bootstrap over the "
+                            "frames. The fps drop is 1 − t(no lens) / t(lens), the paper's 1 − fps(lens) / fps(no "
+                            "lens). Our smaller image stands beside the paper's 512², our larger beside its 1024². "
+                            "Rays through the lens: rays meeting lens ∩ box (counted by the caster); samples: all "
+                            "samples taken with the lens over without it (a clip lens skips its own)."))
                 out.append(_overhead_figure(table, ctx))
             out.append(run_table(tests, ["scene", "image_size", "method", "time_ms", "time_ms_min", "time_ms_max",
                                          "count_samples", "count_lens_rays", "count_rays"], ctx, method=method_name,

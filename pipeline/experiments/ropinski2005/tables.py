@@ -1,4 +1,4 @@
-"""The paper's own numbers and statements: Table 1's frame rates, the overheads they imply, the rest in words."""
+"""The paper's own numbers: Table 1's frame rates and the overheads they imply."""
 
 PAPER_DEVICE = "GeForce 6800 (256 MB; printed \"FX 6800\"), Pentium 4 3 GHz, 256³ volumes, OpenGL fragment programs"
 """Where Table 1 was measured (note 004 §3.1)."""
@@ -47,19 +47,3 @@ def derived_table():
                     f"{image}² time ratio": round(paper_time_ratio(row, image), 3)}
         rows.append(out)
     return rows
-
-
-STATEMENTS = [
-    {"claim": "the main pass needs no per-sample lens test: no extra texture fetch, no depth comparison",
-     "source": "§2, §3 (against Weiskopf et al. 2003)", "paper's number": "not measured (E4)"},
-    {"claim": "early-z stays on, because fragment depth is never written", "source": "§3",
-     "paper's number": "not measured (E4)"},
-    {"claim": "the samples per region follow the segment's length: as many samples with the lens as without",
-     "source": "§3", "paper's number": "not measured (E3)"},
-    {"claim": "early ray termination and empty-space skipping keep working", "source": "§3",
-     "paper's number": "not measured"},
-    {"claim": "applying the lens costs 2.8 % to 34.5 % of the frame rate",
-     "source": "Table 1 (the drops computed from its frame rates)",
-     "paper's number": "2.8–20.3 % at 512², 7.4–34.5 % at 1024²"},
-]
-"""What the paper states about its method's cost (note 004 §1, §2.10), with what it measured of it."""
