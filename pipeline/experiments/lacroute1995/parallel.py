@@ -1,9 +1,4 @@
-"""``lacroute1995-parallel`` (E16, E17; Ch. 6): speed-up with workers, the four task assignments and the task size.
-
-The CT head stand-in rendered with 1, 2, … workers (as many as this machine has), each of the thesis's
-schedules at the most workers, and a sweep of task sizes; load imbalance from the samples each
-worker composited.
-"""
+"""``lacroute1995-parallel`` (E16, E17; Ch. 6): speed-up with workers, the four task assignments and the task size."""
 
 import json
 from pathlib import Path
@@ -19,8 +14,7 @@ from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, 
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
 from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
 
 SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous")
@@ -28,9 +22,6 @@ SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous
 
 DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE = "round-robin-steal", 8
 """The shearwarp backend's defaults (the agreed interface)."""
-
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (the parallel kernels and tables), not the serial Python around them."""
 
 
 def worker_imbalance(record_path, view):
@@ -69,8 +60,6 @@ TABLE_6_4_ORDER = tuple(sorted(tables.TABLE_6_4, key=lambda schedule: tables.TAB
 
 
 class Parallel(Experiment):
-    """Ch. 6: speed-up with workers, the four task assignments and the task size."""
-
     name = "lacroute1995-parallel"
     paper = "lacroute1995"
     title = "Multiprocessor rendering: speed-up, load balancing and task size (E16, E17)"
@@ -189,7 +178,8 @@ class Parallel(Experiment):
             out.append(figure(ctx, "task-size", plots.lines, tasks, heading="Frame time against the task size",
                               caption=f"{int(frame.workers.max())} workers, round robin with stealing.",
                               x="task_size", y="time_ms", group="volume", y_range=("time_ms_min", "time_ms_max"),
-                              log_x=True, title=_task_title(ok),
+                              log_x=True, title=title_or(lambda d: f"Task size: {_task_u(d).measured}", ok,
+                                                         "Frame time against the task size"),
                               x_label="task size (intermediate-image scanlines per task)",
                               y_label="median frame time (ms)"))
         # A run whose workers had fewer free cores than threads timed the machine: said on its row.
@@ -210,26 +200,18 @@ class Parallel(Experiment):
 
 def _speedup_figure(speed, ok, ctx):
     """Speed-up over one worker against the workers, per volume size, with linear speed-up as a guide."""
-    speed["speed-up"] = np.nan
-    for n, part in speed.groupby("volume_size"):
-        one = part[part.workers == 1]
-        if one.empty:
-            continue
-        t1 = float(one.time_ms.iloc[0])
-        speed.loc[part.index, "speed-up"] = t1 / part.time_ms
-        speed.loc[part.index, "speed-up low"] = t1 / part.time_ms_max
-        speed.loc[part.index, "speed-up high"] = t1 / part.time_ms_min
+    t1 = speed.volume_size.map(speed[speed.workers == 1].groupby("volume_size").time_ms.first())
+    for column, time in (("speed-up", "time_ms"), ("speed-up low", "time_ms_max"), ("speed-up high", "time_ms_min")):
+        speed[column] = t1 / speed[time]
     speed["volume"] = [f"{int(n)}³" for n in speed.volume_size]
     ps = np.array(sorted(speed.workers.unique()), float)
     return figure(ctx, "speedup", plots.lines, speed, heading="Speed-up against workers",
                   caption="Bars from the fastest and slowest timed frames; grey: linear speed-up.",
                   x="workers", y="speed-up", group="volume", y_range=("speed-up low", "speed-up high"),
-                  title=_speedup_title(ok), x_label="workers (threads)", y_label="speed-up over one worker (×)",
+                  title=title_or(lambda d: f"Efficiency: {_speedup(d).measured}", ok,
+                                 "Speed-up against the number of workers"),
+                  x_label="workers (threads)", y_label="speed-up over one worker (×)",
                   guides=(("linear", ps, ps),))
-
-
-def _row_imbalance(row):
-    return worker_imbalance(row.get("record"), row.get("view"))
 
 
 def _at_most_workers(df, **match):
@@ -328,7 +310,7 @@ def _task_u(df):
 
 def _imbalance_text(row):
     try:
-        return as_percent(_row_imbalance(row))
+        return as_percent(worker_imbalance(row.get("record"), row.get("view")))
     except ValueError:
         return "not reported"
 
@@ -342,7 +324,8 @@ def _schedule_rows(df, schedule):
 
 
 def _schedule_imbalance(rows):
-    return {int(float(row["volume_size"])): _row_imbalance(row) for _i, row in rows.iterrows()}
+    return {int(float(row["volume_size"])): worker_imbalance(row.get("record"), row.get("view"))
+            for _i, row in rows.iterrows()}
 
 
 # With stealing, a worker's share of the samples follows which thread ran when: a starved run's shares
@@ -366,11 +349,3 @@ def _imbalance_order(df):
                                    for n in sizes),
                          bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")
     return judging.unless_starved(result, pd.concat([good_rows, bad_rows]), holding_survives=False)
-
-
-def _speedup_title(ok):
-    return title_or(lambda d: f"Efficiency: {_speedup(d).measured}", ok, "Speed-up against the number of workers")
-
-
-def _task_title(ok):
-    return title_or(lambda d: f"Task size: {_task_u(d).measured}", ok, "Frame time against the task size")

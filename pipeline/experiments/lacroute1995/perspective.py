@@ -1,9 +1,4 @@
-"""``lacroute1995-perspective`` (E21, §4.2.5): perspective image quality as the field of view widens.
-
-The same data set from the same direction at fields of view of 15° to 90° (the eye closer as the
-field widens), each shear-warp image against the reference ray caster with the same camera, beside
-the parallel projection of the same view.
-"""
+"""``lacroute1995-perspective`` (E21, §4.2.5): perspective image quality as the field of view widens."""
 
 import numpy as np
 import pandas as pd
@@ -16,14 +11,11 @@ from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaw
 from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, volume_and_image_size
 from pipeline.experiments.kit.results import FOOTPRINT_ALPHA, footprint_psnr, numeric, ok_rows, read_exr, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing, truth_and_shearwarp
 from reports import plots
 
 
 class PerspectiveQuality(Experiment):
-    """§4.2.5: image quality against the reference as the field of view widens."""
-
     name = "lacroute1995-perspective"
     paper = "lacroute1995"
     title = "Perspective artifacts: quality against the field of view (E21, §4.2.5)"
@@ -109,8 +101,8 @@ class PerspectiveQuality(Experiment):
             guides = (("parallel projection", xs, np.full(2, float(parallel.footprint_psnr.iloc[0]))),)
         out.append(figure(ctx, "psnr-fov", plots.lines, perspective, heading="Accuracy against the field of view",
                           caption="The eye comes closer as the field widens (the camera frames the volume).",
-                          x="fov", y="footprint_psnr", group="series", title=_title(ok),
-                          x_label="vertical field of view (degrees)",
+                          x="fov", y="footprint_psnr", group="series", x_label="vertical field of view (degrees)",
+                          title=title_or(lambda d: f"PSNR {_falls(d).measured}", ok, "PSNR against the field of view"),
                           y_label="PSNR against the reference over the object's footprint (dB)", guides=guides))
         out.append(difference_gallery(
             "Each field of view and its difference from the reference", rows, ctx, against=results,
@@ -169,7 +161,3 @@ def _like_parallel(df):
     return ClaimResult(f"{format_number(gap)} dB ({narrow.fov:g}° against parallel)", bool(abs(gap) <= 2.0),
                        f"over the footprint: parallel {format_number(parallel.footprint_psnr.iloc[0])} dB, "
                        f"{narrow.fov:g}° {format_number(narrow.footprint_psnr)} dB")
-
-
-def _title(ok):
-    return title_or(lambda d: f"PSNR {_falls(d).measured}", ok, "PSNR against the field of view")

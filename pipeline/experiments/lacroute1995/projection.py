@@ -1,9 +1,4 @@
-"""``lacroute1995-projection`` (E2, Table 5.3 complete): parallel, perspective and fast classification over a turn.
-
-Each data set turns about its body axis at a fixed elevation; each view is timed with the three
-algorithms, and the table gives the mean, fastest and slowest view and each mode's memory beside the
-thesis's.
-"""
+"""``lacroute1995-projection`` (E2, Table 5.3 complete): parallel, perspective and fast classification over a turn."""
 
 import numpy as np
 import pandas as pd
@@ -17,8 +12,7 @@ from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_v
                                                timed_frames, volume_and_image_size)
 from pipeline.experiments.kit.results import complete_groups, numeric, ok_rows, speed_points, text_column, view_angle
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from pipeline.experiments.lacroute1995.tables import TABLE_5_3, THESIS
 from reports import blocks, plots
 
@@ -38,9 +32,6 @@ PROJECTION_CONFIGS = {
     "fast-classification": ("orthographic", {"classification": "octree"},
                             "fast classification (min-max octree + summed-area table), parallel"),
 }
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (tables, octree runs, compositing, warp), what Table 5.3 timed."""
-
 OCTREE_MEMORY_LIMIT = 4.0
 """Fast-classification structures per voxel of an 8-bit volume: the thesis's 4-byte raw array."""
 
@@ -51,8 +42,6 @@ OURS = ("about the thesis's range: our data sets stand in for its scans at other
 
 
 class Projections(Experiment):
-    """Table 5.3 complete: parallel, perspective and fast classification over a set of views, and memory."""
-
     name = "lacroute1995-projection"
     paper = "lacroute1995"
     title = "Parallel, perspective and fast classification over many views (E2, Table 5.3)"

@@ -1,9 +1,4 @@
-"""``lacroute1995-quality`` (E7, E8): shear-warp's error against the reference at 0°, 22.5° and 45°.
-
-A smooth and a binary classification of each data set (the 45° aliasing of Fig. 5.10), each against
-the post-classified ground truth and the pre-classified caster the thesis compared with; and opacity
-correction (§4.1.6) on a uniform low-opacity cube seen head-on, at 45° and along the diagonal.
-"""
+"""``lacroute1995-quality`` (E7, E8): shear-warp's error against the reference at 0°, 22.5° and 45°."""
 
 import math
 
@@ -18,8 +13,7 @@ from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, i
                                                truth_run, volume_and_image_size)
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, view_angle
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing, truth_and_shearwarp
 from reports import blocks, plots
 
 QUALITY_TFS = {
@@ -79,8 +73,6 @@ def opacity_deficit(reference_exr, test_exr, *, low=0.05, high=0.95):
 
 
 class ImageQuality(Experiment):
-    """Shear-warp against the reference at 0°, 22.5°, 45°: smooth and binary classification; opacity correction."""
-
     name = "lacroute1995-quality"
     paper = "lacroute1995"
     title = "Image quality: the 45° worst case, binary classification and opacity correction (E7, E8)"
@@ -202,7 +194,9 @@ def _classification_blocks(tests, results, ctx):
     return out + [
         figure(ctx, "psnr-angle", plots.lines, tests, heading="Accuracy against the view angle",
                caption="One line per data set, classification and reference; 45° (dotted) is the thesis's worst case.",
-               x="angle (°)", y="psnr", group="series", title=_chart_title(tests),
+               x="angle (°)", y="psnr", group="series",
+               title=title_or(lambda d: f"Binary classification: {_drop(d, 'binary', True).measured}", tests,
+                              "PSNR against the view angle"),
                x_label="view angle to the volume axes (degrees)", y_label="PSNR against the reference (dB)",
                vlines=(45.0,)),
         difference_gallery("Binary and smooth classification at 0° and 45°", shown, ctx, against=results,
@@ -341,11 +335,6 @@ def _corrected(df):
     worst = max(deficits, key=lambda v: abs(deficits[v]))
     return ClaimResult(f"{as_percent(deficits[worst])} ({worst})", bool(abs(deficits[worst]) <= 0.05),
                        ", ".join(f"{v}: {as_percent(d)}" for v, d in deficits.items()))
-
-
-def _chart_title(tests):
-    return title_or(lambda d: f"Binary classification: {_drop(d, 'binary', True).measured}", tests,
-                    "PSNR against the view angle")
 
 
 def _real_versus_phantom(ok):

@@ -1,8 +1,4 @@
-"""``lacroute1995-scaling`` (E2, E3; Tables 5.3, 5.4): time and memory against the volume and image size.
-
-Shear-warp's work grows with the voxels it composites (n² for surfaces, not n³); the run-length
-encodings' memory against an unencoded volume; the 2D warp's cost against the image's pixels.
-"""
+"""``lacroute1995-scaling`` (E2, E3; Tables 5.3, 5.4): time and memory against the volume and image size."""
 
 import math
 
@@ -17,8 +13,7 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaway
 from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, stage_points, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing
 from reports import blocks, plots
 
 SCALING_DATASETS = {"folded_brain": "volpack", "ct_skull": "bone"}
@@ -28,8 +23,6 @@ WARP_STEPS = tables.warp_steps()
 
 
 class SizeScaling(Experiment):
-    """Table 5.3's n² growth, RLE memory, and Table 5.4's warp cost against the image size."""
-
     name = "lacroute1995-scaling"
     paper = "lacroute1995"
     title = "Time and memory against the volume and image size (E2, E3; Tables 5.3, 5.4)"
@@ -149,7 +142,10 @@ def _growth_figure(growth, ok, ctx):
                   caption=f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 through the "
                           "smallest size. Bars: fastest to slowest timed frame.",
                   x="volume_size", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
-                  log_x=True, log_y=True, title=_growth_title(ok),
+                  log_x=True, log_y=True, title=title_or(lambda d: "Compositing time grows " + ", ".join(
+                      f"×{format_number(_per_doubling(a, b, k, judging.COMPOSITE, intervals.Resampler())[0], 2)} "
+                      f"({dataset})" for dataset, (a, b, k, _n, _m) in _growth_pairs(d).items())
+                      + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size"),
                   x_label="volume size (voxels along the longest side)", y_label="median frame time (ms)",
                   guides=(("∝ n² (thesis)", xs, base * (xs / lo) ** 2),
                           ("∝ n³ (brute force)", xs, base * (xs / lo) ** 3)))
@@ -175,7 +171,10 @@ def _warp_blocks(frame, ok, ctx):
     return [figure(ctx, "warp", plots.lines, warp, heading="Warp time against the image size",
                    caption="One line per volume size; the grey line grows with the pixel count.",
                    x="image_size", y="warp_ms", group="volume", y_range=("warp_ms_min", "warp_ms_max"), log_x=True,
-                   log_y=True, title=_warp_title(ok), x_label="image size (pixels along a side)",
+                   log_y=True, x_label="image size (pixels along a side)",
+                   title=title_or(lambda d: f"The warp grows {_warp_growth(d).measured} per doubling of the image side "
+                                  "(pixels: ×4)", ok, "Warp time against the image size",
+                                  errors=(KeyError, ValueError, IndexError)),
                    y_label="median warp time per frame (ms)", guides=guide),
             blocks.Table("The warp's cost beside Table 5.4", pd.DataFrame(rows), csv_name="warp.csv",
                          caption="Medians of the timed frames; thesis: MR brain prefiltered to each size.")]
@@ -202,12 +201,6 @@ def _per_doubling(rows_a, rows_b, doublings, column, resampler):
     a = judging.statistic(rows_a, column, resampler)
     value, draws = judging.ratio_pair(judging.statistic(rows_b, column, resampler), a)
     return value ** (1 / doublings), None if draws is None else draws ** (1 / doublings)
-
-
-def _growth_ratios(df, column=judging.COMPOSITE):
-    """``{data set: (ratio per doubling, from size, to size)}`` of ``column`` at each data set's largest sizes."""
-    return {d: (_per_doubling(a, b, k, column, intervals.Resampler())[0], n, m)
-            for d, (a, b, k, n, m) in _growth_pairs(df).items()}
 
 
 def _growth(df, at_least=2.8, at_most=5.66):
@@ -301,14 +294,3 @@ def _warp_share_paper(largest, shares, draws, resampler):
             shares[end], None if draws is None else draws[:, end], frames=resampler.arms(), **{bound: thesis / 100})
     return all_of(decisions, show=as_percent, extra=f"warp stage over the technique at {image}² images; every size: "
                   + ", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n)))
-
-
-def _growth_title(ok):
-    return title_or(lambda d: "Compositing time grows " + ", ".join(
-        f"×{format_number(r, 2)} ({dataset})" for dataset, (r, _a, _b) in _growth_ratios(d).items())
-        + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size")
-
-
-def _warp_title(ok):
-    return title_or(lambda d: f"The warp grows {_warp_growth(d).measured} per doubling of the image side (pixels: ×4)", ok,
-                    "Warp time against the image size", errors=(KeyError, ValueError, IndexError))

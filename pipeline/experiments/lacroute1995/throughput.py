@@ -1,10 +1,4 @@
-"""``lacroute1995-throughput`` (E12–E14, Figs 5.19–5.21): voxel throughput, run overhead and the cost model.
-
-Constant-opacity cubes measure the time per visible voxel, 3-D checkerboards the time per run at a
-constant visible count, brute force beside both where it composites; the fitted model
-``T = N_v/a + N_r·b + c`` then predicts two real-looking scenes. The claims read the technique's time
-(tables, compositing, warp: what the thesis timed), the runs of each series timed together.
-"""
+"""``lacroute1995-throughput`` (E12–E14, Figs 5.19–5.21): voxel throughput, run overhead and the cost model."""
 
 import math
 
@@ -20,12 +14,8 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaway
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
-
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (tables, compositing, warp), as the thesis timed its renderer."""
 
 PREDICT_DATASETS = {"ct_skull": "bone", "engine": "surfaces"}
 """The scenes the fitted cost model predicts (the thesis predicts the CT head and the engine)."""
@@ -64,8 +54,6 @@ GROUP = "cost-model"
 
 
 class Throughput(Experiment):
-    """Figs 5.19–5.21: constant-opacity cubes and checkerboards; the cost model of §5.3.5."""
-
     name = "lacroute1995-throughput"
     paper = "lacroute1995"
     title = "Voxel throughput, run overhead and the cost model (E12–E14, Figs 5.19–5.21)"
@@ -209,7 +197,9 @@ class Throughput(Experiment):
                               caption="Block sizes halve from right to left... each halving doubles the runs per "
                                       "scanline at a constant visible count; brute force beside.",
                               x="runs", y="time_ms", group="line", y_range=("time_ms_min", "time_ms_max"),
-                              title=_runs_title(ok),
+                              title=title_or(lambda d: "Time grows linearly with the runs: "
+                                             f"{_runs_linear(d).detail.split(';')[0]}", ok,
+                                             "Checkerboards: frame time against the number of runs"),
                               x_label="voxel runs traversed per frame (the backend's voxel_runs)",
                               y_label="median frame time (ms)"))
         try:
@@ -242,8 +232,10 @@ def _cube_figure(cubes, ok, ctx):
                   caption="Each point one opacity (visible voxels fall as the opacity rises and early termination "
                           "cuts the rays short). Bars: fastest to slowest frame.",
                   x="visible (millions)", y="time_ms", group="config", y_range=("time_ms_min", "time_ms_max"),
-                  title=_cube_title(ok), x_label="voxels composited per frame (millions)",
-                  y_label="median frame time (ms)", guides=guides)
+                  x_label="voxels composited per frame (millions)", y_label="median frame time (ms)", guides=guides,
+                  title=title_or(lambda d: f"Time is linear in visible voxels ({_cube_linear(d).measured});\nthe "
+                                 f"optimised renderer is {_crossover(d).measured.split(';')[0]}", ok,
+                                 "Constant-opacity cubes: frame time against visible voxels"))
 
 
 def _series(df, series, config):
@@ -397,14 +389,3 @@ def _prediction(df, bound=0.25):
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
     return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "
                                    f"{format_number(b * 1e9)} ns/run, c = {format_number(c * 1e3)} ms", show=as_percent)
-
-
-def _cube_title(ok):
-    return title_or(lambda d: f"Time is linear in visible voxels ({_cube_linear(d).measured});\nthe optimised renderer is "
-                              f"{_crossover(d).measured.split(';')[0]}", ok,
-                    "Constant-opacity cubes: frame time against visible voxels")
-
-
-def _runs_title(ok):
-    return title_or(lambda d: f"Time grows linearly with the runs: {_runs_linear(d).detail.split(';')[0]}", ok,
-                    "Checkerboards: frame time against the number of runs")

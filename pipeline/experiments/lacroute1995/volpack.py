@@ -1,10 +1,4 @@
-"""``lacroute1995-volpack``: our shear-warp against VolPack 1.0, the thesis's own library, on the same input.
-
-Both render VolPack's brainsmall example, the folded-brain phantom (the thesis's MR brain's stand-in)
-and the CT head phantom (its CT head's) with the same classification, shading and view, timed and
-compared image to image, each mode of ours against VolPack's matching mode (classified RLE, min-max
-octree); VTK's CPU ray caster runs beside them as the ray caster users already have.
-"""
+"""``lacroute1995-volpack``: our shear-warp against VolPack 1.0, the thesis's own library, on the same input."""
 
 import numpy as np
 import pandas as pd
@@ -55,8 +49,6 @@ def _technique(config):
 
 
 class VolPackComparison(Experiment):
-    """Our shear-warp against VolPack 1.0 on the same volumes, classification and view."""
-
     name = "lacroute1995-volpack"
     paper = "lacroute1995"
     title = "Our shear-warp against VolPack, the thesis's own library"
