@@ -264,3 +264,25 @@ def view_angle(view):
     if not match:
         raise ValueError(f"view {view!r} names no angle")
     return float(match.group(1))
+
+
+def nonempty_or(found, message):
+    """``found``, the rows, values or decisions a check gathered, unless it gathered none.
+
+    :func:`nonempty` words its error as a missing run; this one says what ``message`` says (``"fewer than three
+    task sizes swept"``), for the checks whose missing input is not a run.
+
+    Parameters
+    ----------
+    found : pandas.DataFrame, sequence or mapping
+    message : str
+        The error's whole message.
+
+    Raises
+    ------
+    ValueError
+        ``found`` is empty: ``message``, which a claim turns into "not measured".
+    """
+    if found.empty if isinstance(found, pd.DataFrame) else not len(found):
+        raise ValueError(message)
+    return found

@@ -11,7 +11,7 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaway
                                             format_number)
 from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
                                                volume_and_image_size)
-from pipeline.experiments.kit.results import numeric, ok_rows, stage_points, view_angle
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, stage_points, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
@@ -201,9 +201,8 @@ def _jump(df, column=TIME):
 
 def _variation(df, dataset, bound):
     frame = _turns(df)
-    part = frame[frame.dataset == dataset] if not frame.empty else frame
-    if part.empty:
-        raise ValueError(f"no successful turn of {dataset}")
+    part = nonempty_or(frame[frame.dataset == dataset] if not frame.empty else frame,
+                       f"no successful turn of {dataset}")
     resampler = intervals.Resampler()
     stats = _turn_stats(part, TIME, resampler)
     decision = judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],

@@ -12,7 +12,8 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table, title_or
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
-from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
+                                              text_column)
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
@@ -242,11 +243,10 @@ def _speedup(df, band=None):
         decisions[f"{int(n)}³, ×{format_number(speedup)} on {p} workers"] = judging.decided(
             speedup / p, None if draws is None else draws / p, at_least=low, at_most=high, frames=resampler.arms())
         parallel.append(most)
-    if not decisions:
-        raise ValueError("no size rendered with one worker and with more")
-    result = all_of(decisions, extra=f"{tables.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", show=as_percent)
+    parallel = pd.concat(nonempty_or(parallel, "no size rendered with one worker and with more"))
+    result = all_of(decisions, extra=f"{tables.SCOPES[TIME]}; {_machine(parallel)}", show=as_percent)
     # Starving only slows the parallel run: a pass above a floor stands, one inside a band need not.
-    return judging.unless_starved(result, pd.concat(parallel), holding_survives=band is None)
+    return judging.unless_starved(result, parallel, holding_survives=band is None)
 
 
 def _schedule_order(df, strict=False):
@@ -272,15 +272,14 @@ def _schedule_order(df, strict=False):
         measured.append(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in
                                               sorted(times.items(), key=lambda kv: kv[1])))
         read.append(part)
-    if not decisions:
-        raise ValueError("not all four schedules rendered at the most workers")
+    read = pd.concat(nonempty_or(read, "not all four schedules rendered at the most workers"))
     workers = int(numeric(df, "workers").max())
     combined = intervals.combine(decisions.values())
-    detail = (f"{judging.labelled(decisions)}; {workers} workers; {_machine(pd.concat(read))}"
+    detail = (f"{judging.labelled(decisions)}; {workers} workers; {_machine(read)}"
               + ("; with 2 workers a contiguous split has only two blocks, so the thesis's 32-processor imbalance "
                  "cannot show fully" if workers <= 2 else ""))
     result = ClaimResult.decided("; ".join(measured), combined, detail)
-    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
+    return judging.unless_starved(result, read, holding_survives=False)
 
 
 def _task_u(df):
@@ -301,11 +300,10 @@ def _task_u(df):
         decisions[f"{n}³, fastest interior {best} scanlines"] = judging.decided(value, draw, at_least=1.0,
                                                                                 frames=resampler.arms())
         read.append(part)
-    if not decisions:
-        raise ValueError("fewer than three task sizes swept")
+    read = pd.concat(nonempty_or(read, "fewer than three task sizes swept"))
     result = all_of(decisions, extra="ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
-                                     f"the Challenge; {_machine(pd.concat(read))}")
-    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
+                                     f"the Challenge; {_machine(read)}")
+    return judging.unless_starved(result, read, holding_survives=False)
 
 
 def _imbalance_text(row):
@@ -342,9 +340,7 @@ def _imbalance(df):
 def _imbalance_order(df):
     good_rows, bad_rows = _schedule_rows(df, "round-robin-steal"), _schedule_rows(df, "contiguous")
     good, bad = _schedule_imbalance(good_rows), _schedule_imbalance(bad_rows)
-    sizes = sorted(set(good) & set(bad))
-    if not sizes:
-        raise ValueError("no size rendered with both schedules")
+    sizes = nonempty_or(sorted(set(good) & set(bad)), "no size rendered with both schedules")
     result = ClaimResult(", ".join(f"contiguous {as_percent(bad[n])} vs round-robin-steal {as_percent(good[n])} ({n}³)"
                                    for n in sizes),
                          bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")

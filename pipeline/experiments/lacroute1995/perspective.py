@@ -9,7 +9,8 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, difference_gallery,
                                             figure, format_number, linked_table, title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, volume_and_image_size
-from pipeline.experiments.kit.results import FOOTPRINT_ALPHA, footprint_psnr, numeric, ok_rows, read_exr, text_column
+from pipeline.experiments.kit.results import (FOOTPRINT_ALPHA, footprint_psnr, nonempty_or, numeric, ok_rows, read_exr,
+                                              text_column)
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing, truth_and_shearwarp
 from reports import plots
@@ -118,11 +119,9 @@ class PerspectiveQuality(Experiment):
 
 def fov_rows(df):
     """The shear-warp rows with their field of view (0: parallel), PSNR over the footprint and largest ray angle."""
-    rows = df[text_column(df, "role") == "test"].copy()
-    rows["fov"] = numeric(rows, "fov")
-    rows["max_ray_angle"] = pd.to_numeric(rows.get("info_max_ray_angle", np.nan), errors="coerce")
-    if rows.empty:
-        raise ValueError("no shear-warp image rendered")
+    rows = df[text_column(df, "role") == "test"]
+    rows = nonempty_or(rows.assign(fov=numeric(rows, "fov"), max_ray_angle=pd.to_numeric(
+        rows.get("info_max_ray_angle", np.nan), errors="coerce")), "no shear-warp image rendered")
     footprint, coverage = [], []
     for row in rows.itertuples():
         truth = df[(text_column(df, "run") == str(row.reference)) & (text_column(df, "view") == str(row.view))]

@@ -11,7 +11,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
                                             title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, stage_points, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, speed_points, stage_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing
 from reports import blocks, plots
@@ -191,9 +191,7 @@ def _growth_pairs(df):
             continue
         a, b = (part[numeric(part, "volume_size") == n] for n in sizes[-2:])
         pairs[dataset] = (a, b, math.log2(sizes[-1] / sizes[-2]), int(sizes[-2]), int(sizes[-1]))
-    if not pairs:
-        raise ValueError("no data set rendered at two sizes")
-    return pairs
+    return nonempty_or(pairs, "no data set rendered at two sizes")
 
 
 def _per_doubling(rows_a, rows_b, doublings, column, resampler):
@@ -228,9 +226,8 @@ def _rle_memory(df):
     """At each data set's largest size (the thesis's statement is about 256³ scans; at a few
     voxels the per-scanline offsets dominate), the RLE copies against 4 bytes per voxel."""
     frame = df.assign(rle=numeric(df, "count_rle_bytes"), raw=numeric(df, "count_raw_bytes"), n=numeric(df, "volume_size"))
-    frame = frame[np.isfinite(frame.rle) & np.isfinite(frame.raw) & (frame.raw > 0)]
-    if frame.empty:
-        raise ValueError("no run reported rle_bytes and raw_bytes")
+    frame = nonempty_or(frame[np.isfinite(frame.rle) & np.isfinite(frame.raw) & (frame.raw > 0)],
+                        "no run reported rle_bytes and raw_bytes")
     largest = frame[frame.n == frame.groupby("dataset").n.transform("max")].drop_duplicates("dataset")
     fraction = {f"{r.dataset} {int(r.n)}³": r.rle / (4 * r.raw) for r in largest.itertuples()}
     per_raw = {f"{r.dataset} {int(r.n)}³": r.rle / r.raw for r in largest.itertuples()}
@@ -241,8 +238,7 @@ def _rle_memory(df):
 
 
 def _warp_rows(df):
-    frame = df.copy()
-    frame["n"], frame["i"], frame["warp"] = numeric(frame, "volume_size"), numeric(frame, "image_size"), numeric(frame, "time_warp")
+    frame = df.assign(n=numeric(df, "volume_size"), i=numeric(df, "image_size"), warp=numeric(df, "time_warp"))
     first = text_column(frame, "dataset").iloc[0]
     return frame[(text_column(frame, "dataset") == first) & np.isfinite(frame.warp)]
 

@@ -13,8 +13,8 @@ from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaw
                                             format_number, frame_note, linked_table, not_measurable, title_or)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
                                                timed_frames, unregistered, volume_and_image_size)
-from pipeline.experiments.kit.results import (nonempty, ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
-                                              speed_points, stage_time)
+from pipeline.experiments.kit.results import (nonempty, nonempty_or, ok_rows, one_row, pair_metrics, reference_exr,
+                                              rows_matching, speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, TIME, VP
 from reports import blocks, plots
@@ -71,35 +71,32 @@ class Variants(Experiment):
         volume = phantom(dataset, size, preset=preset)
         spec = scene(f"{dataset}-{preset}", image, volumes=[volume])
         view = (headline_view(dataset),)
-        timed = timed_frames(profile, self)
-        tags = {"dataset": dataset, "preset": preset}
-        runs = []
+        timed, runs = timed_frames(profile, self), []
+
         # Each comparison's runs are timed together, frame by frame. The harness times the preprocessing
         # stages (classify, rle_build, octree_build, sat_build) once more after the cold frame, compiled.
+        def add(run_id, part, config, interleave, options=None, backend=SW, **extra):
+            runs.append(Run(self.name, run_id, backend, spec, view, options=dict(options or {}), **timed, **extra,
+                            interleave=interleave, tags={"dataset": dataset, "preset": preset, "part": part,
+                                                         "config": config}))
+
         if accepts(SW, "shading", "union"):
             # The baseline (lookup-table shading, path compression) serves both comparisons; its
             # reference is the procedural image, so the evaluation measures the table's error.
-            procedural = accepts(SW, "shading")
-            runs.append(Run(self.name, "baseline", SW, spec, view, options={"shading": "lut", "union": "path-compression"},
-                            reference="shading.procedural" if procedural else None, **timed, interleave="variants",
-                            tags={**tags, "part": "baseline", "config": "lut, path-compression"}))
-            runs.append(Run(self.name, "shading.procedural", SW, spec, view, options={"shading": "procedural"}, **timed,
-                            interleave="variants", tags={**tags, "part": "shading", "config": "procedural"}))
-            runs.append(Run(self.name, "union.rank", SW, spec, view, options={"union": "rank"}, **timed,
-                            interleave="variants", tags={**tags, "part": "union", "config": "rank"}))
+            add("baseline", "baseline", "lut, path-compression", "variants",
+                {"shading": "lut", "union": "path-compression"}, reference="shading.procedural")
+            add("shading.procedural", "shading", "procedural", "variants", {"shading": "procedural"})
+            add("union.rank", "union", "rank", "variants", {"union": "rank"})
         if is_registered(SW):
-            runs.append(Run(self.name, "mode.shearwarp", SW, spec, view, **timed, interleave="shearwarp-modes",
-                            tags={**tags, "part": "mode", "config": "shearwarp"}))
+            add("mode.shearwarp", "mode", "shearwarp", "shearwarp-modes")
         if accepts(SW, "classification", "octree_rle_build"):
             # E22 with our backend: the three RLE copies built from the min-max octree, and rendering
             # with fast classification (octree + summed-area table, classified on the fly).
             for config, options in SW_MODE_CONFIGS.items():
-                runs.append(Run(self.name, f"mode.{config}", SW, spec, view, options=dict(options), **timed,
-                                interleave="shearwarp-modes", tags={**tags, "part": "mode", "config": config}))
+                add(f"mode.{config}", "mode", config, "shearwarp-modes", options)
         if accepts(VP, "mode"):
             for mode in ("rle", "octree"):
-                runs.append(Run(self.name, f"mode.volpack-{mode}", VP, spec, view, options={"mode": mode}, **timed,
-                                interleave="volpack-modes", tags={**tags, "part": "mode", "config": f"volpack-{mode}"}))
+                add(f"mode.volpack-{mode}", "mode", f"volpack-{mode}", "volpack-modes", {"mode": mode}, VP)
         return runs
 
     claims = (
@@ -219,9 +216,7 @@ def mode_switch_table(df):
         for counter in ("rle_bytes", "octree_bytes", "voxel_array_bytes", "classified_on_the_fly"):
             entry[counter] = float(row.get(f"count_{counter}", np.nan))
         rows.append(entry)
-    if not rows:
-        raise ValueError("no shearwarp mode run")
-    return pd.DataFrame(rows)
+    return pd.DataFrame(nonempty_or(rows, "no shearwarp mode run"))
 
 
 def _after_edit(rows, stages, resampler):

@@ -12,7 +12,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
                                             title_or)
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
@@ -291,9 +291,8 @@ def _crossover(df, up_to=0.5, beyond=None):
         t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE,
         frames=resampler.arms())
         for i, (v, t) in enumerate(zip(rows.visible, times))}
-    low = [d for (label, d), v in zip(decisions.items(), rows.visible) if v <= up_to]
-    if not low:
-        raise ValueError(f"no cube with at most {as_percent(up_to)} of its voxels visible")
+    low = nonempty_or([d for (label, d), v in zip(decisions.items(), rows.visible) if v <= up_to],
+                      f"no cube with at most {as_percent(up_to)} of its voxels visible")
     slower = rows[times >= level]
     crossing = ("never slower than brute force" if slower.empty
                 else f"slower than brute force from {as_percent(float(slower.visible.min()))} visible")
@@ -341,10 +340,9 @@ def _worst_runs(df, at_most=1.3):
         if opt.empty or match.empty:
             continue
         ratios[s] = judging.ratio(opt[numeric(opt, "block") == smallest], match, TIME, resampler, at_most=at_most)
-    if not ratios:
-        raise ValueError("no checkerboard with both renderers at its smallest block")
     # The all-visible series is the thesis's worst case: the lowest opacity.
-    key = min(ratios, key=lambda s: float(s.split("α")[-1]))
+    key = min(nonempty_or(ratios, "no checkerboard with both renderers at its smallest block"),
+              key=lambda s: float(s.split("α")[-1]))
     return ClaimResult.decided(judging.labelled({key: ratios[key]}), ratios[key],
                                judging.labelled(ratios) + "; thesis ×1.15")
 
@@ -365,9 +363,7 @@ def _cost_fit(df):
 def _prediction(df, bound=0.25):
     """Every predicted scene's technique time predicted within ``bound`` (relative) of the measured."""
     a, b, c, _r2 = _cost_fit(df)
-    rows = df[text_column(df, "series") == "predict"]
-    if rows.empty:
-        raise ValueError("no predicted scene rendered")
+    rows = nonempty_or(df[text_column(df, "series") == "predict"], "no predicted scene rendered")
     resampler = intervals.Resampler()
     fit = _fit_rows(df)
     _, fit_draws = judging.values(fit, TIME, resampler)

@@ -192,8 +192,7 @@ class VolPackComparison(Experiment):
                               time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
                               x_label="median frame time (ms); bars: fastest to slowest frame",
                               y_label="PSNR against the reference (dB)"))
-        for scene_name, group in ok.groupby("scene"):
-            out.append(_gallery(scene_name, group, ctx))
+        out += [_gallery(scene_name, group, ctx) for scene_name, group in ok.groupby("scene")]
         return out + not_measurable(unregistered(SW, VP) + missing_options(VP, "mode")
                                     + missing_options(SW, "workers"))
 
@@ -319,20 +318,15 @@ def _where_the_time_goes(tests, ctx):
             f"VolPack's stages are timed by {' and '.join(timing)}: Debian's VolPack is built without USE_TIMER "
             "(its vpGetTimer counters read 0, checked when a run starts and recorded in its info), so its render "
             "call cannot be split into compositing and warp."))
-    counts = ["count_samples", "count_voxel_runs", "count_pixel_run_finds", "count_candidate_voxels",
-              "count_classified_on_the_fly", "count_rle_bytes", "count_octree_bytes", "count_voxel_array_bytes",
-              "count_intermediate_pixels"]
+    counts = {"count_samples": "samples composited", "count_voxel_runs": "voxel runs",
+              "count_pixel_run_finds": "pixel-run finds", "count_candidate_voxels": "octree candidate voxels",
+              "count_classified_on_the_fly": "voxels classified on the fly", "count_rle_bytes": "RLE (MB)",
+              "count_octree_bytes": "octree (MB)", "count_voxel_array_bytes": "unclassified voxel array (MB)",
+              "count_intermediate_pixels": "intermediate pixels"}
     shown = runs.assign(technique=[_technique(c) for c in runs.config],
                         **{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
                            for c in counts if c in runs})
-    out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx,
-                            names={"count_samples": "samples composited", "count_voxel_runs": "voxel runs",
-                                   "count_pixel_run_finds": "pixel-run finds",
-                                   "count_candidate_voxels": "octree candidate voxels",
-                                   "count_classified_on_the_fly": "voxels classified on the fly",
-                                   "count_voxel_array_bytes": "unclassified voxel array (MB)",
-                                   "count_rle_bytes": "RLE (MB)", "count_octree_bytes": "octree (MB)",
-                                   "count_intermediate_pixels": "intermediate pixels"},
+    out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx, names=counts,
                             csv_name="volpack-counts.csv",
                             caption="Per frame. VolPack counts no samples or runs; it reports the sizes of its "
                                     "run-length encodings and octree and of its intermediate image, shown beside "
@@ -514,8 +508,7 @@ def _octree(df, low=1.4, high=3.2):
 
 
 def _chart_title(scene_name, group):
-    ours = group[group.config == "shearwarp-1"]
-    vp = group[group.config == "volpack-rle"]
+    ours, vp = (group[group.config == config] for config in ("shearwarp-1", "volpack-rle"))
     if ours.empty or vp.empty:
         return f"{scene_name}: frame time against PSNR"
     ratio = float(ours.time_total.iloc[0] / vp.time_total.iloc[0])
