@@ -207,11 +207,8 @@ def _variation(df, dataset, bound):
     stats = _turn_stats(part, TIME, resampler)
     decision = judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],
                                at_most=bound, centred=True, frames=resampler.arms())
-    detail = f"thesis: 6 %; {tables.SCOPES[TIME]}"
-    try:
-        detail += f"; samples vary {as_percent(_turn_stats(part, 'count_samples')['variation'])}"
-    except (KeyError, ValueError):
-        pass
+    samples = _sample_columns(part).get("samples: variation")
+    detail = f"thesis: 6 %; {tables.SCOPES[TIME]}" + (f"; samples vary {samples}" if samples else "")
     return ClaimResult.decided(decision_words(decision, as_percent), decision, detail)
 
 

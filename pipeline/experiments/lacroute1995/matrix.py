@@ -69,12 +69,10 @@ class OptimisationMatrix(Experiment):
         size, image = volume_and_image_size(profile, self)
         runs = []
         for dataset in wanted:
-            volume = phantom(dataset, size, preset=MATRIX_DATASETS[dataset])
-            spec = scene(dataset, image, volumes=[volume])
-            for config, (options, _label, _test) in MATRIX_CONFIGS.items():
-                runs.append(Run(self.name, f"{dataset}.{config}", SW, spec, (headline_view(dataset),), options=dict(options),
-                                **timed_frames(profile, self), interleave=dataset,
-                                tags={"dataset": dataset, "config": config}))
+            spec = scene(dataset, image, volumes=[phantom(dataset, size, preset=MATRIX_DATASETS[dataset])])
+            runs += [Run(self.name, f"{dataset}.{config}", SW, spec, (headline_view(dataset),), options=dict(options),
+                         **timed_frames(profile, self), interleave=dataset, tags={"dataset": dataset, "config": config})
+                     for config, (options, _label, _test) in MATRIX_CONFIGS.items()]
         return runs
 
     claims = (

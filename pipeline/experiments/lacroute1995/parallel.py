@@ -98,9 +98,7 @@ class Parallel(Experiment):
         for n in sizes:
             volume = phantom(dataset, n, preset=preset)
             spec = scene(f"{dataset}-{n}", image, volumes=[volume])
-            configs = {}
-            for w in workers:
-                configs[(w, DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE)] = "workers"
+            configs = {(w, DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE): "workers" for w in workers}
             for s in schedules:
                 configs.setdefault((most, s, DEFAULT_TASK_SIZE), "schedule")
             for t in task_sizes:

@@ -109,9 +109,7 @@ class SizeScaling(Experiment):
         out = [claim_takeaways(ctx)]
         if ok.empty:
             return out
-        frame = speed_points(ok)
-        frame["volume_size"] = numeric(frame, "volume_size")
-        frame["image_size"] = numeric(frame, "image_size")
+        frame = speed_points(ok.assign(volume_size=numeric(ok, "volume_size"), image_size=numeric(ok, "image_size")))
         growth = frame[numeric(frame, "growth") == 1]
         if not growth.empty:
             out.append(_growth_figure(growth, ok, ctx))
@@ -134,8 +132,7 @@ class SizeScaling(Experiment):
 
 def _growth_figure(growth, ok, ctx):
     """Frame time against the volume size on log–log axes, with n² and n³ guides through the smallest size."""
-    lo = float(growth.volume_size.min())
-    hi = float(growth.volume_size.max())
+    lo, hi = float(growth.volume_size.min()), float(growth.volume_size.max())
     base = float(growth[growth.volume_size == lo].time_ms.median())
     xs = np.array([lo, hi])
     return figure(ctx, "growth", plots.lines, growth, heading="Frame time against the volume size",
