@@ -59,8 +59,7 @@ class ViewAngles(Experiment):
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:
-            volume = phantom(dataset, size, preset=ANGLE_DATASETS[dataset])
-            spec = scene(dataset, image, volumes=[volume])
+            spec = scene(dataset, image, volumes=[phantom(dataset, size, preset=ANGLE_DATASETS[dataset])])
             views = tuple(dataset_view(dataset, f"deg{a:g}", a) for a in angles)
             # The turns share their view names: timed together, view by view, the head's and the sphere's
             # variations are compared under the same conditions.

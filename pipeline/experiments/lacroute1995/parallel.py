@@ -96,8 +96,7 @@ class Parallel(Experiment):
         most = max(workers)
         runs = []
         for n in sizes:
-            volume = phantom(dataset, n, preset=preset)
-            spec = scene(f"{dataset}-{n}", image, volumes=[volume])
+            spec = scene(f"{dataset}-{n}", image, volumes=[phantom(dataset, n, preset=preset)])
             configs = {(w, DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE): "workers" for w in workers}
             for s in schedules:
                 configs.setdefault((most, s, DEFAULT_TASK_SIZE), "schedule")
@@ -235,8 +234,7 @@ def _speedup(df, band=None):
         if one.empty or w.max() <= 1:
             continue
         p = int(w.max())
-        one_time = judging.statistic(one, TIME, resampler)
-        speedup, draws = judging.ratio_pair(one_time, judging.statistic(most, TIME, resampler))
+        speedup, draws = judging.ratio_pair(*(judging.statistic(rows, TIME, resampler) for rows in (one, most)))
         low, high = (0.7, None) if band is None else band(p)
         decisions[f"{int(n)}³, ×{format_number(speedup)} on {p} workers"] = judging.decided(
             speedup / p, None if draws is None else draws / p, at_least=low, at_most=high, frames=resampler.arms())

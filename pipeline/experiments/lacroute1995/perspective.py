@@ -142,8 +142,7 @@ def _falls(df):
     drop = psnr_[0] - psnr_[-1]
     rise = float(np.max(np.diff(psnr_)))
     return ClaimResult(f"{db_words(-drop, more='higher', less='lower')} at {perspective.fov.iloc[-1]:g}° than at "
-                       f"{perspective.fov.iloc[0]:g}°",
-                       bool(drop >= 1.0 and rise <= 0.5),
+                       f"{perspective.fov.iloc[0]:g}°", bool(drop >= 1.0 and rise <= 0.5),
                        ", ".join(f"{r.fov:g}°: {format_number(r.footprint_psnr)} dB over {as_percent(r.coverage)} of the "
                                  f"frame (whole frame {format_number(float(getattr(r, 'psnr', np.nan)))} dB)"
                                  for r in perspective.itertuples())

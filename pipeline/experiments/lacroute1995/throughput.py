@@ -221,8 +221,7 @@ class Throughput(Experiment):
 def _cube_figure(cubes, ok, ctx):
     """The optimised cubes' time against their visible voxels, with brute force's median as a guide."""
     cubes["visible (millions)"] = cubes.samples / 1e6
-    brute_level = cubes[cubes.config == "brute-force"]
-    opt = cubes[cubes.config == "optimised"]
+    brute_level, opt = (cubes[cubes.config == config] for config in ("brute-force", "optimised"))
     guides = ()
     if not brute_level.empty and not opt.empty:
         xs = np.array([0.0, float(opt["visible (millions)"].max())])
@@ -376,9 +375,8 @@ def _prediction(df, bound=0.25):
         samples, runs = float(row["count_samples"]), float(row["count_voxel_runs"])
         predicted = samples / a + runs * b + c
         (measured,), draws = judging.values(rows.loc[[index]], TIME, resampler)
-        error_draws = None
-        if coefficients is not None and draws is not None:
-            error_draws = (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1
+        error_draws = (None if coefficients is None or draws is None
+                       else (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1)
         decisions[row["dataset"]] = judging.decided(predicted / measured - 1, error_draws, at_least=-bound,
                                                     at_most=bound, frames=resampler.arms())
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "

@@ -460,11 +460,8 @@ def _parallel(df, speedups=None):
         if workers < 2:
             return ClaimResult("not measurable", None, f"{s}: the all-cores run had {int(workers)} worker: a speed-up "
                                "cannot be measured on a 1-core machine")
-        if speedups is None:
-            bound, high = EFFICIENCY * workers, None
-        else:
-            thesis = speedups(int(workers))
-            bound, high = min(thesis), max(thesis)
+        thesis = None if speedups is None else speedups(int(workers))
+        bound, high = (EFFICIENCY * workers, None) if thesis is None else (min(thesis), max(thesis))
         decisions[f"{s}, {int(workers)} workers"] = judging.ratio(one, most, judging.TECHNIQUE, resampler,
                                                                   at_least=bound, at_most=high)
         band = as_ratio(bound) if high is None else f"{as_ratio(bound)}–{as_ratio(high)}"
@@ -529,10 +526,8 @@ def _takeaways(judged, results):
     rows); per scene the whole frames against VolPack RLE, where our octree mode's time goes, and VTK
     against ours."""
     by_id = {} if judged is None else {row["claim"]: row for row in judged.to_dict("records")}
-    verdicts = []
-    for claim_id, words in VERDICTS:
-        row = by_id.get(claim_id, {})
-        verdicts.append(f"{words}: {cell_text(row.get('measured')) or 'no value'}, {row.get('verdict', 'not measured')}")
+    verdicts = [f"{words}: {cell_text(by_id.get(c, {}).get('measured')) or 'no value'}, "
+                f"{by_id.get(c, {}).get('verdict', 'not measured')}" for c, words in VERDICTS]
     sentences = ["Speed against VolPack (bound ×1 unless said): " + "; ".join(verdicts) + "."]
     ok = ok_rows(results)
     for scene_name in pd.unique(ok.scene) if "scene" in ok else []:
@@ -545,10 +540,9 @@ def _takeaways(judged, results):
             ours = part[part.config == config]
             if ours.empty:
                 continue
-            ratio = float(ours.time_total.iloc[0]) / vp_time
             sentence = (f"{scene_name}: {_technique(config)} takes {format_number(ours.time_total.iloc[0] * 1e3)} ms "
                         f"per whole frame against VolPack's {format_number(vp_time * 1e3)} ms (ratio "
-                        f"{format_number(ratio)})")
+                        f"{format_number(float(ours.time_total.iloc[0]) / vp_time)})")
             if config == "shearwarp-1":
                 try:
                     pair = pair_metrics(vp.exr.iloc[0], ours.exr.iloc[0])
