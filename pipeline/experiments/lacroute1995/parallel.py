@@ -158,8 +158,7 @@ class Parallel(Experiment):
         speed = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.task_size == DEFAULT_TASK_SIZE)].copy()
         if speed.workers.nunique() > 1:
             out.append(_speedup_figure(speed, ok, ctx))
-        sched = frame[frame.task_size == DEFAULT_TASK_SIZE]
-        sched = sched[sched.workers == frame.workers.max()]
+        sched = frame[(frame.task_size == DEFAULT_TASK_SIZE) & (frame.workers == frame.workers.max())]
         if sched.schedule.nunique() > 1:
             rows = []
             for row in sched.sort_values("time_ms").itertuples():

@@ -325,8 +325,7 @@ def _real_versus_phantom(ok):
         return []
     head_on = rows[np.isclose(rows.angle, 0.0)]
     kinds = {name: datasets.get(name).kind for name in pd.unique(head_on.dataset)}
-    real = head_on[[kinds[d] == "real" for d in head_on.dataset]]
-    phantoms = head_on[[kinds[d] == "phantom" for d in head_on.dataset]]
+    real, phantoms = (head_on[[kinds[d] == kind for d in head_on.dataset]] for kind in ("real", "phantom"))
     if real.empty or phantoms.empty:
         return []
 

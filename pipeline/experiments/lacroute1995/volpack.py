@@ -409,13 +409,10 @@ def _speed(df, config, column=judging.TECHNIQUE, *, against="volpack-rle", peer=
 
 def _on_the_fly(rows):
     """``"voxels classified on the fly per frame: 391 k (brain)"`` for octree-mode rows, or ``""``."""
-    if "count_classified_on_the_fly" not in rows:
-        return ""
-    counts = [(s, c) for s, c in zip(text_column(rows, "scene"), numeric(rows, "count_classified_on_the_fly"))
-              if np.isfinite(c)]
-    if not counts:
-        return ""
-    return "voxels classified on the fly per frame: " + ", ".join(f"{full_count(c)} ({s})" for s, c in counts)
+    counts = ([(s, c) for s, c in zip(text_column(rows, "scene"), numeric(rows, "count_classified_on_the_fly"))
+               if np.isfinite(c)] if "count_classified_on_the_fly" in rows else [])
+    return ("voxels classified on the fly per frame: " + ", ".join(f"{full_count(c)} ({s})" for s, c in counts)
+            if counts else "")
 
 
 def _octree_words(scene_name, part, row):
