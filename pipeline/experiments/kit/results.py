@@ -304,3 +304,25 @@ def interleave_groups(frame, **match):
     rows = rows_matching(frame, "the sweep", **match)
     names = text_column(rows, "interleave")
     return {name: rows[names == name] for name in pd.unique(names)}
+
+
+def nonempty_or(found, message):
+    """``found``, the rows, values or decisions a check gathered, unless it gathered none.
+
+    :func:`nonempty` words its error as a missing run; this one says what ``message`` says (``"fewer than three
+    task sizes swept"``), for the checks whose missing input is not a run.
+
+    Parameters
+    ----------
+    found : pandas.DataFrame, sequence or mapping
+    message : str
+        The error's whole message.
+
+    Raises
+    ------
+    ValueError
+        ``found`` is empty: ``message``, which a claim turns into "not measured".
+    """
+    if found.empty if isinstance(found, pd.DataFrame) else not len(found):
+        raise ValueError(message)
+    return found

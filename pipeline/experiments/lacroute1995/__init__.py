@@ -1,25 +1,12 @@
 """Lacroute 1995 (the VolPack thesis): the shear-warp factorization's experiments.
 
-The paper's guide is ``../shared/papers/notes/`` (003.md, §4.2). Ten experiments, each with the
-thesis's own numbers beside ours (``paper_table``) and the thesis's statements as claims checked on
-the measured table, one module each:
-
-* :mod:`.volpack`: our ``shearwarp`` against ``volpack`` (the thesis's own library) on the same input;
-* :mod:`.quality`: E7/E8, error at 0°, 22.5° and 45° for a smooth and a binary classification, and
-  opacity correction on a low-opacity cube;
-* :mod:`.matrix`: E11, the optimisation matrix of Fig. 5.17 (samples and time);
-* :mod:`.angles`: E4, time over a full turn (Fig. 5.3), no jump at the principal-axis switch;
-* :mod:`.scaling`: E2/E3, time against the volume size (n², not n³), RLE memory, the warp (Table 5.4);
-* :mod:`.throughput`: E12–E14, cubes and checkerboards (Figs 5.19–5.21) and the fitted cost model;
-* :mod:`.parallel`: E16/E17, workers, the four task schedules of Ch. 6 and the task size;
-* :mod:`.shading`: E18 lookup-table shading, E15 union-find variants, E22 the mode switch;
-* :mod:`.projection`: E2, Table 5.3 complete (parallel, perspective, fast classification) with memory;
-* :mod:`.perspective`: E21, perspective image quality as the field of view widens.
-
-Shared by them: :mod:`.tables` (the thesis's numbers), :mod:`.planning` (the backends, a
-shear-warp frame checked against its ground truth), :mod:`.pages` (what cannot be measured here); the claims
-are judged by the kit (:mod:`pipeline.experiments.kit.judging`: one stage on both sides, 95 % intervals, starved
-parallel runs).
+The paper's guide is ``../shared/papers/notes/`` (003.md, §4.2). Ten experiments, one module each (its docstring
+names the thesis's figures and tables it reproduces; :data:`EXPERIMENTS` in report order), each with the thesis's
+own numbers beside ours (``paper_table``), its statements as claims, and its ``description`` saying what it
+renders (the page's words). Shared by them: :mod:`.tables` (the thesis's numbers) and :mod:`.planning` (the
+backends, the timing claims' stage, a shear-warp frame checked against its ground truth, what cannot be measured
+here); the claims are judged by the kit (:mod:`pipeline.experiments.kit.judging`: one stage on both sides, 95 %
+intervals, starved parallel runs).
 
 Every timed comparison renders at least one untimed frame that compiled nothing before three timed
 frames, more until the frame time settles (:mod:`pipeline.timing`; more timed frames when the

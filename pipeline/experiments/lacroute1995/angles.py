@@ -1,8 +1,4 @@
-"""``lacroute1995-angles`` (E4, Fig. 5.3): rendering time over a full turn, and the principal-axis switch at 45°.
-
-Shear-warp keeps one run-length encoding per principal axis and switches between them where the view
-crosses 45°; each data set turns about its vertical axis in equal steps, every view timed.
-"""
+"""``lacroute1995-angles`` (E4, Fig. 5.3): rendering time over a full turn, and the principal-axis switch at 45°."""
 
 import numpy as np
 import pandas as pd
@@ -15,16 +11,12 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaway
                                             format_number)
 from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
                                                volume_and_image_size)
-from pipeline.experiments.kit.results import numeric, ok_rows, stage_points, view_angle
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, stage_points, view_angle
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
 
 ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
-
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (tables, clearing, compositing, warp), what Fig. 5.3 times."""
 
 HEAD_OVER_SPHERE = tables.FIG_5_3["head"] / tables.FIG_5_3["sphere"]
 """Fig. 5.3: how many times the sphere's variation over a turn the head's is (13 % / 6 %)."""
@@ -41,8 +33,6 @@ def principal_axis(angle):
 
 
 class ViewAngles(Experiment):
-    """Fig. 5.3: rendering time over a full turn, and the principal-axis switch at 45°."""
-
     name = "lacroute1995-angles"
     paper = "lacroute1995"
     title = "Rendering time against the view angle (E4, Fig. 5.3)"
@@ -69,8 +59,7 @@ class ViewAngles(Experiment):
         angles = np.arange(0.0, 360.0 - 1e-9, step)
         runs = []
         for dataset in wanted:
-            volume = phantom(dataset, size, preset=ANGLE_DATASETS[dataset])
-            spec = scene(dataset, image, volumes=[volume])
+            spec = scene(dataset, image, volumes=[phantom(dataset, size, preset=ANGLE_DATASETS[dataset])])
             views = tuple(dataset_view(dataset, f"deg{a:g}", a) for a in angles)
             # The turns share their view names: timed together, view by view, the head's and the sphere's
             # variations are compared under the same conditions.
@@ -136,12 +125,13 @@ class ViewAngles(Experiment):
         return out + shearwarp_missing()
 
 
-def _turns(df):
+def _turns(df, required=False):
+    """The turns' rows with their ``angle``, by data set and angle; with ``required``, ValueError where none."""
     if df.empty or "dataset" not in df:
+        if required:
+            raise ValueError("no successful turn")
         return pd.DataFrame()
-    frame = df.copy()
-    frame["angle"] = [view_angle(v) for v in frame.view]
-    frame["time_total"] = numeric(frame, "time_total")
+    frame = df.assign(angle=[view_angle(v) for v in df.view], time_total=numeric(df, "time_total"))
     return frame.sort_values(["dataset", "angle"])
 
 
@@ -157,12 +147,6 @@ def _changes(times, axes):
             changes[..., ~switch].max(axis=-1))
 
 
-def _axes(part):
-    if "info_principal_axis" in part and part.info_principal_axis.notna().all():
-        return part.info_principal_axis.astype(str).to_numpy()  # the axis the backend chose
-    return np.array([principal_axis(a) for a in part.angle])
-
-
 def _turn_stats(part, column=TIME, resampler=None):
     """Mean, extremes, variation and the largest neighbour-to-neighbour changes of ``column`` over a turn.
 
@@ -175,7 +159,10 @@ def _turn_stats(part, column=TIME, resampler=None):
         raise ValueError(f"{part.dataset.iloc[0]}: some views have no {column}")
     if len(times) < 3:
         raise ValueError(f"{part.dataset.iloc[0]}: fewer than three views")
-    axes = _axes(part)
+    if "info_principal_axis" in part and part.info_principal_axis.notna().all():
+        axes = part.info_principal_axis.astype(str).to_numpy()  # the axis the backend chose
+    else:
+        axes = np.array([principal_axis(a) for a in part.angle])
     if len(set(axes)) < 2 or (axes != np.roll(axes, -1)).all():
         raise ValueError("need neighbouring views both across and away from an axis switch")
     variation, switch, other = _changes(times, axes)
@@ -197,9 +184,7 @@ def _sample_columns(part):
 
 
 def _jump(df, column=TIME):
-    frame = _turns(df)
-    if frame.empty:
-        raise ValueError("no successful turn")
+    frame = _turns(df, required=True)
     resampler = intervals.Resampler()
     stats = {d: _turn_stats(p, column, resampler) for d, p in frame.groupby("dataset")}
     with np.errstate(divide="ignore", invalid="ignore"):  # nothing changes away from a switch: an infinite ratio
@@ -215,25 +200,19 @@ def _jump(df, column=TIME):
 
 def _variation(df, dataset, bound):
     frame = _turns(df)
-    part = frame[frame.dataset == dataset] if not frame.empty else frame
-    if part.empty:
-        raise ValueError(f"no successful turn of {dataset}")
+    part = nonempty_or(frame[frame.dataset == dataset] if not frame.empty else frame,
+                       f"no successful turn of {dataset}")
     resampler = intervals.Resampler()
     stats = _turn_stats(part, TIME, resampler)
     decision = judging.decided(stats["variation"], None if stats["draws"] is None else stats["draws"][0],
                                at_most=bound, centred=True, frames=resampler.arms())
-    detail = f"thesis: 6 %; {tables.SCOPES[TIME]}"
-    try:
-        detail += f"; samples vary {as_percent(_turn_stats(part, 'count_samples')['variation'])}"
-    except (KeyError, ValueError):
-        pass
+    samples = _sample_columns(part).get("samples: variation")
+    detail = f"thesis: 6 %; {tables.SCOPES[TIME]}" + (f"; samples vary {samples}" if samples else "")
     return ClaimResult.decided(decision_words(decision, as_percent), decision, detail)
 
 
 def _head(df, at_least=STRICTLY_ABOVE_ONE):
-    frame = _turns(df)
-    if frame.empty:
-        raise ValueError("no successful turn")
+    frame = _turns(df, required=True)
     sphere = frame[frame.dataset == "sphere"]
     heads = frame[frame.dataset.isin(["ct_skull", "cthead"])]
     if sphere.empty or heads.empty:

@@ -1,8 +1,4 @@
-"""``lacroute1995-matrix`` (E11, Fig. 5.17): samples and time with each coherence optimisation on and off.
-
-Brute force, early ray termination only, the run-length-encoded volume only, and both, on the brains
-and the CT head stand-in; the sample counts do not depend on the machine.
-"""
+"""``lacroute1995-matrix`` (E11, Fig. 5.17): samples and time with each coherence optimisation on and off."""
 
 import numpy as np
 import pandas as pd
@@ -15,8 +11,7 @@ from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaw
 from pipeline.experiments.kit.planning import (accepts, headline_view, listed, phantom, scene, timed_frames,
                                                volume_and_image_size)
 from pipeline.experiments.kit.results import complete_groups, ok_rows, speed_points
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.tables import FIG_5_17, THESIS
 from reports import plots
@@ -49,8 +44,6 @@ OURS = ("the kind of speed-up, not the thesis's 1995 workstation's figure: the s
 
 
 class OptimisationMatrix(Experiment):
-    """Fig. 5.17: samples and time with each coherence optimisation on and off."""
-
     name = "lacroute1995-matrix"
     paper = "lacroute1995"
     title = "Impact of each coherence optimisation: samples and time (E11, Fig. 5.17)"
@@ -76,12 +69,10 @@ class OptimisationMatrix(Experiment):
         size, image = volume_and_image_size(profile, self)
         runs = []
         for dataset in wanted:
-            volume = phantom(dataset, size, preset=MATRIX_DATASETS[dataset])
-            spec = scene(dataset, image, volumes=[volume])
-            for config, (options, _label, _test) in MATRIX_CONFIGS.items():
-                runs.append(Run(self.name, f"{dataset}.{config}", SW, spec, (headline_view(dataset),), options=dict(options),
-                                **timed_frames(profile, self), interleave=dataset,
-                                tags={"dataset": dataset, "config": config}))
+            spec = scene(dataset, image, volumes=[phantom(dataset, size, preset=MATRIX_DATASETS[dataset])])
+            runs += [Run(self.name, f"{dataset}.{config}", SW, spec, (headline_view(dataset),), options=dict(options),
+                         **timed_frames(profile, self), interleave=dataset, tags={"dataset": dataset, "config": config})
+                     for config, (options, _label, _test) in MATRIX_CONFIGS.items()]
         return runs
 
     claims = (

@@ -1,9 +1,4 @@
-"""``lacroute1995-parallel`` (E16, E17; Ch. 6): speed-up with workers, the four task assignments and the task size.
-
-The CT head stand-in rendered with 1, 2, … workers (as many as this machine has), each of the thesis's
-schedules at the most workers, and a sweep of task sizes; load imbalance from the samples each
-worker composited.
-"""
+"""``lacroute1995-parallel`` (E16, E17; Ch. 6): speed-up with workers, the four task assignments and the task size."""
 
 import json
 from pathlib import Path
@@ -17,10 +12,10 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table, title_or
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
-from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
+                                              text_column)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
 
 SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous")
@@ -28,9 +23,6 @@ SCHEDULES = ("round-robin-steal", "round-robin", "contiguous-steal", "contiguous
 
 DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE = "round-robin-steal", 8
 """The shearwarp backend's defaults (the agreed interface)."""
-
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (the parallel kernels and tables), not the serial Python around them."""
 
 
 def worker_imbalance(record_path, view):
@@ -69,8 +61,6 @@ TABLE_6_4_ORDER = tuple(sorted(tables.TABLE_6_4, key=lambda schedule: tables.TAB
 
 
 class Parallel(Experiment):
-    """Ch. 6: speed-up with workers, the four task assignments and the task size."""
-
     name = "lacroute1995-parallel"
     paper = "lacroute1995"
     title = "Multiprocessor rendering: speed-up, load balancing and task size (E16, E17)"
@@ -106,11 +96,8 @@ class Parallel(Experiment):
         most = max(workers)
         runs = []
         for n in sizes:
-            volume = phantom(dataset, n, preset=preset)
-            spec = scene(f"{dataset}-{n}", image, volumes=[volume])
-            configs = {}
-            for w in workers:
-                configs[(w, DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE)] = "workers"
+            spec = scene(f"{dataset}-{n}", image, volumes=[phantom(dataset, n, preset=preset)])
+            configs = {(w, DEFAULT_SCHEDULE, DEFAULT_TASK_SIZE): "workers" for w in workers}
             for s in schedules:
                 configs.setdefault((most, s, DEFAULT_TASK_SIZE), "schedule")
             for t in task_sizes:
@@ -171,8 +158,7 @@ class Parallel(Experiment):
         speed = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.task_size == DEFAULT_TASK_SIZE)].copy()
         if speed.workers.nunique() > 1:
             out.append(_speedup_figure(speed, ok, ctx))
-        sched = frame[frame.task_size == DEFAULT_TASK_SIZE]
-        sched = sched[sched.workers == frame.workers.max()]
+        sched = frame[(frame.task_size == DEFAULT_TASK_SIZE) & (frame.workers == frame.workers.max())]
         if sched.schedule.nunique() > 1:
             rows = []
             for row in sched.sort_values("time_ms").itertuples():
@@ -189,7 +175,8 @@ class Parallel(Experiment):
             out.append(figure(ctx, "task-size", plots.lines, tasks, heading="Frame time against the task size",
                               caption=f"{int(frame.workers.max())} workers, round robin with stealing.",
                               x="task_size", y="time_ms", group="volume", y_range=("time_ms_min", "time_ms_max"),
-                              log_x=True, title=_task_title(ok),
+                              log_x=True, title=title_or(lambda d: f"Task size: {_task_u(d).measured}", ok,
+                                                         "Frame time against the task size"),
                               x_label="task size (intermediate-image scanlines per task)",
                               y_label="median frame time (ms)"))
         # A run whose workers had fewer free cores than threads timed the machine: said on its row.
@@ -210,26 +197,18 @@ class Parallel(Experiment):
 
 def _speedup_figure(speed, ok, ctx):
     """Speed-up over one worker against the workers, per volume size, with linear speed-up as a guide."""
-    speed["speed-up"] = np.nan
-    for n, part in speed.groupby("volume_size"):
-        one = part[part.workers == 1]
-        if one.empty:
-            continue
-        t1 = float(one.time_ms.iloc[0])
-        speed.loc[part.index, "speed-up"] = t1 / part.time_ms
-        speed.loc[part.index, "speed-up low"] = t1 / part.time_ms_max
-        speed.loc[part.index, "speed-up high"] = t1 / part.time_ms_min
+    t1 = speed.volume_size.map(speed[speed.workers == 1].groupby("volume_size").time_ms.first())
+    for column, time in (("speed-up", "time_ms"), ("speed-up low", "time_ms_max"), ("speed-up high", "time_ms_min")):
+        speed[column] = t1 / speed[time]
     speed["volume"] = [f"{int(n)}³" for n in speed.volume_size]
     ps = np.array(sorted(speed.workers.unique()), float)
     return figure(ctx, "speedup", plots.lines, speed, heading="Speed-up against workers",
                   caption="Bars from the fastest and slowest timed frames; grey: linear speed-up.",
                   x="workers", y="speed-up", group="volume", y_range=("speed-up low", "speed-up high"),
-                  title=_speedup_title(ok), x_label="workers (threads)", y_label="speed-up over one worker (×)",
+                  title=title_or(lambda d: f"Efficiency: {_speedup(d).measured}", ok,
+                                 "Speed-up against the number of workers"),
+                  x_label="workers (threads)", y_label="speed-up over one worker (×)",
                   guides=(("linear", ps, ps),))
-
-
-def _row_imbalance(row):
-    return worker_imbalance(row.get("record"), row.get("view"))
 
 
 def _at_most_workers(df, **match):
@@ -254,17 +233,15 @@ def _speedup(df, band=None):
         if one.empty or w.max() <= 1:
             continue
         p = int(w.max())
-        one_time = judging.statistic(one, TIME, resampler)
-        speedup, draws = judging.ratio_pair(one_time, judging.statistic(most, TIME, resampler))
+        speedup, draws = judging.ratio_pair(*(judging.statistic(rows, TIME, resampler) for rows in (one, most)))
         low, high = (0.7, None) if band is None else band(p)
         decisions[f"{int(n)}³, ×{format_number(speedup)} on {p} workers"] = judging.decided(
             speedup / p, None if draws is None else draws / p, at_least=low, at_most=high, frames=resampler.arms())
         parallel.append(most)
-    if not decisions:
-        raise ValueError("no size rendered with one worker and with more")
-    result = all_of(decisions, extra=f"{tables.SCOPES[TIME]}; {_machine(pd.concat(parallel))}", show=as_percent)
+    parallel = pd.concat(nonempty_or(parallel, "no size rendered with one worker and with more"))
+    result = all_of(decisions, extra=f"{tables.SCOPES[TIME]}; {_machine(parallel)}", show=as_percent)
     # Starving only slows the parallel run: a pass above a floor stands, one inside a band need not.
-    return judging.unless_starved(result, pd.concat(parallel), holding_survives=band is None)
+    return judging.unless_starved(result, parallel, holding_survives=band is None)
 
 
 def _schedule_order(df, strict=False):
@@ -290,15 +267,14 @@ def _schedule_order(df, strict=False):
         measured.append(f"{n}³: " + " < ".join(f"{s} {format_number(t * 1e3)} ms" for s, t in
                                               sorted(times.items(), key=lambda kv: kv[1])))
         read.append(part)
-    if not decisions:
-        raise ValueError("not all four schedules rendered at the most workers")
+    read = pd.concat(nonempty_or(read, "not all four schedules rendered at the most workers"))
     workers = int(numeric(df, "workers").max())
     combined = intervals.combine(decisions.values())
-    detail = (f"{judging.labelled(decisions)}; {workers} workers; {_machine(pd.concat(read))}"
+    detail = (f"{judging.labelled(decisions)}; {workers} workers; {_machine(read)}"
               + ("; with 2 workers a contiguous split has only two blocks, so the thesis's 32-processor imbalance "
                  "cannot show fully" if workers <= 2 else ""))
     result = ClaimResult.decided("; ".join(measured), combined, detail)
-    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
+    return judging.unless_starved(result, read, holding_survives=False)
 
 
 def _task_u(df):
@@ -319,16 +295,15 @@ def _task_u(df):
         decisions[f"{n}³, fastest interior {best} scanlines"] = judging.decided(value, draw, at_least=1.0,
                                                                                 frames=resampler.arms())
         read.append(part)
-    if not decisions:
-        raise ValueError("fewer than three task sizes swept")
+    read = pd.concat(nonempty_or(read, "fewer than three task sizes swept"))
     result = all_of(decisions, extra="ends over the fastest interior task size; thesis optimum: 8–20 scanlines on "
-                                     f"the Challenge; {_machine(pd.concat(read))}")
-    return judging.unless_starved(result, pd.concat(read), holding_survives=False)
+                                     f"the Challenge; {_machine(read)}")
+    return judging.unless_starved(result, read, holding_survives=False)
 
 
 def _imbalance_text(row):
     try:
-        return as_percent(_row_imbalance(row))
+        return as_percent(worker_imbalance(row.get("record"), row.get("view")))
     except ValueError:
         return "not reported"
 
@@ -342,7 +317,8 @@ def _schedule_rows(df, schedule):
 
 
 def _schedule_imbalance(rows):
-    return {int(float(row["volume_size"])): _row_imbalance(row) for _i, row in rows.iterrows()}
+    return {int(float(row["volume_size"])): worker_imbalance(row.get("record"), row.get("view"))
+            for _i, row in rows.iterrows()}
 
 
 # With stealing, a worker's share of the samples follows which thread ran when: a starved run's shares
@@ -359,18 +335,8 @@ def _imbalance(df):
 def _imbalance_order(df):
     good_rows, bad_rows = _schedule_rows(df, "round-robin-steal"), _schedule_rows(df, "contiguous")
     good, bad = _schedule_imbalance(good_rows), _schedule_imbalance(bad_rows)
-    sizes = sorted(set(good) & set(bad))
-    if not sizes:
-        raise ValueError("no size rendered with both schedules")
+    sizes = nonempty_or(sorted(set(good) & set(bad)), "no size rendered with both schedules")
     result = ClaimResult(", ".join(f"contiguous {as_percent(bad[n])} vs round-robin-steal {as_percent(good[n])} ({n}³)"
                                    for n in sizes),
                          bool(all(bad[n] > good[n] for n in sizes)), "samples composited per worker; thesis 169 % vs 7 %")
     return judging.unless_starved(result, pd.concat([good_rows, bad_rows]), holding_survives=False)
-
-
-def _speedup_title(ok):
-    return title_or(lambda d: f"Efficiency: {_speedup(d).measured}", ok, "Speed-up against the number of workers")
-
-
-def _task_title(ok):
-    return title_or(lambda d: f"Task size: {_task_u(d).measured}", ok, "Frame time against the task size")

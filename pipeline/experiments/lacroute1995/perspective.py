@@ -1,9 +1,4 @@
-"""``lacroute1995-perspective`` (E21, §4.2.5): perspective image quality as the field of view widens.
-
-The same data set from the same direction at fields of view of 15° to 90° (the eye closer as the
-field widens), each shear-warp image against the reference ray caster with the same camera, beside
-the parallel projection of the same view.
-"""
+"""``lacroute1995-perspective`` (E21, §4.2.5): perspective image quality as the field of view widens."""
 
 import numpy as np
 import pandas as pd
@@ -14,16 +9,14 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, claim_takeaways, db_words, difference_gallery,
                                             figure, format_number, linked_table, title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, phantom, scene, volume_and_image_size
-from pipeline.experiments.kit.results import FOOTPRINT_ALPHA, footprint_psnr, numeric, ok_rows, read_exr, text_column
+from pipeline.experiments.kit.results import (FOOTPRINT_ALPHA, footprint_psnr, nonempty_or, numeric, ok_rows, read_exr,
+                                              text_column)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing, truth_and_shearwarp
 from reports import plots
 
 
 class PerspectiveQuality(Experiment):
-    """§4.2.5: image quality against the reference as the field of view widens."""
-
     name = "lacroute1995-perspective"
     paper = "lacroute1995"
     title = "Perspective artifacts: quality against the field of view (E21, §4.2.5)"
@@ -109,8 +102,8 @@ class PerspectiveQuality(Experiment):
             guides = (("parallel projection", xs, np.full(2, float(parallel.footprint_psnr.iloc[0]))),)
         out.append(figure(ctx, "psnr-fov", plots.lines, perspective, heading="Accuracy against the field of view",
                           caption="The eye comes closer as the field widens (the camera frames the volume).",
-                          x="fov", y="footprint_psnr", group="series", title=_title(ok),
-                          x_label="vertical field of view (degrees)",
+                          x="fov", y="footprint_psnr", group="series", x_label="vertical field of view (degrees)",
+                          title=title_or(lambda d: f"PSNR {_falls(d).measured}", ok, "PSNR against the field of view"),
                           y_label="PSNR against the reference over the object's footprint (dB)", guides=guides))
         out.append(difference_gallery(
             "Each field of view and its difference from the reference", rows, ctx, against=results,
@@ -126,11 +119,9 @@ class PerspectiveQuality(Experiment):
 
 def fov_rows(df):
     """The shear-warp rows with their field of view (0: parallel), PSNR over the footprint and largest ray angle."""
-    rows = df[text_column(df, "role") == "test"].copy()
-    rows["fov"] = numeric(rows, "fov")
-    rows["max_ray_angle"] = pd.to_numeric(rows.get("info_max_ray_angle", np.nan), errors="coerce")
-    if rows.empty:
-        raise ValueError("no shear-warp image rendered")
+    rows = df[text_column(df, "role") == "test"]
+    rows = nonempty_or(rows.assign(fov=numeric(rows, "fov"), max_ray_angle=pd.to_numeric(
+        rows.get("info_max_ray_angle", np.nan), errors="coerce")), "no shear-warp image rendered")
     footprint, coverage = [], []
     for row in rows.itertuples():
         truth = df[(text_column(df, "run") == str(row.reference)) & (text_column(df, "view") == str(row.view))]
@@ -151,8 +142,7 @@ def _falls(df):
     drop = psnr_[0] - psnr_[-1]
     rise = float(np.max(np.diff(psnr_)))
     return ClaimResult(f"{db_words(-drop, more='higher', less='lower')} at {perspective.fov.iloc[-1]:g}° than at "
-                       f"{perspective.fov.iloc[0]:g}°",
-                       bool(drop >= 1.0 and rise <= 0.5),
+                       f"{perspective.fov.iloc[0]:g}°", bool(drop >= 1.0 and rise <= 0.5),
                        ", ".join(f"{r.fov:g}°: {format_number(r.footprint_psnr)} dB over {as_percent(r.coverage)} of the "
                                  f"frame (whole frame {format_number(float(getattr(r, 'psnr', np.nan)))} dB)"
                                  for r in perspective.itertuples())
@@ -169,7 +159,3 @@ def _like_parallel(df):
     return ClaimResult(f"{format_number(gap)} dB ({narrow.fov:g}° against parallel)", bool(abs(gap) <= 2.0),
                        f"over the footprint: parallel {format_number(parallel.footprint_psnr.iloc[0])} dB, "
                        f"{narrow.fov:g}° {format_number(narrow.footprint_psnr)} dB")
-
-
-def _title(ok):
-    return title_or(lambda d: f"PSNR {_falls(d).measured}", ok, "PSNR against the field of view")

@@ -1,9 +1,4 @@
-"""``lacroute1995-projection`` (E2, Table 5.3 complete): parallel, perspective and fast classification over a turn.
-
-Each data set turns about its body axis at a fixed elevation; each view is timed with the three
-algorithms, and the table gives the mean, fastest and slowest view and each mode's memory beside the
-thesis's.
-"""
+"""``lacroute1995-projection`` (E2, Table 5.3 complete): parallel, perspective and fast classification over a turn."""
 
 import numpy as np
 import pandas as pd
@@ -15,21 +10,16 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
 from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene,
                                                timed_frames, volume_and_image_size)
-from pipeline.experiments.kit.results import complete_groups, numeric, ok_rows, speed_points, text_column, view_angle
+from pipeline.experiments.kit.results import (complete_groups, nonempty_or, numeric, ok_rows, speed_points, text_column,
+                                              view_angle)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from pipeline.experiments.lacroute1995.tables import TABLE_5_3, THESIS
 from reports import blocks, plots
 
-PROJECTION_DATASETS = {
-    # data set: (classification preset, the thesis's data set it stands for)
-    "brainsmall": ("volpack", "brainsmall"),
-    "folded_brain": ("volpack", "brain"),
-    "ct_skull": ("bone", "head"),
-    "mrihead": ("volpack", "brain"),
-    "cthead": ("bone", "head"),
-}
+PROJECTION_DATASETS = {"brainsmall": ("volpack", "brainsmall"), "folded_brain": ("volpack", "brain"),
+                       "ct_skull": ("bone", "head"), "mrihead": ("volpack", "brain"), "cthead": ("bone", "head")}
+"""Each data set's classification preset and the thesis's data set it stands for."""
 
 PROJECTION_CONFIGS = {
     # config: (camera projection, shearwarp options, label)
@@ -38,9 +28,6 @@ PROJECTION_CONFIGS = {
     "fast-classification": ("orthographic", {"classification": "octree"},
                             "fast classification (min-max octree + summed-area table), parallel"),
 }
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (tables, octree runs, compositing, warp), what Table 5.3 timed."""
-
 OCTREE_MEMORY_LIMIT = 4.0
 """Fast-classification structures per voxel of an 8-bit volume: the thesis's 4-byte raw array."""
 
@@ -51,8 +38,6 @@ OURS = ("about the thesis's range: our data sets stand in for its scans at other
 
 
 class Projections(Experiment):
-    """Table 5.3 complete: parallel, perspective and fast classification over a set of views, and memory."""
-
     name = "lacroute1995-projection"
     paper = "lacroute1995"
     title = "Parallel, perspective and fast classification over many views (E2, Table 5.3)"
@@ -205,14 +190,9 @@ def projection_summary(df):
                      "thesis data set": thesis_set, "thesis mean (s)": mean, "thesis fastest–slowest (s)":
                      f"{low}–{high}" if np.isfinite(low) else "", "thesis memory (MB)": mb,
                      "thesis time / parallel": mean / thesis["parallel"][0] if thesis else np.nan})
-    if not rows:
-        raise ValueError("no successful run with a frame time")
-    summary = pd.DataFrame(rows)
-    summary["time / parallel"] = np.nan
-    for dataset, part in summary.groupby("dataset"):
-        parallel = part[part.config == "parallel"]
-        if not parallel.empty:
-            summary.loc[part.index, "time / parallel"] = part["mean"] / float(parallel["mean"].iloc[0])
+    summary = pd.DataFrame(nonempty_or(rows, "no successful run with a frame time"))
+    parallel = summary[summary.config == "parallel"].set_index("dataset")["mean"]
+    summary["time / parallel"] = summary["mean"] / summary.dataset.map(parallel)
     order = {c: i for i, c in enumerate(PROJECTION_CONFIGS)}
     summary["_order"] = [order.get(c, 9) for c in summary.config]
     return summary.sort_values(["dataset", "_order"]).drop(columns="_order").reset_index(drop=True)
@@ -238,10 +218,9 @@ def _ratio(df, config, low, high):
 
 def _octree_memory(df):
     summary = projection_summary(df)
-    rows = summary[(summary.config == "fast-classification") & np.isfinite(summary.octree_bytes)
-                   & np.isfinite(summary.raw_bytes)]
-    if rows.empty:
-        raise ValueError("no fast-classification run reported octree_bytes and raw_bytes")
+    rows = nonempty_or(summary[(summary.config == "fast-classification") & np.isfinite(summary.octree_bytes)
+                               & np.isfinite(summary.raw_bytes)],
+                       "no fast-classification run reported octree_bytes and raw_bytes")
     per_raw = {r.dataset: (r.raw_bytes + r.octree_bytes) / r.raw_bytes for r in rows.itertuples()}
     rle = dict(zip(summary[summary.config == "parallel"].dataset, summary[summary.config == "parallel"].rle_bytes))
     detail = "; ".join(f"{r.dataset}: raw {format_number(r.raw_bytes / 1e6)} MB + octree "

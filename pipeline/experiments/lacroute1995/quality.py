@@ -1,9 +1,4 @@
-"""``lacroute1995-quality`` (E7, E8): shear-warp's error against the reference at 0°, 22.5° and 45°.
-
-A smooth and a binary classification of each data set (the 45° aliasing of Fig. 5.10), each against
-the post-classified ground truth and the pre-classified caster the thesis compared with; and opacity
-correction (§4.1.6) on a uniform low-opacity cube seen head-on, at 45° and along the diagonal.
-"""
+"""``lacroute1995-quality`` (E7, E8): shear-warp's error against the reference at 0°, 22.5° and 45°."""
 
 import math
 
@@ -16,19 +11,14 @@ from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, db_word
                                             format_number, linked_table, title_or)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, dataset_view, is_registered, listed, phantom, scene,
                                                truth_run, volume_and_image_size)
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, view_angle
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, reference_exr, rows_matching,
+                                              view_angle)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW, truth_and_shearwarp
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing, truth_and_shearwarp
 from reports import blocks, plots
 
-QUALITY_TFS = {
-    # data set: (smooth preset, binary preset or raw threshold)
-    "engine": ("smooth", "binary"),
-    "engine_real": ("smooth", "binary"),
-    "sphere": ("opaque", "binary"),
-    "ct_skull": ("bone", 180),
-}
+QUALITY_TFS = {"engine": ("smooth", "binary"), "engine_real": ("smooth", "binary"), "sphere": ("opaque", "binary"),
+               "ct_skull": ("bone", 180)}
 """Per data set, the smooth preset and the binary classification (a preset, or a raw threshold at
 which a one-entry step from α 0 to 1 is built as the scene's transfer function)."""
 
@@ -79,8 +69,6 @@ def opacity_deficit(reference_exr, test_exr, *, low=0.05, high=0.95):
 
 
 class ImageQuality(Experiment):
-    """Shear-warp against the reference at 0°, 22.5°, 45°: smooth and binary classification; opacity correction."""
-
     name = "lacroute1995-quality"
     paper = "lacroute1995"
     title = "Image quality: the 45° worst case, binary classification and opacity correction (E7, E8)"
@@ -202,7 +190,9 @@ def _classification_blocks(tests, results, ctx):
     return out + [
         figure(ctx, "psnr-angle", plots.lines, tests, heading="Accuracy against the view angle",
                caption="One line per data set, classification and reference; 45° (dotted) is the thesis's worst case.",
-               x="angle (°)", y="psnr", group="series", title=_chart_title(tests),
+               x="angle (°)", y="psnr", group="series",
+               title=title_or(lambda d: f"Binary classification: {_drop(d, 'binary', True).measured}", tests,
+                              "PSNR against the view angle"),
                x_label="view angle to the volume axes (degrees)", y_label="PSNR against the reference (dB)",
                vlines=(45.0,)),
         difference_gallery("Binary and smooth classification at 0° and 45°", shown, ctx, against=results,
@@ -240,28 +230,22 @@ def _opacity_blocks(cube, results, ctx):
 
 def _rows(df, tf, truth="post"):
     """Shear-warp rows of classification ``tf`` measured against the ``truth`` reference (see :data:`TRUTHS`)."""
-    rows = rows_matching(df, "", part="classification", role="test", tf=tf, truth=truth).copy()
-    if rows.empty:
-        raise ValueError(f"no successful shear-warp run with the {tf} classification against {TRUTHS[truth]}")
-    rows["angle"] = [view_angle(v) for v in rows.view]
-    rows["psnr"] = numeric(rows, "psnr")
-    return rows
+    rows = nonempty_or(rows_matching(df, "", part="classification", role="test", tf=tf, truth=truth),
+                       f"no successful shear-warp run with the {tf} classification against {TRUTHS[truth]}")
+    return rows.assign(angle=[view_angle(v) for v in rows.view], psnr=numeric(rows, "psnr"))
 
 
 def _smooth_head_on(df, truth):
     rows = _rows(df, "smooth", truth)
-    head_on = rows[np.isclose(rows.angle, 0.0)]
-    if head_on.empty:
-        raise ValueError("no view at 0°")
+    head_on = nonempty_or(rows[np.isclose(rows.angle, 0.0)], "no view at 0°")
     worst = head_on.loc[head_on.psnr.idxmin()]
     return ClaimResult(f"{format_number(worst.psnr)} dB ({worst.dataset})", bool(worst.psnr >= 35.0),
                        ", ".join(f"{r.dataset}: {format_number(r.psnr)} dB" for r in head_on.itertuples()))
 
 
 def _psnr_at(rows, dataset, angle):
-    match = rows[(rows.dataset == dataset) & np.isclose(rows.angle, angle)]
-    if match.empty:
-        raise ValueError(f"{dataset}: no view at {angle:g}°")
+    match = nonempty_or(rows[(rows.dataset == dataset) & np.isclose(rows.angle, angle)],
+                        f"{dataset}: no view at {angle:g}°")
     return float(match.psnr.iloc[0])
 
 
@@ -272,10 +256,8 @@ def _oblique(rows):
     classification order differs most from the reference; it is the worst angle, not a baseline for
     what 45° adds.
     """
-    angles = [a for a in rows.angle if 0.0 < a < 45.0]
-    if not angles:
-        raise ValueError("no view between 0° and 45° to measure the loss at 45° from")
-    return max(angles)
+    return max(nonempty_or([a for a in rows.angle if 0.0 < a < 45.0],
+                           "no view between 0° and 45° to measure the loss at 45° from"))
 
 
 def _drop(df, tf, aliasing, truth="pre"):
@@ -299,8 +281,7 @@ def _drop(df, tf, aliasing, truth="pre"):
     key = min(drops, key=drops.get) if aliasing else max(drops, key=drops.get)
     what = " beyond the smooth one's loss" if aliasing else ""
     words = db_words(-drops[key], more="gained", less="lost")
-    return ClaimResult(f"{words} from {base:g}° to 45°{what} ({key})", bool(holds),
-                       "; ".join(details))
+    return ClaimResult(f"{words} from {base:g}° to 45°{what} ({key})", bool(holds), "; ".join(details))
 
 
 def _cube_deficits(df, correction):
@@ -308,15 +289,9 @@ def _cube_deficits(df, correction):
     truth = rows_matching(df, "", part="opacity", role="truth")
     if rows.empty or truth.empty:
         raise ValueError(f"no successful cube run with correction {correction} and its reference")
-    deficits = {}
-    for row in rows.itertuples():
-        reference = truth[truth.view == row.view]
-        if reference.empty:
-            continue
-        deficits[row.view] = opacity_deficit(reference.exr.iloc[0], row.exr)
-    if not deficits:
-        raise ValueError("no cube view rendered by both")
-    return deficits
+    deficits = {row.view: opacity_deficit(truth[truth.view == row.view].exr.iloc[0], row.exr)
+                for row in rows.itertuples() if (truth.view == row.view).any()}
+    return nonempty_or(deficits, "no cube view rendered by both")
 
 
 def _uncorrected(df, bands=None):
@@ -324,9 +299,8 @@ def _uncorrected(df, bands=None):
     1 − Δ0/Δ ± 7 points in every oblique view)."""
     deficits = _cube_deficits(df, "off")
     expected = {name: 1 - 1 / spacing for name, _a, _e, spacing in CUBE_VIEWS if spacing > 1}
-    measured = {v: d for v, d in deficits.items() if v in expected and (bands is None or v in bands)}
-    if not measured:
-        raise ValueError("no oblique cube view")
+    measured = nonempty_or({v: d for v, d in deficits.items() if v in expected and (bands is None or v in bands)},
+                           "no oblique cube view")
     holds = all(abs(d - expected[v]) <= 0.07 if bands is None else bands[v][0] <= d <= bands[v][1]
                 for v, d in measured.items())
     return ClaimResult(", ".join(f"{as_percent(d)} ({v})" for v, d in measured.items()), bool(holds),
@@ -343,11 +317,6 @@ def _corrected(df):
                        ", ".join(f"{v}: {as_percent(d)}" for v, d in deficits.items()))
 
 
-def _chart_title(tests):
-    return title_or(lambda d: f"Binary classification: {_drop(d, 'binary', True).measured}", tests,
-                    "PSNR against the view angle")
-
-
 def _real_versus_phantom(ok):
     """The smooth head-on PSNR against the pre-classified caster on real scans and on phantoms, side by side."""
     try:
@@ -356,8 +325,7 @@ def _real_versus_phantom(ok):
         return []
     head_on = rows[np.isclose(rows.angle, 0.0)]
     kinds = {name: datasets.get(name).kind for name in pd.unique(head_on.dataset)}
-    real = head_on[[kinds[d] == "real" for d in head_on.dataset]]
-    phantoms = head_on[[kinds[d] == "phantom" for d in head_on.dataset]]
+    real, phantoms = (head_on[[kinds[d] == kind for d in head_on.dataset]] for kind in ("real", "phantom"))
     if real.empty or phantoms.empty:
         return []
 

@@ -1,8 +1,4 @@
-"""``lacroute1995-scaling`` (E2, E3; Tables 5.3, 5.4): time and memory against the volume and image size.
-
-Shear-warp's work grows with the voxels it composites (n² for surfaces, not n³); the run-length
-encodings' memory against an unencoded volume; the 2D warp's cost against the image's pixels.
-"""
+"""``lacroute1995-scaling`` (E2, E3; Tables 5.3, 5.4): time and memory against the volume and image size."""
 
 import math
 
@@ -15,10 +11,9 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
                                             title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, stage_points, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, speed_points, stage_points, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, shearwarp_missing
 from reports import blocks, plots
 
 SCALING_DATASETS = {"folded_brain": "volpack", "ct_skull": "bone"}
@@ -28,8 +23,6 @@ WARP_STEPS = tables.warp_steps()
 
 
 class SizeScaling(Experiment):
-    """Table 5.3's n² growth, RLE memory, and Table 5.4's warp cost against the image size."""
-
     name = "lacroute1995-scaling"
     paper = "lacroute1995"
     title = "Time and memory against the volume and image size (E2, E3; Tables 5.3, 5.4)"
@@ -116,9 +109,7 @@ class SizeScaling(Experiment):
         out = [claim_takeaways(ctx)]
         if ok.empty:
             return out
-        frame = speed_points(ok)
-        frame["volume_size"] = numeric(frame, "volume_size")
-        frame["image_size"] = numeric(frame, "image_size")
+        frame = speed_points(ok.assign(volume_size=numeric(ok, "volume_size"), image_size=numeric(ok, "image_size")))
         growth = frame[numeric(frame, "growth") == 1]
         if not growth.empty:
             out.append(_growth_figure(growth, ok, ctx))
@@ -141,15 +132,17 @@ class SizeScaling(Experiment):
 
 def _growth_figure(growth, ok, ctx):
     """Frame time against the volume size on log–log axes, with n² and n³ guides through the smallest size."""
-    lo = float(growth.volume_size.min())
-    hi = float(growth.volume_size.max())
+    lo, hi = float(growth.volume_size.min()), float(growth.volume_size.max())
     base = float(growth[growth.volume_size == lo].time_ms.median())
     xs = np.array([lo, hi])
     return figure(ctx, "growth", plots.lines, growth, heading="Frame time against the volume size",
                   caption=f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 through the "
                           "smallest size. Bars: fastest to slowest timed frame.",
                   x="volume_size", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
-                  log_x=True, log_y=True, title=_growth_title(ok),
+                  log_x=True, log_y=True, title=title_or(lambda d: "Compositing time grows " + ", ".join(
+                      f"×{format_number(_per_doubling(a, b, k, judging.COMPOSITE, intervals.Resampler())[0], 2)} "
+                      f"({dataset})" for dataset, (a, b, k, _n, _m) in _growth_pairs(d).items())
+                      + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size"),
                   x_label="volume size (voxels along the longest side)", y_label="median frame time (ms)",
                   guides=(("∝ n² (thesis)", xs, base * (xs / lo) ** 2),
                           ("∝ n³ (brute force)", xs, base * (xs / lo) ** 3)))
@@ -175,7 +168,10 @@ def _warp_blocks(frame, ok, ctx):
     return [figure(ctx, "warp", plots.lines, warp, heading="Warp time against the image size",
                    caption="One line per volume size; the grey line grows with the pixel count.",
                    x="image_size", y="warp_ms", group="volume", y_range=("warp_ms_min", "warp_ms_max"), log_x=True,
-                   log_y=True, title=_warp_title(ok), x_label="image size (pixels along a side)",
+                   log_y=True, x_label="image size (pixels along a side)",
+                   title=title_or(lambda d: f"The warp grows {_warp_growth(d).measured} per doubling of the image side "
+                                  "(pixels: ×4)", ok, "Warp time against the image size",
+                                  errors=(KeyError, ValueError, IndexError)),
                    y_label="median warp time per frame (ms)", guides=guide),
             blocks.Table("The warp's cost beside Table 5.4", pd.DataFrame(rows), csv_name="warp.csv",
                          caption="Medians of the timed frames; thesis: MR brain prefiltered to each size.")]
@@ -192,9 +188,7 @@ def _growth_pairs(df):
             continue
         a, b = (part[numeric(part, "volume_size") == n] for n in sizes[-2:])
         pairs[dataset] = (a, b, math.log2(sizes[-1] / sizes[-2]), int(sizes[-2]), int(sizes[-1]))
-    if not pairs:
-        raise ValueError("no data set rendered at two sizes")
-    return pairs
+    return nonempty_or(pairs, "no data set rendered at two sizes")
 
 
 def _per_doubling(rows_a, rows_b, doublings, column, resampler):
@@ -202,12 +196,6 @@ def _per_doubling(rows_a, rows_b, doublings, column, resampler):
     a = judging.statistic(rows_a, column, resampler)
     value, draws = judging.ratio_pair(judging.statistic(rows_b, column, resampler), a)
     return value ** (1 / doublings), None if draws is None else draws ** (1 / doublings)
-
-
-def _growth_ratios(df, column=judging.COMPOSITE):
-    """``{data set: (ratio per doubling, from size, to size)}`` of ``column`` at each data set's largest sizes."""
-    return {d: (_per_doubling(a, b, k, column, intervals.Resampler())[0], n, m)
-            for d, (a, b, k, n, m) in _growth_pairs(df).items()}
 
 
 def _growth(df, at_least=2.8, at_most=5.66):
@@ -235,9 +223,8 @@ def _rle_memory(df):
     """At each data set's largest size (the thesis's statement is about 256³ scans; at a few
     voxels the per-scanline offsets dominate), the RLE copies against 4 bytes per voxel."""
     frame = df.assign(rle=numeric(df, "count_rle_bytes"), raw=numeric(df, "count_raw_bytes"), n=numeric(df, "volume_size"))
-    frame = frame[np.isfinite(frame.rle) & np.isfinite(frame.raw) & (frame.raw > 0)]
-    if frame.empty:
-        raise ValueError("no run reported rle_bytes and raw_bytes")
+    frame = nonempty_or(frame[np.isfinite(frame.rle) & np.isfinite(frame.raw) & (frame.raw > 0)],
+                        "no run reported rle_bytes and raw_bytes")
     largest = frame[frame.n == frame.groupby("dataset").n.transform("max")].drop_duplicates("dataset")
     fraction = {f"{r.dataset} {int(r.n)}³": r.rle / (4 * r.raw) for r in largest.itertuples()}
     per_raw = {f"{r.dataset} {int(r.n)}³": r.rle / r.raw for r in largest.itertuples()}
@@ -248,8 +235,7 @@ def _rle_memory(df):
 
 
 def _warp_rows(df):
-    frame = df.copy()
-    frame["n"], frame["i"], frame["warp"] = numeric(frame, "volume_size"), numeric(frame, "image_size"), numeric(frame, "time_warp")
+    frame = df.assign(n=numeric(df, "volume_size"), i=numeric(df, "image_size"), warp=numeric(df, "time_warp"))
     first = text_column(frame, "dataset").iloc[0]
     return frame[(text_column(frame, "dataset") == first) & np.isfinite(frame.warp)]
 
@@ -301,14 +287,3 @@ def _warp_share_paper(largest, shares, draws, resampler):
             shares[end], None if draws is None else draws[:, end], frames=resampler.arms(), **{bound: thesis / 100})
     return all_of(decisions, show=as_percent, extra=f"warp stage over the technique at {image}² images; every size: "
                   + ", ".join(f"{as_percent(s)} ({int(n)}³)" for s, n in zip(shares, largest.n)))
-
-
-def _growth_title(ok):
-    return title_or(lambda d: "Compositing time grows " + ", ".join(
-        f"×{format_number(r, 2)} ({dataset})" for dataset, (r, _a, _b) in _growth_ratios(d).items())
-        + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size")
-
-
-def _warp_title(ok):
-    return title_or(lambda d: f"The warp grows {_warp_growth(d).measured} per doubling of the image side (pixels: ×4)", ok,
-                    "Warp time against the image size", errors=(KeyError, ValueError, IndexError))

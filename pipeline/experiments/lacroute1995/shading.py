@@ -1,9 +1,4 @@
-"""``lacroute1995-shading`` (E18, E15, E22): shading tables, union-find variants and the mode switch.
-
-Lookup-table against per-voxel Phong shading (Table 7.1), path compression with and without union by
-rank (§4.1.3), and what a classification edit costs before the next image in VolPack's and our
-backend's modes (§4.4): the harness times each preprocessing stage once, compiled, after the cold frame.
-"""
+"""``lacroute1995-shading`` (E18, E15, E22): shading tables, union-find variants and the mode switch."""
 
 from dataclasses import replace
 
@@ -15,14 +10,13 @@ from pipeline.experiments.kit.checks import Measure, Ratio
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_ratio, change_words, claim_takeaways, difference_gallery, figure,
-                                            format_number, frame_note, linked_table, not_measurable,
-                                            title_or)
+                                            format_number, frame_note, linked_table, not_measurable, title_or)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, missing_options, phantom, scene,
                                                timed_frames, unregistered, volume_and_image_size)
-from pipeline.experiments.kit.results import (ok_rows, one_row, pair_metrics, reference_exr, rows_matching,
-                                              speed_points, stage_time)
+from pipeline.experiments.kit.results import (nonempty, nonempty_or, ok_rows, one_row, pair_metrics, reference_exr,
+                                              rows_matching, speed_points, stage_time)
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.planning import SW, VP
+from pipeline.experiments.lacroute1995.planning import SW, TIME, VP
 from reports import blocks, plots
 
 SW_MODE_CONFIGS = {
@@ -32,9 +26,6 @@ SW_MODE_CONFIGS = {
 }
 PREPROCESSING_STAGES = ("time_classify", "time_rle_build", "time_octree", "time_octree_build", "time_sat_build")
 """Stages timed only in the frame that builds a per-volume structure."""
-
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (our kernels and tables; VolPack's library calls), per frame."""
 
 LUT_SPEED = Ratio(Measure("per-voxel Phong", match={"part": "shading", "config": "procedural"}, column=TIME),
                   Measure("lookup-table shading", match={"part": "baseline"}, column=TIME), at_least=2.0)
@@ -53,14 +44,8 @@ OCTREE_RENDER_PAPER = replace(OCTREE_RENDER, at_least=tables.fast_classification
 """The same comparisons with the thesis's figures as bounds: Table 7.1's ×4.3 (14.5 / 3.4 s), §4.1.3's 5–15 %
 slower and Table 5.3's ×1.8–2.5."""
 
-OURS_OCTREE = ("about the thesis's range: our stand-in at another size, and a modern CPU's caches weigh the octree "
-               "and its on-the-fly classification differently")
-"""Why fast classification's bound here is wider than Table 5.3's range (judged as a claim of its own)."""
-
 
 class Variants(Experiment):
-    """Table 7.1 (LUT against procedural shading), §4.1.3 (union by rank), §4.4 (VolPack's mode switch)."""
-
     name = "lacroute1995-shading"
     paper = "lacroute1995"
     title = "Shading tables, union-find variants and the mode switch (E18, E15, E22)"
@@ -86,35 +71,32 @@ class Variants(Experiment):
         volume = phantom(dataset, size, preset=preset)
         spec = scene(f"{dataset}-{preset}", image, volumes=[volume])
         view = (headline_view(dataset),)
-        timed = timed_frames(profile, self)
-        tags = {"dataset": dataset, "preset": preset}
-        runs = []
+        timed, runs = timed_frames(profile, self), []
+
         # Each comparison's runs are timed together, frame by frame. The harness times the preprocessing
         # stages (classify, rle_build, octree_build, sat_build) once more after the cold frame, compiled.
+        def add(run_id, part, config, interleave, options=None, backend=SW, **extra):
+            runs.append(Run(self.name, run_id, backend, spec, view, options=dict(options or {}), **timed, **extra,
+                            interleave=interleave, tags={"dataset": dataset, "preset": preset, "part": part,
+                                                         "config": config}))
+
         if accepts(SW, "shading", "union"):
             # The baseline (lookup-table shading, path compression) serves both comparisons; its
             # reference is the procedural image, so the evaluation measures the table's error.
-            procedural = accepts(SW, "shading")
-            runs.append(Run(self.name, "baseline", SW, spec, view, options={"shading": "lut", "union": "path-compression"},
-                            reference="shading.procedural" if procedural else None, **timed, interleave="variants",
-                            tags={**tags, "part": "baseline", "config": "lut, path-compression"}))
-            runs.append(Run(self.name, "shading.procedural", SW, spec, view, options={"shading": "procedural"}, **timed,
-                            interleave="variants", tags={**tags, "part": "shading", "config": "procedural"}))
-            runs.append(Run(self.name, "union.rank", SW, spec, view, options={"union": "rank"}, **timed,
-                            interleave="variants", tags={**tags, "part": "union", "config": "rank"}))
+            add("baseline", "baseline", "lut, path-compression", "variants",
+                {"shading": "lut", "union": "path-compression"}, reference="shading.procedural")
+            add("shading.procedural", "shading", "procedural", "variants", {"shading": "procedural"})
+            add("union.rank", "union", "rank", "variants", {"union": "rank"})
         if is_registered(SW):
-            runs.append(Run(self.name, "mode.shearwarp", SW, spec, view, **timed, interleave="shearwarp-modes",
-                            tags={**tags, "part": "mode", "config": "shearwarp"}))
+            add("mode.shearwarp", "mode", "shearwarp", "shearwarp-modes")
         if accepts(SW, "classification", "octree_rle_build"):
             # E22 with our backend: the three RLE copies built from the min-max octree, and rendering
             # with fast classification (octree + summed-area table, classified on the fly).
             for config, options in SW_MODE_CONFIGS.items():
-                runs.append(Run(self.name, f"mode.{config}", SW, spec, view, options=dict(options), **timed,
-                                interleave="shearwarp-modes", tags={**tags, "part": "mode", "config": config}))
+                add(f"mode.{config}", "mode", config, "shearwarp-modes", options)
         if accepts(VP, "mode"):
             for mode in ("rle", "octree"):
-                runs.append(Run(self.name, f"mode.volpack-{mode}", VP, spec, view, options={"mode": mode}, **timed,
-                                interleave="volpack-modes", tags={**tags, "part": "mode", "config": f"volpack-{mode}"}))
+                add(f"mode.volpack-{mode}", "mode", f"volpack-{mode}", "volpack-modes", {"mode": mode}, VP)
         return runs
 
     claims = (
@@ -147,7 +129,8 @@ class Variants(Experiment):
                lambda df: _octree_render(df, OCTREE_RENDER_PAPER), paper_value="×1.8–2.5", kind="timing").with_ours(
             "Rendering with fast classification takes about twice the classified-RLE render (Table 5.3: ×1.8–2.5)",
             "technique time ratio fast classification / classified RLE in ×1.4–×3.2", lambda df: _octree_render(df),
-            why=OURS_OCTREE),
+            why="about the thesis's range: our stand-in at another size, and a modern CPU's caches weigh the octree "
+            "and its on-the-fly classification differently"),
         Claim("mode-switch-ours", "With our backend too, after a classification edit fast classification shows an "
               "image sooner than re-encoding (§4.4)", "ours: (sat_build + octree frame) / (classify + rle_build + RLE "
               "frame) < 1, technique frames", lambda df: _mode_switch_ours(df), kind="timing"),
@@ -170,7 +153,10 @@ class Variants(Experiment):
             out.append(figure(ctx, "stages", plots.stage_breakdown, warm.assign(variant=warm.part + ": " + warm.config),
                               heading="Per-frame time by stage",
                               caption="Median timed frame of each variant, by the backend's stages.",
-                              stage_cols=per_frame, group_col="variant", title=_lut_title(ok)))
+                              stage_cols=per_frame, group_col="variant",
+                              title=title_or(lambda d: "Lookup-table shading is " + change_words(
+                                  LUT_SPEED.denominator.value(d) / LUT_SPEED.numerator.value(d))
+                                  + " than per-voxel Phong", ok, "Per-frame time by stage")))
         try:
             out.append(blocks.Table("The mode switch with our backend (E22)", mode_switch_table(ok),
                                     csv_name="mode_switch.csv",
@@ -230,13 +216,7 @@ def mode_switch_table(df):
         for counter in ("rle_bytes", "octree_bytes", "voxel_array_bytes", "classified_on_the_fly"):
             entry[counter] = float(row.get(f"count_{counter}", np.nan))
         rows.append(entry)
-    if not rows:
-        raise ValueError("no shearwarp mode run")
-    return pd.DataFrame(rows)
-
-
-def _config_row(df, part, config):
-    return one_row(df, f"{part} {config}", part=part, config=config)
+    return pd.DataFrame(nonempty_or(rows, "no shearwarp mode run"))
 
 
 def _after_edit(rows, stages, resampler):
@@ -255,14 +235,11 @@ def _edit_race(top, top_stages, bottom, bottom_stages):
 
 
 def _mode_rows(df, config):
-    rows = rows_matching(df, config, part="mode", config=config)
-    if rows.empty:
-        raise ValueError(f"no successful run of mode {config}")
-    return rows
+    return nonempty(rows_matching(df, config, part="mode", config=config), what=f"mode {config}")
 
 
 def _octree_rle_build(df):
-    brute, octree = _config_row(df, "mode", "shearwarp"), _config_row(df, "mode", "shearwarp-octree-rle")
+    brute, octree = (_mode_rows(df, config).iloc[0] for config in ("shearwarp", "shearwarp-octree-rle"))
     plain = stage_time(brute, "classify") + stage_time(brute, "rle_build")
     fast = stage_time(octree, "sat_build") + stage_time(octree, "rle_build")
     decision = judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE, frames={})  # timed once
@@ -298,7 +275,7 @@ def _lut_speed(df, check=LUT_SPEED):
 
 def _octree_render(df, check=OCTREE_RENDER):
     result = check(df)
-    octree, rle = _config_row(df, "mode", "shearwarp-octree"), _config_row(df, "mode", "shearwarp")
+    octree, rle = (_mode_rows(df, config).iloc[0] for config in ("shearwarp-octree", "shearwarp"))
     counts = (f"; samples ×{format_number(float(octree['count_samples']) / float(rle['count_samples']))} of the RLE's "
               f"(thesis ×2.06), {format_number(float(octree.get('count_classified_on_the_fly', np.nan)))} voxels "
               "classified on the fly per frame" if "count_samples" in octree and "count_samples" in rle else "")
@@ -307,7 +284,7 @@ def _octree_render(df, check=OCTREE_RENDER):
 
 def _lut_accuracy(df):
     lut = one_row(df, "the baseline (lookup table, path compression)", part="baseline")
-    procedural = _config_row(df, "shading", "procedural")
+    procedural = one_row(df, "shading procedural", part="shading", config="procedural")
     value = float(lut.get("psnr", np.nan))
     if not np.isfinite(value):
         value = pair_metrics(procedural.exr, lut.exr)["psnr"]
@@ -325,11 +302,3 @@ def _mode_switch(df):
                                f"frame {judging.milliseconds(rle)}; octree build (once per volume) "
                                f"{format_number(float(octree.iloc[0].get('time_octree', np.nan)) * 1e3)} ms; frames: "
                                "VolPack's library calls (vpShadeTable and its render)")
-
-
-def _lut_title(ok):
-    def title(d):
-        ratio = LUT_SPEED.denominator.value(d) / LUT_SPEED.numerator.value(d)
-        return f"Lookup-table shading is {change_words(ratio)} than per-voxel Phong"
-
-    return title_or(title, ok, "Per-frame time by stage")

@@ -133,10 +133,8 @@ def volpack_times():
     rows = [(data, words, mean, f"{fastest:.2f}–{slowest:.2f}", memory)
             for config, words in algorithms.items() for data in ("brainsmall", "brain", "head")
             for mean, fastest, slowest, memory in [TABLE_5_3[data][config]]]
-    rows += [
-        ("brainsmall", "classified RLE, one view (Table 5.5)", 0.154, "", None),
-        ("brain", "classified RLE, one view (Table 5.5)", 0.824, "", None),
-    ]
+    rows += [("brainsmall", "classified RLE, one view (Table 5.5)", 0.154, "", None),
+             ("brain", "classified RLE, one view (Table 5.5)", 0.824, "", None)]
     return pd.DataFrame(rows, columns=["data set", "VolPack algorithm (thesis Tables 5.3, 5.5)", "mean time (s)",
                                        "fastest–slowest view (s)", "memory (MB)"]).assign(machine=THESIS)
 

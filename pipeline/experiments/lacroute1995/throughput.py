@@ -1,10 +1,4 @@
-"""``lacroute1995-throughput`` (E12–E14, Figs 5.19–5.21): voxel throughput, run overhead and the cost model.
-
-Constant-opacity cubes measure the time per visible voxel, 3-D checkerboards the time per run at a
-constant visible count, brute force beside both where it composites; the fitted model
-``T = N_v/a + N_r·b + c`` then predicts two real-looking scenes. The claims read the technique's time
-(tables, compositing, warp: what the thesis timed), the runs of each series timed together.
-"""
+"""``lacroute1995-throughput`` (E12–E14, Figs 5.19–5.21): voxel throughput, run overhead and the cost model."""
 
 import math
 
@@ -18,14 +12,10 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
                                             title_or)
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
-from pipeline.experiments.lacroute1995.pages import shearwarp_missing
-from pipeline.experiments.lacroute1995.planning import SW
+from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
 from reports import blocks, plots
-
-TIME = judging.TECHNIQUE
-"""The claims' scope: the technique (tables, compositing, warp), as the thesis timed its renderer."""
 
 PREDICT_DATASETS = {"ct_skull": "bone", "engine": "surfaces"}
 """The scenes the fitted cost model predicts (the thesis predicts the CT head and the engine)."""
@@ -64,8 +54,6 @@ GROUP = "cost-model"
 
 
 class Throughput(Experiment):
-    """Figs 5.19–5.21: constant-opacity cubes and checkerboards; the cost model of §5.3.5."""
-
     name = "lacroute1995-throughput"
     paper = "lacroute1995"
     title = "Voxel throughput, run overhead and the cost model (E12–E14, Figs 5.19–5.21)"
@@ -209,7 +197,9 @@ class Throughput(Experiment):
                               caption="Block sizes halve from right to left... each halving doubles the runs per "
                                       "scanline at a constant visible count; brute force beside.",
                               x="runs", y="time_ms", group="line", y_range=("time_ms_min", "time_ms_max"),
-                              title=_runs_title(ok),
+                              title=title_or(lambda d: "Time grows linearly with the runs: "
+                                             f"{_runs_linear(d).detail.split(';')[0]}", ok,
+                                             "Checkerboards: frame time against the number of runs"),
                               x_label="voxel runs traversed per frame (the backend's voxel_runs)",
                               y_label="median frame time (ms)"))
         try:
@@ -231,8 +221,7 @@ class Throughput(Experiment):
 def _cube_figure(cubes, ok, ctx):
     """The optimised cubes' time against their visible voxels, with brute force's median as a guide."""
     cubes["visible (millions)"] = cubes.samples / 1e6
-    brute_level = cubes[cubes.config == "brute-force"]
-    opt = cubes[cubes.config == "optimised"]
+    brute_level, opt = (cubes[cubes.config == config] for config in ("brute-force", "optimised"))
     guides = ()
     if not brute_level.empty and not opt.empty:
         xs = np.array([0.0, float(opt["visible (millions)"].max())])
@@ -242,8 +231,10 @@ def _cube_figure(cubes, ok, ctx):
                   caption="Each point one opacity (visible voxels fall as the opacity rises and early termination "
                           "cuts the rays short). Bars: fastest to slowest frame.",
                   x="visible (millions)", y="time_ms", group="config", y_range=("time_ms_min", "time_ms_max"),
-                  title=_cube_title(ok), x_label="voxels composited per frame (millions)",
-                  y_label="median frame time (ms)", guides=guides)
+                  x_label="voxels composited per frame (millions)", y_label="median frame time (ms)", guides=guides,
+                  title=title_or(lambda d: f"Time is linear in visible voxels ({_cube_linear(d).measured});\nthe "
+                                 f"optimised renderer is {_crossover(d).measured.split(';')[0]}", ok,
+                                 "Constant-opacity cubes: frame time against visible voxels"))
 
 
 def _series(df, series, config):
@@ -299,9 +290,8 @@ def _crossover(df, up_to=0.5, beyond=None):
         t / level, None if draws is None or level_draws is None else draws[:, i] / level_draws, at_most=STRICTLY_BELOW_ONE,
         frames=resampler.arms())
         for i, (v, t) in enumerate(zip(rows.visible, times))}
-    low = [d for (label, d), v in zip(decisions.items(), rows.visible) if v <= up_to]
-    if not low:
-        raise ValueError(f"no cube with at most {as_percent(up_to)} of its voxels visible")
+    low = nonempty_or([d for (label, d), v in zip(decisions.items(), rows.visible) if v <= up_to],
+                      f"no cube with at most {as_percent(up_to)} of its voxels visible")
     slower = rows[times >= level]
     crossing = ("never slower than brute force" if slower.empty
                 else f"slower than brute force from {as_percent(float(slower.visible.min()))} visible")
@@ -349,10 +339,9 @@ def _worst_runs(df, at_most=1.3):
         if opt.empty or match.empty:
             continue
         ratios[s] = judging.ratio(opt[numeric(opt, "block") == smallest], match, TIME, resampler, at_most=at_most)
-    if not ratios:
-        raise ValueError("no checkerboard with both renderers at its smallest block")
     # The all-visible series is the thesis's worst case: the lowest opacity.
-    key = min(ratios, key=lambda s: float(s.split("α")[-1]))
+    key = min(nonempty_or(ratios, "no checkerboard with both renderers at its smallest block"),
+              key=lambda s: float(s.split("α")[-1]))
     return ClaimResult.decided(judging.labelled({key: ratios[key]}), ratios[key],
                                judging.labelled(ratios) + "; thesis ×1.15")
 
@@ -373,9 +362,7 @@ def _cost_fit(df):
 def _prediction(df, bound=0.25):
     """Every predicted scene's technique time predicted within ``bound`` (relative) of the measured."""
     a, b, c, _r2 = _cost_fit(df)
-    rows = df[text_column(df, "series") == "predict"]
-    if rows.empty:
-        raise ValueError("no predicted scene rendered")
+    rows = nonempty_or(df[text_column(df, "series") == "predict"], "no predicted scene rendered")
     resampler = intervals.Resampler()
     fit = _fit_rows(df)
     _, fit_draws = judging.values(fit, TIME, resampler)
@@ -388,23 +375,11 @@ def _prediction(df, bound=0.25):
         samples, runs = float(row["count_samples"]), float(row["count_voxel_runs"])
         predicted = samples / a + runs * b + c
         (measured,), draws = judging.values(rows.loc[[index]], TIME, resampler)
-        error_draws = None
-        if coefficients is not None and draws is not None:
-            error_draws = (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1
+        error_draws = (None if coefficients is None or draws is None
+                       else (samples * coefficients[0] + runs * coefficients[1] + coefficients[2]) / draws[:, 0] - 1)
         decisions[row["dataset"]] = judging.decided(predicted / measured - 1, error_draws, at_least=-bound,
                                                     at_most=bound, frames=resampler.arms())
         words.append(f"{row['dataset']}: predicted {format_number(predicted * 1e3)} ms, measured "
                      f"{format_number(measured * 1e3)} ms ({format_number(samples)} samples, {format_number(runs)} runs)")
     return all_of(decisions, extra="; ".join(words) + f"; a = {format_number(a / 1e6)} Mvoxels/s, b = "
                                    f"{format_number(b * 1e9)} ns/run, c = {format_number(c * 1e3)} ms", show=as_percent)
-
-
-def _cube_title(ok):
-    return title_or(lambda d: f"Time is linear in visible voxels ({_cube_linear(d).measured});\nthe optimised renderer is "
-                              f"{_crossover(d).measured.split(';')[0]}", ok,
-                    "Constant-opacity cubes: frame time against visible voxels")
-
-
-def _runs_title(ok):
-    return title_or(lambda d: f"Time grows linearly with the runs: {_runs_linear(d).detail.split(';')[0]}", ok,
-                    "Checkerboards: frame time against the number of runs")

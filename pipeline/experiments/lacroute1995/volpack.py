@@ -1,10 +1,4 @@
-"""``lacroute1995-volpack``: our shear-warp against VolPack 1.0, the thesis's own library, on the same input.
-
-Both render VolPack's brainsmall example, the folded-brain phantom (the thesis's MR brain's stand-in)
-and the CT head phantom (its CT head's) with the same classification, shading and view, timed and
-compared image to image, each mode of ours against VolPack's matching mode (classified RLE, min-max
-octree); VTK's CPU ray caster runs beside them as the ray caster users already have.
-"""
+"""``lacroute1995-volpack``: our shear-warp against VolPack 1.0, the thesis's own library, on the same input."""
 
 import numpy as np
 import pandas as pd
@@ -55,8 +49,6 @@ def _technique(config):
 
 
 class VolPackComparison(Experiment):
-    """Our shear-warp against VolPack 1.0 on the same volumes, classification and view."""
-
     name = "lacroute1995-volpack"
     paper = "lacroute1995"
     title = "Our shear-warp against VolPack, the thesis's own library"
@@ -200,8 +192,7 @@ class VolPackComparison(Experiment):
                               time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
                               x_label="median frame time (ms); bars: fastest to slowest frame",
                               y_label="PSNR against the reference (dB)"))
-        for scene_name, group in ok.groupby("scene"):
-            out.append(_gallery(scene_name, group, ctx))
+        out += [_gallery(scene_name, group, ctx) for scene_name, group in ok.groupby("scene")]
         return out + not_measurable(unregistered(SW, VP) + missing_options(VP, "mode")
                                     + missing_options(SW, "workers"))
 
@@ -327,20 +318,15 @@ def _where_the_time_goes(tests, ctx):
             f"VolPack's stages are timed by {' and '.join(timing)}: Debian's VolPack is built without USE_TIMER "
             "(its vpGetTimer counters read 0, checked when a run starts and recorded in its info), so its render "
             "call cannot be split into compositing and warp."))
-    counts = ["count_samples", "count_voxel_runs", "count_pixel_run_finds", "count_candidate_voxels",
-              "count_classified_on_the_fly", "count_rle_bytes", "count_octree_bytes", "count_voxel_array_bytes",
-              "count_intermediate_pixels"]
+    counts = {"count_samples": "samples composited", "count_voxel_runs": "voxel runs",
+              "count_pixel_run_finds": "pixel-run finds", "count_candidate_voxels": "octree candidate voxels",
+              "count_classified_on_the_fly": "voxels classified on the fly", "count_rle_bytes": "RLE (MB)",
+              "count_octree_bytes": "octree (MB)", "count_voxel_array_bytes": "unclassified voxel array (MB)",
+              "count_intermediate_pixels": "intermediate pixels"}
     shown = runs.assign(technique=[_technique(c) for c in runs.config],
                         **{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
                            for c in counts if c in runs})
-    out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx,
-                            names={"count_samples": "samples composited", "count_voxel_runs": "voxel runs",
-                                   "count_pixel_run_finds": "pixel-run finds",
-                                   "count_candidate_voxels": "octree candidate voxels",
-                                   "count_classified_on_the_fly": "voxels classified on the fly",
-                                   "count_voxel_array_bytes": "unclassified voxel array (MB)",
-                                   "count_rle_bytes": "RLE (MB)", "count_octree_bytes": "octree (MB)",
-                                   "count_intermediate_pixels": "intermediate pixels"},
+    out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx, names=counts,
                             csv_name="volpack-counts.csv",
                             caption="Per frame. VolPack counts no samples or runs; it reports the sizes of its "
                                     "run-length encodings and octree and of its intermediate image, shown beside "
@@ -423,13 +409,10 @@ def _speed(df, config, column=judging.TECHNIQUE, *, against="volpack-rle", peer=
 
 def _on_the_fly(rows):
     """``"voxels classified on the fly per frame: 391 k (brain)"`` for octree-mode rows, or ``""``."""
-    if "count_classified_on_the_fly" not in rows:
-        return ""
-    counts = [(s, c) for s, c in zip(text_column(rows, "scene"), numeric(rows, "count_classified_on_the_fly"))
-              if np.isfinite(c)]
-    if not counts:
-        return ""
-    return "voxels classified on the fly per frame: " + ", ".join(f"{full_count(c)} ({s})" for s, c in counts)
+    counts = ([(s, c) for s, c in zip(text_column(rows, "scene"), numeric(rows, "count_classified_on_the_fly"))
+               if np.isfinite(c)] if "count_classified_on_the_fly" in rows else [])
+    return ("voxels classified on the fly per frame: " + ", ".join(f"{full_count(c)} ({s})" for s, c in counts)
+            if counts else "")
 
 
 def _octree_words(scene_name, part, row):
@@ -474,11 +457,8 @@ def _parallel(df, speedups=None):
         if workers < 2:
             return ClaimResult("not measurable", None, f"{s}: the all-cores run had {int(workers)} worker: a speed-up "
                                "cannot be measured on a 1-core machine")
-        if speedups is None:
-            bound, high = EFFICIENCY * workers, None
-        else:
-            thesis = speedups(int(workers))
-            bound, high = min(thesis), max(thesis)
+        thesis = None if speedups is None else speedups(int(workers))
+        bound, high = (EFFICIENCY * workers, None) if thesis is None else (min(thesis), max(thesis))
         decisions[f"{s}, {int(workers)} workers"] = judging.ratio(one, most, judging.TECHNIQUE, resampler,
                                                                   at_least=bound, at_most=high)
         band = as_ratio(bound) if high is None else f"{as_ratio(bound)}–{as_ratio(high)}"
@@ -522,8 +502,7 @@ def _octree(df, low=1.4, high=3.2):
 
 
 def _chart_title(scene_name, group):
-    ours = group[group.config == "shearwarp-1"]
-    vp = group[group.config == "volpack-rle"]
+    ours, vp = (group[group.config == config] for config in ("shearwarp-1", "volpack-rle"))
     if ours.empty or vp.empty:
         return f"{scene_name}: frame time against PSNR"
     ratio = float(ours.time_total.iloc[0] / vp.time_total.iloc[0])
@@ -544,10 +523,8 @@ def _takeaways(judged, results):
     rows); per scene the whole frames against VolPack RLE, where our octree mode's time goes, and VTK
     against ours."""
     by_id = {} if judged is None else {row["claim"]: row for row in judged.to_dict("records")}
-    verdicts = []
-    for claim_id, words in VERDICTS:
-        row = by_id.get(claim_id, {})
-        verdicts.append(f"{words}: {cell_text(row.get('measured')) or 'no value'}, {row.get('verdict', 'not measured')}")
+    verdicts = [f"{words}: {cell_text(by_id.get(c, {}).get('measured')) or 'no value'}, "
+                f"{by_id.get(c, {}).get('verdict', 'not measured')}" for c, words in VERDICTS]
     sentences = ["Speed against VolPack (bound ×1 unless said): " + "; ".join(verdicts) + "."]
     ok = ok_rows(results)
     for scene_name in pd.unique(ok.scene) if "scene" in ok else []:
@@ -560,10 +537,9 @@ def _takeaways(judged, results):
             ours = part[part.config == config]
             if ours.empty:
                 continue
-            ratio = float(ours.time_total.iloc[0]) / vp_time
             sentence = (f"{scene_name}: {_technique(config)} takes {format_number(ours.time_total.iloc[0] * 1e3)} ms "
                         f"per whole frame against VolPack's {format_number(vp_time * 1e3)} ms (ratio "
-                        f"{format_number(ratio)})")
+                        f"{format_number(float(ours.time_total.iloc[0]) / vp_time)})")
             if config == "shearwarp-1":
                 try:
                     pair = pair_metrics(vp.exr.iloc[0], ours.exr.iloc[0])
