@@ -39,6 +39,12 @@ def paper_band(top_fps, bottom_fps):
     return min(ends), (max(ends) if math.isfinite(max(ends)) else None)
 
 
+def paper_bands(table, top, bottom, *scenes):
+    """``{scene: (low, high)}``: :func:`paper_band` of the frame rates in columns ``top`` and ``bottom`` of the rows
+    ``scenes`` of ``table`` (:data:`~pipeline.experiments.kainz2009.tables.TABLE1` or ``TABLE2``)."""
+    return {name: paper_band(table[name][top], table[name][bottom]) for name in scenes}
+
+
 def band_words(band):
     """``"×0.457–×0.714"``, or ``"≥ ×15"`` without an upper bound."""
     low, high = band
