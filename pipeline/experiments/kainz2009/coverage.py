@@ -100,8 +100,6 @@ def _same_fragments(df):
 
 
 class Coverage(PaperExperiment):
-    """Bit-shift coverage masks against per-pixel edge functions: binning time and watertightness."""
-
     name = "kainz2009-coverage"
     needs = ("coverage", "fragments")
     paper_rows = tables.COVERAGE

@@ -156,8 +156,6 @@ def _crossover(df):
 
 
 class Depth(PaperExperiment):
-    """Translucent geometry of growing depth complexity: Table 2's scenes and a sweep of boxes in a row."""
-
     name = "kainz2009-depth"
     title = "Table 2: translucent geometry against depth complexity (E3)"
     settings = frozenset({"scenes", "width", "height", "box_counts", "triangles", "truth_step_factor", "repeat"})

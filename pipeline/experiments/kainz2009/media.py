@@ -124,8 +124,6 @@ def _media_steps(df):
 
 
 class Media(PaperExperiment):
-    """Segments of homogeneous media alone: composited analytically or sampled at the common step."""
-
     name = "kainz2009-media"
     needs = ("media",)
     paper_rows = tables.MEDIA

@@ -102,8 +102,6 @@ def _peeling_growth(df):
 
 
 class Scaling(PaperExperiment):
-    """Frame time against the number of overlapping volumes, with and without a large volume and a mesh."""
-
     name = "kainz2009-scaling"
     title = "Frame time against the number of overlapping volumes (E2; C5, C8)"
     settings = frozenset({"counts", "series", "small_size", "large_size", "image_size", "mesh_triangles",

@@ -60,10 +60,8 @@ def _sorting_rows(ok):
 def _sort_decision(df, name, resampler):
     """Worst-case sort over traversal on scene ``name``, judged below 1, and its sort moves."""
     rows = timed(df, f"runs on {name}", PIXEL, scene=name)
-    parts = {}
-    for order in ("front-to-back", "back-to-front"):
-        for part in ("full", "gather+sort"):
-            parts[order, part] = rows[(text_column(rows, "order") == order) & (text_column(rows, "part") == part)]
+    parts = {(order, part): rows[(text_column(rows, "order") == order) & (text_column(rows, "part") == part)]
+             for order in ("front-to-back", "back-to-front") for part in ("full", "gather+sort")}
     missing = sorted({order for (order, _), part in parts.items() if part.empty})
     if missing:
         raise ValueError(f"no full and gather + sort runs {', '.join(missing)} on {name}")
@@ -110,8 +108,6 @@ def _order_invariant(df):
 
 
 class Sorting(PaperExperiment):
-    """The per-pixel insertion sort meets triangles in depth order and fully reversed."""
-
     name = "kainz2009-sorting"
     needs = ("triangle_order", "stop_after")
     paper_rows = tables.SORTING

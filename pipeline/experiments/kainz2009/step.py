@@ -67,8 +67,6 @@ def _step_error(df):
 
 
 class Step(PaperExperiment):
-    """The common world step in a mixed-resolution scene: time, time per sample and error."""
-
     name = "kainz2009-step"
     paper_rows = tables.STEP
     title = "The common world step with mixed resolutions: oversampling cost and error (E10)"

@@ -7,7 +7,8 @@ from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PEEL, TILED, V
                                                     frames_caption, method_runs, peeling_missing, run_settings, table)
 from pipeline.experiments.kainz2009.ratios import FRAMES, PeelingRatio, paper_bands
 from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, SURFACE, blob, clouds, mesh, volume
-from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1, TRIANGLE_KERNEL_SHARE
+from pipeline.experiments.kainz2009.tables import (BAND, PAPER_DEVICE, POOL_BYTES, TABLE1, TRIANGLE_KERNEL_SHARE,
+                                                   table1_rows)
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, all_of, counts, decided, decision_words, timed
 from pipeline.experiments.kit.model import Claim, ClaimResult, scaled
@@ -160,8 +161,6 @@ PEEL_OVER_TILED = PeelingRatio(PEEL, TILED)
 
 
 class Table1(PaperExperiment):
-    """Table 1's scenes C1–C8: frame times, images against the reference, stage split, memory."""
-
     name = "kainz2009-table1"
     title = "Table 1: the multi-volume scenes C1–C8, images, workload split and memory (E1, E5, E12, E13)"
     settings = frozenset({"scenes", "small_size", "large_size", "scan_size", "image_size", "mesh_triangles",
@@ -242,12 +241,7 @@ class Table1(PaperExperiment):
     )
 
     def paper_table(self):
-        def fps(value):
-            return "n.p." if value is None else f"{format_number(value[0])} – {format_number(value[1])}"
-
-        return pd.DataFrame([{"scene": s, "volumes": v, "polygons": p, "Roessler fps": fps(r),
-                              "Brecheisen fps": fps(b), "ours fps": fps(o)}
-                             for s, (v, p, r, b, o) in TABLE1.items()]).assign(device=PAPER_DEVICE)
+        return pd.DataFrame(table1_rows(*TABLE1)).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):
         tests = role_rows(ok_rows(results))

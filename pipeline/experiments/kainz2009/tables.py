@@ -4,6 +4,8 @@ Each experiment's ``paper_table()`` shows its part beside our measurements; the 
 come from the paper (the frame-rate band, the chunk pool, the coverage-mask speed-up) are read here.
 """
 
+from pipeline.experiments.kit.words import format_number
+
 PAPER_DEVICE = "NVIDIA GeForce GTX 280 (CUDA 2.0), 512²–768² viewports"
 
 # Scene sizes are roles: "small" the paper's 64³, "large" its 256³, "scan" its 512³.
@@ -19,6 +21,16 @@ TABLE1 = {
     "C8": ("50 × 64³", "1 × 30k", None, None, (8, 16)),
 }
 """Table 1 as note 002 §3.1 reads it (``None``: n.p., not possible)."""
+
+
+def table1_rows(*scenes):
+    """Table 1's rows of ``scenes`` as a page shows them: frame-rate ranges in words, ``n.p.`` where not possible."""
+    def fps(value):
+        return "n.p." if value is None else f"{format_number(value[0])} – {format_number(value[1])}"
+
+    return [{"scene": s, "volumes": v, "polygons": p, "Roessler fps": fps(r), "Brecheisen fps": fps(b),
+             "ours fps": fps(o)} for s, (v, p, r, b, o) in ((s, TABLE1[s]) for s in scenes)]
+
 
 BAND = 25 / 7
 """The paper's band across C1–C8: 7–25 fps, a factor of 3.6 from the slowest to the fastest frame rate."""
@@ -38,14 +50,7 @@ TABLE2 = {
 }
 """Table 2: translucent geometry against NVIDIA's dual depth peeling (DDP) at 1050 × 800."""
 
-SCALING = [
-    {"scene": "C5", "volumes": "1 × 256³ + 20 × 64³", "polygons": "none", "Roessler fps": "n.p.",
-     "Brecheisen fps": "n.p.", "ours fps": "10 – 17"},
-    {"scene": "C8", "volumes": "50 × 64³", "polygons": "1 × 30k", "Roessler fps": "n.p.",
-     "Brecheisen fps": "n.p.", "ours fps": "8 – 16"},
-    {"scene": "C1 (one volume, for scale)", "volumes": "1 × 512³", "polygons": "none",
-     "Roessler fps": "14 – 46", "Brecheisen fps": "9 – 17", "ours fps": "10 – 21"},
-]
+SCALING = [*table1_rows("C5", "C8"), {**table1_rows("C1")[0], "scene": "C1 (one volume, for scale)"}]
 """The rows of Table 1 the volume-count scaling is about (C5, C8), and one volume for scale."""
 
 
