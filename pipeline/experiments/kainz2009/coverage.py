@@ -44,10 +44,9 @@ def _coverage_rows(ok):
     rows = role_rows(ok) if "triangles" in ok else ok.iloc[:0]
     if rows.empty:
         return rows
-    rows = speed_points(rows)
-    rows["triangles"] = numeric(rows, "triangles").astype(int)
-    rows["binning_ms"] = numeric(rows, "time_binning") * 1e3
-    rows["binning kernel (ms)"] = rows.binning_ms
+    binning_ms = numeric(rows, "time_binning") * 1e3
+    rows = speed_points(rows).assign(triangles=numeric(rows, "triangles").astype(int), binning_ms=binning_ms,
+                                     **{"binning kernel (ms)": binning_ms})
     bitmask = rows[rows.config == "bitmask"].set_index("triangles").binning_ms
     rows["edge / bitmask"] = [b / bitmask.get(t, np.nan) if c == "edge" else np.nan
                               for t, c, b in zip(rows.triangles, rows.config, rows.binning_ms)]

@@ -49,9 +49,8 @@ def _table2_scene(name, width, height, triangles):
     else:  # S2 or a point of the sweep, "boxes<count>"
         shape = mesh("boxes", "boxes_in_a_row", {"count": 20 if name == "S2" else int(name.removeprefix("boxes"))})
     # Zoomed on the row's or the screw's cross-section, which the framing of the whole length would shrink to a dot.
-    zoom = 1.6 if "boxes" in shape["generator"] else 1.0
-    return scene(name, height, width=width, meshes=(shape,), camera={"azimuth": 0.0, "elevation": 0.0,
-                                                                     "view_height": zoom})
+    camera = {"azimuth": 0.0, "elevation": 0.0, "view_height": 1.6 if "boxes" in shape["generator"] else 1.0}
+    return scene(name, height, width=width, meshes=(shape,), camera=camera)
 
 
 def _depth_rows(ok):
@@ -245,9 +244,8 @@ class Depth(PaperExperiment):
                              for s, (c, d, a, o) in TABLE2.items()]).assign(device=PAPER_DEVICE + ", 1050 × 800")
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        rows = _depth_rows(ok)
+        rows = _depth_rows(ok_rows(results))
         if not rows.empty:
             rows["method"] = rows.config.map(METHOD_NAMES)
             sweep = rows[rows.part == "sweep"]

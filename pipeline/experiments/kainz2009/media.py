@@ -34,18 +34,15 @@ def _apple_scene(size, image, rods, *, seed=2009):
     meshes = []
     for i in range(int(rods)):
         axis = rng.normal(size=3)
-        entry = {"name": f"rod{i:02d}",
-                 "transform": {"scale": float(size),
-                               "rotate": {"axis": [round(float(v), 4) for v in axis],
-                                          "degrees": round(float(rng.uniform(0, 180)), 3)},
-                               "translate": [round(float(v), 4) for v in rng.uniform(-0.15, 0.15, 3) * size]},
-                 "medium": {"colour": [round(float(v), 3) for v in rng.uniform(0.2, 1.0, 3)],
-                            "extinction": round(12.0 / size, 6)}}
-        if i == 0:
-            entry.update(generator="rod", params={"sides": 20, "radius": 0.012, "length": 1.1})
-        else:
-            entry["instance_of"] = "rod00"
-        meshes.append(entry)
+        meshes.append({"name": f"rod{i:02d}",
+                       "transform": {"scale": float(size),
+                                     "rotate": {"axis": [round(float(v), 4) for v in axis],
+                                                "degrees": round(float(rng.uniform(0, 180)), 3)},
+                                     "translate": [round(float(v), 4) for v in rng.uniform(-0.15, 0.15, 3) * size]},
+                       "medium": {"colour": [round(float(v), 3) for v in rng.uniform(0.2, 1.0, 3)],
+                                  "extinction": round(12.0 / size, 6)},
+                       **({"generator": "rod", "params": {"sides": 20, "radius": 0.012, "length": 1.1}} if i == 0
+                          else {"instance_of": "rod00"})})
     return scene("apple", image, volumes=[apple], meshes=meshes)
 
 
