@@ -101,14 +101,13 @@ def _build_cheap(df):
         frame = _with_builds(hulls[hulls.brick == 8])
         if frame.empty:
             raise ValueError(f"no timed 8³ hull on {name}")
-        build_ms = float(frame.build_ms.iloc[0])
-        if not np.isfinite(build_ms):
+        builds[name] = float(frame.build_ms.iloc[0])
+        if not np.isfinite(builds[name]):
             raise ValueError(f"{name}: the 8³ hull's run reported no time_bricks or no time_hull")
-        builds[name] = build_ms
         time, frames = statistic(frame, TECHNIQUE, resampler)
-        build = build_ms / 1e3
-        decisions[name] = decided(build / time, None if frames is None else build / frames,
-                                  at_most=1.0, frames=resampler.arms())
+        build = builds[name] / 1e3
+        decisions[name] = decided(build / time, None if frames is None else build / frames, at_most=1.0,
+                                  frames=resampler.arms())
     return all_of(decisions,
                   extra=f"bricks + hull build (each timed process's preprocessing frame, compiled, mean over the "
                         f"processes) over the median frame with the 8³ hull in the same processes, {KERNELS}; the "

@@ -118,11 +118,9 @@ def device_note(tests):
 def devices(rows):
     """``"OpenCL on …; OpenGL on llvmpipe … (a software rasteriser)"``: where compared runs ran, for a claim
     comparing backends (a rasteriser in software pays every geometry pass on the CPU)."""
-    words = []
-    for column, api in (("cl_device", "OpenCL"), ("gl_renderer", "OpenGL")):
-        names = sorted(set(rows[column].dropna().astype(str))) if column in rows else []
-        if names:
-            words.append(f"{api} on {', '.join(names)}")
+    names = {api: sorted(set(rows[column].dropna().astype(str)))
+             for column, api in (("cl_device", "OpenCL"), ("gl_renderer", "OpenGL")) if column in rows}
+    words = [f"{api} on {', '.join(found)}" for api, found in names.items() if found]
     if not words:
         return "devices not recorded"
     software = rows.get("gl_software_rasterizer", pd.Series(dtype=str)).astype(str).str.lower().isin(["true", "1"])

@@ -102,9 +102,8 @@ def _band(df):
     decision = intervals.timing_decision(times[slow] / times[fast],
                                          None if scenes is None else scenes.max(axis=1) / scenes.min(axis=1), frames,
                                          at_most=BAND)
-    kernels = numeric(rows, TECHNIQUE) if TECHNIQUE in rows else None
-    kernel_band = (f"; kernels alone ×{format_number(kernels.max() / kernels.min())}"
-                   if kernels is not None and kernels.notna().all() else "")
+    kernels = numeric(rows, TECHNIQUE) if TECHNIQUE in rows else pd.Series([np.nan])
+    kernel_band = f"; kernels alone {as_ratio(kernels.max() / kernels.min())}" if kernels.notna().all() else ""
     return ClaimResult.decided(f"{decision_words(decision)}, {slow} over {fast}", decision,
                                f"{len(times)} scenes, whole frames {format_number(times[fast] * 1e3)}–"
                                f"{format_number(times[slow] * 1e3)} ms{kernel_band}; volume samples "
