@@ -2,9 +2,7 @@
 
 The paper's guide is ``../shared/papers/notes/002.md`` (§3 the paper's numbers, §5 the experiments,
 §6 the stand-ins). Each experiment puts the paper's numbers beside ours and checks its statements as
-claims; its ``scales`` are 16³ clouds, 32³ scans and 2k-triangle meshes at 48² (smoke), 32³ clouds,
-96³–128³ scans and 192² pictures with Table 2 at a third of 1050 × 800 (default), and the paper's 64³
-clouds, 256³ and 512³ scans, 30k meshes at 512² with Table 2 at 1050 × 800 (full).
+claims, at the sizes its ``scales`` give for each profile scale.
 
 * :mod:`.scaling`: E2, frame time against 1 to 64 overlapping volumes, with a 256³ volume or a mesh;
 * :mod:`.depthcap`: E4/E6, the local-memory fragment cap against unbounded lists (Fig. 5);

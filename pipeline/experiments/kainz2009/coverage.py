@@ -1,20 +1,17 @@
-"""E11: coverage masks, bit shifts against per-pixel edge functions (``kainz2009-coverage``).
-
-Binning time of cl-tiled's two ``coverage`` methods over triangle counts, and the watertightness of
-closed boundaries (one fragment per crossing) from several views.
-"""
+"""E11: coverage masks, bit shifts against per-pixel edge functions (``kainz2009-coverage``)."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import IMAGE_SIZES, PAPER_ID, TILED, device_note, frames_caption, table
+from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, TILED, PaperExperiment, device_note, frames_caption,
+                                                    table)
 from pipeline.experiments.kainz2009.scenes import mesh, volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counts, ratio, timed
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, accepts, scene, timed_frames
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, role_rows, speed_points, text_column
 from reports import plots
 
@@ -40,20 +37,16 @@ def _watertight_scene(size, image, triangles):
                 transform={"scale": 0.8 * size, "translate": [0.0, 0.0, -0.4 * size]})
     blob = mesh("blob", "noisy_sphere", {"radius": round(0.3 * size, 4), "subdivisions": 4},
                 transform={"translate": [0.2 * size, 0.0, 0.0]})
-    return scene("watertight", image, volumes=[volume("ct_skull", size, "bone", "skull")],
-                 meshes=(coil, blob))
+    return scene("watertight", image, volumes=[volume("ct_skull", size, "bone", "skull")], meshes=(coil, blob))
 
 
 def _coverage_rows(ok):
-    if "role" not in ok or "triangles" not in ok:
-        return pd.DataFrame()
-    rows = ok[ok.role == "test"].copy()
+    rows = role_rows(ok) if "triangles" in ok else ok.iloc[:0]
     if rows.empty:
         return rows
-    rows = speed_points(rows)
-    rows["triangles"] = numeric(rows, "triangles").astype(int)
-    rows["binning_ms"] = numeric(rows, "time_binning") * 1e3
-    rows["binning kernel (ms)"] = rows.binning_ms
+    binning_ms = numeric(rows, "time_binning") * 1e3
+    rows = speed_points(rows).assign(triangles=numeric(rows, "triangles").astype(int), binning_ms=binning_ms,
+                                     **{"binning kernel (ms)": binning_ms})
     bitmask = rows[rows.config == "bitmask"].set_index("triangles").binning_ms
     rows["edge / bitmask"] = [b / bitmask.get(t, np.nan) if c == "edge" else np.nan
                               for t, c, b in zip(rows.triangles, rows.config, rows.binning_ms)]
@@ -105,11 +98,10 @@ def _same_fragments(df):
                        f"{len(set(rows.view))} views")
 
 
-class Coverage(Experiment):
-    """Bit-shift coverage masks against per-pixel edge functions: binning time and watertightness."""
-
+class Coverage(PaperExperiment):
     name = "kainz2009-coverage"
-    paper = PAPER_ID
+    needs = ("coverage", "fragments")
+    paper_rows = tables.COVERAGE
     title = "Coverage masks: bit shifts against per-pixel edge functions, and exactly-once coverage (E11)"
     settings = frozenset({"triangle_counts", "image_size", "volume_size", "watertight_triangles", "views", "repeat"})
     scales = scaled(base=IMAGE_SIZES,
@@ -128,18 +120,14 @@ class Coverage(Experiment):
         "fragment."
     )
 
-    def runs(self, profile):
-        if not accepts(TILED, "coverage", "fragments"):
-            return []
-        name = self.name
-        image = int(profile.setting(self, "image_size", profile.image_size))
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
+    def plan(self, profile):
+        size, image = map(int, volume_and_image_size(profile, self))
         frames = timed_frames(profile, self)
         runs = []
         for triangles in profile.setting(self, "triangle_counts", list(TRIANGLES)):
             spec = _timing_scene(triangles, image)
             for method in METHODS:
-                runs.append(Run(name, f"sphere{int(triangles)}.{method}", TILED, spec, (dict(HEADLINE_VIEW),),
+                runs.append(Run(self.name, f"sphere{int(triangles)}.{method}", TILED, spec, (dict(HEADLINE_VIEW),),
                                 options={"coverage": method}, **frames, interleave=spec["name"],
                                 tags={"scene": spec["name"], "triangles": int(triangles), "role": "test",
                                       "config": method}))
@@ -148,7 +136,7 @@ class Coverage(Experiment):
                       for a, e in angles)
         spec = _watertight_scene(size, image, int(profile.setting(self, "watertight_triangles", 20000)))
         for method in METHODS:
-            runs.append(Run(name, f"watertight.{method}", TILED, spec, views,
+            runs.append(Run(self.name, f"watertight.{method}", TILED, spec, views,
                             options={"coverage": method, "fragments": "global", "brick_size": 4}, **UNTIMED,
                             tags={"scene": "watertight", "role": "watertight", "config": method}))
         return runs
@@ -169,9 +157,6 @@ class Coverage(Experiment):
         Claim("same-fragments", "Both methods compute the same masks",
               "equal fragment counts in every view and identical images", _same_fragments, kind="count"),
     )
-
-    def paper_table(self):
-        return pd.DataFrame(tables.COVERAGE)
 
     def report(self, results, ctx):
         ok = ok_rows(results)

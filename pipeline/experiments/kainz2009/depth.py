@@ -1,26 +1,23 @@
-"""E3: translucent geometry against depth complexity (``kainz2009-depth``; Table 2).
-
-Table 2's scenes (depth complexity 20 / 40 / 81) rendered by cl-tiled and dual depth peeling, and a
-sweep of boxes in a row that traces the cost against depth complexity and finds where the two cross.
-"""
+"""E3: translucent geometry against depth complexity (``kainz2009-depth``; Table 2)."""
 
 import dataclasses
 
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PAPER_ID, PEEL, TILED, devices, frames_caption,
-                                                    table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, PeelingRatio, paper_band
+from pipeline.experiments.kainz2009.methods import (DUAL, METHOD_NAMES, PEEL, TILED, PaperExperiment, devices,
+                                                    frames_caption, table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS, PeelingRatio, paper_bands
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, mesh, screw
 from pipeline.experiments.kainz2009.tables import PAPER_DEVICE, TABLE2
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import Bound, Measure
+from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, counts, decided, r_squared, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
-from pipeline.experiments.kit.planning import UNTIMED, accepts, is_registered, listed, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, scene, timed_frames, truth_run
+from pipeline.experiments.kit.results import (fit_line, numeric, ok_rows, role_rows, rows_matching, speed_points,
+                                              text_column)
 from reports import plots
 
 BOX_COUNTS = (5, 10, 15, 20, 30, 40)
@@ -37,15 +34,10 @@ DUAL_PEELING = ("dual depth peeling (stand-in for NVIDIA's demo)",
                 "crossover between depth complexity 20 and 40 cannot be measured")
 
 
-def _worst_psnr(whose, config, at_least):
-    """The check that ``config``'s worst PSNR on Table 2's scenes is at least ``at_least`` dB (``whose``: "cl-tiled's")."""
-    return Bound(Measure(f"{whose} worst PSNR against the reference on S1, S2 and S3",
-                         match={"role": "test", "part": "table2", "config": config}, column="psnr", statistic="min",
-                         unit="dB", label="scene"), at_least=at_least)
-
-
-TILED_ACCURATE = _worst_psnr("cl-tiled's", TILED, 40.0)
-DUAL_ACCURATE = _worst_psnr("dual depth peeling's", DUAL, DUAL_PSNR)
+TILED_ACCURATE = worst_psnr("cl-tiled's worst PSNR against the reference on S1, S2 and S3", 40.0, role="test",
+                            part="table2", config=TILED)
+DUAL_ACCURATE = worst_psnr("dual depth peeling's worst PSNR against the reference on S1, S2 and S3", DUAL_PSNR,
+                           role="test", part="table2", config=DUAL)
 
 
 def _table2_scene(name, width, height, triangles):
@@ -57,23 +49,17 @@ def _table2_scene(name, width, height, triangles):
     else:  # S2 or a point of the sweep, "boxes<count>"
         shape = mesh("boxes", "boxes_in_a_row", {"count": 20 if name == "S2" else int(name.removeprefix("boxes"))})
     # Zoomed on the row's or the screw's cross-section, which the framing of the whole length would shrink to a dot.
-    zoom = 1.6 if "boxes" in shape["generator"] else 1.0
-    return scene(name, height, width=width, meshes=(shape,), camera={"azimuth": 0.0, "elevation": 0.0,
-                                                                     "view_height": zoom})
+    camera = {"azimuth": 0.0, "elevation": 0.0, "view_height": 1.6 if "boxes" in shape["generator"] else 1.0}
+    return scene(name, height, width=width, meshes=(shape,), camera=camera)
 
 
-# ------------------------------------------------------------------------------------------ checks
 def _depth_rows(ok):
     """Timed runs with the max depth complexity of their scene's unbounded run."""
     if "role" not in ok:
         return pd.DataFrame()
-    counted = ok[ok.role == "depth"]
+    counted, rows = role_rows(ok, "depth"), role_rows(ok)
     depth = dict(zip(counted.scene, numeric(counted, "count_fragments_max")))
-    rows = speed_points(ok[ok.role == "test"]) if (ok.role == "test").any() else pd.DataFrame()
-    if rows.empty:
-        return rows
-    rows["depth"] = [depth.get(s, np.nan) for s in rows.scene]
-    return rows
+    return speed_points(rows).assign(depth=[depth.get(s, np.nan) for s in rows.scene]) if not rows.empty else rows
 
 
 def _depths(df, tolerance=0.1):
@@ -111,15 +97,10 @@ def _depth_fit(df):
                                + counts(rows, "count_fragments"))
 
 
-def _paper_bands(*scenes):
-    """Table 2's frame time of the tiled caster over dual depth peeling's on each of ``scenes``, from the two
-    methods' frame rates (:func:`~pipeline.experiments.kainz2009.ratios.paper_band`)."""
-    return {name: paper_band(TABLE2[name][3], TABLE2[name][2]) for name in scenes}
-
-
-SHALLOW = _paper_bands("S1")
+# Table 2's frame time of the tiled caster (column 3) over dual depth peeling's (column 2).
+SHALLOW = paper_bands(TABLE2, 3, 2, "S1")
 """Table 2's S1 (depth complexity 20), where dual depth peeling wins."""
-DEEP = _paper_bands("S2", "S3")
+DEEP = paper_bands(TABLE2, 3, 2, "S2", "S3")
 """Table 2's S2 and S3 (depth complexity 40 and 81), where the tiled caster wins."""
 
 
@@ -163,11 +144,9 @@ def _crossover(df):
         return f"< {int(depths[0])}" if value == -np.inf else f"> {int(depths[-1])}" if value == np.inf \
             else format_number(value)
 
-    if np.isfinite(depth):
-        measured = f"depth {format_number(depth)}"
-    else:
-        faster = "dual depth peeling" if depth > 0 else "cl-tiled"
-        measured = f"no crossover: {faster} faster at every depth ({int(depths[0])}–{int(depths[-1])})"
+    faster = "dual depth peeling" if depth > 0 else "cl-tiled"
+    measured = (f"depth {format_number(depth)}" if np.isfinite(depth)
+                else f"no crossover: {faster} faster at every depth ({int(depths[0])}–{int(depths[-1])})")
     if interval is not None and interval[0] == interval[1] == depth:
         decision = dataclasses.replace(decision, interval=None)  # every draw agrees: no range to show
     detail = "dual − cl-tiled (ms): " + ", ".join(f"{int(d)}: {format_number(g * 1e3)}" for d, g in zip(depths, gap))
@@ -175,11 +154,8 @@ def _crossover(df):
                                f"{detail}; {FRAMES}; {devices(pd.concat(rows.values()))}")
 
 
-class Depth(Experiment):
-    """Translucent geometry of growing depth complexity: Table 2's scenes and a sweep of boxes in a row."""
-
+class Depth(PaperExperiment):
     name = "kainz2009-depth"
-    paper = PAPER_ID
     title = "Table 2: translucent geometry against depth complexity (E3)"
     settings = frozenset({"scenes", "width", "height", "box_counts", "triangles", "truth_step_factor", "repeat"})
     scales = {
@@ -197,10 +173,7 @@ class Depth(Experiment):
         "Phong surface; a sweep of 5 to 40 boxes traces the cost against the depth complexity."
     )
 
-    def runs(self, profile):
-        if not is_registered(TILED):
-            return []
-        name = self.name
+    def plan(self, profile):
         width = int(profile.setting(self, "width", 1050))
         height = int(profile.setting(self, "height", 800))
         triangles = int(profile.setting(self, "triangles", 20000))
@@ -215,20 +188,19 @@ class Depth(Experiment):
             tags = {"scene": scene_name, "part": "table2" if scene_name in TABLE2 else "sweep"}
             if scene_name.startswith("boxes"):
                 tags["boxes"] = int(scene_name.removeprefix("boxes"))
-            truth = None
+            reference = None
             if scene_name in TABLE2:
-                truth = truth_run(name, scene_name, spec, views, truth_step, tags, config="reference")
-                runs.append(truth)
-            runs.append(Run(name, f"{scene_name}.unbounded", TILED, spec, views, options={"fragments": "global"},
-                            **UNTIMED, reference=truth.id if truth else None,
-                            tags={**tags, "role": "depth", "config": "global"}))
+                runs.append(truth_run(self.name, scene_name, spec, views, truth_step, tags, config="reference"))
+                reference = runs[-1].id
+            runs.append(Run(self.name, f"{scene_name}.unbounded", TILED, spec, views, options={"fragments": "global"},
+                            **UNTIMED, reference=reference, tags={**tags, "role": "depth", "config": "global"}))
             # Each Table 2 scene's two methods are timed together, and the whole sweep (line and crossover).
             group = scene_name if scene_name in TABLE2 else SWEEP
-            runs.append(Run(name, f"{scene_name}.tiled", TILED, spec, views, reference=truth.id if truth else None,
-                            **frames, interleave=group, tags={**tags, "role": "test", "config": TILED}))
+            runs.append(Run(self.name, f"{scene_name}.tiled", TILED, spec, views, reference=reference, **frames,
+                            interleave=group, tags={**tags, "role": "test", "config": TILED}))
             if accepts(PEEL, "peeling"):
-                runs.append(Run(name, f"{scene_name}.dual", PEEL, spec, views, options={"peeling": "dual"},
-                                reference=truth.id if truth else None, **frames, interleave=group,
+                runs.append(Run(self.name, f"{scene_name}.dual", PEEL, spec, views, options={"peeling": "dual"},
+                                reference=reference, **frames, interleave=group,
                                 tags={**tags, "role": "test", "config": DUAL}))
         return runs
 
@@ -272,9 +244,8 @@ class Depth(Experiment):
                              for s, (c, d, a, o) in TABLE2.items()]).assign(device=PAPER_DEVICE + ", 1050 × 800")
 
     def report(self, results, ctx):
-        ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        rows = _depth_rows(ok)
+        rows = _depth_rows(ok_rows(results))
         if not rows.empty:
             rows["method"] = rows.config.map(METHOD_NAMES)
             sweep = rows[rows.part == "sweep"]

@@ -1,26 +1,22 @@
-"""E4/E6: the local-memory fragment cap against unbounded lists (``kainz2009-depthcap``; Fig. 5).
-
-Caps 16, 32, 55 and 63 against cl-tiled's global-memory lists on the thumbscrew (depth ≈ 81) and on
-a pile of overlapping volumes: the fraction of pixels off by more than 5 %, difference images; and
-what a smaller cap saves on a shallow scene both caps render whole.
-"""
+"""E4/E6: the local-memory fragment cap against unbounded lists (``kainz2009-depthcap``; Fig. 5)."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import IMAGE_SIZES, PAPER_ID, TILED, frames_caption, run_settings, table
+from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, TILED, PaperExperiment, frames_caption, run_settings,
+                                                    table)
 from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, screw
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import Bound, Measure
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, TECHNIQUE, counts, ratio, timed, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.checks import worst_psnr
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, TECHNIQUE, counts, decision_words, ratio, timed
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number)
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run
-from pipeline.experiments.kit.results import (file_exists, numeric, ok_rows, read_exr, reference_exr, role_rows,
-                                              speed_points)
+                                            format_number, title_or)
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
+from pipeline.experiments.kit.results import (file_exists, nonempty, numeric, ok_rows, read_exr, reference_exr,
+                                              role_rows, speed_points)
 from reports import plots
 
 CAPS = (16, 32, 55, 63)
@@ -37,10 +33,8 @@ SPEED_CAPS = (16, 63)
 ERROR_THRESHOLD = 0.05
 """A pixel is wrong when a colour channel differs by more than 5 % of the range (Fig. 5)."""
 
-UNBOUNDED_EXACT = Bound(Measure("the unbounded lists' worst PSNR against the reference over every scene",
-                                match={"role": "unbounded"}, column="psnr", statistic="min", unit="dB",
-                                label="scene"),
-                        at_least=40.0)
+UNBOUNDED_EXACT = worst_psnr("the unbounded lists' worst PSNR against the reference over every scene", 40.0,
+                             role="unbounded")
 
 
 def _over_threshold(reference, test, threshold=ERROR_THRESHOLD):
@@ -57,9 +51,9 @@ def _cap_rows(ok, *, complete=False):
     A run whose image or its unbounded run's image is missing has no fraction: the page leaves it out, a
     claim (``complete``) is not measured, naming it, rather than judged on the other runs.
     """
-    if "cap" not in ok or "role" not in ok:
+    if "cap" not in ok:
         return pd.DataFrame()
-    rows = ok[ok.role == "test"].copy()
+    rows = role_rows(ok)
     rows["cap"] = numeric(rows, "cap")
     fractions = []
     for row in rows.itertuples():
@@ -113,17 +107,16 @@ def _cap_speed(df, at_least=STRICTLY_ABOVE_ONE):
     if dropped:
         raise ValueError(f"the shallow scene dropped {int(dropped)} fragments: the caps did different work")
     decision = ratio(large, small, TECHNIQUE, intervals.Resampler(), at_least=at_least)
-    return ClaimResult.decided(with_interval(as_ratio(decision.value), decision), decision,
+    return ClaimResult.decided(decision_words(decision), decision,
                                f"time(cap {max(SPEED_CAPS)}) / time(cap {min(SPEED_CAPS)}), {KERNELS}; both kept every "
                                f"fragment (at most {int(numeric(rows, 'count_fragments_max').max())} per pixel; "
                                f"fragments per frame {counts(rows, 'count_fragments', label='cap')})")
 
 
-class DepthCap(Experiment):
-    """The local-memory fragment cap against unbounded lists: error and time."""
-
+class DepthCap(PaperExperiment):
     name = "kainz2009-depthcap"
-    paper = PAPER_ID
+    needs = ("depth_cap", "fragments")
+    paper_rows = tables.DEPTH_CAP
     title = "The depth cap: error against unbounded fragment lists, and what a smaller cap saves (E4, E6; Fig. 5)"
     settings = frozenset({"caps", "scenes", "image_size", "turns", "small_size", "count", "step_factor",
                           "truth_step_factor", "repeat"})
@@ -145,10 +138,7 @@ class DepthCap(Experiment):
         "run one after another, so the occupancy the paper bought has no counterpart there."
     )
 
-    def runs(self, profile):
-        if not accepts(TILED, "depth_cap", "fragments"):
-            return []
-        name = self.name
+    def plan(self, profile):
         caps = sorted(int(c) for c in profile.setting(self, "caps", list(CAPS)))
         image, step, truth_step, frames = run_settings(self, profile)
         scenes = {
@@ -163,17 +153,17 @@ class DepthCap(Experiment):
             views = (dict(AXIS_VIEW),) if scene_name == "screw" else (dict(HEADLINE_VIEW),)
             boundaries = {"empty_space": "box"} if scene_name == "pile" else {}
             tags = {"scene": scene_name}
-            truth = truth_run(name, scene_name, spec, views, truth_step, tags, config="reference")
-            unbounded = Run(name, f"{scene_name}.unbounded", TILED, spec, views,
+            truth = truth_run(self.name, scene_name, spec, views, truth_step, tags, config="reference")
+            unbounded = Run(self.name, f"{scene_name}.unbounded", TILED, spec, views,
                             options={"step_factor": step, "fragments": "global", **boundaries}, reference=truth.id,
                             **frames, tags={**tags, "role": "unbounded", "config": "global", "cap": 0})
             runs += [truth, unbounded]
-            runs += [Run(name, f"{scene_name}.cap{cap}", TILED, spec, views,
+            runs += [Run(self.name, f"{scene_name}.cap{cap}", TILED, spec, views,
                          options={"step_factor": step, "fragments": "local", "depth_cap": cap, **boundaries},
                          reference=unbounded.id, **frames,
                          tags={**tags, "role": "test", "config": "local", "cap": cap}) for cap in caps]
         shallow = scene(SHALLOW, image, volumes=clouds(SHALLOW_CLOUDS, int(profile.setting(self, "small_size", 64))))
-        runs += [Run(name, f"{SHALLOW}.cap{cap}", TILED, shallow, (dict(HEADLINE_VIEW),),
+        runs += [Run(self.name, f"{SHALLOW}.cap{cap}", TILED, shallow, (dict(HEADLINE_VIEW),),
                      options={"step_factor": step, "fragments": "local", "depth_cap": cap, "empty_space": "box"},
                      **frames, interleave=SHALLOW,
                      tags={"scene": SHALLOW, "role": "speed", "config": "local", "cap": cap})
@@ -189,18 +179,14 @@ class DepthCap(Experiment):
         Claim("unbounded-exact", "The unbounded global-memory lists render the reference's image",
               UNBOUNDED_EXACT.expected, UNBOUNDED_EXACT),
         *Claim("small-cap-faster-paper", "A lighter load on local memory (a smaller cap) makes frames up to 40 % "
-               "faster (paper)",
-               f"time(cap 63) / time(cap 16) ≥ {as_ratio(tables.CAP_GAIN)} where both keep every fragment "
-               f"({SHALLOW_CLOUDS} clouds, {KERNELS})", lambda df: _cap_speed(df, tables.CAP_GAIN),
+               "faster (paper)", f"time(cap 63) / time(cap 16) ≥ {as_ratio(tables.CAP_GAIN)} where both keep every "
+               f"fragment ({SHALLOW_CLOUDS} clouds, {KERNELS})", lambda df: _cap_speed(df, tables.CAP_GAIN),
                paper_value="up to 40 %", kind="timing").with_ours(
             "A smaller cap is faster (paper: up to 40 % from the occupancy it buys)",
             f"time(cap 63) / time(cap 16) > ×1 where both keep every fragment ({SHALLOW_CLOUDS} clouds, "
             f"{KERNELS})", _cap_speed, why="faster at all: the paper's 40 % is its best case, the occupancy a GPU "
             "gains, which a CPU lacks"),
     )
-
-    def paper_table(self):
-        return pd.DataFrame(tables.DEPTH_CAP)
 
     def report(self, results, ctx):
         ok = ok_rows(results)
@@ -212,8 +198,8 @@ class DepthCap(Experiment):
             out.append(figure(ctx, "error", plots.lines, rows.assign(percent=100 * rows.over_threshold),
                               heading="Error against the cap",
                               caption="Against cl-tiled's unbounded lists, same step; dotted: the paper's 55 and 63.",
-                              y="percent", title=_cap_title(rows), y_label="pixels off by > 5 % of the range (%)",
-                              vlines=(55, 63),
+                              y="percent", y_label="pixels off by > 5 % of the range (%)", vlines=(55, 63),
+                              title=title_or(_cap_title, rows, "Pixels off by more than 5 % against the cap"),
                               guides=(("paper's bound 0.05 %", [rows.cap.min(), rows.cap.max()], [0.05, 0.05]),),
                               **caps))
             out.append(figure(ctx, "time", plots.lines, rows, heading="Time against the cap",
@@ -243,8 +229,5 @@ class DepthCap(Experiment):
 
 
 def _cap_title(rows):
-    at55 = rows[rows.cap == 55]
-    if at55.empty:
-        return "Pixels off by more than 5 % against the cap"
-    return (f"At cap 55: {format_number(100 * at55.over_threshold.max())} % of pixels off by > 5 % "
-            f"(paper: < 0.05 %)")
+    worst = nonempty(rows[rows.cap == 55]).over_threshold.max()
+    return f"At cap 55: {format_number(100 * worst)} % of pixels off by > 5 % (paper: < 0.05 %)"

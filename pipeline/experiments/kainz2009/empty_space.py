@@ -1,24 +1,19 @@
-"""E8: empty-space skipping, box boundaries against tight brick hulls (``kainz2009-ess``).
-
-An abdomen and a skull rendered with their boxes and with hulls of 4³ to 32³ bricks: frame time,
-accuracy against the reference, and the hull build time, which every timed process takes from a
-preprocessing frame of its own (cl-tiled caches its hulls: :mod:`pipeline.timing`), beside the frames
-it is compared with.
-"""
+"""E8: empty-space skipping, box boundaries against tight brick hulls (``kainz2009-ess``)."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import IMAGE_SIZES, PAPER_ID, TILED, frames_caption, run_settings, table
+from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, TILED, PaperExperiment, frames_caption, run_settings,
+                                                    scenes_of, table)
 from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all_of, counts, decided, decision_words,
                                               ratio, statistic, timed)
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, db_words, figure, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, listed, scene, truth_run
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, rows_matching, speed_points, text_column
 from reports import plots
 
@@ -42,13 +37,6 @@ def _ess_rows(df, name):
     return box, hulls.assign(brick=numeric(hulls, "brick").astype(int))
 
 
-def _scenes(df):
-    scenes = list(pd.unique(text_column(rows_matching(df, "timed runs", role="test"), "scene")))
-    if not scenes:
-        raise ValueError("no timed run")
-    return scenes
-
-
 def _work(box, hulls):
     """Samples and boundary triangles of the box and each hull: the work the hulls trade."""
     both = pd.concat([box.assign(brick="box"), hulls])
@@ -62,7 +50,7 @@ def _ess_gain(df, best_at_least=None):
     resampler = intervals.Resampler()
     bound = STRICTLY_ABOVE_ONE if best_at_least is None else best_at_least
     decisions, work = {}, []
-    for name in _scenes(df):
+    for name in scenes_of(df, "timed run", role="test"):
         box, hulls = _ess_rows(df, name)
         decisions[name] = ratio(box, hulls, TECHNIQUE, resampler, statistic="min", at_least=bound)
         work.append(f"{name}: {_work(box, hulls)}")
@@ -78,7 +66,7 @@ def _ess_gain(df, best_at_least=None):
 def _best_brick(df):
     resampler = intervals.Resampler()
     decisions, fastest = {}, {}
-    for name in _scenes(df):
+    for name in scenes_of(df, "timed run", role="test"):
         _box, hulls = _ess_rows(df, name)
         eight, others = hulls[hulls.brick == 8], hulls[hulls.brick != 8]
         if eight.empty or others.empty:
@@ -91,11 +79,10 @@ def _best_brick(df):
 
 def _hull_accuracy(df):
     worst = {}
-    for name in _scenes(df):
+    for name in scenes_of(df, "timed run", role="test"):
         rows = rows_matching(df, f"runs on {name}", scene=name, role="test")
         psnr = numeric(rows, "psnr")
-        box = psnr[text_column(rows, "config") == "box"]
-        hull = psnr[text_column(rows, "config") == "hull"]
+        box, hull = (psnr[text_column(rows, "config") == config] for config in ("box", "hull"))
         if box.dropna().empty or hull.dropna().empty:
             raise ValueError(f"no PSNR of the box and hull runs on {name}")
         worst[name] = float(box.iloc[0] - hull.min())
@@ -109,19 +96,18 @@ def _build_cheap(df):
     """The 8³ hull's build over a frame's kernels with that hull, both from the same timed processes."""
     resampler = intervals.Resampler()
     decisions, builds = {}, {}
-    for name in _scenes(df):
+    for name in scenes_of(df, "timed run", role="test"):
         _box, hulls = _ess_rows(df, name)
         frame = _with_builds(hulls[hulls.brick == 8])
         if frame.empty:
             raise ValueError(f"no timed 8³ hull on {name}")
-        build_ms = float(frame.build_ms.iloc[0])
-        if not np.isfinite(build_ms):
+        builds[name] = float(frame.build_ms.iloc[0])
+        if not np.isfinite(builds[name]):
             raise ValueError(f"{name}: the 8³ hull's run reported no time_bricks or no time_hull")
-        builds[name] = build_ms
         time, frames = statistic(frame, TECHNIQUE, resampler)
-        build = build_ms / 1e3
-        decisions[name] = decided(build / time, None if frames is None else build / frames,
-                                  at_most=1.0, frames=resampler.arms())
+        build = builds[name] / 1e3
+        decisions[name] = decided(build / time, None if frames is None else build / frames, at_most=1.0,
+                                  frames=resampler.arms())
     return all_of(decisions,
                   extra=f"bricks + hull build (each timed process's preprocessing frame, compiled, mean over the "
                         f"processes) over the median frame with the 8³ hull in the same processes, {KERNELS}; the "
@@ -129,11 +115,10 @@ def _build_cheap(df):
                         + ", ".join(f"{name}: {format_number(ms)} ms" for name, ms in builds.items()))
 
 
-class EmptySpace(Experiment):
-    """Boxes against tight brick hulls: frame time, accuracy and the hull build time."""
-
+class EmptySpace(PaperExperiment):
     name = "kainz2009-ess"
-    paper = PAPER_ID
+    needs = ("empty_space", "brick_size")
+    paper_rows = tables.EMPTY_SPACE
     title = "Empty-space skipping: box boundaries against tight brick hulls, and the hull build (E8)"
     settings = frozenset({"scenes", "volume_size", "image_size", "brick_sizes", "step_factor", "truth_step_factor",
                           "repeat"})
@@ -150,10 +135,7 @@ class EmptySpace(Experiment):
         "frames it is compared with."
     )
 
-    def runs(self, profile):
-        if not accepts(TILED, "empty_space", "brick_size"):
-            return []
-        name = self.name
+    def plan(self, profile):
         size = int(profile.setting(self, "volume_size", profile.volume_size))
         image, step, truth_step, frames = run_settings(self, profile)
         bricks = [int(b) for b in profile.setting(self, "brick_sizes", list(BRICKS))]
@@ -163,16 +145,14 @@ class EmptySpace(Experiment):
             dataset, preset = SCENES[scene_name]
             spec = scene(scene_name, image, volumes=[volume(dataset, size, preset, scene_name)])
             tags = {"scene": scene_name, "size": size}
-            truth = truth_run(name, scene_name, spec, views, truth_step, tags, config="reference")
+            truth = truth_run(self.name, scene_name, spec, views, truth_step, tags, config="reference")
+            runs.append(truth)
             # The box and every hull of one scene are timed together: the claims compare them.
-            runs += [truth, Run(name, f"{scene_name}.box", TILED, spec, views,
-                                options={"step_factor": step, "empty_space": "box"}, reference=truth.id, **frames,
-                                interleave=scene_name, tags={**tags, "role": "test", "config": "box", "brick": 0})]
-            for brick in bricks:
-                options = {"step_factor": step, "empty_space": "hull", "brick_size": brick}
-                runs.append(Run(name, f"{scene_name}.hull{brick}", TILED, spec, views, options=options,
+            for config, brick in [("box", 0)] + [("hull", brick) for brick in bricks]:
+                options = {"step_factor": step, "empty_space": config, **({"brick_size": brick} if brick else {})}
+                runs.append(Run(self.name, f"{scene_name}.{config}{brick or ''}", TILED, spec, views, options=options,
                                 reference=truth.id, **frames, interleave=scene_name,
-                                tags={**tags, "role": "test", "config": "hull", "brick": brick}))
+                                tags={**tags, "role": "test", "config": config, "brick": brick}))
         return runs
 
     claims = (
@@ -193,13 +173,9 @@ class EmptySpace(Experiment):
               kind="timing"),
     )
 
-    def paper_table(self):
-        return pd.DataFrame(tables.EMPTY_SPACE)
-
     def report(self, results, ctx):
-        ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        tests = role_rows(ok)
+        tests = role_rows(ok_rows(results))
         if not tests.empty:
             rows = speed_points(tests)
             rows["brick"] = numeric(rows, "brick")
@@ -209,8 +185,7 @@ class EmptySpace(Experiment):
                                       + frames_caption(rows),
                               x="brick", y="time_ms", group="scene", y_range=("time_ms_min", "time_ms_max"),
                               title="Frame time against the brick size (boxes as guides)",
-                              x_label="brick edge (voxels)", y_label="median frame time (ms)", log_x=True,
-                              vlines=(8,),
+                              x_label="brick edge (voxels)", y_label="median frame time (ms)", log_x=True, vlines=(8,),
                               guides=tuple((f"{r.scene}: box boundaries", [hulls.brick.min(), hulls.brick.max()],
                                             [r.time_ms, r.time_ms]) for r in rows[rows.config == "box"].itertuples())))
             out.append(table("Every run", _with_builds(rows).sort_values(["scene", "config", "brick"]),

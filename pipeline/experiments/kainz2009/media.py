@@ -1,22 +1,17 @@
-"""E9: the homogeneous-segment shortcut (``kainz2009-media``; Fig. 1 (4)).
-
-35 rods of translucent media in an apple, their segments composited analytically or sampled at the
-common step (cl-tiled's ``media`` switch), both against the reference; the gain timed where the rods
-leave the apple, the segments there holding media alone.
-"""
+"""E9: the homogeneous-segment shortcut (``kainz2009-media``; Fig. 1 (4))."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, PAPER_ID, TILED, device_note, frames_caption,
+from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, TILED, PaperExperiment, device_note, frames_caption,
                                                     run_settings, table)
 from pipeline.experiments.kainz2009.scenes import volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, counts, ratio, timed, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, counts, decision_words, ratio, timed
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, scene, truth_run
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, scene, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
 
 ROD_COUNT = 35
@@ -39,18 +34,15 @@ def _apple_scene(size, image, rods, *, seed=2009):
     meshes = []
     for i in range(int(rods)):
         axis = rng.normal(size=3)
-        entry = {"name": f"rod{i:02d}",
-                 "transform": {"scale": float(size),
-                               "rotate": {"axis": [round(float(v), 4) for v in axis],
-                                          "degrees": round(float(rng.uniform(0, 180)), 3)},
-                               "translate": [round(float(v), 4) for v in rng.uniform(-0.15, 0.15, 3) * size]},
-                 "medium": {"colour": [round(float(v), 3) for v in rng.uniform(0.2, 1.0, 3)],
-                            "extinction": round(12.0 / size, 6)}}
-        if i == 0:
-            entry.update(generator="rod", params={"sides": 20, "radius": 0.012, "length": 1.1})
-        else:
-            entry["instance_of"] = "rod00"
-        meshes.append(entry)
+        meshes.append({"name": f"rod{i:02d}",
+                       "transform": {"scale": float(size),
+                                     "rotate": {"axis": [round(float(v), 4) for v in axis],
+                                                "degrees": round(float(rng.uniform(0, 180)), 3)},
+                                     "translate": [round(float(v), 4) for v in rng.uniform(-0.15, 0.15, 3) * size]},
+                       "medium": {"colour": [round(float(v), 3) for v in rng.uniform(0.2, 1.0, 3)],
+                                  "extinction": round(12.0 / size, 6)},
+                       **({"generator": "rod", "params": {"sides": 20, "radius": 0.012, "length": 1.1}} if i == 0
+                          else {"instance_of": "rod00"})})
     return scene("apple", image, volumes=[apple], meshes=meshes)
 
 
@@ -60,10 +52,8 @@ def _media_rows(ok):
     rows = ok[(ok.role == "test") & text_column(ok, "config").isin(["analytic", "sampled"])]
     if rows.empty:
         return rows
-    rows = speed_points(rows)
-    rows["pixel_ms"] = numeric(rows, "time_pixel") * 1e3
-    rows["pixel kernel (ms)"] = rows.pixel_ms
-    return rows
+    pixel_ms = numeric(rows, "time_pixel") * 1e3
+    return speed_points(rows).assign(pixel_ms=pixel_ms, **{"pixel kernel (ms)": pixel_ms})
 
 
 def rods_view(size):
@@ -110,8 +100,8 @@ def _media_gain(df, at_least=STRICTLY_ABOVE_ONE):
     headline = HEADLINE_VIEW["view"]
     if (text_column(df, "view") == headline).any():
         whole, _ = _gain(df, headline, resampler)
-        detail += f"; the whole apple (view {headline!r}): {with_interval(as_ratio(whole.value), whole)}"
-    return ClaimResult.decided(f"{with_interval(as_ratio(decision.value), decision)}: "
+        detail += f"; the whole apple (view {headline!r}): {decision_words(whole)}"
+    return ClaimResult.decided(f"{decision_words(decision)}: "
                                f"{format_number(100 * (decision.value - 1))} % gain", decision, detail)
 
 
@@ -130,11 +120,10 @@ def _media_steps(df):
                        all(a < s for a, s in pairs.values()), "media composited without a volume, one frame")
 
 
-class Media(Experiment):
-    """Segments of homogeneous media alone: composited analytically or sampled at the common step."""
-
+class Media(PaperExperiment):
     name = "kainz2009-media"
-    paper = PAPER_ID
+    needs = ("media",)
+    paper_rows = tables.MEDIA
     title = "The homogeneous-segment shortcut: rods of translucent media in an apple (E9; Fig. 1 (4))"
     settings = frozenset({"volume_size", "image_size", "rods", "step_factor", "truth_step_factor", "repeat"})
     scales = scaled(base=IMAGE_SIZES, smoke={"volume_size": 32}, default={"volume_size": 128},
@@ -153,20 +142,17 @@ class Media(Experiment):
         "apple's box, where every segment holds media alone."
     )
 
-    def runs(self, profile):
-        if not accepts(TILED, "media"):
-            return []
-        name = self.name
+    def plan(self, profile):
         size = int(profile.setting(self, "volume_size", profile.volume_size))
         image, step, truth_step, frames = run_settings(self, profile)
         rods = int(profile.setting(self, "rods", ROD_COUNT))
         views = (dict(HEADLINE_VIEW), rods_view(size))
         spec = _apple_scene(size, image, rods)
         tags = {"scene": "apple", "size": size, "rods": rods}
-        truth = truth_run(name, "apple", spec, views, truth_step, tags, config="reference")
-        return [truth] + [Run(name, f"apple.{media}", TILED, spec, views, options={"step_factor": step, "media": media},
-                              reference=truth.id, **frames, interleave="apple",
-                              tags={**tags, "role": "test", "config": media})
+        truth = truth_run(self.name, "apple", spec, views, truth_step, tags, config="reference")
+        return [truth] + [Run(self.name, f"apple.{media}", TILED, spec, views,
+                              options={"step_factor": step, "media": media}, reference=truth.id, **frames,
+                              interleave="apple", tags={**tags, "role": "test", "config": media})
                           for media in ("analytic", "sampled")]
 
     claims = (
@@ -184,12 +170,8 @@ class Media(Experiment):
               "media steps (analytic) < media steps (sampled), every view", _media_steps, kind="count"),
     )
 
-    def paper_table(self):
-        return pd.DataFrame(tables.MEDIA)
-
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        rows = _media_rows(ok)
+        rows = _media_rows(ok_rows(results))
         out = [claim_takeaways(ctx, device_note(rows))]
         if not rows.empty:
             out.append(table("Analytic and sampled media", rows.sort_values(["view", "config"]),

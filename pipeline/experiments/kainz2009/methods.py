@@ -11,8 +11,10 @@ machine, so every page says which OpenCL device cl-tiled ran on.
 import pandas as pd
 
 from pipeline.experiments.kit import pages
+from pipeline.experiments.kit.model import Experiment, Run
 from pipeline.experiments.kit.pages import linked_table, not_measurable
-from pipeline.experiments.kit.planning import is_registered, timed_frames
+from pipeline.experiments.kit.planning import accepts, is_registered, timed_frames
+from pipeline.experiments.kit.results import rows_matching, text_column
 
 PAPER_ID = "kainz2009"
 
@@ -51,6 +53,42 @@ def run_settings(experiment, profile):
             timed_frames(profile, experiment))
 
 
+class PaperExperiment(Experiment):
+    """An experiment of this paper: planned (:meth:`plan`) where cl-tiled takes the options :attr:`needs`, beside the
+    paper's numbers :attr:`paper_rows` (:mod:`~pipeline.experiments.kainz2009.tables`)."""
+
+    paper = PAPER_ID
+    needs = ()
+    paper_rows = ()
+
+    def runs(self, profile):
+        return self.plan(profile) if accepts(TILED, *self.needs) else []
+
+    def plan(self, profile):
+        raise NotImplementedError
+
+    def paper_table(self):
+        return pd.DataFrame(self.paper_rows)
+
+
+def method_runs(experiment, prefix, spec, views, tags, truth, *, step, frames, groups=(None, None), vtk=False):
+    """cl-tiled's run of ``spec`` and its peers': depth peeling at every point (what it cannot render is recorded as a
+    skip), VTK's GPU caster where ``vtk``; ``groups`` are cl-tiled's and depth peeling's interleave groups."""
+    peers = [peer for peer in ([PEEL, VTK] if vtk else [PEEL]) if accepts(peer, "step_factor")]
+    backends = [(TILED, "tiled", groups[0])] + [(peer, peer, groups[1] if peer == PEEL else None) for peer in peers]
+    return [Run(experiment, f"{prefix}.{suffix}", backend, spec, views, options={"step_factor": step},
+                reference=truth.id if truth else None, **frames, interleave=group,
+                tags={**tags, "role": "test", "config": backend}) for backend, suffix, group in backends]
+
+
+def scenes_of(frame, what, **match):
+    """The scenes of the rows of ``frame`` matching the tags ``match``, in order; ValueError "no ``what``" if none."""
+    scenes = list(pd.unique(text_column(rows_matching(frame, what, **match), "scene")))
+    if not scenes:
+        raise ValueError(f"no {what}")
+    return scenes
+
+
 def peeling_missing():
     """The not-measurable paragraph for depth peeling where ``gl-peel`` is not registered (else none)."""
     return not_measurable([PEELING] if not is_registered(PEEL) else [])
@@ -80,11 +118,9 @@ def device_note(tests):
 def devices(rows):
     """``"OpenCL on …; OpenGL on llvmpipe … (a software rasteriser)"``: where compared runs ran, for a claim
     comparing backends (a rasteriser in software pays every geometry pass on the CPU)."""
-    words = []
-    for column, api in (("cl_device", "OpenCL"), ("gl_renderer", "OpenGL")):
-        names = sorted(set(rows[column].dropna().astype(str))) if column in rows else []
-        if names:
-            words.append(f"{api} on {', '.join(names)}")
+    names = {api: sorted(set(rows[column].dropna().astype(str)))
+             for column, api in (("cl_device", "OpenCL"), ("gl_renderer", "OpenGL")) if column in rows}
+    words = [f"{api} on {', '.join(found)}" for api, found in names.items() if found]
     if not words:
         return "devices not recorded"
     software = rows.get("gl_software_rasterizer", pd.Series(dtype=str)).astype(str).str.lower().isin(["true", "1"])
@@ -106,4 +142,3 @@ def frames_caption(frame):
 def table(title, frame, columns, ctx, **options):
     """A table of ``columns`` (named by :data:`COLUMN_NAMES` and the kit), each row linked to its run."""
     return linked_table(title, frame, columns, ctx, names=COLUMN_NAMES, **options)
-

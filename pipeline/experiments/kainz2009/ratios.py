@@ -27,27 +27,23 @@ FRAMES = "whole frames, time_total"
 """How the whole-frame scope is named in a claim's ``expected`` text."""
 
 
-def paper_band(top_fps, bottom_fps):
-    """``(low, high)``: the paper's frame time of the method with frame rates ``top_fps`` over that of the one with
-    ``bottom_fps``, two ``(slowest, fastest)`` ranges of one table row (fps).
+def paper_bands(table, top, bottom, *scenes):
+    """``{scene: (low, high)}``: the paper's frame time of the method with frame rates in column ``top`` of ``table``
+    (:data:`~pipeline.experiments.kainz2009.tables.TABLE1` or ``TABLE2``) over that of the one in column ``bottom``,
+    each a ``(slowest, fastest)`` range (fps), on each of ``scenes``.
 
     The paper gives each method's slowest and fastest frame rate over the same viewports, transfer functions and
     cameras, so the slowest frames are compared with each other and the fastest with each other (time is 1 / fps).
     ``high`` is ``None`` where ``top``'s range starts at 0 fps: no upper bound.
     """
-    ends = [bottom / top if top else math.inf for top, bottom in zip(top_fps, bottom_fps)]
-    return min(ends), (max(ends) if math.isfinite(max(ends)) else None)
-
-
-def band_words(band):
-    """``"×0.457–×0.714"``, or ``"≥ ×15"`` without an upper bound."""
-    low, high = band
-    return f"≥ {as_ratio(low)}" if high is None else f"{as_ratio(low)}–{as_ratio(high)}"
+    ends = {name: [b / t if t else math.inf for t, b in zip(table[name][top], table[name][bottom])] for name in scenes}
+    return {name: (min(end), max(end) if math.isfinite(max(end)) else None) for name, end in ends.items()}
 
 
 def bands_words(bands):
-    """``"×2.78–×3.2 on C3, ×7.67–×10 on C4"``: each scene's band (:func:`band_words`)."""
-    return ", ".join(f"{band_words(band)} on {name}" for name, band in bands.items())
+    """``"×2.78–×3.2 on C3, ≥ ×15 on C7"``: each scene's band, ``≥`` its low end where it has no upper bound."""
+    return ", ".join(f"≥ {as_ratio(low)} on {name}" if high is None else f"{as_ratio(low)}–{as_ratio(high)} on {name}"
+                     for name, (low, high) in bands.items())
 
 
 def band_bounds(bands):
@@ -80,7 +76,7 @@ class PeelingRatio:
         ----------
         id : str
         bands : dict
-            ``{scene: (low, high)}``: the paper's ratio on each of its scenes (:func:`paper_band`).
+            ``{scene: (low, high)}``: the paper's ratio on each of its scenes (:func:`paper_bands`).
         statements : tuple of str
             The paper's claim and ours, in words.
         above : bool

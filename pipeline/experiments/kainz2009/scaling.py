@@ -1,11 +1,4 @@
-"""E2, the headline: frame time against the number of overlapping 64³ volumes (``kainz2009-scaling``).
-
-1 to 64 smoke clouds alone, inside a 256³ volume and with a 30k-triangle mesh, seen through the same
-pixels at every count; VTK's multi-volume GPU caster beside cl-tiled where it can (≤ 7 volumes),
-depth peeling at every point, and the reference at selected counts. The runs the timing claims
-compare are timed together (:data:`GROUP`): cl-tiled's growth on its kernels, peeling's against
-cl-tiled's on whole frames.
-"""
+"""E2, the headline: frame time against the number of overlapping 64³ volumes (``kainz2009-scaling``)."""
 
 import dataclasses
 
@@ -13,18 +6,18 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    device_note, devices, frames_caption, peeling_missing, run_settings,
-                                                    table)
+from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PEEL, TILED, VTK_MAX_VOLUMES, PaperExperiment,
+                                                    device_note, devices, frames_caption, method_runs, peeling_missing,
+                                                    run_settings, table)
 from pipeline.experiments.kainz2009.ratios import FRAMES, KERNELS
 from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, blob, clouds, volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.checks import Bound, Measure, Ratio
+from pipeline.experiments.kit.checks import Measure, Ratio, worst_psnr
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, TOTAL, decided, ratio_pair, statistic,
                                               timed, with_interval)
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.model import Claim, ClaimResult, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, role_rows, rows_matching, speed_points
 from reports import plots
 
@@ -55,8 +48,7 @@ def _tiled_time(what, series, count):
     Not by ``count``: tags match as text, and ``runs.csv`` read back beside experiments without a
     count gives ``50.0``.
     """
-    return Measure(what, match={"scene": f"{series}.n{count:02d}", "config": TILED, "role": "test"},
-                   column=TECHNIQUE)
+    return Measure(what, match={"scene": f"{series}.n{count:02d}", "config": TILED, "role": "test"}, column=TECHNIQUE)
 
 
 ONE_CLOUD = _tiled_time("time(1 cloud)", "clouds", 1)
@@ -64,10 +56,8 @@ FLAT_WITH_MESH = Ratio(_tiled_time(f"time({TARGET_COUNT} clouds + mesh)", "cloud
                        at_most=TARGET_RATIO)
 FLAT_VOLUMES = Ratio(_tiled_time(f"time({TARGET_COUNT} clouds)", "clouds", TARGET_COUNT), ONE_CLOUD,
                      at_most=TARGET_RATIO)
-ACCURATE = Bound(Measure("cl-tiled's worst PSNR against the reference over every checked count and series",
-                         match={"config": TILED, "checked": "yes"}, column="psnr", statistic="min", unit="dB",
-                         label="scene"),
-                 at_least=40.0)
+ACCURATE = worst_psnr("cl-tiled's worst PSNR against the reference over every checked count and series", 40.0,
+                      config=TILED, checked="yes")
 
 
 def _with_samples(ratio):
@@ -101,10 +91,9 @@ def _peeling_growth(df):
         raise ValueError("depth peeling and cl-tiled share no count beyond one volume")
     n = common[-1]
     resampler = intervals.Resampler()
-    growth = {}  # config -> (value, draws) of its time at N over its time at 1
-    for config, part in rows.items():
-        growth[config] = ratio_pair(*(statistic(part[numeric(part, "count") == count], TOTAL, resampler)
-                                      for count in (n, 1)))
+    # config -> (value, draws) of its time at N over its time at 1
+    growth = {config: ratio_pair(*(statistic(part[numeric(part, "count") == count], TOTAL, resampler)
+                                   for count in (n, 1))) for config, part in rows.items()}
     decision = decided(*ratio_pair(growth[PEEL], growth[TILED]), at_least=STRICTLY_ABOVE_ONE, frames=resampler.arms())
     measured = f"peeling {as_ratio(growth[PEEL][0])}, cl-tiled {as_ratio(growth[TILED][0])} at N = {int(n)}"
     return ClaimResult.decided(with_interval(f"{measured}: {as_ratio(decision.value)}", decision), decision,
@@ -112,11 +101,8 @@ def _peeling_growth(df):
                                f"over cl-tiled's; {devices(pd.concat(rows.values()))}")
 
 
-class Scaling(Experiment):
-    """Frame time against the number of overlapping volumes, with and without a large volume and a mesh."""
-
+class Scaling(PaperExperiment):
     name = "kainz2009-scaling"
-    paper = PAPER_ID
     title = "Frame time against the number of overlapping volumes (E2; C5, C8)"
     settings = frozenset({"counts", "series", "small_size", "large_size", "image_size", "mesh_triangles",
                           "step_factor", "truth_step_factor", "truth_counts", "repeat"})
@@ -137,13 +123,10 @@ class Scaling(Experiment):
         "counts are checked against the reference."
     )
 
-    def runs(self, profile):
-        if not is_registered(TILED):
-            return []
-        name = self.name
+    def plan(self, profile):
         counts = [int(n) for n in profile.setting(self, "counts", list(COUNTS))]
         if not counts or min(counts) < 1 or max(counts) > 64:
-            raise InputError(f"profile {profile.name!r} settings.{name}.counts: need counts from 1 to 64 "
+            raise InputError(f"profile {profile.name!r} settings.{self.name}.counts: need counts from 1 to 64 "
                              f"(the active-object set is one 64-bit mask), got {counts}")
         series = listed(profile, self, "series", SERIES, SERIES)
         small = int(profile.setting(self, "small_size", 64))
@@ -155,36 +138,22 @@ class Scaling(Experiment):
         runs = []
         for kind in series:
             for count in counts:
-                volumes = clouds(count, small)
-                meshes = ()
-                height = VIEW_HEIGHT * small
-                if kind == "clouds+256":
-                    volumes = [volume("ct_skull", large, "bone", "large")] + volumes
-                    height = VIEW_HEIGHT * large
-                elif kind == "clouds+mesh":
-                    meshes = (blob(small, triangles),)
-                spec = scene(f"{kind}-{count}", image, volumes=volumes, meshes=meshes,
-                             camera={"view_height": round(height, 4)})
+                large_volume = [volume("ct_skull", large, "bone", "large")] if kind == "clouds+256" else []
+                spec = scene(f"{kind}-{count}", image, volumes=large_volume + clouds(count, small),
+                             meshes=(blob(small, triangles),) if kind == "clouds+mesh" else (),
+                             camera={"view_height": round(VIEW_HEIGHT * (large if large_volume else small), 4)})
                 prefix = f"{kind}.n{count:02d}"
                 # "checked": whether the count has a reference run, so the accuracy claim reads those runs only.
                 tags = {"series": kind, "count": count, "scene": prefix,
                         "checked": "yes" if count in truth_counts else "no"}
                 truth = None
                 if count in truth_counts:
-                    truth = truth_run(name, prefix, spec, views, truth_step, tags, config="reference")
+                    truth = truth_run(self.name, prefix, spec, views, truth_step, tags, config="reference")
                     runs.append(truth)
                 compared = kind == "clouds" or (kind == "clouds+mesh" and count == TARGET_COUNT)
-                runs.append(Run(name, f"{prefix}.tiled", TILED, spec, views, options={"step_factor": step},
-                                reference=truth.id if truth else None, **frames,
-                                interleave=GROUP if compared else None,
-                                tags={**tags, "role": "test", "config": TILED}))
-                peers = [PEEL] + ([VTK] if kind == "clouds" and count <= VTK_MAX_VOLUMES else [])
-                for peer in peers:  # depth peeling at every point, so its limits are recorded as skips
-                    if accepts(peer, "step_factor"):
-                        runs.append(Run(name, f"{prefix}.{peer}", peer, spec, views, options={"step_factor": step},
-                                        reference=truth.id if truth else None, **frames,
-                                        interleave=GROUP if kind == "clouds" and peer == PEEL else None,
-                                        tags={**tags, "role": "test", "config": peer}))
+                runs += method_runs(self.name, prefix, spec, views, tags, truth, step=step, frames=frames,
+                                    groups=(GROUP if compared else None, GROUP if kind == "clouds" else None),
+                                    vtk=kind == "clouds" and count <= VTK_MAX_VOLUMES)
         return runs
 
     claims = (
@@ -224,8 +193,7 @@ class Scaling(Experiment):
                 rows[f"relative{column}"] = rows[f"time_ms{column}"] / base
             out.append(figure(ctx, "relative", plots.lines, rows, heading="Growth relative to one volume",
                               caption="Each series over its own method's one-cloud run; bars from the fastest to "
-                                      "the slowest frame.",
-                              y="relative", y_range=("relative_min", "relative_max"),
+                                      "the slowest frame.", y="relative", y_range=("relative_min", "relative_max"),
                               title=f"Frame time over one cloud's; target ≤ {TARGET_RATIO:g}× at N = {TARGET_COUNT}",
                               y_label="frame time / one cloud's frame time (ratio)",
                               guides=((f"target {TARGET_RATIO:g}×", [1, max(rows["count"].max(), 2)],
@@ -257,14 +225,12 @@ def _scaling_title(rows):
 
 def _scaling_takeaways(tests):
     """The clouds-alone series as a line: fixed cost plus cost per added volume."""
-    sentences = []
     if "series" not in tests:
-        return sentences
+        return []
     tiled = tests[(tests.config == TILED) & (tests.series == "clouds")]
-    if numeric(tiled, "count").nunique() >= 3:
-        rows = tiled.assign(n=numeric(tiled, "count"), t=numeric(tiled, "time_total") * 1e3)
-        slope, intercept, r2 = fit_line(rows.n, rows.t)
-        sentences.append(f"cl-tiled with clouds alone: {format_number(intercept)} ms + {format_number(slope)} ms per "
-                         f"added volume (least squares over {len(rows)} counts, R² {format_number(r2)}): linear in "
-                         "the volumes a ray meets, with no per-layer pass.")
-    return sentences
+    if numeric(tiled, "count").nunique() < 3:
+        return []
+    slope, intercept, r2 = fit_line(numeric(tiled, "count"), numeric(tiled, "time_total") * 1e3)
+    return [f"cl-tiled with clouds alone: {format_number(intercept)} ms + {format_number(slope)} ms per added volume "
+            f"(least squares over {len(tiled)} counts, R² {format_number(r2)}): linear in the volumes a ray meets, "
+            "with no per-layer pass."]

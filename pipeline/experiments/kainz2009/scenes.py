@@ -51,10 +51,8 @@ def clouds(count, size, *, first=0, scale=1.0, seed=2009):
 
 def mesh(name, generator, params, *, transform=None, surface=SURFACE):
     """A generated mesh entry with a (by default translucent) surface."""
-    entry = {"name": name, "generator": generator, "params": params, "surface": dict(surface)}
-    if transform:
-        entry["transform"] = transform
-    return entry
+    return {"name": name, "generator": generator, "params": params, "surface": dict(surface),
+            **({"transform": transform} if transform else {})}
 
 
 def blob(size, triangles, name="mesh30k"):

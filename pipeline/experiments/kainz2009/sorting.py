@@ -1,22 +1,17 @@
-"""E7: the sorting worst case (``kainz2009-sorting``).
-
-cl-tiled submits triangles to binning in scene order, front to back and back to front (every
-per-pixel list reversed), on Table 2's boxes and on a coil among clouds; an ablation of the pixel
-kernel (``stop_after="sort"``) times the gather + sort alone.
-"""
+"""E7: the sorting worst case (``kainz2009-sorting``)."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, PAPER_ID, TILED, device_note, frames_caption,
-                                                    run_settings, table)
+from pipeline.experiments.kainz2009.methods import (IMAGE_SIZES, TILED, PaperExperiment, device_note, frames_caption,
+                                                    run_settings, scenes_of, table)
 from pipeline.experiments.kainz2009.scenes import AXIS_VIEW, clouds, mesh
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, counts, decided, statistic, timed
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
-from pipeline.experiments.kit.planning import accepts, listed, scene
+from pipeline.experiments.kit.planning import listed, scene
 from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, speed_points, text_column
 from reports import plots
 
@@ -65,10 +60,8 @@ def _sorting_rows(ok):
 def _sort_decision(df, name, resampler):
     """Worst-case sort over traversal on scene ``name``, judged below 1, and its sort moves."""
     rows = timed(df, f"runs on {name}", PIXEL, scene=name)
-    parts = {}
-    for order in ("front-to-back", "back-to-front"):
-        for part in ("full", "gather+sort"):
-            parts[order, part] = rows[(text_column(rows, "order") == order) & (text_column(rows, "part") == part)]
+    parts = {(order, part): rows[(text_column(rows, "order") == order) & (text_column(rows, "part") == part)]
+             for order in ("front-to-back", "back-to-front") for part in ("full", "gather+sort")}
     missing = sorted({order for (order, _), part in parts.items() if part.empty})
     if missing:
         raise ValueError(f"no full and gather + sort runs {', '.join(missing)} on {name}")
@@ -90,16 +83,9 @@ def _sort_decision(df, name, resampler):
                       + counts(full, "count_sort_moves", label="order"))
 
 
-def _sort_scenes(df):
-    scenes = list(pd.unique(text_column(rows_matching(df, "full runs", part="full"), "scene")))
-    if not scenes:
-        raise ValueError("no full run")
-    return scenes
-
-
 def _sort_small(df):
     resampler = intervals.Resampler()
-    judged = {name: _sort_decision(df, name, resampler) for name in _sort_scenes(df)}
+    judged = {name: _sort_decision(df, name, resampler) for name in scenes_of(df, "full run", part="full")}
     return all_of({name: decision for name, (decision, _) in judged.items()},
                   extra="sort / traversal on the pixel kernel (OpenCL profiling); "
                         + "; ".join(detail for _, detail in judged.values()))
@@ -121,11 +107,10 @@ def _order_invariant(df):
                        ", ".join(f"{s}: {format_number(d)}" for s, d in differences.items()))
 
 
-class Sorting(Experiment):
-    """The per-pixel insertion sort meets triangles in depth order and fully reversed."""
-
+class Sorting(PaperExperiment):
     name = "kainz2009-sorting"
-    paper = PAPER_ID
+    needs = ("triangle_order", "stop_after")
+    paper_rows = tables.SORTING
     title = "The sorting worst case: triangles submitted front to back and back to front (E7)"
     settings = frozenset({"scenes", "orders", "image_size", "small_size", "count", "triangles", "step_factor",
                           "repeat"})
@@ -145,10 +130,7 @@ class Sorting(Experiment):
         "kernel is the ray traversal (segment walk, sampling, shading)."
     )
 
-    def runs(self, profile):
-        if not accepts(TILED, "triangle_order", "stop_after"):
-            return []
-        name = self.name
+    def plan(self, profile):
         image, step, _truth_step, frames = run_settings(self, profile)
         small = int(profile.setting(self, "small_size", 64))
         count = int(profile.setting(self, "count", 9))
@@ -161,11 +143,11 @@ class Sorting(Experiment):
             for order in orders:
                 tags = {"scene": scene_name, "order": order, "config": TILED}
                 group = scene_name.replace("+", "-")  # every order and its ablation timed together
-                runs.append(Run(name, f"{group}.{order}", TILED, spec, views,
+                runs.append(Run(self.name, f"{group}.{order}", TILED, spec, views,
                                 options={"step_factor": step, "triangle_order": order}, **frames, interleave=group,
                                 tags={**tags, "role": "test", "part": "full"}))
                 if order != "scene":  # the sort's best and worst case alone: the kernel stops after sorting
-                    runs.append(Run(name, f"{group}.{order}.sort", TILED, spec, views,
+                    runs.append(Run(self.name, f"{group}.{order}.sort", TILED, spec, views,
                                     options={"step_factor": step, "triangle_order": order, "stop_after": "sort"},
                                     **frames, interleave=group,
                                     tags={**tags, "role": "ablation", "part": "gather+sort"}))
@@ -181,12 +163,8 @@ class Sorting(Experiment):
               kind="accuracy"),
     )
 
-    def paper_table(self):
-        return pd.DataFrame(tables.SORTING)
-
     def report(self, results, ctx):
-        ok = ok_rows(results)
-        rows = _sorting_rows(ok)
+        rows = _sorting_rows(ok_rows(results))
         extra = [] if rows.empty else device_note(rows) + _sorting_takeaways(rows)
         out = [claim_takeaways(ctx, extra)]
         if not rows.empty:

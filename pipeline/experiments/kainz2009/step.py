@@ -1,21 +1,17 @@
-"""E10: the common world step in a mixed-resolution scene (``kainz2009-step``).
-
-One high-resolution skull and low-resolution clouds over half of it, sampled at one world step swept
-from 2 to 1/4 of the skull's voxel: time, time per sample and error against the reference.
-"""
+"""E10: the common world step in a mixed-resolution scene (``kainz2009-step``)."""
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kainz2009 import tables
-from pipeline.experiments.kainz2009.methods import PAPER_ID, TILED, frames_caption, table
+from pipeline.experiments.kainz2009.methods import TILED, PaperExperiment, frames_caption, table
 from pipeline.experiments.kainz2009.ratios import KERNELS
 from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, clouds, volume
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import TECHNIQUE, counts, decided, timed, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, is_registered, scene, timed_frames, truth_run
+from pipeline.experiments.kit.judging import TECHNIQUE, counts, decided, decision_words, timed
+from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
+from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, speed_points
 from reports import plots
 
@@ -49,17 +45,14 @@ def _per_sample(df):
         raise ValueError("a finer step took no more samples")
     marginal = _marginal(rows, numeric(rows, TECHNIQUE).to_numpy())
     resampler = intervals.Resampler()
-    per_row = intervals.row_draws(rows, TECHNIQUE, resampler)
-    ratio_draws = None
-    if per_row is not None:
-        per_draw = _marginal(rows, per_row)
-        ratio_draws = per_draw[:, -1] / per_draw[:, 0]
-    decision = decided(marginal[-1] / marginal[0], ratio_draws, at_most=1.0, frames=resampler.arms())
+    draws = intervals.row_draws(rows, TECHNIQUE, resampler)
+    draws = None if draws is None else _marginal(rows, draws)
+    decision = decided(marginal[-1] / marginal[0], None if draws is None else draws[:, -1] / draws[:, 0], at_most=1.0,
+                       frames=resampler.arms())
     steps = [format_number(f) for f in rows.step_factor]
     return ClaimResult.decided(
-        f"{with_interval(as_ratio(decision.value), decision)}: {format_number(marginal[-1] * 1e9)} ns per added "
-        f"sample from {steps[-2]} to {steps[-1]}, {format_number(marginal[0] * 1e9)} ns from {steps[0]} to {steps[1]}",
-        decision,
+        f"{decision_words(decision)}: {format_number(marginal[-1] * 1e9)} ns per added sample from {steps[-2]} to "
+        f"{steps[-1]}, {format_number(marginal[0] * 1e9)} ns from {steps[0]} to {steps[1]}", decision,
         f"{KERNELS}; samples " + counts(rows, "count_samples", label="step_factor"))
 
 
@@ -73,11 +66,9 @@ def _step_error(df):
                        falls, "step factor: PSNR")
 
 
-class Step(Experiment):
-    """The common world step in a mixed-resolution scene: time, time per sample and error."""
-
+class Step(PaperExperiment):
     name = "kainz2009-step"
-    paper = PAPER_ID
+    paper_rows = tables.STEP
     title = "The common world step with mixed resolutions: oversampling cost and error (E10)"
     settings = frozenset({"small_size", "large_size", "count", "image_size", "step_factors", "truth_step_factor",
                           "repeat"})
@@ -93,10 +84,7 @@ class Step(Experiment):
         "oversampling costs, the error against the reference what it buys."
     )
 
-    def runs(self, profile):
-        if not is_registered(TILED):
-            return []
-        name = self.name
+    def plan(self, profile):
         small = int(profile.setting(self, "small_size", 64))
         large = int(profile.setting(self, "large_size", 256))
         count = int(profile.setting(self, "count", 4))
@@ -106,10 +94,10 @@ class Step(Experiment):
         spec = scene("mixed", image, volumes=volumes)
         views = (dict(HEADLINE_VIEW),)
         tags = {"scene": "mixed"}
-        truth = truth_run(name, "mixed", spec, views, profile.setting(self, "truth_step_factor", 0.125), tags,
+        truth = truth_run(self.name, "mixed", spec, views, profile.setting(self, "truth_step_factor", 0.125), tags,
                           config="reference")
-        return [truth] + [Run(name, f"mixed.step{factor:g}", TILED, spec, views, options={"step_factor": float(factor)},
-                              reference=truth.id, **frames, interleave="mixed",
+        return [truth] + [Run(self.name, f"mixed.step{factor:g}", TILED, spec, views,
+                              options={"step_factor": float(factor)}, reference=truth.id, **frames, interleave="mixed",
                               tags={**tags, "role": "test", "config": TILED, "step_factor": float(factor)})
                           for factor in profile.setting(self, "step_factors", list(STEPS))]
 
@@ -121,13 +109,9 @@ class Step(Experiment):
               "PSNR against the reference never falls as the step shrinks", _step_error, kind="accuracy"),
     )
 
-    def paper_table(self):
-        return pd.DataFrame(tables.STEP)
-
     def report(self, results, ctx):
-        ok = ok_rows(results)
         out = [claim_takeaways(ctx)]
-        rows = _step_rows(ok)
+        rows = _step_rows(ok_rows(results))
         if not rows.empty:
             out += [figure(ctx, what, plots.lines, rows.assign(method="cl-tiled"),
                            heading=f"{what.capitalize()} against the step",

@@ -1,24 +1,20 @@
-"""E1/E5/E12/E13: Table 1's multi-volume scenes C1–C8 (``kainz2009-table1``).
-
-Stand-ins of the eight scenes rendered by cl-tiled, depth peeling and VTK where they can, every
-image against the reference; the workload split between the triangle (binning) and pixel kernels;
-the memory each scene used.
-"""
+"""E1/E5/E12/E13: Table 1's multi-volume scenes C1–C8 (``kainz2009-table1``)."""
 
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PAPER_ID, PEEL, TILED, VTK, VTK_MAX_VOLUMES,
-                                                    frames_caption, peeling_missing, run_settings, table)
-from pipeline.experiments.kainz2009.ratios import FRAMES, PeelingRatio, paper_band
+from pipeline.experiments.kainz2009.methods import (METHOD_NAMES, PEEL, TILED, VTK, VTK_MAX_VOLUMES, PaperExperiment,
+                                                    frames_caption, method_runs, peeling_missing, run_settings, table)
+from pipeline.experiments.kainz2009.ratios import FRAMES, PeelingRatio, paper_bands
 from pipeline.experiments.kainz2009.scenes import CLOUD_SIZES, SURFACE, blob, clouds, mesh, volume
-from pipeline.experiments.kainz2009.tables import BAND, PAPER_DEVICE, POOL_BYTES, TABLE1, TRIANGLE_KERNEL_SHARE
+from pipeline.experiments.kainz2009.tables import (BAND, PAPER_DEVICE, POOL_BYTES, TABLE1, TRIANGLE_KERNEL_SHARE,
+                                                   table1_rows)
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, all_of, counts, decided, timed, with_interval
-from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
+from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, all_of, counts, decided, decision_words, timed
+from pipeline.experiments.kit.model import Claim, ClaimResult, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number)
-from pipeline.experiments.kit.planning import HEADLINE_VIEW, accepts, is_registered, listed, scene, truth_run
+                                            format_number, title_or)
+from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
                                               text_column)
 from reports import plots
@@ -80,24 +76,17 @@ def _table1_scene(name, small, large, scan, image, triangles, vessel_resolution)
     return scene(name, image, volumes=volumes, meshes=meshes)
 
 
-# ------------------------------------------------------------------------------------------ checks
-def _psnr_floor(rows, what, floor):
-    psnr = numeric(rows, "psnr")
-    if psnr.notna().sum() == 0:
-        raise ValueError(f"no image of {what} compared with its reference")
-    worst = rows.loc[psnr.idxmin()]
-    label = worst.get("scene", worst.get("run"))
-    return ClaimResult(f"{format_number(psnr.min())} dB ({label})", bool(psnr.min() >= floor),
-                       f"{int(psnr.notna().sum())} images, median {format_number(psnr.median())} dB")
-
-
 def _accuracy_c1_c3(df):
     rows = rows_matching(df, "cl-tiled", config=TILED, role="test")
     rows = rows[text_column(rows, "scene").isin(ACCURACY_SCENES)]
     missing = sorted(set(ACCURACY_SCENES) - set(rows.scene))
     if missing:
         raise ValueError(f"no cl-tiled image of {', '.join(missing)} against the reference")
-    return _psnr_floor(rows, "C1–C3", 40.0)
+    psnr = numeric(rows, "psnr")
+    if psnr.notna().sum() == 0:
+        raise ValueError("no image of C1–C3 compared with its reference")
+    return ClaimResult(f"{format_number(psnr.min())} dB ({rows.loc[psnr.idxmin()].scene})", bool(psnr.min() >= 40.0),
+                       f"{int(psnr.notna().sum())} images, median {format_number(psnr.median())} dB")
 
 
 def _band(df):
@@ -113,10 +102,9 @@ def _band(df):
     decision = intervals.timing_decision(times[slow] / times[fast],
                                          None if scenes is None else scenes.max(axis=1) / scenes.min(axis=1), frames,
                                          at_most=BAND)
-    kernels = numeric(rows, TECHNIQUE) if TECHNIQUE in rows else None
-    kernel_band = (f"; kernels alone ×{format_number(kernels.max() / kernels.min())}"
-                   if kernels is not None and kernels.notna().all() else "")
-    return ClaimResult.decided(f"{with_interval(as_ratio(decision.value), decision)}, {slow} over {fast}", decision,
+    kernels = numeric(rows, TECHNIQUE) if TECHNIQUE in rows else pd.Series([np.nan])
+    kernel_band = f"; kernels alone {as_ratio(kernels.max() / kernels.min())}" if kernels.notna().all() else ""
+    return ClaimResult.decided(f"{decision_words(decision)}, {slow} over {fast}", decision,
                                f"{len(times)} scenes, whole frames {format_number(times[fast] * 1e3)}–"
                                f"{format_number(times[slow] * 1e3)} ms{kernel_band}; volume samples "
                                f"{counts(rows, 'count_samples')}")
@@ -157,19 +145,13 @@ def _pool(df):
                        f"{len(rows)} scenes")
 
 
-def _paper_bands(peer, *scenes):
-    """Table 1's frame time of the shader caster ``peer`` ("Roessler" or "Brecheisen", whom depth peeling stands in
-    for) over the tiled caster's on each of ``scenes``, from the two methods' frame rates
-    (:func:`~pipeline.experiments.kainz2009.ratios.paper_band`)."""
-    column = {"Roessler": 2, "Brecheisen": 3}[peer]
-    return {name: paper_band(TABLE1[name][column], TABLE1[name][4]) for name in scenes}
-
-
-ONE_VOLUME = _paper_bands("Roessler", "C1")
+# Table 1's frame time of a shader caster (Roessler, column 2; Brecheisen, column 3), whom depth peeling stands in
+# for, over the tiled caster's (column 4).
+ONE_VOLUME = paper_bands(TABLE1, 2, 4, "C1")
 """Table 1's single volume, C1, where Roessler is the faster."""
-MANY_VOLUMES = _paper_bands("Roessler", "C3", "C4")
+MANY_VOLUMES = paper_bands(TABLE1, 2, 4, "C3", "C4")
 """Table 1's scenes of four volumes and more that Roessler ran (C3, C4; C5 and C8 it could not)."""
-WITH_MESHES = _paper_bands("Brecheisen", "C6", "C7")
+WITH_MESHES = paper_bands(TABLE1, 3, 4, "C6", "C7")
 """Table 1's scenes with meshes, which only Brecheisen ran (C7 from 0 fps: no upper bound)."""
 
 
@@ -177,11 +159,8 @@ PEEL_OVER_TILED = PeelingRatio(PEEL, TILED)
 """What the depth-peeling claims compare."""
 
 
-class Table1(Experiment):
-    """Table 1's scenes C1–C8: frame times, images against the reference, stage split, memory."""
-
+class Table1(PaperExperiment):
     name = "kainz2009-table1"
-    paper = PAPER_ID
     title = "Table 1: the multi-volume scenes C1–C8, images, workload split and memory (E1, E5, E12, E13)"
     settings = frozenset({"scenes", "small_size", "large_size", "scan_size", "image_size", "mesh_triangles",
                           "vessel_resolution", "step_factor", "truth_step_factor", "repeat"})
@@ -202,10 +181,7 @@ class Table1(Experiment):
         "each run records the atlas, the tile lists and the chunk pool it used."
     )
 
-    def runs(self, profile):
-        if not is_registered(TILED):
-            return []
-        name = self.name
+    def plan(self, profile):
         scenes = listed(profile, self, "scenes", TABLE1, TABLE1)
         sizes = [int(profile.setting(self, key, default)) for key, default in
                  (("small_size", 64), ("large_size", 256), ("scan_size", 512))]
@@ -217,16 +193,10 @@ class Table1(Experiment):
         for scene_name in scenes:
             spec = _table1_scene(scene_name, *sizes, image, triangles, resolution)
             tags = {"scene": scene_name, "image_size": image}
-            truth = truth_run(name, scene_name, spec, views, truth_step, tags, config="reference")
-            runs += [truth, Run(name, f"{scene_name}.tiled", TILED, spec, views, options={"step_factor": step},
-                                reference=truth.id, **frames, interleave=GROUP,
-                                tags={**tags, "role": "test", "config": TILED})]
-            peers = [PEEL] + ([VTK] if "meshes" not in spec and len(spec["volumes"]) <= VTK_MAX_VOLUMES else [])
-            for peer in peers:  # depth peeling on every scene: what it cannot render is recorded as n.p.
-                if accepts(peer, "step_factor"):
-                    runs.append(Run(name, f"{scene_name}.{peer}", peer, spec, views, options={"step_factor": step},
-                                    reference=truth.id, **frames, interleave=GROUP if peer == PEEL else None,
-                                    tags={**tags, "role": "test", "config": peer}))
+            truth = truth_run(self.name, scene_name, spec, views, truth_step, tags, config="reference")
+            runs += [truth, *method_runs(self.name, scene_name, spec, views, tags, truth, step=step, frames=frames,
+                                         groups=(GROUP, GROUP),
+                                         vtk="meshes" not in spec and len(spec["volumes"]) <= VTK_MAX_VOLUMES)]
         return runs
 
     claims = (
@@ -270,12 +240,7 @@ class Table1(Experiment):
     )
 
     def paper_table(self):
-        def fps(value):
-            return "n.p." if value is None else f"{format_number(value[0])} – {format_number(value[1])}"
-
-        return pd.DataFrame([{"scene": s, "volumes": v, "polygons": p, "Roessler fps": fps(r),
-                              "Brecheisen fps": fps(b), "ours fps": fps(o)}
-                             for s, (v, p, r, b, o) in TABLE1.items()]).assign(device=PAPER_DEVICE)
+        return pd.DataFrame(table1_rows(*TABLE1)).assign(device=PAPER_DEVICE)
 
     def report(self, results, ctx):
         tests = role_rows(ok_rows(results))
@@ -291,13 +256,10 @@ class Table1(Experiment):
                               time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
                               x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
                               y_label="PSNR against the reference (dB)"))
-            paper = pd.DataFrame([{"scene": s, "paper fps (mid)": np.mean(o)} for s, (_v, _p, _r, _b, o)
-                                  in TABLE1.items()])
-            merged = rows.merge(paper, on="scene", how="left")
+            merged = rows.assign(**{"paper fps (mid)": rows.scene.map({s: np.mean(r[4]) for s, r in TABLE1.items()})})
             out.append(table("Frame times and accuracy", merged.sort_values(["scene", "config"]),
                              ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "fps", "paper fps (mid)",
-                              "psnr", "ssim", "count_triangles", "count_fragments_max"], ctx,
-                             csv_name="table1.csv",
+                              "psnr", "ssim", "count_triangles", "count_fragments_max"], ctx, csv_name="table1.csv",
                              caption="fps = 1000 / median frame time, beside the middle of the paper's range "
                                      "on a GTX 280 (compare the spread across scenes, not the values)."))
             tiled = rows[rows.config == TILED].copy()
@@ -306,7 +268,8 @@ class Table1(Experiment):
                 out.append(figure(ctx, "stages", plots.stage_breakdown, tiled, heading="Workload split per scene (E5)",
                                   caption="Median time of each cl-tiled stage per frame, OpenCL profiling events; "
                                           "binning is the paper's triangle kernel, pixel its pixel kernel.",
-                                  stage_cols=stages, group_col="scene", title=_stage_title(tiled)))
+                                  stage_cols=stages, group_col="scene",
+                                  title=title_or(_stage_title, tiled, "Where the frame time goes")))
             out.append(_memory_table(tiled, ctx))
             out.append(difference_gallery("Each scene and method, and its difference from the reference (E13)",
                                           rows.sort_values(["scene", "config"]), ctx, against=results,
@@ -317,12 +280,9 @@ class Table1(Experiment):
 
 
 def _stage_title(tiled):
-    try:
-        shares = _shares(tiled)
-    except (KeyError, ValueError):
-        return "Where the frame time goes"
-    return (f"Binning {format_number(shares.binning_share.min())}–{format_number(shares.binning_share.max())} % "
-            f"of binning + pixel kernel (paper: 2–10 %)")
+    shares = _shares(tiled).binning_share
+    return (f"Binning {format_number(shares.min())}–{format_number(shares.max())} % of binning + pixel kernel "
+            "(paper: 2–10 %)")
 
 
 def _memory_table(tiled, ctx):
@@ -352,6 +312,5 @@ def _peer_takeaways(tests):
             if not tiled.empty and (here.config == peer).any():
                 ratio = stage_time(here[here.config == peer].iloc[0]) / stage_time(tiled.iloc[0])
                 sentences.append(f"{name}: {METHOD_NAMES[peer]} takes {as_ratio(ratio)} cl-tiled's time")
-    if not sentences:
-        return []
-    return ["; ".join(sentences) + " (different devices and APIs: read as the shape, not a speed-up)."]
+    shape = " (different devices and APIs: read as the shape, not a speed-up)."
+    return ["; ".join(sentences) + shape] if sentences else []

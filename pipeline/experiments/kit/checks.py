@@ -247,3 +247,24 @@ class Growth(Check):
         return ClaimResult.decided(with_interval(format_number(exponent), decision, format_number), decision,
                                    f"{len(points)} points of {self.x} from {format_number(points[0][0])} to "
                                    f"{format_number(points[-1][0])}")
+
+
+def worst_psnr(what, at_least, **match):
+    """A :class:`Bound` on the worst PSNR against the reference of the rows matching ``match``, naming its scene.
+
+    Parameters
+    ----------
+    what : str
+        The measurement in words (:attr:`Measure.what`), for the claim's ``expected`` text and its errors.
+    at_least : float
+        The floor, in dB.
+    **match
+        Tag columns and the values the rows must have (:attr:`Measure.match`).
+
+    Returns
+    -------
+    Bound
+        Its ``measured`` text is the worst PSNR with the ``scene`` of its row (``"38.5 dB (engine)"``).
+    """
+    return Bound(Measure(what, match=match, column="psnr", statistic="min", unit="dB", label="scene"),
+                 at_least=at_least)
