@@ -12,7 +12,8 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counts,
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, UNTIMED, scene, timed_frames, volume_and_image_size
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, role_rows, speed_points, text_column
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, role_rows, speed_points,
+                                              text_column)
 from reports import plots
 
 METHODS = ("bitmask", "edge")
@@ -64,12 +65,9 @@ def _mask_speedup(df, at_least=STRICTLY_ABOVE_ONE):
         edge, bitmask = (at[text_column(at, "config") == method] for method in ("edge", "bitmask"))
         if not edge.empty and not bitmask.empty:
             decisions[f"{int(triangles)} triangles"] = ratio(edge, bitmask, BINNING, resampler, at_least=at_least)
-    if not decisions:
-        raise ValueError("no triangle count timed with both methods")
-    bitmask = rows[text_column(rows, "config") == "bitmask"]
-    return all_of(decisions, extra=f"binning kernel (OpenCL profiling; paper: "
-                                   f"{as_ratio(tables.PAPER_MASK_SPEEDUP)}); tile records "
-                                   + counts(bitmask, "count_records", label="triangles"))
+    return all_of(nonempty_or(decisions, "no triangle count timed with both methods"), extra=(
+        f"binning kernel (OpenCL profiling; paper: {as_ratio(tables.PAPER_MASK_SPEEDUP)}); tile records "
+        + counts(rows[text_column(rows, "config") == "bitmask"], "count_records", label="triangles")))
 
 
 def _watertight(df):

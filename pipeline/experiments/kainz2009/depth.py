@@ -16,8 +16,8 @@ from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, counts, decided, 
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
 from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import (fit_line, numeric, ok_rows, role_rows, rows_matching, speed_points,
-                                              text_column)
+from pipeline.experiments.kit.results import (fit_line, nonempty_or, numeric, ok_rows, role_rows, rows_matching,
+                                              speed_points, text_column)
 from reports import plots
 
 BOX_COUNTS = (5, 10, 15, 20, 30, 40)
@@ -76,9 +76,7 @@ def _depths(df, tolerance=0.1):
 
 def _sweep(df, config, column):
     """The box sweep's runs of ``config`` with a ``column`` time and their depth complexity, by depth."""
-    rows = _depth_rows(df)
-    if rows.empty:
-        raise ValueError("no timed run with the depth of its unbounded run")
+    rows = nonempty_or(_depth_rows(df), "no timed run with the depth of its unbounded run")
     rows = rows[(rows.get("part") == "sweep") & (rows.config == config) & rows.depth.notna()
                 & numeric(rows, column).notna()]
     return rows.sort_values("depth")

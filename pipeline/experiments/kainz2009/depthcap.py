@@ -15,8 +15,8 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, title_or)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
-from pipeline.experiments.kit.results import (file_exists, nonempty, numeric, ok_rows, read_exr, reference_exr,
-                                              role_rows, speed_points)
+from pipeline.experiments.kit.results import (file_exists, nonempty, nonempty_or, numeric, ok_rows, read_exr,
+                                              reference_exr, role_rows, speed_points)
 from reports import plots
 
 CAPS = (16, 32, 55, 63)
@@ -69,9 +69,7 @@ def _cap_rows(ok, *, complete=False):
 
 def _cap_error(df, cap, bound):
     rows = _cap_rows(df, complete=True)
-    rows = rows[rows.cap == cap]
-    if rows.empty:
-        raise ValueError(f"no image at cap {cap} with its unbounded run")
+    rows = nonempty_or(rows[rows.cap == cap], f"no image at cap {cap} with its unbounded run")
     worst = rows.loc[rows.over_threshold.idxmax()]
     return ClaimResult(f"{format_number(100 * worst.over_threshold)} % ({worst.scene})",
                        bool(rows.over_threshold.max() < bound),
@@ -80,9 +78,7 @@ def _cap_error(df, cap, bound):
 
 
 def _error_monotone(df):
-    rows = _cap_rows(df, complete=True)
-    if rows.empty:
-        raise ValueError("no capped image with its unbounded run")
+    rows = nonempty_or(_cap_rows(df, complete=True), "no capped image with its unbounded run")
     rising = []
     for scene_name, part in rows.groupby("scene"):
         values = part.sort_values("cap").over_threshold.to_numpy()

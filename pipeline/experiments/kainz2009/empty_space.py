@@ -14,7 +14,8 @@ from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, db_words, figure, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, role_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, role_rows, rows_matching, speed_points,
+                                              text_column)
 from reports import plots
 
 BRICKS = (4, 8, 16, 32)
@@ -98,9 +99,7 @@ def _build_cheap(df):
     decisions, builds = {}, {}
     for name in scenes_of(df, "timed run", role="test"):
         _box, hulls = _ess_rows(df, name)
-        frame = _with_builds(hulls[hulls.brick == 8])
-        if frame.empty:
-            raise ValueError(f"no timed 8³ hull on {name}")
+        frame = nonempty_or(_with_builds(hulls[hulls.brick == 8]), f"no timed 8³ hull on {name}")
         builds[name] = float(frame.build_ms.iloc[0])
         if not np.isfinite(builds[name]):
             raise ValueError(f"{name}: the 8³ hull's run reported no time_bricks or no time_hull")

@@ -12,7 +12,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, counts, decisio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, difference_gallery, format_number
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, scene, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, speed_points, text_column
 
 ROD_COUNT = 35
 RODS = "rods"
@@ -74,9 +74,7 @@ def _media_pairs(df, column):
         values = dict(zip(part.config, numeric(part, column)))
         if {"analytic", "sampled"} <= set(values):
             pairs[view] = values["analytic"], values["sampled"]
-    if not pairs:
-        raise ValueError("no analytic and sampled run of one view")
-    return pairs
+    return nonempty_or(pairs, "no analytic and sampled run of one view")
 
 
 def _gain(df, view, resampler, at_least=STRICTLY_ABOVE_ONE):

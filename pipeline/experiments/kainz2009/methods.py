@@ -14,7 +14,7 @@ from pipeline.experiments.kit import pages
 from pipeline.experiments.kit.model import Experiment, Run
 from pipeline.experiments.kit.pages import linked_table, not_measurable
 from pipeline.experiments.kit.planning import accepts, is_registered, timed_frames
-from pipeline.experiments.kit.results import rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty_or, rows_matching, text_column
 
 PAPER_ID = "kainz2009"
 
@@ -83,10 +83,7 @@ def method_runs(experiment, prefix, spec, views, tags, truth, *, step, frames, g
 
 def scenes_of(frame, what, **match):
     """The scenes of the rows of ``frame`` matching the tags ``match``, in order; ValueError "no ``what``" if none."""
-    scenes = list(pd.unique(text_column(rows_matching(frame, what, **match), "scene")))
-    if not scenes:
-        raise ValueError(f"no {what}")
-    return scenes
+    return nonempty_or(list(pd.unique(text_column(rows_matching(frame, what, **match), "scene"))), f"no {what}")
 
 
 def peeling_missing():

@@ -12,7 +12,8 @@ from pipeline.experiments.kit.judging import all_of, counts, decided, statistic,
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import listed, scene
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, rows_matching, speed_points,
+                                              text_column)
 from reports import plots
 
 ORDERS = ("scene", "front-to-back", "back-to-front")
@@ -99,9 +100,7 @@ def _order_invariant(df):
         if len(images) < 2:
             raise ValueError(f"fewer than two orders rendered on {name}")
         differences[name] = max(float(np.abs(image - images[0]).max()) for image in images[1:])
-    if not differences:
-        raise ValueError("no full run")
-    worst = max(differences, key=differences.get)
+    worst = max(nonempty_or(differences, "no full run"), key=differences.get)
     return ClaimResult(f"max |difference| {format_number(differences[worst])} ({worst})",
                        max(differences.values()) == 0.0,
                        ", ".join(f"{s}: {format_number(d)}" for s, d in differences.items()))

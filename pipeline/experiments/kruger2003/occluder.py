@@ -9,7 +9,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, figure, format_number, frames_caption,
                                             linked_table)
 from pipeline.experiments.kit.planning import accepts, timed_frames
-from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, rows_matching
+from pipeline.experiments.kit.results import fit_line, nonempty_or, numeric, ok_rows, rows_matching
 from pipeline.experiments.kit.judging import decided, r_squared, with_interval
 from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, UPLOADS, gl_not_measurable,
                                                      method_points, no_cue_control, sizes)
@@ -40,9 +40,8 @@ def _occluder_rows(ok):
 
 
 def _occluded_culled(df):
-    rows = _occluder_rows(rows_matching(df, "RC with an occluder", config="rc"))
-    if rows.empty:
-        raise ValueError("no successful RC run with an occluder")
+    rows = nonempty_or(_occluder_rows(rows_matching(df, "RC with an occluder", config="rc")),
+                       "no successful RC run with an occluder")
     expected = numeric(rows, "count_passes_main") * (numeric(rows, "count_rays")
                                                      - numeric(rows, "count_rays_occluded").fillna(0))
     drawn = numeric(rows, "count_fragments_main")

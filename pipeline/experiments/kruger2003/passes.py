@@ -10,7 +10,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
-from pipeline.experiments.kit.results import file_exists, numeric, ok_rows, rows_matching, speed_points
+from pipeline.experiments.kit.results import file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               median_time)
 from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, method_name,
@@ -53,9 +53,7 @@ def _pass_curves(ok):
 
 
 def _pass_trend(df, config, flat):
-    rows = rows_matching(df, config, config=config, part="passes")
-    if rows.empty:
-        raise ValueError(f"no successful {config} run")
+    rows = nonempty_or(rows_matching(df, config, config=config, part="passes"), f"no successful {config} run")
     counts = _fragments_per_pass(rows.record.iloc[0])
     first = counts[0]
     if first <= 0:

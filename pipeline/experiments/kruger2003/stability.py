@@ -6,8 +6,8 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import change_words, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
-from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
-                                              text_column)
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, role_rows, rows_matching, speed_points,
+                                              stage_time, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
 from pipeline.experiments.kruger2003.methods import RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, sizes
 from pipeline.experiments.kruger2003.tables import TABLE1
@@ -58,9 +58,7 @@ def _blocks_lossless(df):
     for scene_name in pd.unique(text_column(rows_matching(df, "the block sweep", sweep="block"), "scene")):
         rows = _sweep_rows(df, "block", scene_name)
         spreads[scene_name] = float(rows.psnr.max() - rows.psnr.min())
-    if not spreads:
-        raise ValueError("no block sweep")
-    worst = max(spreads, key=spreads.get)
+    worst = max(nonempty_or(spreads, "no block sweep"), key=spreads.get)
     return ClaimResult(f"{format_number(spreads[worst])} dB ({worst})", bool(spreads[worst] <= 0.1),
                        ", ".join(f"{s}: {format_number(v)} dB" for s, v in spreads.items()))
 

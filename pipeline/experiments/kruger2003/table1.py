@@ -9,7 +9,7 @@ from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_ta
                                             format_number, frames_caption, gl_devices, linked_table, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (is_registered, listed, orbit_views, phantom, scene,
                                                timed_frames, truth_run)
-from pipeline.experiments.kit.results import (nonempty, numeric, ok_rows, pair_metrics, read_exr,
+from pipeline.experiments.kit.results import (nonempty, nonempty_or, numeric, ok_rows, pair_metrics, read_exr,
                                               role_rows, rows_matching, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, image_pairs, point_speedup, time_ratio
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SETTINGS, SIZE_SCALES, SLICER, UPLOADS,
@@ -91,9 +91,7 @@ def _ert_bound(df):
 def _contributing_fragments(df, low=0.0, high=0.10):
     """The median share of slicing fragments that contribute, within [low, high] on every data set; the data set
     furthest from the band (or, all inside, the largest share) decides."""
-    rows = rows_matching(df, "sbvr", config="sbvr")
-    if rows.empty:
-        raise ValueError("no successful slicing run")
+    rows = nonempty_or(rows_matching(df, "sbvr", config="sbvr"), "no successful slicing run")
     fraction = numeric(rows, "count_fragments_contributing") / numeric(rows, "count_fragments")
     values = fraction.groupby(text_column(rows, "scene")).median().to_dict()
     if not all(np.isfinite(v) for v in values.values()):

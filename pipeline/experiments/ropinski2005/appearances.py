@@ -15,7 +15,7 @@ from pipeline.experiments.kit.model import Claim, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
                                             frames_caption)
 from pipeline.experiments.kit.planning import listed, timed_frames
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable, scenes_of)
@@ -54,10 +54,8 @@ def appearance_entry(scene, appearance):
 
 
 def appearance_rows(frame, scene, appearance, method=PAPER_METHOD):
-    rows = rows_matching(frame, scene, scene=scene, appearance=appearance, config=method)
-    if rows.empty:
-        raise ValueError(f"no successful {method} run of {scene} with a {appearance} lens")
-    return rows
+    return nonempty_or(rows_matching(frame, scene, scene=scene, appearance=appearance, config=method),
+                       f"no successful {method} run of {scene} with a {appearance} lens")
 
 
 def swept(frame, scene):
@@ -77,9 +75,8 @@ def _clip_cheapest(df):
             inside = (counted(other, REGION_COLUMNS["region1"], label),
                       counted(clip, REGION_COLUMNS["region1"], f"{scene}, clip"))
             notes[label] = f"region₁ samples {format_number(inside[0])} against {format_number(inside[1])}"
-    if not decisions:
-        raise ValueError("no scene rendered with a clipping lens and another appearance")
-    return all_of(decisions, notes=notes, what="time(appearance) / time(clip) ",
+    return all_of(nonempty_or(decisions, "no scene rendered with a clipping lens and another appearance"),
+                  notes=notes, what="time(appearance) / time(clip) ",
                   extra=f"{TIMES}; the segments method; every appearance of a scene timed together")
 
 

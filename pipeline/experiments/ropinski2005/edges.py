@@ -9,7 +9,8 @@ from pipeline.experiments.kit.judging import counted, measured, median_count, wo
 from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult
 from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number, linked_table
 from pipeline.experiments.kit.planning import UNTIMED, headline_view, listed, truth_run
-from pipeline.experiments.kit.results import numeric, ok_rows, read_exr, reference_exr, rows_matching, text_column
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, reference_exr, rows_matching,
+                                              text_column)
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR, NO_TERMINATION
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, STEP, LensExperiment, lens_coverage, lens_run,
                                                        lens_settings, raycast_not_measurable)
@@ -123,9 +124,7 @@ def hole_counts(frame):
             raise ValueError(f"run {row.run} ({row.view}): its reference {row.reference} did not render")
         holes, covered = coverage_holes(read_exr(reference), read_exr(row.exr))
         out.append({"case": row.case, "config": row.config, "view": row.view, "holes": holes, "covered": covered})
-    if not out:
-        raise ValueError("no lens method's run to compare with the reference")
-    return pd.DataFrame(out)
+    return pd.DataFrame(nonempty_or(out, "no lens method's run to compare with the reference"))
 
 
 def _no_holes(df):
@@ -149,9 +148,8 @@ def _accuracy(df):
 
 def _hole_closed(df):
     stencil = rows_matching(df, "segments-stencil's runs", role="test", config="segments-stencil")
-    behind = stencil[text_column(stencil, "case") == "behind"]
-    if behind.empty:
-        raise ValueError("no successful segments-stencil run of the fully-behind lens")
+    behind = nonempty_or(stencil[text_column(stencil, "case") == "behind"],
+                         "no successful segments-stencil run of the fully-behind lens")
     rays = counted(behind, "count_hole_rays", "segments-stencil")
     counts = hole_counts(df)
     holes = int(counts[(counts.case == "behind") & (counts.config == "segments-stencil")].holes.max())

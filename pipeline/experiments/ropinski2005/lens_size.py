@@ -10,7 +10,7 @@ from pipeline.experiments.kit.model import Claim, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number, frame_note,
                                             frames_caption)
 from pipeline.experiments.kit.planning import listed, timed_frames
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
@@ -41,9 +41,7 @@ def sweep_points(frame, scene, appearance, *, resampler):
     (a key of :data:`APPEARANCES`): the rays meeting lens ∩ box (%, counted), the overhead (% of the lens-off frame)
     and its bootstrap draws, paired round by round with the lens-off run (``None`` without frames)."""
     rows = rows_matching(frame, scene, scene=scene)
-    off = rows[text_column(rows, "config") == OFF]
-    if off.empty:
-        raise ValueError(f"no successful lens-off run of {scene}")
+    off = nonempty_or(rows[text_column(rows, "config") == OFF], f"no successful lens-off run of {scene}")
     on = rows[(text_column(rows, "config") != OFF) & (text_column(rows, "appearance") == appearance)]
     radii = sorted(numeric(on, "radius").dropna().unique())
     if len(radii) < 3:

@@ -23,7 +23,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Run
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
                                             frames_caption, linked_table, not_measurable)
 from pipeline.experiments.kit.planning import accepts, is_registered, listed, timed_frames, truth_run, unregistered
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, speed_points, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.ropinski2005.correctness import ACCURACY_PSNR
 from pipeline.experiments.ropinski2005.methods import (LENS_SCALES, OFF, OPTIONS, PAPER_METHOD, RAYCAST, STEP,
                                                        LensExperiment, device_takeaways, lens_run, lens_settings)
@@ -105,9 +105,7 @@ def _accuracy(df):
     for (scene, config), _ in tests.groupby(["scene", "config"], sort=False):
         with suppress(ValueError):
             values[(scene, config)] = lens_psnr(df, scene, config)
-    if not values:
-        raise ValueError("no lens image compared with the reference")
-    worst = min(values, key=values.get)
+    worst = min(nonempty_or(values, "no lens image compared with the reference"), key=values.get)
     failing = [f"{config} on {scene}" for (scene, config), v in values.items() if v < ACCURACY_PSNR]
     return ClaimResult(f"{format_number(values[worst])} dB ({worst[1]}, {worst[0]})", not failing,
                        "; ".join(f"{config} on {scene}: {format_number(v)} dB" for (scene, config), v in values.items())

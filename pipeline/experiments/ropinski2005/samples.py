@@ -11,7 +11,7 @@ import pandas as pd
 from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number
 from pipeline.experiments.kit.planning import UNTIMED, listed
-from pipeline.experiments.kit.results import numeric, rows_matching, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, LENS_SCALES, METHODS, OFF, PAPER_METHOD, REGIONS,
                                                        LensExperiment, lens_run, lens_settings, method_name,
                                                        raycast_not_measurable)
@@ -39,9 +39,7 @@ def _pairs(df, appearance, control="none", by=("scene", "view"), *, missing=None
         match = rows_matching(controls, control, **{tag: getattr(row, tag) for tag in by})
         if not match.empty:
             pairs.append((row.scene, row.view, row.config, row, next(match.itertuples())))
-    if not pairs:
-        raise ValueError(missing or f"no {APPEARANCES[appearance]} run beside a lens-off run of its scene")
-    return pairs
+    return nonempty_or(pairs, missing or f"no {APPEARANCES[appearance]} run beside a lens-off run of its scene")
 
 
 def _worst(wrong, words, otherwise):

@@ -3,7 +3,7 @@
 import numpy as np
 import pandas as pd
 
-from pipeline.experiments.kit.checks import Bound, Measure
+from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import METRICS, difference_gallery, figure, format_number, linked_table, ms
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, voxels
@@ -50,8 +50,7 @@ def _order(df):
     return ClaimResult(f"{format_number(orders[worst])} ({worst})", orders[worst] >= 1.0, detail)
 
 
-DEFAULT_STEP = Bound(Measure("PSNR of the worst scene at 1/4 voxel", match={"role": "sweep", "step_factor": 0.25},
-                            column="psnr", statistic="min", unit="dB", label="scene"), at_least=40.0)
+DEFAULT_STEP = worst_psnr("PSNR of the worst scene at 1/4 voxel", 40.0, role="sweep", step_factor=0.25)
 """The default step's check: every scene within 40 dB of the finest render."""
 
 

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 
 import renderers
-from pipeline.experiments.kit.checks import Bound, Measure
+from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.model import Claim, Experiment, Run
 from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, difference_gallery, format_number,
                                             linked_table, speed_psnr_figure)
@@ -52,9 +52,7 @@ def _label(backend, options):
 
 def _matched(backend, floor):
     """The check that every matched scene of ``backend`` reaches ``floor`` dB against the reference."""
-    worst = Measure(f"{backend}'s worst matched scene", match={"part": "matched", "role": "test", "backend": backend},
-                    column="psnr", statistic="min", unit="dB", label="scene")
-    return Bound(worst, at_least=floor)
+    return worst_psnr(f"{backend}'s worst matched scene", floor, part="matched", role="test", backend=backend)
 
 
 class Peers(Experiment):

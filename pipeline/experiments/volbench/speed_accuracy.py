@@ -11,7 +11,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, figure, format_number, linked_table,
                                             ms, setting_words)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, timed_frames
-from pipeline.experiments.kit.results import speed_points
+from pipeline.experiments.kit.results import nonempty_or, speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, decision, takeaways
 
@@ -48,9 +48,7 @@ def _tradeoff(df):
         frames.update({f"{scene_name} at step {format_number(row.step_factor)}":
                        intervals.frame_count(group.loc[[index]], "time_total") for index, row in group.iterrows()})
         monotone &= bool((np.diff(group.rmse.to_numpy()) < 0).all())
-    if not ratios:
-        raise ValueError("no reference sweep")
-    value = float(np.median(ratios))
+    value = float(np.median(nonempty_or(ratios, "no reference sweep")))
     draws = None if any(d is None for d in draws) else np.median(np.hstack(draws), axis=1)
     decision = kit_judging.decided(value, draws, frames=frames, at_least=1.5, at_most=2.5)
     detail = f"ratios {', '.join(format_number(r) for r in ratios)}; error decreasing: {monotone}"
@@ -69,9 +67,7 @@ def _ranking(df, *, scene):
     leave nothing to judge.
     """
     sweep = df[(df.role == "sweep") & (df.scene == scene)]
-    panels = decision.panel(decision.technique_rows(sweep), None)
-    if not panels:
-        raise ValueError(f"no technique rendered {scene}")
+    panels = nonempty_or(decision.panel(decision.technique_rows(sweep), None), f"no technique rendered {scene}")
     accurate = [row for row in panels[0]["table"] if row["accurate"]]
     if len(accurate) < 2:
         raise ValueError(f"{len(accurate)} technique(s) reach {takeaways.PSNR_GOOD:g} dB on {scene}: nothing to rank")

@@ -12,7 +12,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, ratio_o
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, unless_missing
 from pipeline.experiments.kit.planning import dataset_view, headline_view, listed, timed_frames, volume_and_image_size
-from pipeline.experiments.kit.results import numeric, ok_rows, text_column
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, text_column
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, select
 from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, mode_name, runs_table, stand_in
@@ -55,9 +55,7 @@ def with_passes(rows):
 def shared_views(frames, what):
     """Each of ``frames`` in the views they all have, by view, with its passes' times (:func:`with_passes`);
     ValueError naming ``what`` where they share none."""
-    views = set.intersection(*(set(text_column(rows, "view")) for rows in frames))
-    if not views:
-        raise ValueError(f"{what} share no view")
+    views = nonempty_or(set.intersection(*(set(text_column(rows, "view")) for rows in frames)), f"{what} share no view")
     return [with_passes(rows[text_column(rows, "view").isin(views)].sort_values("view")) for rows in frames]
 
 
@@ -95,8 +93,7 @@ def scene_model(df, scene_name, taps, resampler):
     isbvr = select(df, "ess+ert", taps, scene=scene_name)
     simple = select(df, "simple", scene=scene_name)
     for name, rows in (("Basic", basic), ("ESS+ERT", isbvr), ("trivial-shader", simple)):
-        if rows.empty:
-            raise ValueError(f"{scene_name}, {taps} extra taps: no successful {name} run")
+        nonempty_or(rows, f"{scene_name}, {taps} extra taps: no successful {name} run")
     basic, isbvr, simple = shared_views((basic, isbvr, simple), f"{scene_name}: Basic, ESS+ERT and the trivial shader")
     counts = {name: numeric(isbvr, column).to_numpy(float) for name, column in COUNTS.items()}
     fragments = counts["fragments"]
@@ -122,19 +119,14 @@ def scene_model(df, scene_name, taps, resampler):
 def _scenes(df, taps=0):
     """The stand-ins with an ESS+ERT run at ``taps`` extra taps, in Table 1's order."""
     present = set(text_column(select(df, "ess+ert", taps), "scene"))
-    scenes = [s for s in STAND_INS if s in present]
-    if not scenes:
-        raise ValueError("no successful ESS+ERT run of a stand-in")
-    return scenes
+    return nonempty_or([s for s in STAND_INS if s in present], "no successful ESS+ERT run of a stand-in")
 
 
 def _sweep(df):
     """``(scene, taps)``: the scene swept over extra taps and its taps, ascending (at least two)."""
     rows = select(df, "ess+ert")
     taps = numeric(rows, "extra_taps")
-    swept = pd.unique(text_column(rows[taps > 0], "scene"))
-    if len(swept) == 0:
-        raise ValueError("no successful ESS+ERT run with extra taps")
+    swept = nonempty_or(pd.unique(text_column(rows[taps > 0], "scene")), "no successful ESS+ERT run with extra taps")
     values = sorted(int(t) for t in taps[text_column(rows, "scene") == swept[0]].dropna().unique())
     if len(values) < 2:
         raise ValueError(f"{swept[0]}: fewer than two shader complexities (extra taps {values})")

@@ -12,7 +12,7 @@ from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, ratio_o
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, unless_missing
 from pipeline.experiments.kit.planning import accepts, phantom, scene, timed_frames, volume_and_image_size
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching
 from pipeline.experiments.kit.words import short_duration
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.methods import ISBVR, OPTIONS, STEP, isbvr_not_measurable, runs_table
@@ -64,8 +64,7 @@ def per_fragment(rows, resampler):
     ``draws`` are the bootstrap draws from the timed frames (``None`` without frames); rows of one
     interleave group are resampled round by round, so ratios of two configurations pair their frames.
     """
-    if rows.empty:
-        raise ValueError("no successful run to time per fragment")
+    rows = nonempty_or(rows, "no successful run to time per fragment")
     fragments = numeric(rows, "count_fragments_generated")
     if not (fragments > 0).all():
         raise ValueError(f"run {rows.run.iloc[0]} counted no slice fragments (count_fragments_generated)")
@@ -83,10 +82,8 @@ def select(df, config, taps=None, **match):
 
 
 def _config_rows(df, config, taps=None):
-    rows = select(df, config, taps)
-    if rows.empty:
-        raise ValueError(f"no successful {config} run" + ("" if taps is None else f" with {taps} extra taps"))
-    return rows
+    return nonempty_or(select(df, config, taps),
+                       f"no successful {config} run" + ("" if taps is None else f" with {taps} extra taps"))
 
 
 def _taps(df):

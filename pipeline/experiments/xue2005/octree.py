@@ -11,7 +11,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scale
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table)
 from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames
-from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, stage_points, tagged
+from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching, stage_points, tagged
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, stand_in
 from pipeline.experiments.xue2005.surfaces import (LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence, image_errors,
                                                    lossless_result, off_percent)
@@ -37,9 +37,7 @@ def _nodes(df):
     at any node size (a shell too thin for the volume's size: nothing to compare)."""
     rows = rows_matching(df, "ERT", config="ert")
     sizes = numeric(rows, NODE)
-    found = {int(n): rows[sizes == n] for n in sorted(sizes.dropna().unique())}
-    if not found:
-        raise ValueError("no successful ERT run")
+    found = nonempty_or({int(n): rows[sizes == n] for n in sorted(sizes.dropna().unique())}, "no successful ERT run")
     if not (numeric(rows, "count_cubes_p") > 0).any():
         raise ValueError("Φ_p has no cube at any node size: no block of the volume is wholly opaque")
     return found

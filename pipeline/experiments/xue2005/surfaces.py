@@ -14,7 +14,8 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scale
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table, unless_missing)
 from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames
-from pipeline.experiments.kit.results import nonempty, numeric, ok_rows, read_exr, rows_matching, tagged, text_column
+from pipeline.experiments.kit.results import (nonempty, nonempty_or, numeric, ok_rows, read_exr, rows_matching, tagged,
+                                              text_column)
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, stand_in
 from pipeline.experiments.xue2005.table1 import LOSSLESS_PIXEL, LOSSLESS_PSNR, LOSSLESS_SHARE
 from pipeline.experiments.xue2005.tables import FULL_RES_TRIANGLES, PAPER_SIZE, STATEMENTS, TABLE1, statements
@@ -109,10 +110,8 @@ def device_sentence(rows):
 
 # ------------------------------------------------------------------------------------------------ claims
 def _variant(df, variant, **match):
-    rows = rows_matching(df, variant, variant=variant, **match)
-    if rows.empty:
-        raise ValueError(f"no successful {VARIANTS[variant][2]} run" + (f" of {match['scene']}" if match else ""))
-    return rows
+    return nonempty_or(rows_matching(df, variant, variant=variant, **match),
+                       f"no successful {VARIANTS[variant][2]} run" + (f" of {match['scene']}" if match else ""))
 
 
 def _triangles(rows):

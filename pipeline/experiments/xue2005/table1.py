@@ -14,8 +14,8 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, by_scene, clai
                                             format_number, frame_note, linked_table, silent_without_runs)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, listed, orbit_views, timed_frames, truth_run,
                                                volume_and_image_size)
-from pipeline.experiments.kit.results import (numeric, ok_rows, read_exr, reference_exr, speed_points, tagged,
-                                              text_column)
+from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, reference_exr, speed_points,
+                                              tagged, text_column)
 from pipeline.experiments.xue2005.methods import (ISBVR, MODES, OPTIONS, RAYCAST, SLICER, STEP, VTK, culled_fraction,
                                                   isbvr_not_measurable, mode_name, mode_runs, short_name, stand_in)
 from pipeline.experiments.xue2005.tables import MODES_IN_TABLE, PAPER_DEVICE, REAL_SCANS, TABLE1, paper_speedup
@@ -109,9 +109,7 @@ def _basic_by_grid(df, config="basic"):
     rows = config_rows(df, config)
     grids = {grid: part for grid, part in rows.groupby(text_column(rows, "grid"), sort=False)
              if part.scene.nunique() >= 2}
-    if not grids:
-        raise ValueError("Basic rendered fewer than two scenes of one volume size: nothing to compare")
-    return grids
+    return nonempty_or(grids, "Basic rendered fewer than two scenes of one volume size: nothing to compare")
 
 
 def _basic_time(df, bound=BASIC_TOLERANCE):

@@ -18,7 +18,7 @@ from pipeline.experiments.kit.model import Claim, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
                                             linked_table, unless_missing)
 from pipeline.experiments.kit.planning import phantom, scene, timed_frames, volume_and_image_size
-from pipeline.experiments.kit.results import interleave_groups, numeric, ok_rows, text_column
+from pipeline.experiments.kit.results import interleave_groups, nonempty_or, numeric, ok_rows, text_column
 from pipeline.experiments.kit.words import short_duration
 from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.costmodel_check import BAND, shared_views, stacked, timed_model
@@ -133,9 +133,7 @@ def point_model(group, resampler):
 
 def point_models(df):
     """:func:`point_model` of every group with a slice-ert run, by extra taps and then α (one resampler)."""
-    groups = interleave_groups(df, config="slice-ert")
-    if not groups:
-        raise ValueError("no successful slice-ert run")
+    groups = nonempty_or(interleave_groups(df, config="slice-ert"), "no successful slice-ert run")
     resampler = intervals.Resampler()
     models = [point_model(df[text_column(df, "interleave") == name], resampler) for name in groups]
     return sorted(models, key=lambda m: (m["taps"], m["alpha"]))
