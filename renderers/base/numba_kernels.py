@@ -61,22 +61,23 @@ class CompileLock(event.Listener):
         self._path = path
         self._guard = threading.Lock()
         self._depth = 0
-        self._file = None
+        self._fd = None
 
     def on_start(self, event):
         with self._guard:
             if self._depth == 0:
-                self._file = open(self._path, "a+b")
-                fcntl.flock(self._file, fcntl.LOCK_EX)
+                # Read-only: flock needs no write access, so a lock file another user made serves as well.
+                self._fd = os.open(self._path, os.O_RDONLY | os.O_CREAT, 0o666)
+                fcntl.flock(self._fd, fcntl.LOCK_EX)
             self._depth += 1
 
     def on_end(self, event):
         with self._guard:
             self._depth -= 1
             if self._depth == 0:
-                fcntl.flock(self._file, fcntl.LOCK_UN)
-                self._file.close()
-                self._file = None
+                fcntl.flock(self._fd, fcntl.LOCK_UN)
+                os.close(self._fd)
+                self._fd = None
 
 
 def _install_compile_lock():
