@@ -36,7 +36,6 @@ WHAT = {"fragments": "a fragment count (F)", "setup": "a fragment count (F_s)", 
         "t_simple": "a time per fragment (T_s)", "t_culled": "a time per fragment (T_z)",
         "t_complex": "a time per fragment (T_c)", "gamma": "a shader time ratio T_s / T_c (γ)",
         "phi": "a share of init fragments (φ)", "speedup": "a speed-up (δ)"}
-"""Each argument in the words of the errors that name it."""
 
 
 def _values(value, name, what=None, *, positive=False):
@@ -106,7 +105,6 @@ def surface_share(fragments, surface_t, surface_p):
     return _out((_values(surface_t, "surface_t") + _values(surface_p, "surface_p")) / fragments)
 
 
-# ------------------------------------------------------------------------- the generic two-pass renderer
 def two_pass_time(*, fragments, setup, shaded, t_simple, t_culled, t_complex):
     """Eq. 1: T_2pass = F_s·T_s + (F − F_c)·T_z + F_c·T_c, in the unit of the times per fragment (F > 0,
     0 <= F_c <= F, the rest >= 0)."""
@@ -167,7 +165,6 @@ def per_slice_ceiling(gamma):
     return _out(1.0 / (2.0 * _gamma(gamma)))
 
 
-# ------------------------------------------------------------------------------------------------ iSBVR
 def isbvr_init_time(*, surface_t, surface_p, t_simple):
     """Eq. 7: T_a = F_t·T_s + F_p·T_s, the depth-init passes over Φ_t's back and Φ_p's front faces (all >= 0)."""
     surface_t, surface_p, t_simple = (_values(value, name) for name, value in (

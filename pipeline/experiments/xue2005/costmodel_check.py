@@ -1,7 +1,4 @@
-"""``xue2005-costmodel`` (E4, E5): Eq. 9's speed-up against the measured one, and the shader-complexity sweep.
-
-What it runs, and why: :attr:`CostModelCheck.description`, the words its page shows.
-"""
+"""``xue2005-costmodel`` (E4, E5): Eq. 9's speed-up against the measured one, and the shader-complexity sweep."""
 
 import numpy as np
 import pandas as pd
@@ -37,7 +34,6 @@ COUNTS = {"fragments": "count_fragments_generated", "shaded": "count_fragments",
 """Eq. 9's fragment counts (F, F'_c, F_t, F_p) and the columns of ESS+ERT's rows that hold them."""
 
 
-# ------------------------------------------------------------------------------------------ measurement
 def with_passes(rows):
     """``rows`` with ``time_passes`` and ``frames_passes``: each frame's depth-init plus volume pass."""
     rows = rows.copy()
@@ -133,7 +129,6 @@ def _sweep(df):
     return str(swept[0]), values
 
 
-# ----------------------------------------------------------------------------------------------- claims
 def _model_words(m):
     return (f"{m['scene']}: predicted ×{format_number(m['predicted'][0])}, measured "
             f"×{format_number(m['measured'][0])} (whole frames ×{format_number(m['whole'][0])}); α' "
@@ -169,11 +164,9 @@ CLAIMS = (
           f"four stand-ins (ESS+ERT over Basic, measured over {PASSES})", _eq9_within, kind="cost model"),
     Claim("speedup-rises-with-complexity", "iSBVR's speed-up rises as the volume shader grows more complex (abstract)",
           f"ESS+ERT over Basic at more extra taps / at fewer > 1 for each step of the sweep (over {PASSES})",
-          _speedup_rises, kind="timing"),
-)
+          _speedup_rises, kind="timing"))
 
 
-# ------------------------------------------------------------------------------------------------- page
 def stacked(table, series):
     """``table`` once per ``(label, name)`` of ``series`` (a label, or one a row), for a chart of ``value`` with
     its interval ``low`` to ``high``: the columns ``"<name> δ"``, ``"<name> low"``, ``"<name> high"``
@@ -221,12 +214,6 @@ def _culling_takeaways(table):
             + ", ".join(words) + "."]
 
 
-def _chart_title(table):
-    ratios = table.loc[table["extra taps"] == 0, "predicted / measured"]
-    return (f"Eq. 9 / measured {as_ratio(ratios.min())}–{as_ratio(ratios.max())} on {len(ratios)} stand-ins "
-            f"(target {as_ratio(1 - BAND)}–{as_ratio(1 + BAND)})")
-
-
 def _chart(table, ctx):
     points = table.assign(series=[f"{s}, extra taps" if swept else s for s, swept in zip(table.scene, table.swept)])
     top = float(np.nanmax(points[["predicted δ", "measured high", "measured δ"]].to_numpy(float)))
@@ -234,11 +221,13 @@ def _chart(table, ctx):
     guides = [("y = x: the prediction exact", line, line)] + [
         (f"predicted / measured = {format_number(bound)}", line, tuple(v / bound for v in line))
         for bound in (1 + BAND, 1 - BAND)]
+    ratios = table.loc[table["extra taps"] == 0, "predicted / measured"]
     return figure(ctx, "predicted-measured", plots.lines, points, heading="Predicted against measured",
                   caption="One point per stand-in (the swept stand-in's complexities joined); bars: the 95 % bootstrap "
                           f"interval of the measured speed-up ({PASSES}); grey: y = x and the 20 % band.",
                   x="predicted δ", y="measured δ", group="series", y_range=("measured low", "measured high"),
-                  guides=guides, title=_chart_title(table),
+                  guides=guides, title=f"Eq. 9 / measured {as_ratio(ratios.min())}–{as_ratio(ratios.max())} on "
+                                       f"{len(ratios)} stand-ins (target {as_ratio(1 - BAND)}–{as_ratio(1 + BAND)})",
                   x_label="speed-up predicted by Eq. 9 (×, ESS+ERT over Basic)",
                   y_label="measured speed-up (×, init + volume passes)")
 
@@ -259,7 +248,6 @@ RUN_COLUMNS = {"scene": "scene", "mode": "mode", "extra_taps": "extra taps", "vi
                "init_ms": "init passes (ms)", "draw_ms": "volume pass (ms)", "time_ms": "whole frame (ms)",
                "count_fragments_generated": "F", "count_fragments": "F'_c", "count_surface_fragments_t": "F_t",
                "count_surface_fragments_p": "F_p", "psnr": "PSNR vs Basic (dB)"}
-"""The columns of the page's run table and their names."""
 
 
 SHOWN = {"scene": "scene", "extra taps": "extra taps", "α'": "α'", "φ": "φ", "γ": "γ", "T_s (ns)": "T_s (ns)",
@@ -276,17 +264,12 @@ def _shown(table):
     shown = table.copy()
     for column, unit in (("F", 1e6), ("F'_c", 1e6), ("F_t", 1e3), ("F_p", 1e3)):
         shown[column] = shown[column] / unit
-    shown["measured δ"] = [f"{_three(v)} ({_three(lo)}–{_three(hi)})" for v, lo, hi in
+    shown["measured δ"] = [f"{v:.3g} ({lo:.3g}–{hi:.3g})" for v, lo, hi in
                            zip(shown["measured δ"], shown["measured low"], shown["measured high"])]
     shown = shown[list(SHOWN)].rename(columns=SHOWN)
     numbers = shown.select_dtypes("number").columns.drop("extra taps", errors="ignore")
-    shown[numbers] = shown[numbers].apply(lambda values: values.map(lambda v: float(_three(v))))
+    shown[numbers] = shown[numbers].apply(lambda values: values.map(lambda v: float(f"{v:.3g}")))
     return shown
-
-
-def _three(value):
-    """``value`` to three significant digits, as text."""
-    return f"{value:.3g}"
 
 
 class CostModelCheck(Experiment):
@@ -307,8 +290,7 @@ class CostModelCheck(Experiment):
         "the Φ_t and Φ_p surfaces); T_s is the trivial shader's draw time over F, T_c Basic's. The measured "
         "speed-up is over the passes Eq. 9 covers (depth-init and volume passes), with whole frames beside it. "
         "On one stand-in the volume shader gets extra texture taps, Basic and ESS+ERT at each complexity in the "
-        "same job, for the abstract's claim that the speed-up rises with the shader's cost."
-    )
+        "same job, for the abstract's claim that the speed-up rises with the shader's cost.")
     claims = CLAIMS
 
     def runs(self, profile):

@@ -1,7 +1,4 @@
-"""``xue2005-earlyz`` (E2): the early-z micro-benchmark: T_s, T_z and T_c per fragment, γ against the shader.
-
-What it runs, and why: :attr:`EarlyZ.description`, the words its page shows.
-"""
+"""``xue2005-earlyz`` (E2): the early-z micro-benchmark: T_s, T_z and T_c per fragment, γ against the shader."""
 
 import numpy as np
 import pandas as pd
@@ -42,10 +39,8 @@ CONFIGS = {
 """The micro-benchmark's configurations; ``volume`` is run once per value of :data:`EXTRA_TAPS`."""
 
 SCOPE = "the volume pass's draw time over the slices' fragments F, summed over the views"
-"""What a time per fragment is, in words."""
 
 
-# ------------------------------------------------------------------------------------- shared measurement
 def isbvr_run(experiment, run_id, scene_spec, views, options, frames, tags, *, group, reference=None):
     """A timed ``gl-isbvr`` run of ``options`` with slices one voxel apart and fragments counted, in ``group``."""
     return Run(experiment, run_id, ISBVR, scene_spec, tuple(views),
@@ -74,7 +69,6 @@ def per_fragment(rows, resampler):
     return value, None if draws is None else draws.sum(axis=1) / total
 
 
-# ----------------------------------------------------------------------------------------------- claims
 def select(df, config, taps=None, **match):
     """The rows of ``config`` matching the tags ``match`` and, unless ``None``, ``taps`` extra taps (as numbers)."""
     rows = rows_matching(df, config, config=config, **match)
@@ -134,11 +128,9 @@ CLAIMS = (
           "T_c depends on the shader; §2)", "γ at more extra taps / γ at fewer < 1 for each step of the sweep "
           f"({SCOPE})", _gamma_falls, kind="timing"),
     Claim("cull-all-culls", "Depth cleared to 0 culls every slice fragment, so the T_z configuration shades none",
-          "F'_c = 0 with F > 0 (occlusion queries)", _culls_everything, kind="count"),
-)
+          "F'_c = 0 with F > 0 (occlusion queries)", _culls_everything, kind="count"))
 
 
-# ------------------------------------------------------------------------------------------------- page
 def _extreme(rows, end):
     """Seconds per fragment of the fastest (``end`` "min") or slowest ("max") frame of each view, summed."""
     column = f"time_draw_{end}"
@@ -218,7 +210,6 @@ Z_ONLY = ("the z-only pass against the same pass with colour on (the paper: up t
 
 RUN_COLUMNS = {"config": "config", "extra_taps": "extra taps", "view": "view", "draw_ms": "volume pass (ms)",
                "count_fragments_generated": "F", "count_fragments": "F'_c"}
-"""The columns of the page's run table and their names."""
 
 
 class EarlyZ(Experiment):
@@ -240,8 +231,7 @@ class EarlyZ(Experiment):
         "trivial shader (T_s), the volume shader against a depth buffer cleared to 0 (every fragment culled: "
         "T_z) and the volume shader with 0, 4 and 16 extra texture taps (T_c). All configurations are timed "
         "interleaved in one job; a time per fragment is the pass's draw time over the slices' fragments "
-        "counted by an occlusion query."
-    )
+        "counted by an occlusion query.")
     claims = CLAIMS
 
     def runs(self, profile):

@@ -1,7 +1,6 @@
 """``xue2005-extraction`` (E9): the cube sets' extraction time per transfer-function change.
 
-What it runs, and why: :attr:`Extraction.description`, the words its page shows. The harness times each stage warm,
-after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`).
+The harness times each stage warm, after :meth:`~renderers.base.Renderer.drop_caches` (:mod:`pipeline.timing`).
 """
 
 import pandas as pd
@@ -10,7 +9,7 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import all_of, median_count, view_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
-from pipeline.experiments.kit.planning import accepts, listed, orbit_views
+from pipeline.experiments.kit.planning import accepts, listed, orbit_views, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, tagged
 from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, stand_in
 from pipeline.experiments.xue2005.surfaces import scenes_of
@@ -18,7 +17,6 @@ from pipeline.experiments.xue2005.tables import EXTRACTION_MS, PAPER_SIZE, REAL_
 from reports import blocks, plots
 
 SCENES = tuple(s for s in TABLE1 if s not in REAL_SCANS)
-"""The four stand-ins of Table 1."""
 
 CONFIG = "ess+ert"
 """Both surfaces are drawn, so both are extracted."""
@@ -35,7 +33,6 @@ PAPER_RATIO = EXTRACTION_MS["phi_p"] / EXTRACTION_MS["phi_t"]
 
 ONCE = ("one measurement per view (the extraction runs once per transfer function); median over the views, the "
         "views resampled for the interval")
-"""How the extraction times were taken, in words."""
 
 
 def _stage_ms(rows, stage):
@@ -91,11 +88,9 @@ CLAIMS = (
     Claim("interactive", "Extraction per transfer-function change is interactive (§5), read here as no slower than "
           "the paper's slowest, 210 ms (its 10 and 210 ms were timed on an unstated CPU)",
           f"Φ_t and Φ_p each ≤ {format_number(EXTRACTION_MS['phi_p'])} ms at {PAPER_SIZE}³, every data set "
-          "(measured at full scale only)", _interactive, paper_value="10 and 210 ms (Φ_t, Φ_p)", kind="timing"),
-)
+          "(measured at full scale only)", _interactive, paper_value="10 and 210 ms (Φ_t, Φ_p)", kind="timing"))
 
 
-# -------------------------------------------------------------------------------------------------- page
 def _summary(rows):
     out = []
     for scene_name, here in _per_scene(rows).items():
@@ -149,8 +144,7 @@ class Extraction(Experiment):
         if not accepts(ISBVR, *OPTIONS):
             return []
         wanted = listed(profile, self, "scenes", SCENES, known=SCENES)
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = map(int, volume_and_image_size(profile, self))
         orbit = int(profile.setting(self, "orbit", 4))
         return [Run(self.name, f"{tags['scene']}.{CONFIG}", ISBVR, spec, orbit_views(tags["dataset"], orbit),
                     options={**MODES[CONFIG][0], "surfaces": "reduced", "step_factor": STEP}, **FRAMES,

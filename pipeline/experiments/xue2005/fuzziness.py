@@ -1,7 +1,6 @@
 """``xue2005-fuzziness`` (E11): the golden-lady stand-in's haze grows, and iSBVR's gains shrink.
 
-What it runs, and why: :attr:`Fuzziness.description`, the words its page shows. The haze is the phantom's ``haze``
-parameter (:func:`datasets.phantoms.clouds.golden_lady`).
+The haze is the phantom's ``haze`` parameter (:func:`datasets.phantoms.clouds.golden_lady`).
 """
 
 import pandas as pd
@@ -95,11 +94,9 @@ CLAIMS = (
           "falls from each haze to the next (occlusion-query counts)", _culled_falls, kind="count"),
     Claim("gains-fall-separately", "Both accelerations lose to the haze (note 001 E11: \"ESS and ERT gains fall as "
           "the fuzzy volume grows\")", f"ESS / Basic and ERT / Basic each lower at the largest haze than at the "
-          f"smallest: ratio > 1 ({SCOPE})", _gains_fall, kind="timing"),
-)
+          f"smallest: ratio > 1 ({SCOPE})", _gains_fall, kind="timing"))
 
 
-# --------------------------------------------------------------------------------------------- page
 def summary(ok):
     """One row per haze and mode: speed-up over Basic with its interval, α', cubes, fragments, PSNR vs Basic."""
     resampler = intervals.Resampler()
@@ -124,7 +121,6 @@ COLUMNS = {"haze": "haze", "mode": "mode", "speedup": "speed-up over Basic (×)"
            "high": "95 % CI high", "paper": "paper (Table 1, golden lady)", "alpha": "α' culled",
            "phi": "φ = (F_t + F_p) / F", "F": "F (slice fragments)", "F_c": "F'_c (shaded)", "cubes_t": "Φ_t cubes",
            "cubes_p": "Φ_p cubes", "psnr": "PSNR vs Basic (dB)"}
-"""The summary's columns as the page names them."""
 
 
 def _figure(table, ctx):
@@ -154,14 +150,6 @@ def _gallery(ok, results, ctx):
         note=lambda row: frame_note(row, psnr="PSNR vs Basic"))
 
 
-TABLE_CAPTION = (
-    "Speed-up: Basic over the mode's whole-frame time, its 95 % bootstrap interval from the interleaved "
-    "frames. α' and φ from the mode's occlusion queries; cubes of Φ_t at 8³ and Φ_p at 2³ voxels. Paper: "
-    "its golden lady, beside the registered haze."
-)
-"""The caption of the page's table."""
-
-
 class Fuzziness(Experiment):
     """E11: the golden lady's haze against iSBVR's gains."""
 
@@ -177,8 +165,7 @@ class Fuzziness(Experiment):
         "the registered golden lady (haze 1) to nearly the whole box, under the paper's ramp (iso_t 30, iso_p "
         "190). The four modes of every haze are timed interleaved, frame against frame, so one haze's speed-up is "
         "compared with another's from the same processes; the culled fraction α' = "
-        "(F − F'_c)/F comes from occlusion queries and is the same on every machine."
-    )
+        "(F − F'_c)/F comes from occlusion queries and is the same on every machine.")
     claims = CLAIMS
 
     def runs(self, profile):
@@ -213,6 +200,10 @@ class Fuzziness(Experiment):
         if not table.empty:
             out.append(_figure(table, ctx))
             out.append(linked_table("Speed-ups and culled fractions per haze", table, list(COLUMNS), ctx,
-                                    names=COLUMNS, csv_name="fuzziness.csv", caption=TABLE_CAPTION))
+                                    names=COLUMNS, csv_name="fuzziness.csv",
+                                    caption="Speed-up: Basic over the mode's whole-frame time, its 95 % bootstrap "
+                                            "interval from the interleaved frames. α' and φ from the mode's occlusion "
+                                            "queries; cubes of Φ_t at 8³ and Φ_p at 2³ voxels. Paper: its golden "
+                                            "lady, beside the registered haze."))
             out.append(_gallery(ok[numeric(ok, "haze").notna()], results, ctx))
         return out + isbvr_not_measurable()

@@ -27,7 +27,6 @@ STEP = 1.0
 """Slices one voxel apart, as the paper's."""
 
 STAGE_MS = {"init_ms": "time_init", "draw_ms": "time_draw", "time_ms": "time_total"}
-"""The run table's stage times in milliseconds and the columns they come from."""
 
 OPTIONS = ("zinit", "surfaces", "phi_t_node", "phi_p_node", "depth_offset", "shader", "extra_taps", "order")
 """The ``gl-isbvr`` options the experiments set."""

@@ -1,7 +1,4 @@
-"""``xue2005-octree`` (E6, Fig. 7): Φ_p's octree node size against the pseudo early ray termination it buys.
-
-What it runs, and why: :attr:`Octree.description`, the words its page shows.
-"""
+"""``xue2005-octree`` (E6, Fig. 7): Φ_p's octree node size against the pseudo early ray termination it buys."""
 
 import pandas as pd
 
@@ -10,7 +7,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, median_
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table)
-from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames
+from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching, stage_points, tagged
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, stand_in
 from pipeline.experiments.xue2005.surfaces import (LOSSLESS_PSNR, LOSSLESS_SHARE, device_sentence, image_errors,
@@ -31,7 +28,6 @@ NODE = "option_phi_p_node"
 """The column of Φ_p's node size (the run's option)."""
 
 
-# ------------------------------------------------------------------------------------------------ claims
 def _nodes(df):
     """``{node size: rows}`` of the ERT runs in ``df``; ValueError when there are none, or when Φ_p has no cube
     at any node size (a shell too thin for the volume's size: nothing to compare)."""
@@ -43,25 +39,18 @@ def _nodes(df):
     return found
 
 
-def _node_rows(df, node):
-    found = _nodes(df)
-    if node not in found:
-        raise ValueError(f"no successful ERT run at node size {node}")
-    return found[node]
-
-
-def _culled(rows):
-    """Slice fragments the depth test culled, F − F'_c (median over the views)."""
-    return median_count(rows, "count_fragments_generated") - median_count(rows, "count_fragments")
-
-
 def _coverage_collapses(df):
-    compared = {n: _node_rows(df, n) for n in (PAPER_PHI_P_NODE, COARSEST)}
+    found = _nodes(df)
+    for node in (PAPER_PHI_P_NODE, COARSEST):
+        if node not in found:
+            raise ValueError(f"no successful ERT run at node size {node}")
+    compared = {n: found[n] for n in (PAPER_PHI_P_NODE, COARSEST)}
     wrote = {n: median_count(rows, "count_init_fragments") for n, rows in compared.items()}
     if wrote[PAPER_PHI_P_NODE] <= 0:
         raise ValueError(f"the Φ_p pass set no pixel at {PAPER_PHI_P_NODE}³: nothing to collapse from")
     share = wrote[COARSEST] / wrote[PAPER_PHI_P_NODE]
-    culled = {n: _culled(rows) for n, rows in compared.items()}
+    culled = {n: median_count(rows, "count_fragments_generated") - median_count(rows, "count_fragments")
+              for n, rows in compared.items()}
     return ClaimResult(f"{as_percent(share)} of the {PAPER_PHI_P_NODE}³ coverage", bool(share <= COLLAPSE),
                        f"fragments the Φ_p pass wrote (≈ pixels it set): {format_number(wrote[PAPER_PHI_P_NODE])} at "
                        f"{PAPER_PHI_P_NODE}³, {format_number(wrote[COARSEST])} at {COARSEST}³; slice fragments culled "
@@ -106,18 +95,15 @@ CLAIMS = (
     Claim("ert-lossless", "ERT's cube sets are conservative at every node size: Basic's image",
           f"PSNR against Basic ≥ {format_number(LOSSLESS_PSNR)} dB and ≤ {100 * LOSSLESS_SHARE:g} % of pixels off by "
           "> 1/255, every node size and view", lambda df: lossless_result(image_errors(df, "ERT", config="ert")),
-          kind="accuracy"),
-)
+          kind="accuracy"))
 
 
-# -------------------------------------------------------------------------------------------------- page
 COLUMNS = {"node_size": "node size (voxels)", "count_cubes_p": "Φ_p cubes",
            "count_surface_triangles_p": "Φ_p triangles",
            "count_surface_fragments_p": "F_p", "count_init_fragments": "fragments the Φ_p pass wrote",
            "culled": "slice fragments culled (F − F'_c)", "init_ms": "T_a init (ms)", "frame_ms": "frame (ms)",
            "frame_ms_min": "fastest (ms)", "frame_ms_max": "slowest (ms)", "psnr": "PSNR vs Basic (dB)",
            "off_percent": "pixels off > 1/255 (%)"}
-"""The page table's columns and their names."""
 
 
 def _page_rows(ok):
@@ -200,8 +186,7 @@ class Octree(Experiment):
     claims = CLAIMS
 
     def runs(self, profile):
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = map(int, volume_and_image_size(profile, self))
         orbit = int(profile.setting(self, "orbit", 1))
         nodes = listed(profile, self, "nodes", PHI_P_NODES, known=PHI_P_NODES)
         frames = timed_frames(profile, self)

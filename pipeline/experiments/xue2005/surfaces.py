@@ -1,8 +1,7 @@
 """``xue2005-surfaces`` (E7, E8; Fig. 4): the paper's "original" surfaces against its cube sets, and what
 full-resolution isosurfaces cost.
 
-What it runs, and why: :attr:`Surfaces.description`, the words its page shows. Also the helpers :mod:`.octree`
-shares: each image against Basic's, and the lossless test (:mod:`.table1`'s bounds).
+Also the helpers :mod:`.octree` shares: each image against Basic's, and the lossless test (:mod:`.table1`'s bounds).
 """
 
 import numpy as np
@@ -13,7 +12,7 @@ from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decisio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
                                             format_number, linked_table, unless_missing)
-from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames
+from pipeline.experiments.kit.planning import listed, orbit_views, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import (nonempty, nonempty_or, numeric, ok_rows, read_exr, rows_matching, tagged,
                                               text_column)
 from pipeline.experiments.xue2005.methods import ISBVR, isbvr_not_measurable, mode_runs, stand_in
@@ -47,7 +46,6 @@ TECHNIQUE = "slices + init passes + volume pass (time_technique)"
 """The scope of the speed claims: the technique's stages, without readback and Python."""
 
 
-# ---------------------------------------------------------------------------------------- shared helpers
 def image_errors(df, what, **match):
     """Each image of the rows matching ``match`` against its reference run's (Basic), view by view.
 
@@ -108,7 +106,6 @@ def device_sentence(rows):
                "depend on the machine." if software else ".")]
 
 
-# ------------------------------------------------------------------------------------------------ claims
 def _variant(df, variant, **match):
     return nonempty_or(rows_matching(df, variant, variant=variant, **match),
                        f"no successful {VARIANTS[variant][2]} run" + (f" of {match['scene']}" if match else ""))
@@ -226,28 +223,25 @@ CLAIMS = (
            paper_value="offsets any speed-up", kind="timing").with_ours(
         "Full-resolution surfaces erode the speed-up (§4: their rendering cost cancels the gain)",
         f"time with full-resolution surfaces / with the cube sets > 1 ({TECHNIQUE}), every scene", _full_erodes,
-        why="erodes: slower than with the cube sets, whether or not it is slower than Basic as well"),
-)
+        why="erodes: slower than with the cube sets, whether or not it is slower than Basic as well"))
 
 
-# -------------------------------------------------------------------------------------------------- page
 COLUMNS = {"variant_name": "surfaces", "triangles_t": "Φ_t triangles", "triangles_p": "Φ_p triangles",
            "count_cubes_t": "Φ_t cubes", "count_cubes_p": "Φ_p cubes", "count_surface_fragments_t": "F_t",
            "count_surface_fragments_p": "F_p", "count_fragments_generated": "F (slice fragments)",
            "count_fragments": "F'_c (shaded)", "culled_percent": "culled (%)", "init_ms": "T_a init (ms)",
            "draw_ms": "T_m volume pass (ms)", "ta_tm": "T_a / T_m", "technique_ms": "technique (ms)",
            "off_percent": "pixels off > 1/255 (%)"}
-"""The page table's columns and their names."""
 
 
 def _page_rows(tests):
-    rows = tests.copy()
-    rows["variant_name"] = [VARIANTS[v][2] for v in rows.variant]
-    rows["triangles_t"] = numeric(rows, "count_surface_triangles_t")
-    rows["triangles_p"] = numeric(rows, "count_surface_triangles_p")
-    rows["culled_percent"] = 100 * (1 - numeric(rows, "count_fragments") / numeric(rows, "count_fragments_generated"))
-    for column, stage in (("init_ms", "init"), ("draw_ms", "draw"), ("technique_ms", "technique")):
-        rows[column] = numeric(rows, f"time_{stage}") * 1e3
+    rows = tests.assign(variant_name=[VARIANTS[v][2] for v in tests.variant],
+                        triangles_t=numeric(tests, "count_surface_triangles_t"),
+                        triangles_p=numeric(tests, "count_surface_triangles_p"),
+                        culled_percent=100 * (1 - numeric(tests, "count_fragments")
+                                              / numeric(tests, "count_fragments_generated")),
+                        **{f"{stage}_ms": numeric(tests, f"time_{stage}") * 1e3
+                           for stage in ("init", "draw", "technique")})
     rows["ta_tm"] = rows.init_ms / rows.draw_ms
     rows["off_percent"] = off_percent(rows, tests, "ESS+ERT", config="ess+ert")
     rows["order"] = rows.variant.map({v: i for i, v in enumerate(VARIANTS)})
@@ -316,8 +310,7 @@ class Surfaces(Experiment):
 
     def runs(self, profile):
         wanted = listed(profile, self, "scenes", SCENES, known=TABLE1)
-        size = int(profile.setting(self, "volume_size", profile.volume_size))
-        image = profile.setting(self, "image_size", profile.image_size)
+        size, image = map(int, volume_and_image_size(profile, self))
         orbit = int(profile.setting(self, "orbit", 1))
         frames = timed_frames(profile, self)
         runs = []

@@ -1,9 +1,8 @@
 """``xue2005-tf`` (E10): the speed-up of ESS+ERT over Basic as the transfer function's iso-values move, and the
 transfer functions with nothing to cull, where the paper claims no overhead.
 
-What it runs, and why: :attr:`TransferSweep.description`, the words its page shows. Every transfer function is given
-explicitly in the scene (``transfer_function`` of the volume entry) with the colours of the data set's ``isbvr``
-preset.
+Every transfer function is given explicitly in the scene (``transfer_function`` of the volume entry) with the
+colours of the data set's ``isbvr`` preset.
 
 Also the helpers :mod:`.fuzziness` shares: speed-ups with bootstrap draws, ratios of speed-ups from different
 groups, a mode's counts.
@@ -67,10 +66,8 @@ half again, as much as the paper's Table 1 spread over data sets with their own 
 bonsai) nearly; fixed before any measurement."""
 
 SCOPE = "whole frames (time_total), median over the views"
-"""What every speed claim of this module compares."""
 
 
-# ---------------------------------------------------------------------------------- transfer functions
 def ramp_points(dataset, iso_t, iso_p, *, floor=0.0, top=1.0):
     """A ``transfer_function`` entry (scene format): opacity ``floor`` up to ``iso_t``, linear to ``top`` at ``iso_p``
     (grey levels, 0 <= ``iso_t`` < ``iso_p`` <= 255), in the colours of ``dataset``'s ``isbvr`` preset at the four
@@ -101,7 +98,6 @@ def sweep_pairs(scene_name, iso_t, iso_p):
     return list(dict.fromkeys((float(t), float(p)) for t, p in pairs if t < p))
 
 
-# ------------------------------------------------------------------------------------- speed-ups
 def interval_columns(name, pair, *, value=None):
     """``{value: v, "<name> low": low, "<name> high": high}`` of a ``(v, draws)`` pair
     (:func:`~pipeline.experiments.kit.intervals.interval_or_nan`); ``value`` defaults to ``"<name> δ"``."""
@@ -120,21 +116,15 @@ def mode_counts(tested):
             "psnr": float(numeric(tested, "psnr").min()) if "psnr" in tested else np.nan}
 
 
-# ------------------------------------------------------------------------------------------- claims
-def _ramps(df, scene_name):
-    groups = interleave_groups(df, scene=scene_name, kind="ramp")
-    if len(groups) < 2:
-        raise ValueError(f"fewer than two iso pairs of {scene_name}")
-    return groups
-
-
 def _iso_dependence(df):
     """Per scene: the best ramp's ESS+ERT speed-up over the worst's, at least :data:`STRONG` (with its interval)."""
     resampler = intervals.Resampler()
     scenes = nonempty([s for s in SCENES if s in set(text_column(df, "scene"))], what="a swept scene")
     decisions, notes = {}, []
     for scene_name in scenes:
-        groups = _ramps(df, scene_name)
+        groups = interleave_groups(df, scene=scene_name, kind="ramp")
+        if len(groups) < 2:
+            raise ValueError(f"fewer than two iso pairs of {scene_name}")
         speeds = {name: speedup(rows, "basic", "ess+ert", resampler=resampler) for name, rows in groups.items()}
         best = max(speeds, key=lambda name: speeds[name][0])
         worst = min(speeds, key=lambda name: speeds[name][0])
@@ -214,11 +204,9 @@ CLAIMS = (
           "controls", _nothing_culled, kind="count"),
     Claim("ert-free-without-opaque", "Where the TF never reaches opacity 1, pseudo ERT has nothing to draw and costs "
           "nothing (§3)", f"ESS+ERT / ESS time within [{NO_OVERHEAD[0]:g}, {NO_OVERHEAD[1]:g}] ({SCOPE}), no Φ_p "
-          "cube and the same F'_c, on each scene's never-opaque ramp", _ert_free, kind="timing"),
-)
+          "cube and the same F'_c, on each scene's never-opaque ramp", _ert_free, kind="timing"))
 
 
-# --------------------------------------------------------------------------------------------- page
 def summary(ok):
     """One row per transfer function: its tags, the ESS+ERT speed-up with its interval, α', cubes and fragments.
 
@@ -246,13 +234,6 @@ COLUMNS = {"scene": "scene", "kind": "transfer function", "tf": "label", "iso_t"
            "high": "95 % CI high", "alpha": "α' culled", "phi": "φ = (F_t + F_p) / F", "cubes_t": "Φ_t cubes",
            "cubes_p": "Φ_p cubes", "triangles_t": "Φ_t triangles", "triangles_p": "Φ_p triangles",
            "F": "F (slice fragments)", "F_c": "F'_c (shaded)", "psnr": "PSNR vs Basic (dB)", "paper": "paper (Table 1)"}
-"""The summary's columns as the page names them."""
-
-
-def _sweep_title(points, axis):
-    spans = [f"{scene_name} {as_ratio(part.speedup.min())}–{format_number(part.speedup.max())}"
-             for scene_name, part in points.groupby("scene", sort=False)]
-    return f"Speed-up vs {axis}: " + ", ".join(spans)
 
 
 def _sweep_figures(table, ctx):
@@ -271,19 +252,12 @@ def _sweep_figures(table, ctx):
                                   f"({', '.join(f'{s} {PAPER_ISO[s][index]}' for s in PAPER_ISO)}); dotted: the "
                                   f"paper's {axis}.",
                           x=axis, y="speedup", group="scene", y_range=("low", "high"),
-                          title=_sweep_title(at_paper, axis),
+                          title=f"Speed-up vs {axis}: " + ", ".join(
+                              f"{scene_name} {as_ratio(part.speedup.min())}–{format_number(part.speedup.max())}"
+                              for scene_name, part in at_paper.groupby("scene", sort=False)),
                           x_label=f"{axis} (grey level, 0–255; {fixed} at the paper's)",
                           y_label="speed-up, Basic / ESS+ERT time (×)", vlines=marks))
     return out
-
-
-TABLE_CAPTION = (
-    "Speed-up: Basic over ESS+ERT whole-frame time (median over the views), its 95 % bootstrap interval "
-    "from the interleaved frames. α' = (F − F'_c)/F and φ from ESS+ERT's occlusion queries; cubes of Φ_t "
-    "at 8³ and Φ_p at 2³ voxels. Links: the ESS+ERT run. Paper: its Table 1 ratio (its TF unstated, its "
-    "256³ data), beside our paper-pair row."
-)
-"""The caption of the page's table."""
 
 
 class TransferSweep(Experiment):
@@ -303,8 +277,7 @@ class TransferSweep(Experiment):
         "the ramp stopped at 0.9 (no opaque region), and the dense block of note 001 §5 (fBm filling the box, "
         "uniform opacity 0.003). Basic and ESS+ERT (and ESS for the never-opaque ramp) of one TF are timed "
         "interleaved, frame against frame; the occlusion queries count the slice fragments (F) and those "
-        "shaded (F'_c), so the culled fraction α' = (F − F'_c)/F is the same on every machine."
-    )
+        "shaded (F'_c), so the culled fraction α' = (F − F'_c)/F is the same on every machine.")
     claims = CLAIMS
 
     def runs(self, profile):
@@ -361,5 +334,10 @@ class TransferSweep(Experiment):
                               if r.kind == "ramp" and (r.iso_t, r.iso_p) == PAPER_ISO.get(r.scene) else ""
                               for r in table.itertuples()]
             out.append(linked_table("Every transfer function: speed-up, culled fraction and cube sets", table,
-                                    list(COLUMNS), ctx, names=COLUMNS, csv_name="tf_sweep.csv", caption=TABLE_CAPTION))
+                                    list(COLUMNS), ctx, names=COLUMNS, csv_name="tf_sweep.csv",
+                                    caption="Speed-up: Basic over ESS+ERT whole-frame time (median over the views), "
+                                            "its 95 % bootstrap interval from the interleaved frames. α' = "
+                                            "(F − F'_c)/F and φ from ESS+ERT's occlusion queries; cubes of Φ_t at 8³ "
+                                            "and Φ_p at 2³ voxels. Links: the ESS+ERT run. Paper: its Table 1 ratio "
+                                            "(its TF unstated, its 256³ data), beside our paper-pair row."))
         return out + isbvr_not_measurable()

@@ -1,7 +1,6 @@
 """``xue2005-table1`` (E1): Table 1's four depth-init modes on the paper's four kinds of data, and their images.
 
-What it runs, and why: :attr:`Table1.description`, the words its page shows. The helpers here (mode rows, per-scene
-time ratios, culled fractions, image pairs) serve :mod:`~pipeline.experiments.xue2005.variants` too.
+The helpers here (per-scene time ratios, culled fractions, image pairs) serve :mod:`.variants` too.
 """
 
 import numpy as np
@@ -11,7 +10,8 @@ from pipeline.experiments.kit import intervals, pages
 from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, image_pairs, median_count, time_ratio
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, by_scene, claim_takeaways, difference_gallery, figure,
-                                            format_number, frame_note, linked_table, silent_without_runs)
+                                            format_number, frame_note, linked_table, silent_without_runs,
+                                            speed_psnr_figure, unless_missing)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, listed, orbit_views, timed_frames, truth_run,
                                                volume_and_image_size)
 from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, reference_exr, speed_points,
@@ -57,7 +57,6 @@ TIMES = "whole frames (time_total), median over the views"
 """The scope of Table 1's speed claims: the paper's frame rates are of whole frames from views it does not give."""
 
 
-# ------------------------------------------------------------------------------------------- rows and ratios
 def scenes_of(frame, config):
     """The scenes ``config`` rendered successfully, in the order of the rows."""
     return list(pd.unique(text_column(config_rows(frame, config), "scene")))
@@ -88,7 +87,6 @@ def pair_psnr(pairs):
     return out
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _gain(df, fast, bounds, what=""):
     """``time(Basic) / time(fast)`` within ``bounds(scene)`` = ``(low, high)`` on every scene, with intervals."""
     resampler = intervals.Resampler()
@@ -103,19 +101,15 @@ def _gain(df, fast, bounds, what=""):
                         "machine-independent) and the speed-up that share would give were culled fragments free")
 
 
-def _basic_by_grid(df, config="basic"):
-    """``{grid: rows}``: the rows of ``config`` (Basic, or Basic timed across the scenes in one job) of each
-    volume size that two or more scenes share."""
-    rows = config_rows(df, config)
-    grids = {grid: part for grid, part in rows.groupby(text_column(rows, "grid"), sort=False)
-             if part.scene.nunique() >= 2}
-    return nonempty_or(grids, "Basic rendered fewer than two scenes of one volume size: nothing to compare")
-
-
 def _basic_time(df, bound=BASIC_TOLERANCE):
+    """Slowest over fastest Basic timed across the scenes in one job, per volume size two or more scenes share."""
+    across = config_rows(df, "basic-across")
+    grids = nonempty_or({grid: part for grid, part in across.groupby(text_column(across, "grid"), sort=False)
+                         if part.scene.nunique() >= 2},
+                        "Basic rendered fewer than two scenes of one volume size: nothing to compare")
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
-    for grid, rows in _basic_by_grid(df, "basic-across").items():
+    for grid, rows in grids.items():
         scenes = list(pd.unique(rows.scene))
         medians = np.array([numeric(rows[rows.scene == s], "time_total").median() for s in scenes])
         draws = [intervals.statistic_draws(rows[rows.scene == s], "time_total", "median", resampler) for s in scenes]
@@ -203,11 +197,9 @@ CLAIMS = (
     Claim("culling-suffices", "Our data leave as much to cull as the paper's speed-up needs: the fragments "
           "culled, not the device, bound what ESS+ERT can gain",
           "α' = 1 − F'_c/F of ESS+ERT ≥ 1 − 1/δ_paper on every scene (Eq. 9 with γ, φ → 0: the least culled "
-          "share that allows the paper's speed-up; median over the views)", _culling, kind="count"),
-)
+          "share that allows the paper's speed-up; median over the views)", _culling, kind="count"))
 
 
-# ------------------------------------------------------------------------------------------------- page
 def device_takeaways(tests):
     """Which GL devices timed the page, and what a CPU rasterizer's numbers mean."""
     return pages.device_takeaways(tests, software=(
@@ -219,9 +211,8 @@ def device_takeaways(tests):
 @silent_without_runs
 def _culling_takeaways(tests):
     """What share of the gain its culled fragments allow ESS+ERT realised here (free culling: 1/(1 − α'))."""
-    shares = {s: time_ratio(tests, "basic", "ess+ert", resampler=intervals.Resampler(), scene=s).value
-              / ideal_speedup(culled_fraction(config_rows(tests, "ess+ert", scene=s)))
-              for s in scenes_of(tests, "ess+ert")}
+    shares = {s: _point_ratio(tests, "ess+ert", scene=s) / ideal_speedup(culled_fraction(config_rows(
+              tests, "ess+ert", scene=s))) for s in scenes_of(tests, "ess+ert")}
     low, high = min(shares, key=shares.get), max(shares, key=shares.get)
     return [f"Culled fragments are not free here: ESS+ERT's measured speed-up is {as_percent(shares[low])} "
             f"({low}) to {as_percent(shares[high])} ({high}) of 1/(1 − α'), the speed-up its culled share would "
@@ -266,6 +257,11 @@ def _vtk_takeaways(ok):
             "without (VTK samples from each ray's start, so a moved start moves its samples)."]
 
 
+def _point_ratio(frame, config, column="time_total", **match):
+    """Basic's time over ``config``'s, the value of :func:`time_ratio` (its own resampler)."""
+    return time_ratio(frame, "basic", config, resampler=intervals.Resampler(), column=column, **match).value
+
+
 def _ratio_table(tests):
     """Per scene, the paper's speed-ups over Basic beside ours (whole frames and the technique's stages)."""
     rows = []
@@ -276,11 +272,7 @@ def _ratio_table(tests):
             label = short_name(config)
             row[f"{label} (paper)"] = round(paper_speedup(scene_name, config), 2)
             for scope, column in (("ours", "time_total"), ("ours, technique", "time_technique")):
-                try:
-                    value = time_ratio(here, "basic", config, resampler=intervals.Resampler(), column=column).value
-                except (KeyError, ValueError):
-                    value = np.nan
-                row[f"{label} ({scope})"] = round(value, 2)
+                row[f"{label} ({scope})"] = round(unless_missing(_point_ratio, here, config, column, empty=np.nan), 2)
         rows.append(row)
     return pd.DataFrame(rows)
 
@@ -294,11 +286,8 @@ def _culling_table(tests):
             modes = here[here.config == config]
             if modes.empty:
                 continue
-            try:
-                alpha = culled_fraction(modes)
-                ours = time_ratio(here, "basic", config, resampler=intervals.Resampler()).value
-            except (KeyError, ValueError):
-                alpha = ours = np.nan
+            alpha, ours = unless_missing(lambda: (culled_fraction(modes), _point_ratio(here, config)),
+                                         empty=(np.nan, np.nan))
             paper = paper_speedup(scene_name, config)
             rows.append({"scene": scene_name, "mode": mode_name(config),
                          "F (median)": numeric(modes, "count_fragments_generated").median(),
@@ -338,21 +327,17 @@ def _ratio_blocks(tests, ctx):
 
 def _speed_blocks(headline, ctx):
     """Frame times and PSNR in the headline view, and speed against accuracy."""
-    timing = speed_points(headline)
-    timing["mode"] = [mode_name(c) for c in timing.config]
-    path, rel = ctx.plot_path("table1-speed-accuracy")
-    plots.speed_accuracy(timing, path, time_col="time_ms", error_col="psnr", group_col="scene", label_col="config",
-                         title="Median frame time against PSNR, every mode and scene (headline view)",
-                         log_y=False, time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                         x_label="median whole-frame time (ms); bars: fastest to slowest frame",
-                         y_label="PSNR against the reference (dB)")
+    timing = speed_points(headline).assign(mode=[mode_name(c) for c in headline.config])
     return [linked_table("Frame times, fragments and accuracy (headline view)", timing,
                          ["scene", "mode", "time_ms", "time_ms_min", "time_ms_max", "count_fragments",
                           "count_fragments_generated", "psnr", "ssim"], ctx, csv_name="table1.csv",
                          names={"count_fragments": "F'c", "count_fragments_generated": "F"}),
-            blocks.Figure("Speed against accuracy", rel, "One series per scene, each point one mode (labelled), "
-                          "headline view; the modes cull without changing the image, so a scene's points share "
-                          "one PSNR and differ in time.")]
+            speed_psnr_figure(ctx, "table1-speed-accuracy", timing, heading="Speed against accuracy",
+                              caption="One series per scene, each point one mode (labelled), headline view; the modes "
+                                      "cull without changing the image, so a scene's points share one PSNR and "
+                                      "differ in time.",
+                              title="Median frame time against PSNR, every mode and scene (headline view)",
+                              group="scene", label="config", x_label="median whole-frame time (ms)")]
 
 
 def _gallery(headline, results, ctx):
@@ -388,8 +373,7 @@ class Table1(Experiment):
         "shaded (F'_c) out of those generated (F): the culled share α' = 1 − F'_c/F does not depend on the device "
         "and bounds what any device gains. Every image is compared with Basic (iSBVR must be lossless) and with "
         "the reference ray caster at the same step; gl-slicer renders the headline view to show that Basic is "
-        "plain slicing."
-    )
+        "plain slicing.")
     SCENES = tuple(TABLE1)
     claims = CLAIMS
 

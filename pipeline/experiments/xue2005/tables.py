@@ -1,7 +1,6 @@
 """The paper's own numbers and statements: Table 1's frame rates, the speed-ups they imply, the rest in words."""
 
 PAPER_DEVICE = "ATI Radeon 9800 Pro (128 MB), 256³ volumes, slices one voxel apart (512² per Fig. 10)"
-"""Where Table 1 was measured."""
 
 TABLE1 = {
     # stand-in scene: (data set, preset, the paper's row, fps Basic, ESS, ERT, ESS+ERT)

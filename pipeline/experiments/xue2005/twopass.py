@@ -1,9 +1,8 @@
 """``xue2005-twopass`` (E3): Eq. 5 against the per-slice two-pass early termination it models.
 
-What it runs, and why: :attr:`TwoPass.description`, the words its page shows. α is set by the transfer function
-(:func:`opacity_for`) and measured from the occlusion queries. At opacity 1, ESS+ERT joins the group: where both
-cull nearly everything, slice-ert's first passes draw every slice fragment (F_s = F) while iSBVR's draw one surface
-(φ = (F_t + F_p) / F ≪ 1), the reason its bound is 1 / γ.
+α is set by the transfer function (:func:`opacity_for`) and measured from the occlusion queries. At opacity 1,
+ESS+ERT joins the group: where both cull nearly everything, slice-ert's first passes draw every slice fragment
+(F_s = F) while iSBVR's draw one surface (φ = (F_t + F_p) / F ≪ 1), the reason its bound is 1 / γ.
 """
 
 import numpy as np
@@ -15,8 +14,8 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, median_count, ratio_of_draws,
                                               ratio_pair, summed)
 from pipeline.experiments.kit.model import Claim, Experiment, scaled
-from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, format_number, frame_note,
-                                            linked_table, unless_missing)
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, difference_gallery, figure, format_number,
+                                            frame_note, linked_table, unless_missing)
 from pipeline.experiments.kit.planning import phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import interleave_groups, nonempty_or, numeric, ok_rows, text_column
 from pipeline.experiments.kit.words import short_duration
@@ -59,7 +58,6 @@ SCOPE = "the first passes and the volume passes (time_init + time_draw)"
 """The scope of a measured speed-up: the passes Eq. 4 prices (Basic has no first pass)."""
 
 
-# ------------------------------------------------------------------------------------------------ design
 def opacity_for(culling, slices, *, threshold=THRESHOLD):
     """The constant per-slice opacity at which front-to-back compositing reaches ``threshold`` (the accumulated
     opacity from which slice-ert culls) so that about ``culling`` of ``slices`` slices lie behind it.
@@ -84,7 +82,6 @@ def constant_tf(opacity):
     return {"points": [[0.0, *low, opacity], [1.0, *high, opacity]], "name": f"constant-{opacity:.4g}"}
 
 
-# ------------------------------------------------------------------------------------------ measurement
 def point_model(group, resampler):
     """Eq. 5 and the measured speed-up of slice-ert over Basic at one (opacity, taps) point: one interleave group.
 
@@ -148,7 +145,6 @@ def _counts(m):
     return f"α {format_number(m['alpha'])} = 1 − {format_number(m['F_c'])}/{format_number(m['F'])}"
 
 
-# ----------------------------------------------------------------------------------------------- claims
 def _break_even(df):
     models = point_models(df)
     sides = {side: [m for m in models if m["side"] == side] for side in ("loss", "gain")}
@@ -199,11 +195,9 @@ CLAIMS = (
     Claim("eq5-within-20", "Eq. 5 predicts the per-slice two-pass speed-up from the culled fraction and the shader "
           "ratio within 20 % (issue 23's target for the cost model)",
           f"Eq. 5 δ / measured δ within ×{format_number(1 - BAND)}–×{format_number(1 + BAND)} at every point "
-          f"(measured over {SCOPE})", _eq5_within, kind="cost model"),
-)
+          f"(measured over {SCOPE})", _eq5_within, kind="cost model"))
 
 
-# ------------------------------------------------------------------------------------------------- page
 def _table(models):
     return pd.DataFrame([
         {"point": m["group"], "extra taps": m["taps"], "opacity": m["opacity"], "F": m["F"], "F'_c": m["F_c"],
@@ -266,19 +260,19 @@ def _chart(table, ctx):
     series = [f"{k} taps (γ {format_number(gammas[k])})" for k in table["extra taps"]]
     long = stacked(table, [([f"{name}, {s}" for s in series], name) for name in ("measured", "Eq. 5")])
     ratios = table["Eq. 5 / measured"]
-    path, rel = ctx.plot_path("speedup")
-    plots.lines(long, path, x="α", y="value", group="series", y_range=("low", "high"),
-                vlines=sorted({float(costmodel.break_even_culling(g)) for g in gammas}),
-                guides=[("δ = 1: break-even", (0.0, 1.0), (1.0, 1.0))],
-                title=f"Eq. 5 / measured {as_ratio(ratios.min())}–{format_number(ratios.max())} "
-                      f"(target ×{format_number(1 - BAND)}–×{format_number(1 + BAND)})",
-                x_label="culled fraction α = 1 − F'_c / F (share of slice fragments)",
-                y_label="speed-up of slice-ert over Basic (×, first + volume passes)")
-    return blocks.Figure("Measured and predicted speed-up against the culled fraction", rel,
-                         "One series per shader complexity (γ = T_s / T_c measured at every point; the median in the "
-                         "legend). Bars: 95 % bootstrap intervals from the interleaved frames (Eq. 5's from those of "
-                         "T_s and T_c). Dotted: the break-even α = γ / (1 − γ) of each complexity's median γ "
-                         "(Eq. 6); grey: δ = 1.")
+    return figure(ctx, "speedup", plots.lines, long,
+                  heading="Measured and predicted speed-up against the culled fraction",
+                  caption="One series per shader complexity (γ = T_s / T_c measured at every point; the median in the "
+                          "legend). Bars: 95 % bootstrap intervals from the interleaved frames (Eq. 5's from those of "
+                          "T_s and T_c). Dotted: the break-even α = γ / (1 − γ) of each complexity's median γ "
+                          "(Eq. 6); grey: δ = 1.",
+                  x="α", y="value", group="series", y_range=("low", "high"),
+                  vlines=sorted({float(costmodel.break_even_culling(g)) for g in gammas}),
+                  guides=[("δ = 1: break-even", (0.0, 1.0), (1.0, 1.0))],
+                  title=f"Eq. 5 / measured {as_ratio(ratios.min())}–{format_number(ratios.max())} "
+                        f"(target ×{format_number(1 - BAND)}–×{format_number(1 + BAND)})",
+                  x_label="culled fraction α = 1 − F'_c / F (share of slice fragments)",
+                  y_label="speed-up of slice-ert over Basic (×, first + volume passes)")
 
 
 def _contrast_table(models):
@@ -310,7 +304,6 @@ RUN_COLUMNS = {"interleave": "point", "config": "configuration", "extra_taps": "
                "init_ms": "first passes (ms)", "draw_ms": "volume passes (ms)", "time_ms": "whole frame (ms)",
                "count_fragments_generated": "F", "count_fragments": "F'_c", "count_init_fragments": "depth writes",
                "count_surface_fragments_t": "F_t", "count_surface_fragments_p": "F_p"}
-"""The columns of the page's run table and their names."""
 
 
 class TwoPass(Experiment):
@@ -334,8 +327,7 @@ class TwoPass(Experiment):
         "queries (1 − F'_c / F), γ at every point from the trivial shader's and Basic's draw time over F, with "
         "0, 4 and 16 extra texture taps in the volume shader. The trivial shader, Basic and slice-ert of one "
         "(opacity, taps) point are timed interleaved in one job; the speed-up is over the first and volume "
-        "passes, whole frames beside it. At opacity 1, ESS+ERT joins each group for iSBVR's φ."
-    )
+        "passes, whole frames beside it. At opacity 1, ESS+ERT joins each group for iSBVR's φ.")
     claims = CLAIMS
 
     def runs(self, profile):

@@ -1,7 +1,4 @@
-"""``xue2005-variants`` (E12, E13): front-to-back against back-to-front, front-based against exit-based leaping.
-
-What it runs, and why: :attr:`Variants.description`, the words its page shows.
-"""
+"""``xue2005-variants`` (E12, E13): front-to-back against back-to-front, front-based against exit-based leaping."""
 
 import numpy as np
 import pandas as pd
@@ -33,7 +30,6 @@ ORDER_TOLERANCE = 1.10
 """"The same speed-up" in both orders: their ratio within ×1/1.1–×1.1."""
 
 
-# ------------------------------------------------------------------------------------------------- claims
 def _order_decision(df, scene_name, resampler):
     """``(Basic/ESS+ERT front to back) / (Basic/ESS+ERT back to front)`` on one scene, with its paired interval."""
     rows = [config_rows(df, config, scene=scene_name, order=order)
@@ -105,11 +101,9 @@ CLAIMS = (
           lambda df: _leaping_gain(df, "ess", "front", "ESS / front-based "), kind="timing"),
     Claim("exit-combines", "Exit-based leaping is built because it combines with ERT (§3.3): ESS+ERT beats "
           "front-based leaping, which cannot", f"time(front-based) / time(ESS+ERT) > 1 on every scene ({TIMES})",
-          lambda df: _leaping_gain(df, "front", "ess+ert", "front-based / ESS+ERT "), kind="timing"),
-)
+          lambda df: _leaping_gain(df, "front", "ess+ert", "front-based / ESS+ERT "), kind="timing"))
 
 
-# ------------------------------------------------------------------------------------------------- page
 def _mode_label(row):
     return f"{mode_name(row.config)}, {row.order}"
 
@@ -193,8 +187,7 @@ class Variants(Experiment):
         "pass with GREATER, culling the space in front of the data; exit-based leaping (Table 1's ESS) draws the "
         "box's front faces and Φ_t's back faces, culling behind the data; both remove the rays that miss Φ_t. "
         "Only exit-based leaping combines with ERT. Occlusion queries count the fragments each mode shaded; "
-        "every run of a scene is timed interleaved, so every ratio comes with a paired interval."
-    )
+        "every run of a scene is timed interleaved, so every ratio comes with a paired interval.")
     claims = CLAIMS
 
     def runs(self, profile):
