@@ -14,11 +14,8 @@ from pipeline.experiments.xue2005 import costmodel
 from pipeline.experiments.xue2005.earlyz import EXTRA_TAPS, can_plan, isbvr_run, per_fragment, select
 from pipeline.experiments.xue2005.methods import MODES, isbvr_not_measurable, mode_name, runs_table, stand_in
 from pipeline.experiments.xue2005.sweeps import interval_columns
-from pipeline.experiments.xue2005.tables import IMPLIED_CULLING, IMPLIED_GAMMAS, TABLE1, paper_speedup
+from pipeline.experiments.xue2005.tables import IMPLIED_CULLING, IMPLIED_GAMMAS, STAND_INS, TABLE1, paper_speedup
 from reports import blocks, plots
-
-STAND_INS = ("aneurysm", "head", "golden_lady", "bonsai")
-"""Table 1's four stand-ins (keys of :data:`~pipeline.experiments.xue2005.tables.TABLE1`)."""
 
 SWEEP_SCENE = "head"
 """The stand-in of the shader-complexity sweep: the most opaque, so the most culled fragments to gain from."""

@@ -13,10 +13,8 @@ from pipeline.experiments.kit.planning import accepts, listed, orbit_views, volu
 from pipeline.experiments.kit.results import numeric, ok_rows, rows_matching, tagged
 from pipeline.experiments.xue2005.methods import ISBVR, MODES, OPTIONS, STEP, isbvr_not_measurable, stand_in
 from pipeline.experiments.xue2005.surfaces import scenes_of
-from pipeline.experiments.xue2005.tables import EXTRACTION_MS, PAPER_SIZE, REAL_SCANS, TABLE1
+from pipeline.experiments.xue2005.tables import EXTRACTION_MS, PAPER_SIZE, STAND_INS
 from reports import blocks, plots
-
-SCENES = tuple(s for s in TABLE1 if s not in REAL_SCANS)
 
 CONFIG = "ess+ert"
 """Both surfaces are drawn, so both are extracted."""
@@ -29,7 +27,6 @@ MUCH_SLOWER = 5.0
 """Φ_p's extraction "much slower" than Φ_t's: at least 5×, a quarter of the paper's 21× (210 / 10 ms)."""
 
 PAPER_RATIO = EXTRACTION_MS["phi_p"] / EXTRACTION_MS["phi_t"]
-"""The paper's 210 against 10 ms: ×21."""
 
 ONCE = ("one measurement per view (the extraction runs once per transfer function); median over the views, the "
         "views resampled for the interval")
@@ -143,7 +140,7 @@ class Extraction(Experiment):
     def runs(self, profile):
         if not accepts(ISBVR, *OPTIONS):
             return []
-        wanted = listed(profile, self, "scenes", SCENES, known=SCENES)
+        wanted = listed(profile, self, "scenes", STAND_INS, known=STAND_INS)
         size, image = map(int, volume_and_image_size(profile, self))
         orbit = int(profile.setting(self, "orbit", 4))
         return [Run(self.name, f"{tags['scene']}.{CONFIG}", ISBVR, spec, orbit_views(tags["dataset"], orbit),

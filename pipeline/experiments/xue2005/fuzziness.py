@@ -15,12 +15,11 @@ from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaway
 from pipeline.experiments.kit.planning import headline_view, phantom, scene, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, tagged
 from pipeline.experiments.xue2005.methods import culled_fraction, isbvr_not_measurable, mode_name, mode_runs, short_name
-from pipeline.experiments.xue2005.sweeps import SCOPE, mode_counts
+from pipeline.experiments.xue2005.sweeps import SCOPE, speedups
 from pipeline.experiments.xue2005.tables import PAPER_DEVICE, TABLE1, paper_speedup
 from reports import plots
 
 SCENE = "golden_lady"
-"""The fuzzy stand-in's scene of :data:`~pipeline.experiments.xue2005.tables.TABLE1`."""
 
 HAZES = (0.0, 0.5, 1.0, 1.5)
 """The haze swept (0: the figure alone; 1: the registry's golden lady, the paper's row; 1.5: nearly the whole box)."""
@@ -32,7 +31,6 @@ CONFIGS = ("basic", "ess", "ert", "ess+ert")
 """Table 1's modes, each haze's interleave group."""
 
 GAINS = ("ess", "ert", "ess+ert")
-"""The modes whose speed-up over Basic the page follows."""
 
 
 def _groups(df):
@@ -98,23 +96,11 @@ CLAIMS = (
 
 
 def summary(ok):
-    """One row per haze and mode: speed-up over Basic with its interval, α', cubes, fragments, PSNR vs Basic."""
-    resampler = intervals.Resampler()
-    rows = []
-    for haze, group in _groups(ok):
-        for config in GAINS:
-            try:
-                value, draws = speedup(group, "basic", config, resampler=resampler)
-                tested = config_rows(group, config)
-            except (KeyError, ValueError):
-                continue
-            low, high = intervals.interval_or_nan(draws)
-            first = tested.iloc[0]
-            rows.append({"haze": haze, "config": config, "mode": mode_name(config), "speedup": value, "low": low,
-                         "high": high, **mode_counts(tested),
-                         "paper": as_ratio(paper_speedup(SCENE, config)) if haze == PAPER_HAZE else "",
-                         "record": first.get("record"), "exr": first.get("exr")})
-    return pd.DataFrame(rows)
+    """One row per haze and mode: speed-up over Basic with its interval, α', cubes, fragments, PSNR vs Basic
+    (:func:`~.sweeps.speedups`), and the paper's ratio at the registered haze."""
+    return pd.DataFrame([{"haze": haze, "config": config, "mode": mode_name(config), **row,
+                          "paper": as_ratio(paper_speedup(SCENE, config)) if haze == PAPER_HAZE else ""}
+                         for haze, config, _rows, row in speedups(_groups(ok), GAINS)])
 
 
 COLUMNS = {"haze": "haze", "mode": "mode", "speedup": "speed-up over Basic (×)", "low": "95 % CI low",

@@ -29,7 +29,6 @@ STEP = 1.0
 STAGE_MS = {"init_ms": "time_init", "draw_ms": "time_draw", "time_ms": "time_total"}
 
 OPTIONS = ("zinit", "surfaces", "phi_t_node", "phi_p_node", "depth_offset", "shader", "extra_taps", "order")
-"""The ``gl-isbvr`` options the experiments set."""
 
 
 def mode_name(config):

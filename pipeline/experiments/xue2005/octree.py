@@ -25,7 +25,6 @@ COARSEST = 8
 """The node size where the paper sees almost no ERT pixels."""
 
 NODE = "option_phi_p_node"
-"""The column of Φ_p's node size (the run's option)."""
 
 
 def _nodes(df):

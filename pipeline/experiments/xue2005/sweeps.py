@@ -27,7 +27,6 @@ from pipeline.experiments.xue2005.tables import PAPER_DEVICE, STATEMENTS, TABLE1
 from reports import plots
 
 SCENES = ("head", "aneurysm")
-"""The stand-ins swept (keys of :data:`~pipeline.experiments.xue2005.tables.TABLE1`)."""
 
 PAPER_ISO = {"head": (50, 170), "aneurysm": (50, 150)}
 """The ``isbvr`` presets' (iso_t, iso_p) in grey levels (note 001 §5): where each one-sided sweep crosses."""
@@ -207,26 +206,30 @@ CLAIMS = (
           "cube and the same F'_c, on each scene's never-opaque ramp", _ert_free, kind="timing"))
 
 
-def summary(ok):
-    """One row per transfer function: its tags, the ESS+ERT speed-up with its interval, α', cubes and fragments.
-
-    The row carries the ESS+ERT run's record, image and PSNR against Basic.
-    """
+def speedups(groups, configs):
+    """``(key, config, rows, row)`` for each ``(key, rows)`` of ``groups`` (interleave groups) and each mode of
+    ``configs`` that ran there with Basic: ``row`` its speed-up over Basic with its interval, :func:`mode_counts` and
+    its first run's record and image (one resampler for all)."""
     resampler = intervals.Resampler()
-    rows = []
-    for name, group in interleave_groups(ok).items():
-        try:
-            value, draws = speedup(group, "basic", "ess+ert", resampler=resampler)
-            tested = config_rows(group, "ess+ert")
-        except (KeyError, ValueError):
-            continue
-        low, high = intervals.interval_or_nan(draws)
-        first = tested.iloc[0]
-        rows.append({**{k: first.get(k) for k in ("scene", "kind", "tf", "iso_t", "iso_p", "record", "exr")},
-                     "group": name, "speedup": value, "low": low, "high": high, **mode_counts(tested),
-                     "triangles_t": median_count(tested, "count_surface_triangles_t"),
-                     "triangles_p": median_count(tested, "count_surface_triangles_p")})
-    return pd.DataFrame(rows)
+    for key, group in groups:
+        for config in configs:
+            try:
+                value, draws = speedup(group, "basic", config, resampler=resampler)
+                tested = config_rows(group, config)
+            except (KeyError, ValueError):
+                continue
+            low, high = intervals.interval_or_nan(draws)
+            yield key, config, tested, {"speedup": value, "low": low, "high": high, **mode_counts(tested),
+                                        "record": tested.iloc[0].get("record"), "exr": tested.iloc[0].get("exr")}
+
+
+def summary(ok):
+    """One row per transfer function: its tags, the ESS+ERT speed-up with its interval, α', cubes and fragments
+    (:func:`speedups`), and its cube sets' triangles."""
+    return pd.DataFrame([{**{k: tested.iloc[0].get(k) for k in ("scene", "kind", "tf", "iso_t", "iso_p")},
+                          "group": name, **row, "triangles_t": median_count(tested, "count_surface_triangles_t"),
+                          "triangles_p": median_count(tested, "count_surface_triangles_p")}
+                         for name, _config, tested, row in speedups(interleave_groups(ok).items(), ("ess+ert",))])
 
 
 COLUMNS = {"scene": "scene", "kind": "transfer function", "tf": "label", "iso_t": "iso_t (grey level)",

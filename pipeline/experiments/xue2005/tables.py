@@ -16,6 +16,9 @@ TABLE1 = {
 REAL_SCANS = ("bonsai_real", "cthead")
 """Scenes of :data:`TABLE1` that repeat a paper row with a real scan instead of a stand-in."""
 
+STAND_INS = tuple(s for s in TABLE1 if s not in REAL_SCANS)
+"""The four stand-ins of :data:`TABLE1`, one per paper row."""
+
 MODES_IN_TABLE = ("basic", "ess", "ert", "ess+ert")
 """Table 1's columns, as :data:`~pipeline.experiments.xue2005.methods.MODES` keys."""
 
@@ -30,10 +33,8 @@ EXTRACTION_MS = {"phi_t": 10.0, "phi_p": 210.0}
 """Cube-set extraction per transfer-function change (§5: 8³ nodes for Φ_t, 2³ for Φ_p; CPU not stated)."""
 
 CLAIM_COLUMNS = ("claim", "source", "paper's own table")
-"""The columns of the paper's claims beyond Table 1 (:data:`STATEMENTS`)."""
 
 MODEL_COLUMNS = ("statement", "source", "paper's number")
-"""The columns of the paper's statements of its cost model (:data:`EARLYZ_STATEMENTS`, :data:`TWOPASS_STATEMENTS`)."""
 
 
 def statements(*rows, columns=CLAIM_COLUMNS):

@@ -260,13 +260,12 @@ def _chart(table, ctx):
     series = [f"{k} taps (γ {format_number(gammas[k])})" for k in table["extra taps"]]
     long = stacked(table, [([f"{name}, {s}" for s in series], name) for name in ("measured", "Eq. 5")])
     ratios = table["Eq. 5 / measured"]
-    return figure(ctx, "speedup", plots.lines, long,
+    return figure(ctx, "speedup", plots.lines, long, x="α", y="value", group="series", y_range=("low", "high"),
                   heading="Measured and predicted speed-up against the culled fraction",
                   caption="One series per shader complexity (γ = T_s / T_c measured at every point; the median in the "
                           "legend). Bars: 95 % bootstrap intervals from the interleaved frames (Eq. 5's from those of "
                           "T_s and T_c). Dotted: the break-even α = γ / (1 − γ) of each complexity's median γ "
                           "(Eq. 6); grey: δ = 1.",
-                  x="α", y="value", group="series", y_range=("low", "high"),
                   vlines=sorted({float(costmodel.break_even_culling(g)) for g in gammas}),
                   guides=[("δ = 1: break-even", (0.0, 1.0), (1.0, 1.0))],
                   title=f"Eq. 5 / measured {as_ratio(ratios.min())}–{format_number(ratios.max())} "

@@ -4,10 +4,11 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, config_rows, image_pairs, time_ratio
+from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, image_pairs, ratio_pair, speedup,
+                                              time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, by_scene, claim_takeaways, difference_gallery, figure,
-                                            format_number, linked_table)
+                                            format_number, linked_table, unless_missing)
 from pipeline.experiments.kit.planning import accepts, listed, orbit_views, timed_frames, volume_and_image_size
 from pipeline.experiments.kit.results import numeric, ok_rows, speed_points, tagged
 from pipeline.experiments.xue2005.methods import (ISBVR, OPTIONS, culled_fraction, isbvr_not_measurable, mode_name,
@@ -30,24 +31,16 @@ ORDER_TOLERANCE = 1.10
 """"The same speed-up" in both orders: their ratio within ×1/1.1–×1.1."""
 
 
-def _order_decision(df, scene_name, resampler):
-    """``(Basic/ESS+ERT front to back) / (Basic/ESS+ERT back to front)`` on one scene, with its paired interval."""
-    rows = [config_rows(df, config, scene=scene_name, order=order)
-            for order in (FRONT, BACK) for config in ORDER_CONFIGS]
-    points = [float(numeric(r, "time_total").median()) for r in rows]
-    value = (points[0] / points[1]) / (points[2] / points[3])
-    draws = [intervals.statistic_draws(r, "time_total", "median", resampler) for r in rows]
-    interval = None if any(d is None for d in draws) else intervals.interval_of(
-        (draws[0] / draws[1]) / (draws[2] / draws[3]))
-    return (intervals.decide(value, interval, at_least=1.0 / ORDER_TOLERANCE, at_most=ORDER_TOLERANCE),
-            f"front to back {as_ratio(points[0] / points[1])}, back to front {as_ratio(points[2] / points[3])}")
-
-
 def _order_speedup(df):
+    """``(Basic/ESS+ERT front to back) / (Basic/ESS+ERT back to front)`` on every scene, with its paired interval."""
     resampler = intervals.Resampler()
     decisions, notes = {}, {}
-    for scene_name in scenes_of(df, "ess+ert"):
-        decisions[scene_name], notes[scene_name] = _order_decision(df, scene_name, resampler)
+    for s in scenes_of(df, "ess+ert"):
+        front, back = (speedup(df, *ORDER_CONFIGS, resampler=resampler, scene=s, order=o) for o in (FRONT, BACK))
+        value, draws = ratio_pair(front, back)
+        decisions[s] = intervals.decide(value, None if draws is None else intervals.interval_of(draws),
+                                        at_least=1.0 / ORDER_TOLERANCE, at_most=ORDER_TOLERANCE)
+        notes[s] = f"front to back {as_ratio(front[0])}, back to front {as_ratio(back[0])}"
     return all_of(decisions, notes=notes, what="front-to-back / back-to-front speed-up ",
                   extra=f"speed-up: time(Basic) / time(ESS+ERT) in one order, {TIMES}; the four runs of a scene "
                         "timed interleaved")
@@ -112,16 +105,13 @@ def _summary(tests):
     """Per scene, mode and order: F'_c, α', the median whole-frame time and the speed-up over Basic in that order."""
     rows = []
     for (scene_name, order, config), part in tests.groupby(["scene", "order", "config"], sort=False):
-        try:
-            speedup = time_ratio(tests, "basic", config, resampler=intervals.Resampler(), scene=scene_name,
-                                 order=order).value
-            alpha = culled_fraction(part)
-        except (KeyError, ValueError):
-            speedup = alpha = np.nan
+        gain, alpha = unless_missing(lambda: (time_ratio(tests, "basic", config, resampler=intervals.Resampler(),
+                                                         scene=scene_name, order=order).value,
+                                              culled_fraction(part)), empty=(np.nan, np.nan))
         rows.append({"scene": scene_name, "order": order, "mode": mode_name(config),
                      "F'c (median)": numeric(part, "count_fragments").median(), "α'": round(alpha, 3),
                      "median frame (ms)": round(numeric(part, "time_total").median() * 1e3, 2),
-                     "speed-up over Basic (same order)": round(speedup, 2)})
+                     "speed-up over Basic (same order)": round(gain, 2)})
     return pd.DataFrame(rows)
 
 
