@@ -129,8 +129,7 @@ def _sweep(df):
 def _model_words(m):
     return (f"{m['scene']}: predicted ×{format_number(m['predicted'][0])}, measured "
             f"×{format_number(m['measured'][0])} (whole frames ×{format_number(m['whole'][0])}); α' "
-            f"{format_number(m['alpha'])}, φ "
-            f"{format_number(m['phi'])}, γ {format_number(m['gamma'])}")
+            f"{format_number(m['alpha'])}, φ {format_number(m['phi'])}, γ {format_number(m['gamma'])}")
 
 
 def _eq9_within(df):

@@ -47,12 +47,9 @@ DENSE = ("dense", "fbm_control", "no_cue")
 """The dense-block control (note 001 §5): scene, data set (smooth fBm filling the box, values 50–200) and
 preset (uniform opacity 0.003: never 0, never 1)."""
 
-CONTROLS = {
-    # kind: (configs, what it lacks)
-    "neither": (("basic", "ess+ert"), "no zero-opacity region and no opaque region"),
-    "never-opaque": (("basic", "ess", "ess+ert"), "no opaque region"),
-}
-"""The controls run on each swept scene beside the ramps, with the modes each group times."""
+CONTROLS = {"neither": ("basic", "ess+ert"), "never-opaque": ("basic", "ess", "ess+ert")}
+"""The controls run on each swept scene beside the ramps, with the modes each group times: "neither" has no
+zero-opacity and no opaque region, "never-opaque" no opaque region."""
 
 NO_OVERHEAD = (0.95, 1.05)
 """ESS+ERT / Basic time where nothing can be culled (the paper: "no overhead", §3): a 5 % band either side,
@@ -301,9 +298,9 @@ class TransferSweep(Experiment):
             tfs = [(_tf_label(t, p), "ramp", t, p, ramp_points(dataset, t, p), ("basic", "ess+ert"))
                    for t, p in sweep_pairs(scene_name, iso_t, iso_p)]
             tfs.append(("neither", "neither", paper_t, paper_p,
-                        ramp_points(dataset, paper_t, paper_p, floor=FLOOR, top=TOP), CONTROLS["neither"][0]))
+                        ramp_points(dataset, paper_t, paper_p, floor=FLOOR, top=TOP), CONTROLS["neither"]))
             tfs.append(("never-opaque", "never-opaque", paper_t, paper_p,
-                        ramp_points(dataset, paper_t, paper_p, top=TOP), CONTROLS["never-opaque"][0]))
+                        ramp_points(dataset, paper_t, paper_p, top=TOP), CONTROLS["never-opaque"]))
             for label, kind, t, p, tf, configs in tfs:
                 spec = scene(scene_name, image, volumes=[phantom(dataset, size, transfer_function=tf)])
                 tags = {"scene": scene_name, "dataset": dataset, "tf": label, "kind": kind, "iso_t": t, "iso_p": p}

@@ -375,13 +375,12 @@ class Table1(Experiment):
         "and bounds what any device gains. Every image is compared with Basic (iSBVR must be lossless) and with "
         "the reference ray caster at the same step; gl-slicer renders the headline view to show that Basic is "
         "plain slicing.")
-    SCENES = tuple(TABLE1)
     claims = CLAIMS
 
     def runs(self, profile):
         if not accepts(ISBVR, *OPTIONS):
             return []
-        wanted = listed(profile, self, "scenes", self.SCENES, known=TABLE1)
+        wanted = listed(profile, self, "scenes", tuple(TABLE1), known=TABLE1)
         size, image = volume_and_image_size(profile, self)
         orbit = int(profile.setting(self, "orbit", 3))
         truth_step = profile.setting(self, "truth_step_factor", STEP)
