@@ -109,9 +109,9 @@ def scene_model(df, scene_name, taps, resampler):
             "psnr": float(numeric(isbvr, "psnr").min()) if "psnr" in isbvr else np.nan}
 
 
-def _scenes(df, taps=0):
-    """The stand-ins with an ESS+ERT run at ``taps`` extra taps, in Table 1's order."""
-    present = set(text_column(select(df, "ess+ert", taps), "scene"))
+def _scenes(df):
+    """The stand-ins with an ESS+ERT run at no extra taps, in Table 1's order."""
+    present = set(text_column(select(df, "ess+ert", 0), "scene"))
     return nonempty_or([s for s in STAND_INS if s in present], "no successful ESS+ERT run of a stand-in")
 
 

@@ -212,8 +212,9 @@ def device_takeaways(tests):
 @silent_without_runs
 def _culling_takeaways(tests):
     """What share of the gain its culled fragments allow ESS+ERT realised here (free culling: 1/(1 − α'))."""
-    shares = {s: _point_ratio(tests, "ess+ert", scene=s) / ideal_speedup(culled_fraction(config_rows(
-              tests, "ess+ert", scene=s))) for s in scenes_of(tests, "ess+ert")}
+    shares = {s: _point_ratio(tests, "ess+ert", scene=s)
+              / ideal_speedup(culled_fraction(config_rows(tests, "ess+ert", scene=s)))
+              for s in scenes_of(tests, "ess+ert")}
     low, high = min(shares, key=shares.get), max(shares, key=shares.get)
     return [f"Culled fragments are not free here: ESS+ERT's measured speed-up is {as_percent(shares[low])} "
             f"({low}) to {as_percent(shares[high])} ({high}) of 1/(1 − α'), the speed-up its culled share would "
