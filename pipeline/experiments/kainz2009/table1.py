@@ -13,7 +13,7 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, all_of, counts, decided, decision_words, timed
 from pipeline.experiments.kit.model import Claim, ClaimResult, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, title_or)
+                                            format_number, speed_psnr_figure, title_or)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
                                               text_column)
@@ -249,13 +249,10 @@ class Table1(PaperExperiment):
             rows = speed_points(tests)
             rows["method"] = rows.config.map(METHOD_NAMES)
             rows["fps"] = 1e3 / rows.time_ms
-            out.append(figure(ctx, "speed-accuracy", plots.speed_accuracy, rows, heading="Speed against accuracy",
-                              caption="One point per scene (labelled) and method. " + frames_caption(rows),
-                              time_col="time_ms", error_col="psnr", group_col="method", label_col="scene",
-                              title="Median frame time against PSNR, every scene", log_y=False, log_x=True,
-                              time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                              x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
-                              y_label="PSNR against the reference (dB)"))
+            out.append(speed_psnr_figure(ctx, "speed-accuracy", rows, heading="Speed against accuracy",
+                                         caption="One point per scene (labelled) and method. " + frames_caption(rows),
+                                         title="Median frame time against PSNR, every scene", group="method",
+                                         label="scene", x_label="median frame time (ms, log scale)", log_x=True))
             merged = rows.assign(**{"paper fps (mid)": rows.scene.map({s: np.mean(r[4]) for s, r in TABLE1.items()})})
             out.append(table("Frame times and accuracy", merged.sort_values(["scene", "config"]),
                              ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "fps", "paper fps (mid)",
