@@ -124,14 +124,13 @@ class EmptySpace(PaperExperiment):
     scales = scaled(base=IMAGE_SIZES, smoke={"scenes": ["torso"], "volume_size": 32, "brick_sizes": [8]},
                     default={"volume_size": 128}, full={"volume_size": 512})
     description = (
-        "The tiled caster bounds each volume by a hull around its non-empty bricks, built on the "
-        "GPU from the transfer function (about 5 ms for 512³ on a GTX 280) and binned like any "
-        "boundary, so empty space outside and inside the data is skipped by the same segment walk; "
-        "the paper reports up to 15 % more frames per second, best with 8³ bricks on medical data. "
-        "Here an abdomen and a skull (much air) are rendered with their boxes and with hulls of "
-        "4³ to 32³ bricks; every timed process builds each hull once more in a preprocessing frame of "
-        "its own (compiled, before its warm-up), which times the build (brick ranges and hull) beside the "
-        "frames it is compared with."
+        "The tiled caster bounds each volume by a hull around its non-empty bricks, built on the GPU from the transfer "
+        "function (about 5 ms for 512³ on a GTX 280) and binned like any boundary, so empty space outside and inside "
+        "the data is skipped by the same segment walk; the paper reports up to 15 % more frames per second, best with "
+        "8³ bricks on medical data. Here an abdomen and a skull (much air) are rendered with their boxes and with "
+        "hulls of 4³ to 32³ bricks; every timed process builds each hull once more in a preprocessing frame of its own "
+        "(compiled, before its warm-up), which times the build (brick ranges and hull) beside the frames it is "
+        "compared with."
     )
 
     def plan(self, profile):

@@ -169,16 +169,14 @@ class Table1(PaperExperiment):
                     default={"scan_size": 128, "mesh_triangles": 30000, "vessel_resolution": 96},
                     full={"scan_size": 512, "mesh_triangles": 30000, "vessel_resolution": 160})
     description = (
-        "Table 1 times the tiled caster against two depth-peeling shader casters on eight scenes: "
-        "one 512³ scan (C1), two and four overlapping 256³ volumes (C2, C3), a 256³ scan with 8 or "
-        "20 time steps of 64³ (C4, C5), a 512³ scan with a 30k iso-surface (C6) or with a 30k "
-        "vessel tree, a 10k liver and a 5k tumour (C7), and 50 × 64³ volumes with a 30k mesh (C8). "
-        "Here phantoms stand in (note 002 §6, at the profile's sizes) with translucent meshes, "
-        "Blinn–Phong shading and the headline view. cl-tiled renders them with tight brick hulls; "
-        "VTK's GPU caster (single-pass shaders, up to 7 volumes, no meshes) takes the shader "
-        "casters' place where it can; the reference renders every image at a finer step. The "
-        "stage times split each frame into the triangle kernel (binning) and the pixel kernel, and "
-        "each run records the atlas, the tile lists and the chunk pool it used."
+        "Table 1 times the tiled caster against two depth-peeling shader casters on eight scenes: one 512³ scan (C1), "
+        "two and four overlapping 256³ volumes (C2, C3), a 256³ scan with 8 or 20 time steps of 64³ (C4, C5), a 512³ "
+        "scan with a 30k iso-surface (C6) or with a 30k vessel tree, a 10k liver and a 5k tumour (C7), and 50 × 64³ "
+        "volumes with a 30k mesh (C8). Here phantoms stand in (note 002 §6, at the profile's sizes) with translucent "
+        "meshes, Blinn–Phong shading and the headline view. cl-tiled renders them with tight brick hulls; VTK's GPU "
+        "caster (single-pass shaders, up to 7 volumes, no meshes) takes the shader casters' place where it can; the "
+        "reference renders every image at a finer step. The stage times split each frame into the triangle kernel "
+        "(binning) and the pixel kernel, and each run records the atlas, the tile lists and the chunk pool it used."
     )
 
     def plan(self, profile):
