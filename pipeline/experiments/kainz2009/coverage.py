@@ -121,11 +121,10 @@ class Coverage(PaperExperiment):
         runs = []
         for triangles in profile.setting(self, "triangle_counts", list(TRIANGLES)):
             spec = _timing_scene(triangles, image)
-            for method in METHODS:
-                runs.append(Run(self.name, f"sphere{int(triangles)}.{method}", TILED, spec, (dict(HEADLINE_VIEW),),
-                                options={"coverage": method}, **frames, interleave=spec["name"],
-                                tags={"scene": spec["name"], "triangles": int(triangles), "role": "test",
-                                      "config": method}))
+            runs += [Run(self.name, f"sphere{int(triangles)}.{method}", TILED, spec, (dict(HEADLINE_VIEW),),
+                         options={"coverage": method}, **frames, interleave=spec["name"],
+                         tags={"scene": spec["name"], "triangles": int(triangles), "role": "test", "config": method})
+                     for method in METHODS]
         angles = WATERTIGHT_VIEWS[:int(profile.setting(self, "views", len(WATERTIGHT_VIEWS)))]
         views = tuple({"view": f"az{int(a)}el{int(e)}".replace("-", "m"), "azimuth": a, "elevation": e}
                       for a, e in angles)

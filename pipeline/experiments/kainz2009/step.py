@@ -23,9 +23,8 @@ def _step_rows(ok):
     if tests.empty:
         return pd.DataFrame()
     rows = speed_points(tests)
-    rows["step_factor"] = numeric(rows, "step_factor")
-    rows["ns_per_sample"] = rows.time_ms * 1e6 / numeric(rows, "count_samples")
-    return rows.sort_values("step_factor")
+    return rows.assign(step_factor=numeric(rows, "step_factor"),
+                       ns_per_sample=rows.time_ms * 1e6 / numeric(rows, "count_samples")).sort_values("step_factor")
 
 
 def _marginal(rows, times):
