@@ -37,12 +37,12 @@ UNBOUNDED_EXACT = worst_psnr("the unbounded lists' worst PSNR against the refere
                              role="unbounded")
 
 
-def _over_threshold(reference, test, threshold=ERROR_THRESHOLD):
-    """Fraction of pixels whose colour over black (premultiplied RGB) differs by more than ``threshold``."""
+def _over_threshold(reference, test):
+    """Fraction of pixels whose colour over black (premultiplied RGB) differs by more than :data:`ERROR_THRESHOLD`."""
     truth, image = read_exr(reference), read_exr(test)
     if truth.shape != image.shape:
         raise ValueError(f"{test} and {reference} differ in size")
-    return float((np.abs(truth[..., :3] - image[..., :3]).max(axis=-1) > threshold).mean())
+    return float((np.abs(truth[..., :3] - image[..., :3]).max(axis=-1) > ERROR_THRESHOLD).mean())
 
 
 def _cap_rows(ok, *, complete=False):

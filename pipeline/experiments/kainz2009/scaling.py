@@ -205,8 +205,7 @@ class Scaling(PaperExperiment):
 def _one_cloud_ms(rows):
     """Per row, the one-cloud time its series is compared with: cl-tiled's clouds alone, VTK's for VTK."""
     one = rows[(rows.series == "clouds") & (rows["count"] == 1)]
-    base = dict(zip(one.config, one.time_ms))
-    return rows.config.map(base).astype(float)
+    return rows.config.map(dict(zip(one.config, one.time_ms))).astype(float)
 
 
 def _scaling_title(rows):

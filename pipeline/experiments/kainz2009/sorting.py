@@ -164,8 +164,7 @@ class Sorting(PaperExperiment):
         extra = [] if rows.empty else device_note(rows) + _sorting_takeaways(rows)
         out = [claim_takeaways(ctx, extra)]
         if not rows.empty:
-            full = rows[rows.part == "full"].copy()
-            full["label"] = full.scene + ", " + full.order
+            full = rows[rows.part == "full"].assign(label=lambda full: full.scene + ", " + full.order)
             split = full[full["gather+sort (ms)"].notna()].assign(
                 time_gather_and_sort=full["gather+sort (ms)"] / 1e3, time_traversal=full["traversal (ms)"] / 1e3)
             if not split.empty:

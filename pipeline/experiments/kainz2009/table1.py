@@ -282,12 +282,11 @@ def _stage_title(tiled):
 
 def _memory_table(tiled, ctx):
     """E12: atlas, fixed tile tables and the pool used per scene (bytes as MiB)."""
-    memory = tiled.copy()
-    tiles = np.ceil(numeric(memory, "image_size") / 8) ** 2
-    memory["atlas (MiB)"] = numeric(memory, "info_atlas_bytes") / 2 ** 20
-    memory["pool used (MiB)"] = numeric(memory, "info_pool_bytes_used") / 2 ** 20
-    memory["pool allocated (MiB)"] = numeric(memory, "count_pool_chunks") * 64 * 12 / 2 ** 20
-    memory["chunk-index table (MiB)"] = tiles * 64 * 4 / 2 ** 20
+    tiles = np.ceil(numeric(tiled, "image_size") / 8) ** 2
+    memory = tiled.assign(**{"atlas (MiB)": numeric(tiled, "info_atlas_bytes") / 2 ** 20,
+                             "pool used (MiB)": numeric(tiled, "info_pool_bytes_used") / 2 ** 20,
+                             "pool allocated (MiB)": numeric(tiled, "count_pool_chunks") * 64 * 12 / 2 ** 20,
+                             "chunk-index table (MiB)": tiles * 64 * 4 / 2 ** 20})
     columns = ["scene", "atlas (MiB)", "chunk-index table (MiB)", "pool used (MiB)", "pool allocated (MiB)",
                "count_triangles", "count_records_per_tile_max"]
     return table("Memory per scene (E12)", memory.sort_values("scene"), columns, ctx, csv_name="table1_memory.csv",
