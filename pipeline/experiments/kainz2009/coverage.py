@@ -45,9 +45,8 @@ def _coverage_rows(ok):
     rows = role_rows(ok) if "triangles" in ok else ok.iloc[:0]
     if rows.empty:
         return rows
-    binning_ms = numeric(rows, "time_binning") * 1e3
-    rows = speed_points(rows).assign(triangles=numeric(rows, "triangles").astype(int), binning_ms=binning_ms,
-                                     **{"binning kernel (ms)": binning_ms})
+    rows = speed_points(rows).assign(triangles=numeric(rows, "triangles").astype(int),
+                                     binning_ms=numeric(rows, "time_binning") * 1e3)
     bitmask = rows[rows.config == "bitmask"].set_index("triangles").binning_ms
     rows["edge / bitmask"] = [b / bitmask.get(t, np.nan) if c == "edge" else np.nan
                               for t, c, b in zip(rows.triangles, rows.config, rows.binning_ms)]
@@ -107,15 +106,13 @@ class Coverage(PaperExperiment):
                     default={"triangle_counts": [5000, 20000, 80000], "volume_size": 64},
                     full={"triangle_counts": [5000, 20000, 80000, 320000], "volume_size": 256})
     description = (
-        "The triangle kernel computes each tile's 64-bit coverage mask from row (or column) masks "
-        "by bit shifts, one shift per row and edge, which the paper finds 4× faster on a GT200 than "
-        "evaluating the edge functions at every pixel of the tile, and exact: every pixel covered "
-        "by a closed boundary gets one fragment per crossing, no more, no fewer. Here cl-tiled's "
-        "binning kernel runs with both methods on an opaque noisy sphere of several triangle counts "
-        "filling the picture (OpenCL profiling time of the binning stage), and a concave brick hull, "
-        "a coil and a noisy sphere overlapping are binned from several views with unbounded lists: "
-        "a pixel whose front- and back-facing fragment counts differ has a missing or doubled "
-        "fragment."
+        "The triangle kernel computes each tile's 64-bit coverage mask from row (or column) masks by bit shifts, one "
+        "shift per row and edge, which the paper finds 4× faster on a GT200 than evaluating the edge functions at "
+        "every pixel of the tile, and exact: every pixel covered by a closed boundary gets one fragment per crossing, "
+        "no more, no fewer. Here cl-tiled's binning kernel runs with both methods on an opaque noisy sphere of several "
+        "triangle counts filling the picture (OpenCL profiling time of the binning stage), and a concave brick hull, a "
+        "coil and a noisy sphere overlapping are binned from several views with unbounded lists: a pixel whose front- "
+        "and back-facing fragment counts differ has a missing or doubled fragment."
     )
 
     def plan(self, profile):
@@ -124,11 +121,10 @@ class Coverage(PaperExperiment):
         runs = []
         for triangles in profile.setting(self, "triangle_counts", list(TRIANGLES)):
             spec = _timing_scene(triangles, image)
-            for method in METHODS:
-                runs.append(Run(self.name, f"sphere{int(triangles)}.{method}", TILED, spec, (dict(HEADLINE_VIEW),),
-                                options={"coverage": method}, **frames, interleave=spec["name"],
-                                tags={"scene": spec["name"], "triangles": int(triangles), "role": "test",
-                                      "config": method}))
+            runs += [Run(self.name, f"sphere{int(triangles)}.{method}", TILED, spec, (dict(HEADLINE_VIEW),),
+                         options={"coverage": method}, **frames, interleave=spec["name"],
+                         tags={"scene": spec["name"], "triangles": int(triangles), "role": "test", "config": method})
+                     for method in METHODS]
         angles = WATERTIGHT_VIEWS[:int(profile.setting(self, "views", len(WATERTIGHT_VIEWS)))]
         views = tuple({"view": f"az{int(a)}el{int(e)}".replace("-", "m"), "azimuth": a, "elevation": e}
                       for a, e in angles)
@@ -171,7 +167,7 @@ class Coverage(PaperExperiment):
                               value_label="binning kernel time (ms)",
                               title="Binning kernel time by coverage method and triangle count"))
             out.append(table("Binning time per triangle count", timing.sort_values(["triangles", "config"]),
-                             ["triangles", "config", "binning kernel (ms)", "edge / bitmask", "count_triangles",
+                             ["triangles", "config", "binning_ms", "edge / bitmask", "count_triangles",
                               "count_records", "time_ms"], ctx, csv_name="coverage.csv"))
         tight = role_rows(ok, "watertight")
         if not tight.empty:

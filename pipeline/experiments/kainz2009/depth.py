@@ -90,9 +90,8 @@ def _depth_fit(df):
     points = intervals.row_draws(rows, TECHNIQUE, resampler)
     decision = decided(r2, r_squared(depth, points), at_least=0.9, frames=resampler.arms())
     return ClaimResult.decided(with_interval(f"R² {format_number(r2)}", decision, format_number), decision,
-                               f"{format_number(slope)} ms per layer over {len(rows)} depths "
-                               f"({int(depth.min())}–{int(depth.max())}), {KERNELS}; fragments per frame "
-                               + counts(rows, "count_fragments"))
+                               f"{format_number(slope)} ms per layer over {len(rows)} depths ({int(depth.min())}–"
+                               f"{int(depth.max())}), {KERNELS}; fragments per frame {counts(rows, 'count_fragments')}")
 
 
 # Table 2's frame time of the tiled caster (column 3) over dual depth peeling's (column 2).
@@ -139,8 +138,7 @@ def _crossover(df):
         decision = dataclasses.replace(decision, margin=None)  # no crossing: no distance from [20, 40]
 
     def show(value):
-        return f"< {int(depths[0])}" if value == -np.inf else f"> {int(depths[-1])}" if value == np.inf \
-            else format_number(value)
+        return {-np.inf: f"< {int(depths[0])}", np.inf: f"> {int(depths[-1])}"}.get(value) or format_number(value)
 
     faster = "dual depth peeling" if depth > 0 else "cl-tiled"
     measured = (f"depth {format_number(depth)}" if np.isfinite(depth)
@@ -162,13 +160,12 @@ class Depth(PaperExperiment):
         "full": {"width": 1050, "height": 800, "triangles": 20000},
     }
     description = (
-        "Table 2 renders translucent geometry only, at 1050 × 800, against NVIDIA's dual depth "
-        "peeling: a 20k dragon (depth complexity 20), 20 boxes in a row (40) and threaded screws "
-        "(81). Depth peeling needs a geometry pass per pair of layers, the tiled caster one binning "
-        "pass and a per-pixel sort, so the paper finds peeling 2.4× faster at depth 20 and slower "
-        "at 40 and 81. Here a coil of 10 turns stands in for the dragon (depth ≈ 21), the boxes are "
-        "the boxes, and a 40-turn screw the screws, all seen along their axis with a translucent "
-        "Phong surface; a sweep of 5 to 40 boxes traces the cost against the depth complexity."
+        "Table 2 renders translucent geometry only, at 1050 × 800, against NVIDIA's dual depth peeling: a 20k dragon "
+        "(depth complexity 20), 20 boxes in a row (40) and threaded screws (81). Depth peeling needs a geometry pass "
+        "per pair of layers, the tiled caster one binning pass and a per-pixel sort, so the paper finds peeling 2.4× "
+        "faster at depth 20 and slower at 40 and 81. Here a coil of 10 turns stands in for the dragon (depth ≈ 21), "
+        "the boxes are the boxes, and a 40-turn screw the screws, all seen along their axis with a translucent Phong "
+        "surface; a sweep of 5 to 40 boxes traces the cost against the depth complexity."
     )
 
     def plan(self, profile):
@@ -207,12 +204,11 @@ class Depth(PaperExperiment):
                "max depth complexity equal to the paper's on S1, S2 and S3 (unbounded lists)",
                lambda df: _depths(df, 0.0), paper_value="20, 40, 81", kind="count").with_ours(
             "The stand-ins have the paper's depth complexities (20, 40, 81)", "max depth complexity within 10 % of the "
-            "paper's on S1, S2 and S3 (unbounded lists)", _depths, why="within 10 %: a coil and a 40-turn screw stand "
-            "in for the paper's dragon and screws"),
+            "paper's on S1, S2 and S3 (unbounded lists)", _depths,
+            why="within 10 %: a coil and a 40-turn screw stand in for the paper's dragon and screws"),
         Claim("linear-in-depth", "The tiled caster's cost grows about linearly with depth complexity: one binning "
-              "pass, a coherent per-pixel insertion sort (§3.2)",
-              f"frame time over the box sweep fits a line in depth complexity, R² ≥ 0.9 ({KERNELS})", _depth_fit,
-              kind="timing"),
+              "pass, a coherent per-pixel insertion sort (§3.2)", "frame time over the box sweep fits a line in depth "
+              f"complexity, R² ≥ 0.9 ({KERNELS})", _depth_fit, kind="timing"),
         Claim("accuracy", "Translucent geometry renders the reference's image (S3 capped at 63 of 81 layers)",
               TILED_ACCURATE.expected, TILED_ACCURATE),
         Claim("dual-accuracy", "Dual depth peeling renders the reference's image (every layer, no cap)",
@@ -231,9 +227,9 @@ class Depth(PaperExperiment):
              "At depth complexity 40 and 81 the tiled caster beats dual depth peeling (S2: 18–28 fps against 14–16; "
              "S3: 31–52 against 25–46)"),
             above=False, paper_value="S2 18–28 vs 14–16, S3 31–52 vs 25–46 fps"),
-        Claim("crossover", "The two cross between depth complexity 20 and 40", "the depth where dual depth "
-              "peeling's frame time passes cl-tiled's (box sweep, interpolated between measured depths) lies in "
-              f"[20, 40] ({FRAMES})", _crossover, kind="timing"),
+        Claim("crossover", "The two cross between depth complexity 20 and 40", "the depth where dual depth peeling's "
+              "frame time passes cl-tiled's (box sweep, interpolated between measured depths) lies in [20, 40] "
+              f"({FRAMES})", _crossover, kind="timing"),
     )
 
     def paper_table(self):
@@ -259,7 +255,6 @@ class Depth(PaperExperiment):
                              ["scene", "method", "depth", "count_fragments_mean", "count_triangles", "time_ms",
                               "time_ms_min", "time_ms_max", "psnr", "count_fragments_dropped", "count_layers",
                               "count_peel_passes"], ctx, csv_name="depth.csv",
-                             caption="Depth: max fragments per pixel from the unbounded lists; layers and peel "
-                                     "passes: dual depth peeling's (two layers per geometry pass, besides its "
-                                     "init pass)."))
+                             caption="Depth: max fragments per pixel from the unbounded lists; layers and peel passes: "
+                                     "dual depth peeling's (two layers per geometry pass, besides its init pass)."))
         return out + not_measurable([DUAL_PEELING] if not accepts(PEEL, "peeling") else [])

@@ -37,12 +37,12 @@ UNBOUNDED_EXACT = worst_psnr("the unbounded lists' worst PSNR against the refere
                              role="unbounded")
 
 
-def _over_threshold(reference, test, threshold=ERROR_THRESHOLD):
-    """Fraction of pixels whose colour over black (premultiplied RGB) differs by more than ``threshold``."""
+def _over_threshold(reference, test):
+    """Fraction of pixels whose colour over black (premultiplied RGB) differs by more than :data:`ERROR_THRESHOLD`."""
     truth, image = read_exr(reference), read_exr(test)
     if truth.shape != image.shape:
         raise ValueError(f"{test} and {reference} differ in size")
-    return float((np.abs(truth[..., :3] - image[..., :3]).max(axis=-1) > threshold).mean())
+    return float((np.abs(truth[..., :3] - image[..., :3]).max(axis=-1) > ERROR_THRESHOLD).mean())
 
 
 def _cap_rows(ok, *, complete=False):
@@ -55,11 +55,9 @@ def _cap_rows(ok, *, complete=False):
         return pd.DataFrame()
     rows = role_rows(ok)
     rows["cap"] = numeric(rows, "cap")
-    fractions = []
-    for row in rows.itertuples():
-        truth = reference_exr(ok.assign(status="ok"), row)
-        fractions.append(_over_threshold(truth, row.exr) if file_exists(truth) and file_exists(row.exr) else np.nan)
-    rows["over_threshold"] = fractions
+    truths = [reference_exr(ok.assign(status="ok"), row) for row in rows.itertuples()]
+    rows["over_threshold"] = [_over_threshold(truth, exr) if file_exists(truth) and file_exists(exr) else np.nan
+                              for truth, exr in zip(truths, rows.exr)]
     missing = rows[rows.over_threshold.isna()]
     if complete and not missing.empty:
         raise ValueError("no image, or no unbounded run's image, to compare for "
@@ -119,19 +117,17 @@ class DepthCap(PaperExperiment):
     scales = scaled(base=IMAGE_SIZES, smoke={"scenes": ["pile"], "caps": [16, 63], "small_size": 16, "count": 40},
                     default={"small_size": 32, "count": 48}, full={"small_size": 64, "count": 48})
     description = (
-        "Each pixel keeps its nearest fragments in local memory, at most 63 in the paper, so deeper "
-        "boundaries are dropped. Fig. 5 renders a thumbscrew of depth complexity 81 with the limit at "
-        "55 against a ground truth with unbounded lists in global memory: fewer than 0.05 % of the "
-        "pixels differ by more than 5 % of the colour range. Here the same comparison runs for caps "
-        "16, 32, 55 and 63 on a translucent threaded screw seen along its axis (two crossings per "
-        "turn) and on a pile of overlapping volumes bounded by their boxes (two fragments per volume "
-        "per pixel, more than 63 where they all overlap). The unbounded lists are cl-tiled's global "
-        "variant; it is itself checked against the reference. A smaller cap needs less local memory "
-        "per work-group (the paper reports up to 40 % speed-up from the occupancy it buys). That gain "
-        "is timed where both caps do the same work: six clouds, at most 12 fragments per pixel, with "
-        "caps 16 and 63 timed together (on the deep scenes a smaller cap also drops fragments, and the "
-        "work they bring). On a CPU OpenCL device local memory is ordinary memory and work-groups "
-        "run one after another, so the occupancy the paper bought has no counterpart there."
+        "Each pixel keeps its nearest fragments in local memory, at most 63 in the paper, so deeper boundaries are "
+        "dropped. Fig. 5 renders a thumbscrew of depth complexity 81 with the limit at 55 against a ground truth with "
+        "unbounded lists in global memory: fewer than 0.05 % of the pixels differ by more than 5 % of the colour "
+        "range. Here the same comparison runs for caps 16, 32, 55 and 63 on a translucent threaded screw seen along "
+        "its axis (two crossings per turn) and on a pile of overlapping volumes bounded by their boxes (two fragments "
+        "per volume per pixel, more than 63 where they all overlap). The unbounded lists are cl-tiled's global "
+        "variant; it is itself checked against the reference. A smaller cap needs less local memory per work-group "
+        "(the paper reports up to 40 % speed-up from the occupancy it buys). That gain is timed where both caps do the "
+        "same work: six clouds, at most 12 fragments per pixel, with caps 16 and 63 timed together (on the deep scenes "
+        "a smaller cap also drops fragments, and the work they bring). On a CPU OpenCL device local memory is ordinary "
+        "memory and work-groups run one after another, so the occupancy the paper bought has no counterpart there."
     )
 
     def plan(self, profile):
@@ -178,10 +174,9 @@ class DepthCap(PaperExperiment):
                "faster (paper)", f"time(cap 63) / time(cap 16) ≥ {as_ratio(tables.CAP_GAIN)} where both keep every "
                f"fragment ({SHALLOW_CLOUDS} clouds, {KERNELS})", lambda df: _cap_speed(df, tables.CAP_GAIN),
                paper_value="up to 40 %", kind="timing").with_ours(
-            "A smaller cap is faster (paper: up to 40 % from the occupancy it buys)",
-            f"time(cap 63) / time(cap 16) > ×1 where both keep every fragment ({SHALLOW_CLOUDS} clouds, "
-            f"{KERNELS})", _cap_speed, why="faster at all: the paper's 40 % is its best case, the occupancy a GPU "
-            "gains, which a CPU lacks"),
+            "A smaller cap is faster (paper: up to 40 % from the occupancy it buys)", "time(cap 63) / time(cap 16) > "
+            f"×1 where both keep every fragment ({SHALLOW_CLOUDS} clouds, {KERNELS})", _cap_speed,
+            why="faster at all: the paper's 40 % is its best case, the occupancy a GPU gains, which a CPU lacks"),
     )
 
     def report(self, results, ctx):
@@ -192,12 +187,11 @@ class DepthCap(PaperExperiment):
             rows = speed_points(rows)
             caps = {"x": "cap", "group": "scene", "x_label": "fragments kept per pixel (depth cap)"}
             out.append(figure(ctx, "error", plots.lines, rows.assign(percent=100 * rows.over_threshold),
-                              heading="Error against the cap",
+                              heading="Error against the cap", y="percent", vlines=(55, 63),
                               caption="Against cl-tiled's unbounded lists, same step; dotted: the paper's 55 and 63.",
-                              y="percent", y_label="pixels off by > 5 % of the range (%)", vlines=(55, 63),
                               title=title_or(_cap_title, rows, "Pixels off by more than 5 % against the cap"),
                               guides=(("paper's bound 0.05 %", [rows.cap.min(), rows.cap.max()], [0.05, 0.05]),),
-                              **caps))
+                              y_label="pixels off by > 5 % of the range (%)", **caps))
             out.append(figure(ctx, "time", plots.lines, rows, heading="Time against the cap",
                               caption="Bars from the fastest to the slowest frame. " + frames_caption(rows),
                               y="time_ms", y_range=("time_ms_min", "time_ms_max"), title="Frame time against the cap",

@@ -124,14 +124,13 @@ class EmptySpace(PaperExperiment):
     scales = scaled(base=IMAGE_SIZES, smoke={"scenes": ["torso"], "volume_size": 32, "brick_sizes": [8]},
                     default={"volume_size": 128}, full={"volume_size": 512})
     description = (
-        "The tiled caster bounds each volume by a hull around its non-empty bricks, built on the "
-        "GPU from the transfer function (about 5 ms for 512³ on a GTX 280) and binned like any "
-        "boundary, so empty space outside and inside the data is skipped by the same segment walk; "
-        "the paper reports up to 15 % more frames per second, best with 8³ bricks on medical data. "
-        "Here an abdomen and a skull (much air) are rendered with their boxes and with hulls of "
-        "4³ to 32³ bricks; every timed process builds each hull once more in a preprocessing frame of "
-        "its own (compiled, before its warm-up), which times the build (brick ranges and hull) beside the "
-        "frames it is compared with."
+        "The tiled caster bounds each volume by a hull around its non-empty bricks, built on the GPU from the transfer "
+        "function (about 5 ms for 512³ on a GTX 280) and binned like any boundary, so empty space outside and inside "
+        "the data is skipped by the same segment walk; the paper reports up to 15 % more frames per second, best with "
+        "8³ bricks on medical data. Here an abdomen and a skull (much air) are rendered with their boxes and with "
+        "hulls of 4³ to 32³ bricks; every timed process builds each hull once more in a preprocessing frame of its own "
+        "(compiled, before its warm-up), which times the build (brick ranges and hull) beside the frames it is "
+        "compared with."
     )
 
     def plan(self, profile):
@@ -166,10 +165,9 @@ class EmptySpace(PaperExperiment):
         Claim("hull-accurate", "Hulls skip only empty space: the image stays the reference's",
               "PSNR of every hull within 1 dB of the box's, against the reference", _hull_accuracy, kind="accuracy"),
         Claim("build-cheap", "Rebuilding the hull on a transfer-function change costs less than a frame (our bound; "
-              "the paper states ≈ 5 ms for 512³ on its GPU, no share of a frame)",
-              "bricks + hull build time (8³ bricks) / the median frame with that hull, "
-              f"both in the same timed processes, ≤ ×1 ({KERNELS})", _build_cheap, paper_value="≈ 5 ms for 512³",
-              kind="timing"),
+              "the paper states ≈ 5 ms for 512³ on its GPU, no share of a frame)", "bricks + hull build time (8³ "
+              f"bricks) / the median frame with that hull, both in the same timed processes, ≤ ×1 ({KERNELS})",
+              _build_cheap, paper_value="≈ 5 ms for 512³", kind="timing"),
     )
 
     def report(self, results, ctx):
@@ -179,10 +177,9 @@ class EmptySpace(PaperExperiment):
             rows = speed_points(tests)
             rows["brick"] = numeric(rows, "brick")
             hulls = rows[rows.config == "hull"]
-            out.append(figure(ctx, "bricks", plots.lines, hulls, heading="Hull brick size",
+            out.append(figure(ctx, "bricks", plots.lines, hulls, heading="Hull brick size", x="brick", y="time_ms",
                               caption="Bars from the fastest to the slowest frame; dotted: the paper's 8³. "
-                                      + frames_caption(rows),
-                              x="brick", y="time_ms", group="scene", y_range=("time_ms_min", "time_ms_max"),
+                                      + frames_caption(rows), group="scene", y_range=("time_ms_min", "time_ms_max"),
                               title="Frame time against the brick size (boxes as guides)",
                               x_label="brick edge (voxels)", y_label="median frame time (ms)", log_x=True, vlines=(8,),
                               guides=tuple((f"{r.scene}: box boundaries", [hulls.brick.min(), hulls.brick.max()],

@@ -35,8 +35,7 @@ PEELING = ("depth-peeling multi-volume caster (stand-in for Roessler 2008 / Brec
 COLUMN_NAMES = {"count_fragments_max": "max depth complexity", "count_fragments_mean": "mean depth complexity",
                 "count_fragments_dropped": "fragments dropped", "count_triangles": "boundary triangles",
                 "count_samples": "volume samples", "over_threshold": "pixels off by > 5 % (%)",
-                "binning_share": "binning share (%)", "pixel_share": "pixel kernel share (%)",
-                "ns_per_sample": "ns per sample"}
+                "ns_per_sample": "ns per sample", "binning_ms": "binning kernel (ms)", "pixel_ms": "pixel kernel (ms)"}
 """This paper's columns in words (times and metrics are named by the kit)."""
 
 
@@ -130,9 +129,8 @@ def frames_caption(frame):
     devices = _tiled_devices(frame)
     where = f"; cl-tiled on {', '.join(devices)}" if devices else ""
     return pages.frames_caption(frame, unit="timed frames",
-                                untimed="uploads, brick ranges and hulls are built once per view, in a "
-                                        "preprocessing frame of their own, and timed as stages apart (cached on "
-                                        "the device)",
+                                untimed="uploads, brick ranges and hulls are built once per view, in a preprocessing "
+                                        "frame of their own, and timed as stages apart (cached on the device)",
                                 how=f"stage times from OpenCL profiling events, the total by wall clock{where}")
 
 

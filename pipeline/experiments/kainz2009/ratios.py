@@ -69,28 +69,12 @@ class PeelingRatio:
 
     def claims(self, id, bands, statements, *, above, paper_value, scenes=None, where=None, why="the direction only",
                note=""):
-        """The claim ``<id>-paper`` that the ratio lies within each scene's band of ``bands`` and ours, ``id``,
-        that it lies above ×1 (``above``) or below it (:meth:`~pipeline.experiments.kit.model.Claim.with_ours`).
-
-        Parameters
-        ----------
-        id : str
-        bands : dict
-            ``{scene: (low, high)}``: the paper's ratio on each of its scenes (:func:`paper_bands`).
-        statements : tuple of str
-            The paper's claim and ours, in words.
-        above : bool
-            Whether our target is a ratio above ×1 (``top`` slower) or below it.
-        paper_value : str
-            The paper's frame rates, in words.
-        scenes : tuple of str, optional
-            The scenes our target reads (default: those of ``bands``).
-        where : str, optional
-            Those scenes in its expected text (default: ``"on S2 and S3"`` for ``("S2", "S3")``).
-        why : str
-            Why ours judges less than the paper's band; that the devices differ from the paper's follows.
-        note : str
-            Ends what our target's detail says it compares.
+        """The claim ``<id>-paper`` that the ratio lies within each scene's band of ``bands`` (``{scene: (low,
+        high)}``, :func:`paper_bands`) and ours, ``id``, that it lies above ×1 (``above``: ``top`` slower) or below it
+        (:meth:`~pipeline.experiments.kit.model.Claim.with_ours`). ``statements``: the paper's claim and ours, in
+        words; ``paper_value``: the paper's frame rates. Ours reads ``scenes`` (default: those of ``bands``), named
+        ``where`` in its expected text (default: ``"on S2 and S3"``); ``why`` says why it judges less than the
+        paper's band (that the devices differ follows); ``note`` ends what its detail says it compares.
         """
         scenes = tuple(bands) if scenes is None else scenes
         where = f"on {' and '.join(scenes)}" if where is None else where

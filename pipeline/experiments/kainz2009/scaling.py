@@ -22,12 +22,9 @@ from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, role_ro
 from reports import plots
 
 COUNTS = (1, 2, 4, 8, 16, 20, 32, 50, 64)
-SERIES = {
-    # series: the paper's words
-    "clouds": "N × 64³ clouds",
-    "clouds+256": "N × 64³ clouds + one 256³ volume",
-    "clouds+mesh": "N × 64³ clouds + a 30k-triangle mesh",
-}
+SERIES = {"clouds": "N × 64³ clouds", "clouds+256": "N × 64³ clouds + one 256³ volume",
+          "clouds+mesh": "N × 64³ clouds + a 30k-triangle mesh"}
+"""Each series in the paper's words."""
 TARGET_COUNT = 50
 TARGET_RATIO = 4.0
 """The issue's target: 50 clouds and the 30k mesh at most 4× one cloud's frame time, same picture."""
@@ -111,16 +108,14 @@ class Scaling(PaperExperiment):
                     default={"counts": [1, 4, 8, 16, 50, 64], "mesh_triangles": 30000, "truth_counts": [1, 8, 50]},
                     full={"mesh_triangles": 30000})
     description = (
-        "The paper's central point: the tiled caster rasterizes every boundary once per frame and "
-        "walks each ray's segments with the set of volumes present, so its cost grows gently with "
-        "the number of overlapping volumes (it renders 50 × 64³ volumes with a 30k-polygon mesh at "
-        "8–16 fps, while depth peeling needs a pass per layer and the shader tools stop at 4 "
-        "volumes). Here 1 to 64 smoke clouds of 64³ (stand-ins at the profile's size) overlap "
-        "heavily around one point, randomly turned, alone, inside one 256³ volume, and with a "
-        "30k-triangle translucent mesh among them. The camera and the picture stay fixed, zoomed so "
-        "that one cloud already covers most pixels, so only the volume count changes. VTK's GPU "
-        "caster (vtkMultiVolume, up to 7 volumes) renders the clouds alone beside it. Selected "
-        "counts are checked against the reference."
+        "The paper's central point: the tiled caster rasterizes every boundary once per frame and walks each ray's "
+        "segments with the set of volumes present, so its cost grows gently with the number of overlapping volumes (it "
+        "renders 50 × 64³ volumes with a 30k-polygon mesh at 8–16 fps, while depth peeling needs a pass per layer and "
+        "the shader tools stop at 4 volumes). Here 1 to 64 smoke clouds of 64³ (stand-ins at the profile's size) "
+        "overlap heavily around one point, randomly turned, alone, inside one 256³ volume, and with a 30k-triangle "
+        "translucent mesh among them. The camera and the picture stay fixed, zoomed so that one cloud already covers "
+        "most pixels, so only the volume count changes. VTK's GPU caster (vtkMultiVolume, up to 7 volumes) renders the "
+        "clouds alone beside it. Selected counts are checked against the reference."
     )
 
     def plan(self, profile):
@@ -210,8 +205,7 @@ class Scaling(PaperExperiment):
 def _one_cloud_ms(rows):
     """Per row, the one-cloud time its series is compared with: cl-tiled's clouds alone, VTK's for VTK."""
     one = rows[(rows.series == "clouds") & (rows["count"] == 1)]
-    base = dict(zip(one.config, one.time_ms))
-    return rows.config.map(base).astype(float)
+    return rows.config.map(dict(zip(one.config, one.time_ms))).astype(float)
 
 
 def _scaling_title(rows):

@@ -30,18 +30,18 @@ def volume(dataset, size, preset, name, **extra):
     return phantom(dataset, int(size), preset=preset, name=name, **extra)
 
 
-def clouds(count, size, *, first=0, scale=1.0, seed=2009):
-    """``count`` smoke clouds of ``size``³ (seeds ``first``…), heavily overlapping and randomly turned.
+def clouds(count, size, *, scale=1.0):
+    """``count`` smoke clouds of ``size``³ (seeds 0…), heavily overlapping and randomly turned.
 
     Cloud ``i`` is the same in every count: the draws do not depend on ``count``. The first sits
     at the origin, the others within ±:data:`CLOUD_SPREAD` of an edge of it.
     """
-    rng = np.random.default_rng(seed)
+    rng = np.random.default_rng(2009)
     entries = []
     for i in range(count):
         offset = rng.uniform(-CLOUD_SPREAD, CLOUD_SPREAD, 3) * size * scale
         axis, degrees = rng.normal(size=3), rng.uniform(0.0, 360.0)
-        entries.append(volume("smoke_cloud", size, "smoke", f"cloud{i:02d}", seed=first + i,
+        entries.append(volume("smoke_cloud", size, "smoke", f"cloud{i:02d}", seed=i,
                               transform={"translate": [0.0] * 3 if i == 0 else [round(float(v), 4) for v in offset],
                                          "rotate": {"axis": [round(float(v), 4) for v in axis],
                                                     "degrees": round(float(degrees), 3)},
@@ -55,9 +55,10 @@ def mesh(name, generator, params, *, transform=None, surface=SURFACE):
             **({"transform": transform} if transform else {})}
 
 
-def blob(size, triangles, name="mesh30k"):
+def blob(size, triangles):
     """The ``triangles`` mesh of C8: a noisy sphere among the clouds (radius a third of a cloud edge)."""
-    return mesh(name, "noisy_sphere", {"radius": round(size / 3, 4), "subdivisions": 6, "triangles": int(triangles)})
+    return mesh("mesh30k", "noisy_sphere",
+                {"radius": round(size / 3, 4), "subdivisions": 6, "triangles": int(triangles)})
 
 
 def screw(turns):

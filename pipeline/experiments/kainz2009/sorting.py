@@ -47,10 +47,9 @@ def _sorting_rows(ok):
     rows = ok[text_column(ok, "part").isin(["full", "gather+sort"])].copy()
     if rows.empty:
         return rows
-    rows["pixel_ms"] = numeric(rows, "time_pixel") * 1e3
-    sort_ms = rows[rows.part == "gather+sort"].set_index(["scene", "order"]).pixel_ms
+    rows["pixel kernel (ms)"] = numeric(rows, "time_pixel") * 1e3
+    sort_ms = rows[rows.part == "gather+sort"].set_index(["scene", "order"])["pixel kernel (ms)"]
     rows = speed_points(rows) if "time_total" in rows else rows
-    rows["pixel kernel (ms)"] = rows.pixel_ms
     rows["gather+sort (ms)"] = [sort_ms.get((s, o), np.nan) if p == "full" else np.nan
                                 for s, o, p in zip(rows.scene, rows.order, rows.part)]
     rows["traversal (ms)"] = rows["pixel kernel (ms)"] - rows["gather+sort (ms)"]
@@ -116,17 +115,15 @@ class Sorting(PaperExperiment):
     scales = scaled(base=IMAGE_SIZES, smoke={"scenes": ["boxes"], "orders": ["front-to-back", "back-to-front"]},
                     default={"small_size": 32}, full={"small_size": 64})
     description = (
-        "Each pixel inserts its fragments into a depth-sorted list in local memory in the order the "
-        "triangle kernel appended them to the tile. Insertion sort costs nothing for fragments that "
-        "arrive front to back and n(n − 1)/2 shifts for n fragments that arrive back to front; the "
-        "paper built such a worst case and found the sort still small next to ray traversal (§3.2, "
-        "no number given). Here cl-tiled submits the triangles to binning in scene order or sorted "
-        "by the view depth of their centroids, nearest or farthest first (the image does not change: "
-        "fragments are ordered by depth and triangle id whatever their arrival), on Table 2's 20 "
-        "boxes in a row (depth complexity 40) and on a 20k-triangle coil among smoke clouds (Fig. 1, "
-        "left; the coil stands in for the dragon and no brain volume is added). An ablation of the "
-        "pixel kernel that stops after gathering and sorting times that part alone; the rest of the "
-        "kernel is the ray traversal (segment walk, sampling, shading)."
+        "Each pixel inserts its fragments into a depth-sorted list in local memory in the order the triangle kernel "
+        "appended them to the tile. Insertion sort costs nothing for fragments that arrive front to back and n(n − "
+        "1)/2 shifts for n fragments that arrive back to front; the paper built such a worst case and found the sort "
+        "still small next to ray traversal (§3.2, no number given). Here cl-tiled submits the triangles to binning in "
+        "scene order or sorted by the view depth of their centroids, nearest or farthest first (the image does not "
+        "change: fragments are ordered by depth and triangle id whatever their arrival), on Table 2's 20 boxes in a "
+        "row (depth complexity 40) and on a 20k-triangle coil among smoke clouds (Fig. 1, left; the coil stands in for "
+        "the dragon and no brain volume is added). An ablation of the pixel kernel that stops after gathering and "
+        "sorting times that part alone; the rest of the kernel is the ray traversal (segment walk, sampling, shading)."
     )
 
     def plan(self, profile):
@@ -167,8 +164,7 @@ class Sorting(PaperExperiment):
         extra = [] if rows.empty else device_note(rows) + _sorting_takeaways(rows)
         out = [claim_takeaways(ctx, extra)]
         if not rows.empty:
-            full = rows[rows.part == "full"].copy()
-            full["label"] = full.scene + ", " + full.order
+            full = rows[rows.part == "full"].assign(label=lambda full: full.scene + ", " + full.order)
             split = full[full["gather+sort (ms)"].notna()].assign(
                 time_gather_and_sort=full["gather+sort (ms)"] / 1e3, time_traversal=full["traversal (ms)"] / 1e3)
             if not split.empty:

@@ -23,9 +23,8 @@ def _step_rows(ok):
     if tests.empty:
         return pd.DataFrame()
     rows = speed_points(tests)
-    rows["step_factor"] = numeric(rows, "step_factor")
-    rows["ns_per_sample"] = rows.time_ms * 1e6 / numeric(rows, "count_samples")
-    return rows.sort_values("step_factor")
+    return rows.assign(step_factor=numeric(rows, "step_factor"),
+                       ns_per_sample=rows.time_ms * 1e6 / numeric(rows, "count_samples")).sort_values("step_factor")
 
 
 def _marginal(rows, times):
@@ -74,14 +73,13 @@ class Step(PaperExperiment):
                           "repeat"})
     scales = scaled(base=CLOUD_SIZES, smoke={"count": 2, "step_factors": [1.0, 0.5, 0.25]}, default={"large_size": 128})
     description = (
-        "Every volume a ray meets is sampled at one world step, the smallest of their voxel sizes, "
-        "so that samples line up for blending; low-resolution volumes are oversampled. The paper "
-        "says this costs little because neighbouring samples hit the texture cache. Here one "
-        "high-resolution skull overlaps a few low-resolution clouds stretched over half of it (a "
-        "cloud voxel is several skull voxels), and the step factor (in units of the skull's voxel) "
-        "is swept, every step timed together: the cost of the samples the finest steps add, against "
-        "that of the samples the coarsest add (a frame's fixed cost cancels in both), shows what "
-        "oversampling costs, the error against the reference what it buys."
+        "Every volume a ray meets is sampled at one world step, the smallest of their voxel sizes, so that samples "
+        "line up for blending; low-resolution volumes are oversampled. The paper says this costs little because "
+        "neighbouring samples hit the texture cache. Here one high-resolution skull overlaps a few low-resolution "
+        "clouds stretched over half of it (a cloud voxel is several skull voxels), and the step factor (in units of "
+        "the skull's voxel) is swept, every step timed together: the cost of the samples the finest steps add, against "
+        "that of the samples the coarsest add (a frame's fixed cost cancels in both), shows what oversampling costs, "
+        "the error against the reference what it buys."
     )
 
     def plan(self, profile):

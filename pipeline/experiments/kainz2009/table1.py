@@ -13,7 +13,7 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, all_of, counts, decided, decision_words, timed
 from pipeline.experiments.kit.model import Claim, ClaimResult, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, title_or)
+                                            format_number, speed_psnr_figure, title_or)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import (numeric, ok_rows, role_rows, rows_matching, speed_points, stage_time,
                                               text_column)
@@ -169,16 +169,14 @@ class Table1(PaperExperiment):
                     default={"scan_size": 128, "mesh_triangles": 30000, "vessel_resolution": 96},
                     full={"scan_size": 512, "mesh_triangles": 30000, "vessel_resolution": 160})
     description = (
-        "Table 1 times the tiled caster against two depth-peeling shader casters on eight scenes: "
-        "one 512³ scan (C1), two and four overlapping 256³ volumes (C2, C3), a 256³ scan with 8 or "
-        "20 time steps of 64³ (C4, C5), a 512³ scan with a 30k iso-surface (C6) or with a 30k "
-        "vessel tree, a 10k liver and a 5k tumour (C7), and 50 × 64³ volumes with a 30k mesh (C8). "
-        "Here phantoms stand in (note 002 §6, at the profile's sizes) with translucent meshes, "
-        "Blinn–Phong shading and the headline view. cl-tiled renders them with tight brick hulls; "
-        "VTK's GPU caster (single-pass shaders, up to 7 volumes, no meshes) takes the shader "
-        "casters' place where it can; the reference renders every image at a finer step. The "
-        "stage times split each frame into the triangle kernel (binning) and the pixel kernel, and "
-        "each run records the atlas, the tile lists and the chunk pool it used."
+        "Table 1 times the tiled caster against two depth-peeling shader casters on eight scenes: one 512³ scan (C1), "
+        "two and four overlapping 256³ volumes (C2, C3), a 256³ scan with 8 or 20 time steps of 64³ (C4, C5), a 512³ "
+        "scan with a 30k iso-surface (C6) or with a 30k vessel tree, a 10k liver and a 5k tumour (C7), and 50 × 64³ "
+        "volumes with a 30k mesh (C8). Here phantoms stand in (note 002 §6, at the profile's sizes) with translucent "
+        "meshes, Blinn–Phong shading and the headline view. cl-tiled renders them with tight brick hulls; VTK's GPU "
+        "caster (single-pass shaders, up to 7 volumes, no meshes) takes the shader casters' place where it can; the "
+        "reference renders every image at a finer step. The stage times split each frame into the triangle kernel "
+        "(binning) and the pixel kernel, and each run records the atlas, the tile lists and the chunk pool it used."
     )
 
     def plan(self, profile):
@@ -249,13 +247,10 @@ class Table1(PaperExperiment):
             rows = speed_points(tests)
             rows["method"] = rows.config.map(METHOD_NAMES)
             rows["fps"] = 1e3 / rows.time_ms
-            out.append(figure(ctx, "speed-accuracy", plots.speed_accuracy, rows, heading="Speed against accuracy",
-                              caption="One point per scene (labelled) and method. " + frames_caption(rows),
-                              time_col="time_ms", error_col="psnr", group_col="method", label_col="scene",
-                              title="Median frame time against PSNR, every scene", log_y=False, log_x=True,
-                              time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                              x_label="median frame time (ms, log scale); bars: fastest to slowest frame",
-                              y_label="PSNR against the reference (dB)"))
+            out.append(speed_psnr_figure(ctx, "speed-accuracy", rows, heading="Speed against accuracy",
+                                         caption="One point per scene (labelled) and method. " + frames_caption(rows),
+                                         title="Median frame time against PSNR, every scene", group="method",
+                                         label="scene", x_label="median frame time (ms, log scale)", log_x=True))
             merged = rows.assign(**{"paper fps (mid)": rows.scene.map({s: np.mean(r[4]) for s, r in TABLE1.items()})})
             out.append(table("Frame times and accuracy", merged.sort_values(["scene", "config"]),
                              ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "fps", "paper fps (mid)",
@@ -287,12 +282,11 @@ def _stage_title(tiled):
 
 def _memory_table(tiled, ctx):
     """E12: atlas, fixed tile tables and the pool used per scene (bytes as MiB)."""
-    memory = tiled.copy()
-    tiles = np.ceil(numeric(memory, "image_size") / 8) ** 2
-    memory["atlas (MiB)"] = numeric(memory, "info_atlas_bytes") / 2 ** 20
-    memory["pool used (MiB)"] = numeric(memory, "info_pool_bytes_used") / 2 ** 20
-    memory["pool allocated (MiB)"] = numeric(memory, "count_pool_chunks") * 64 * 12 / 2 ** 20
-    memory["chunk-index table (MiB)"] = tiles * 64 * 4 / 2 ** 20
+    tiles = np.ceil(numeric(tiled, "image_size") / 8) ** 2
+    memory = tiled.assign(**{"atlas (MiB)": numeric(tiled, "info_atlas_bytes") / 2 ** 20,
+                             "pool used (MiB)": numeric(tiled, "info_pool_bytes_used") / 2 ** 20,
+                             "pool allocated (MiB)": numeric(tiled, "count_pool_chunks") * 64 * 12 / 2 ** 20,
+                             "chunk-index table (MiB)": tiles * 64 * 4 / 2 ** 20})
     columns = ["scene", "atlas (MiB)", "chunk-index table (MiB)", "pool used (MiB)", "pool allocated (MiB)",
                "count_triangles", "count_records_per_tile_max"]
     return table("Memory per scene (E12)", memory.sort_values("scene"), columns, ctx, csv_name="table1_memory.csv",
