@@ -7,8 +7,8 @@ import renderers
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, figure, format_number,
-                                            linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, format_number, linked_table,
+                                            not_measurable, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, listed, missing_options, phantom,
                                                scene, timed_frames, truth_run, unregistered, usable_cores)
 from pipeline.experiments.kit.results import (complete_groups, numeric, ok_rows, pair_metrics, rows_matching,
@@ -16,7 +16,7 @@ from pipeline.experiments.kit.results import (complete_groups, numeric, ok_rows,
 from pipeline.experiments.kit.words import full_count, megabytes, short_duration
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, VP
-from reports import blocks, plots
+from reports import blocks
 from reports.takeaways import cell_text
 
 VOLPACK_CONFIGS = {
@@ -183,15 +183,12 @@ class VolPackComparison(Experiment):
                                             "classified-RLE image of the same view."))
         for scene_name, group in tests.groupby("scene"):
             group = group.assign(technique=[_technique(c) for c in group.config])
-            out.append(figure(ctx, f"speed-{scene_name}", plots.speed_accuracy, group,
-                              heading=f"{scene_name}: frame time against accuracy",
-                              caption="One point per technique; further left is faster, higher is closer to the "
-                                      "reference ray caster.",
-                              time_col="time_ms", error_col="psnr", group_col="technique",
-                              title=_chart_title(scene_name, group), log_x=True, log_y=False,
-                              time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                              x_label="median frame time (ms); bars: fastest to slowest frame",
-                              y_label="PSNR against the reference (dB)"))
+            out.append(speed_psnr_figure(ctx, f"speed-{scene_name}", group,
+                                         heading=f"{scene_name}: frame time against accuracy",
+                                         caption="One point per technique; further left is faster, higher is closer "
+                                                 "to the reference ray caster.",
+                                         title=_chart_title(scene_name, group), group="technique", label=None,
+                                         log_x=True))
         out += [_gallery(scene_name, group, ctx) for scene_name, group in ok.groupby("scene")]
         return out + not_measurable(unregistered(SW, VP) + missing_options(VP, "mode")
                                     + missing_options(SW, "workers"))
