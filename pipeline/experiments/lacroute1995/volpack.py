@@ -167,7 +167,7 @@ class VolPackComparison(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = speed_points(ok[ok.role == "test"])
+        tests = speed_points(ok[ok.role == "test"]).assign(technique=lambda t: [_technique(c) for c in t.config])
         out = [blocks.Takeaways(_takeaways(ctx.claims, results))]
         if not tests.empty:
             out.append(_modes_table(tests, ctx))
@@ -182,7 +182,6 @@ class VolPackComparison(Experiment):
                                             "faster. PSNR/SSIM against the reference ray caster and against VolPack's "
                                             "classified-RLE image of the same view."))
         for scene_name, group in tests.groupby("scene"):
-            group = group.assign(technique=[_technique(c) for c in group.config])
             out.append(speed_psnr_figure(ctx, f"speed-{scene_name}", group,
                                          heading=f"{scene_name}: frame time against accuracy",
                                          caption="One point per technique; further left is faster, higher is closer "
@@ -320,8 +319,7 @@ def _where_the_time_goes(tests, ctx):
               "count_classified_on_the_fly": "voxels classified on the fly", "count_rle_bytes": "RLE (MB)",
               "count_octree_bytes": "octree (MB)", "count_voxel_array_bytes": "unclassified voxel array (MB)",
               "count_intermediate_pixels": "intermediate pixels"}
-    shown = runs.assign(technique=[_technique(c) for c in runs.config],
-                        **{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
+    shown = runs.assign(**{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
                            for c in counts if c in runs})
     out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx, names=counts,
                             csv_name="volpack-counts.csv",
@@ -337,7 +335,6 @@ def _where_the_time_goes(tests, ctx):
 
 def _against_volpack(ok, tests):
     """``tests`` with their technique, their time over VolPack RLE's and PSNR/SSIM against its image (same scene)."""
-    tests = tests.assign(technique=[_technique(c) for c in tests.config])
     compared = []
     for row in tests.itertuples():
         vp = rows_matching(ok, "VolPack", scene=row.scene, config="volpack-rle")
