@@ -317,3 +317,30 @@ def speed_psnr_figure(ctx, name, frame, *, heading, caption, title, group, label
                   time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
                   x_label=f"{x_label}; bars: fastest to slowest frame", y_label="PSNR against the reference (dB)",
                   **options)
+
+
+def time_lines_figure(ctx, name, frame, *, heading, caption, title, x, group, x_label,
+                      y_label="median frame time (ms)", **options):
+    """Each row's median frame time against ``x``, one line per ``group`` with bars from the fastest to the slowest
+    frame, as the page's chart ``name`` (a :func:`figure` of :func:`reports.plots.lines`).
+
+    Parameters
+    ----------
+    ctx : reports.html.ReportContext
+    name : str
+    frame : pandas.DataFrame
+        The rows, with ``time_ms``, ``time_ms_min`` and ``time_ms_max`` (:func:`~.results.speed_points`, or
+        :func:`~.results.stage_points` named ``"time_ms"``) and the columns ``x`` and ``group``.
+    heading, caption, title : str
+        The figure's heading and caption, the chart's title.
+    x, group : str
+        The column along the horizontal axis, and the one whose values are the lines.
+    x_label, y_label : str
+        The axes in words.
+    **options
+        More options of the chart (``log_x``, ``guides``, ``vlines``).
+    """
+    from reports import plots  # matplotlib: only when a page draws it
+
+    return figure(ctx, name, plots.lines, frame, heading=heading, caption=caption, x=x, y="time_ms", group=group,
+                  y_range=("time_ms_min", "time_ms_max"), title=title, x_label=x_label, y_label=y_label, **options)

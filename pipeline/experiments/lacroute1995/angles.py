@@ -7,14 +7,14 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, format_number,
+                                            time_lines_figure)
 from pipeline.experiments.kit.planning import (dataset_view, is_registered, listed, phantom, scene, timed_frames,
                                                volume_and_image_size)
 from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, stage_points, view_angle
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
-from reports import blocks, plots
+from reports import blocks
 
 ANGLE_DATASETS = {"sphere": "opaque", "ct_skull": "bone", "cthead": "bone"}
 
@@ -99,11 +99,11 @@ class ViewAngles(Experiment):
         if frame.empty:
             return out
         frame = stage_points(frame, TIME, name="time_ms")
-        out += [figure(ctx, f"angle-{dataset}", plots.lines, part, heading=f"{dataset}: time over a full turn",
-                       caption="Dotted: the principal-axis switches. Bars: fastest to slowest timed frame.",
-                       x="angle", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
-                       title=_title(part, dataset), x_label="view angle about the vertical axis (degrees)",
-                       y_label="median technique time per frame (ms)", vlines=(45.0, 135.0, 225.0, 315.0))
+        out += [time_lines_figure(ctx, f"angle-{dataset}", part, heading=f"{dataset}: time over a full turn",
+                                  caption="Dotted: the principal-axis switches. Bars: fastest to slowest timed frame.",
+                                  x="angle", group="dataset", title=_title(part, dataset),
+                                  x_label="view angle about the vertical axis (degrees)",
+                                  y_label="median technique time per frame (ms)", vlines=(45.0, 135.0, 225.0, 315.0))
                 for dataset, part in frame.groupby("dataset")]
         summary = []
         for dataset, part in frame.groupby("dataset"):

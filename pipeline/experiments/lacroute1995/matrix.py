@@ -158,31 +158,28 @@ class OptimisationMatrix(Experiment):
 
 def _table(ok):
     """Per run (indexed as ``ok``): samples and speed-up relative to brute force, beside Fig. 5.17's."""
-    rows = []
     if ok.empty or "config" not in ok:
         return pd.DataFrame()
-    for row in ok.itertuples():
-        brute = ok[(ok.dataset == row.dataset) & (ok.config == "brute-force")]
-        samples = float(getattr(row, "count_samples", np.nan))
-        brute_samples = float(brute.count_samples.iloc[0]) if not brute.empty and "count_samples" in brute else np.nan
-        brute_time = float(brute.time_total.iloc[0]) if not brute.empty else np.nan
-        composite = float(getattr(row, "time_composite", np.nan))
-        brute_composite = float(brute.time_composite.iloc[0]) if not brute.empty and "time_composite" in brute else np.nan
-        thesis = FIG_5_17["brainsmall" if row.dataset == "brainsmall" else "brain"]
-        t_samples, t_time = thesis.get(row.config, (np.nan, np.nan))
-        rows.append({"index": row.Index, "dataset": row.dataset,
-                     "optimisation": MATRIX_CONFIGS.get(row.config, (None, row.config))[1],
-                     "samples": samples, "samples / brute force": samples / brute_samples,
-                     "thesis samples / brute force": t_samples / thesis["brute-force"][0],
-                     "time (ms)": row.time_total * 1e3,
-                     "fastest (ms)": getattr(row, "time_total_min", np.nan) * 1e3,
-                     "slowest (ms)": getattr(row, "time_total_max", np.nan) * 1e3,
-                     "speed-up": brute_time / row.time_total, "composite (ms)": composite * 1e3,
-                     "composite speed-up": brute_composite / composite,
-                     "thesis speed-up": thesis["brute-force"][1] / t_time})
-    table = pd.DataFrame(rows).set_index("index")
-    table["_order"] = [list(MATRIX_CONFIGS).index(c) if c in MATRIX_CONFIGS else 9 for c in ok.loc[table.index, "config"]]
-    return table.sort_values(["dataset", "_order"]).drop(columns="_order")
+    own = {c: ok[c].astype(float) if c in ok else pd.Series(np.nan, index=ok.index)
+           for c in ("count_samples", "time_total", "time_total_min", "time_total_max", "time_composite")}
+    # Each run's own values, and its data set's first brute-force run's.
+    brute = {c: ok.dataset.map(values[ok.config == "brute-force"].groupby(ok.dataset).first(skipna=False))
+             for c, values in own.items()}
+    thesis = [FIG_5_17["brainsmall" if d == "brainsmall" else "brain"] for d in ok.dataset]
+    t_samples, t_time = (np.array(t) for t in zip(*(f.get(c, (np.nan, np.nan)) for f, c in zip(thesis, ok.config))))
+    table = pd.DataFrame({"dataset": list(ok.dataset),
+                          "optimisation": [MATRIX_CONFIGS.get(c, (None, c))[1] for c in ok.config],
+                          "samples": own["count_samples"],
+                          "samples / brute force": own["count_samples"] / brute["count_samples"],
+                          "thesis samples / brute force": t_samples / [f["brute-force"][0] for f in thesis],
+                          "time (ms)": own["time_total"] * 1e3, "fastest (ms)": own["time_total_min"] * 1e3,
+                          "slowest (ms)": own["time_total_max"] * 1e3,
+                          "speed-up": brute["time_total"] / own["time_total"],
+                          "composite (ms)": own["time_composite"] * 1e3,
+                          "composite speed-up": brute["time_composite"] / own["time_composite"],
+                          "thesis speed-up": [f["brute-force"][1] for f in thesis] / t_time})
+    order = [list(MATRIX_CONFIGS).index(c) if c in MATRIX_CONFIGS else 9 for c in ok.config]
+    return table.assign(_order=order).sort_values(["dataset", "_order"]).drop(columns="_order")
 
 
 def _groups(df):

@@ -10,7 +10,8 @@ import datasets
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, figure, format_number, linked_table, title_or
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, figure, format_number, linked_table,
+                                            time_lines_figure, title_or)
 from pipeline.experiments.kit.planning import accepts, headline_view, listed, phantom, scene, timed_frames, usable_cores
 from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
                                               text_column)
@@ -172,13 +173,12 @@ class Parallel(Experiment):
         tasks = frame[(frame.schedule == DEFAULT_SCHEDULE) & (frame.workers == frame.workers.max())]
         if tasks.task_size.nunique() > 2:
             tasks = tasks.assign(volume=[f"{int(n)}³" for n in tasks.volume_size])
-            out.append(figure(ctx, "task-size", plots.lines, tasks, heading="Frame time against the task size",
-                              caption=f"{int(frame.workers.max())} workers, round robin with stealing.",
-                              x="task_size", y="time_ms", group="volume", y_range=("time_ms_min", "time_ms_max"),
-                              log_x=True, title=title_or(lambda d: f"Task size: {_task_u(d).measured}", ok,
-                                                         "Frame time against the task size"),
-                              x_label="task size (intermediate-image scanlines per task)",
-                              y_label="median frame time (ms)"))
+            out.append(time_lines_figure(ctx, "task-size", tasks, heading="Frame time against the task size",
+                                         caption=f"{int(frame.workers.max())} workers, round robin with stealing.",
+                                         x="task_size", group="volume", log_x=True,
+                                         title=title_or(lambda d: f"Task size: {_task_u(d).measured}", ok,
+                                                        "Frame time against the task size"),
+                                         x_label="task size (intermediate-image scanlines per task)"))
         # A run whose workers had fewer free cores than threads timed the machine: said on its row.
         frame["starved"] = [text if isinstance(text, str) else "" for text in frame.get("info_starved", [""] * len(frame))]
         out.append(linked_table("Every run", frame, ["volume_size", "workers", "schedule", "task_size", "study", "time_ms",

@@ -7,7 +7,8 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, figure, format_number
+from pipeline.experiments.kit.pages import (claim_takeaways, difference_gallery, figure, format_number,
+                                            time_lines_figure)
 from pipeline.experiments.kit.planning import (HEADLINE_VIEW, accepts, dataset_view, listed, phantom, scene,
                                                timed_frames, volume_and_image_size)
 from pipeline.experiments.kit.results import (complete_groups, nonempty_or, numeric, ok_rows, speed_points, text_column,
@@ -155,12 +156,11 @@ class Projections(Experiment):
                           value_label="mean time / parallel mean time", title=_title(ok)))
         frame = speed_points(ok)
         frame["angle"] = [view_angle(v) for v in frame.view]
-        out += [figure(ctx, f"turn-{dataset}", plots.lines, part.sort_values("angle"),
-                       heading=f"{dataset}: time per view",
-                       caption="One line per algorithm; bars: fastest to slowest timed frame of each view.",
-                       x="angle", y="time_ms", group="config", y_range=("time_ms_min", "time_ms_max"),
-                       title=f"{dataset}: frame time over the turn", x_label="azimuth about the body axis (degrees)",
-                       y_label="median frame time (ms)")
+        out += [time_lines_figure(ctx, f"turn-{dataset}", part.sort_values("angle"),
+                                  heading=f"{dataset}: time per view", x="angle", group="config",
+                                  caption="One line per algorithm; bars: fastest to slowest timed frame of each view.",
+                                  title=f"{dataset}: frame time over the turn",
+                                  x_label="azimuth about the body axis (degrees)")
                 for dataset, part in frame.groupby("dataset")]
         first = frame[frame.angle == frame.angle.min()]
         out.append(difference_gallery(

@@ -9,7 +9,7 @@ from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
-                                            title_or)
+                                            time_lines_figure, title_or)
 from pipeline.experiments.kit.planning import headline_view, is_registered, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, speed_points, stage_points, text_column
 from pipeline.experiments.lacroute1995 import tables
@@ -135,17 +135,17 @@ def _growth_figure(growth, ok, ctx):
     lo, hi = float(growth.volume_size.min()), float(growth.volume_size.max())
     base = float(growth[growth.volume_size == lo].time_ms.median())
     xs = np.array([lo, hi])
-    return figure(ctx, "growth", plots.lines, growth, heading="Frame time against the volume size",
-                  caption=f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 through the "
-                          "smallest size. Bars: fastest to slowest timed frame.",
-                  x="volume_size", y="time_ms", group="dataset", y_range=("time_ms_min", "time_ms_max"),
-                  log_x=True, log_y=True, title=title_or(lambda d: "Compositing time grows " + ", ".join(
-                      f"×{format_number(_per_doubling(a, b, k, judging.COMPOSITE, intervals.Resampler())[0], 2)} "
-                      f"({dataset})" for dataset, (a, b, k, _n, _m) in _growth_pairs(d).items())
-                      + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size"),
-                  x_label="volume size (voxels along the longest side)", y_label="median frame time (ms)",
-                  guides=(("∝ n² (thesis)", xs, base * (xs / lo) ** 2),
-                          ("∝ n³ (brute force)", xs, base * (xs / lo) ** 3)))
+    title = title_or(lambda d: "Compositing time grows " + ", ".join(
+        f"×{format_number(_per_doubling(a, b, k, judging.COMPOSITE, intervals.Resampler())[0], 2)} ({dataset})"
+        for dataset, (a, b, k, _n, _m) in _growth_pairs(d).items())
+        + " per doubling of the side\n(n² would be ×4, n³ ×8)", ok, "Frame time against the volume size")
+    return time_lines_figure(ctx, "growth", growth, heading="Frame time against the volume size",
+                             caption=f"Fixed {int(growth.image_size.iloc[0])}² image; grey lines of slope 2 and 3 "
+                                     "through the smallest size. Bars: fastest to slowest timed frame.",
+                             x="volume_size", group="dataset", log_x=True, log_y=True, title=title,
+                             x_label="volume size (voxels along the longest side)",
+                             guides=(("∝ n² (thesis)", xs, base * (xs / lo) ** 2),
+                                     ("∝ n³ (brute force)", xs, base * (xs / lo) ** 3)))
 
 
 def _warp_blocks(frame, ok, ctx):

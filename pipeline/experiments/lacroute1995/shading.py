@@ -238,32 +238,32 @@ def _mode_rows(df, config):
     return nonempty(rows_matching(df, config, part="mode", config=config), what=f"mode {config}")
 
 
+def _ms(seconds):
+    return f"{format_number(seconds * 1e3)} ms"
+
+
 def _octree_rle_build(df):
     brute, octree = (_mode_rows(df, config).iloc[0] for config in ("shearwarp", "shearwarp-octree-rle"))
     plain = stage_time(brute, "classify") + stage_time(brute, "rle_build")
     fast = stage_time(octree, "sat_build") + stage_time(octree, "rle_build")
     decision = judging.decided(fast / plain, None, at_most=STRICTLY_BELOW_ONE, frames={})  # timed once
-    return ClaimResult.decided(f"{as_ratio(fast / plain)}: {format_number(fast * 1e3)} ms vs {format_number(plain * 1e3)} ms",
-                               decision,
-                               f"octree: SAT {format_number(stage_time(octree, 'sat_build') * 1e3)} ms + RLE "
-                               f"{format_number(stage_time(octree, 'rle_build') * 1e3)} ms (octree itself, once per volume: "
-                               f"{format_number(float(octree.get('time_octree_build', np.nan)) * 1e3)} ms); brute force: "
-                               f"classify {format_number(stage_time(brute, 'classify') * 1e3)} ms + RLE "
-                               f"{format_number(stage_time(brute, 'rle_build') * 1e3)} ms; each stage timed once, after "
-                               "the cold frame (compiled), so without an interval")
+    return ClaimResult.decided(f"{as_ratio(fast / plain)}: {_ms(fast)} vs {_ms(plain)}", decision,
+                               f"octree: SAT {_ms(stage_time(octree, 'sat_build'))} + RLE "
+                               f"{_ms(stage_time(octree, 'rle_build'))} (octree itself, once per volume: "
+                               f"{_ms(float(octree.get('time_octree_build', np.nan)))}); brute force: classify "
+                               f"{_ms(stage_time(brute, 'classify'))} + RLE {_ms(stage_time(brute, 'rle_build'))}; "
+                               "each stage timed once, after the cold frame (compiled), so without an interval")
 
 
 def _mode_switch_ours(df):
     rle, octree = _mode_rows(df, "shearwarp"), _mode_rows(df, "shearwarp-octree")
     decision, fast, slow = _edit_race(octree, ("sat_build",), rle, ("classify", "rle_build"))
     row, other = octree.iloc[0], rle.iloc[0]
-    return ClaimResult.decided(judging.labelled({f"fast classification {format_number(fast * 1e3)} ms vs RLE "
-                                                 f"{format_number(slow * 1e3)} ms": decision}), decision,
-                               f"octree: SAT {format_number(stage_time(row, 'sat_build') * 1e3)} ms + frame "
-                               f"{judging.milliseconds(octree)}; RLE: classify "
-                               f"{format_number(stage_time(other, 'classify') * 1e3)} ms + build "
-                               f"{format_number(stage_time(other, 'rle_build') * 1e3)} ms + frame "
-                               f"{judging.milliseconds(rle)}; frames: the technique's median")
+    return ClaimResult.decided(judging.labelled({f"fast classification {_ms(fast)} vs RLE {_ms(slow)}": decision}),
+                               decision, f"octree: SAT {_ms(stage_time(row, 'sat_build'))} + frame "
+                               f"{judging.milliseconds(octree)}; RLE: classify {_ms(stage_time(other, 'classify'))} "
+                               f"+ build {_ms(stage_time(other, 'rle_build'))} + frame {judging.milliseconds(rle)}; "
+                               "frames: the technique's median")
 
 
 def _lut_speed(df, check=LUT_SPEED):
@@ -296,9 +296,8 @@ def _mode_switch(df):
     if not np.isfinite(float(rle.iloc[0].get("time_classify", np.nan))):
         raise ValueError("VolPack's RLE run reported no classify stage")
     decision, fast, slow = _edit_race(octree, (), rle, ("classify",))
-    return ClaimResult.decided(judging.labelled({f"octree {format_number(fast * 1e3)} ms vs RLE "
-                                                 f"{format_number(slow * 1e3)} ms": decision}), decision,
-                               f"RLE: classify {format_number(stage_time(rle.iloc[0], 'classify') * 1e3)} ms (once) + "
-                               f"frame {judging.milliseconds(rle)}; octree build (once per volume) "
-                               f"{format_number(float(octree.iloc[0].get('time_octree', np.nan)) * 1e3)} ms; frames: "
-                               "VolPack's library calls (vpShadeTable and its render)")
+    return ClaimResult.decided(judging.labelled({f"octree {_ms(fast)} vs RLE {_ms(slow)}": decision}), decision,
+                               f"RLE: classify {_ms(stage_time(rle.iloc[0], 'classify'))} (once) + frame "
+                               f"{judging.milliseconds(rle)}; octree build (once per volume) "
+                               f"{_ms(float(octree.iloc[0].get('time_octree', np.nan)))}; frames: VolPack's library "
+                               "calls (vpShadeTable and its render)")

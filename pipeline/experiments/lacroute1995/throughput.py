@@ -9,13 +9,13 @@ from core.errors import InputError
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, decision_words
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, figure, format_number, linked_table,
-                                            title_or)
+from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, format_number, linked_table,
+                                            time_lines_figure, title_or)
 from pipeline.experiments.kit.planning import accepts, listed, phantom, scene, timed_frames
 from pipeline.experiments.kit.results import nonempty_or, numeric, ok_rows, rows_matching, speed_points, text_column
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, TIME, shearwarp_missing
-from reports import blocks, plots
+from reports import blocks
 
 PREDICT_DATASETS = {"ct_skull": "bone", "engine": "surfaces"}
 """The scenes the fitted cost model predicts (the thesis predicts the CT head and the engine)."""
@@ -192,16 +192,13 @@ class Throughput(Experiment):
         checkers = frame[frame.series.astype(str).str.startswith("checker")].copy()
         if not checkers.empty:
             checkers["line"] = checkers.series + ", " + checkers.config
-            out.append(figure(ctx, "checkerboards", plots.lines, checkers,
-                              heading="Checkerboards: time against the number of runs",
-                              caption="Block sizes halve from right to left... each halving doubles the runs per "
-                                      "scanline at a constant visible count; brute force beside.",
-                              x="runs", y="time_ms", group="line", y_range=("time_ms_min", "time_ms_max"),
-                              title=title_or(lambda d: "Time grows linearly with the runs: "
-                                             f"{_runs_linear(d).detail.split(';')[0]}", ok,
-                                             "Checkerboards: frame time against the number of runs"),
-                              x_label="voxel runs traversed per frame (the backend's voxel_runs)",
-                              y_label="median frame time (ms)"))
+            out.append(time_lines_figure(
+                ctx, "checkerboards", checkers, heading="Checkerboards: time against the number of runs",
+                caption="Block sizes halve from right to left... each halving doubles the runs per scanline at a "
+                        "constant visible count; brute force beside.", x="runs", group="line",
+                title=title_or(lambda d: f"Time grows linearly with the runs: {_runs_linear(d).detail.split(';')[0]}",
+                               ok, "Checkerboards: frame time against the number of runs"),
+                x_label="voxel runs traversed per frame (the backend's voxel_runs)"))
         try:
             a, b, c, r2 = _cost_fit(ok)
             fit = pd.DataFrame([("throughput a", f"{format_number(a / 1e6)} Mvoxels/s", "0.88 Mvoxels/s"),
@@ -226,15 +223,15 @@ def _cube_figure(cubes, ok, ctx):
     if not brute_level.empty and not opt.empty:
         xs = np.array([0.0, float(opt["visible (millions)"].max())])
         guides = (("brute force (median over its runs)", xs, np.full(2, float(brute_level.time_ms.median()))),)
-    return figure(ctx, "cubes", plots.lines, opt.assign(config="optimised (RLE + early termination)"),
-                  heading="Constant-opacity cubes: time against visible voxels",
-                  caption="Each point one opacity (visible voxels fall as the opacity rises and early termination "
-                          "cuts the rays short). Bars: fastest to slowest frame.",
-                  x="visible (millions)", y="time_ms", group="config", y_range=("time_ms_min", "time_ms_max"),
-                  x_label="voxels composited per frame (millions)", y_label="median frame time (ms)", guides=guides,
-                  title=title_or(lambda d: f"Time is linear in visible voxels ({_cube_linear(d).measured});\nthe "
-                                 f"optimised renderer is {_crossover(d).measured.split(';')[0]}", ok,
-                                 "Constant-opacity cubes: frame time against visible voxels"))
+    return time_lines_figure(
+        ctx, "cubes", opt.assign(config="optimised (RLE + early termination)"),
+        heading="Constant-opacity cubes: time against visible voxels",
+        caption="Each point one opacity (visible voxels fall as the opacity rises and early termination cuts the rays "
+                "short). Bars: fastest to slowest frame.",
+        x="visible (millions)", group="config", x_label="voxels composited per frame (millions)", guides=guides,
+        title=title_or(lambda d: f"Time is linear in visible voxels ({_cube_linear(d).measured});\nthe optimised "
+                       f"renderer is {_crossover(d).measured.split(';')[0]}", ok,
+                       "Constant-opacity cubes: frame time against visible voxels"))
 
 
 def _series(df, series, config):

@@ -7,8 +7,8 @@ import renderers
 from pipeline.experiments.kit import intervals, judging
 from pipeline.experiments.kit.judging import all_of
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, figure, format_number,
-                                            linked_table, not_measurable)
+from pipeline.experiments.kit.pages import (DIFF_SCALE, as_percent, as_ratio, change_words, format_number, linked_table,
+                                            not_measurable, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, listed, missing_options, phantom,
                                                scene, timed_frames, truth_run, unregistered, usable_cores)
 from pipeline.experiments.kit.results import (complete_groups, numeric, ok_rows, pair_metrics, rows_matching,
@@ -16,7 +16,7 @@ from pipeline.experiments.kit.results import (complete_groups, numeric, ok_rows,
 from pipeline.experiments.kit.words import full_count, megabytes, short_duration
 from pipeline.experiments.lacroute1995 import tables
 from pipeline.experiments.lacroute1995.planning import SW, VP
-from reports import blocks, plots
+from reports import blocks
 from reports.takeaways import cell_text
 
 VOLPACK_CONFIGS = {
@@ -167,7 +167,7 @@ class VolPackComparison(Experiment):
 
     def report(self, results, ctx):
         ok = ok_rows(results)
-        tests = speed_points(ok[ok.role == "test"])
+        tests = speed_points(ok[ok.role == "test"]).assign(technique=lambda t: [_technique(c) for c in t.config])
         out = [blocks.Takeaways(_takeaways(ctx.claims, results))]
         if not tests.empty:
             out.append(_modes_table(tests, ctx))
@@ -182,16 +182,12 @@ class VolPackComparison(Experiment):
                                             "faster. PSNR/SSIM against the reference ray caster and against VolPack's "
                                             "classified-RLE image of the same view."))
         for scene_name, group in tests.groupby("scene"):
-            group = group.assign(technique=[_technique(c) for c in group.config])
-            out.append(figure(ctx, f"speed-{scene_name}", plots.speed_accuracy, group,
-                              heading=f"{scene_name}: frame time against accuracy",
-                              caption="One point per technique; further left is faster, higher is closer to the "
-                                      "reference ray caster.",
-                              time_col="time_ms", error_col="psnr", group_col="technique",
-                              title=_chart_title(scene_name, group), log_x=True, log_y=False,
-                              time_range_cols=("time_ms_min", "time_ms_max"), better="upper left",
-                              x_label="median frame time (ms); bars: fastest to slowest frame",
-                              y_label="PSNR against the reference (dB)"))
+            out.append(speed_psnr_figure(ctx, f"speed-{scene_name}", group,
+                                         heading=f"{scene_name}: frame time against accuracy",
+                                         caption="One point per technique; further left is faster, higher is closer "
+                                                 "to the reference ray caster.",
+                                         title=_chart_title(scene_name, group), group="technique", label=None,
+                                         log_x=True))
         out += [_gallery(scene_name, group, ctx) for scene_name, group in ok.groupby("scene")]
         return out + not_measurable(unregistered(SW, VP) + missing_options(VP, "mode")
                                     + missing_options(SW, "workers"))
@@ -323,8 +319,7 @@ def _where_the_time_goes(tests, ctx):
               "count_classified_on_the_fly": "voxels classified on the fly", "count_rle_bytes": "RLE (MB)",
               "count_octree_bytes": "octree (MB)", "count_voxel_array_bytes": "unclassified voxel array (MB)",
               "count_intermediate_pixels": "intermediate pixels"}
-    shown = runs.assign(technique=[_technique(c) for c in runs.config],
-                        **{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
+    shown = runs.assign(**{c: [megabytes(v) if c.endswith("_bytes") else full_count(v) for v in runs[c]]
                            for c in counts if c in runs})
     out.append(linked_table("The counts behind the times", shown, ["scene", "technique", *counts], ctx, names=counts,
                             csv_name="volpack-counts.csv",
@@ -340,7 +335,6 @@ def _where_the_time_goes(tests, ctx):
 
 def _against_volpack(ok, tests):
     """``tests`` with their technique, their time over VolPack RLE's and PSNR/SSIM against its image (same scene)."""
-    tests = tests.assign(technique=[_technique(c) for c in tests.config])
     compared = []
     for row in tests.itertuples():
         vp = rows_matching(ok, "VolPack", scene=row.scene, config="volpack-rle")
