@@ -141,7 +141,6 @@ def appearance_table(tests):
 
 
 def _figures(paper, ctx):
-    """The segments method's overhead of each appearance against its samples, and its samples inside the lens."""
     bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
     bars = bars.rename(columns=APPEARANCES).reset_index()
     return overhead_figure(

@@ -178,12 +178,11 @@ def case_table(tests, counts):
     """Per case and method: PSNR, hole pixels, coverage and counters."""
     rows = []
     for (case, config), part in tests.groupby(["case", "config"], sort=False):
-        mine = counts[(counts.case == case) & (counts.config == config)] if not counts.empty else counts
+        mine = counts[(counts.case == case) & (counts.config == config)]  # none: their maxima are NaN
         rows.append({"case": case, "method": config,
                      "PSNR (dB)": numeric(part, "psnr").min() if "psnr" in part else np.nan,
                      "max |difference|": numeric(part, "max_error").max() if "max_error" in part else np.nan,
-                     "hole pixels": mine.holes.max() if not mine.empty else np.nan,
-                     "covered pixels": mine.covered.max() if not mine.empty else np.nan,
+                     "hole pixels": mine.holes.max(), "covered pixels": mine.covered.max(),
                      "rays through the lens (%)": 100 * lens_coverage(part),
                      "hole rays (stencil)": median_count(part, "count_hole_rays")})
     return pd.DataFrame(rows)
