@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, counts_compared, median_count
+from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, all_of, counted, counts_compared
 from pipeline.experiments.kit.model import Claim, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, figure, format_number,
                                             frames_caption)
@@ -20,7 +20,8 @@ from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        method_name, raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
-                                                     rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
+                                                     region_samples, rounded_table, run_table, samples_ratio,
+                                                     scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (BONE_ISOVALUE, SETUPS, lens_scene, lens_views, scene_tags,
                                                       without_lens)
 from reports import plots
@@ -134,15 +135,12 @@ def appearance_table(tests):
                              **{f"{words} pass (ms)": 1e3 * numeric(lens, f"time_{region}").median()
                                 if f"time_{region}" in lens else np.nan
                                 for region, words in (("region0", "region₀"), ("region1", "region₁"))},
-                             "samples lens / no lens": samples_ratio(lens, off),
-                             **{f"{region} samples": median_count(lens, column)
-                                for region, column in REGION_COLUMNS.items()},
+                             "samples lens / no lens": samples_ratio(lens, off), **region_samples(lens),
                              "rays through the lens (%)": 100 * lens_coverage(lens)})
     return pd.DataFrame(rows)
 
 
 def _figures(paper, ctx):
-    """The segments method's overhead of each appearance against its samples, and its samples inside the lens."""
     bars = paper.pivot_table(index="scene", columns="appearance", values="region1 samples", sort=False) / 1e6
     bars = bars.rename(columns=APPEARANCES).reset_index()
     return overhead_figure(

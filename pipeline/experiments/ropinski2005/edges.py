@@ -7,7 +7,8 @@ from core.camera import Camera
 from core.errors import InputError
 from pipeline.experiments.kit.judging import counted, measured, median_count, worst_of
 from pipeline.experiments.kit.model import SIZES, Claim, ClaimResult
-from pipeline.experiments.kit.pages import as_percent, claim_takeaways, difference_gallery, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number,
+                                            linked_table, unless_missing)
 from pipeline.experiments.kit.planning import UNTIMED, headline_view, listed, truth_run
 from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, read_exr, reference_exr, rows_matching,
                                               text_column)
@@ -177,12 +178,11 @@ def case_table(tests, counts):
     """Per case and method: PSNR, hole pixels, coverage and counters."""
     rows = []
     for (case, config), part in tests.groupby(["case", "config"], sort=False):
-        mine = counts[(counts.case == case) & (counts.config == config)] if not counts.empty else counts
+        mine = counts[(counts.case == case) & (counts.config == config)]  # none: their maxima are NaN
         rows.append({"case": case, "method": config,
                      "PSNR (dB)": numeric(part, "psnr").min() if "psnr" in part else np.nan,
                      "max |difference|": numeric(part, "max_error").max() if "max_error" in part else np.nan,
-                     "hole pixels": mine.holes.max() if not mine.empty else np.nan,
-                     "covered pixels": mine.covered.max() if not mine.empty else np.nan,
+                     "hole pixels": mine.holes.max(), "covered pixels": mine.covered.max(),
                      "rays through the lens (%)": 100 * lens_coverage(part),
                      "hole rays (stencil)": median_count(part, "count_hole_rays")})
     return pd.DataFrame(rows)
@@ -227,10 +227,7 @@ class Edges(LensExperiment):
         tests = tests_of(ok)
         out = [claim_takeaways(ctx)]
         if not tests.empty:
-            try:
-                counts = hole_counts(ok)
-            except (KeyError, ValueError):
-                counts = pd.DataFrame(columns=["case", "config", "holes", "covered"])
+            counts = unless_missing(hole_counts, ok, empty=pd.DataFrame(columns=["case", "config", "holes", "covered"]))
             out.append(blocks.Table("Each case and method against the reference", case_table(tests, counts).round(3),
                                     csv_name="edges.csv",
                                     caption="Hole pixels: covered by the reference (alpha ≥ "

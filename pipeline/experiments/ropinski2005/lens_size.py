@@ -5,17 +5,18 @@ import pandas as pd
 
 from core.errors import InputError
 from pipeline.experiments.kit import intervals
-from pipeline.experiments.kit.judging import all_of, decision_words, median_count
+from pipeline.experiments.kit.judging import all_of, decision_words
 from pipeline.experiments.kit.model import Claim, scaled
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, difference_gallery, format_number, frame_note,
-                                            frames_caption)
+                                            frames_caption, silent_without_runs)
 from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import nonempty_or, numeric, rows_matching, text_column
 from pipeline.experiments.ropinski2005.methods import (OFF, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
                                                        device_takeaways, lens_coverage, lens_run, lens_settings,
                                                        raycast_not_measurable, scenes_of)
 from pipeline.experiments.ropinski2005.pages import (PERCENT_CI, headline, interval_columns, median_ms, overhead_figure,
-                                                     rounded_table, run_table, samples_ratio, scene_by_scene, tests_of)
+                                                     region_samples, rounded_table, run_table, samples_ratio,
+                                                     scene_by_scene, tests_of)
 from pipeline.experiments.ropinski2005.scenes import (SETUPS, lens_scene, lens_views, outside_appearance, scene_tags,
                                                       without_lens)
 
@@ -113,12 +114,10 @@ CLAIMS = (
 )
 
 
+@silent_without_runs
 def own_takeaways(tests):
     """The slope with each scene's own lens appearance, in words (measured, not judged: see the description)."""
-    try:
-        decisions, _ = slopes(tests, "own")
-    except (KeyError, ValueError):
-        return []
+    decisions, _ = slopes(tests, "own")
     words = [f"{scene} ({SETUPS[scene].appearance['mode']}) {decision_words(d, format_number)}"
              for scene, d in decisions.items()]
     return [f"With each scene's own lens appearance, the slope of the overhead against the coverage (% of the frame "
@@ -145,9 +144,7 @@ def sweep_table(tests):
                              "rays through the lens (%)": coverage, "frame (ms)": median_ms(lens),
                              **interval_columns(overhead, intervals.interval_of(draws), "overhead (%)",
                                                 ends=PERCENT_CI),
-                             "samples lens / no lens": samples_ratio(lens, off),
-                             **{f"region{i} samples": median_count(lens, f"count_samples_region{i}")
-                                for i in (2, 1, 0)}})
+                             "samples lens / no lens": samples_ratio(lens, off), **region_samples(lens)})
     return pd.DataFrame(rows)
 
 

@@ -10,7 +10,7 @@ from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config
                                               median_count, ratio_pair, time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption)
+                                            format_number, frames_caption, silent_without_runs, unless_missing)
 from pipeline.experiments.kit.planning import listed, timed_frames, truth_run
 from pipeline.experiments.kit.results import nonempty, numeric, speed_points, text_column
 from pipeline.experiments.ropinski2005.methods import (CONFIGS, PAPER_METHOD, TIMED_SCALES, TIMES, LensExperiment,
@@ -70,11 +70,18 @@ def behind_and_open(frame, scene, config):
             config_rows(occluded_rows(frame, "no"), config, scene=scene))
 
 
-def shaded_share(frame, scene, config):
-    """Fragments shaded with the occluder over without it (``fragments_shaded``), ``config`` on ``scene``."""
+def shaded(frame, scene, config, *, nonzero=False):
+    """``(with the occluder, without)``: the fragments ``config`` shaded on ``scene`` (``fragments_shaded``);
+    ValueError where either was not counted (or, with ``nonzero``, none were shaded without the occluder)."""
     behind, open_ = (median_count(rows, "count_fragments_shaded") for rows in behind_and_open(frame, scene, config))
-    if not (np.isfinite(behind) and np.isfinite(open_)) or open_ == 0:
+    if not (np.isfinite(behind) and np.isfinite(open_)) or (nonzero and open_ == 0):
         raise ValueError(f"{config} on {scene} counted no shaded fragments (fragments_shaded)")
+    return behind, open_
+
+
+def shaded_share(frame, scene, config):
+    """Fragments shaded with the occluder over without it, ``config`` on ``scene``."""
+    behind, open_ = shaded(frame, scene, config, nonzero=True)
     return behind / open_
 
 
@@ -129,14 +136,11 @@ def _faster(occluded, baselines):
 def dropped_share(frame, scene, config):
     """Fragments the occluder saved ``config`` on ``scene`` (``fragments_shaded`` without it − with it), over
     the rays it covers (``rays_occluded``)."""
-    behind, open_ = behind_and_open(frame, scene, config)
-    shaded = (median_count(open_, "count_fragments_shaded"), median_count(behind, "count_fragments_shaded"))
-    covered = median_count(behind, "count_rays_occluded")
-    if not all(np.isfinite(shaded)):
-        raise ValueError(f"{config} on {scene} counted no shaded fragments (fragments_shaded)")
+    behind, open_ = shaded(frame, scene, config)
+    covered = median_count(behind_and_open(frame, scene, config)[0], "count_rays_occluded")
     if not np.isfinite(covered) or covered == 0:
         raise ValueError(f"the occluder's covered rays on {scene} were not counted (rays_occluded)")
-    return (shaded[0] - shaded[1]) / covered
+    return (open_ - behind) / covered
 
 
 def _earlyz_fragments(df):
@@ -215,9 +219,7 @@ def occluder_table(tests):
     rows = []
     resampler = intervals.Resampler()
     for scene in pd.unique(occluded_rows(tests, "yes").scene):
-        covered = np.nan
-        with suppress(KeyError, ValueError):
-            covered = covered_share(tests, scene)
+        covered = unless_missing(covered_share, tests, scene, empty=np.nan)
         for config in OCCLUDED:
             try:
                 value, draws = occluder_saving(tests, scene, config, resampler=resampler)
@@ -231,15 +233,12 @@ def occluder_table(tests):
     return pd.DataFrame(rows)
 
 
+@silent_without_runs
 def _other_takeaways(tests):
     """The methods not judged (fused, the stencil sequence) against segments, in words."""
+    open_, image = _at_image(occluded_rows(tests, "no"))
+    scenes = table1_scenes(open_)
     sentences = []
-    open_ = occluded_rows(tests, "no")
-    try:
-        open_, image = _at_image(open_)
-        scenes = table1_scenes(open_)
-    except (KeyError, ValueError):
-        return sentences
     for config in ("fused", "segments-stencil"):
         words = []
         for scene in scenes:

@@ -7,7 +7,8 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, counted, counts_compared,
                                               measured, median_count, time_ratio)
 from pipeline.experiments.kit.model import Claim, ClaimResult
-from pipeline.experiments.kit.pages import claim_takeaways, difference_gallery, format_number, frames_caption
+from pipeline.experiments.kit.pages import (claim_takeaways, difference_gallery, format_number, frames_caption,
+                                            unless_missing)
 from pipeline.experiments.kit.planning import listed, timed_frames
 from pipeline.experiments.kit.results import nonempty, text_column
 from pipeline.experiments.ropinski2005.correctness import SEAM_TOLERANCE
@@ -140,10 +141,7 @@ def order_table(tests):
             for region in ("region2", "region1", "region0"):
                 for name, rows_ in (("back", back), ("front", front)):
                     row[f"{region} samples, {name}"] = median_count(rows_, f"count_samples_{region}")
-            try:
-                row["max |front − back|"] = order_difference(tests, termination, scene)
-            except (KeyError, ValueError):
-                row["max |front − back|"] = np.nan
+            row["max |front − back|"] = unless_missing(order_difference, tests, termination, scene, empty=np.nan)
             rows.append(row)
     return pd.DataFrame(rows)
 

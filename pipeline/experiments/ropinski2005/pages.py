@@ -60,6 +60,11 @@ def samples_ratio(lens, off):
     return median_count(lens, "count_samples") / median_count(off, "count_samples")
 
 
+def region_samples(rows):
+    """``{"region2 samples": …, "region1 samples": …, "region0 samples": …}``: each region's median count."""
+    return {f"region{i} samples": median_count(rows, f"count_samples_region{i}") for i in (2, 1, 0)}
+
+
 def interval_columns(value, interval, name, *, ends=CI, scale=lambda v: v):
     """``{name: value, low: …, high: …}`` of a ratio and its interval's ``ends`` (NaN without one), via ``scale``."""
     low, high = interval or (np.nan, np.nan)

@@ -65,13 +65,10 @@ def pass_table(tests):
         for column in stage_columns(here):
             stage = column.removeprefix("time_")
             value = numeric(here, column).median()
-            row[f"{stage} (ms)"] = 1e3 * value
-            row[f"{stage} (%)"] = 100 * value / total
-            samples = f"count_samples_{stage}"
-            if samples in here:
-                count = numeric(here, samples).median()
-                row[f"{stage} samples"] = count
-                row[f"{stage} ns/sample"] = 1e9 * value / count if count else np.nan
+            row |= {f"{stage} (ms)": 1e3 * value, f"{stage} (%)": 100 * value / total}
+            if f"count_samples_{stage}" in here:
+                count = numeric(here, f"count_samples_{stage}").median()
+                row |= {f"{stage} samples": count, f"{stage} ns/sample": 1e9 * value / count if count else np.nan}
         rows.append(row)
     return pd.DataFrame(rows)
 

@@ -1,15 +1,11 @@
 """``ropinski2005-peers``: the lens in the tools users have, beside the paper's method, by time and error.
 
-The paper compares with no other system. A user who wants a region of interest today reaches for VTK's
-GPU ray caster, which offers three partial answers (``vtk-gpu`` option ``lens_method``): a label-map mask
-with a transfer function per label (the lens voxelised at the volume's resolution: any shape, ``clip`` and
-``dvr``), cropping regions (an axis-aligned box, ``clip`` only, tested per sample) and clipping planes (an
-intersection of half-spaces: a ``clip`` lens that cuts the box with one face). Object-order renderers
-classify voxels, not samples: ``shearwarp`` puts the lens into its pre-classification (the contrast note
-004 names), which costs a reclassification and a re-encoding of the volume whenever the lens moves.
-
-Each implementation's runs are timed in a job of their own (VTK's OpenGL stack and moderngl's cannot share
-one); the scenes and how overheads and images are judged: :attr:`Peers.description`.
+The paper compares with no other system. VTK's GPU ray caster offers three partial answers (``vtk-gpu`` option
+``lens_method``): a label-map mask (the lens voxelised: any shape, ``clip`` and ``dvr``), cropping regions (an
+axis-aligned ``clip`` box, tested per sample) and clipping planes (a ``clip`` lens cutting the box with one face).
+Object-order renderers classify voxels, not samples: ``shearwarp`` puts the lens into its pre-classification (the
+contrast note 004 names), which costs a reclassification and a re-encoding whenever the lens moves. Each
+implementation's runs are timed in a job of their own (VTK's OpenGL stack and moderngl's cannot share one).
 """
 
 from contextlib import suppress

@@ -140,21 +140,18 @@ def sample_table(tests):
         for appearance in ("outside", "lens"):
             chosen = part[part.appearance == appearance]
             row[APPEARANCES[appearance]] = numeric(chosen, "count_samples").median()
-            for column, region in zip(REGION_COLUMNS, REGION_WORDS):
-                if column in chosen:
-                    row[f"{region}, {appearance}"] = numeric(chosen, column).median()
+            row |= {f"{region}, {appearance}": numeric(chosen, column).median()
+                    for column, region in zip(REGION_COLUMNS, REGION_WORDS) if column in chosen}
         rows.append(row)
     return pd.DataFrame(rows)
 
 
 def _region_figure(tests, ctx):
-    """Samples per region and scene with the lens's own appearance (the paper's method), as bars."""
     own = rows_matching(headline(tests), "the paper's method's lens", appearance="lens", config=PAPER_METHOD)
     if own.empty or not all(column in own for column in REGION_COLUMNS):
         return []
-    bars = pd.DataFrame({"scene": own.scene.to_numpy()})
-    for column, region in zip(REGION_COLUMNS, ("region0", "region1", "region2")):
-        bars[REGIONS[region]] = numeric(own, column).to_numpy() / 1e6
+    regions = {REGIONS[c.removeprefix("count_samples_")]: numeric(own, c).to_numpy() / 1e6 for c in REGION_COLUMNS}
+    bars = pd.DataFrame({"scene": own.scene.to_numpy(), **regions})
     return [figure(ctx, "samples-regions", plots.bar_compare, bars, heading="Samples per region",
                    caption="Counted by the caster (exact, machine-independent), the lens with its own appearance, "
                            "headline view, early termination off.",

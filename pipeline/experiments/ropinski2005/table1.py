@@ -112,7 +112,6 @@ def overhead_table(tests):
 
 
 def _overhead_figure(table, ctx):
-    """Fps drop against image size, ours with its interval beside the paper's, one series per data set."""
     points = [{"series": f"{ours['scene']} (ours)", "image": ours["image (px)"], "drop": ours["ours fps drop (%)"],
                "low": 100 * drop(ours["ratio 95 % CI low"]), "high": 100 * drop(ours["ratio 95 % CI high"])}
               for ours in table.to_dict("records")]
@@ -143,7 +142,6 @@ def _other_takeaways(tests):
 
 
 def _gallery(tests, ctx):
-    """The headline view of each scene at the largest image, with the lens beside without it."""
     largest = image_sizes(tests)[-1]
     gallery = blocks.Gallery(f"Headline view at {largest}²: each scene with its lens and without",
                              caption="Left with the lens (the paper's method), right without it.")
