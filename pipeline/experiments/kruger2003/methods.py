@@ -35,8 +35,7 @@ def method_name(config):
 
 
 SETTINGS = frozenset({"volume_size", "image_size", "step_factor", "repeat"})
-"""The settings every experiment here takes: what :func:`sizes` reads, and ``repeat``, the frames of its timed runs
-(:func:`~pipeline.experiments.kit.planning.timed_frames`)."""
+"""The settings every experiment here takes: what :func:`sizes` reads, and ``repeat`` (its timed runs' frames)."""
 
 SIZE_SCALES = scaled(smoke={"image_size": 64})
 """What :func:`sizes` reads at each scale: the kit's sizes, with 64-pixel images at smoke scale."""
@@ -56,17 +55,11 @@ def method_runs(experiment, prefix, scene_spec, views, configs, step_factor, tru
     paper's sampled iso hit). A method whose backend does not take its options here is left out; the
     page says why (:func:`gl_not_measurable`).
     """
-    runs = []
-    for config in configs:
-        backend, options, _name = METHODS[config]
-        options = {**options, **(extra or {})}
-        if not accepts(backend, *options, "step_factor"):
-            continue
-        runs.append(Run(experiment, f"{prefix}.{config}", backend, scene_spec, views,
-                        options={**options, "step_factor": step_factor}, reference=truth, **frames,
-                        tags={**tags, "role": "test", "config": config},
-                        interleave=(group or prefix) if config in together else None))
-    return runs
+    planned = [(config, METHODS[config][0], {**METHODS[config][1], **(extra or {})}) for config in configs]
+    return [Run(experiment, f"{prefix}.{config}", backend, scene_spec, views, reference=truth, **frames,
+                options={**options, "step_factor": step_factor}, tags={**tags, "role": "test", "config": config},
+                interleave=(group or prefix) if config in together else None)
+            for config, backend, options in planned if accepts(backend, *options, "step_factor")]
 
 
 FRONT_VIEW = {"view": "front", "azimuth": 0.0, "elevation": 0.0}
@@ -78,11 +71,8 @@ acceleration applies" (Sec. 3) excludes."""
 
 
 def no_cue_control(size, image):
-    """``(scene, views, tags)`` of the control: smooth, faint noise filling the cube, unshaded, :data:`FRONT_VIEW`.
-
-    No ray reaches the termination threshold, none leaves before the last pass and no block is empty,
-    so neither acceleration applies.
-    """
+    """``(scene, views, tags)`` of the control: smooth, faint noise filling the cube, unshaded, :data:`FRONT_VIEW`:
+    no ray reaches the termination threshold, none leaves before the last pass and no block is empty."""
     scene_spec = scene("no_cue", image, volumes=[phantom("fbm_control", size, preset="no_cue")], shading="none")
     return scene_spec, (FRONT_VIEW,), {"scene": "no_cue", "dataset": "fbm_control"}
 

@@ -88,8 +88,8 @@ class NoCue(Experiment):
             return []
         size, image, step = sizes(self, profile)
         scene_spec, views, tags = no_cue_control(size, image)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
-        truth = truth_run(self.name, "no_cue", scene_spec, views, truth_step, tags)
+        truth = truth_run(self.name, "no_cue", scene_spec, views, profile.setting(self, "truth_step_factor", 0.25),
+                          tags)
         return [truth] + method_runs(self.name, "no_cue", scene_spec, views, ("rc", "rc-a", "rc-b", "single-pass"),
                                      step, truth.id, tags, timed_frames(profile, self),
                                      together=("rc", *ACCELERATED))

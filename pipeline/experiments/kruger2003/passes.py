@@ -1,6 +1,7 @@
 """``kruger2003-passes`` (E4, E6, E7): fragments per main pass, the iso-surface caster against DVR, the sweep of M."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -10,7 +11,8 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
-from pipeline.experiments.kit.results import file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points
+from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
+                                              tagged)
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               median_time)
 from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, method_name,
@@ -29,9 +31,7 @@ def _fragments_per_pass(record_path, view="headline"):
     """The fragments each main pass drew in ``view``, from a run's record (its occlusion-query counts)."""
     if not file_exists(record_path):
         raise ValueError(f"run record {record_path!r} is missing")
-    with open(record_path) as handle:
-        record = json.load(handle)
-    for entry in record.get("views", []):
+    for entry in json.loads(Path(record_path).read_text()).get("views", []):
         if entry.get("view") == view:
             counts = entry.get("info", {}).get("fragments_per_main_pass")
             if counts:
@@ -41,9 +41,7 @@ def _fragments_per_pass(record_path, view="headline"):
 
 def _pass_curves(ok):
     rows = []
-    if "part" not in ok:
-        return pd.DataFrame()
-    for row in ok[(ok.part == "passes") & (ok.get("role") == "test")].itertuples():
+    for row in tagged(ok, part="passes", role="test").itertuples():
         try:
             counts = _fragments_per_pass(row.record)
         except ValueError:
@@ -178,7 +176,7 @@ class Passes(Experiment):
                               x="main pass", y="fragments", group="method",
                               title="Fragments that survive the depth test, per main pass",
                               x_label="main pass (number)", y_label="fragments drawn (count)"))
-        sweep = ok[ok.get("part") == "m-sweep"].copy() if "part" in ok else ok.iloc[:0]
+        sweep = tagged(ok, part="m-sweep")
         if not sweep.empty:
             sweep = speed_points(sweep).assign(M=numeric(sweep, "m"), method=method_name("rc-b"))
             out.append(figure(ctx, "m-sweep", plots.lines, sweep, heading="Frame time against M",

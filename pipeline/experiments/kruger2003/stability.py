@@ -7,7 +7,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import change_words, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, role_rows, rows_matching, speed_points,
-                                              stage_time, text_column)
+                                              stage_time, tagged, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
 from pipeline.experiments.kruger2003.methods import RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, sizes
 from pipeline.experiments.kruger2003.tables import TABLE1
@@ -129,7 +129,6 @@ class Stability(Experiment):
         out = [claim_takeaways(ctx)]
         tests = role_rows(ok_rows(results))
         for sweep, words, label in SWEEPS:
-            rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]
-            if not rows.empty:
-                out += _sweep_blocks(rows, sweep, words, label, ctx)
+            rows = tagged(tests, sweep=sweep)
+            out += _sweep_blocks(rows, sweep, words, label, ctx) if not rows.empty else []
         return out + gl_not_measurable()

@@ -1,8 +1,5 @@
-"""``volbench-atlas``: the stability atlas, every backend swept along every stress axis it supports.
-
-Each axis (:mod:`.atlas_axes`) sweeps one thing on one scene shared by every backend. Besides every backend at its
-defaults, a few :data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
-"""
+"""``volbench-atlas``: the stability atlas, every backend (and a few :data:`TECHNIQUES`) swept along every stress
+axis (:mod:`.atlas_axes`) it supports."""
 
 import dataclasses
 import functools
@@ -14,7 +11,7 @@ import renderers
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, difference_gallery, format_number, linked_table
 from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, listed, truth_run, volume_and_image_size
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
+from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching, tagged
 from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, axis_reason, backend_options, points, short
 from reports import blocks
 from reports.takeaways import PSNR_GOOD
@@ -101,27 +98,20 @@ def atlas_rows(results):
     ok = ok_rows(results)
     if ok.empty or "role" not in ok:
         return ok.iloc[:0].assign(value=[], psnr=[], flip=[])
-    tests = ok[ok.role == "test"].copy()
-    tests["backend"] = techniques(tests)
-    tests["value"] = _values(tests)
-    tests["psnr"] = numeric(tests, "psnr") if "psnr" in tests else np.nan
-    tests["flip"] = pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan
+    tests = ok[ok.role == "test"]
+    tests = tests.assign(backend=techniques(tests), value=_values(tests),
+                         psnr=numeric(tests, "psnr") if "psnr" in tests else np.nan,
+                         flip=pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan)
     return tests[tests.psnr.notna()]
 
 
 def threshold(rows, axis, *, breaks=PSNR_BREAKS):
-    """Where ``rows`` (one backend on ``axis``) fall below ``breaks`` dB, in words, or ``None`` if never.
+    """Where ``rows`` (one backend on ``axis``) fall below ``breaks`` dB, or ``None`` if never: ``{"words", "value",
+    "psnr", "everywhere", "expected"}``, the threshold in words, where it lies, the worst PSNR, whether every point
+    failed and whether the failures lie at the harsher end (the expected side).
 
-    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest
-    of them); failing points that run to the milder end instead give the reverse ("≤ v"), and
-    failures in the middle only are listed.
-
-    Returns
-    -------
-    dict or None
-        ``{"words", "value", "psnr", "everywhere", "expected"}``: the threshold in words, where it
-        lies, the worst PSNR, whether every point failed and whether the failures lie at the harsher
-        end (the expected side).
+    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest of them);
+    failing points that run to the milder end instead give the reverse ("≤ v"); failures in the middle are listed.
     """
     if rows.empty:
         return None
@@ -152,21 +142,20 @@ OTHERS_NAMED = 2
 
 
 def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
-    """``{backend: phrase}`` completing "fails when …" (see :meth:`Atlas.failures`)."""
+    """``{backend: phrase}`` completing "fails when …": the mildest value of an axis below ``breaks`` ("min opacity ≥
+    0.01 on the semi-transparent engine (17.6 dB)"), preferring a threshold inside a sweep to an axis that fails at
+    every value; a backend that never falls below gets its worst point ("no axis below 30 dB (worst …)")."""
     out = {}
     for backend in backends:
         mine = tests[tests.backend == backend]
         if mine.empty:
             continue
-        found = []
-        for axis in AXES:
-            hit = threshold(mine[mine.axis == axis.key], axis, breaks=breaks)
-            if hit:
-                found.append(((hit["everywhere"], not hit["expected"], hit["psnr"]), axis, hit))
+        hits = [(axis, threshold(mine[mine.axis == axis.key], axis, breaks=breaks)) for axis in AXES]
+        # A threshold inside a sweep, on its harsher side, says more than an axis failing everywhere
+        # (a default that breaks) or than failures at the milder end: it comes first, with its scene.
+        found = sorted([((h["everywhere"], not h["expected"], h["psnr"]), axis, h) for axis, h in hits if h],
+                       key=lambda f: f[0])
         if found:
-            # A threshold inside a sweep, on its harsher side, says more than an axis failing everywhere
-            # (a default that breaks) or than failures at the milder end: it comes first, with its scene.
-            found.sort(key=lambda f: f[0])
             (_, axis, hit), others = found[0], found[1:]
             phrase = f"{hit['words']} on {axis.scene_words} ({format_number(hit['psnr'])} dB)"
             if others:
@@ -183,12 +172,9 @@ def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
 
 
 def heat_cells(tests, backends, reasons, *, unrendered=None, difference=None, axes=AXES):
-    """The heat map's cells over ``axes``: ``{(backend, axis words): HeatCell}``.
-
-    ``reasons`` maps ``(backend, axis key)`` to why the backend was left out of that axis,
-    ``unrendered`` to why its planned runs made no frame (skipped or failed);
-    ``difference(row)`` gives the worst point's difference image (``None``: no image).
-    """
+    """The heat map's cells over ``axes``: ``{(backend, axis words): HeatCell}``; ``reasons`` and ``unrendered`` map
+    ``(backend, axis key)`` to why it was left out of the axis or made no frame, ``difference(row)`` gives the worst
+    point's difference image."""
     cells = {}
     for backend in backends:
         for axis in axes:
@@ -311,36 +297,27 @@ class Atlas(Experiment):
         return runs
 
     def failures(self, results):
-        """``{backend: phrase}`` completing "fails when …", from the atlas's numbers.
-
-        The mildest value of an axis below 30 dB ("min opacity ≥ 0.01 on the semi-transparent engine
-        (17.6 dB)"), preferring a threshold inside a sweep to an axis that fails at every value; a
-        backend that never falls below 30 dB gets its worst point ("no axis below 30 dB (worst …)").
-        """
+        """``{backend: phrase}`` completing "fails when …" on the index (:func:`failure_phrases`)."""
         tests = atlas_rows(results)
         return failure_phrases(tests, sorted(set(tests.backend)))
 
     def report(self, results, ctx):
         from reports import plots  # matplotlib: only when the report is built
 
-        tests = atlas_rows(results)
-        backends = technique_rows()
-        reasons = left_out()
+        tests, reasons = atlas_rows(results), left_out()
         out = [blocks.Takeaways(_takeaways(tests))]
         caption = (f"Each cell: the lowest PSNR against the reference over that axis's sweep, with the worst FLIP and "
                    f"where; red below {PSNR_BREAKS:g} dB (breaks), amber to {PSNR_GOOD:g} dB, green above (accurate). "
                    "A cell links to its sweep chart and shows the worst point's difference image (absolute error, full "
                    f"colour at {DIFF_SCALE:g}). Grey: the technique lacks the axis, and why.")
-        for title, axes, rows, more in _heat_maps(backends, reasons):
+        for title, axes, rows, more in _heat_maps(technique_rows(), reasons):
             cells = heat_cells(tests, rows, reasons, unrendered=_unrendered(results), axes=axes,
                                difference=lambda row: ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE))
             out.append(blocks.HeatMap(title, rows, [axis.words for axis in axes], cells, caption=caption + more,
                                       thresholds=(PSNR_BREAKS, PSNR_GOOD)))
         for axis in AXES:
-            rows = tests[tests.axis == axis.key] if "axis" in tests else tests.iloc[:0]
-            if rows.empty:
-                continue
-            out += _axis_blocks(axis, rows, results, ctx, plots)
+            rows = tagged(tests, axis=axis.key)
+            out += _axis_blocks(axis, rows, results, ctx, plots) if not rows.empty else []
         if not tests.empty:
             named = {"value": "swept value", "axis_words": "axis"}
             table = tests.assign(axis_words=[AXIS_BY_KEY[k].words for k in tests.axis])

@@ -5,7 +5,8 @@ import pandas as pd
 
 from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import METRICS, difference_gallery, figure, format_number, linked_table, ms
+from pipeline.experiments.kit.pages import (METRICS, difference_gallery, figure, format_number, linked_table, ms,
+                                            unless_missing)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, voxels
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, takeaways
@@ -103,12 +104,8 @@ class ReferenceConvergence(Experiment):
 
         ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
         ok["step_factor"] = ok.step_factor.astype(float)
-        orders = {}
-        for scene, group in ok.groupby("scene"):
-            try:
-                orders[scene] = _observed_order(group)
-            except ValueError:
-                pass
+        orders = {scene: unless_missing(_observed_order, group, empty=None) for scene, group in ok.groupby("scene")}
+        orders = {scene: order for scene, order in orders.items() if order is not None}  # a scene without two errors
         truth = voxels(float(results[results.role == "truth"].step_factor.astype(float).min()))
         chart = figure(ctx, "convergence", plots.convergence, ok, heading="Error against step size (log–log)",
                        caption=f"RMSE against a {truth}-voxel render, one line per scene; grey guide lines of "

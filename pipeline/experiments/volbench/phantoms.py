@@ -1,9 +1,5 @@
-"""``volbench-phantoms``: every data set rendered by the reference, with the statistics the papers use.
-
-The gallery shows each phantom beside the real scan it stands in for (:data:`STAND_INS`), and the
-claims hold each phantom's statistics to its real scan's, placed in the phantom's box, or to the
-reproduction notes' targets where no real scan of its kind is at hand.
-"""
+"""``volbench-phantoms``: every data set rendered by the reference, with the statistics the papers use, each phantom
+beside the real scan it stands in for (:data:`STAND_INS`)."""
 
 from dataclasses import dataclass, field, replace
 
@@ -200,12 +196,9 @@ def _statistics_row(df, name, preset):
 
 
 def _real_in_box(df, phantom, preset):
-    """The real scan's :data:`BOX_STATISTICS` placed in ``phantom``'s box, with the phantom's own.
-
-    Returns ``(phantom_stats, real_stats, real_in_box)``, or a string saying why they do not
-    compare: a side not measured, or a phantom measured at another size than the scan's voxels
-    (profiles that shrink ``statistics_size``).
-    """
+    """``(phantom_stats, real_stats, real_in_box)``: the real scan's :data:`BOX_STATISTICS` placed in ``phantom``'s
+    box, with both own, or why they do not compare: a side not measured, or a phantom measured at another size than
+    the scan's voxels (profiles that shrink ``statistics_size``)."""
     stand_in = STAND_INS[phantom]
     mine, real = _statistics_row(df, phantom, preset), _statistics_row(df, stand_in.real, preset)
     if mine is None or real is None:
@@ -301,11 +294,8 @@ def _real_says(df, phantom, stat):
 
 
 class NotesTarget(Band):
-    """A phantom's statistic within a band around the reproduction notes' target.
-
-    Its detail also says what a stand-in's real scan shows (:func:`_real_says`): where the two
-    disagree, the phantom follows the real scan.
-    """
+    """A phantom's statistic within a band around the reproduction notes' target; its detail also says what a
+    stand-in's real scan shows (:func:`_real_says`): where the two disagree, the phantom follows the real scan."""
 
     def __call__(self, df):
         result = super().__call__(df)
@@ -314,12 +304,9 @@ class NotesTarget(Band):
 
 
 def _target_claims():
-    """The statistics claims, each within ±25 % of its target or an absolute floor where wider.
-
-    A stand-in under a preset it shares with its real scan is compared with the scan placed in
-    the phantom's box (:func:`datasets.stats.in_box`), for each of :data:`BOX_STATISTICS`; every
-    other target a phantom declares comes from the reproduction notes.
-    """
+    """The statistics claims: a stand-in under a preset it shares with its real scan against the scan placed in the
+    phantom's box (:func:`datasets.stats.in_box`), each of :data:`BOX_STATISTICS`; every other target a phantom
+    declares from the reproduction notes."""
     claims = []
     for phantom, stand_in in STAND_INS.items():
         for preset in stand_in.presets:
