@@ -54,10 +54,8 @@ def _occluded_culled(df):
 
 
 def _occluder_fit(df, config):
-    """R² of main-pass time against the occluded share (≥ 0.9) and the time left when all is hidden (≤ 25 %).
-
-    Both with bootstrap intervals from the frames of the coverage sweep, which is timed interleaved.
-    """
+    """R² of main-pass time against the occluded share (≥ 0.9) and the time left when all is hidden (≤ 25 %), both
+    with bootstrap intervals from the frames of the coverage sweep, which is timed interleaved."""
     rows = _occluder_rows(rows_matching(df, f"{config} with an occluder", config=config))
     if len(rows) < 3:
         raise ValueError(f"fewer than three coverages of {config}")

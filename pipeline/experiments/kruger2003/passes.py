@@ -139,27 +139,24 @@ class Passes(Experiment):
         size, image, step = sizes(self, profile)
         frames = timed_frames(profile, self)
         view = (headline_view("foot"),)
-        runs = []
         dvr = scene("foot", image, volumes=[phantom("foot", size, preset="bone")])
         tags = {"scene": "foot", "dataset": "foot", "part": "passes"}
         truth = truth_run(self.name, "foot", dvr, view, 0.25, tags)
-        runs.append(truth)
         # DVR and the iso-surface caster with early termination are timed together, as is the M sweep.
-        runs += method_runs(self.name, "foot", dvr, view, ("rc", "rc-a", "rc-b"), step, truth.id, tags, frames,
-                            together=("rc-a",), group="iso")
+        runs = [truth] + method_runs(self.name, "foot", dvr, view, ("rc", "rc-a", "rc-b"), step, truth.id, tags,
+                                     frames, together=("rc-a",), group="iso")
         iso = scene("foot-iso", image, volumes=[phantom("foot", size, preset="iso")], mode="iso")
         iso_truth = truth_run(self.name, "foot-iso", iso, view, 0.25, {**tags, "part": "iso"})
-        runs.append(iso_truth)
         # The paper's iso-surface caster tests s < isovalue at its samples (gl-raycast's iso_hit="sampled").
-        runs += method_runs(self.name, "foot-iso", iso, view, ("rc-a",), step, iso_truth.id,
-                            {**tags, "part": "iso", "mode": "iso"}, frames, together=("rc-a",), group="iso",
-                            extra={"iso_hit": "sampled"})
+        runs += [iso_truth] + method_runs(self.name, "foot-iso", iso, view, ("rc-a",), step, iso_truth.id,
+                                          {**tags, "part": "iso", "mode": "iso"}, frames, together=("rc-a",),
+                                          group="iso", extra={"iso_hit": "sampled"})
         if accepts(RAYCAST, "samples_per_pass"):
-            for m in profile.setting(self, "m_values", list(M_VALUES)):
-                runs.append(Run(self.name, f"foot.m{int(m)}", RAYCAST, dvr, view,
-                                options={"variant": "rc-b", "samples_per_pass": int(m), "step_factor": step},
-                                reference=truth.id, **frames, interleave="m-sweep",
-                                tags={**tags, "part": "m-sweep", "role": "test", "config": "rc-b", "m": int(m)}))
+            runs += [Run(self.name, f"foot.m{int(m)}", RAYCAST, dvr, view,
+                         options={"variant": "rc-b", "samples_per_pass": int(m), "step_factor": step},
+                         reference=truth.id, **frames, interleave="m-sweep",
+                         tags={**tags, "part": "m-sweep", "role": "test", "config": "rc-b", "m": int(m)})
+                     for m in profile.setting(self, "m_values", list(M_VALUES))]
         return runs
 
     def paper_table(self):

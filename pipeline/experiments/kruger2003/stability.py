@@ -54,10 +54,8 @@ def _threshold(df):
 
 
 def _blocks_lossless(df):
-    spreads = {}
-    for scene_name in pd.unique(text_column(rows_matching(df, "the block sweep", sweep="block"), "scene")):
-        rows = _sweep_rows(df, "block", scene_name)
-        spreads[scene_name] = float(rows.psnr.max() - rows.psnr.min())
+    spreads = {scene_name: _sweep_rows(df, "block", scene_name).psnr.pipe(lambda psnr: float(psnr.max() - psnr.min()))
+               for scene_name in pd.unique(text_column(rows_matching(df, "the block sweep", sweep="block"), "scene"))}
     worst = max(nonempty_or(spreads, "no block sweep"), key=spreads.get)
     return ClaimResult(f"{format_number(spreads[worst])} dB ({worst})", bool(spreads[worst] <= 0.1),
                        ", ".join(f"{s}: {format_number(v)} dB" for s, v in spreads.items()))
@@ -117,12 +115,11 @@ class Stability(Experiment):
             view = (headline_view(dataset),)
             tags = {"scene": scene_name, "dataset": dataset}
             truth = truth_run(self.name, scene_name, scene_spec, view, 0.25, tags)
-            runs.append(truth)
-            runs += [Run(self.name, f"{scene_name}.{sweep[0]}{value:g}", RAYCAST, scene_spec, view,
-                         options={"variant": "rc-b", option: value, "step_factor": step}, reference=truth.id,
-                         **frames, interleave=f"{scene_name}.{sweep}",
-                         tags={**tags, "role": "test", "config": "rc-b", "sweep": sweep, "value": value})
-                     for sweep, option, cast, values in sweeps for value in map(cast, values)]
+            runs += [truth] + [Run(self.name, f"{scene_name}.{sweep[0]}{value:g}", RAYCAST, scene_spec, view,
+                                   options={"variant": "rc-b", option: value, "step_factor": step},
+                                   reference=truth.id, **frames, interleave=f"{scene_name}.{sweep}",
+                                   tags={**tags, "role": "test", "config": "rc-b", "sweep": sweep, "value": value})
+                               for sweep, option, cast, values in sweeps for value in map(cast, values)]
         return runs
 
     def report(self, results, ctx):

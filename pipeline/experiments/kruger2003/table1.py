@@ -37,13 +37,9 @@ def _paper_ratio(scene_name, slow, fast):
     return fps[fast] / fps[slow]
 
 
-# ---------------------------------------------------------------------------------------------- claims
 def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
-    """``time(slow) / time(fast)`` (whole frames, median over the views) within [low, high] on each of ``scenes``.
-
-    ``None`` scenes: every scene. Each scene's ratio gets its interval (the methods of a scene are
-    interleaved); the claim fails if one scene fails and is inconclusive if one is.
-    """
+    """``time(slow) / time(fast)`` (whole frames, median over the views) within [low, high] on each of ``scenes``
+    (``None``: every scene), each with its interval (the methods of a scene are interleaved)."""
     resampler = intervals.Resampler()
     scenes = nonempty([s for s in pd.unique(text_column(df, "scene")) if scenes is None or s in scenes],
                       what=", ".join(scenes) if scenes else "any scene")
@@ -166,7 +162,6 @@ CLAIMS = (
 )
 
 
-# ------------------------------------------------------------------------------------------------ page
 def _ratio_table(tests):
     """Per scene, the paper's speed-ups between methods beside ours (quotients of median frame times over the views)."""
     rows = []
@@ -225,9 +220,8 @@ def _ratio_blocks(tests, ctx):
 def _speed_blocks(headline, tests, ctx):
     """Frame times and PSNR in the headline view, speed against accuracy, and times over the orbit."""
     timing = method_points(headline)
-    orbit = method_points(tests).groupby(["scene", "method"]).time_ms.agg(["median", "min", "max"])
-    summary = orbit.reset_index().rename(columns={"median": "median over views (ms)", "min": "fastest view (ms)",
-                                                  "max": "slowest view (ms)"})
+    summary = method_points(tests).groupby(["scene", "method"]).time_ms.agg(**{
+        "median over views (ms)": "median", "fastest view (ms)": "min", "slowest view (ms)": "max"}).reset_index()
     return [linked_table("Frame times and accuracy (headline view)", timing,
                          ["scene", "method", "time_ms", "time_ms_min", "time_ms_max", "psnr", "ssim"], ctx,
                          csv_name="table1.csv", caption=frames_caption(timing, untimed=UPLOADS)),
@@ -279,9 +273,8 @@ class Table1(Experiment):
             views = orbit_views(dataset, orbit)
             tags = {"scene": scene_name, "dataset": dataset, "preset": preset}
             truth = truth_run(self.name, scene_name, scene_spec, views, truth_step, tags)
-            runs.append(truth)
-            runs += method_runs(self.name, scene_name, scene_spec, views, METHODS, step, truth.id, tags, frames,
-                                together=PAPER_METHODS)
+            runs += [truth] + method_runs(self.name, scene_name, scene_spec, views, METHODS, step, truth.id, tags,
+                                          frames, together=PAPER_METHODS)
         return runs
 
     def paper_table(self):

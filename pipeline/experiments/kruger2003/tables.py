@@ -23,15 +23,13 @@ HEAD_RCB_OVER_SBVR = TABLE1["head"][6] / TABLE1["head"][3]
 
 
 def paper_band(ratio):
-    """``(min, max)`` over Table 1's four rows (not their real-scan repeats) of ``ratio(sbvr, rc, rc_a, rc_b)``,
-    a function of the row's frame rates."""
+    """``(min, max)`` of ``ratio(sbvr, rc, rc_a, rc_b)`` (frame rates) over Table 1's rows, not real-scan repeats."""
     values = [ratio(*row[3:]) for scene, row in TABLE1.items() if scene not in REAL_SCANS]
     return min(values), max(values)
 
 
 SBVR_OVER_RC = paper_band(lambda sbvr, rc, rc_a, rc_b: rc / sbvr)
-"""Time SBVR / RC in Table 1: RC runs at 0.61–0.68 of slicing's frame rate (×0.606 engine to ×0.676 the 256³
-sets)."""
+"""Time SBVR / RC in Table 1: RC runs at 0.61–0.68 of slicing's frame rate (×0.606 engine to ×0.676 the 256³ sets)."""
 
 RCA_OVER_RCB = paper_band(lambda sbvr, rc, rc_a, rc_b: rc_b / rc_a)
 """Time RC-a / RC-b in Table 1: what empty-space skipping adds, ×1.625 (head) to ×2.202 (aneurysm)."""

@@ -2,9 +2,6 @@
 
 No paper stands behind them, so none of the guides in ``../shared/papers/notes/`` is theirs: they check
 what every paper's reproduction relies on, against the contract of ``../shared/CONVENTIONS.md``.
-
-Each experiment is a module of its own (:data:`EXPERIMENTS`); :mod:`.atlas_axes` holds the stability atlas's
-stress axes and :mod:`.scenes` the scene and ground truth the convergence and speed–accuracy studies share.
 """
 
 from pipeline.experiments.kit.model import Paper

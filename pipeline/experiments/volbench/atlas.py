@@ -28,12 +28,8 @@ CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
 
 @dataclasses.dataclass(frozen=True)
 class Technique:
-    """A backend with options of its own, a row of the atlas beside the backends at their defaults.
-
-    Its runs add ``options`` to the axis's (none of them is an option its axes sweep), and its rows in the results
-    are the backend's runs with these options. It runs on the axes keyed ``axes``; ``elsewhere`` says why not on
-    the others (its heat-map cells there); ``slug`` is its part of run ids and interleave groups.
-    """
+    """A backend with ``options`` of its own (none an option its axes sweep), a row of the atlas on the axes keyed
+    ``axes``; ``elsewhere`` says why not on the others, ``slug`` is its part of run ids and interleave groups."""
 
     backend: str
     options: dict
@@ -113,12 +109,10 @@ def threshold(rows, axis, *, breaks=PSNR_BREAKS):
     The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest of them);
     failing points that run to the milder end instead give the reverse ("≤ v"); failures in the middle are listed.
     """
-    if rows.empty:
+    if not (rows.psnr < breaks).any():
         return None
     order = rows.sort_values("value", ascending=axis.harsher == "up").reset_index(drop=True)
     fails = (order.psnr < breaks).to_numpy()
-    if not fails.any():
-        return None
     name, values = axis.words.split(" (")[0], order.value
     everywhere, expected = bool(fails.all()), bool(fails.all() or fails[-1])
     if everywhere:
@@ -348,24 +342,17 @@ def _heat_maps(backends, reasons):
 
 @functools.lru_cache(maxsize=1)
 def left_out():
-    """``{(technique, axis key): reason}`` for every backend or :data:`TECHNIQUES` row left out of an axis, at
-    any scale.
-
-    Judged on every value of every scale at once (what a backend lacks is a feature or an option,
-    not a size), so the plan and the report agree whatever profile made the results.
-    """
+    """``{(technique, axis key): reason}`` for every backend or :data:`TECHNIQUES` row left out of an axis, judged on
+    every value of every scale at once (a backend lacks a feature or an option, not a size), so that the plan and
+    the report agree whatever profile made the results."""
     reasons = {}
     for axis in AXES:
         values = sorted({v for scale in axis.values.values() for v in scale})
         planned = points(axis, values, size=32, image=32)
-        for backend in renderers.names():
-            why = "" if backend == REFERENCE else axis_reason(axis, backend, planned)
-            if why:
-                reasons[(backend, axis.key)] = why
-        for label, technique in TECHNIQUES.items():
-            why = axis_reason(axis, technique.backend, planned) if axis.key in technique.axes else technique.elsewhere
-            if why:
-                reasons[(label, axis.key)] = why
+        whys = {backend: axis_reason(axis, backend, planned) for backend in renderers.names() if backend != REFERENCE}
+        whys.update({label: axis_reason(axis, t.backend, planned) if axis.key in t.axes else t.elsewhere
+                     for label, t in TECHNIQUES.items()})
+        reasons.update({(name, axis.key): why for name, why in whys.items() if why})
     return reasons
 
 

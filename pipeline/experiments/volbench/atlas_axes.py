@@ -258,11 +258,8 @@ def option_names(backend):
 
 
 def axis_reason(axis, backend, planned):
-    """Why ``backend`` is left out of ``axis`` (short, for its heat-map cell), or ``""`` when it takes part.
-
-    ``planned`` are the axis's ``(value, scene, views)`` points; every one must be renderable. A missing
-    feature comes first: a backend without iso-surfaces has no step to sweep on an iso axis either.
-    """
+    """Why ``backend`` is left out of ``axis`` (short, for its heat-map cell), or ``""``: every one of the ``planned``
+    points must be renderable, and a missing feature comes first (without iso-surfaces, no iso step to sweep)."""
     capabilities = renderers.backend_class(backend).capabilities
     for _, spec, views in planned:
         for view in views:

@@ -82,12 +82,11 @@ class ReferenceConvergence(Experiment):
         for scene_name, scene_def in CONVERGENCE_SCENES.items():
             scene, truth = scene_and_truth(self, profile, scene_name, scene_def, truth_factor,
                                            {"step_factor": truth_factor})
-            runs.append(truth)
-            for factor in factors:
-                runs.append(Run(self.name, f"{scene_name}.step{factor:g}", REFERENCE, scene,
-                                (HEADLINE_VIEW,), options={"step_factor": factor}, reference=truth.id,
-                                warmup=profile.warmup, repeat=profile.repeat,
-                                tags={"scene": scene_name, "step_factor": factor, "role": "sweep"}))
+            runs += [truth] + [Run(self.name, f"{scene_name}.step{factor:g}", REFERENCE, scene, (HEADLINE_VIEW,),
+                                   options={"step_factor": factor}, reference=truth.id, warmup=profile.warmup,
+                                   repeat=profile.repeat, tags={"scene": scene_name, "step_factor": factor,
+                                                                "role": "sweep"})
+                               for factor in factors]
         return runs
 
     claims = (

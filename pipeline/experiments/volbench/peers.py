@@ -1,9 +1,5 @@
-"""``volbench-peers``: every backend present against VTK's mappers on the same scenes.
-
-VTK's timed runs keep its default early ray termination (α > 1 − 1/255), what its users get; the
-matched runs turn it off. A backend that cannot render a scene (VolPack in MIP, VTK's CPU mapper
-in iso mode, ...) is recorded as skipped with its own reason, which the report lists.
-"""
+"""``volbench-peers``: every backend present against VTK's mappers on the same scenes (a backend that cannot render
+one is recorded as skipped with its own reason, which the report lists)."""
 
 import numpy as np
 import pandas as pd
@@ -109,12 +105,11 @@ class Peers(Experiment):
             views = (headline_view(dataset),)
             tags = {"scene": scene_name, "dataset": dataset, "image_size": image, "part": "matched"}
             truth = truth_run(self.name, f"matched.{scene_name}", spec, views, step, tags)
-            runs.append(truth)
-            for backend, options in ((VTK_GPU, {"early_termination": False}), (VTK_CPU, {})):
-                if accepts(backend, "step_factor", *options):
-                    runs.append(Run(self.name, f"matched.{scene_name}.{backend}", backend, spec, views,
-                                    options={**options, "step_factor": step}, reference=truth.id, **UNTIMED,
-                                    tags={**tags, "role": "test", "technique": backend}))
+            runs += [truth] + [Run(self.name, f"matched.{scene_name}.{backend}", backend, spec, views,
+                                   options={**options, "step_factor": step}, reference=truth.id, **UNTIMED,
+                                   tags={**tags, "role": "test", "technique": backend})
+                               for backend, options in ((VTK_GPU, {"early_termination": False}), (VTK_CPU, {}))
+                               if accepts(backend, "step_factor", *options)]
         return runs
 
     claims = (

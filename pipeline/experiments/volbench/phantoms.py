@@ -12,6 +12,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import difference_gallery, format_number, frames_note, linked_table
 from pipeline.experiments.kit import planning
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, UNTIMED, UPRIGHT, scene
+from pipeline.experiments.kit.results import tagged
 from reports import blocks
 
 REAL_UPRIGHT = {
@@ -188,7 +189,7 @@ def _render_note(row):
 
 def _statistics_row(df, name, preset):
     """``{statistic: value}`` measured for data set ``name`` under ``preset`` (``None`` if not run)."""
-    rows = df[(df.dataset == name) & (df.preset == preset)] if "dataset" in df and "preset" in df else df.iloc[:0]
+    rows = tagged(df, dataset=name, preset=preset)
     if rows.empty:
         return None
     row = rows.iloc[0]
@@ -237,9 +238,7 @@ def _stand_in_comparison(ok):
 
 def _statistics_rows(compared, phantom, preset):
     """The phantom's and the real scan's statistics as two short rows for a gallery note."""
-    if compared.empty:
-        return ""
-    rows = compared[(compared.phantom == phantom) & (compared.preset == preset)]
+    rows = tagged(compared, phantom=phantom, preset=preset)
     if rows.empty:
         return ""
     names = {"nontransparent_fraction": "non-transparent", "empty_block_fraction": "empty 8³ blocks",

@@ -59,13 +59,9 @@ def _tradeoff(df):
 
 
 def _ranking(df, *, scene):
-    """On ``scene``, the decision panel's fastest technique at the accuracy bar against the next one: the next's time
-    over the fastest's, with the interval of their frames timed together (paired by process and round).
-
-    The order is read from these same times, so the ratio is never below ×1; what the interval tells is whether
-    the order is resolved or the two tie. Fewer than two techniques at the bar, or two timed in separate jobs,
-    leave nothing to judge.
-    """
+    """On ``scene``, the next technique's time over the fastest's at the accuracy bar (the decision panel's order),
+    with the interval of their frames timed together: the order is read from these same times, so the ratio is
+    never below ×1; the interval tells whether the order is resolved or the two tie."""
     sweep = df[(df.role == "sweep") & (df.scene == scene)]
     panels = nonempty_or(decision.panel(decision.technique_rows(sweep), None), f"no technique rendered {scene}")
     accurate = [row for row in panels[0]["table"] if row["accurate"]]
@@ -189,10 +185,9 @@ class SpeedAccuracy(Experiment):
     def report(self, results, ctx):
         from reports import plots  # matplotlib: only when the report is built
 
-        ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
-        ok["setting"] = ok.setting.fillna("default").astype(str)
-        ok["technique"] = [decision.technique_label(b, s) for b, s in zip(ok.backend, ok.setting)]
-        ok = speed_points(ok)
+        ok = results[(results.status == "ok") & (results.role == "sweep")]
+        ok = speed_points(ok.assign(setting=ok.setting.fillna("default").astype(str), technique=lambda frame: [
+            decision.technique_label(b, s) for b, s in zip(frame.backend, frame.setting)]))
         out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
                                 + _stage_takeaways(ok))]
         fronts = decision.panel(decision.technique_rows(results[results.role == "sweep"]), None)
@@ -254,8 +249,7 @@ def _frame_stages(ok):
 
 def _stage_shares(ok, stages):
     medians = ok[stages].median()
-    total = medians.sum()
-    return (medians / total).sort_values(ascending=False) if total > 0 else pd.Series(dtype=float)
+    return (medians / medians.sum()).sort_values(ascending=False) if medians.sum() > 0 else pd.Series(dtype=float)
 
 
 def _stage_title(ok, stages):
@@ -266,8 +260,7 @@ def _stage_title(ok, stages):
 
 
 def _stage_takeaways(ok):
-    stages = _frame_stages(ok)
-    shares = _stage_shares(ok, stages) if stages else pd.Series(dtype=float)
+    shares = _stage_shares(ok, _frame_stages(ok))
     if shares.empty:
         return []
     parts = ", ".join(f"{name.removeprefix('time_')} {share:.0%}" for name, share in shares.items())
