@@ -50,10 +50,9 @@ def method_runs(experiment, prefix, scene_spec, views, configs, step_factor, tru
                 group=None, extra=None):
     """Timed runs of ``configs`` (keys of :data:`METHODS`) on one scene, checked against ``truth``.
 
-    The runs of the configs in ``together`` (those a claim compares) are timed in one interleave group,
-    ``group`` (default ``prefix``), frame against frame. ``extra`` options join every config's (the
-    paper's sampled iso hit). A method whose backend does not take its options here is left out; the
-    page says why (:func:`gl_not_measurable`).
+    The runs of the configs in ``together`` (those a claim compares) are timed in one interleave group, ``group``
+    (default ``prefix``), frame against frame. ``extra`` options join every config's (the paper's sampled iso hit). A
+    method whose backend does not take its options here is left out; the page says why (:func:`gl_not_measurable`).
     """
     planned = [(config, METHODS[config][0], {**METHODS[config][1], **(extra or {})}) for config in configs]
     return [Run(experiment, f"{prefix}.{config}", backend, scene_spec, views, reference=truth, **frames,

@@ -92,16 +92,14 @@ class Occluder(Experiment):
     settings = SETTINGS | {"fractions"}
     scales = scaled(base=SIZE_SCALES, smoke={"fractions": [0, 0.5, 1]})
     description = (
-        "The paper motivates early-z with an opaque polygon drawn before the volume: the rays it "
-        "hides are culled by the depth test, so the speed-up is “directly proportional to the area "
-        "of the occluded parts of the volume” (Sec. 1; no numbers are given). Here an opaque plane "
-        "covers the left part of the volume's screen footprint, from none to all of it, in front of "
-        "the no-cue control seen straight at a face (no ray ends or leaves early and no block is "
-        "empty, so the plane is the only thing that culls). RC shows the pure effect; RC-a adds the "
-        "intermediate pass, which early-z cannot cull because it writes depth. The occluded share is "
-        "measured: the plane's fragments that passed, over the rays. The coverages of each method are "
-        "timed interleaved, frame against frame, and the claim reads the main passes, where early-z "
-        "culls."
+        "The paper motivates early-z with an opaque polygon drawn before the volume: the rays it hides are culled by "
+        "the depth test, so the speed-up is “directly proportional to the area of the occluded parts of the volume” "
+        "(Sec. 1; no numbers are given). Here an opaque plane covers the left part of the volume's screen footprint, "
+        "from none to all of it, in front of the no-cue control seen straight at a face (no ray ends or leaves early "
+        "and no block is empty, so the plane is the only thing that culls). RC shows the pure effect; RC-a adds the "
+        "intermediate pass, which early-z cannot cull because it writes depth. The occluded share is measured: the "
+        "plane's fragments that passed, over the rays. The coverages of each method are timed interleaved, frame "
+        "against frame, and the claim reads the main passes, where early-z culls."
     )
     claims = (
         Claim("occluded-rays-culled", "Early-z drops every fragment of an occluded ray in every main pass (Sec. 1)",

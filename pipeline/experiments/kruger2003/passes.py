@@ -113,12 +113,11 @@ class Passes(Experiment):
     settings = SETTINGS | {"m_values"}
     scales = scaled(base=SIZE_SCALES, smoke={"m_values": [2, 8, 32]})
     description = (
-        "Occlusion queries count, for every main pass, the fragments that survive the early depth "
-        "test: flat for RC (the whole footprint every pass), falling for RC-a as rays saturate or "
-        "leave, and lower again for RC-b across empty segments; the intermediate pass is never "
-        "culled. The iso-surface caster shades once per pass and ends a ray at its hit, so it should "
-        "beat DVR with early termination on an opaque surface. M trades the per-pass overhead (small "
-        "M: many passes) against samples wasted after a ray ends inside a pass (large M)."
+        "Occlusion queries count, for every main pass, the fragments that survive the early depth test: flat for RC "
+        "(the whole footprint every pass), falling for RC-a as rays saturate or leave, and lower again for RC-b across "
+        "empty segments; the intermediate pass is never culled. The iso-surface caster shades once per pass and ends a "
+        "ray at its hit, so it should beat DVR with early termination on an opaque surface. M trades the per-pass "
+        "overhead (small M: many passes) against samples wasted after a ray ends inside a pass (large M)."
     )
     claims = (
         Claim("rc-flat", "RC draws the whole footprint in every main pass", "fragments of the last main pass ≥ 95 % "

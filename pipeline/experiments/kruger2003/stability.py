@@ -85,12 +85,11 @@ class Stability(Experiment):
     settings = SETTINGS | {"thresholds", "block_sizes"}
     scales = scaled(base=SIZE_SCALES, smoke={"thresholds": [0.9, 1.0], "block_sizes": [8, 16]})
     description = (
-        "The paper leaves the threshold T unspecified and fixes 8³ blocks. A lower T ends rays "
-        "sooner and drops up to 1 − T of their light; a threshold of 1 never ends a ray early. The "
-        "block size trades a finer empty-space map (more skipped segments) against a larger grid "
-        "and more tests; skipping is conservative, so it must never change the image. Both are swept "
-        "with RC-b on the opaque head and on the sparse aneurysm, speed and error against the reference; "
-        "the settings of each sweep are timed interleaved, frame against frame."
+        "The paper leaves the threshold T unspecified and fixes 8³ blocks. A lower T ends rays sooner and drops up to "
+        "1 − T of their light; a threshold of 1 never ends a ray early. The block size trades a finer empty-space map "
+        "(more skipped segments) against a larger grid and more tests; skipping is conservative, so it must never "
+        "change the image. Both are swept with RC-b on the opaque head and on the sparse aneurysm, speed and error "
+        "against the reference; the settings of each sweep are timed interleaved, frame against frame."
     )
     claims = (
         Claim("threshold-trades-error", "A lower threshold is faster and less accurate", "on the head: time at T = 1 "

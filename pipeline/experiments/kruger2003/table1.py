@@ -243,17 +243,15 @@ class Table1(Experiment):
     settings = SETTINGS | {"scenes", "truth_step_factor", "orbit"}
     scales = scaled(base=SIZE_SCALES, smoke={"scenes": ["head"], "orbit": 1}, default={"orbit": 2}, full={"orbit": 8})
     description = (
-        "The paper times 3D-texture slicing (SBVR) against its multi-pass GPU ray caster without "
-        "acceleration (RC), with early ray termination through the depth test (RC-a) and with "
-        "empty-space skipping on top (RC-b), on an MRI head, an aneurysm, a foot and an engine at "
-        "512². Here the same four renderers (and the modern single-pass caster, not in the paper, and "
-        "VTK's GPU ray caster, the peer users run, with its default early termination) "
-        "render phantom stand-ins of the four kinds and the real scans of the same kinds, at one "
-        "sampling distance, from the headline view (30° yaw, 20° pitch) and around an orbit. Every "
-        "image is compared with the reference ray caster at a fine step. The paper's frame rates "
-        "come from a 2003 GPU; the claims compare ratios between methods measured in one run: the "
-        "four methods of a data set are timed interleaved, frame against frame, and each ratio of "
-        "whole-frame times (the median over the views) is judged with its bootstrap interval."
+        "The paper times 3D-texture slicing (SBVR) against its multi-pass GPU ray caster without acceleration (RC), "
+        "with early ray termination through the depth test (RC-a) and with empty-space skipping on top (RC-b), on an "
+        "MRI head, an aneurysm, a foot and an engine at 512². Here the same four renderers (and the modern single-pass "
+        "caster, not in the paper, and VTK's GPU ray caster, the peer users run, with its default early termination) "
+        "render phantom stand-ins of the four kinds and the real scans of the same kinds, at one sampling distance, "
+        "from the headline view (30° yaw, 20° pitch) and around an orbit. Every image is compared with the reference "
+        "ray caster at a fine step. The paper's frame rates come from a 2003 GPU; the claims compare ratios between "
+        "methods measured in one run: the four methods of a data set are timed interleaved, frame against frame, and "
+        "each ratio of whole-frame times (the median over the views) is judged with its bootstrap interval."
     )
     SCENES = tuple(TABLE1)
     claims = CLAIMS

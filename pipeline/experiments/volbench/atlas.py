@@ -39,9 +39,8 @@ class Technique:
 
 
 PRE_CLASSIFIED = "reference, pre-classified"
-"""The reference classifying voxels before interpolating them (shear-warp's and VolPack's order), as a
-technique of its own: on the TF axis it separates what pre-classification costs from what the
-shear-warp factorization does."""
+"""The reference classifying voxels before interpolating them (shear-warp's and VolPack's order), as a technique of its
+own: on the TF axis it separates what pre-classification costs from what the shear-warp factorization does."""
 
 SAMPLED_ISO = "gl-raycast, sampled iso hit"
 """gl-raycast testing ``s < isovalue`` at samples a step apart (the paper's caster, refined by bisection) instead of
@@ -106,8 +105,8 @@ def threshold(rows, axis, *, breaks=PSNR_BREAKS):
     "psnr", "everywhere", "expected"}``, the threshold in words, where it lies, the worst PSNR, whether every point
     failed and whether the failures lie at the harsher end (the expected side).
 
-    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest of them);
-    failing points that run to the milder end instead give the reverse ("≤ v"); failures in the middle are listed.
+    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest of them); failing
+    points that run to the milder end instead give the reverse ("≤ v"); failures in the middle are listed.
     """
     if not (rows.psnr < breaks).any():
         return None
@@ -192,10 +191,9 @@ def _convergence(df):
     if len(rows) < 2:
         raise ValueError("fewer than two steps of the reference's own sweep")
     rows = rows.assign(step=numeric(rows, "value"), psnr=numeric(rows, "psnr")).sort_values("step", ascending=False)
-    gains = np.diff(rows.psnr.to_numpy())
     measured = ", ".join(f"{format_number(p)} dB at {s:g}" for s, p in zip(rows.step, rows.psnr))
-    return ClaimResult(measured, bool((gains > 0).all()), "PSNR against the reference at 1/8 voxel, "
-                       "largest step first")
+    return ClaimResult(measured, bool((np.diff(rows.psnr.to_numpy()) > 0).all()),
+                       "PSNR against the reference at 1/8 voxel, largest step first")
 
 
 def _shearwarp_45(df):
@@ -204,9 +202,8 @@ def _shearwarp_45(df):
         raise ValueError("fewer than three angles of shear-warp's sweep")
     rows = rows.assign(angle=_values(rows), psnr=numeric(rows, "psnr"))
     worst = rows.loc[rows.psnr.idxmin()]
-    spread = rows.psnr.max() - rows.psnr.min()
     return ClaimResult(f"worst at {worst.angle:g}° ({format_number(worst.psnr)} dB)", bool(worst.angle >= 35.0),
-                       f"PSNR spread over the sweep {format_number(spread)} dB")
+                       f"PSNR spread over the sweep {format_number(rows.psnr.max() - rows.psnr.min())} dB")
 
 
 class Atlas(Experiment):
@@ -222,22 +219,21 @@ class Atlas(Experiment):
               "default": {"volume_size": 48, "image_size": 64},
               "full": {"volume_size": 128, "image_size": 256}}
     description = (
-        "One sweep per stress axis, each on one scene shared by every backend (same data, camera and "
-        "transfer function), every point one untimed frame compared with the reference at 1/8 voxel. A "
-        "backend without an axis's feature or option is not run on it; its cell says why. A point below "
-        f"{PSNR_BREAKS:g} dB PSNR breaks; {PSNR_GOOD:g} dB is accurate. Shear-warp and VolPack skip voxels "
-        "below their ``min_opacity`` (0.05 by default), which drops the semi-transparent engine's casing on "
-        "every scene: the min-opacity axis shows that, with the default in its sweep; every other axis runs "
-        "them at min opacity 0, so that its column shows its own stress. On the TF axis the reference also "
-        "runs pre-classified (voxels classified, then interpolated: shear-warp's order) at the truth's step, a "
-        "row of its own: what the order of classification costs, apart from the shear-warp factorization. Two "
-        "axes render iso-surfaces, so only the backends with an iso mode run on them: the step sweep on the "
-        "engine's casting (its binary preset's isovalue), and the thin-feature axis, parallel tubes whose "
-        "radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however thin), where "
-        "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with the "
-        "paper's sampled iso hit, a row of its own beside its default exact hit (every lattice cell a ray "
-        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its "
-        "own surface: the nearest first crossing of any of them, which only the multi-volume casters render."
+        "One sweep per stress axis, each on one scene shared by every backend (same data, camera and transfer "
+        "function), every point one untimed frame compared with the reference at 1/8 voxel. A backend without an "
+        f"axis's feature or option is not run on it; its cell says why. A point below {PSNR_BREAKS:g} dB PSNR breaks; "
+        f"{PSNR_GOOD:g} dB is accurate. Shear-warp and VolPack skip voxels below their ``min_opacity`` (0.05 by "
+        "default), which drops the semi-transparent engine's casing on every scene: the min-opacity axis shows that, "
+        "with the default in its sweep; every other axis runs them at min opacity 0, so that its column shows its own "
+        "stress. On the TF axis the reference also runs pre-classified (voxels classified, then interpolated: "
+        "shear-warp's order) at the truth's step, a row of its own: what the order of classification costs, apart "
+        "from the shear-warp factorization. Two axes render iso-surfaces, so only the backends with an iso mode run "
+        "on them: the step sweep on the engine's casting (its binary preset's isovalue), and the thin-feature axis, "
+        "parallel tubes whose radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however "
+        "thin), where a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs "
+        "with the paper's sampled iso hit, a row of its own beside its default exact hit (every lattice cell a ray "
+        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its own "
+        "surface: the nearest first crossing of any of them, which only the multi-volume casters render."
     )
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
@@ -372,8 +368,7 @@ def _takeaways(tests):
     phrases = failure_phrases(tests, sorted(set(tests.backend)))
     failing = {b: p for b, p in phrases.items() if not p.startswith("no axis")}
     holding = [b for b in phrases if b not in failing]
-    out = [f"A point breaks below {PSNR_BREAKS:g} dB PSNR against the reference and is accurate from "
-           f"{PSNR_GOOD:g} dB."]
+    out = [f"A point breaks below {PSNR_BREAKS:g} dB PSNR against the reference and is accurate from {PSNR_GOOD:g} dB."]
     if failing:
         out.append("Below " + f"{PSNR_BREAKS:g} dB: " + "; ".join(f"{b} once {p}" for b, p in failing.items()) + ".")
     if holding:

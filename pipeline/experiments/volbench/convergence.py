@@ -1,11 +1,10 @@
 """``volbench-convergence``: the reference renderer's error against a much finer step, as the step shrinks."""
 
 import numpy as np
-import pandas as pd
 
 from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (METRICS, difference_gallery, figure, format_number, linked_table, ms,
+from pipeline.experiments.kit.pages import (difference_gallery, figure, format_number, timed_metrics_table,
                                             unless_missing)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, voxels
 from pipeline.experiments.volbench.scenes import scene_and_truth
@@ -67,10 +66,9 @@ class ReferenceConvergence(Experiment):
         "full": {"volume_size": 128, "image_size": 256, "step_factors": [2.0, 1.0, 0.5, 0.25, 0.125, 0.0625]},
     }
     description = (
-        "The reference is ground truth only if its default step has converged. Each scene is "
-        "rendered at step factors from 2 to 1/8 voxel and compared with a render at 1/32 voxel. "
-        "The error must fall as the step shrinks (not flatten), and the default 1/4 voxel must "
-        "be within 40 dB PSNR of the finest render."
+        "The reference is ground truth only if its default step has converged. Each scene is rendered at step factors "
+        "from 2 to 1/8 voxel and compared with a render at 1/32 voxel. The error must fall as the step shrinks (not "
+        "flatten), and the default 1/4 voxel must be within 40 dB PSNR of the finest render."
     )
     STEP_FACTORS = (2.0, 1.0, 0.5, 0.25, 0.125)
     TRUTH_FACTOR = 1 / 32
@@ -111,8 +109,6 @@ class ReferenceConvergence(Experiment):
                                "slope 1 and 2 through the coarsest point. Parallel to a guide: that order.",
                        x_col="step_factor", y_col="rmse", group_col="scene", title=_convergence_title(ok, orders),
                        y_label=f"RMSE against a {truth}-voxel render (intensity 0–1)")
-        times = ms(ok)
-        timed = pd.concat([ok, times], axis=1).sort_values(["scene", "step_factor"])
         shown = ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].sort_values(["scene", "step_factor"])
         gallery = difference_gallery("Coarsest and default steps against the finest render", shown, ctx,
                                      against=results, label=lambda row: f"{row.scene}, step {row.step_factor:g} voxel",
@@ -120,10 +116,8 @@ class ReferenceConvergence(Experiment):
                                      note=lambda row: f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} "
                                                       f"dB, largest error {format_number(row.max_error)}")
         return [blocks.Takeaways(_convergence_takeaways(ok, orders)), chart,
-                linked_table("Errors and times", timed, ["scene", "step_factor", *times, *METRICS], ctx,
-                             names={"step_factor": "step (voxels)"}, csv_name="convergence.csv",
-                             caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
-                                     "Each row links to its run's JSON record and EXR image."),
+                timed_metrics_table("Errors and times", ok, ["scene", "step_factor"], ctx, by=["scene", "step_factor"],
+                                    names={"step_factor": "step (voxels)"}, csv_name="convergence.csv"),
                 gallery]
 
 

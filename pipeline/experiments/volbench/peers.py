@@ -64,16 +64,15 @@ class Peers(Experiment):
         "full": {"volume_size": 256, "image_sizes": [256, 512]},
     }
     description = (
-        "A researcher reading our numbers asks first how they compare with VTK. Every registered "
-        "backend renders the same scenes as VTK's GPU ray caster (vtkOpenGLGPUVolumeRayCastMapper) "
-        "and its CPU ray caster (vtkFixedPointVolumeRayCastMapper): a phantom and real scans, "
-        "orthographic, headline view, at two image sizes, in every mode each backend supports, all "
-        "at one sampling distance where a backend has one (shear-warp and VolPack sample once per "
-        "slice). Times are the median frame after warm-up with preparation (uploads, RLE builds) "
-        "excluded; ratios to VTK are measured in the same run on the same machine. Images are "
-        "compared with the reference at a finer step. VTK keeps its default early ray termination "
-        "(what its users get). The matched runs beside them turn it off and render unshaded at the "
-        "reference's own step, the conditions under which VTK should reproduce the reference."
+        "A researcher reading our numbers asks first how they compare with VTK. Every registered backend renders the "
+        "same scenes as VTK's GPU ray caster (vtkOpenGLGPUVolumeRayCastMapper) and its CPU ray caster "
+        "(vtkFixedPointVolumeRayCastMapper): a phantom and real scans, orthographic, headline view, at two image "
+        "sizes, in every mode each backend supports, all at one sampling distance where a backend has one (shear-warp "
+        "and VolPack sample once per slice). Times are the median frame after warm-up with preparation (uploads, RLE "
+        "builds) excluded; ratios to VTK are measured in the same run on the same machine. Images are compared with "
+        "the reference at a finer step. VTK keeps its default early ray termination (what its users get). The matched "
+        "runs beside them turn it off and render unshaded at the reference's own step, the conditions under which VTK "
+        "should reproduce the reference."
     )
 
     def runs(self, profile):

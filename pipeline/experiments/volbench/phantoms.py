@@ -20,10 +20,9 @@ REAL_UPRIGHT = {
     "mrihead": {"rotate": {"axis": [0, 1, 1], "degrees": 180}},
     "brainsmall": {"rotate": {"axis": [1, 0, -1], "degrees": 180}},
 }
-"""The gallery's turn of real scans stored otherwise than the phantoms (body axis z, face −y), so
-that each stands as its phantom does: cthead's crown is slice 0, mrihead faces +y, brainsmall is
-stacked in sagittal slices (x front → back, y crown → neck). Each is a half turn (mirroring x,
-which no scan here labels)."""
+"""The gallery's turn of real scans stored otherwise than the phantoms (body axis z, face −y), so that each stands as
+its phantom does: cthead's crown is slice 0, mrihead faces +y, brainsmall is stacked in sagittal slices (x front → back,
+y crown → neck). Each is a half turn (mirroring x, which no scan here labels)."""
 
 
 @dataclass(frozen=True)
@@ -69,12 +68,11 @@ class PhantomGallery(Experiment):
         "full": {"all_presets": True, "step_factor": 0.25},
     }
     description = (
-        "Every synthetic stand-in and every real scan, rendered by the reference renderer with its "
-        "default preset (Blinn–Phong, headline view) so that a person can judge how CT-like the "
-        "phantoms look, next to the statistics the papers use: the fraction of non-transparent "
-        "voxels (α > 0.05, the thesis's threshold), the fraction of empty 8³ blocks and the mean "
-        "number of non-transparent runs per scanline. Statistics are taken at the size of the "
-        "original data set (256³ for most), where the reproduction notes' targets apply."
+        "Every synthetic stand-in and every real scan, rendered by the reference renderer with its default preset "
+        "(Blinn–Phong, headline view) so that a person can judge how CT-like the phantoms look, next to the statistics "
+        "the papers use: the fraction of non-transparent voxels (α > 0.05, the thesis's threshold), the fraction of "
+        "empty 8³ blocks and the mean number of non-transparent runs per scanline. Statistics are taken at the size of "
+        "the original data set (256³ for most), where the reproduction notes' targets apply."
     )
 
     @property
@@ -317,8 +315,7 @@ def _target_claims():
                     mine, _, boxed = measured
                     band = _band(stat, boxed[stat])
                     return ClaimResult(format_number(mine[stat]), bool(abs(mine[stat] - boxed[stat]) <= band),
-                                       f"{real} in the same box {format_number(boxed[stat])} "
-                                       f"± {format_number(band)}")
+                                       f"{real} in the same box {format_number(boxed[stat])} ± {format_number(band)}")
                 claims.append(Claim(f"{phantom}.{preset}-{stat}-vs-{stand_in.real}",
                                     f"{phantom} ({preset}): {stat} like the real {stand_in.real}'s",
                                     f"{stand_in.real}'s value in the same box ± {RELATIVE_BAND:.0%}", check,

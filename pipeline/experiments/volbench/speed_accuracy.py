@@ -8,8 +8,8 @@ import pandas as pd
 import renderers
 from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, figure, format_number, linked_table,
-                                            ms, setting_words)
+from pipeline.experiments.kit.pages import (as_ratio, difference_gallery, figure, format_number, setting_words,
+                                            timed_metrics_table)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, timed_frames
 from pipeline.experiments.kit.results import nonempty_or, speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
@@ -131,13 +131,12 @@ class SpeedAccuracy(Experiment):
     settings = frozenset({"scenes", "volume_size", "image_size"})
     scales = {"smoke": {"scenes": ["skull-bone"]}}
     description = (
-        "Each registered backend renders the same scenes over its own quality settings (its "
-        "``quality_sweep``: step size, and later slice count, thresholds, ...). Error is measured "
-        "against the reference at 1/16 voxel, time is the median frame after warm-up. Every "
-        "technique's settings on a scene are timed together, interleaved round by round in each of "
-        "the profile's replicate processes, so the index's ranking compares like with like and its "
-        "ratios have intervals. A backend that could not run, or lacks a scene's mode, is listed below "
-        "with the reason its runs recorded."
+        "Each registered backend renders the same scenes over its own quality settings (its ``quality_sweep``: step "
+        "size, and later slice count, thresholds, ...). Error is measured against the reference at 1/16 voxel, time is "
+        "the median frame after warm-up. Every technique's settings on a scene are timed together, interleaved round "
+        "by round in each of the profile's replicate processes, so the index's ranking compares like with like and its "
+        "ratios have intervals. A backend that could not run, or lacks a scene's mode, is listed below with the reason "
+        "its runs recorded."
     )
     TRUTH_FACTOR = 1 / 16
 
@@ -212,13 +211,9 @@ class SpeedAccuracy(Experiment):
                               caption="Each backend's own stages, as it reports them (CONVENTIONS, Results), at the "
                                       "first setting of its quality sweep; the table below has every setting.",
                               stage_cols=stages, group_col="backend", title=_stage_title(first, stages)))
-        times = ms(ok)
-        table = pd.concat([ok, times], axis=1).sort_values(["scene", "backend", "time (ms)"])
-        table["setting"] = table.setting.map(setting_words)
-        out.append(linked_table("All settings", table, ["scene", "backend", "setting", *times, *METRICS], ctx,
-                                csv_name="speed_accuracy.csv",
-                                caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
-                                        "Each row links to its run's JSON record and EXR image."))
+        out.append(timed_metrics_table("All settings", ok.assign(setting=ok.setting.map(setting_words)),
+                                       ["scene", "backend", "setting"], ctx, by=["scene", "backend", "time (ms)"],
+                                       csv_name="speed_accuracy.csv"))
         out += [difference_gallery(f"{scene}: every setting against the reference", group.sort_values("time_total"),
                                    ctx, against=results, label=lambda row: row.technique,
                                    note=lambda row: f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} "
