@@ -21,8 +21,7 @@ METHODS = {
     "single-pass": (RAYCAST, {"variant": "single-pass"}, "single pass (not in the paper)"),
     "vtk-gpu": ("vtk-gpu", {}, "VTK GPU ray caster (peer)"),
 }
-"""The methods of Table 1, the modern loop-with-break caster and the GPU caster users run (VTK's, with
-its default early termination), as backend and options."""
+"""Table 1's methods, the modern loop-with-break caster and VTK's GPU caster (its default early termination)."""
 
 
 UPLOADS = "uploads (volume, gradients, min–max grid, transfer-function tables) excluded as their own stage"
@@ -77,8 +76,7 @@ def no_cue_control(size, image):
 
 
 def method_points(rows):
-    """``rows`` with their frame times in milliseconds (:func:`~pipeline.experiments.kit.results.speed_points`)
-    and each method's paper name (``method``)."""
+    """``rows`` with frame times in ms (:func:`~.results.speed_points`) and each method's paper name (``method``)."""
     return speed_points(rows).assign(method=lambda frame: [method_name(c) for c in frame.config])
 
 

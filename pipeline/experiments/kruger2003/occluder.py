@@ -1,6 +1,5 @@
 """``kruger2003-occluder`` (E8): an opaque plane in front of the volume covering 0–100 % of its footprint."""
 
-import numpy as np
 import pandas as pd
 
 from core.errors import InputError
@@ -9,7 +8,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, figure, format_number, frames_caption,
                                             linked_table)
 from pipeline.experiments.kit.planning import accepts, timed_frames
-from pipeline.experiments.kit.results import fit_line, nonempty_or, numeric, ok_rows, rows_matching
+from pipeline.experiments.kit.results import fit_line, nonempty_or, numeric, ok_rows, rows_matching, stage_points
 from pipeline.experiments.kit.judging import decided, r_squared, with_interval
 from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, UPLOADS, gl_not_measurable,
                                                      method_points, no_cue_control, sizes)
@@ -34,9 +33,7 @@ def _occluder_rows(ok):
     rays = numeric(rows, "count_rays")
     occluded = pd.to_numeric(rows.get("count_rays_occluded", 0.0), errors="coerce").fillna(0.0)
     rows["occluded_percent"] = 100 * occluded / rays
-    for suffix in ("", "_min", "_max"):
-        rows[f"main_ms{suffix}"] = pd.to_numeric(rows.get(f"time_main{suffix}", np.nan), errors="coerce") * 1e3
-    return rows.sort_values(["config", "occluded_percent"])
+    return stage_points(rows, "time_main", name="main_ms").sort_values(["config", "occluded_percent"])
 
 
 def _occluded_culled(df):

@@ -8,7 +8,8 @@ import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, figure, format_number, linked_table,
+                                            unless_missing)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
@@ -40,14 +41,10 @@ def _fragments_per_pass(record_path, view="headline"):
 
 
 def _pass_curves(ok):
-    rows = []
-    for row in tagged(ok, part="passes", role="test").itertuples():
-        try:
-            counts = _fragments_per_pass(row.record)
-        except ValueError:
-            continue
-        rows += [{"method": method_name(row.config), "main pass": i + 1, "fragments": c} for i, c in enumerate(counts)]
-    return pd.DataFrame(rows)
+    """Each main pass's fragments per method, from the records (none from a run whose record has no counts)."""
+    return pd.DataFrame([{"method": method_name(row.config), "main pass": i + 1, "fragments": c}
+                         for row in tagged(ok, part="passes", role="test").itertuples()
+                         for i, c in enumerate(unless_missing(_fragments_per_pass, row.record, empty=[]))])
 
 
 def _pass_trend(df, config, flat):

@@ -39,8 +39,7 @@ FPS_PRECISION = 0.05
 
 ENGINE_RC_OVER_RCA = ((TABLE1["engine"][5] - FPS_PRECISION) / (TABLE1["engine"][4] + FPS_PRECISION),
                       (TABLE1["engine"][5] + FPS_PRECISION) / (TABLE1["engine"][4] - FPS_PRECISION))
-"""Time RC / RC-a on the engine within Table 1's precision: RC-a 6.3 fps = RC 6.3 fps, so 6.25 / 6.35 to
-6.35 / 6.25 (×0.984–1.016)."""
+"""Time RC / RC-a on the engine within Table 1's precision (RC-a 6.3 fps = RC 6.3 fps): ×0.984–1.016."""
 
 NO_CUE = [{"case": "semi-transparent data, no termination or skipping", "paper": "≈ 30 % slower",
            "source": "Sec. 3; Table 1 engine: RC-a 6.3 fps = RC 6.3 fps"}]

@@ -1,5 +1,4 @@
-"""``volbench-atlas``: the stability atlas, every backend (and a few :data:`TECHNIQUES`) swept along every stress
-axis (:mod:`.atlas_axes`) it supports."""
+"""``volbench-atlas``: every backend (and :data:`TECHNIQUES`) swept along every stress axis (:mod:`.atlas_axes`)."""
 
 import dataclasses
 import functools
@@ -58,8 +57,7 @@ TECHNIQUES = {
 
 
 def technique_rows():
-    """The heat map's rows: every backend but the reference, each followed by its :data:`TECHNIQUES`, then the
-    reference's."""
+    """The heat map's rows: each backend but the reference followed by its :data:`TECHNIQUES`, the reference's last."""
     rows = []
     for backend in renderers.names():
         if backend != REFERENCE:
@@ -68,8 +66,7 @@ def technique_rows():
 
 
 def techniques(frame):
-    """Each row's technique: the label of the :data:`TECHNIQUES` entry whose backend and options it ran with
-    (``option_<name>`` columns), else its backend."""
+    """Each row's technique: the :data:`TECHNIQUES` label of its backend and options (``option_*``), else backend."""
     labels = frame.backend.copy()
     for label, technique in TECHNIQUES.items():
         mine = frame.backend == technique.backend
@@ -88,8 +85,7 @@ def _values(frame):
 
 
 def atlas_rows(results):
-    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; ``backend`` names the technique
-    (a :data:`TECHNIQUES` label for their runs)."""
+    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; ``backend`` names the technique."""
     ok = ok_rows(results)
     if ok.empty or "role" not in ok:
         return ok.iloc[:0].assign(value=[], psnr=[], flip=[])
@@ -243,15 +239,12 @@ class Atlas(Experiment):
               "the lowest PSNR of shear-warp's angle sweep lies at 35° or more", _shearwarp_45, kind="accuracy"),
     )
 
-    def axes(self, profile):
-        """The axes of this profile (its ``axes`` setting: keys of :data:`AXIS_BY_KEY`; default all)."""
-        return [AXIS_BY_KEY[k] for k in listed(profile, self, "axes", [axis.key for axis in AXES], known=AXIS_BY_KEY)]
-
     def plan(self, profile):
-        """``{axis key: points}``: each axis's ``(value, scene, views)`` at this profile's scale."""
+        """``{axis key: points}``: the ``(value, scene, views)`` at this profile's scale of each axis of its ``axes``
+        setting (keys of :data:`AXIS_BY_KEY`; default all)."""
         size, image = (int(value) for value in volume_and_image_size(profile, self))
-        return {axis.key: points(axis, axis.values[profile.scale], size=size, image=image)
-                for axis in self.axes(profile)}
+        return {key: points(AXIS_BY_KEY[key], AXIS_BY_KEY[key].values[profile.scale], size=size, image=image)
+                for key in listed(profile, self, "axes", [axis.key for axis in AXES], known=AXIS_BY_KEY)}
 
     def runs(self, profile):
         runs = []

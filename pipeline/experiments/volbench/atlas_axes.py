@@ -1,5 +1,4 @@
-"""The stability atlas's stress axes (:class:`Axis`): what each sweeps, on which one scene, and who can render it
-(:func:`axis_reason`, before any run is planned)."""
+"""The stability atlas's stress axes (:class:`Axis`): what each sweeps, on which scene, and who renders it."""
 
 import math
 from dataclasses import dataclass
@@ -164,13 +163,11 @@ def tubes_view(dataset):
 
 
 def clouds(count, size, **extra):
-    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge along x and y;
-    ``extra`` keys go into every entry (an ``isovalue``)."""
-    entries = []
-    for i in range(count):
-        placed = {"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
-        entries.append(phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **placed, **extra))
-    return entries
+    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` moved ``i/8`` edge in x and y, ``extra`` in each."""
+    shift = [{"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
+             for i in range(count)]
+    return [phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **shift[i], **extra)
+            for i in range(count)]
 
 
 def points(axis, scale_values, *, size, image):

@@ -27,9 +27,8 @@ def _observed_order(group):
 
 
 def _sweep(df):
-    rows = df[df.role == "sweep"].copy()
-    rows["step_factor"] = rows.step_factor.astype(float)
-    return rows.sort_values("step_factor", ascending=False)
+    rows = df[df.role == "sweep"]
+    return rows.assign(step_factor=rows.step_factor.astype(float)).sort_values("step_factor", ascending=False)
 
 
 def _not_monotone(sweep):

@@ -43,16 +43,14 @@ STAND_INS = {
     "bonsai_like": StandIn("bonsai", ("tree", "isbvr")),
     "folded_brain": StandIn("brainsmall", ("volpack",), size=128, params={"decimate": 2}),
 }
-"""Phantom → the real scan of the same kind it stands in for: the gallery shows them side by side
-and the statistics claims compare them (see :func:`_target_claims`)."""
+"""Phantom → the real scan of its kind it stands in for: shown side by side, compared by :func:`_target_claims`."""
 
 RELATIVE_BAND = 0.25
 """A phantom's statistic holds within ±25 % of its target ..."""
 
 ABSOLUTE_FLOOR = {"nontransparent_fraction": 0.005, "nonzero_fraction": 0.005, "empty_block_fraction": 0.02,
                   "runs_per_scanline": 0.1, "mean_run_length": 0.5}
-"""... or within this absolute distance where that is wider: a band around a target near 0 (the
-no-cue control's empty blocks) still means something."""
+"""... or within this absolute distance where wider, so that a band around a target near 0 still means something."""
 
 
 class PhantomGallery(Experiment):
@@ -279,11 +277,9 @@ def _real_says(df, phantom, stat):
     """Why a stand-in may miss a notes' target: what its real scan shows under the presets they share."""
     if phantom not in STAND_INS:
         return ""
-    seen = []
-    for preset in STAND_INS[phantom].presets:
-        measured = _real_in_box(df, phantom, preset)
-        if not isinstance(measured, str) and stat in measured[2]:
-            seen.append(f"{preset} {format_number(measured[2][stat])}")
+    boxed = {preset: _real_in_box(df, phantom, preset) for preset in STAND_INS[phantom].presets}
+    seen = [f"{preset} {format_number(measured[2][stat])}" for preset, measured in boxed.items()
+            if not isinstance(measured, str) and stat in measured[2]]
     real = STAND_INS[phantom].real
     if not seen:
         return f"; the phantom follows the real {real} where the two disagree (see the stand-in claims)"
