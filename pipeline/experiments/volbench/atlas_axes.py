@@ -163,7 +163,7 @@ def tubes_view(dataset):
 
 
 def clouds(count, size, **extra):
-    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` moved ``i/8`` edge in x and y, ``extra`` in each."""
+    """``count`` smoke clouds (``size``³, seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge in x and y."""
     shift = [{"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
              for i in range(count)]
     return [phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **shift[i], **extra)
