@@ -3,7 +3,7 @@
 import pandas as pd
 import pytest
 
-from pipeline.experiments.kit.pages import speed_psnr_figure
+from pipeline.experiments.kit.pages import TIMED_CAPTION, speed_psnr_figure, timed_metrics_table
 from pipeline.experiments.kit.judging import image_pairs
 
 
@@ -51,3 +51,24 @@ def test_speed_psnr_figure_draws_a_chart_file(tmp_path):
     speed_psnr_figure(_Context(tmp_path), "chart", frame, heading="H", caption="C", title="T", group="scene",
                       label="method")
     assert (tmp_path / "chart.svg").read_text().lstrip().startswith("<?xml")
+
+
+class _Links:
+    """The one method of a report's context that a linked table uses: every path linked as it is."""
+
+    def run_links(self, frame):
+        return frame.copy()
+
+
+def test_timed_metrics_table_shows_times_in_ms_and_metrics_sorted_and_linked():
+    frame = pd.DataFrame({"scene": ["b", "a", "a"], "step": [1.0, 2.0, 1.0], "time_total": [0.004, 0.002, 0.003],
+                          "time_total_min": [0.003, 0.001, 0.002], "time_total_max": [0.005, 0.003, 0.004],
+                          "psnr": [40.0, 30.0, 35.0], "record": ["r0", "r1", "r2"], "exr": ["e0", "e1", "e2"]},
+                         index=[7, 8, 9])
+    table = timed_metrics_table("T", frame, ["scene", "step"], _Links(), by=["scene", "time (ms)"], csv_name="t.csv")
+    assert (table.title, table.caption, table.csv_name) == ("T", TIMED_CAPTION, "t.csv")
+    assert list(table.frame.columns) == ["scene", "step", "time (ms)", "fastest (ms)", "slowest (ms)", "PSNR (dB)",
+                                         "record", "EXR"]
+    assert table.frame["time (ms)"].tolist() == pytest.approx([2.0, 3.0, 4.0])
+    assert table.frame.step.tolist() == [2.0, 1.0, 1.0] and table.frame.record.tolist() == ["r1", "r2", "r0"]
+    assert timed_metrics_table("T", frame, ["scene"], _Links(), by=["scene"], caption="C").caption == "C"

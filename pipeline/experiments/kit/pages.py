@@ -344,3 +344,36 @@ def time_lines_figure(ctx, name, frame, *, heading, caption, title, x, group, x_
 
     return figure(ctx, name, plots.lines, frame, heading=heading, caption=caption, x=x, y="time_ms", group=group,
                   y_range=("time_ms_min", "time_ms_max"), title=title, x_label=x_label, y_label=y_label, **options)
+
+
+TIMED_CAPTION = ("Time: median frame after warm-up, with the fastest and slowest timed frame. Each row links to its "
+                 "run's JSON record and EXR image.")
+"""What a :func:`timed_metrics_table` shows, by default."""
+
+
+def timed_metrics_table(title, frame, columns, ctx, *, by, caption=TIMED_CAPTION, **options):
+    """A table of a sweep's every setting: ``columns``, each run's median, fastest and slowest frame (:func:`ms`)
+    and its image's metrics against the reference (:data:`METRICS`), each row linked to its run.
+
+    Parameters
+    ----------
+    title : str
+    frame : pandas.DataFrame
+        The runs' rows, with ``time_total`` (seconds) and, where timed, ``time_total_min`` and ``time_total_max``.
+    columns : list of str
+        The columns shown before the times (the scene, the setting).
+    ctx : reports.html.ReportContext
+    by : list of str
+        The columns the rows are sorted by, the times' own (``"time (ms)"``) among those it may name.
+    caption : str
+        What the table shows: by default how its times were taken and what its links open.
+    **options
+        More options of :func:`linked_table` (``names``, ``csv_name``).
+
+    Returns
+    -------
+    reports.blocks.Table
+    """
+    times = ms(frame)
+    table = pd.concat([frame, times], axis=1).sort_values(list(by))
+    return linked_table(title, table, [*columns, *times, *METRICS], ctx, caption=caption, **options)

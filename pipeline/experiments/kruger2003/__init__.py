@@ -1,12 +1,9 @@
 """Krüger & Westermann 2003: GPU ray casting with early termination and empty-space skipping.
 
-The paper's guide is ``../shared/papers/notes/000.md`` (§5 lists the experiments). Its 2003 frame rates
-cannot be reproduced on another device, so the claims are about ratios between methods measured in one
-run on one machine, as the note recommends. Its ``M = 8`` was forced by the shader limits of the ATI
-9700; here it is the default of an option.
-
-Each experiment is a module of its own (:data:`EXPERIMENTS`; its title names the note's E1–E8 it covers);
-:mod:`.methods` holds what several of them share and :mod:`.tables` the paper's own numbers and statements.
+The paper's guide is ``../shared/papers/notes/000.md`` (§5 lists the experiments). Its 2003 frame rates cannot be
+reproduced on another device, so the claims are about ratios between methods measured in one run on one machine, as the
+note recommends. Its ``M = 8`` was forced by the shader limits of the ATI 9700; here it is the default of an option.
+Each experiment's title names the note's E1–E8 it covers.
 """
 
 from pipeline.experiments.kit.model import Paper

@@ -21,8 +21,7 @@ METHODS = {
     "single-pass": (RAYCAST, {"variant": "single-pass"}, "single pass (not in the paper)"),
     "vtk-gpu": ("vtk-gpu", {}, "VTK GPU ray caster (peer)"),
 }
-"""The methods of Table 1, the modern loop-with-break caster and the GPU caster users run (VTK's, with
-its default early termination), as backend and options."""
+"""Table 1's methods, the modern loop-with-break caster and VTK's GPU caster (its default early termination)."""
 
 
 UPLOADS = "uploads (volume, gradients, min–max grid, transfer-function tables) excluded as their own stage"
@@ -35,8 +34,7 @@ def method_name(config):
 
 
 SETTINGS = frozenset({"volume_size", "image_size", "step_factor", "repeat"})
-"""The settings every experiment here takes: what :func:`sizes` reads, and ``repeat``, the frames of its timed runs
-(:func:`~pipeline.experiments.kit.planning.timed_frames`)."""
+"""The settings every experiment here takes: what :func:`sizes` reads, and ``repeat`` (its timed runs' frames)."""
 
 SIZE_SCALES = scaled(smoke={"image_size": 64})
 """What :func:`sizes` reads at each scale: the kit's sizes, with 64-pixel images at smoke scale."""
@@ -51,22 +49,15 @@ def method_runs(experiment, prefix, scene_spec, views, configs, step_factor, tru
                 group=None, extra=None):
     """Timed runs of ``configs`` (keys of :data:`METHODS`) on one scene, checked against ``truth``.
 
-    The runs of the configs in ``together`` (those a claim compares) are timed in one interleave group,
-    ``group`` (default ``prefix``), frame against frame. ``extra`` options join every config's (the
-    paper's sampled iso hit). A method whose backend does not take its options here is left out; the
-    page says why (:func:`gl_not_measurable`).
+    The runs of the configs in ``together`` (those a claim compares) are timed in one interleave group, ``group``
+    (default ``prefix``), frame against frame. ``extra`` options join every config's (the paper's sampled iso hit). A
+    method whose backend does not take its options here is left out; the page says why (:func:`gl_not_measurable`).
     """
-    runs = []
-    for config in configs:
-        backend, options, _name = METHODS[config]
-        options = {**options, **(extra or {})}
-        if not accepts(backend, *options, "step_factor"):
-            continue
-        runs.append(Run(experiment, f"{prefix}.{config}", backend, scene_spec, views,
-                        options={**options, "step_factor": step_factor}, reference=truth, **frames,
-                        tags={**tags, "role": "test", "config": config},
-                        interleave=(group or prefix) if config in together else None))
-    return runs
+    planned = [(config, METHODS[config][0], {**METHODS[config][1], **(extra or {})}) for config in configs]
+    return [Run(experiment, f"{prefix}.{config}", backend, scene_spec, views, reference=truth, **frames,
+                options={**options, "step_factor": step_factor}, tags={**tags, "role": "test", "config": config},
+                interleave=(group or prefix) if config in together else None)
+            for config, backend, options in planned if accepts(backend, *options, "step_factor")]
 
 
 FRONT_VIEW = {"view": "front", "azimuth": 0.0, "elevation": 0.0}
@@ -78,18 +69,14 @@ acceleration applies" (Sec. 3) excludes."""
 
 
 def no_cue_control(size, image):
-    """``(scene, views, tags)`` of the control: smooth, faint noise filling the cube, unshaded, :data:`FRONT_VIEW`.
-
-    No ray reaches the termination threshold, none leaves before the last pass and no block is empty,
-    so neither acceleration applies.
-    """
+    """``(scene, views, tags)`` of the control: smooth, faint noise filling the cube, unshaded, :data:`FRONT_VIEW`:
+    no ray reaches the termination threshold, none leaves before the last pass and no block is empty."""
     scene_spec = scene("no_cue", image, volumes=[phantom("fbm_control", size, preset="no_cue")], shading="none")
     return scene_spec, (FRONT_VIEW,), {"scene": "no_cue", "dataset": "fbm_control"}
 
 
 def method_points(rows):
-    """``rows`` with their frame times in milliseconds (:func:`~pipeline.experiments.kit.results.speed_points`)
-    and each method's paper name (``method``)."""
+    """``rows`` with frame times in ms (:func:`~.results.speed_points`) and each method's paper name (``method``)."""
     return speed_points(rows).assign(method=lambda frame: [method_name(c) for c in frame.config])
 
 

@@ -63,14 +63,13 @@ class NoCue(Experiment):
     settings = SETTINGS | {"truth_step_factor"}
     scales = SIZE_SCALES
     description = (
-        "The paper reports a loss of about 30 % for semi-transparent data where neither early "
-        "termination nor empty-space skipping applies: the intermediate pass writes depth, so the "
-        "early z-test cannot cull it, and it runs after every main pass for every covered pixel. The "
-        "control is smooth noise filling the whole cube with a tiny opacity per sample, so no ray "
-        "reaches the threshold and no 8³ block is empty, seen straight at a face so that every ray "
-        "has the same length: from an oblique view the rays through the corners leave the cube early "
-        "and the intermediate pass culls them, a gain of early termination. RC, RC-a and RC-b are "
-        "timed interleaved, frame against frame."
+        "The paper reports a loss of about 30 % for semi-transparent data where neither early termination nor "
+        "empty-space skipping applies: the intermediate pass writes depth, so the early z-test cannot cull it, and it "
+        "runs after every main pass for every covered pixel. The control is smooth noise filling the whole cube with a "
+        "tiny opacity per sample, so no ray reaches the threshold and no 8³ block is empty, seen straight at a face so "
+        "that every ray has the same length: from an oblique view the rays through the corners leave the cube early "
+        "and the intermediate pass culls them, a gain of early termination. RC, RC-a and RC-b are timed interleaved, "
+        "frame against frame."
     )
     claims = (
         *Claim("overhead-paper", "Where neither acceleration applies, the intermediate passes lose about 30 % of the "
@@ -88,8 +87,8 @@ class NoCue(Experiment):
             return []
         size, image, step = sizes(self, profile)
         scene_spec, views, tags = no_cue_control(size, image)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
-        truth = truth_run(self.name, "no_cue", scene_spec, views, truth_step, tags)
+        truth = truth_run(self.name, "no_cue", scene_spec, views, profile.setting(self, "truth_step_factor", 0.25),
+                          tags)
         return [truth] + method_runs(self.name, "no_cue", scene_spec, views, ("rc", "rc-a", "rc-b", "single-pass"),
                                      step, truth.id, tags, timed_frames(profile, self),
                                      together=("rc", *ACCELERATED))

@@ -1,6 +1,5 @@
 """``kruger2003-occluder`` (E8): an opaque plane in front of the volume covering 0–100 % of its footprint."""
 
-import numpy as np
 import pandas as pd
 
 from core.errors import InputError
@@ -9,7 +8,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import (as_percent, claim_takeaways, figure, format_number, frames_caption,
                                             linked_table)
 from pipeline.experiments.kit.planning import accepts, timed_frames
-from pipeline.experiments.kit.results import fit_line, nonempty_or, numeric, ok_rows, rows_matching
+from pipeline.experiments.kit.results import fit_line, nonempty_or, numeric, ok_rows, rows_matching, stage_points
 from pipeline.experiments.kit.judging import decided, r_squared, with_interval
 from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, UPLOADS, gl_not_measurable,
                                                      method_points, no_cue_control, sizes)
@@ -34,9 +33,7 @@ def _occluder_rows(ok):
     rays = numeric(rows, "count_rays")
     occluded = pd.to_numeric(rows.get("count_rays_occluded", 0.0), errors="coerce").fillna(0.0)
     rows["occluded_percent"] = 100 * occluded / rays
-    for suffix in ("", "_min", "_max"):
-        rows[f"main_ms{suffix}"] = pd.to_numeric(rows.get(f"time_main{suffix}", np.nan), errors="coerce") * 1e3
-    return rows.sort_values(["config", "occluded_percent"])
+    return stage_points(rows, "time_main", name="main_ms").sort_values(["config", "occluded_percent"])
 
 
 def _occluded_culled(df):
@@ -54,10 +51,8 @@ def _occluded_culled(df):
 
 
 def _occluder_fit(df, config):
-    """R² of main-pass time against the occluded share (≥ 0.9) and the time left when all is hidden (≤ 25 %).
-
-    Both with bootstrap intervals from the frames of the coverage sweep, which is timed interleaved.
-    """
+    """R² of main-pass time against the occluded share (≥ 0.9) and the time left when all is hidden (≤ 25 %), both
+    with bootstrap intervals from the frames of the coverage sweep, which is timed interleaved."""
     rows = _occluder_rows(rows_matching(df, f"{config} with an occluder", config=config))
     if len(rows) < 3:
         raise ValueError(f"fewer than three coverages of {config}")
@@ -94,16 +89,14 @@ class Occluder(Experiment):
     settings = SETTINGS | {"fractions"}
     scales = scaled(base=SIZE_SCALES, smoke={"fractions": [0, 0.5, 1]})
     description = (
-        "The paper motivates early-z with an opaque polygon drawn before the volume: the rays it "
-        "hides are culled by the depth test, so the speed-up is “directly proportional to the area "
-        "of the occluded parts of the volume” (Sec. 1; no numbers are given). Here an opaque plane "
-        "covers the left part of the volume's screen footprint, from none to all of it, in front of "
-        "the no-cue control seen straight at a face (no ray ends or leaves early and no block is "
-        "empty, so the plane is the only thing that culls). RC shows the pure effect; RC-a adds the "
-        "intermediate pass, which early-z cannot cull because it writes depth. The occluded share is "
-        "measured: the plane's fragments that passed, over the rays. The coverages of each method are "
-        "timed interleaved, frame against frame, and the claim reads the main passes, where early-z "
-        "culls."
+        "The paper motivates early-z with an opaque polygon drawn before the volume: the rays it hides are culled by "
+        "the depth test, so the speed-up is “directly proportional to the area of the occluded parts of the volume” "
+        "(Sec. 1; no numbers are given). Here an opaque plane covers the left part of the volume's screen footprint, "
+        "from none to all of it, in front of the no-cue control seen straight at a face (no ray ends or leaves early "
+        "and no block is empty, so the plane is the only thing that culls). RC shows the pure effect; RC-a adds the "
+        "intermediate pass, which early-z cannot cull because it writes depth. The occluded share is measured: the "
+        "plane's fragments that passed, over the rays. The coverages of each method are timed interleaved, frame "
+        "against frame, and the claim reads the main passes, where early-z culls."
     )
     claims = (
         Claim("occluded-rays-culled", "Early-z drops every fragment of an occluded ray in every main pass (Sec. 1)",

@@ -1,16 +1,19 @@
 """``kruger2003-passes`` (E4, E6, E7): fragments per main pass, the iso-surface caster against DVR, the sweep of M."""
 
 import json
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, linked_table
+from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, figure, format_number, linked_table,
+                                            unless_missing)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
-from pipeline.experiments.kit.results import file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points
+from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
+                                              tagged)
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, all_of, config_rows, decision_words, median_count,
                                               median_time)
 from pipeline.experiments.kruger2003.methods import (RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, method_name,
@@ -29,9 +32,7 @@ def _fragments_per_pass(record_path, view="headline"):
     """The fragments each main pass drew in ``view``, from a run's record (its occlusion-query counts)."""
     if not file_exists(record_path):
         raise ValueError(f"run record {record_path!r} is missing")
-    with open(record_path) as handle:
-        record = json.load(handle)
-    for entry in record.get("views", []):
+    for entry in json.loads(Path(record_path).read_text()).get("views", []):
         if entry.get("view") == view:
             counts = entry.get("info", {}).get("fragments_per_main_pass")
             if counts:
@@ -40,16 +41,10 @@ def _fragments_per_pass(record_path, view="headline"):
 
 
 def _pass_curves(ok):
-    rows = []
-    if "part" not in ok:
-        return pd.DataFrame()
-    for row in ok[(ok.part == "passes") & (ok.get("role") == "test")].itertuples():
-        try:
-            counts = _fragments_per_pass(row.record)
-        except ValueError:
-            continue
-        rows += [{"method": method_name(row.config), "main pass": i + 1, "fragments": c} for i, c in enumerate(counts)]
-    return pd.DataFrame(rows)
+    """Each main pass's fragments per method, from the records (none from a run whose record has no counts)."""
+    return pd.DataFrame([{"method": method_name(row.config), "main pass": i + 1, "fragments": c}
+                         for row in tagged(ok, part="passes", role="test").itertuples()
+                         for i, c in enumerate(unless_missing(_fragments_per_pass, row.record, empty=[]))])
 
 
 def _pass_trend(df, config, flat):
@@ -115,12 +110,11 @@ class Passes(Experiment):
     settings = SETTINGS | {"m_values"}
     scales = scaled(base=SIZE_SCALES, smoke={"m_values": [2, 8, 32]})
     description = (
-        "Occlusion queries count, for every main pass, the fragments that survive the early depth "
-        "test: flat for RC (the whole footprint every pass), falling for RC-a as rays saturate or "
-        "leave, and lower again for RC-b across empty segments; the intermediate pass is never "
-        "culled. The iso-surface caster shades once per pass and ends a ray at its hit, so it should "
-        "beat DVR with early termination on an opaque surface. M trades the per-pass overhead (small "
-        "M: many passes) against samples wasted after a ray ends inside a pass (large M)."
+        "Occlusion queries count, for every main pass, the fragments that survive the early depth test: flat for RC "
+        "(the whole footprint every pass), falling for RC-a as rays saturate or leave, and lower again for RC-b across "
+        "empty segments; the intermediate pass is never culled. The iso-surface caster shades once per pass and ends a "
+        "ray at its hit, so it should beat DVR with early termination on an opaque surface. M trades the per-pass "
+        "overhead (small M: many passes) against samples wasted after a ray ends inside a pass (large M)."
     )
     claims = (
         Claim("rc-flat", "RC draws the whole footprint in every main pass", "fragments of the last main pass ≥ 95 % "
@@ -141,27 +135,24 @@ class Passes(Experiment):
         size, image, step = sizes(self, profile)
         frames = timed_frames(profile, self)
         view = (headline_view("foot"),)
-        runs = []
         dvr = scene("foot", image, volumes=[phantom("foot", size, preset="bone")])
         tags = {"scene": "foot", "dataset": "foot", "part": "passes"}
         truth = truth_run(self.name, "foot", dvr, view, 0.25, tags)
-        runs.append(truth)
         # DVR and the iso-surface caster with early termination are timed together, as is the M sweep.
-        runs += method_runs(self.name, "foot", dvr, view, ("rc", "rc-a", "rc-b"), step, truth.id, tags, frames,
-                            together=("rc-a",), group="iso")
+        runs = [truth] + method_runs(self.name, "foot", dvr, view, ("rc", "rc-a", "rc-b"), step, truth.id, tags,
+                                     frames, together=("rc-a",), group="iso")
         iso = scene("foot-iso", image, volumes=[phantom("foot", size, preset="iso")], mode="iso")
         iso_truth = truth_run(self.name, "foot-iso", iso, view, 0.25, {**tags, "part": "iso"})
-        runs.append(iso_truth)
         # The paper's iso-surface caster tests s < isovalue at its samples (gl-raycast's iso_hit="sampled").
-        runs += method_runs(self.name, "foot-iso", iso, view, ("rc-a",), step, iso_truth.id,
-                            {**tags, "part": "iso", "mode": "iso"}, frames, together=("rc-a",), group="iso",
-                            extra={"iso_hit": "sampled"})
+        runs += [iso_truth] + method_runs(self.name, "foot-iso", iso, view, ("rc-a",), step, iso_truth.id,
+                                          {**tags, "part": "iso", "mode": "iso"}, frames, together=("rc-a",),
+                                          group="iso", extra={"iso_hit": "sampled"})
         if accepts(RAYCAST, "samples_per_pass"):
-            for m in profile.setting(self, "m_values", list(M_VALUES)):
-                runs.append(Run(self.name, f"foot.m{int(m)}", RAYCAST, dvr, view,
-                                options={"variant": "rc-b", "samples_per_pass": int(m), "step_factor": step},
-                                reference=truth.id, **frames, interleave="m-sweep",
-                                tags={**tags, "part": "m-sweep", "role": "test", "config": "rc-b", "m": int(m)}))
+            runs += [Run(self.name, f"foot.m{int(m)}", RAYCAST, dvr, view,
+                         options={"variant": "rc-b", "samples_per_pass": int(m), "step_factor": step},
+                         reference=truth.id, **frames, interleave="m-sweep",
+                         tags={**tags, "part": "m-sweep", "role": "test", "config": "rc-b", "m": int(m)})
+                     for m in profile.setting(self, "m_values", list(M_VALUES))]
         return runs
 
     def paper_table(self):
@@ -178,7 +169,7 @@ class Passes(Experiment):
                               x="main pass", y="fragments", group="method",
                               title="Fragments that survive the depth test, per main pass",
                               x_label="main pass (number)", y_label="fragments drawn (count)"))
-        sweep = ok[ok.get("part") == "m-sweep"].copy() if "part" in ok else ok.iloc[:0]
+        sweep = tagged(ok, part="m-sweep")
         if not sweep.empty:
             sweep = speed_points(sweep).assign(M=numeric(sweep, "m"), method=method_name("rc-b"))
             out.append(figure(ctx, "m-sweep", plots.lines, sweep, heading="Frame time against M",

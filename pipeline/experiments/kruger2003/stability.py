@@ -7,7 +7,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, 
 from pipeline.experiments.kit.pages import change_words, claim_takeaways, figure, format_number, linked_table
 from pipeline.experiments.kit.planning import accepts, headline_view, phantom, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, role_rows, rows_matching, speed_points,
-                                              stage_time, text_column)
+                                              stage_time, tagged, text_column)
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, decision_words, median_count
 from pipeline.experiments.kruger2003.methods import RAYCAST, SETTINGS, SIZE_SCALES, gl_not_measurable, sizes
 from pipeline.experiments.kruger2003.tables import TABLE1
@@ -54,10 +54,8 @@ def _threshold(df):
 
 
 def _blocks_lossless(df):
-    spreads = {}
-    for scene_name in pd.unique(text_column(rows_matching(df, "the block sweep", sweep="block"), "scene")):
-        rows = _sweep_rows(df, "block", scene_name)
-        spreads[scene_name] = float(rows.psnr.max() - rows.psnr.min())
+    spreads = {scene_name: _sweep_rows(df, "block", scene_name).psnr.pipe(lambda psnr: float(psnr.max() - psnr.min()))
+               for scene_name in pd.unique(text_column(rows_matching(df, "the block sweep", sweep="block"), "scene"))}
     worst = max(nonempty_or(spreads, "no block sweep"), key=spreads.get)
     return ClaimResult(f"{format_number(spreads[worst])} dB ({worst})", bool(spreads[worst] <= 0.1),
                        ", ".join(f"{s}: {format_number(v)} dB" for s, v in spreads.items()))
@@ -87,12 +85,11 @@ class Stability(Experiment):
     settings = SETTINGS | {"thresholds", "block_sizes"}
     scales = scaled(base=SIZE_SCALES, smoke={"thresholds": [0.9, 1.0], "block_sizes": [8, 16]})
     description = (
-        "The paper leaves the threshold T unspecified and fixes 8³ blocks. A lower T ends rays "
-        "sooner and drops up to 1 − T of their light; a threshold of 1 never ends a ray early. The "
-        "block size trades a finer empty-space map (more skipped segments) against a larger grid "
-        "and more tests; skipping is conservative, so it must never change the image. Both are swept "
-        "with RC-b on the opaque head and on the sparse aneurysm, speed and error against the reference; "
-        "the settings of each sweep are timed interleaved, frame against frame."
+        "The paper leaves the threshold T unspecified and fixes 8³ blocks. A lower T ends rays sooner and drops up to "
+        "1 − T of their light; a threshold of 1 never ends a ray early. The block size trades a finer empty-space map "
+        "(more skipped segments) against a larger grid and more tests; skipping is conservative, so it must never "
+        "change the image. Both are swept with RC-b on the opaque head and on the sparse aneurysm, speed and error "
+        "against the reference; the settings of each sweep are timed interleaved, frame against frame."
     )
     claims = (
         Claim("threshold-trades-error", "A lower threshold is faster and less accurate", "on the head: time at T = 1 "
@@ -117,19 +114,17 @@ class Stability(Experiment):
             view = (headline_view(dataset),)
             tags = {"scene": scene_name, "dataset": dataset}
             truth = truth_run(self.name, scene_name, scene_spec, view, 0.25, tags)
-            runs.append(truth)
-            runs += [Run(self.name, f"{scene_name}.{sweep[0]}{value:g}", RAYCAST, scene_spec, view,
-                         options={"variant": "rc-b", option: value, "step_factor": step}, reference=truth.id,
-                         **frames, interleave=f"{scene_name}.{sweep}",
-                         tags={**tags, "role": "test", "config": "rc-b", "sweep": sweep, "value": value})
-                     for sweep, option, cast, values in sweeps for value in map(cast, values)]
+            runs += [truth] + [Run(self.name, f"{scene_name}.{sweep[0]}{value:g}", RAYCAST, scene_spec, view,
+                                   options={"variant": "rc-b", option: value, "step_factor": step},
+                                   reference=truth.id, **frames, interleave=f"{scene_name}.{sweep}",
+                                   tags={**tags, "role": "test", "config": "rc-b", "sweep": sweep, "value": value})
+                               for sweep, option, cast, values in sweeps for value in map(cast, values)]
         return runs
 
     def report(self, results, ctx):
         out = [claim_takeaways(ctx)]
         tests = role_rows(ok_rows(results))
         for sweep, words, label in SWEEPS:
-            rows = tests[tests.get("sweep") == sweep] if "sweep" in tests else tests.iloc[:0]
-            if not rows.empty:
-                out += _sweep_blocks(rows, sweep, words, label, ctx)
+            rows = tagged(tests, sweep=sweep)
+            out += _sweep_blocks(rows, sweep, words, label, ctx) if not rows.empty else []
         return out + gl_not_measurable()

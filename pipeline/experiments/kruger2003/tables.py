@@ -23,15 +23,13 @@ HEAD_RCB_OVER_SBVR = TABLE1["head"][6] / TABLE1["head"][3]
 
 
 def paper_band(ratio):
-    """``(min, max)`` over Table 1's four rows (not their real-scan repeats) of ``ratio(sbvr, rc, rc_a, rc_b)``,
-    a function of the row's frame rates."""
+    """``(min, max)`` of ``ratio(sbvr, rc, rc_a, rc_b)`` (frame rates) over Table 1's rows, not real-scan repeats."""
     values = [ratio(*row[3:]) for scene, row in TABLE1.items() if scene not in REAL_SCANS]
     return min(values), max(values)
 
 
 SBVR_OVER_RC = paper_band(lambda sbvr, rc, rc_a, rc_b: rc / sbvr)
-"""Time SBVR / RC in Table 1: RC runs at 0.61–0.68 of slicing's frame rate (×0.606 engine to ×0.676 the 256³
-sets)."""
+"""Time SBVR / RC in Table 1: RC runs at 0.61–0.68 of slicing's frame rate (×0.606 engine to ×0.676 the 256³ sets)."""
 
 RCA_OVER_RCB = paper_band(lambda sbvr, rc, rc_a, rc_b: rc_b / rc_a)
 """Time RC-a / RC-b in Table 1: what empty-space skipping adds, ×1.625 (head) to ×2.202 (aneurysm)."""
@@ -41,8 +39,7 @@ FPS_PRECISION = 0.05
 
 ENGINE_RC_OVER_RCA = ((TABLE1["engine"][5] - FPS_PRECISION) / (TABLE1["engine"][4] + FPS_PRECISION),
                       (TABLE1["engine"][5] + FPS_PRECISION) / (TABLE1["engine"][4] - FPS_PRECISION))
-"""Time RC / RC-a on the engine within Table 1's precision: RC-a 6.3 fps = RC 6.3 fps, so 6.25 / 6.35 to
-6.35 / 6.25 (×0.984–1.016)."""
+"""Time RC / RC-a on the engine within Table 1's precision (RC-a 6.3 fps = RC 6.3 fps): ×0.984–1.016."""
 
 NO_CUE = [{"case": "semi-transparent data, no termination or skipping", "paper": "≈ 30 % slower",
            "source": "Sec. 3; Table 1 engine: RC-a 6.3 fps = RC 6.3 fps"}]

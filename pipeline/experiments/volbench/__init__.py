@@ -1,10 +1,7 @@
 """volbench's own studies: the data sets, the ground truth, and every backend against the others and VTK.
 
-No paper stands behind them, so none of the guides in ``../shared/papers/notes/`` is theirs: they check
-what every paper's reproduction relies on, against the contract of ``../shared/CONVENTIONS.md``.
-
-Each experiment is a module of its own (:data:`EXPERIMENTS`); :mod:`.atlas_axes` holds the stability atlas's
-stress axes and :mod:`.scenes` the scene and ground truth the convergence and speed–accuracy studies share.
+No paper stands behind them, so none of the guides in ``../shared/papers/notes/`` is theirs: they check what every
+paper's reproduction relies on, against the contract of ``../shared/CONVENTIONS.md``.
 """
 
 from pipeline.experiments.kit.model import Paper

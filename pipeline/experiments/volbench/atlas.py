@@ -1,8 +1,4 @@
-"""``volbench-atlas``: the stability atlas, every backend swept along every stress axis it supports.
-
-Each axis (:mod:`.atlas_axes`) sweeps one thing on one scene shared by every backend. Besides every backend at its
-defaults, a few :data:`TECHNIQUES` are rows of their own: a backend with other options, on the axes where those matter.
-"""
+"""``volbench-atlas``: every backend (and :data:`TECHNIQUES`) swept along every stress axis (:mod:`.atlas_axes`)."""
 
 import dataclasses
 import functools
@@ -14,7 +10,7 @@ import renderers
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import DIFF_SCALE, difference_gallery, format_number, linked_table
 from pipeline.experiments.kit.planning import REFERENCE, UNTIMED, listed, truth_run, volume_and_image_size
-from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching
+from pipeline.experiments.kit.results import numeric, ok_rows, reference_exr, rows_matching, tagged
 from pipeline.experiments.volbench.atlas_axes import AXES, AXIS_BY_KEY, axis_reason, backend_options, points, short
 from reports import blocks
 from reports.takeaways import PSNR_GOOD
@@ -31,12 +27,8 @@ CONVERGENCE_STEPS = (1.0, 0.5, 0.25)
 
 @dataclasses.dataclass(frozen=True)
 class Technique:
-    """A backend with options of its own, a row of the atlas beside the backends at their defaults.
-
-    Its runs add ``options`` to the axis's (none of them is an option its axes sweep), and its rows in the results
-    are the backend's runs with these options. It runs on the axes keyed ``axes``; ``elsewhere`` says why not on
-    the others (its heat-map cells there); ``slug`` is its part of run ids and interleave groups.
-    """
+    """A backend with ``options`` of its own (none an option its axes sweep), a row of the atlas on the axes keyed
+    ``axes``; ``elsewhere`` says why not on the others, ``slug`` is its part of run ids and interleave groups."""
 
     backend: str
     options: dict
@@ -46,9 +38,8 @@ class Technique:
 
 
 PRE_CLASSIFIED = "reference, pre-classified"
-"""The reference classifying voxels before interpolating them (shear-warp's and VolPack's order), as a
-technique of its own: on the TF axis it separates what pre-classification costs from what the
-shear-warp factorization does."""
+"""The reference classifying voxels before interpolating them (shear-warp's and VolPack's order), as a technique of its
+own: on the TF axis it separates what pre-classification costs from what the shear-warp factorization does."""
 
 SAMPLED_ISO = "gl-raycast, sampled iso hit"
 """gl-raycast testing ``s < isovalue`` at samples a step apart (the paper's caster, refined by bisection) instead of
@@ -66,8 +57,7 @@ TECHNIQUES = {
 
 
 def technique_rows():
-    """The heat map's rows: every backend but the reference, each followed by its :data:`TECHNIQUES`, then the
-    reference's."""
+    """The heat map's rows: each backend but the reference followed by its :data:`TECHNIQUES`, the reference's last."""
     rows = []
     for backend in renderers.names():
         if backend != REFERENCE:
@@ -76,8 +66,7 @@ def technique_rows():
 
 
 def techniques(frame):
-    """Each row's technique: the label of the :data:`TECHNIQUES` entry whose backend and options it ran with
-    (``option_<name>`` columns), else its backend."""
+    """Each row's technique: the :data:`TECHNIQUES` label of its backend and options (``option_*``), else backend."""
     labels = frame.backend.copy()
     for label, technique in TECHNIQUES.items():
         mine = frame.backend == technique.backend
@@ -96,39 +85,29 @@ def _values(frame):
 
 
 def atlas_rows(results):
-    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; ``backend`` names the technique
-    (a :data:`TECHNIQUES` label for their runs)."""
+    """The successful test rows, with numeric ``value``, ``psnr`` and ``flip``; ``backend`` names the technique."""
     ok = ok_rows(results)
     if ok.empty or "role" not in ok:
         return ok.iloc[:0].assign(value=[], psnr=[], flip=[])
-    tests = ok[ok.role == "test"].copy()
-    tests["backend"] = techniques(tests)
-    tests["value"] = _values(tests)
-    tests["psnr"] = numeric(tests, "psnr") if "psnr" in tests else np.nan
-    tests["flip"] = pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan
+    tests = ok[ok.role == "test"]
+    tests = tests.assign(backend=techniques(tests), value=_values(tests),
+                         psnr=numeric(tests, "psnr") if "psnr" in tests else np.nan,
+                         flip=pd.to_numeric(tests["flip"], errors="coerce") if "flip" in tests else np.nan)
     return tests[tests.psnr.notna()]
 
 
 def threshold(rows, axis, *, breaks=PSNR_BREAKS):
-    """Where ``rows`` (one backend on ``axis``) fall below ``breaks`` dB, in words, or ``None`` if never.
+    """Where ``rows`` (one backend on ``axis``) fall below ``breaks`` dB, or ``None`` if never: ``{"words", "value",
+    "psnr", "everywhere", "expected"}``, the threshold in words, where it lies, the worst PSNR, whether every point
+    failed and whether the failures lie at the harsher end (the expected side).
 
-    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest
-    of them); failing points that run to the milder end instead give the reverse ("≤ v"), and
-    failures in the middle only are listed.
-
-    Returns
-    -------
-    dict or None
-        ``{"words", "value", "psnr", "everywhere", "expected"}``: the threshold in words, where it
-        lies, the worst PSNR, whether every point failed and whether the failures lie at the harsher
-        end (the expected side).
+    The failing points that run to the harsher end of the sweep give "words ≥ v" (``v`` the mildest of them); failing
+    points that run to the milder end instead give the reverse ("≤ v"); failures in the middle are listed.
     """
-    if rows.empty:
+    if not (rows.psnr < breaks).any():
         return None
     order = rows.sort_values("value", ascending=axis.harsher == "up").reset_index(drop=True)
     fails = (order.psnr < breaks).to_numpy()
-    if not fails.any():
-        return None
     name, values = axis.words.split(" (")[0], order.value
     everywhere, expected = bool(fails.all()), bool(fails.all() or fails[-1])
     if everywhere:
@@ -152,21 +131,20 @@ OTHERS_NAMED = 2
 
 
 def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
-    """``{backend: phrase}`` completing "fails when …" (see :meth:`Atlas.failures`)."""
+    """``{backend: phrase}`` completing "fails when …": the mildest value of an axis below ``breaks`` ("min opacity ≥
+    0.01 on the semi-transparent engine (17.6 dB)"), preferring a threshold inside a sweep to an axis that fails at
+    every value; a backend that never falls below gets its worst point ("no axis below 30 dB (worst …)")."""
     out = {}
     for backend in backends:
         mine = tests[tests.backend == backend]
         if mine.empty:
             continue
-        found = []
-        for axis in AXES:
-            hit = threshold(mine[mine.axis == axis.key], axis, breaks=breaks)
-            if hit:
-                found.append(((hit["everywhere"], not hit["expected"], hit["psnr"]), axis, hit))
+        hits = [(axis, threshold(mine[mine.axis == axis.key], axis, breaks=breaks)) for axis in AXES]
+        # A threshold inside a sweep, on its harsher side, says more than an axis failing everywhere
+        # (a default that breaks) or than failures at the milder end: it comes first, with its scene.
+        found = sorted([((h["everywhere"], not h["expected"], h["psnr"]), axis, h) for axis, h in hits if h],
+                       key=lambda f: f[0])
         if found:
-            # A threshold inside a sweep, on its harsher side, says more than an axis failing everywhere
-            # (a default that breaks) or than failures at the milder end: it comes first, with its scene.
-            found.sort(key=lambda f: f[0])
             (_, axis, hit), others = found[0], found[1:]
             phrase = f"{hit['words']} on {axis.scene_words} ({format_number(hit['psnr'])} dB)"
             if others:
@@ -183,12 +161,9 @@ def failure_phrases(tests, backends, *, breaks=PSNR_BREAKS):
 
 
 def heat_cells(tests, backends, reasons, *, unrendered=None, difference=None, axes=AXES):
-    """The heat map's cells over ``axes``: ``{(backend, axis words): HeatCell}``.
-
-    ``reasons`` maps ``(backend, axis key)`` to why the backend was left out of that axis,
-    ``unrendered`` to why its planned runs made no frame (skipped or failed);
-    ``difference(row)`` gives the worst point's difference image (``None``: no image).
-    """
+    """The heat map's cells over ``axes``: ``{(backend, axis words): HeatCell}``; ``reasons`` and ``unrendered`` map
+    ``(backend, axis key)`` to why it was left out of the axis or made no frame, ``difference(row)`` gives the worst
+    point's difference image."""
     cells = {}
     for backend in backends:
         for axis in axes:
@@ -212,10 +187,9 @@ def _convergence(df):
     if len(rows) < 2:
         raise ValueError("fewer than two steps of the reference's own sweep")
     rows = rows.assign(step=numeric(rows, "value"), psnr=numeric(rows, "psnr")).sort_values("step", ascending=False)
-    gains = np.diff(rows.psnr.to_numpy())
     measured = ", ".join(f"{format_number(p)} dB at {s:g}" for s, p in zip(rows.step, rows.psnr))
-    return ClaimResult(measured, bool((gains > 0).all()), "PSNR against the reference at 1/8 voxel, "
-                       "largest step first")
+    return ClaimResult(measured, bool((np.diff(rows.psnr.to_numpy()) > 0).all()),
+                       "PSNR against the reference at 1/8 voxel, largest step first")
 
 
 def _shearwarp_45(df):
@@ -224,9 +198,8 @@ def _shearwarp_45(df):
         raise ValueError("fewer than three angles of shear-warp's sweep")
     rows = rows.assign(angle=_values(rows), psnr=numeric(rows, "psnr"))
     worst = rows.loc[rows.psnr.idxmin()]
-    spread = rows.psnr.max() - rows.psnr.min()
     return ClaimResult(f"worst at {worst.angle:g}° ({format_number(worst.psnr)} dB)", bool(worst.angle >= 35.0),
-                       f"PSNR spread over the sweep {format_number(spread)} dB")
+                       f"PSNR spread over the sweep {format_number(rows.psnr.max() - rows.psnr.min())} dB")
 
 
 class Atlas(Experiment):
@@ -242,22 +215,21 @@ class Atlas(Experiment):
               "default": {"volume_size": 48, "image_size": 64},
               "full": {"volume_size": 128, "image_size": 256}}
     description = (
-        "One sweep per stress axis, each on one scene shared by every backend (same data, camera and "
-        "transfer function), every point one untimed frame compared with the reference at 1/8 voxel. A "
-        "backend without an axis's feature or option is not run on it; its cell says why. A point below "
-        f"{PSNR_BREAKS:g} dB PSNR breaks; {PSNR_GOOD:g} dB is accurate. Shear-warp and VolPack skip voxels "
-        "below their ``min_opacity`` (0.05 by default), which drops the semi-transparent engine's casing on "
-        "every scene: the min-opacity axis shows that, with the default in its sweep; every other axis runs "
-        "them at min opacity 0, so that its column shows its own stress. On the TF axis the reference also "
-        "runs pre-classified (voxels classified, then interpolated: shear-warp's order) at the truth's step, a "
-        "row of its own: what the order of classification costs, apart from the shear-warp factorization. Two "
-        "axes render iso-surfaces, so only the backends with an iso mode run on them: the step sweep on the "
-        "engine's casting (its binary preset's isovalue), and the thin-feature axis, parallel tubes whose "
-        "radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however thin), where "
-        "a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs with the "
-        "paper's sampled iso hit, a row of its own beside its default exact hit (every lattice cell a ray "
-        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its "
-        "own surface: the nearest first crossing of any of them, which only the multi-volume casters render."
+        "One sweep per stress axis, each on one scene shared by every backend (same data, camera and transfer "
+        "function), every point one untimed frame compared with the reference at 1/8 voxel. A backend without an "
+        f"axis's feature or option is not run on it; its cell says why. A point below {PSNR_BREAKS:g} dB PSNR breaks; "
+        f"{PSNR_GOOD:g} dB is accurate. Shear-warp and VolPack skip voxels below their ``min_opacity`` (0.05 by "
+        "default), which drops the semi-transparent engine's casing on every scene: the min-opacity axis shows that, "
+        "with the default in its sweep; every other axis runs them at min opacity 0, so that its column shows its own "
+        "stress. On the TF axis the reference also runs pre-classified (voxels classified, then interpolated: "
+        "shear-warp's order) at the truth's step, a row of its own: what the order of classification costs, apart "
+        "from the shear-warp factorization. Two axes render iso-surfaces, so only the backends with an iso mode run "
+        "on them: the step sweep on the engine's casting (its binary preset's isovalue), and the thin-feature axis, "
+        "parallel tubes whose radius falls from 4 voxels to 1/4 voxel (the trilinear surface has that radius however "
+        "thin), where a hit tested at samples a step apart starts to step over a tube. There gl-raycast also runs "
+        "with the paper's sampled iso hit, a row of its own beside its default exact hit (every lattice cell a ray "
+        "crosses solved, as the reference does). A third iso axis overlaps 1 to 7 smoke clouds, each with its own "
+        "surface: the nearest first crossing of any of them, which only the multi-volume casters render."
     )
     claims = (
         Claim("reference-converges", "The reference converges: its error falls as its step shrinks",
@@ -267,15 +239,12 @@ class Atlas(Experiment):
               "the lowest PSNR of shear-warp's angle sweep lies at 35° or more", _shearwarp_45, kind="accuracy"),
     )
 
-    def axes(self, profile):
-        """The axes of this profile (its ``axes`` setting: keys of :data:`AXIS_BY_KEY`; default all)."""
-        return [AXIS_BY_KEY[k] for k in listed(profile, self, "axes", [axis.key for axis in AXES], known=AXIS_BY_KEY)]
-
     def plan(self, profile):
-        """``{axis key: points}``: each axis's ``(value, scene, views)`` at this profile's scale."""
+        """``{axis key: points}``: the ``(value, scene, views)`` at this profile's scale of each axis of its ``axes``
+        setting (keys of :data:`AXIS_BY_KEY`; default all)."""
         size, image = (int(value) for value in volume_and_image_size(profile, self))
-        return {axis.key: points(axis, axis.values[profile.scale], size=size, image=image)
-                for axis in self.axes(profile)}
+        return {key: points(AXIS_BY_KEY[key], AXIS_BY_KEY[key].values[profile.scale], size=size, image=image)
+                for key in listed(profile, self, "axes", [axis.key for axis in AXES], known=AXIS_BY_KEY)}
 
     def runs(self, profile):
         runs = []
@@ -311,36 +280,27 @@ class Atlas(Experiment):
         return runs
 
     def failures(self, results):
-        """``{backend: phrase}`` completing "fails when …", from the atlas's numbers.
-
-        The mildest value of an axis below 30 dB ("min opacity ≥ 0.01 on the semi-transparent engine
-        (17.6 dB)"), preferring a threshold inside a sweep to an axis that fails at every value; a
-        backend that never falls below 30 dB gets its worst point ("no axis below 30 dB (worst …)").
-        """
+        """``{backend: phrase}`` completing "fails when …" on the index (:func:`failure_phrases`)."""
         tests = atlas_rows(results)
         return failure_phrases(tests, sorted(set(tests.backend)))
 
     def report(self, results, ctx):
         from reports import plots  # matplotlib: only when the report is built
 
-        tests = atlas_rows(results)
-        backends = technique_rows()
-        reasons = left_out()
+        tests, reasons = atlas_rows(results), left_out()
         out = [blocks.Takeaways(_takeaways(tests))]
         caption = (f"Each cell: the lowest PSNR against the reference over that axis's sweep, with the worst FLIP and "
                    f"where; red below {PSNR_BREAKS:g} dB (breaks), amber to {PSNR_GOOD:g} dB, green above (accurate). "
                    "A cell links to its sweep chart and shows the worst point's difference image (absolute error, full "
                    f"colour at {DIFF_SCALE:g}). Grey: the technique lacks the axis, and why.")
-        for title, axes, rows, more in _heat_maps(backends, reasons):
+        for title, axes, rows, more in _heat_maps(technique_rows(), reasons):
             cells = heat_cells(tests, rows, reasons, unrendered=_unrendered(results), axes=axes,
                                difference=lambda row: ctx.difference(reference_exr(results, row), row.exr, DIFF_SCALE))
             out.append(blocks.HeatMap(title, rows, [axis.words for axis in axes], cells, caption=caption + more,
                                       thresholds=(PSNR_BREAKS, PSNR_GOOD)))
         for axis in AXES:
-            rows = tests[tests.axis == axis.key] if "axis" in tests else tests.iloc[:0]
-            if rows.empty:
-                continue
-            out += _axis_blocks(axis, rows, results, ctx, plots)
+            rows = tagged(tests, axis=axis.key)
+            out += _axis_blocks(axis, rows, results, ctx, plots) if not rows.empty else []
         if not tests.empty:
             named = {"value": "swept value", "axis_words": "axis"}
             table = tests.assign(axis_words=[AXIS_BY_KEY[k].words for k in tests.axis])
@@ -371,24 +331,17 @@ def _heat_maps(backends, reasons):
 
 @functools.lru_cache(maxsize=1)
 def left_out():
-    """``{(technique, axis key): reason}`` for every backend or :data:`TECHNIQUES` row left out of an axis, at
-    any scale.
-
-    Judged on every value of every scale at once (what a backend lacks is a feature or an option,
-    not a size), so the plan and the report agree whatever profile made the results.
-    """
+    """``{(technique, axis key): reason}`` for every backend or :data:`TECHNIQUES` row left out of an axis, judged on
+    every value of every scale at once (a backend lacks a feature or an option, not a size), so that the plan and
+    the report agree whatever profile made the results."""
     reasons = {}
     for axis in AXES:
         values = sorted({v for scale in axis.values.values() for v in scale})
         planned = points(axis, values, size=32, image=32)
-        for backend in renderers.names():
-            why = "" if backend == REFERENCE else axis_reason(axis, backend, planned)
-            if why:
-                reasons[(backend, axis.key)] = why
-        for label, technique in TECHNIQUES.items():
-            why = axis_reason(axis, technique.backend, planned) if axis.key in technique.axes else technique.elsewhere
-            if why:
-                reasons[(label, axis.key)] = why
+        whys = {backend: axis_reason(axis, backend, planned) for backend in renderers.names() if backend != REFERENCE}
+        whys.update({label: axis_reason(axis, t.backend, planned) if axis.key in t.axes else t.elsewhere
+                     for label, t in TECHNIQUES.items()})
+        reasons.update({(name, axis.key): why for name, why in whys.items() if why})
     return reasons
 
 
@@ -408,8 +361,7 @@ def _takeaways(tests):
     phrases = failure_phrases(tests, sorted(set(tests.backend)))
     failing = {b: p for b, p in phrases.items() if not p.startswith("no axis")}
     holding = [b for b in phrases if b not in failing]
-    out = [f"A point breaks below {PSNR_BREAKS:g} dB PSNR against the reference and is accurate from "
-           f"{PSNR_GOOD:g} dB."]
+    out = [f"A point breaks below {PSNR_BREAKS:g} dB PSNR against the reference and is accurate from {PSNR_GOOD:g} dB."]
     if failing:
         out.append("Below " + f"{PSNR_BREAKS:g} dB: " + "; ".join(f"{b} once {p}" for b, p in failing.items()) + ".")
     if holding:

@@ -1,13 +1,4 @@
-"""The stability atlas's stress axes: what each sweeps, on which one scene, and who can render it.
-
-An :class:`Axis` sweeps one thing on one scene definition shared by every backend (same data, camera
-and transfer function): a backend option (``option``), the camera over views of one run (``view_key``),
-or the scene itself (a scene, and a ground truth, per point). Most axes render the semi-transparent
-engine; the iso axes render iso-surfaces (the engine's casting at its binary preset's isovalue, thin
-tubes), which backends without an iso mode cannot. :func:`axis_reason` says why a backend
-is left out of an axis before any run is planned: the capability's reason (:class:`renderers.base.
-interface.Capabilities`) or the option it lacks.
-"""
+"""The stability atlas's stress axes (:class:`Axis`): what each sweeps, on which scene, and who renders it."""
 
 import math
 from dataclasses import dataclass
@@ -26,20 +17,17 @@ ENGINE_ASPECT = (1.0, 1.0, 0.5)
 
 @dataclass(frozen=True)
 class Axis:
-    """One stress axis of the atlas.
+    """One stress axis of the atlas: one thing swept on one scene definition shared by every backend (same data, camera
+    and transfer function).
 
-    ``key`` names it in run ids, tags and anchors; ``words`` is the swept quantity with its unit (the heat map's
-    column, the charts' x label), ``unit`` what a value takes in sentences (``" voxels"``, ``"°"``; ``""`` for none),
-    ``scene_words`` its scene in words ("the semi-transparent engine") and ``values`` ``{scale: [values]}``.
-    ``harsher`` is ``"up"`` where larger values stress the backends more (a failure threshold reads "≥ v"), else
-    ``"down"`` ("≤ v").
+    ``key`` names it in run ids, tags and anchors; ``words`` is the swept quantity with its unit (the heat map's column,
+    the charts' x label), ``unit`` what a value takes in sentences (``" voxels"``; ``""`` for none). ``harsher`` is
+    ``"up"`` where larger values stress the backends more (a failure threshold reads "≥ v").
 
-    It sweeps a backend ``option`` (backends without it are left out, ``option_reason`` says why), or the camera
-    field ``view_key`` over the views of one run (``"azimuth"``, ``"fov_y"``), or else the scene itself, a scene per
-    value. ``backend_options`` are ``{backend: options}`` a backend needs to render the axis at all (gl-raycast's
-    lenses); ``dataset`` the data set and preset of its scene (an option axis's, the thin axis's tubes); ``mode``
-    the scene's rendering mode (an ``"iso"`` axis leaves out the backends without iso-surfaces); ``log_x`` whether
-    its chart spaces the values logarithmically (a sweep that halves them).
+    It sweeps a backend ``option`` (backends without it are left out, ``option_reason`` says why), or the camera field
+    ``view_key`` over the views of one run, or else the scene itself, a scene per value. ``backend_options`` are what a
+    backend needs to render the axis at all (gl-raycast's lenses); ``dataset`` the data set and preset of an option
+    axis's scene; an ``"iso"`` ``mode`` leaves out the backends without iso-surfaces.
     """
 
     key: str
@@ -70,12 +58,10 @@ CLOUD_ISOVALUE = 0.3
 """The iso axis of overlapping clouds: each cloud's surface (its 90th percentile of scalars at 48³)."""
 
 STEPS = {"smoke": [1.0, 0.5], "default": [2.0, 1.0, 0.5, 0.25], "full": [2.0, 1.0, 0.5, 0.25, 0.125]}
-"""The step sweeps (voxels), on the engine and on an iso-surface."""
 
 NO_STEP = "samples once per slice, so it has no step size"
-"""Why a backend without ``step_factor`` is not on the step axes."""
 
-AXES = (
+AXES = (  # in the heat map's column order
     Axis("step", "step size (voxels)", " voxels", "the semi-transparent engine", STEPS,
          option="step_factor", option_reason=NO_STEP, log_x=True),
     Axis("angle", "view angle (°)", "°", "the semi-transparent engine",
@@ -121,7 +107,6 @@ AXES = (
          f"overlapping smoke clouds, each its surface at {CLOUD_ISOVALUE:g}",
          {"smoke": [1.0, 2.0], "default": [1.0, 2.0, 4.0], "full": [1.0, 2.0, 4.0, 7.0]}, mode="iso"),
 )
-"""Every axis, in the heat map's column order."""
 
 AXIS_BY_KEY = {axis.key: axis for axis in AXES}
 
@@ -143,7 +128,6 @@ RAMP_CENTER = 170
 """The engine's metal (raw 160–200 in its presets): where the sharpness axis puts its ramp."""
 
 IVORY = (0.95, 0.92, 0.85)
-
 ANGLE_ELEVATION = 0.0
 """The angle sweep turns about the body axis at eye level, so 45° is exactly between two principal axes."""
 
@@ -163,20 +147,9 @@ def ramp(width, center=RAMP_CENTER, color=IVORY):
             "name": f"ramp{width:g}"}
 
 
-def engine_extent(size):
-    """The engine box's world extent at phantom ``size`` (a voxel is one world unit)."""
-    return tuple(float(max(1, round(size * a))) for a in ENGINE_ASPECT)
-
-
 def headline(dataset="engine"):
     """The view every non-view axis uses: 30° yaw, 20° pitch of the upright data set."""
     return dataset_view(dataset, "atlas", 30.0, 20.0)
-
-
-def tubes_window(size):
-    """The thin axis's picture height in voxels: the tubes' slabs, ``TUBE_SPACING`` each, so that a tube thinner
-    than a voxel still covers a share of the pixels."""
-    return float(len(tube_axes(size)) * TUBE_SPACING)
 
 
 def tubes_view(dataset):
@@ -190,13 +163,11 @@ def tubes_view(dataset):
 
 
 def clouds(count, size, **extra):
-    """``count`` smoke clouds of ``size``³ (seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge along x and y;
-    ``extra`` keys go into every entry (an ``isovalue``)."""
-    entries = []
-    for i in range(count):
-        placed = {"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
-        entries.append(phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **placed, **extra))
-    return entries
+    """``count`` smoke clouds (``size``³, seeds 0…), cloud ``i`` shifted by ``i/8`` of an edge in x and y."""
+    shift = [{"transform": {"translate": [round(i * size / 8, 4), round(-i * size / 8, 4), 0.0]}} if i else {}
+             for i in range(count)]
+    return [phantom("smoke_cloud", size, preset="smoke", name=f"cloud{i}", seed=i, **shift[i], **extra)
+            for i in range(count)]
 
 
 def points(axis, scale_values, *, size, image):
@@ -235,13 +206,15 @@ def points(axis, scale_values, *, size, image):
         elif axis.key == "thin":
             dataset, preset = axis.dataset
             volumes = [phantom(dataset, size, preset=preset, params={"radius": value})]
-            spec = scene(label, image, volumes=volumes, mode=axis.mode, camera={"view_height": tubes_window(size)})
+            # The picture spans the tubes' slabs, so that a tube thinner than a voxel still covers a share of pixels.
+            window = float(len(tube_axes(size)) * TUBE_SPACING)
+            spec = scene(label, image, volumes=volumes, mode=axis.mode, camera={"view_height": window})
             view = tubes_view(dataset)
         elif axis.key == "inside":
             spec = scene(label, image, volumes=engine,
                          camera={"projection": "perspective", "fov_y": 60.0, "distance": round(value * size, 4)})
         elif axis.key == "lens":
-            radius = round(value * max(engine_extent(size)), 4)
+            radius = round(value * max(max(1, round(size * a)) for a in ENGINE_ASPECT), 4)  # a voxel: a world unit
             spec = scene(label, image, volumes=engine)
             spec["lenses"] = [{"shape": "sphere", "center": [0.0, 0.0, 0.0], "radius": radius,
                                "appearance": {"mode": "dvr", "preset": BASE[1], "opacity_scale": 0.2}}]
@@ -282,11 +255,8 @@ def option_names(backend):
 
 
 def axis_reason(axis, backend, planned):
-    """Why ``backend`` is left out of ``axis`` (short, for its heat-map cell), or ``""`` when it takes part.
-
-    ``planned`` are the axis's ``(value, scene, views)`` points; every one must be renderable. A missing
-    feature comes first: a backend without iso-surfaces has no step to sweep on an iso axis either.
-    """
+    """Why ``backend`` is left out of ``axis`` (short, for its heat-map cell), or ``""``: every one of the ``planned``
+    points must be renderable, and a missing feature comes first (without iso-surfaces, no iso step to sweep)."""
     capabilities = renderers.backend_class(backend).capabilities
     for _, spec, views in planned:
         for view in views:

@@ -1,11 +1,11 @@
 """``volbench-convergence``: the reference renderer's error against a much finer step, as the step shrinks."""
 
 import numpy as np
-import pandas as pd
 
 from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import METRICS, difference_gallery, figure, format_number, linked_table, ms
+from pipeline.experiments.kit.pages import (difference_gallery, figure, format_number, timed_metrics_table,
+                                            unless_missing)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, voxels
 from pipeline.experiments.volbench.scenes import scene_and_truth
 from reports import blocks, takeaways
@@ -27,9 +27,8 @@ def _observed_order(group):
 
 
 def _sweep(df):
-    rows = df[df.role == "sweep"].copy()
-    rows["step_factor"] = rows.step_factor.astype(float)
-    return rows.sort_values("step_factor", ascending=False)
+    rows = df[df.role == "sweep"]
+    return rows.assign(step_factor=rows.step_factor.astype(float)).sort_values("step_factor", ascending=False)
 
 
 def _not_monotone(sweep):
@@ -66,10 +65,9 @@ class ReferenceConvergence(Experiment):
         "full": {"volume_size": 128, "image_size": 256, "step_factors": [2.0, 1.0, 0.5, 0.25, 0.125, 0.0625]},
     }
     description = (
-        "The reference is ground truth only if its default step has converged. Each scene is "
-        "rendered at step factors from 2 to 1/8 voxel and compared with a render at 1/32 voxel. "
-        "The error must fall as the step shrinks (not flatten), and the default 1/4 voxel must "
-        "be within 40 dB PSNR of the finest render."
+        "The reference is ground truth only if its default step has converged. Each scene is rendered at step factors "
+        "from 2 to 1/8 voxel and compared with a render at 1/32 voxel. The error must fall as the step shrinks (not "
+        "flatten), and the default 1/4 voxel must be within 40 dB PSNR of the finest render."
     )
     STEP_FACTORS = (2.0, 1.0, 0.5, 0.25, 0.125)
     TRUTH_FACTOR = 1 / 32
@@ -81,12 +79,11 @@ class ReferenceConvergence(Experiment):
         for scene_name, scene_def in CONVERGENCE_SCENES.items():
             scene, truth = scene_and_truth(self, profile, scene_name, scene_def, truth_factor,
                                            {"step_factor": truth_factor})
-            runs.append(truth)
-            for factor in factors:
-                runs.append(Run(self.name, f"{scene_name}.step{factor:g}", REFERENCE, scene,
-                                (HEADLINE_VIEW,), options={"step_factor": factor}, reference=truth.id,
-                                warmup=profile.warmup, repeat=profile.repeat,
-                                tags={"scene": scene_name, "step_factor": factor, "role": "sweep"}))
+            runs += [truth] + [Run(self.name, f"{scene_name}.step{factor:g}", REFERENCE, scene, (HEADLINE_VIEW,),
+                                   options={"step_factor": factor}, reference=truth.id, warmup=profile.warmup,
+                                   repeat=profile.repeat, tags={"scene": scene_name, "step_factor": factor,
+                                                                "role": "sweep"})
+                               for factor in factors]
         return runs
 
     claims = (
@@ -103,20 +100,14 @@ class ReferenceConvergence(Experiment):
 
         ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
         ok["step_factor"] = ok.step_factor.astype(float)
-        orders = {}
-        for scene, group in ok.groupby("scene"):
-            try:
-                orders[scene] = _observed_order(group)
-            except ValueError:
-                pass
+        orders = {scene: unless_missing(_observed_order, group, empty=None) for scene, group in ok.groupby("scene")}
+        orders = {scene: order for scene, order in orders.items() if order is not None}  # a scene without two errors
         truth = voxels(float(results[results.role == "truth"].step_factor.astype(float).min()))
         chart = figure(ctx, "convergence", plots.convergence, ok, heading="Error against step size (log–log)",
                        caption=f"RMSE against a {truth}-voxel render, one line per scene; grey guide lines of "
                                "slope 1 and 2 through the coarsest point. Parallel to a guide: that order.",
                        x_col="step_factor", y_col="rmse", group_col="scene", title=_convergence_title(ok, orders),
                        y_label=f"RMSE against a {truth}-voxel render (intensity 0–1)")
-        times = ms(ok)
-        timed = pd.concat([ok, times], axis=1).sort_values(["scene", "step_factor"])
         shown = ok[ok.step_factor.isin([max(ok.step_factor), 0.25])].sort_values(["scene", "step_factor"])
         gallery = difference_gallery("Coarsest and default steps against the finest render", shown, ctx,
                                      against=results, label=lambda row: f"{row.scene}, step {row.step_factor:g} voxel",
@@ -124,10 +115,8 @@ class ReferenceConvergence(Experiment):
                                      note=lambda row: f"RMSE {format_number(row.rmse)}, PSNR {format_number(row.psnr)} "
                                                       f"dB, largest error {format_number(row.max_error)}")
         return [blocks.Takeaways(_convergence_takeaways(ok, orders)), chart,
-                linked_table("Errors and times", timed, ["scene", "step_factor", *times, *METRICS], ctx,
-                             names={"step_factor": "step (voxels)"}, csv_name="convergence.csv",
-                             caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
-                                     "Each row links to its run's JSON record and EXR image."),
+                timed_metrics_table("Errors and times", ok, ["scene", "step_factor"], ctx, by=["scene", "step_factor"],
+                                    names={"step_factor": "step (voxels)"}, csv_name="convergence.csv"),
                 gallery]
 
 

@@ -1,9 +1,5 @@
-"""``volbench-peers``: every backend present against VTK's mappers on the same scenes.
-
-VTK's timed runs keep its default early ray termination (α > 1 − 1/255), what its users get; the
-matched runs turn it off. A backend that cannot render a scene (VolPack in MIP, VTK's CPU mapper
-in iso mode, ...) is recorded as skipped with its own reason, which the report lists.
-"""
+"""``volbench-peers``: every backend present against VTK's mappers on the same scenes (a backend that cannot render
+one is recorded as skipped with its own reason, which the report lists)."""
 
 import numpy as np
 import pandas as pd
@@ -15,7 +11,7 @@ from pipeline.experiments.kit.pages import (METRICS, as_ratio, claim_takeaways, 
                                             linked_table, speed_psnr_figure)
 from pipeline.experiments.kit.planning import (UNTIMED, accepts, headline_view, listed, phantom, scene, timed_frames,
                                                truth_run)
-from pipeline.experiments.kit.results import ok_rows, speed_points
+from pipeline.experiments.kit.results import ok_rows, speed_points, tagged
 from reports import blocks, takeaways
 
 VTK_GPU, VTK_CPU = "vtk-gpu", "vtk-cpu"
@@ -68,16 +64,15 @@ class Peers(Experiment):
         "full": {"volume_size": 256, "image_sizes": [256, 512]},
     }
     description = (
-        "A researcher reading our numbers asks first how they compare with VTK. Every registered "
-        "backend renders the same scenes as VTK's GPU ray caster (vtkOpenGLGPUVolumeRayCastMapper) "
-        "and its CPU ray caster (vtkFixedPointVolumeRayCastMapper): a phantom and real scans, "
-        "orthographic, headline view, at two image sizes, in every mode each backend supports, all "
-        "at one sampling distance where a backend has one (shear-warp and VolPack sample once per "
-        "slice). Times are the median frame after warm-up with preparation (uploads, RLE builds) "
-        "excluded; ratios to VTK are measured in the same run on the same machine. Images are "
-        "compared with the reference at a finer step. VTK keeps its default early ray termination "
-        "(what its users get). The matched runs beside them turn it off and render unshaded at the "
-        "reference's own step, the conditions under which VTK should reproduce the reference."
+        "A researcher reading our numbers asks first how they compare with VTK. Every registered backend renders the "
+        "same scenes as VTK's GPU ray caster (vtkOpenGLGPUVolumeRayCastMapper) and its CPU ray caster "
+        "(vtkFixedPointVolumeRayCastMapper): a phantom and real scans, orthographic, headline view, at two image "
+        "sizes, in every mode each backend supports, all at one sampling distance where a backend has one (shear-warp "
+        "and VolPack sample once per slice). Times are the median frame after warm-up with preparation (uploads, RLE "
+        "builds) excluded; ratios to VTK are measured in the same run on the same machine. Images are compared with "
+        "the reference at a finer step. VTK keeps its default early ray termination (what its users get). The matched "
+        "runs beside them turn it off and render unshaded at the reference's own step, the conditions under which VTK "
+        "should reproduce the reference."
     )
 
     def runs(self, profile):
@@ -85,24 +80,21 @@ class Peers(Experiment):
             return []
         size = profile.setting(self, "volume_size", profile.volume_size)
         image_sizes = [int(s) for s in profile.setting(self, "image_sizes", [256, 512])]
-        step = profile.setting(self, "step_factor", 0.5)
-        truth_step = profile.setting(self, "truth_step_factor", 0.25)
-        frames = timed_frames(profile, self)
-        runs = []
+        step, truth_step = profile.setting(self, "step_factor", 0.5), profile.setting(self, "truth_step_factor", 0.25)
+        frames, runs = timed_frames(profile, self), []
         for scene_name in listed(profile, self, "scenes", PEER_SCENES, PEER_SCENES):
             dataset, preset, mode, shading = PEER_SCENES[scene_name]
+            views = (headline_view(dataset),)
             for image in image_sizes:
                 spec = scene(scene_name, image, volumes=[phantom(dataset, size, preset=preset)], mode=mode,
                              shading=shading)
-                prefix = f"{scene_name}.{image}"
                 tags = {"scene": scene_name, "dataset": dataset, "mode": mode, "image_size": image, "part": "timed"}
-                views = (headline_view(dataset),)
-                truth = truth_run(self.name, prefix, spec, views, truth_step, tags)
+                truth = truth_run(self.name, f"{scene_name}.{image}", spec, views, truth_step, tags)
                 runs.append(truth)
                 for backend in renderers.names():
                     options = {"step_factor": step} if accepts(backend, "step_factor") else {}
-                    runs.append(Run(self.name, f"{prefix}.{backend}", backend, spec, views, options=options,
-                                    reference=truth.id, **frames,
+                    runs.append(Run(self.name, f"{scene_name}.{image}.{backend}", backend, spec, views,
+                                    options=options, reference=truth.id, **frames,
                                     tags={**tags, "role": "test", "technique": _label(backend, options)}))
         image = min(image_sizes)
         for scene_name in listed(profile, self, "matched_scenes", MATCHED_SCENES, MATCHED_SCENES):
@@ -112,12 +104,11 @@ class Peers(Experiment):
             views = (headline_view(dataset),)
             tags = {"scene": scene_name, "dataset": dataset, "image_size": image, "part": "matched"}
             truth = truth_run(self.name, f"matched.{scene_name}", spec, views, step, tags)
-            runs.append(truth)
-            for backend, options in ((VTK_GPU, {"early_termination": False}), (VTK_CPU, {})):
-                if accepts(backend, "step_factor", *options):
-                    runs.append(Run(self.name, f"matched.{scene_name}.{backend}", backend, spec, views,
-                                    options={**options, "step_factor": step}, reference=truth.id, **UNTIMED,
-                                    tags={**tags, "role": "test", "technique": backend}))
+            runs += [truth] + [Run(self.name, f"matched.{scene_name}.{backend}", backend, spec, views,
+                                   options={**options, "step_factor": step}, reference=truth.id, **UNTIMED,
+                                   tags={**tags, "role": "test", "technique": backend})
+                               for backend, options in ((VTK_GPU, {"early_termination": False}), (VTK_CPU, {}))
+                               if accepts(backend, "step_factor", *options)]
         return runs
 
     claims = (
@@ -155,16 +146,15 @@ class Peers(Experiment):
                                        "difference from the reference", group.sort_values("time_total"), ctx,
                                        against=results, label=lambda row: row.technique)
                     for scene_name, group in largest.groupby("scene")]
-        matched = (ok[(ok.part == "matched") & (ok.role == "test")].sort_values(["backend", "scene"]) if "part" in ok
-                   else ok.iloc[:0])
+        matched = tagged(ok, part="matched", role="test")
         if not matched.empty:
-            out.append(blocks.Table("Matched scenes: VTK against the reference at the same step", matched[
-                ["scene", "backend", *METRICS]].rename(columns=METRICS).reset_index(drop=True),
+            out.append(blocks.Table("Matched scenes: VTK against the reference at the same step", matched.sort_values(
+                ["backend", "scene"])[["scene", "backend", *METRICS]].rename(columns=METRICS).reset_index(drop=True),
                 csv_name="peers_matched.csv",
                 caption="Unshaded DVR; VTK's GPU mapper with early termination off; both at the reference's step. "
                         "What remains: VTK samples at entry + kΔ and drops the last partial step where the reference "
                         "samples cell midpoints, and skips opacity correction for table entries ≤ 1e-4."))
-        skipped = results[results.status == "skipped"] if "status" in results else results.iloc[:0]
+        skipped = tagged(results, status="skipped")
         if not skipped.empty:
             out.append(blocks.Table("Not rendered, with the backend's reason", skipped[
                 ["scene", "backend", "reason"]].drop_duplicates().reset_index(drop=True)))

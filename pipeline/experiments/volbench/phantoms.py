@@ -1,9 +1,5 @@
-"""``volbench-phantoms``: every data set rendered by the reference, with the statistics the papers use.
-
-The gallery shows each phantom beside the real scan it stands in for (:data:`STAND_INS`), and the
-claims hold each phantom's statistics to its real scan's, placed in the phantom's box, or to the
-reproduction notes' targets where no real scan of its kind is at hand.
-"""
+"""``volbench-phantoms``: every data set rendered by the reference, with the statistics the papers use, each phantom
+beside the real scan it stands in for (:data:`STAND_INS`)."""
 
 from dataclasses import dataclass, field, replace
 
@@ -16,6 +12,7 @@ from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
 from pipeline.experiments.kit.pages import difference_gallery, format_number, frames_note, linked_table
 from pipeline.experiments.kit import planning
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, REFERENCE, UNTIMED, UPRIGHT, scene
+from pipeline.experiments.kit.results import tagged
 from reports import blocks
 
 REAL_UPRIGHT = {
@@ -23,10 +20,9 @@ REAL_UPRIGHT = {
     "mrihead": {"rotate": {"axis": [0, 1, 1], "degrees": 180}},
     "brainsmall": {"rotate": {"axis": [1, 0, -1], "degrees": 180}},
 }
-"""The gallery's turn of real scans stored otherwise than the phantoms (body axis z, face −y), so
-that each stands as its phantom does: cthead's crown is slice 0, mrihead faces +y, brainsmall is
-stacked in sagittal slices (x front → back, y crown → neck). Each is a half turn (mirroring x,
-which no scan here labels)."""
+"""The gallery's turn of real scans stored otherwise than the phantoms (body axis z, face −y), so that each stands as
+its phantom does: cthead's crown is slice 0, mrihead faces +y, brainsmall is stacked in sagittal slices (x front → back,
+y crown → neck). Each is a half turn (mirroring x, which no scan here labels)."""
 
 
 @dataclass(frozen=True)
@@ -47,16 +43,14 @@ STAND_INS = {
     "bonsai_like": StandIn("bonsai", ("tree", "isbvr")),
     "folded_brain": StandIn("brainsmall", ("volpack",), size=128, params={"decimate": 2}),
 }
-"""Phantom → the real scan of the same kind it stands in for: the gallery shows them side by side
-and the statistics claims compare them (see :func:`_target_claims`)."""
+"""Phantom → the real scan of its kind it stands in for: shown side by side, compared by :func:`_target_claims`."""
 
 RELATIVE_BAND = 0.25
 """A phantom's statistic holds within ±25 % of its target ..."""
 
 ABSOLUTE_FLOOR = {"nontransparent_fraction": 0.005, "nonzero_fraction": 0.005, "empty_block_fraction": 0.02,
                   "runs_per_scanline": 0.1, "mean_run_length": 0.5}
-"""... or within this absolute distance where that is wider: a band around a target near 0 (the
-no-cue control's empty blocks) still means something."""
+"""... or within this absolute distance where wider, so that a band around a target near 0 still means something."""
 
 
 class PhantomGallery(Experiment):
@@ -72,12 +66,11 @@ class PhantomGallery(Experiment):
         "full": {"all_presets": True, "step_factor": 0.25},
     }
     description = (
-        "Every synthetic stand-in and every real scan, rendered by the reference renderer with its "
-        "default preset (Blinn–Phong, headline view) so that a person can judge how CT-like the "
-        "phantoms look, next to the statistics the papers use: the fraction of non-transparent "
-        "voxels (α > 0.05, the thesis's threshold), the fraction of empty 8³ blocks and the mean "
-        "number of non-transparent runs per scanline. Statistics are taken at the size of the "
-        "original data set (256³ for most), where the reproduction notes' targets apply."
+        "Every synthetic stand-in and every real scan, rendered by the reference renderer with its default preset "
+        "(Blinn–Phong, headline view) so that a person can judge how CT-like the phantoms look, next to the statistics "
+        "the papers use: the fraction of non-transparent voxels (α > 0.05, the thesis's threshold), the fraction of "
+        "empty 8³ blocks and the mean number of non-transparent runs per scanline. Statistics are taken at the size of "
+        "the original data set (256³ for most), where the reproduction notes' targets apply."
     )
 
     @property
@@ -192,7 +185,7 @@ def _render_note(row):
 
 def _statistics_row(df, name, preset):
     """``{statistic: value}`` measured for data set ``name`` under ``preset`` (``None`` if not run)."""
-    rows = df[(df.dataset == name) & (df.preset == preset)] if "dataset" in df and "preset" in df else df.iloc[:0]
+    rows = tagged(df, dataset=name, preset=preset)
     if rows.empty:
         return None
     row = rows.iloc[0]
@@ -200,12 +193,9 @@ def _statistics_row(df, name, preset):
 
 
 def _real_in_box(df, phantom, preset):
-    """The real scan's :data:`BOX_STATISTICS` placed in ``phantom``'s box, with the phantom's own.
-
-    Returns ``(phantom_stats, real_stats, real_in_box)``, or a string saying why they do not
-    compare: a side not measured, or a phantom measured at another size than the scan's voxels
-    (profiles that shrink ``statistics_size``).
-    """
+    """``(phantom_stats, real_stats, real_in_box)``: the real scan's :data:`BOX_STATISTICS` placed in ``phantom``'s
+    box, with both own, or why they do not compare: a side not measured, or a phantom measured at another size than
+    the scan's voxels (profiles that shrink ``statistics_size``)."""
     stand_in = STAND_INS[phantom]
     mine, real = _statistics_row(df, phantom, preset), _statistics_row(df, stand_in.real, preset)
     if mine is None or real is None:
@@ -244,9 +234,7 @@ def _stand_in_comparison(ok):
 
 def _statistics_rows(compared, phantom, preset):
     """The phantom's and the real scan's statistics as two short rows for a gallery note."""
-    if compared.empty:
-        return ""
-    rows = compared[(compared.phantom == phantom) & (compared.preset == preset)]
+    rows = tagged(compared, phantom=phantom, preset=preset)
     if rows.empty:
         return ""
     names = {"nontransparent_fraction": "non-transparent", "empty_block_fraction": "empty 8³ blocks",
@@ -289,11 +277,9 @@ def _real_says(df, phantom, stat):
     """Why a stand-in may miss a notes' target: what its real scan shows under the presets they share."""
     if phantom not in STAND_INS:
         return ""
-    seen = []
-    for preset in STAND_INS[phantom].presets:
-        measured = _real_in_box(df, phantom, preset)
-        if not isinstance(measured, str) and stat in measured[2]:
-            seen.append(f"{preset} {format_number(measured[2][stat])}")
+    boxed = {preset: _real_in_box(df, phantom, preset) for preset in STAND_INS[phantom].presets}
+    seen = [f"{preset} {format_number(measured[2][stat])}" for preset, measured in boxed.items()
+            if not isinstance(measured, str) and stat in measured[2]]
     real = STAND_INS[phantom].real
     if not seen:
         return f"; the phantom follows the real {real} where the two disagree (see the stand-in claims)"
@@ -301,11 +287,8 @@ def _real_says(df, phantom, stat):
 
 
 class NotesTarget(Band):
-    """A phantom's statistic within a band around the reproduction notes' target.
-
-    Its detail also says what a stand-in's real scan shows (:func:`_real_says`): where the two
-    disagree, the phantom follows the real scan.
-    """
+    """A phantom's statistic within a band around the reproduction notes' target; its detail also says what a
+    stand-in's real scan shows (:func:`_real_says`): where the two disagree, the phantom follows the real scan."""
 
     def __call__(self, df):
         result = super().__call__(df)
@@ -314,12 +297,9 @@ class NotesTarget(Band):
 
 
 def _target_claims():
-    """The statistics claims, each within ±25 % of its target or an absolute floor where wider.
-
-    A stand-in under a preset it shares with its real scan is compared with the scan placed in
-    the phantom's box (:func:`datasets.stats.in_box`), for each of :data:`BOX_STATISTICS`; every
-    other target a phantom declares comes from the reproduction notes.
-    """
+    """The statistics claims: a stand-in under a preset it shares with its real scan against the scan placed in the
+    phantom's box (:func:`datasets.stats.in_box`), each of :data:`BOX_STATISTICS`; every other target a phantom
+    declares from the reproduction notes."""
     claims = []
     for phantom, stand_in in STAND_INS.items():
         for preset in stand_in.presets:
@@ -331,8 +311,7 @@ def _target_claims():
                     mine, _, boxed = measured
                     band = _band(stat, boxed[stat])
                     return ClaimResult(format_number(mine[stat]), bool(abs(mine[stat] - boxed[stat]) <= band),
-                                       f"{real} in the same box {format_number(boxed[stat])} "
-                                       f"± {format_number(band)}")
+                                       f"{real} in the same box {format_number(boxed[stat])} ± {format_number(band)}")
                 claims.append(Claim(f"{phantom}.{preset}-{stat}-vs-{stand_in.real}",
                                     f"{phantom} ({preset}): {stat} like the real {stand_in.real}'s",
                                     f"{stand_in.real}'s value in the same box ± {RELATIVE_BAND:.0%}", check,

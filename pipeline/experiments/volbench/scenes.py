@@ -5,12 +5,8 @@ from pipeline.experiments.kit.planning import HEADLINE_VIEW, phantom, scene, tru
 
 def scene_and_truth(experiment, profile, scene_name, scene_def, truth_factor, tags, *, mode="dvr"):
     """``(scene, truth)``: the scene ``scene_name`` of ``scene_def``, ``(data set, preset or None for its default,
-    shading model)``, at ``experiment``'s sizes, and its ground truth ``<scene_name>.truth``: the reference at
-    ``truth_factor`` of a voxel in the headline view, one untimed frame.
-
-    ``tags`` are the truth's besides ``scene`` and ``role`` (``step_factor``, which
-    :func:`~pipeline.experiments.kit.planning.truth_run` cannot take as a keyword).
-    """
+    shading model)``, at ``experiment``'s sizes, and its ground truth ``<scene_name>.truth`` at ``truth_factor`` of a
+    voxel in the headline view, tagged ``tags`` too (``step_factor``, which ``truth_run`` takes as no keyword)."""
     dataset, preset, shading = scene_def
     size, image_size = volume_and_image_size(profile, experiment)
     volume = phantom(dataset, size, **({"preset": preset} if preset else {}))

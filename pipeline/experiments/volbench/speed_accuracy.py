@@ -8,8 +8,8 @@ import pandas as pd
 import renderers
 from pipeline.experiments.kit import intervals, judging as kit_judging
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run
-from pipeline.experiments.kit.pages import (METRICS, as_ratio, difference_gallery, figure, format_number, linked_table,
-                                            ms, setting_words)
+from pipeline.experiments.kit.pages import (as_ratio, difference_gallery, figure, format_number, setting_words,
+                                            timed_metrics_table)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, timed_frames
 from pipeline.experiments.kit.results import nonempty_or, speed_points
 from pipeline.experiments.volbench.scenes import scene_and_truth
@@ -59,13 +59,9 @@ def _tradeoff(df):
 
 
 def _ranking(df, *, scene):
-    """On ``scene``, the decision panel's fastest technique at the accuracy bar against the next one: the next's time
-    over the fastest's, with the interval of their frames timed together (paired by process and round).
-
-    The order is read from these same times, so the ratio is never below ×1; what the interval tells is whether
-    the order is resolved or the two tie. Fewer than two techniques at the bar, or two timed in separate jobs,
-    leave nothing to judge.
-    """
+    """On ``scene``, the next technique's time over the fastest's at the accuracy bar (the decision panel's order),
+    with the interval of their frames timed together: the order is read from these same times, so the ratio is
+    never below ×1; the interval tells whether the order is resolved or the two tie."""
     sweep = df[(df.role == "sweep") & (df.scene == scene)]
     panels = nonempty_or(decision.panel(decision.technique_rows(sweep), None), f"no technique rendered {scene}")
     accurate = [row for row in panels[0]["table"] if row["accurate"]]
@@ -135,13 +131,12 @@ class SpeedAccuracy(Experiment):
     settings = frozenset({"scenes", "volume_size", "image_size"})
     scales = {"smoke": {"scenes": ["skull-bone"]}}
     description = (
-        "Each registered backend renders the same scenes over its own quality settings (its "
-        "``quality_sweep``: step size, and later slice count, thresholds, ...). Error is measured "
-        "against the reference at 1/16 voxel, time is the median frame after warm-up. Every "
-        "technique's settings on a scene are timed together, interleaved round by round in each of "
-        "the profile's replicate processes, so the index's ranking compares like with like and its "
-        "ratios have intervals. A backend that could not run, or lacks a scene's mode, is listed below "
-        "with the reason its runs recorded."
+        "Each registered backend renders the same scenes over its own quality settings (its ``quality_sweep``: step "
+        "size, and later slice count, thresholds, ...). Error is measured against the reference at 1/16 voxel, time is "
+        "the median frame after warm-up. Every technique's settings on a scene are timed together, interleaved round "
+        "by round in each of the profile's replicate processes, so the index's ranking compares like with like and its "
+        "ratios have intervals. A backend that could not run, or lacks a scene's mode, is listed below with the reason "
+        "its runs recorded."
     )
     TRUTH_FACTOR = 1 / 16
 
@@ -189,10 +184,9 @@ class SpeedAccuracy(Experiment):
     def report(self, results, ctx):
         from reports import plots  # matplotlib: only when the report is built
 
-        ok = results[(results.status == "ok") & (results.role == "sweep")].copy()
-        ok["setting"] = ok.setting.fillna("default").astype(str)
-        ok["technique"] = [decision.technique_label(b, s) for b, s in zip(ok.backend, ok.setting)]
-        ok = speed_points(ok)
+        ok = results[(results.status == "ok") & (results.role == "sweep")]
+        ok = speed_points(ok.assign(setting=ok.setting.fillna("default").astype(str), technique=lambda frame: [
+            decision.technique_label(b, s) for b, s in zip(frame.backend, frame.setting)]))
         out = [blocks.Takeaways(takeaways.fastest_at_accuracy(ok) + takeaways.accuracy_failures(ok)
                                 + _stage_takeaways(ok))]
         fronts = decision.panel(decision.technique_rows(results[results.role == "sweep"]), None)
@@ -217,13 +211,9 @@ class SpeedAccuracy(Experiment):
                               caption="Each backend's own stages, as it reports them (CONVENTIONS, Results), at the "
                                       "first setting of its quality sweep; the table below has every setting.",
                               stage_cols=stages, group_col="backend", title=_stage_title(first, stages)))
-        times = ms(ok)
-        table = pd.concat([ok, times], axis=1).sort_values(["scene", "backend", "time (ms)"])
-        table["setting"] = table.setting.map(setting_words)
-        out.append(linked_table("All settings", table, ["scene", "backend", "setting", *times, *METRICS], ctx,
-                                csv_name="speed_accuracy.csv",
-                                caption="Time: median frame after warm-up, with the fastest and slowest timed frame. "
-                                        "Each row links to its run's JSON record and EXR image."))
+        out.append(timed_metrics_table("All settings", ok.assign(setting=ok.setting.map(setting_words)),
+                                       ["scene", "backend", "setting"], ctx, by=["scene", "backend", "time (ms)"],
+                                       csv_name="speed_accuracy.csv"))
         out += [difference_gallery(f"{scene}: every setting against the reference", group.sort_values("time_total"),
                                    ctx, against=results, label=lambda row: row.technique,
                                    note=lambda row: f"{format_number(row.time_ms)} ms, PSNR {format_number(row.psnr)} "
@@ -254,8 +244,7 @@ def _frame_stages(ok):
 
 def _stage_shares(ok, stages):
     medians = ok[stages].median()
-    total = medians.sum()
-    return (medians / total).sort_values(ascending=False) if total > 0 else pd.Series(dtype=float)
+    return (medians / medians.sum()).sort_values(ascending=False) if medians.sum() > 0 else pd.Series(dtype=float)
 
 
 def _stage_title(ok, stages):
@@ -266,8 +255,7 @@ def _stage_title(ok, stages):
 
 
 def _stage_takeaways(ok):
-    stages = _frame_stages(ok)
-    shares = _stage_shares(ok, stages) if stages else pd.Series(dtype=float)
+    shares = _stage_shares(ok, _frame_stages(ok))
     if shares.empty:
         return []
     parts = ", ".join(f"{name.removeprefix('time_')} {share:.0%}" for name, share in shares.items())
