@@ -186,3 +186,29 @@ def test_each_scene_may_be_judged_against_a_band_of_its_own():
     result = judging.ratios_where_both(frame, bands, "peel", "tiled", what="peel / tiled")
     assert result.holds is False and "(s2)" in result.measured
     assert judging.ratios_where_both(frame, {"s1": bands["s1"]}, "peel", "tiled", what="").holds is True
+
+
+def _psnr_rows(values):
+    """Test rows of two methods on two views, and a reference row that is never judged."""
+    rows = [{"role": "test", "config": config, "scene": "head", "view": view, "run": f"head.{config}", "psnr": psnr}
+            for (config, view), psnr in values.items()]
+    return pd.DataFrame(rows + [{"role": "reference", "config": "truth", "scene": "head", "view": "a",
+                                 "run": "head.truth", "psnr": 0.0}])
+
+
+def test_worst_test_psnr_names_the_worst_view_and_lists_methods_in_the_given_order():
+    rows = _psnr_rows({("rc", "a"): 52.0, ("rc", "b"): 41.5, ("sbvr", "a"): 47.0, ("sbvr", "b"): 60.0})
+    result = judging.worst_test_psnr(rows, ("sbvr", "rc"), at_least=40.0)
+    assert result.holds
+    assert result.measured == "41.5 dB (rc, head, b)"
+    assert result.detail == "sbvr: ≥ 47 dB, rc: ≥ 41.5 dB"
+    assert not judging.worst_test_psnr(rows, ("sbvr", "rc"), at_least=45.0).holds
+    assert judging.worst_test_psnr(rows, ("sbvr",), at_least=45.0).holds  # rc's 41.5 dB is not judged
+
+
+def test_worst_test_psnr_refuses_a_view_without_its_comparison():
+    rows = _psnr_rows({("rc", "a"): 52.0, ("rc", "b"): float("nan")})
+    with pytest.raises(ValueError, match=r"head\.rc \(b\)"):
+        judging.worst_test_psnr(rows, ("rc",), at_least=40.0)
+    with pytest.raises(ValueError, match="no PSNR"):
+        judging.worst_test_psnr(_psnr_rows({("rc", "a"): float("nan")}), ("rc",), at_least=40.0)

@@ -5,7 +5,8 @@ import jinja2
 import pandas as pd
 import pytest
 
-from pipeline.experiments.kit.pages import change_words, claim_evidence, db_words, frames_note, setting_words
+from pipeline.experiments.kit.pages import (change_words, claim_evidence, db_words, frames_note, per_gl_device,
+                                            setting_words)
 from pipeline.experiments.kit.verdicts import Verdict, disturbed_detail
 from reports import html, takeaways
 from reports.takeaways import FAILING_CLAIM, Takeaway, likely_cause, rst_inline
@@ -176,3 +177,10 @@ def test_a_difference_gallery_shows_each_row_with_its_difference_on_the_one_scal
     assert only_b.items[0].difference == "diff/b.exr"
     plain = difference_gallery("Pictures", results.iloc[:1], ctx, label=lambda row: row.run, note=lambda row: "")
     assert plain.diff_scale is None and plain.items[0].difference is None and plain.items[0].note == ""
+
+
+def test_per_gl_device_makes_one_table_per_device_with_its_name():
+    rows = pd.DataFrame({"gl_renderer": ["llvmpipe", "NVIDIA H200", None], "time": [3.0, 1.0, 2.0]})
+    table = per_gl_device(rows, lambda part: pd.DataFrame({"total": [part.time.sum()]}))
+    assert sorted(zip(table.device, table.total)) == [("NVIDIA H200", 1.0), ("llvmpipe", 3.0), ("unknown device", 2.0)]
+    assert per_gl_device(rows.iloc[:0], lambda part: part).empty

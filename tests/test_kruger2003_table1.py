@@ -6,6 +6,7 @@ import pytest
 
 from core.errors import InputError
 from pipeline import experiments
+from pipeline.experiments.kit.pages import per_gl_device
 from pipeline.experiments.kruger2003 import table1 as T
 from reports.imageio import write_exr
 from test_kruger2003_methods import NOISY, evaluate, small_profile, timed, with_gl_backends
@@ -172,10 +173,9 @@ def test_device_sentence_and_ratios_per_device():
     assert "CPU rasterizer" in software[0] and "no GPU run" in software[0]
     both = T._device_takeaways(rows)
     assert "per device" in both[0] and "NVIDIA H100" in both[0]
-    groups = dict(list(rows.groupby(T.gl_devices(rows))))
-    assert set(groups) == {"llvmpipe (LLVM 15)", "NVIDIA H100"}
-    ratio = T._ratio_table(groups["NVIDIA H100"])
-    assert ratio["RC-b / RC (ours)"].iloc[0] == pytest.approx(5.0)
+    ratios = per_gl_device(rows, T._ratio_table)
+    assert set(ratios.device) == {"llvmpipe (LLVM 15)", "NVIDIA H100"}
+    assert ratios[ratios.device == "NVIDIA H100"]["RC-b / RC (ours)"].iloc[0] == pytest.approx(5.0)
 
 
 def test_a_view_without_its_comparison_is_missing_not_left_out():

@@ -462,3 +462,41 @@ def counts_compared(labels, counts, *, fewer, measured, words, extra=""):
     ratio, label, _, _ = (max if fewer else min)(compared)
     return ClaimResult(measured(ratio, label), all(a < b if fewer else a > b for _, _, a, b in compared),
                        "; ".join(words(label, a, b) for _, label, a, b in compared) + extra)
+
+
+def worst_test_psnr(frame, configs, *, at_least):
+    """The worst PSNR against the reference of the test rows of ``configs``: a paper's "every method renders the
+    reference's image" claim.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        A claim's rows, with the tags ``role``, ``config``, ``scene``, ``view`` and the column ``psnr``.
+    configs : sequence of str
+        The methods judged, in the order their worst values are listed in the detail.
+    at_least : float
+        The floor, in dB.
+
+    Returns
+    -------
+    ClaimResult
+        ``measured`` is the worst PSNR with its method, scene and view; the detail lists each method's worst.
+
+    Raises
+    ------
+    ValueError
+        No row has a PSNR, or a view of one lacks it (a missing comparison is "not measured", never left out of
+        the worst).
+    """
+    tests = frame[(text_column(frame, "role") == "test") & text_column(frame, "config").isin(configs)]
+    psnr = numeric(tests, "psnr")
+    if psnr.notna().sum() == 0:
+        raise ValueError("no PSNR against the reference")
+    if psnr.isna().any():
+        raise ValueError("no PSNR against the reference for " + ", ".join(
+            f"{r.run} ({r.view})" for r in tests[psnr.isna()].itertuples()))
+    worst = tests.loc[psnr.idxmin()]
+    per_config = tests.assign(psnr=psnr).groupby("config").psnr.min()
+    return ClaimResult(f"{format_number(psnr.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
+                       bool(psnr.min() >= at_least),
+                       ", ".join(f"{c}: ≥ {format_number(per_config[c])} dB" for c in configs if c in per_config))

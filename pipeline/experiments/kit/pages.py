@@ -172,6 +172,25 @@ def gl_devices(frame):
     return device.fillna("unknown device").astype(str)
 
 
+def per_gl_device(frame, table):
+    """``table(rows)`` for the rows of each GL device (:func:`gl_devices`), one table with a ``device`` column.
+
+    Parameters
+    ----------
+    frame : pandas.DataFrame
+        Timed rows.
+    table : callable
+        Makes a page table (a DataFrame) of one device's rows.
+
+    Returns
+    -------
+    pandas.DataFrame
+        The devices' tables one after another; empty where ``frame`` is.
+    """
+    tables = [table(rows).assign(device=device) for device, rows in frame.groupby(gl_devices(frame))]
+    return pd.concat(tables, ignore_index=True) if tables else pd.DataFrame()
+
+
 def device_takeaways(tests, *, software):
     """Which GL devices timed a page, in a sentence; ``software`` says what a CPU rasterizer's numbers mean
     for this paper (added when every timed row ran on one)."""

@@ -6,13 +6,14 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, device_takeaways, difference_gallery, figure,
-                                            format_number, frames_caption, gl_devices, linked_table, speed_psnr_figure,
-                                            unless_missing)
+                                            format_number, frames_caption, linked_table, per_gl_device,
+                                            speed_psnr_figure, unless_missing)
 from pipeline.experiments.kit.planning import (is_registered, listed, orbit_views, phantom, scene,
                                                timed_frames, truth_run)
 from pipeline.experiments.kit.results import (nonempty, nonempty_or, numeric, ok_rows, pair_metrics, read_exr,
                                               role_rows, rows_matching, text_column)
-from pipeline.experiments.kit.judging import STRICTLY_BELOW_ONE, all_of, image_pairs, point_speedup, time_ratio
+from pipeline.experiments.kit.judging import (STRICTLY_BELOW_ONE, all_of, image_pairs, point_speedup, time_ratio,
+                                              worst_test_psnr)
 from pipeline.experiments.kruger2003.methods import (METHODS, RAYCAST, SETTINGS, SIZE_SCALES, SLICER, UPLOADS,
                                                      gl_not_measurable, method_name, method_points, method_runs,
                                                      samples_note, sizes)
@@ -50,20 +51,6 @@ def _gain(df, slow, fast, scenes, low=None, high=None, what=""):
                  extra="whole-frame times, median over the views (headline and orbit) of each view's median frame"
                        + ("; samples: the same ratio of the samples the shaders took (machine-independent)"
                           if any(notes.values()) else ""))
-
-
-def _accuracy(df):
-    tests = df[(text_column(df, "role") == "test") & text_column(df, "config").isin(PAPER_METHODS)]
-    psnr = numeric(tests, "psnr")
-    if psnr.notna().sum() == 0:
-        raise ValueError("no PSNR against the reference")
-    if psnr.isna().any():  # a view without its comparison is missing, not left out of the worst
-        raise ValueError("no PSNR against the reference for " + ", ".join(
-            f"{r.run} ({r.view})" for r in tests[psnr.isna()].itertuples()))
-    worst = tests.loc[psnr.idxmin()]
-    per_method = tests.assign(psnr=psnr).groupby("config").psnr.min()
-    return ClaimResult(f"{format_number(psnr.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
-                       bool(psnr.min() >= 40.0), ", ".join(f"{c}: ≥ {format_number(v)} dB" for c, v in per_method.items()))
 
 
 def _ess_lossless(df):
@@ -146,8 +133,8 @@ CLAIMS = (
           lambda df: _gain(df, "sbvr", "rc-b", HEADS, HEAD_RCB_OVER_SBVR), paper_value="×3.3 (23.4 / 7.1 fps)",
           kind="timing"),
     Claim("accuracy", "The paper's four methods render the reference's image (\"the same image quality\")",
-          "PSNR ≥ 40 dB against the reference (SBVR, RC, RC-a, RC-b; every data set and view)", _accuracy,
-          kind="accuracy"),
+          "PSNR ≥ 40 dB against the reference (SBVR, RC, RC-a, RC-b; every data set and view)",
+          lambda df: worst_test_psnr(df, PAPER_METHODS, at_least=40.0), kind="accuracy"),
     Claim("ess-lossless", "Empty-space skipping is conservative: RC-b's image is RC-a's",
           "PSNR(RC-b, RC-a) ≥ 60 dB (every data set and view)", _ess_lossless, kind="accuracy"),
     Claim("ert-bound", "Early termination changes a pixel by at most what the opacity threshold leaves",
@@ -201,8 +188,7 @@ def _peer_takeaways(ok):
 
 def _ratio_blocks(tests, ctx):
     """Table 1's speed-ups beside ours, per device, and RC-b over slicing as bars (as the claims: every view)."""
-    ratios = pd.concat([_ratio_table(group).assign(device=device)
-                        for device, group in tests.groupby(gl_devices(tests))], ignore_index=True)
+    ratios = per_gl_device(tests, _ratio_table)
     if ratios.empty:
         return []
     return [blocks.Table("Table 1 beside ours: speed-ups between methods (median over the views)", ratios,

@@ -7,7 +7,8 @@ import numpy as np
 import pandas as pd
 
 from pipeline.experiments.kit import intervals, pages
-from pipeline.experiments.kit.judging import all_of, config_rows, decision_words, image_pairs, median_count, time_ratio
+from pipeline.experiments.kit.judging import (all_of, config_rows, decision_words, image_pairs, median_count,
+                                              time_ratio, worst_test_psnr)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import (as_percent, as_ratio, by_scene, claim_takeaways, difference_gallery, figure,
                                             format_number, frame_note, linked_table, silent_without_runs,
@@ -136,21 +137,6 @@ def _lossless(df):
                        f"{view_count(len(values))} compared; off: a channel differs by more than 1/255")
 
 
-def _accuracy(df):
-    tests = df[text_column(df, "config").isin(MODES_IN_TABLE) & (text_column(df, "role") == "test")]
-    values = numeric(tests, "psnr")
-    if values.notna().sum() == 0:
-        raise ValueError("no PSNR against the reference")
-    if values.isna().any():  # a view without its comparison is missing, not left out of the worst
-        raise ValueError("no PSNR against the reference for " + ", ".join(
-            f"{r.run} ({r.view})" for r in tests[values.isna()].itertuples()))
-    worst = tests.loc[values.idxmin()]
-    per_mode = tests.assign(psnr=values).groupby("config", sort=False).psnr.min()
-    return ClaimResult(f"{format_number(values.min())} dB ({worst.config}, {worst.scene}, {worst.view})",
-                       bool(values.min() >= ACCURACY_PSNR),
-                       ", ".join(f"{c}: ≥ {format_number(v)} dB" for c, v in per_mode.items()))
-
-
 def _culling(df):
     found = {s: (culled_fraction(config_rows(df, "ess+ert", scene=s)), 1.0 - 1.0 / paper_speedup(s, "ess+ert"))
              for s in scenes_of(df, "ess+ert")}
@@ -194,7 +180,7 @@ CLAIMS = (
           "off by more than 1/255, every scene and view", _lossless, kind="accuracy"),
     Claim("accuracy", "Every mode renders the reference's image (same step, post-classified, same shading)",
           f"PSNR ≥ {format_number(ACCURACY_PSNR)} dB against the reference (Basic, ESS, ERT, ESS+ERT; every scene "
-          "and view)", _accuracy, kind="accuracy"),
+          "and view)", lambda df: worst_test_psnr(df, MODES_IN_TABLE, at_least=ACCURACY_PSNR), kind="accuracy"),
     Claim("culling-suffices", "Our data leave as much to cull as the paper's speed-up needs: the fragments "
           "culled, not the device, bound what ESS+ERT can gain",
           "α' = 1 − F'_c/F of ESS+ERT ≥ 1 − 1/δ_paper on every scene (Eq. 9 with γ, φ → 0: the least culled "
@@ -302,8 +288,7 @@ def _culling_table(tests):
 
 def _ratio_blocks(tests, ctx):
     """Table 1's speed-ups beside ours per device, ESS+ERT as bars, and the culled fractions."""
-    ratios = pd.concat([_ratio_table(group).assign(device=device)
-                        for device, group in tests.groupby(pages.gl_devices(tests))], ignore_index=True)
+    ratios = pages.per_gl_device(tests, _ratio_table)
     if ratios.empty:
         return []
     return [blocks.Table("Table 1 beside ours: speed-ups over Basic (median over the views)", ratios,
