@@ -15,7 +15,9 @@ A Snakemake logger plugin (registered in-process by :func:`register`, added to t
 The estimate comes from the plan and the times measured so far: Snakemake's count of the jobs each
 rule still has to run, split for the renders into timed and untimed jobs by the plan the Snakefile
 registers (:func:`expect_renders`), each job kind's mean wall time so far (a kind not seen yet takes
-the mean of every job), and the cores (untimed jobs run side by side, a timed render alone).
+the mean of every job), and the cores (untimed jobs run side by side, a timed render alone). Until the
+first timed render has finished, the line says the time left is a floor: the quick jobs that run first
+(phantoms, volumes, the reference's renders) say little about a timed render's minutes.
 """
 
 import logging
@@ -127,6 +129,11 @@ class Estimate:
         weights = [weight for k, weight in _RENDER_KINDS.values() if k == kind]
         return sum(weights) / len(weights) if weights else 1.0
 
+    def timed_unmeasured(self):
+        """Whether timed renders are still to run and none has finished: they are most of a run's time, and until
+        one has, :meth:`seconds_left` prices them at the mean of the quick jobs done so far, so it is a floor."""
+        return self.planned.get("timed render", 0) > 0 and not self.finished.get("timed render")
+
     def seconds_left(self):
         """Seconds still to go, or ``None`` before any job has finished."""
         every = [seconds for done in self.finished.values() for seconds, _ in done]
@@ -185,10 +192,16 @@ class ProgressLine:
         self.stream.flush()
 
 
-def progress_text(done, total, elapsed, left):
+def progress_text(done, total, elapsed, left, *, floor=False):
+    """The progress line; ``floor``: ``left`` is a lower bound (:meth:`Estimate.timed_unmeasured`)."""
     text = f"volbench: {done} of {total} steps done, {total - done} to go · {clock(elapsed)} elapsed"
     if done < total:
-        text += f" · about {clock(left)} left" if left is not None else " · time left: after the first step"
+        if left is None:
+            text += " · time left: after the first step"
+        elif floor:
+            text += f" · at least {clock(left)} left (no timed render finished yet)"
+        else:
+            text += f" · about {clock(left)} left"
     return text
 
 
@@ -242,7 +255,8 @@ def _handler_class():
             if event == LogEvent.PROGRESS:
                 self.done, self.total = record.done, record.total
                 self.line.show(progress_text(self.done, self.total, time.monotonic() - self.began,
-                                             self.estimate.seconds_left()), final=self.done >= self.total)
+                                             self.estimate.seconds_left(), floor=self.estimate.timed_unmeasured()),
+                               final=self.done >= self.total)
             elif (record.levelno >= logging.WARNING and event != LogEvent.JOB_ERROR
                   or event in (LogEvent.GROUP_ERROR, LogEvent.ERROR)
                   or str(record.msg).startswith(("Nothing to be done", "Complete log"))):

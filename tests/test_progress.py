@@ -30,9 +30,11 @@ def test_the_estimate_weighs_each_render_by_its_views_and_runs_untimed_jobs_side
     estimate.start(1, "render", ["r/a.json"])
     clock[0] += 4.0
     estimate.finish(1)
+    assert estimate.timed_unmeasured()  # an untimed render says little about the timed ones
     estimate.start(2, "render_together_3", ["r/b.json"])
     clock[0] += 10.0
     estimate.finish(2)
+    assert not estimate.timed_unmeasured()
     # Timed renders: 5 s a view so far; two to go, of the plan's mean 4 views; two evaluations at the
     # overall mean (7 s a job), two at a time.
     assert estimate.seconds_left() == pytest.approx(2 * 4 * 5.0 + 2 * 7.0 / 2)
@@ -68,6 +70,8 @@ def test_the_text_says_what_is_done_elapsed_and_left():
     assert progress.progress_text(412, 976, 723, 540) == ("volbench: 412 of 976 steps done, 564 to go · 12 min 03 s "
                                                            "elapsed · about 9 min 00 s left")
     assert progress.progress_text(976, 976, 60, None).endswith("1 min 00 s elapsed")
+    assert progress.progress_text(100, 976, 60, 540, floor=True).endswith(
+        "· at least 9 min 00 s left (no timed render finished yet)")
 
 
 @pytest.mark.parametrize("wildcards, output, experiment", [
