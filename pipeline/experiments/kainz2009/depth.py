@@ -14,11 +14,10 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.judging import TECHNIQUE, TOTAL, counts, decided, r_squared, with_interval
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run
-from pipeline.experiments.kit.pages import claim_takeaways, figure, format_number, not_measurable
+from pipeline.experiments.kit.pages import claim_takeaways, format_number, not_measurable, time_lines_figure
 from pipeline.experiments.kit.planning import UNTIMED, accepts, listed, scene, timed_frames, truth_run
 from pipeline.experiments.kit.results import (fit_line, nonempty_or, numeric, ok_rows, role_rows, rows_matching,
                                               speed_points, text_column)
-from reports import plots
 
 BOX_COUNTS = (5, 10, 15, 20, 30, 40)
 
@@ -244,13 +243,12 @@ class Depth(PaperExperiment):
             rows["method"] = rows.config.map(METHOD_NAMES)
             sweep = rows[rows.part == "sweep"]
             if not sweep.empty:
-                out.append(figure(ctx, "sweep", plots.lines, sweep, heading="Boxes in a row",
-                                  caption="Dotted: the paper's S1 and S2 depths and the cap of 63. "
-                                          + frames_caption(sweep),
-                                  x="depth", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
-                                  title="Frame time against depth complexity",
-                                  x_label="max depth complexity (boundary crossings per pixel)",
-                                  y_label="median frame time (ms)", vlines=(20, 40, 63)))
+                out.append(time_lines_figure(ctx, "sweep", sweep, heading="Boxes in a row",
+                                             caption="Dotted: the paper's S1 and S2 depths and the cap of 63. "
+                                                     + frames_caption(sweep),
+                                             x="depth", group="method", title="Frame time against depth complexity",
+                                             x_label="max depth complexity (boundary crossings per pixel)",
+                                             vlines=(20, 40, 63)))
             out.append(table("Every scene", rows.sort_values(["part", "depth", "method"]),
                              ["scene", "method", "depth", "count_fragments_mean", "count_triangles", "time_ms",
                               "time_ms_min", "time_ms_max", "psnr", "count_fragments_dropped", "count_layers",

@@ -13,7 +13,7 @@ from pipeline.experiments.kit.checks import worst_psnr
 from pipeline.experiments.kit.judging import STRICTLY_ABOVE_ONE, TECHNIQUE, counts, decision_words, ratio, timed
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
 from pipeline.experiments.kit.pages import (DIFF_SCALE, as_ratio, claim_takeaways, difference_gallery, figure,
-                                            format_number, title_or)
+                                            format_number, time_lines_figure, title_or)
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import (file_exists, nonempty, nonempty_or, numeric, ok_rows, read_exr,
                                               reference_exr, role_rows, speed_points)
@@ -192,10 +192,9 @@ class DepthCap(PaperExperiment):
                               title=title_or(_cap_title, rows, "Pixels off by more than 5 % against the cap"),
                               guides=(("paper's bound 0.05 %", [rows.cap.min(), rows.cap.max()], [0.05, 0.05]),),
                               y_label="pixels off by > 5 % of the range (%)", **caps))
-            out.append(figure(ctx, "time", plots.lines, rows, heading="Time against the cap",
-                              caption="Bars from the fastest to the slowest frame. " + frames_caption(rows),
-                              y="time_ms", y_range=("time_ms_min", "time_ms_max"), title="Frame time against the cap",
-                              y_label="median frame time (ms)", **caps))
+            out.append(time_lines_figure(ctx, "time", rows, heading="Time against the cap",
+                                         caption="Bars from the fastest to the slowest frame. " + frames_caption(rows),
+                                         title="Frame time against the cap", **caps))
             percent = rows.assign(over_threshold=100 * rows.over_threshold)
             out.append(table("Every cap", percent.sort_values(["scene", "cap"]),
                              ["scene", "cap", "over_threshold", "psnr", "time_ms", "time_ms_min", "time_ms_max",

@@ -12,11 +12,10 @@ from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, all_of, counts, decided, decision_words,
                                               ratio, statistic, timed)
 from pipeline.experiments.kit.model import Claim, ClaimResult, Run, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, db_words, figure, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, db_words, format_number, time_lines_figure
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import (nonempty_or, numeric, ok_rows, role_rows, rows_matching, speed_points,
                                               text_column)
-from reports import plots
 
 BRICKS = (4, 8, 16, 32)
 SCENES = {"torso": ("torso", "abdomen"), "skull": ("ct_skull", "bone")}
@@ -177,13 +176,13 @@ class EmptySpace(PaperExperiment):
             rows = speed_points(tests)
             rows["brick"] = numeric(rows, "brick")
             hulls = rows[rows.config == "hull"]
-            out.append(figure(ctx, "bricks", plots.lines, hulls, heading="Hull brick size", x="brick", y="time_ms",
-                              caption="Bars from the fastest to the slowest frame; dotted: the paper's 8³. "
-                                      + frames_caption(rows), group="scene", y_range=("time_ms_min", "time_ms_max"),
-                              title="Frame time against the brick size (boxes as guides)",
-                              x_label="brick edge (voxels)", y_label="median frame time (ms)", log_x=True, vlines=(8,),
-                              guides=tuple((f"{r.scene}: box boundaries", [hulls.brick.min(), hulls.brick.max()],
-                                            [r.time_ms, r.time_ms]) for r in rows[rows.config == "box"].itertuples())))
+            out.append(time_lines_figure(
+                ctx, "bricks", hulls, heading="Hull brick size", x="brick", group="scene",
+                caption="Bars from the fastest to the slowest frame; dotted: the paper's 8³. " + frames_caption(rows),
+                title="Frame time against the brick size (boxes as guides)", x_label="brick edge (voxels)",
+                log_x=True, vlines=(8,),
+                guides=tuple((f"{r.scene}: box boundaries", [hulls.brick.min(), hulls.brick.max()],
+                              [r.time_ms, r.time_ms]) for r in rows[rows.config == "box"].itertuples())))
             out.append(table("Every run", _with_builds(rows).sort_values(["scene", "config", "brick"]),
                              ["scene", "config", "brick", "time_ms", "time_ms_min", "time_ms_max", "build_ms", "psnr",
                               "count_triangles", "count_samples"], ctx, csv_name="ess.csv",

@@ -16,7 +16,7 @@ from pipeline.experiments.kit.checks import Measure, Ratio, worst_psnr
 from pipeline.experiments.kit.judging import (STRICTLY_ABOVE_ONE, TECHNIQUE, TOTAL, decided, ratio_pair, statistic,
                                               timed, with_interval)
 from pipeline.experiments.kit.model import Claim, ClaimResult, scaled
-from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number
+from pipeline.experiments.kit.pages import as_ratio, claim_takeaways, figure, format_number, time_lines_figure
 from pipeline.experiments.kit.planning import HEADLINE_VIEW, listed, scene, truth_run
 from pipeline.experiments.kit.results import fit_line, numeric, ok_rows, role_rows, rows_matching, speed_points
 from reports import plots
@@ -178,11 +178,10 @@ class Scaling(PaperExperiment):
             rows["method"] = [f"{SERIES[s]} ({METHOD_NAMES[c]})" for s, c in zip(rows.series, rows.config)]
             counts = {"x": "count", "group": "method", "x_label": "overlapping 64³ volumes N (count)",
                       "vlines": (TARGET_COUNT,)}
-            out.append(figure(ctx, "time", plots.lines, rows, heading="Frame time against the number of volumes",
-                              caption="Bars from the fastest to the slowest frame; dotted: N = 50 (C8). "
-                                      + frames_caption(rows),
-                              y="time_ms", y_range=("time_ms_min", "time_ms_max"), title=_scaling_title(rows),
-                              y_label="median frame time (ms)", **counts))
+            out.append(time_lines_figure(ctx, "time", rows, heading="Frame time against the number of volumes",
+                                         caption="Bars from the fastest to the slowest frame; dotted: N = 50 (C8). "
+                                                 + frames_caption(rows),
+                                         title=_scaling_title(rows), **counts))
             base = _one_cloud_ms(rows)
             for column in ("", "_min", "_max"):
                 rows[f"relative{column}"] = rows[f"time_ms{column}"] / base

@@ -9,7 +9,7 @@ import pandas as pd
 from pipeline.experiments.kit import intervals
 from pipeline.experiments.kit.model import Claim, ClaimResult, Experiment, Run, scaled
 from pipeline.experiments.kit.pages import (as_ratio, claim_takeaways, figure, format_number, linked_table,
-                                            unless_missing)
+                                            time_lines_figure, unless_missing)
 from pipeline.experiments.kit.planning import (accepts, headline_view, is_registered, phantom, scene, timed_frames,
                                                truth_run)
 from pipeline.experiments.kit.results import (file_exists, nonempty_or, numeric, ok_rows, rows_matching, speed_points,
@@ -172,11 +172,11 @@ class Passes(Experiment):
         sweep = tagged(ok, part="m-sweep")
         if not sweep.empty:
             sweep = speed_points(sweep).assign(M=numeric(sweep, "m"), method=method_name("rc-b"))
-            out.append(figure(ctx, "m-sweep", plots.lines, sweep, heading="Frame time against M",
-                              caption=f"Bars from the fastest to the slowest frame; dotted: the paper's M = {PAPER_M}.",
-                              x="M", y="time_ms", group="method", y_range=("time_ms_min", "time_ms_max"),
-                              title=_m_title(sweep), x_label="samples per main pass M (count)",
-                              y_label="median frame time (ms)", log_x=True, vlines=(PAPER_M,)))
+            out.append(time_lines_figure(
+                ctx, "m-sweep", sweep, heading="Frame time against M",
+                caption=f"Bars from the fastest to the slowest frame; dotted: the paper's M = {PAPER_M}.",
+                x="M", group="method", title=_m_title(sweep), x_label="samples per main pass M (count)",
+                log_x=True, vlines=(PAPER_M,)))
             out.append(linked_table("M sweep", sweep, ["M", "time_ms", "time_ms_min", "time_ms_max", "psnr"], ctx,
                                     csv_name="m_sweep.csv"))
         return out + gl_not_measurable()
