@@ -17,17 +17,20 @@ ENGINE_ASPECT = (1.0, 1.0, 0.5)
 
 @dataclass(frozen=True)
 class Axis:
-    """One stress axis of the atlas: one thing swept on one scene definition shared by every backend (same data, camera
-    and transfer function).
+    """One stress axis of the atlas.
 
-    ``key`` names it in run ids, tags and anchors; ``words`` is the swept quantity with its unit (the heat map's column,
-    the charts' x label), ``unit`` what a value takes in sentences (``" voxels"``; ``""`` for none). ``harsher`` is
-    ``"up"`` where larger values stress the backends more (a failure threshold reads "≥ v").
+    ``key`` names it in run ids, tags and anchors; ``words`` is the swept quantity with its unit (the heat map's
+    column, the charts' x label), ``unit`` what a value takes in sentences (``" voxels"``, ``"°"``; ``""`` for none),
+    ``scene_words`` its scene in words ("the semi-transparent engine") and ``values`` ``{scale: [values]}``.
+    ``harsher`` is ``"up"`` where larger values stress the backends more (a failure threshold reads "≥ v"), else
+    ``"down"`` ("≤ v").
 
-    It sweeps a backend ``option`` (backends without it are left out, ``option_reason`` says why), or the camera field
-    ``view_key`` over the views of one run, or else the scene itself, a scene per value. ``backend_options`` are what a
-    backend needs to render the axis at all (gl-raycast's lenses); ``dataset`` the data set and preset of an option
-    axis's scene; an ``"iso"`` ``mode`` leaves out the backends without iso-surfaces.
+    It sweeps a backend ``option`` (backends without it are left out, ``option_reason`` says why), or the camera
+    field ``view_key`` over the views of one run (``"azimuth"``, ``"fov_y"``), or else the scene itself, a scene per
+    value. ``backend_options`` are ``{backend: options}`` a backend needs to render the axis at all (gl-raycast's
+    lenses); ``dataset`` the data set and preset of its scene (an option axis's, the thin axis's tubes); ``mode``
+    the scene's rendering mode (an ``"iso"`` axis leaves out the backends without iso-surfaces); ``log_x`` whether
+    its chart spaces the values logarithmically (a sweep that halves them).
     """
 
     key: str
