@@ -78,15 +78,20 @@ def _frames_cells(view):
     """``{frames_<stage>: text}`` of a view: every timed frame, each process's apart
     (:data:`~pipeline.experiments.kit.intervals.PROCESS_SEPARATOR`); ``processes``, how many timed it (``None``
     for a view not timed: one untimed frame); and for a view of several, how its total time varied between
-    them and within them (:func:`process_spreads`)."""
+    them and within them (:func:`process_spreads`) and ``once_<stage>``, each process's time of a stage it timed
+    once rather than per frame (preprocessing), so that a claim on that stage can resample the processes."""
     processes = view.get("processes")
     if not processes:
         timed = bool(view.get("frames")) and not view.get("info", {}).get("untimed")
         return {**{f"frames_{stage}": format_frames(values) for stage, values in (view.get("frames") or {}).items()},
                 "processes": 1 if timed else None}
     stages = dict.fromkeys(stage for process in processes for stage in process["frames"])
+    once = [stage for stage in dict.fromkeys(stage for process in processes for stage in process["timings"])
+            if stage not in stages and all(stage in process["timings"] for process in processes)]
     return {**{f"frames_{stage}": format_processes([process["frames"].get(stage, []) for process in processes])
                for stage in stages}, "processes": len(processes),
+            **{f"once_{stage}": format_processes([[process["timings"][stage]] for process in processes])
+               for stage in once},
             **process_spreads([process["frames"].get("total") or [] for process in processes])}
 
 

@@ -220,7 +220,8 @@ def test_a_views_frames_load_and_second_timing_are_columns_of_its_row(tmp_path):
 
 def test_a_run_timed_in_two_processes_keeps_each_ones_frames_and_names_the_disturbed_one(tmp_path):
     """merge_processes: each process's frames apart, the time the mean of their medians, the harness's seconds
-    added, a disturbance and a failure named by process; the row counts the processes."""
+    added, a disturbance and a failure named by process; the row counts the processes and keeps each one's time of
+    a stage it timed once (``once_<stage>``)."""
     import copy
 
     from pipeline.collect import rows_for
@@ -230,11 +231,12 @@ def test_a_run_timed_in_two_processes_keeps_each_ones_frames_and_names_the_distu
 
     run = Run("e", "a", "reference", {"volumes": [{"dataset": "sphere"}]}, ({"view": "front"},), replicates=2)
     attempts = []
-    for pid, frames, disturbed in ((11, [0.001, 0.003, 0.002], ""), (12, [0.004, 0.006, 0.005], "a burst")):
+    for pid, frames, disturbed, first in ((11, [0.001, 0.003, 0.002], "", 0.1),
+                                          (12, [0.004, 0.006, 0.005], "a burst", 0.3)):
         record = new_record(run, {})
         record["harness"] = {"process": "worker", "pid": pid, "new": pid == 12, "startup": 1.5, "seconds": 2.0}
         record["views"] = [{"view": "front", "png": "front.png", "exr": "front.exr",
-                            "timings": {"total": sorted(frames)[1], "first_frame": 0.1},
+                            "timings": {"total": sorted(frames)[1], "first_frame": first},
                             "timings_min": {"total": min(frames)}, "timings_max": {"total": max(frames)},
                             "counters": {"samples": 7}, "frames": {"total": frames},
                             "info": {"frames": 3, "timed_seconds": sum(frames), "disturbed": disturbed}}]
@@ -242,7 +244,7 @@ def test_a_run_timed_in_two_processes_keeps_each_ones_frames_and_names_the_distu
     merged = merge_processes(attempts)
     view = merged["views"][0]
     assert [p["pid"] for p in view["processes"]] == [11, 12]
-    assert view["timings"] == {"total": pytest.approx(0.0035), "first_frame": pytest.approx(0.1)}
+    assert view["timings"] == {"total": pytest.approx(0.0035), "first_frame": pytest.approx(0.2)}
     assert (view["timings_min"], view["timings_max"]) == ({"total": 0.001}, {"total": 0.006})
     assert view["info"]["frames"] == 6 and view["info"]["disturbed"] == "process 2: a burst"
     assert merged["harness"]["seconds"] == 4.0 and merged["harness"]["startup"] == 1.5
@@ -251,6 +253,7 @@ def test_a_run_timed_in_two_processes_keeps_each_ones_frames_and_names_the_distu
     write_json(path, merged)
     (row,) = rows_for(path, results_dir=tmp_path)
     assert row["frames_total"] == "0.001 0.003 0.002 | 0.004 0.006 0.005" and row["processes"] == 2
+    assert row["once_first_frame"] == "0.1 | 0.3" and "once_total" not in row
     assert row["time_total"] == pytest.approx(intervals.process_time(intervals.parse_processes(row["frames_total"])))
     failed = copy.deepcopy(attempts[1])
     failed.update(status="failed", reason="RuntimeError: lost the context")

@@ -62,6 +62,22 @@ def test_ess_claims():
         assert _evaluate(claim, rows).inconclusive, claim
 
 
+def test_the_builds_interval_resamples_the_processes_each_with_its_own_frames():
+    """Two processes: one built the hull in 4 ms, the other in 16 (a 10 ms frame). The point value, their mean
+    10 ms over 10 ms, sits on the bound; each process's build is drawn with its own frames, so the interval spans
+    the two and the claim is inconclusive rather than decided on the frames' spread alone."""
+    rows = _ess_rows(0.010, {8: 0.010, 16: 0.0105}, build_ms=10.0, spread=0.01)
+    for row in rows:
+        frames = row["frames_technique"]
+        row.update(frames_technique=f"{frames} | {frames}", harness_pids="[1, 2]")
+        if row["config"] == "hull":
+            row.update(once_bricks="0.0016 | 0.0064", once_hull="0.0024 | 0.0096")
+    result = _evaluate("build-cheap", rows)
+    assert result.inconclusive and "resamples the processes" in result.detail
+    low, high = result.interval
+    assert low < 0.6 and high > 1.4
+
+
 def test_a_build_without_its_hull_time_is_not_measured_not_free():
     rows = _ess_rows(0.010, {4: 0.0095, 8: 0.0088, 16: 0.0092})
     for row in rows:

@@ -162,6 +162,22 @@ def test_a_ratio_of_two_stages_taken_once_per_view_resamples_the_views_and_fails
                            Resampler(), key="head")
 
 
+def test_a_ratio_of_two_stages_timed_once_per_process_resamples_each_views_processes_too():
+    """Two processes per view: their spread widens the interval that the views' spread alone would give."""
+    rows = pd.DataFrame({"time_phi_p": [0.20, 0.22, 0.18, 0.21, 0.19], "time_phi_t": [0.01] * 5})
+    alone = intervals.interval_of(judging.view_ratio(rows, "time_phi_p", "time_phi_t", Resampler(), key="h")[1])
+    apart = rows.assign(once_phi_p=[f"{p - 0.04:.2f} | {p + 0.04:.2f}" for p in rows.time_phi_p],
+                        once_phi_t=["0.01 | 0.01"] * 5)
+    value, draws, views = judging.view_ratio(apart, "time_phi_p", "time_phi_t", Resampler(), key="h")
+    low, high = intervals.interval_of(draws)
+    assert value == pytest.approx(20.0) and views == 5 and low < alone[0] and high > alone[1]
+    # A process's two stages are drawn together: a process slow in both leaves the ratio where it was.
+    together = rows.assign(once_phi_p=[f"{p:.2f} | {2 * p:.2f}" for p in rows.time_phi_p],
+                           once_phi_t=["0.01 | 0.02"] * 5)
+    assert intervals.interval_of(judging.view_ratio(together, "time_phi_p", "time_phi_t", Resampler(),
+                                                    key="h")[1]) == pytest.approx(alone)
+
+
 def _scene_run(scene, config, median, spread):
     """A test run of ``config`` on ``scene`` with whole frames about ``median`` seconds (± ``spread``)."""
     return {"experiment": "e", "run": f"{config}-{scene}", "view": "v", "interleave": "", "role": "test",

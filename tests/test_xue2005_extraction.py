@@ -1,9 +1,12 @@
 """``xue2005-extraction``: the runs it plans and its claims on synthetic results."""
 
+from dataclasses import replace
+
 import pytest
 
 from core.errors import InputError
-from test_xue2005_surfaces import evaluate, planned, with_isbvr
+from pipeline import experiments
+from test_xue2005_surfaces import evaluate, planned, profile, with_isbvr
 
 NAME = "xue2005-extraction"
 
@@ -18,6 +21,10 @@ def test_plan_extracts_both_cube_sets_on_the_four_stand_ins(monkeypatch):
         assert run.warmup >= 1 and run.interleave is None
         assert run.scene["volumes"][0]["preset"] == "isbvr"
     assert {(r.tags["size"], len(r.views)) for r in runs} == {(128, 5)}  # five extractions: an interval
+    # Each view's extraction timed in every replicate process, so that the interval spans processes.
+    assert {r.replicates for r in runs} == {1}
+    two = experiments.plan(replace(profile(), replicates=2)).values()
+    assert {r.replicates for r in two if r.experiment == NAME} == {2}
     assert {(r.tags["size"], r.scene["width"], len(r.views)) for r in planned(NAME, "smoke")} == {(32, 48, 1)}
     assert {r.tags["size"] for r in planned(NAME, "full")} == {256}
     with pytest.raises(InputError, match="unknown.*bonsai_real"):

@@ -166,6 +166,27 @@ def row_draws(rows, column, resampler):
     return out
 
 
+def once_draws(rows, column, resampler):
+    """``(DRAWS, len(rows))``: each row's time of ``column``, a stage its processes timed once each (``once_<stage>``,
+    preprocessing), in every draw, or ``None`` where a row has no such cell (one process, or an older record).
+
+    The processes are drawn as :func:`row_draws` draws the same row's (the same indices): a ratio of a
+    preprocessing stage to a frame time pairs each process's build with its own frames.
+    """
+    once = "once_" + column.removeprefix("time_")
+    if once not in rows or rows.empty:
+        return None
+    out = np.empty((resampler.draws, len(rows)))
+    for i, (index, row) in enumerate(rows.iterrows()):
+        processes = parse_processes(row[once])
+        if processes is None or len(processes) < 2 or any(len(values) != 1 for values in processes):
+            return None
+        values = np.concatenate(processes)
+        drawn = resampler.indices(("processes", _row_key(row, index)), len(values))
+        out[:, i] = values[drawn].mean(axis=1)
+    return out
+
+
 def frame_count(rows, column):
     """How many timed frames of ``column`` the rows hold together (0 where ``column`` is not a frame time)."""
     frames = frames_column(column)

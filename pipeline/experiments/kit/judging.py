@@ -230,8 +230,9 @@ def worst_of(rows, column, by, *, lowest=False):
 
 def view_ratio(rows, top, bottom, resampler, *, key):
     """``(value, draws, views)``: the median over ``rows`` (views) of ``top`` over that of ``bottom``, two stages
-    measured once per view (not per frame: nothing to resample within a view), with draws that resample the views,
-    each view's two stages together; ``key`` names the rows' draws in ``resampler``.
+    measured once per view and process (not per frame: nothing to resample within one), with draws that resample
+    the views and, where several processes timed them (``once_<stage>``, :mod:`pipeline.collect`), each view's
+    processes, the two stages of one process together; ``key`` names the rows' draws in ``resampler``.
 
     Raises
     ------
@@ -242,8 +243,13 @@ def view_ratio(rows, top, bottom, resampler, *, key):
     if not (np.isfinite(tops).all() and np.isfinite(bottoms).all() and (bottoms > 0).all()):
         raise ValueError(f"{key}: a view without its {top} and {bottom}")
     picks = resampler.indices(("views", key), len(rows))
-    draws = np.median(tops[picks], axis=1) / np.median(bottoms[picks], axis=1)
-    return float(np.median(tops) / np.median(bottoms)), draws, len(rows)
+    # Each view's time in a draw: the mean over its processes drawn with replacement, the same for both stages.
+    per_process = [intervals.once_draws(rows, column, resampler) for column in (top, bottom)]
+    if any(values is None for values in per_process):
+        per_process = [np.broadcast_to(values, (resampler.draws, len(rows))) for values in (tops, bottoms)]
+    tops_drawn, bottoms_drawn = (np.take_along_axis(values, picks, axis=1) for values in per_process)
+    return (float(np.median(tops) / np.median(bottoms)),
+            np.median(tops_drawn, axis=1) / np.median(bottoms_drawn, axis=1), len(rows))
 
 
 def ratios_where_both(frame, scenes, top, bottom, *, what, describe=None, column=TOTAL, **bounds):

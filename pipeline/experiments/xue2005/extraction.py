@@ -21,15 +21,16 @@ CONFIG = "ess+ert"
 
 FRAMES = {"warmup": 1, "repeat": 1, "min_time": 0.0}
 """A timed run (so the harness drops the caches and times the extraction warm) of as few frames as that takes:
-the extraction happens once per transfer function, not per frame."""
+the extraction happens once per transfer function, not per frame. Each of the profile's ``replicates`` processes
+times it once per view."""
 
 MUCH_SLOWER = 5.0
 """Φ_p's extraction "much slower" than Φ_t's: at least 5×, a quarter of the paper's 21× (210 / 10 ms)."""
 
 PAPER_RATIO = EXTRACTION_MS["phi_p"] / EXTRACTION_MS["phi_t"]
 
-ONCE = ("one measurement per view (the extraction runs once per transfer function); median over the views, the "
-        "views resampled for the interval")
+ONCE = ("one measurement per view in each process (the extraction runs once per transfer function); median over "
+        "the views of the processes' mean, the views and each view's processes resampled for the interval")
 
 
 def _stage_ms(rows, stage):
@@ -131,10 +132,10 @@ class Extraction(Experiment):
         "Whenever the transfer function changes, Φ_t's cube set (8³ nodes) and Φ_p's (2³ nodes) are built "
         "again on the CPU: the paper measured 10 and 210 ms at 256³ and calls that interactive. Here each is a "
         "preprocessing stage of gl-isbvr (min–max level, classification, cube set, boundary faces; NumPy, one "
-        "thread), timed by the harness once per view with the code warm, on the four stand-ins at the profile's "
-        "size (the paper's 256³ at full scale). Each stage computes its own min–max level over the whole volume, "
-        "so both scale with the voxels; the paper's 21× may come from walking 2.1 M nodes in its shrinking "
-        "search. The cubes and triangles beside the times do not depend on the machine.")
+        "thread), timed by the harness once per view with the code warm in each of the profile's processes, on "
+        "the four stand-ins at the profile's size (the paper's 256³ at full scale). Each stage computes its own "
+        "min–max level over the whole volume, so both scale with the voxels; the paper's 21× may come from walking "
+        "2.1 M nodes in its shrinking search. The cubes and triangles beside the times do not depend on the machine.")
     claims = CLAIMS
 
     def runs(self, profile):
@@ -145,6 +146,7 @@ class Extraction(Experiment):
         orbit = int(profile.setting(self, "orbit", 4))
         return [Run(self.name, f"{tags['scene']}.{CONFIG}", ISBVR, spec, orbit_views(tags["dataset"], orbit),
                     options={**MODES[CONFIG][0], "surfaces": "reduced", "step_factor": STEP}, **FRAMES,
+                    replicates=int(profile.replicates),
                     tags={**tags, "size": size, "config": CONFIG})
                 for spec, tags in (stand_in(scene_name, size, image) for scene_name in wanted)]
 
