@@ -206,6 +206,19 @@ def test_a_request_that_avoids_a_workers_process_gets_another(service, tmp_path)
     assert _worker_pid(third) == _worker_pid(again)
 
 
+def test_timed_runs_go_only_to_workers_that_did_nothing_untimed(service, tmp_path):
+    """A worker that rendered a ground truth (or ran a step) takes untimed work only; a timed run gets another,
+    and the untimed work after it goes back to the first."""
+    profile = _profile(tmp_path)
+    untimed = dataclasses.replace(_run("truth"), warmup=0, repeat=1)
+    first, = _request(service, profile, untimed)
+    timed, = _request(service, profile, _run("a"))
+    assert _worker_pid(timed) != _worker_pid(first) and service.started == 2
+    assert _worker_pid(_request(service, profile, dataclasses.replace(untimed, id="truth2"))[0]) == _worker_pid(first)
+    assert _worker_pid(_request(service, profile, _run("b"))[0]) == _worker_pid(timed)
+    assert service.started == 2
+
+
 def _replicated_group(tmp_path):
     profile = Profile(name="t", volume_size=12, results=str(tmp_path / "results"), cache=str(tmp_path / "cache"),
                       render_time_limit=120)
