@@ -39,6 +39,7 @@ _PALETTE = ("#1f77b4", "#ff7f0e", "#2ca02c", "#d62728", "#9467bd", "#8c564b", "#
             "#54278f", "#fb8072")
 MIN_AXES_HEIGHT = 150.0  # points: the figure grows where titles and labels leave the axes less
 MANY_ENTRIES = 6  # a legend with more entries than this always goes beside the axes
+COVER_MARGIN = 2  # px: a data point this near the legend's frame lies under it (a marker's centre on its edge)
 _RC = {
     "svg.hashsalt": "volbench",
     "svg.fonttype": "none",
@@ -321,8 +322,11 @@ def _legend_covers(ax, legend):
     frame, axes = legend.get_window_extent(), ax.get_window_extent()
     points, boxes = _data_boxes(ax)
     x, y = points.T
-    inside = (x > frame.x0 + 1) & (x < frame.x1 - 1) & (y > frame.y0 + 1) & (y < frame.y1 - 1)
-    inside &= (x >= axes.x0) & (x <= axes.x1) & (y >= axes.y0) & (y <= axes.y1)
+    # A marker centred on the frame's edge is half under it, and one centred on the axes' edge is still
+    # drawn: both count, with COVER_MARGIN to spare (the browser check reads the page at another scale).
+    near, shown = frame.padded(COVER_MARGIN), axes.padded(COVER_MARGIN)
+    inside = (x > near.x0) & (x < near.x1) & (y > near.y0) & (y < near.y1)
+    inside &= (x >= shown.x0) & (x <= shown.x1) & (y >= shown.y0) & (y <= shown.y1)
     return bool(inside.any()) or any(
         _overlap(frame, clipped) for box in boxes if (clipped := Bbox.intersection(box, axes)) is not None)
 

@@ -308,3 +308,32 @@ def test_a_legend_kept_inside_stays_where_it_was_checked():
         drawn = legend.get_window_extent().transformed(ax.transAxes.inverted())
         np.testing.assert_allclose(drawn.p0, checked.p0, atol=1e-6)
         assert plots._legend_covers(ax, legend)  # what _tidy's second check then finds, and moves it beside
+
+
+def test_a_marker_centred_on_the_legend_frame_counts_as_covered():
+    """A marker centred on the legend frame's edge is half under it: a smoke report's chart kept its legend over
+    an error bar's cap 0.99 px inside the frame (within the 1-px slack the check allowed), which the browser
+    check, at the page's scale, found."""
+    import matplotlib as mpl
+    from matplotlib.backends.backend_svg import FigureCanvasSVG
+    from matplotlib.figure import Figure
+
+    with mpl.rc_context(plots._RC):
+        fig = Figure(figsize=plots.FIGSIZE, dpi=72, layout="constrained")
+        FigureCanvasSVG(fig)
+        ax = fig.add_subplot()
+        ax.plot([0.0, 1.0, 2.0], [3.0, 2.0, 0.5], marker="o", label="a series")
+        ax.set(xlim=(-0.2, 2.2), ylim=(0.0, 3.2))
+        legend = ax.legend(loc="lower left")
+        plots._layout(fig)
+        assert not plots._legend_covers(ax, legend)
+        top_left = ax.transData.inverted().transform(
+            (legend.get_window_extent().x0 + 20, legend.get_window_extent().y1 - 0.01))
+        ax.plot([top_left[0]], [top_left[1]], marker="_")
+        assert plots._legend_covers(ax, legend)
+        top_left = ax.transData.inverted().transform(
+            (legend.get_window_extent().x0 + 20, legend.get_window_extent().y1 + 1.5))
+        ax.lines[-1].set_data([top_left[0]], [top_left[1]])  # just above the frame: a marker's half is under it
+        assert plots._legend_covers(ax, legend)
+        ax.lines[-1].set_data([top_left[0]], [top_left[1] + 0.3])  # clear of it
+        assert not plots._legend_covers(ax, legend)
