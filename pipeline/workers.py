@@ -324,20 +324,19 @@ class RenderService:
         """An idle worker for ``backends`` whose process id is not in ``avoid``, or a new one: ``(worker, new)``.
 
         ``timed`` work takes only a worker that has done nothing untimed; untimed work takes one that has
-        (a new one where none is idle), and marks it. Among those, the idle worker that has loaded the most of
+        (a new one, marked so, where none is idle). Among those, the idle worker that has loaded the most of
         ``backends`` is taken, the most recently used among equals: one that has them all renders at once,
         another imports what it lacks on its first run of it. So a pipeline on two cores keeps about as many
         untimed workers as it runs untimed jobs side by side and a timed worker per process a timed run takes,
         each with every backend's compiled kernels.
         """
         with self._lock:
-            allowed = [w for w in self._idle if w.process.pid not in set(avoid) and w.untimed is not timed]
+            allowed = [w for w in self._idle if w.process.pid not in set(avoid) and w.untimed == (not timed)]
             if allowed:
                 worker = max(allowed, key=lambda w: (len(set(backends) & w.loaded), w.last_used))
                 self._idle.remove(worker)
                 self._busy.add(worker)
                 worker.loaded |= set(backends)
-                worker.untimed |= not timed
                 return worker, False
         worker = self._spawner.submit(Worker, backends, cores=self.cores, root=self.root, log_dir=self.log_dir,
                                       command=self.worker_command).result()

@@ -327,13 +327,13 @@ def test_a_marker_centred_on_the_legend_frame_counts_as_covered():
         legend = ax.legend(loc="lower left")
         plots._layout(fig)
         assert not plots._legend_covers(ax, legend)
-        top_left = ax.transData.inverted().transform(
+        near_top = ax.transData.inverted().transform(
             (legend.get_window_extent().x0 + 20, legend.get_window_extent().y1 - 0.01))
-        ax.plot([top_left[0]], [top_left[1]], marker="_")
+        ax.plot([near_top[0]], [near_top[1]], marker="_")
         assert plots._legend_covers(ax, legend)
-        top_left = ax.transData.inverted().transform(
+        near_top = ax.transData.inverted().transform(
             (legend.get_window_extent().x0 + 20, legend.get_window_extent().y1 + 1.5))
-        ax.lines[-1].set_data([top_left[0]], [top_left[1]])  # just above the frame: a marker's half is under it
+        ax.lines[-1].set_data([near_top[0]], [near_top[1]])  # just above the frame: a marker's half is under it
         assert plots._legend_covers(ax, legend)
-        ax.lines[-1].set_data([top_left[0]], [top_left[1] + 0.3])  # clear of it
+        ax.lines[-1].set_data([near_top[0]], [near_top[1] + 0.3])  # clear of it
         assert not plots._legend_covers(ax, legend)
