@@ -330,8 +330,9 @@ class RenderService:
         untimed workers as it runs untimed jobs side by side and a timed worker per process a timed run takes,
         each with every backend's compiled kernels.
         """
+        avoid = set(avoid)
         with self._lock:
-            allowed = [w for w in self._idle if w.process.pid not in set(avoid) and w.untimed == (not timed)]
+            allowed = [w for w in self._idle if w.process.pid not in avoid and w.untimed == (not timed)]
             if allowed:
                 worker = max(allowed, key=lambda w: (len(set(backends) & w.loaded), w.last_used))
                 self._idle.remove(worker)
