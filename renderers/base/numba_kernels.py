@@ -4,14 +4,14 @@ Imported only by backends that use Numba (the reference and shear-warp), never b
 :mod:`renderers.base` itself, so the registry and the GPU backends do not need Numba.
 """
 
+import functools
 import math
 import os
 import tempfile
-import threading
 from pathlib import Path
 
 from numba import config, njit
-from numba.core import event
+from numba.core.caching import IndexDataCacheFile
 
 try:
     import fcntl
@@ -20,12 +20,12 @@ except ImportError:  # not POSIX: no lock, as Numba itself has none
 
 JIT = dict(cache=True, fastmath=False, nogil=True, error_model="numpy")
 """Options of every Numba kernel of the CPU backends: cached, IEEE arithmetic (bit-reproducible), no GIL.
-Importing this module first makes their compilation take :class:`CompileLock`."""
+Importing this module first makes their disk cache take :func:`cache_lock_path`'s lock."""
 
 
-def compile_lock_path():
-    """The file :class:`CompileLock` locks: beside the kernels' disk cache, so that every process writing
-    that cache (a cluster's nodes too, where it lies on a shared file system) takes the same lock.
+def cache_lock_path():
+    """The file the disk cache's reads and writes lock: beside that cache, so that every process using it
+    (a cluster's nodes too, where it lies on a shared file system) takes the same lock.
 
     ``$NUMBA_CACHE_DIR`` where it is set, else the backends' own ``__pycache__`` (Numba's in-tree cache),
     else the temporary folder.
@@ -38,59 +38,54 @@ def compile_lock_path():
         try:
             candidate.mkdir(parents=True, exist_ok=True)
             if os.access(candidate, os.W_OK):
-                return candidate / "numba-compile.lock"
+                return candidate / "numba-cache.lock"
         except OSError:
             continue
     return None
 
 
-class CompileLock(event.Listener):
-    """An exclusive lock on :func:`compile_lock_path` while this process is inside Numba's compiler lock.
+def _locked(method, path, mode):
+    """``method`` of :class:`~numba.core.caching.IndexDataCacheFile` run under a ``flock`` of ``mode`` on ``path``."""
+    @functools.wraps(method)
+    def run_locked(self, *args, **kwargs):
+        # Read-only: flock needs no write access, so a lock file another user made serves as well.
+        fd = os.open(path, os.O_RDONLY | os.O_CREAT, 0o666)
+        try:
+            fcntl.flock(fd, mode)
+            return method(self, *args, **kwargs)
+        finally:
+            os.close(fd)  # closing lets the lock go
 
-    Numba's disk cache is not safe between processes: ``IndexDataCacheFile.save`` writes the index,
-    then the data file, and two processes saving different signatures of one kernel at once can both
-    claim data file *n*, leaving the index pointing at the other signature's code ("can't unbox array
-    from PyObject", or a crash, on every later load: numba/numba#4807, #10128). Numba loads, compiles
-    and saves a kernel under its global compiler lock, which is one lock per process; this listener
-    on that lock's event makes it one lock per machine (per shared cache). It is re-entrant, as
-    Numba's is (a kernel's callees compile inside it), and costs a ``flock`` per compilation or
-    cache load, never a frame.
+    run_locked.volbench_lock = path
+    return run_locked
+
+
+def _lock_cache_files():
+    """Make reading and writing Numba's disk cache safe between processes; return the lock file, or None.
+
+    Numba's disk cache is not: ``IndexDataCacheFile.save`` writes the index, then the data file, so two
+    processes saving different signatures of one kernel at once can both claim data file *n*, and a process
+    loading between the two writes can read another signature's code ("can't unbox array from PyObject", or
+    a crash, on every later load: numba/numba#4807, #10128). Here a save (and a flush) takes an exclusive
+    ``flock`` and a load a shared one, for the file I/O only: compilation itself holds no lock, so two
+    processes compile different kernels side by side (a fresh clone's test workers and render workers), and
+    a process that loads a cached kernel never waits for another's compilation. A save re-reads the index
+    under the lock, so a kernel two processes compiled at once is saved twice under one data file, never
+    under two numbers. Costs a ``flock`` per cache load or save, never a frame.
     """
-
-    def __init__(self, path):
-        self._path = path
-        self._guard = threading.Lock()
-        self._depth = 0
-        self._fd = None
-
-    def on_start(self, event):
-        with self._guard:
-            if self._depth == 0:
-                # Read-only: flock needs no write access, so a lock file another user made serves as well.
-                self._fd = os.open(self._path, os.O_RDONLY | os.O_CREAT, 0o666)
-                fcntl.flock(self._fd, fcntl.LOCK_EX)
-            self._depth += 1
-
-    def on_end(self, event):
-        with self._guard:
-            self._depth -= 1
-            if self._depth == 0:
-                fcntl.flock(self._fd, fcntl.LOCK_UN)
-                os.close(self._fd)
-                self._fd = None
-
-
-def _install_compile_lock():
-    path = compile_lock_path()
+    path = cache_lock_path()
     if fcntl is None or path is None:
         return None
-    lock = CompileLock(path)
-    event.register("numba:compiler_lock", lock)
-    return lock
+    if hasattr(IndexDataCacheFile.save, "volbench_lock"):  # already wrapped in this process
+        return IndexDataCacheFile.save.volbench_lock
+    for name, mode in (("save", fcntl.LOCK_EX), ("flush", fcntl.LOCK_EX), ("load", fcntl.LOCK_SH)):
+        setattr(IndexDataCacheFile, name, _locked(getattr(IndexDataCacheFile, name), path, mode))
+    return path
 
 
-COMPILE_LOCK = _install_compile_lock()
-"""The listener this process's Numba compilations take (None where there is no ``fcntl`` or no writable folder)."""
+CACHE_LOCK = _lock_cache_files()
+"""The file this process's reads and writes of Numba's disk cache lock (None where there is no ``fcntl`` or no
+writable folder)."""
 
 
 @njit(**JIT)
