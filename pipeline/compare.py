@@ -63,11 +63,13 @@ what the process had compiled before (whether the cold frame was also the prepro
 
 
 def is_timing(column):
-    """Timings (``time_*``, each frame's ``frames_*``), durations (``*_seconds``), the machine's load
+    """Timings (``time_*``, each frame's ``frames_*``, each process's time of a stage it timed once, ``once_*``),
+    durations (``*_seconds``), the machine's load
     (``load_*``), what the timing harness decided from them (:data:`TIMING_INFO`) and what the harness
     cost (``harness_*``: which process rendered, its start-up, the pipeline run) and the spread of a view's times
     between and within its processes (``spread_*``) differ run to run."""
-    return (column.startswith(("time_", "frames_", "load_", "harness_", "spread_")) or column.endswith("_seconds")
+    return (column.startswith(("time_", "frames_", "once_", "load_", "harness_", "spread_"))
+            or column.endswith("_seconds")
             or column in TIMING_INFO)
 
 

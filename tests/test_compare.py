@@ -87,6 +87,7 @@ def test_timings_durations_and_the_environment_are_left_out(folders):
 @pytest.mark.parametrize("column", [
     "time_total", "time_composite_min", "stat_generation_seconds",  # times and durations
     "frames_total", "frames_technique",  # every timed frame
+    "once_rle_build", "once_first_frame",  # each process's preprocessing, timed once
     "load_foreign_cores", "load_steal_share", "load_waited_share", "load_job_foreign_cores", "load_average",
     "info_frames", "info_warmup", "info_settled", "info_first_frame", "info_disturbed", "info_starved",
     "info_preprocessing_frame", "rerun",

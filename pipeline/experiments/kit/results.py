@@ -53,10 +53,15 @@ def text_column(frame, column):
 
 
 def rows_matching(frame, what, **match):
-    """The rows of ``frame`` whose tag columns equal ``match`` (compared as text)."""
+    """The rows of ``frame`` whose tag columns equal ``match``: a number compared as a number, anything else as
+    text. ``runs.csv`` holds an integer tag as a float where another experiment leaves its column empty
+    (``8.0``), which compared as text would match nothing."""
     rows = frame
     for column, value in match.items():
-        rows = rows[text_column(rows, column) == str(value)]
+        if isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, (bool, np.bool_)):
+            rows = rows[numeric(rows, column) == value]
+        else:
+            rows = rows[text_column(rows, column) == str(value)]
     return rows
 
 
