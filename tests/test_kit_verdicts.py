@@ -199,3 +199,20 @@ def test_an_inconclusive_timing_says_about_how_many_processes_would_decide_it():
     assert processes_to_decide(2.0, (1.9, 2.1), 2.0, 3) is None  # on the bound: nothing decides it
     assert processes_to_decide(1.95, (1.9, 2.05), 2.0, 3) == 12  # below the bound: the upper half-width counts
     assert processes_to_decide(2.1, None, 2.0, 3) is None
+
+
+def test_a_timing_claim_on_one_process_per_run_is_inconclusive():
+    """Frames of one process cannot show the spread between two (issue 23: ×2.23 and ×1.96 in two runs, each
+    ±2 %): a run of one process per arm does not decide a timing claim, however clear its interval."""
+    one = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002, processes=1), _timed("C8.tiled", 0.005, processes=1)))
+    assert one.verdict == "inconclusive" and one.holds is None and one.processes == 1
+    assert one.interval[0] > 2.0  # clear of the bound, as far as one process's frames go
+    assert one.detail.endswith("inconclusive: its interval rests on one process per run (the profile's replicates "
+                               "is 1), whose frames cannot show the spread between two processes; replicates ≥ 2 "
+                               "would decide it")
+    two = judge(SPEED_UP, _runs(_timed("C1.tiled", 0.002, processes=2), _timed("C8.tiled", 0.005, processes=2)))
+    assert two.verdict == "holds" and two.processes == 2
+    # A count rests on no frames: one process decides it.
+    rows = _runs(("C1.tiled", "tiled", "C1", "ok", "", 0.002, {"processes": 1}),
+                 ("C8.tiled", "tiled", "C8", "ok", "", 0.0145, {"processes": 1}))
+    assert judge(RATIO, rows).verdict == "fails"

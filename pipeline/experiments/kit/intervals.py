@@ -15,7 +15,8 @@ together in one job (:attr:`~pipeline.experiments.kit.model.Run.interleave`) sha
 are resampled *by process and by round*: the same processes of A and B are drawn, and within one the
 frames of one round of A and B together, so what slowed both (a process, a disturbance) cancels in
 their ratio. With one process per run the interval covers its frames only, not the spread between two
-runs of volbench, and the claims table says so.
+runs of volbench, which one process cannot measure: such a timing claim is inconclusive
+(:func:`~pipeline.experiments.kit.verdicts.unless_one_process`).
 
 The verdict follows hyperfine's and asv's rule for "significantly different": a claim holds only when
 its whole interval is on the holding side of the bound, fails when the whole interval is on the other

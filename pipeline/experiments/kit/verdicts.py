@@ -327,12 +327,29 @@ def unless_without_interval(claim, result):
                    detail=f"{result.detail}; {why}" if result.detail else why)
 
 
+def unless_one_process(claim, result, processes):
+    """``result``, or inconclusive where ``claim`` rests on timed frames that one process per run took.
+
+    Frames within one process share what the next process does not (memory layout, compiled code, driver
+    state, cache and clock history), so their interval is narrower than the spread between two runs of
+    volbench: issue 23 measured ×2.23 and ×1.96 in two runs, each ±2 %. A run of one process cannot
+    measure that spread, so it cannot widen its interval by it either, and must not decide.
+    """
+    if claim.kind not in TIMED_KINDS or result.holds is None or processes != 1:
+        return result
+    why = ("inconclusive: its interval rests on one process per run (the profile's replicates is 1), whose "
+           "frames cannot show the spread between two processes; replicates ≥ 2 would decide it")
+    return replace(result, holds=None, inconclusive=True,
+                   detail=f"{result.detail}; {why}" if result.detail else why)
+
+
 def judge(claim, rows):
     """The :class:`Verdict` of ``claim`` on an experiment's ``rows`` (every run, successful or not).
 
     A claim that would hold or fail differently had its disturbed views been quiet
     (:func:`rests_on_disturbed`) is inconclusive: a busy machine must not decide it. So is a timing claim
-    whose check decided it without an interval (:func:`unless_without_interval`).
+    whose check decided it without an interval (:func:`unless_without_interval`), or on the frames of one
+    process per run (:func:`unless_one_process`).
     """
     ok = rows[rows.status == "ok"] if not rows.empty else rows
     result = unless_without_interval(claim, claim.evaluate(ok))
@@ -342,6 +359,7 @@ def judge(claim, rows):
     if missing:
         return Verdict("blocked", "", None, blocked_detail(missing), tuple(missing))
     processes = fewest_processes(ok) if result.interval is not None and claim.kind in TIMED_KINDS else None
+    result = unless_one_process(claim, result, processes)
     if result.holds is not None and not ok.empty:
         views = rests_on_disturbed(claim, ok, before=result)
         if views:
