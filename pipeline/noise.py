@@ -28,7 +28,7 @@ from pathlib import Path
 import pandas as pd
 
 from core.errors import InputError
-from pipeline.compare import agreement_words, verdict_changes
+from pipeline.compare import agreement_words, interval_agreement, interval_words, intervals_apart, verdict_changes
 from pipeline.experiments.kit.verdicts import TIMED_KINDS
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -161,6 +161,11 @@ def _replication(first, second, selection, out):
     for row in table[table.change != "same"].itertuples():
         print(f"  {row.experiment} {row.claim}: {row.verdict_a} ({row.measured_a}) → {row.verdict_b} "
               f"({row.measured_b}) [{row.change}]")
+    agreement = interval_agreement(first[first.experiment.isin(selection)], second, timing=timing)
+    if not agreement.empty:
+        print(f"noise-check: two quiet runs' intervals: {interval_words(agreement)}")
+        for line in intervals_apart(agreement, "the first", "the second"):
+            print(f"  {line}")
     return not (table.change == "flipped").any()
 
 

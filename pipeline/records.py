@@ -107,7 +107,8 @@ def merge_processes(attempts, *, planned=None):
     ``attempts`` are the records each process wrote, in order, of ``planned`` processes (default: as many).
     A run that one process could not render is that process's record (a failure names the process).
     Otherwise the last process's record (its images are the ones on disk) with, per view, ``processes``:
-    each process's frames, times, process id and disturbance; ``timings`` the mean over the processes of
+    each process's frames, times, process id, disturbance and ``info`` (its own, but the harness's seconds summed
+    below: what a backend records of how one process shared out its work); ``timings`` the mean over the processes of
     their medians (the time a table shows, :func:`pipeline.experiments.kit.intervals.process_time`),
     ``timings_min``/``_max`` the extremes of all frames, the harness's seconds summed and ``disturbed``
     naming each process that was.
@@ -128,7 +129,8 @@ def merge_processes(attempts, *, planned=None):
         each = [next(v for v in attempt["views"] if v["view"] == view["view"]) for attempt in attempts]
         view["processes"] = [
             {"pid": pid, "frames": v["frames"], "timings": v["timings"], "timings_min": v["timings_min"],
-             "timings_max": v["timings_max"], "disturbed": v["info"].get("disturbed") or "", "rerun": v.get("rerun")}
+             "timings_max": v["timings_max"], "disturbed": v["info"].get("disturbed") or "", "rerun": v.get("rerun"),
+             "info": {key: value for key, value in v["info"].items() if key not in SUMMED_INFO}}
             for pid, v in zip(pids, each)]
         stages = dict.fromkeys(stage for v in each for stage in v["timings"])
         view["timings"] = {stage: statistics.fmean(statistics.median(v["frames"][stage]) if v["frames"].get(stage)

@@ -247,6 +247,8 @@ def test_a_run_timed_in_two_processes_keeps_each_ones_frames_and_names_the_distu
     assert view["timings"] == {"total": pytest.approx(0.0035), "first_frame": pytest.approx(0.2)}
     assert (view["timings_min"], view["timings_max"]) == ({"total": 0.001}, {"total": 0.006})
     assert view["info"]["frames"] == 6 and view["info"]["disturbed"] == "process 2: a burst"
+    # Each process's own info (how it shared out its work), the harness's seconds summed above.
+    assert [p["info"] for p in view["processes"]] == [{"disturbed": ""}, {"disturbed": "a burst"}]
     assert merged["harness"]["seconds"] == 4.0 and merged["harness"]["startup"] == 1.5
     assert merged["harness"]["pids"] == [11, 12] and merged["harness"]["processes"] == 2
     path = run_record_path(tmp_path, "e", "a")

@@ -242,6 +242,8 @@ def test_the_script_prints_the_differences_and_exits_1_when_there_are_any(folder
     assert same.returncode == 0, same.stderr
     assert same.stdout == ("verdicts: 9 of 9 claims (100.0 %) have the same verdict; of the 6 that read timings, 6 "
                            "(100.0 %); 0 changed to or from inconclusive\n"
+                           "intervals: of the 2 timing claims both gave an interval, 2 (100.0 %) agree within their "
+                           "95 % intervals (about 95 % where the intervals cover the spread between runs)\n"
                            f"{a} and {b}: the same runs, images, claims (no timing claim flipped) and phantoms\n")
     _edit_csv(b / "claims.csv", lambda frame: frame.assign(verdict=frame.verdict.where(frame.claim != "monotone", "fails")))
     assert compare.main([str(a), str(b)]) == 1
@@ -314,3 +316,25 @@ def test_rejudge_takes_one_finished_folder_and_comparing_takes_two(folders, caps
     (b / "tables" / "volbench-convergence.csv").unlink()  # each experiment is judged on its own table
     assert compare.main(["--rejudge", str(b)]) == 2
     assert "no tables/volbench-convergence.csv; give the results folder of a finished" in capsys.readouterr().err
+
+
+def test_two_runs_intervals_agree_where_their_midpoints_are_within_what_both_allow():
+    """Issue 35's two runs of kruger2003 rcb-over-sbvr-head (×2.41, CI 2.19–2.82; ×3.08, CI 2.73–3.34) do not
+    agree; two intervals that differ by less than their half-widths in quadrature do."""
+    def claims(*rows):
+        return pd.DataFrame([{"experiment": "e", "claim": claim, "interval_low": low, "interval_high": high}
+                             for claim, low, high in rows], dtype=str)
+
+    first = claims(("rcb", "2.19", "2.82"), ("near", "1.0", "1.2"), ("count", "", ""), ("point", "2", "2"),
+                   ("untimed", "1", "2"))
+    second = claims(("rcb", "2.73", "3.34"), ("near", "1.1", "1.3"), ("count", "", ""), ("point", "2", "2"),
+                    ("untimed", "5", "6"))
+    agreement = compare.interval_agreement(first, second, timing={("e", c) for c in ("rcb", "near", "count", "point")})
+    assert list(agreement.claim) == ["rcb", "near", "point"]  # with an interval in both, of the timing claims
+    assert agreement.apart.round(2).tolist() == [2.37, 1.39, 0.0] and agreement.agree.tolist() == [False, True, True]
+    assert compare.interval_words(agreement) == (
+        "of the 3 timing claims both gave an interval, 2 (66.7 %) agree within their 95 % intervals (about 95 % where "
+        "the intervals cover the spread between runs)")
+    assert compare.intervals_apart(agreement, "a", "b") == [
+        "intervals apart: e/rcb: 2.19–2.82 in a, 2.73–3.34 in b (2.4 apart)"]
+    assert compare.interval_words(agreement.iloc[:0]) == ""

@@ -56,7 +56,9 @@ def test_a_second_quiet_run_reports_agreement_and_a_replication_flip_exits_3(tmp
         ran.append(results.name)
         results.mkdir(parents=True)
         claims = _claims(verdicts[results.name.split("-", 1)[1]]).assign(experiment="lacroute1995-volpack")
-        claims.assign(kind=["timing", "count", "timing"]).to_csv(results / "claims.csv", index=False)
+        low = 1.0 if results.name.endswith("again") else 1.5  # a's intervals in the two quiet runs do not agree
+        claims.assign(kind=["timing", "count", "timing"], interval_low=[low, None, 2.0],
+                      interval_high=[low + 0.2, None, 2.2]).to_csv(results / "claims.csv", index=False)
         return 0
 
     monkeypatch.setattr(noise, "_volbench_run", run)
@@ -67,6 +69,9 @@ def test_a_second_quiet_run_reports_agreement_and_a_replication_flip_exits_3(tmp
     assert ("two quiet runs: 1 of 3 claims (33.3 %) have the same verdict; of the 2 that read timings, 1 (50.0 %)"
             in out)
     assert "lacroute1995-volpack b: holds (x) → fails (x) [flipped]" in out
+    assert ("two quiet runs' intervals: of the 2 timing claims both gave an interval, 1 (50.0 %) agree within their "
+            "95 % intervals" in out)
+    assert "  intervals apart: lacroute1995-volpack/a: 1.5–1.7 in the first, 1–1.2 in the second (6.9 apart)" in out
     assert pd.read_csv(tmp_path / "n-replication.csv").set_index("claim").change.to_dict() == {
         "a": "same", "b": "flipped", "c": "to inconclusive"}
     verdicts["loaded"]["b"] = "fails"  # a flip under load is the harness's failure, whatever the quiet runs say

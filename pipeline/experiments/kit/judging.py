@@ -391,6 +391,25 @@ def unless_starved(result, rows, *, holding_survives):
                    detail=detail + " (a verdict from a starved run is the machine's, not the technique's)")
 
 
+def in_every_process(measured, holds_per_process, detail=""):
+    """A :class:`ClaimResult` of a count a parallel run's scheduling shares out (which worker stole which task):
+    it holds where it holds in every process that measured it, fails where it fails in every one, and is
+    inconclusive otherwise.
+
+    Such a count varies from process to process as a time does (two quiet smoke runs measured round robin with
+    stealing's imbalance at 12.4 % and 27.3 %), so one process cannot decide it, as it cannot a timing claim.
+    """
+    holds = [bool(value) for value in holds_per_process]
+    if len(holds) < 2:
+        why = ("inconclusive: it rests on one process's count, and how a parallel run shares out its work varies "
+               "between processes; two processes' records (replicates ≥ 2) would decide it")
+    elif len(set(holds)) > 1:
+        why = f"inconclusive: it holds in {sum(holds)} of the {len(holds)} processes that measured it"
+    else:
+        return ClaimResult(measured, holds[0], detail)
+    return ClaimResult(measured, None, f"{detail}; {why}" if detail else why, inconclusive=True)
+
+
 def summed(rows, column, resampler):
     """``(value, draws)``: each row's (view's) median ``column`` summed over ``rows``, with its bootstrap draws.
 
